@@ -1,0 +1,237 @@
+"""Dual quaternions as arrays of shape (..., 8) = [p0, p1, p2, p3, q0, q1, q2, q3] meaning p + eps q.
+
+Conventions (MATH.md section 1-2): Hamilton product (ij = k); a point x is moved by
+``x -> (p x p~ + p q~ - q p~) / N(p)``; the pose with rotation R (unit quaternion r) and translation d
+is ``r - (eps/2) d r``; ``h1 h2`` acts as "first h2, then h1" like ``T1 @ T2``. Every function
+broadcasts over leading batch axes. Lengths are in whatever unit the caller uses.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+_CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
+
+
+# ----------------------------------------------------------------- quaternions
+def qmul(a, b):
+    """Hamilton product of quaternions (..., 4)."""
+    a = np.asarray(a, float)
+    b = np.asarray(b, float)
+    a0, a1, a2, a3 = np.moveaxis(a, -1, 0)
+    b0, b1, b2, b3 = np.moveaxis(b, -1, 0)
+    return np.stack(
+        [
+            a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+        ],
+        axis=-1,
+    )
+
+
+def qconj(a):
+    a = np.asarray(a, float)
+    return a * _CONJ[:4]
+
+
+def qinv(a):
+    a = np.asarray(a, float)
+    return qconj(a) / np.sum(a * a, axis=-1, keepdims=True)
+
+
+def quat_to_matrix(r):
+    """Rotation matrix (..., 3, 3) of a (not necessarily unit) quaternion (..., 4)."""
+    r = np.asarray(r, float)
+    r = r / np.linalg.norm(r, axis=-1, keepdims=True)
+    w, x, y, z = np.moveaxis(r, -1, 0)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=-2,
+    )
+
+
+def matrix_to_quat(R):
+    """Unit quaternion (..., 4), w >= 0, of rotation matrices (..., 3, 3). Numerically stable for all
+    angles (Shepperd's method: pivot on the largest diagonal term)."""
+    R = np.asarray(R, float)
+    batch = R.shape[:-2]
+    R = R.reshape(-1, 3, 3)
+    tr = np.trace(R, axis1=1, axis2=2)
+    d = np.stack([tr, R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], axis=1)
+    k = np.argmax(d, axis=1)
+    q = np.empty((R.shape[0], 4))
+    for case in range(4):
+        m = k == case
+        if not np.any(m):
+            continue
+        Rm = R[m]
+        if case == 0:
+            s = 2 * np.sqrt(1 + tr[m])
+            q[m] = np.stack([s / 4, (Rm[:, 2, 1] - Rm[:, 1, 2]) / s, (Rm[:, 0, 2] - Rm[:, 2, 0]) / s,
+                             (Rm[:, 1, 0] - Rm[:, 0, 1]) / s], 1)
+        elif case == 1:
+            s = 2 * np.sqrt(1 + Rm[:, 0, 0] - Rm[:, 1, 1] - Rm[:, 2, 2])
+            q[m] = np.stack([(Rm[:, 2, 1] - Rm[:, 1, 2]) / s, s / 4, (Rm[:, 0, 1] + Rm[:, 1, 0]) / s,
+                             (Rm[:, 0, 2] + Rm[:, 2, 0]) / s], 1)
+        elif case == 2:
+            s = 2 * np.sqrt(1 + Rm[:, 1, 1] - Rm[:, 0, 0] - Rm[:, 2, 2])
+            q[m] = np.stack([(Rm[:, 0, 2] - Rm[:, 2, 0]) / s, (Rm[:, 0, 1] + Rm[:, 1, 0]) / s, s / 4,
+                             (Rm[:, 1, 2] + Rm[:, 2, 1]) / s], 1)
+        else:
+            s = 2 * np.sqrt(1 + Rm[:, 2, 2] - Rm[:, 0, 0] - Rm[:, 1, 1])
+            q[m] = np.stack([(Rm[:, 1, 0] - Rm[:, 0, 1]) / s, (Rm[:, 0, 2] + Rm[:, 2, 0]) / s,
+                             (Rm[:, 1, 2] + Rm[:, 2, 1]) / s, s / 4], 1)
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    return q.reshape(batch + (4,))
+
+
+# ----------------------------------------------------------------- dual quaternions
+def dq_mul(a, b):
+    """Dual quaternion product (..., 8) x (..., 8): (p1 + eps q1)(p2 + eps q2)."""
+    a = np.asarray(a, float)
+    b = np.asarray(b, float)
+    p = qmul(a[..., :4], b[..., :4])
+    q = qmul(a[..., :4], b[..., 4:]) + qmul(a[..., 4:], b[..., :4])
+    return np.concatenate([p, q], axis=-1)
+
+
+def dq_conj(h):
+    """Quaternion conjugate of both parts: p~ + eps q~."""
+    return np.asarray(h, float) * _CONJ
+
+
+def dq_norm(h):
+    """Dual-number norm h h~ = |p|^2 + eps 2 p.q, returned as (..., 2) = [primal, dual]."""
+    h = np.asarray(h, float)
+    p, q = h[..., :4], h[..., 4:]
+    return np.stack([np.sum(p * p, -1), 2 * np.sum(p * q, -1)], axis=-1)
+
+
+def study_condition(h):
+    """The Study form p . q (zero exactly on the Study quadric)."""
+    h = np.asarray(h, float)
+    return np.sum(h[..., :4] * h[..., 4:], axis=-1)
+
+
+def study_form(g, h):
+    """Symmetric bilinear form B(g, h) = (p_g . q_h + p_h . q_g) / 2."""
+    g = np.asarray(g, float)
+    h = np.asarray(h, float)
+    return 0.5 * (np.sum(g[..., :4] * h[..., 4:], -1) + np.sum(h[..., :4] * g[..., 4:], -1))
+
+
+def dq_inv(h):
+    """Inverse (p must be nonzero): h~ / N(h) with 1/(a + eps b) = 1/a - eps b/a^2."""
+    h = np.asarray(h, float)
+    n = dq_norm(h)
+    a, b = n[..., :1], n[..., 1:]
+    c = dq_conj(h)
+    return np.concatenate([c[..., :4] / a, c[..., 4:] / a - c[..., :4] * b / a**2], axis=-1)
+
+
+def pose_to_dq(T):
+    """4x4 pose(s) (..., 4, 4) to unit dual quaternion(s) (..., 8) with p0 >= 0: r - (eps/2) d r."""
+    T = np.asarray(T, float)
+    r = matrix_to_quat(T[..., :3, :3])
+    d = np.concatenate([np.zeros(T.shape[:-2] + (1,)), T[..., :3, 3]], axis=-1)
+    return np.concatenate([r, -0.5 * qmul(d, r)], axis=-1)
+
+
+def dq_to_pose(h):
+    """Dual quaternion(s) (..., 8) with p != 0 (Study condition assumed) to 4x4 pose(s)."""
+    h = np.asarray(h, float)
+    p, q = h[..., :4], h[..., 4:]
+    n = np.sum(p * p, -1)[..., None]
+    d = 2 * qmul(p, qconj(q))[..., 1:] / n
+    T = np.zeros(h.shape[:-1] + (4, 4))
+    T[..., :3, :3] = quat_to_matrix(p)
+    T[..., :3, 3] = d
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def act_on_points(h, x):
+    """Image of points x (..., 3) under the displacement h (..., 8)."""
+    T = dq_to_pose(h)
+    return np.einsum("...ij,...j->...i", T[..., :3, :3], x) + T[..., :3, 3]
+
+
+def translation_dq(v):
+    """Translation by v: 1 - (eps/2) v."""
+    v = np.asarray(v, float)
+    out = np.zeros(v.shape[:-1] + (8,))
+    out[..., 0] = 1.0
+    out[..., 5:] = -0.5 * v
+    return out
+
+
+def normalize_dq(h):
+    """Scale to |p| = 1 and p0 >= 0 (the same pose)."""
+    h = np.asarray(h, float)
+    n = np.linalg.norm(h[..., :4], axis=-1, keepdims=True)
+    s = np.where(h[..., :1] < 0, -1.0, 1.0)
+    return h * s / n
+
+
+# ----------------------------------------------------------------- lines
+def plucker(h):
+    """Plücker line (direction u, moment m) of a rotation h = a + v + eps w (v != 0):
+    u = -v/|v|, m = w/|v|. Returns arrays (..., 3), (..., 3)."""
+    h = np.asarray(h, float)
+    v, w = h[..., 1:4], h[..., 5:8]
+    nv = np.linalg.norm(v, axis=-1, keepdims=True)
+    return -v / nv, w / nv
+
+
+def rotation_about_line(u, m, theta):
+    """4x4 rigid motion(s) rotating by theta (right-hand rule) about the line (u, m); theta may be an
+    array, giving (..., 4, 4)."""
+    u = np.asarray(u, float)
+    m = np.asarray(m, float)
+    theta = np.asarray(theta, float)
+    K = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+    s = np.sin(theta)[..., None, None]
+    c = np.cos(theta)[..., None, None]
+    R = np.eye(3) + s * K + (1 - c) * (K @ K)
+    p = np.cross(u, m)
+    T = np.zeros(theta.shape + (4, 4))
+    T[..., :3, :3] = R
+    T[..., :3, 3] = p - R @ p
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def line_distance_angle(u1, m1, u2, m2):
+    """Distance and twist angle (in [0, pi]) between two lines given by unit direction and moment."""
+    u1, m1, u2, m2 = (np.asarray(x, float) for x in (u1, m1, u2, m2))
+    c = np.cross(u1, u2)
+    s = np.linalg.norm(c)
+    alpha = float(np.arctan2(s, np.dot(u1, u2)))
+    if s < 1e-12:
+        p1, p2 = np.cross(u1, m1), np.cross(u2, m2)
+        dvec = (p2 - p1) - np.dot(p2 - p1, u1) * u1
+        return float(np.linalg.norm(dvec)), alpha
+    return float(abs(np.dot(u1, m2) + np.dot(u2, m1)) / s), alpha
+
+
+def common_normal_feet(u1, m1, u2, m2):
+    """Feet of the common normal of two lines (points on line 1 and line 2). For parallel lines the
+    foot on line 1 is its point closest to the origin."""
+    u1, m1, u2, m2 = (np.asarray(x, float) for x in (u1, m1, u2, m2))
+    p1, p2 = np.cross(u1, m1), np.cross(u2, m2)
+    c = np.cross(u1, u2)
+    s2 = float(np.dot(c, c))
+    if s2 < 1e-24:
+        f1 = p1
+        f2 = p2 + np.dot(p1 - p2, u2) * u2
+        return f1, f2
+    d = p2 - p1
+    s1 = np.dot(np.cross(d, u2), c) / s2
+    s2_ = np.dot(np.cross(d, u1), c) / s2
+    return p1 + s1 * u1, p2 + s2_ * u2

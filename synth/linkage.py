@@ -1,0 +1,117 @@
+"""The linkage: a plain data object shared by every synthesis and every exporter.
+
+Conventions (see ../shared/docs/OUTPUT.md and MATH.md section 5):
+- lengths in metres, angles in radians, everything in the world frame of the poses;
+- the *reference configuration* is the first pose (t = infinity, all joint angles 0);
+- a joint is a revolute axis given as a normalized Plücker line (unit `direction`, `moment` =
+  point x direction) at the reference configuration, and an angle law
+  ``theta(t) = 2 atan2(b, t - a)`` (0 at t = infinity, one full turn as t runs over R);
+- the joints form a tree rooted at link ``base``; each joint moves its ``child`` relative to its
+  ``parent`` by ``disp(child) = disp(parent) @ Rot(line, theta)`` where ``disp`` is a link's world
+  displacement from the reference configuration (product of exponentials);
+- each closed loop is cut by duplicating one link: ``closures`` lists (link, duplicate) pairs whose
+  relative transform is constant over the motion (URDF ``<gazebo>`` weld);
+- the tool frame hangs rigidly on ``tool_link``; at the reference configuration it is ``tool_ref``.
+
+Nothing here reads or writes files.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class Joint:
+    """A revolute joint: Plücker line at the reference configuration and its angle law."""
+
+    name: str
+    parent: str
+    child: str
+    direction: np.ndarray  # (3,) unit
+    moment: np.ndarray  # (3,) metres
+    a: float  # angle law theta(t) = 2 atan2(b, t - a)
+    b: float
+
+    @property
+    def point(self) -> np.ndarray:
+        """Point of the axis closest to the world origin (metres)."""
+        return np.cross(self.direction, self.moment)
+
+    def angle(self, t):
+        """Joint angle (rad) at parameter t (scalar or array; +-inf gives 0), in [0, 2pi)."""
+        t = np.asarray(t, dtype=float)
+        th = 2.0 * np.arctan2(self.b, t - self.a)
+        th = np.where(np.isinf(t), 0.0, th)
+        return np.mod(th, 2.0 * np.pi)
+
+
+@dataclass
+class PoseRecord:
+    """One task pose: its name, the 4x4 matrix (metres), its parameter t and the joint angles there."""
+
+    name: str
+    matrix: np.ndarray
+    t: float
+    joint_angles: dict[str, float]
+
+
+@dataclass
+class Linkage:
+    """A synthesized closed-loop linkage (one or several loops)."""
+
+    kind: str  # "bennett", "6r", "motion", "curve"
+    joints: list[Joint]  # tree joints, in an order where every parent link precedes its child
+    links: dict[str, list[str]]  # link name -> joints whose pins it carries (empty: no geometry)
+    branches: list[list[str]]  # joint names of each serial branch, base to coupler
+    closures: list[tuple[str, str]]  # (link, duplicate link) welded pairs
+    tool_ref: np.ndarray  # (4,4) tool frame at the reference configuration (= first pose)
+    motion: np.ndarray  # (n+1, 8) monic motion polynomial of the coupler, world frame, metres
+    poses: list[PoseRecord] = field(default_factory=list)
+    tool_link: str = "coupler"
+    checks: dict[str, float] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)  # kind-specific extras, JSON-serializable
+
+    # ------------------------------------------------------------------ queries
+    def joint(self, name: str) -> Joint:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise KeyError(name)
+
+    @property
+    def link_names(self) -> list[str]:
+        names = ["base"]
+        for j in self.joints:
+            if j.child not in names:
+                names.append(j.child)
+        return names
+
+    def angles_at(self, t) -> dict[str, np.ndarray]:
+        """Joint angles (rad) at parameter(s) t."""
+        return {j.name: j.angle(t) for j in self.joints}
+
+    def displacements(self, angles: dict[str, Any]) -> dict[str, np.ndarray]:
+        """World displacement (4x4, or (...,4,4) for array angles) of every link from the reference
+        configuration, for the given joint angles."""
+        from .dq import rotation_about_line  # local: keeps this module import-light
+
+        out: dict[str, np.ndarray] = {"base": np.eye(4)}
+        for j in self.joints:
+            R = rotation_about_line(j.direction, j.moment, np.asarray(angles[j.name], float))
+            out[j.child] = out[j.parent] @ R
+        return out
+
+    def tool_pose(self, angles: dict[str, Any]) -> np.ndarray:
+        """World pose of the tool frame for the given joint angles."""
+        return self.displacements(angles)[self.tool_link] @ self.tool_ref
+
+    def extent(self) -> float:
+        """A length scale of the linkage: RMS distance of the joints' feet (closest points between
+        consecutive axes) and tool positions from their centroid, at least 1e-9 m."""
+        pts = [j.point for j in self.joints] + [p.matrix[:3, 3] for p in self.poses]
+        pts = np.array(pts + [self.tool_ref[:3, 3]])
+        c = pts.mean(axis=0)
+        return float(max(np.sqrt(np.mean(np.sum((pts - c) ** 2, axis=1))), 1e-9))
