@@ -13,21 +13,40 @@ _CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
 
 
 # ----------------------------------------------------------------- quaternions
+def _quat_tensor():
+    """Structure constants T[i, j, k]: (a b)_k = sum_ij a_i b_j T[i, j, k] (Hamilton, ij = k)."""
+    T = np.zeros((4, 4, 4))
+    e = np.eye(4)
+    for i in range(4):
+        for j in range(4):
+            T[i, j] = _qmul_reference(e[i], e[j])
+    return T
+
+
+def _qmul_reference(a, b):
+    a0, av, b0, bv = a[0], a[1:], b[0], b[1:]
+    return np.concatenate([[a0 * b0 - av @ bv], a0 * bv + b0 * av + np.cross(av, bv)])
+
+
+def _dual_tensor(T):
+    D = np.zeros((8, 8, 8))
+    D[:4, :4, :4] = T
+    D[:4, 4:, 4:] = T
+    D[4:, :4, 4:] = T
+    return D
+
+
+_QT = _quat_tensor()
+_QT_FLAT = _QT.reshape(4, 16)
+_DT_FLAT = _dual_tensor(_QT).reshape(8, 64)
+
+
 def qmul(a, b):
     """Hamilton product of quaternions (..., 4)."""
     a = np.asarray(a, float)
     b = np.asarray(b, float)
-    a0, a1, a2, a3 = np.moveaxis(a, -1, 0)
-    b0, b1, b2, b3 = np.moveaxis(b, -1, 0)
-    return np.stack(
-        [
-            a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
-        ],
-        axis=-1,
-    )
+    L = (a @ _QT_FLAT).reshape(a.shape[:-1] + (4, 4))
+    return np.matmul(b[..., None, :], L)[..., 0, :]
 
 
 def qconj(a):
@@ -92,13 +111,17 @@ def matrix_to_quat(R):
 
 
 # ----------------------------------------------------------------- dual quaternions
+def dq_left_matrix(a):
+    """The 8x8 matrix L with (a b) = b @ L (row-vector convention), shape (..., 8, 8)."""
+    a = np.asarray(a, float)
+    return (a @ _DT_FLAT).reshape(a.shape[:-1] + (8, 8))
+
+
 def dq_mul(a, b):
     """Dual quaternion product (..., 8) x (..., 8): (p1 + eps q1)(p2 + eps q2)."""
     a = np.asarray(a, float)
     b = np.asarray(b, float)
-    p = qmul(a[..., :4], b[..., :4])
-    q = qmul(a[..., :4], b[..., 4:]) + qmul(a[..., 4:], b[..., :4])
-    return np.concatenate([p, q], axis=-1)
+    return np.matmul(b[..., None, :], dq_left_matrix(a))[..., 0, :]
 
 
 def dq_conj(h):

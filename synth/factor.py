@@ -1,0 +1,294 @@
+"""Factorization of monic motion polynomials into linear factors (MATH.md section 4, Algorithm 1).
+
+``factorize(C)`` returns every factorization ``C = (t - h_1)...(t - h_n)`` obtainable from the
+orders of the norm polynomial's monic real quadratic factors: n! for distinct quadratics, fewer
+with repeated ones. All orders are processed together as one batch (numpy), so the cost of the
+whole enumeration is a few dozen array operations.
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .dq import dq_inv, dq_mul, plucker
+from .errors import InputError, NoFactorizationError, NotGenericError
+from .motion import (
+    divide_linear_right,
+    divide_real_quadratic,
+    norm_poly,
+    product_of_linear,
+    relative_error,
+    right_value,
+    study_residual,
+)
+
+REAL_ROOT_TOL = 1e-7  # |Im z| <= tol * max(1, |z|): the root is taken as real
+MERGE_TOL = 1e-6  # roots closer than tol * max(1, |z|) are one repeated root
+GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D)|: remainder not invertible
+PRISMATIC_TOL = 1e-7  # |vec(primal h)| <= tol * (1 + |h0|): a translation factor
+
+
+@dataclass
+class Factor:
+    """One linear factor t - h, classified."""
+
+    h: np.ndarray  # (8,)
+    kind: str  # "revolute" or "translation"
+
+    @property
+    def a(self) -> float:
+        return float(self.h[0])
+
+    @property
+    def b(self) -> float:
+        return float(np.linalg.norm(self.h[1:4]))
+
+    @property
+    def quadratic(self) -> tuple[float, float]:
+        """N(t - h) = t^2 + c1 t + c0 as (c0, c1)."""
+        return float(self.a**2 + self.b**2), float(-2 * self.a)
+
+    @property
+    def line(self):
+        """(direction, moment) of the revolute axis (world frame of the polynomial)."""
+        return plucker(self.h)
+
+    @property
+    def translation_direction(self) -> np.ndarray:
+        """For a translation factor t - a - eps w: the point moves by 2 w / (t - a)."""
+        return 2 * self.h[5:8]
+
+    def angle(self, t):
+        """theta(t) = 2 atan2(b, t - a), 0 at t = inf (revolute factors)."""
+        t = np.asarray(t, float)
+        return np.where(np.isinf(t), 0.0, 2 * np.arctan2(self.b, t - self.a))
+
+
+@dataclass
+class Factorization:
+    factors: np.ndarray  # (n, 8): C = (t - factors[0]) ... (t - factors[n-1])
+    order: tuple[int, ...]  # index into FactorResult.quadratics of N(t - h_i), left to right
+    residual: float  # multiply-back relative error
+
+    def classified(self) -> list[Factor]:
+        return [classify(h) for h in self.factors]
+
+
+@dataclass
+class FactorResult:
+    C: np.ndarray
+    norm: np.ndarray  # real norm polynomial, ascending
+    quadratics: np.ndarray  # (m, 2) distinct monic quadratics [c0, c1]
+    multiplicity: list[int]
+    factorizations: list[Factorization]
+    generic: bool  # primal part without real polynomial factor
+    real_factor_roots: list[complex] = field(default_factory=list)  # roots of mrpf(P), Im >= 0
+    failed_orders: list[tuple[int, ...]] = field(default_factory=list)
+
+
+def classify(h) -> Factor:
+    h = np.asarray(h, float)
+    v = np.linalg.norm(h[1:4])
+    kind = "translation" if v <= PRISMATIC_TOL * (1 + abs(h[0])) else "revolute"
+    return Factor(h=h, kind=kind)
+
+
+# ----------------------------------------------------------------------------- norm factors
+def _polish_roots(coeffs, z, iterations=3):
+    """Newton steps on the real polynomial (ascending coeffs) at complex roots z."""
+    c = np.asarray(coeffs, float)
+    d = c[1:] * np.arange(1, len(c))
+    for _ in range(iterations):
+        f = np.polyval(c[::-1], z)
+        df = np.polyval(d[::-1], z)
+        ok = np.abs(df) > 0
+        step = np.where(ok, f / np.where(ok, df, 1), 0)
+        z = z - step
+    return z
+
+
+def norm_quadratics(N):
+    """Monic real quadratic factors of a monic real polynomial N of even degree 2n, as
+    (quadratics (m, 2) = [c0, c1], multiplicities, roots (Im >= 0) per quadratic).
+
+    Complex conjugate pairs give t^2 - 2 Re z t + |z|^2; roots with |Im z| <= REAL_ROOT_TOL max(1,|z|)
+    count as real and are paired in sorted order. Roots closer than MERGE_TOL are merged (a repeated
+    root is split by ~sqrt(machine eps) by the root finder; the mean of the cluster is accurate)."""
+    N = np.asarray(N, float)
+    z = np.roots(N[::-1])
+    z = _polish_roots(N, z)
+    scale = np.maximum(1.0, np.abs(z))
+    real = np.abs(z.imag) <= REAL_ROOT_TOL * scale
+    upper = z[(~real) & (z.imag > 0)]
+    reals = np.sort(z[real].real)
+    # clusters of the upper roots
+    clusters: list[list[complex]] = []
+    for r in sorted(upper, key=lambda w: (w.real, w.imag)):
+        for cl in clusters:
+            c0 = np.mean(cl)
+            if abs(r - c0) <= MERGE_TOL * max(1.0, abs(c0)):
+                cl.append(r)
+                break
+        else:
+            clusters.append([r])
+    quads, mult, roots = [], [], []
+    for cl in clusters:
+        c = complex(np.mean(cl))
+        quads.append([abs(c) ** 2, -2 * c.real])
+        mult.append(len(cl))
+        roots.append(c)
+    if len(reals) % 2:
+        raise NoFactorizationError("the norm polynomial has an odd number of real roots (not a motion polynomial)")
+    # pair sorted real roots; identical pairs merge into one quadratic with multiplicity
+    for x, y in zip(reals[::2], reals[1::2]):
+        q = [x * y, -(x + y)]
+        for i, (qq, r) in enumerate(zip(quads, roots)):
+            if abs(qq[0] - q[0]) + abs(qq[1] - q[1]) <= MERGE_TOL * (1 + abs(q[0]) + abs(q[1])) and isinstance(r, tuple):
+                mult[i] += 1
+                break
+        else:
+            quads.append(q)
+            mult.append(1)
+            roots.append((float(x), float(y)))
+    return np.array(quads, float).reshape(-1, 2), mult, roots
+
+
+def real_factor_roots(C, roots, tol=1e-6):
+    """The roots (Im >= 0) of the maximal real polynomial factor of the primal part P: the roots z
+    of N(C) with P(z) = 0 (all four component polynomials vanish there)."""
+    P = np.asarray(C, float)[:, :4]
+    out = []
+    pows_scale = np.abs(P).max()
+    for r in roots:
+        cand = [complex(r)] if not isinstance(r, tuple) else [complex(r[0]), complex(r[1])]
+        for z in cand:
+            val = np.zeros(4, complex)
+            for k in range(P.shape[0] - 1, -1, -1):
+                val = val * z + P[k]
+            ref = pows_scale * sum(abs(z) ** k for k in range(P.shape[0]))
+            if np.linalg.norm(val) <= tol * ref and all(abs(z - w) > 1e-9 for w in out):
+                out.append(z)
+    return out
+
+
+# ----------------------------------------------------------------------------- Algorithm 1
+def _refine_quadratic(D, M):
+    """Gauss-Newton on M = [c0, c1] so that the zero h(M) of D mod M right-divides D exactly
+    (MATH.md section 4, numerical note ii). Returns the refined M."""
+
+    def resid(Mv):
+        _, r1, r0 = divide_real_quadratic(D, Mv)
+        h = -dq_mul(dq_inv(r1), r0)
+        return right_value(D, h)
+
+    M = np.array(M, float)
+    r = resid(M)
+    for _ in range(8):
+        J = np.empty((8, 2))
+        for j in range(2):
+            dM = np.zeros(2)
+            dM[j] = 1e-7 * max(1.0, abs(M[j]))
+            J[:, j] = (resid(M + dM) - r) / dM[j]
+        step = np.linalg.lstsq(J, -r, rcond=None)[0]
+        Mn = M + step
+        rn = resid(Mn)
+        if np.linalg.norm(rn) >= np.linalg.norm(r):
+            break
+        M, r = Mn, rn
+    return M
+
+
+def _distinct_orders(mult):
+    labels = [i for i, m in enumerate(mult) for _ in range(m)]
+    return sorted(set(itertools.permutations(labels)))
+
+
+def _factor_orders(C, quads, orders):
+    """Algorithm 1 for every order at once. Returns (H (P, n, 8) with NaN rows for failed orders,
+    ok mask (P,))."""
+    orders = np.array(orders, int)
+    P, n = orders.shape
+    D = np.broadcast_to(C, (P,) + C.shape).copy()
+    H = np.full((P, n, 8), np.nan)
+    ok = np.ones(P, bool)
+    for s in range(n):
+        pos = n - 1 - s
+        M = quads[orders[:, pos]]
+        _, r1, r0 = divide_real_quadratic(D, M)
+        prim_scale = np.max(np.linalg.norm(D[..., :4], axis=-1), axis=-1)
+        bad = np.linalg.norm(r1[:, :4], axis=-1) <= GENERIC_TOL * prim_scale
+        ok &= ~bad
+        r1 = np.where(bad[:, None], np.eye(8)[0], r1)
+        h = -dq_mul(dq_inv(r1), r0)
+        Dn, rem = divide_linear_right(D, h)
+        dscale = np.maximum(1.0, np.max(np.abs(D), axis=(-2, -1)))
+        loose = ok & (np.max(np.abs(rem), axis=-1) > 1e-11 * dscale)
+        for p in np.flatnonzero(loose):  # rare: nearly real / nearly equal roots
+            Mr = _refine_quadratic(D[p], M[p])
+            _, a1, a0 = divide_real_quadratic(D[p], Mr)
+            hp = -dq_mul(dq_inv(a1), a0)
+            Dp, remp = divide_linear_right(D[p], hp)
+            if np.max(np.abs(remp)) < np.max(np.abs(rem[p])):
+                h[p], Dn[p] = hp, Dp
+        H[:, pos] = h
+        D = Dn
+    return H, ok
+
+
+def check_motion_polynomial(C, tol=1e-9):
+    """Validate a monic motion polynomial; raise InputError otherwise."""
+    C = np.asarray(C, float)
+    if C.ndim != 2 or C.shape[1] != 8:
+        raise InputError(f"a motion polynomial needs rows of 8 numbers, got shape {C.shape}")
+    if C.shape[0] < 2:
+        raise InputError("a motion polynomial needs degree >= 1")
+    if not np.all(np.isfinite(C)):
+        raise InputError("the coefficients contain NaN or infinity")
+    if np.max(np.abs(C[-1] - np.eye(8)[0])) > tol:
+        raise InputError("the polynomial is not monic (leading coefficient must be 1)")
+    res = float(study_residual(C))
+    if res > tol:
+        raise InputError(f"not a motion polynomial: its norm is not real (Study condition violated by {res:.2g})")
+
+
+def factorize(C, *, validate=True) -> FactorResult:
+    """All factorizations of a monic motion polynomial C (shape (n+1, 8)) from Algorithm 1.
+
+    Orders whose remainder has a non-invertible leading coefficient are skipped (recorded in
+    ``failed_orders``); when none succeeds, raises NotGenericError (primal part with a real factor)
+    or NoFactorizationError."""
+    C = np.asarray(C, float)
+    if validate:
+        check_motion_polynomial(C)
+    N = norm_poly(C)
+    quads, mult, roots = norm_quadratics(N)
+    rf = real_factor_roots(C, roots)
+    orders = _distinct_orders(mult)
+    H, ok = _factor_orders(C, quads, orders)
+    facts, failed = [], []
+    if np.any(ok):
+        res = relative_error(product_of_linear(H[ok]), C)
+    for idx, order in enumerate(orders):
+        if ok[idx]:
+            r = float(res[int(np.sum(ok[:idx]))])
+            facts.append(Factorization(factors=H[idx], order=tuple(order), residual=r))
+        else:
+            failed.append(tuple(order))
+    result = FactorResult(C=C, norm=N, quadratics=quads, multiplicity=mult, factorizations=facts,
+                          generic=not rf, real_factor_roots=rf, failed_orders=failed)
+    if not facts:
+        if rf:
+            g = " * ".join(_real_factor_text(z) for z in rf)
+            raise NotGenericError(
+                f"not generic: the primal part has the real factor {g}; Algorithm 1 finds no "
+                "factorization into linear factors (try --cofactor)")
+        raise NoFactorizationError("no factorization into linear factors was found")
+    return result
+
+
+def _real_factor_text(z: complex) -> str:
+    if abs(z.imag) <= REAL_ROOT_TOL * max(1, abs(z)):
+        return f"(t - {z.real:.6g})"
+    return f"(t^2 - {2 * z.real:.6g} t + {abs(z) ** 2:.6g})"
