@@ -1,0 +1,126 @@
+"""Helpers shared by the CLI commands: error reporting with exit codes, options, summaries."""
+from __future__ import annotations
+
+import functools
+import json
+import sys
+import traceback
+
+import click
+
+
+def echo(msg: str = "") -> None:
+    """Human-readable output goes to stderr (stdout is reserved for --json)."""
+    click.echo(msg, err=True)
+
+
+def run_guarded(func):
+    """Turn library exceptions into one stderr line and the contract's exit codes (1: no real linkage,
+    2: bad input). ``--debug`` (a parameter named debug) shows the traceback too."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        from synth.errors import MpsynthError
+
+        debug = kwargs.get("debug", False)
+        try:
+            return func(*args, **kwargs)
+        except MpsynthError as e:
+            if debug:
+                traceback.print_exc()
+            click.echo(f"mpsynth: {e}", err=True)
+            sys.exit(e.exit_code)
+        except click.exceptions.Exit:
+            raise
+        except click.ClickException:
+            raise
+        except KeyboardInterrupt:
+            click.echo("mpsynth: interrupted", err=True)
+            sys.exit(130)
+        except Exception as e:  # an internal error: still one line unless --debug
+            if debug:
+                traceback.print_exc()
+            click.echo(f"mpsynth: internal error: {type(e).__name__}: {e} (rerun with --debug for a traceback)",
+                       err=True)
+            sys.exit(3)
+
+    return wrapper
+
+
+debug_option = click.option("--debug", is_flag=True, help="Show a Python traceback on errors.")
+json_option = click.option("--json", "as_json", is_flag=True,
+                           help="Print the result as one JSON document on stdout.")
+
+
+def print_json(doc) -> None:
+    click.echo(json.dumps(doc, indent=None, separators=(",", ":"), allow_nan=False))
+
+
+def synthesis_options(func):
+    """Options shared by the synthesis commands (bennett, sixbar, curve)."""
+    opts = [
+        click.option("-o", "--out", "out", type=click.Path(file_okay=False),
+                     help="Output directory (linkage.urdf, linkage.json, meshes/). Without it nothing is written."),
+        click.option("--name", help="Robot name in the URDF (default: the pose file's stem)."),
+        click.option("--force", is_flag=True, help="Replace OUT even if it holds files not written by mpsynth."),
+        click.option("--pin-radius", type=float, help="Pin (joint) radius in the input's length unit."),
+        click.option("--link-radius", type=float, help="Bar (link) radius in the input's length unit."),
+        click.option("--pin-length", type=float, help="Pin length in the input's length unit."),
+        click.option("--package", help="Write mesh paths as package://PACKAGE/meshes/... (ROS)."),
+        click.option("--normalize", is_flag=True,
+                     help="Accept slightly non-unit quaternions / non-orthonormal rotations and normalize them."),
+        click.option("-q", "--quiet", is_flag=True, help="No summary on stderr."),
+        json_option,
+        debug_option,
+    ]
+    for opt in reversed(opts):
+        func = opt(func)
+    return func
+
+
+def mesh_sizes(kwargs, length_scale: float) -> dict:
+    """Mesh size options converted from the input's length unit to metres (validated positive)."""
+    from synth.errors import InputError
+
+    out = {}
+    for key in ("pin_radius", "link_radius", "pin_length"):
+        v = kwargs.get(key)
+        if v is not None:
+            if not (v > 0 and v < 1e9):
+                raise InputError(f"--{key.replace('_', '-')} must be a positive length, got {v}")
+            out[key] = v * length_scale
+    return out
+
+
+def default_robot_name(source: str) -> str:
+    from pathlib import Path
+
+    stem = Path(source).stem if source not in ("-", "<stdin>") else "linkage"
+    return stem or "linkage"
+
+
+def fmt_len(x: float, scale: float, unit: str) -> str:
+    return f"{x / scale:.6g} {unit}"
+
+
+def print_linkage_summary(linkage, scale: float, unit: str) -> None:
+    """Short human summary of a linkage on stderr, lengths in the input unit."""
+    import numpy as np
+
+    echo(f"{linkage.kind} linkage: {len(linkage.joints)} revolute joints, {len(linkage.closures)} loop(s)")
+    echo(f"  {'joint':6} {'point on axis':>40}  {'direction':>28}  angle law a, b")
+    for j in linkage.joints:
+        p = j.point / scale
+        echo(f"  {j.name:6} ({p[0]:11.5g} {p[1]:11.5g} {p[2]:11.5g}) {unit:>3}  "
+             f"({j.direction[0]:8.5f} {j.direction[1]:8.5f} {j.direction[2]:8.5f})  {j.a:.6g}, {j.b:.6g}")
+    for rec in linkage.poses:
+        t = "inf" if np.isinf(rec.t) else f"{rec.t:.6g}"
+        angles = " ".join(f"{k}={np.degrees(v):.3f}" for k, v in rec.joint_angles.items())
+        echo(f"  pose {rec.name!s:10} t={t:>8}  deg: {angles}")
+    c = linkage.checks
+    if c:
+        echo(f"  self-check: pose error {c['max_pose_translation_error'] / scale:.2e} {unit} + "
+             f"{c['max_pose_rotation_error']:.2e} rad, closure error {c['max_closure_translation_error'] / scale:.2e} "
+             f"{unit} + {c['max_closure_rotation_error']:.2e} rad over {c.get('samples', 0)} samples")
+    for w in linkage.info.get("warnings", []):
+        echo(f"  warning: {w}")

@@ -1,0 +1,83 @@
+"""The `mpsynth` command: a click group whose subcommands are imported only when run (fast --help)."""
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import sys
+
+import click
+
+# name -> (module:function, one-line help). Keep the help here so `mpsynth --help` imports nothing.
+COMMANDS = {
+    "bennett": ("cli.bennett:bennett", "Three poses -> a spatial Bennett 4R linkage (URDF + STL + JSON)."),
+    "sixbar": ("cli.sixbar:sixbar", "Four poses -> ranked spatial 6R linkages."),
+    "factor": ("cli.factor:factor", "Factorize a motion polynomial into linear factors (joints)."),
+    "flip": ("cli.flip:flip", "Bennett flip: (t-m)(t-h) = (t-k)(t-n)."),
+    "curve": ("cli.curve:curve", "A multi-loop linkage that performs a rational motion or draws a rational curve."),
+    "check": ("cli.check:check", "Verify an output directory (structure, meshes, poses, closure, mobility)."),
+    "simulate": ("cli.simulate:simulate", "Drive the linkage in PyBullet or MuJoCo and compare with the exact motion."),
+    "render": ("cli.render:render", "Headless PNG / animated GIF of a linkage."),
+    "view": ("cli.view:view", "Self-contained offline HTML viewer of a linkage."),
+    "collide": ("cli.collide:collide", "Self-collision check of the links along the motion."),
+    "batch": ("cli.batch:batch", "Run many synthesis jobs from JSON lines."),
+}
+
+
+def _version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("mpsynth")
+    except Exception:  # pragma: no cover - not installed
+        return "unknown"
+
+
+class LazyGroup(click.Group):
+    def list_commands(self, ctx):
+        return [n for n, (target, _) in COMMANDS.items() if _available(target)]
+
+    def get_command(self, ctx, name):
+        if name not in COMMANDS or not _available(COMMANDS[name][0]):
+            return None
+        module, func = COMMANDS[name][0].split(":")
+        return getattr(importlib.import_module(module), func)
+
+    def format_commands(self, ctx, formatter):
+        rows = [(n, COMMANDS[n][1]) for n in self.list_commands(ctx)]
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
+
+
+def _available(target: str) -> bool:
+    module = target.split(":")[0]
+    return importlib.util.find_spec(module) is not None
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(_version(), "--version", prog_name="mpsynth")
+def mpsynth():
+    """Design closed-loop linkages whose coupler visits given poses, by factorizing motion polynomials.
+
+    \b
+    Examples:
+      mpsynth bennett fixtures/bennett_mm_deg.yaml -o out/bennett
+      mpsynth sixbar fixtures/sixbar_example.yaml -o out/sixbar
+      mpsynth factor --expr "(t-1)*(t-j) - eps*((i+k)*t - 2*k)"
+
+    Exit codes: 0 success, 1 no real linkage (the message says why), 2 bad input or usage.
+    """
+
+
+def main(argv=None):
+    import importlib.util  # noqa: F401  (used by _available)
+
+    try:
+        return mpsynth.main(args=argv, prog_name="mpsynth", standalone_mode=True)
+    except KeyboardInterrupt:  # pragma: no cover
+        click.echo("mpsynth: interrupted", err=True)
+        sys.exit(130)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
