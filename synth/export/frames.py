@@ -1,0 +1,71 @@
+"""Link frames and the roll-pitch-yaw conversion shared by the exporters.
+
+The frame of link X (OUTPUT.md, linkage.py) sits at the foot point ``Joint.point`` of the joint whose
+child is X, with axes parallel to the world axes at the reference configuration; ``base`` has the
+world frame. So every frame differs from the world frame by a translation only, and a URDF joint's
+origin is the plain difference of the two origins with rpy "0 0 0".
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def link_origins(linkage) -> dict[str, np.ndarray]:
+    """World position (3,) of every tree link's frame origin at the reference configuration."""
+    out: dict[str, np.ndarray] = {"base": np.zeros(3)}
+    for j in linkage.joints:
+        if j.parent not in out:
+            raise ValueError(f"joint {j.name}: parent link {j.parent!r} comes before it is defined")
+        if j.child in out:
+            raise ValueError(f"joint {j.name}: link {j.child!r} already has a parent")
+        out[j.child] = np.asarray(j.point, float)
+    return out
+
+
+def _rx(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def _ry(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
+
+
+def _rz(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """URDF convention: fixed axes, R = Rz(yaw) @ Ry(pitch) @ Rx(roll)."""
+    return _rz(yaw) @ _ry(pitch) @ _rx(roll)
+
+
+def rpy_from_matrix(R) -> tuple[float, float, float]:
+    """(roll, pitch, yaw) with ``rpy_matrix(roll, pitch, yaw) == R`` to a few ulps, for every rotation.
+
+    Yaw comes from the first column; the yaw rotation is then taken out (R' = Rz(-yaw) R =
+    Ry(pitch) Rx(roll)) and pitch and roll are read from entries of R' that have unit magnitude,
+    so nothing divides by cos(pitch): at or near gimbal lock (pitch = +-pi/2) the yaw is arbitrary
+    but the roll computed after it compensates exactly."""
+    R = np.asarray(R, float)
+    yaw = math.atan2(R[1, 0], R[0, 0])
+    if R[1, 0] == 0.0 and R[0, 0] == 0.0:  # exact gimbal lock: choose yaw = 0
+        yaw = 0.0
+    Rp = _rz(-yaw) @ R
+    pitch = math.atan2(-Rp[2, 0], Rp[0, 0])
+    roll = math.atan2(-Rp[1, 2], Rp[1, 1])
+    return roll, pitch, yaw
+
+
+def tool_mount_origin(linkage) -> np.ndarray:
+    """4x4 transform of the tool frame in the frame of ``linkage.tool_link``: F_tool_link^-1 @ tool_ref."""
+    origins = link_origins(linkage)
+    if linkage.tool_link not in origins:
+        raise ValueError(f"tool link {linkage.tool_link!r} is not a link of the tree")
+    T = np.array(linkage.tool_ref, float).copy()
+    T[:3, 3] = T[:3, 3] - origins[linkage.tool_link]
+    return T

@@ -1,0 +1,98 @@
+"""linkage.json: the machine-readable description of a `Linkage` (schema in OUTPUT.md).
+
+Beyond OUTPUT.md's required keys we add (the contract allows new keys): ``poses[].t`` (the motion
+parameter of the pose, null for t = infinity), ``joints[].parent/child/angle_law`` (theta(t) =
+2 atan2(b, t - a)), ``links`` (link -> joints it carries), ``tool_link``, ``tool_ref`` and ``info``
+(the linkage's kind-specific extras). Only plain JSON types are written; non-finite numbers become null.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+FORMAT = "mpsynth.linkage/1"
+
+
+def plain(obj, where: str = "document"):
+    """``obj`` with numpy arrays and scalars and tuples turned into plain JSON
+    types; non-finite floats become None. Raises TypeError naming the place of anything else."""
+    if obj is None or isinstance(obj, (bool, str)):
+        return obj
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        x = float(obj)
+        return x if math.isfinite(x) else None
+    if isinstance(obj, np.ndarray):
+        return plain(obj.tolist(), where)
+    if isinstance(obj, dict):
+        return {str(k): plain(v, f"{where}.{k}") for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [plain(v, f"{where}[{i}]") for i, v in enumerate(obj)]
+    raise TypeError(f"{where}: {type(obj).__name__} is not JSON-serializable")
+
+
+def linkage_document(linkage) -> dict:
+    """The linkage.json document (a dict of plain JSON types)."""
+    doc = {
+        "format": FORMAT,
+        "kind": linkage.kind,
+        "units": {"length": "m", "angle": "rad"},
+        "poses": [
+            {"name": p.name, "matrix": np.asarray(p.matrix, float), "t": p.t,
+             "joint_angles": {k: float(v) for k, v in p.joint_angles.items()}}
+            for p in linkage.poses
+        ],
+        "joints": [
+            {"name": j.name,
+             "line": {"direction": np.asarray(j.direction, float), "moment": np.asarray(j.moment, float)},
+             "parent": j.parent, "child": j.child,
+             "angle_law": {"a": float(j.a), "b": float(j.b)}}
+            for j in linkage.joints
+        ],
+        "branches": [list(b) for b in linkage.branches],
+        "closures": [list(c) for c in linkage.closures],
+        "motion_polynomial": np.asarray(linkage.motion, float),
+        "checks": dict(linkage.checks),
+        "links": {k: list(v) for k, v in linkage.links.items()},
+        "tool_link": linkage.tool_link,
+        "tool_ref": np.asarray(linkage.tool_ref, float),
+        "info": dict(linkage.info),
+    }
+    return plain(doc)
+
+
+def _dumps(obj, indent: int = 0) -> str:
+    """Indented JSON where lists of scalars (vectors, matrix rows) stay on one line."""
+    pad, inner = "  " * indent, "  " * (indent + 1)
+    if isinstance(obj, dict):
+        if not obj:
+            return "{}"
+        items = [f"{inner}{json.dumps(str(k))}: {_dumps(v, indent + 1)}" for k, v in obj.items()]
+        return "{\n" + ",\n".join(items) + "\n" + pad + "}"
+    if isinstance(obj, list):
+        if all(not isinstance(v, (dict, list)) for v in obj):
+            return "[" + ", ".join(json.dumps(v, allow_nan=False) for v in obj) + "]"
+        if all(isinstance(v, list) and all(not isinstance(w, (dict, list)) for w in v) for v in obj):
+            rows = [inner + _dumps(v) for v in obj]  # a matrix: one row per line
+        else:
+            rows = [inner + _dumps(v, indent + 1) for v in obj]
+        return "[\n" + ",\n".join(rows) + "\n" + pad + "]"
+    return json.dumps(obj, allow_nan=False)
+
+
+def write_json(doc: dict, path) -> Path:
+    """Write ``doc`` (plain JSON types) to ``path`` with a trailing newline; returns the path."""
+    path = Path(path)
+    text = _dumps(plain(doc)) + "\n"
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(text)
+        fh.flush()
+        os.fsync(fh.fileno())
+    return path
