@@ -66,7 +66,8 @@ def bennett(poses, names=None, *, check_samples: int = 200):
     K = to_world(fk.factors, cond)
     C = to_world(con.C, cond)
     info = {"factorization_residual": max(fh.residual, fk.residual),
-            "study_form": {"B01": float(con.B[0]), "B02": float(con.B[1]), "B12": float(con.B[2])},
+            # the Study form is translation invariant and scales with length: report it in metres
+            "study_form": {k: float(v * cond.scale) for k, v in zip(("B01", "B02", "B12"), con.B)},
             "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)}}
     linkage = two_branch_linkage("bennett", H, K, C, T, names, con.ts, info)
     linkage.info["bennett"] = bennett_parameters(linkage)
@@ -82,7 +83,7 @@ def _warnings(linkage, con, cond) -> list[str]:
     if far > 1e3:
         out.append(f"joint axes lie {far:.3g} pose spreads away from the poses: the poses are nearly "
                    "related by pure translations, the linkage is valid but impractically large")
-    if np.min(np.abs(con.B)) < 1e-6:
+    if np.min(np.abs(con.B)) < 1e-3:
         out.append("some relative displacement has nearly zero pitch: the result is valid but "
                    "sensitive to small changes of the poses")
     return out

@@ -76,7 +76,12 @@ def _cylinder(a, b, radius, sections):
     T = np.eye(4)
     T[:3, :3] = trimesh.geometry.align_vectors([0.0, 0.0, 1.0], axis / height)[:3, :3]
     T[:3, 3] = (a + b) / 2
-    return trimesh.creation.cylinder(radius=radius, height=height, sections=sections, transform=T)
+    # built at unit radius, then scaled: trimesh merges vertices closer than 1e-8 at creation, which
+    # would destroy micrometre-sized cylinders
+    mesh = trimesh.creation.cylinder(radius=1.0, height=height / radius, sections=sections)
+    mesh.apply_scale(radius)
+    mesh.apply_transform(T)
+    return mesh
 
 
 def _pair_feet(j1, j2):
@@ -122,7 +127,19 @@ def _solid(parts):
     if len(parts) == 1:
         return parts[0]
     if have_manifold():
-        return trimesh.boolean.union(parts, engine="manifold")
+        # Unite at unit size around the origin: trimesh's and manifold's absolute tolerances would
+        # otherwise reject micrometre-sized parts or parts far from the world origin.
+        lo = np.min([p.bounds[0] for p in parts], axis=0)
+        hi = np.max([p.bounds[1] for p in parts], axis=0)
+        centre, size = (lo + hi) / 2, float(np.max(hi - lo))
+        unit = [p.copy() for p in parts]
+        for p in unit:
+            p.apply_translation(-centre)
+            p.apply_scale(1.0 / size)
+        mesh = trimesh.boolean.union(unit, engine="manifold")
+        mesh.apply_scale(size)
+        mesh.apply_translation(centre)
+        return mesh
     return trimesh.util.concatenate(parts)
 
 

@@ -10,13 +10,19 @@
 - each loop cut is a ``<gazebo><joint type="fixed">`` weld named ``loop_closure``, ``loop_closure_2``...;
 - links with geometry get visual and collision meshes ``meshes/<link>.stl`` (or
   ``package://NAME/meshes/<link>.stl``) and an inertial from the mesh (aluminium by default); links
-  without geometry get a tiny inertial (1e-6 kg, 1e-9 kg m^2).
+  without geometry get a tiny inertial (1e-6 kg, 1e-9 kg m^2);
+- STL files are in millimetres (what slicers assume) and referenced with ``scale="0.001 0.001 0.001"``;
+  a metre-unit STL of a 30 cm linkage would open in a slicer as a 0.3 mm part, and micrometre-sized
+  features of small linkages would fall below mesh tools' vertex-merge tolerances.
 
 All floats are written with ``repr`` (shortest round-trip form), so the file is exact to the last bit.
 """
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+
+MESH_UNIT_SCALE = 0.001  # metres per STL unit (STL files are written in millimetres)
+_MESH_SCALE = f"{MESH_UNIT_SCALE!r} {MESH_UNIT_SCALE!r} {MESH_UNIT_SCALE!r}"
 
 import numpy as np
 
@@ -100,7 +106,7 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
                 el = ET.SubElement(link, tag)
                 ET.SubElement(el, "origin", xyz="0.0 0.0 0.0", rpy="0.0 0.0 0.0")
                 geom = ET.SubElement(el, "geometry")
-                ET.SubElement(geom, "mesh", filename=fn)
+                ET.SubElement(geom, "mesh", filename=fn, scale=_MESH_SCALE)
                 if tag == "visual":
                     mat = ET.SubElement(el, "material", name=f"mpsynth_{n}")
                     ET.SubElement(mat, "color", rgba=_COLORS.get(n, _DEFAULT_COLOR))

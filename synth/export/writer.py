@@ -180,7 +180,7 @@ def write_linkage_files(linkage, directory, *, robot_name: str, package: str | N
     written, relative to ``directory``."""
     from .jsonout import linkage_document, write_json
     from .meshes import link_meshes, mesh_inertials
-    from .urdf import urdf_text
+    from .urdf import MESH_UNIT_SCALE, urdf_text
 
     directory = Path(directory)
     meshes = link_meshes(linkage, pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length)
@@ -189,7 +189,9 @@ def write_linkage_files(linkage, directory, *, robot_name: str, package: str | N
         (directory / "meshes").mkdir()
     for name, mesh in meshes.items():
         rel = Path("meshes") / f"{name}.stl"
-        (directory / rel).write_bytes(mesh.export(file_type="stl"))
+        stl = mesh.copy()
+        stl.apply_scale(1.0 / MESH_UNIT_SCALE)  # metres -> millimetres, the unit slicers assume
+        (directory / rel).write_bytes(stl.export(file_type="stl"))
         written.append(rel)
     text = urdf_text(linkage, robot_name, mesh_dir="meshes", package=package, masses=mesh_inertials(meshes))
     (directory / "linkage.urdf").write_text(text, encoding="utf-8")
