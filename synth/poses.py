@@ -73,6 +73,8 @@ MAX_FILE_BYTES = 10 * 1024 * 1024
 MAX_POSES = 10_000
 MAX_ABS_NUMBER = 1e12  # any number in the file
 MAX_POSITION_M = 1e9  # |position| after conversion to metres
+MAX_YAML_NODES = 30 * MAX_POSES  # values in a YAML document (a pose has at most about 25)
+MAX_MERGED_KEYS = 1000  # entries of one mapping after expanding YAML merge keys
 UNIT_TOL = 1e-6  # quaternion length, orthonormality, last matrix row
 PROJECT_TOL = 1e-3  # how far from orthonormal --normalize may project
 
@@ -411,8 +413,40 @@ def pose_from_spec(
 
 
 # ============================================================== reading text
+class _TooLarge(yaml.YAMLError):
+    """The document is far larger than any pose file (raised while composing, before construction)."""
+
+
 class _StrictSafeLoader(yaml.SafeLoader):
-    """SafeLoader that rejects duplicate keys and reads 1e-3 as a float."""
+    """SafeLoader that rejects duplicate keys and reads 1e-3 as a float.
+
+    It also refuses, while the document is still being parsed, a list of more than ``MAX_POSES``
+    items, more than ``MAX_YAML_NODES`` values in total (aliases included) and merge keys (``<<``)
+    that would expand a mapping to more than ``MAX_MERGED_KEYS`` entries ("YAML bombs"): such
+    documents otherwise take minutes and gigabytes before the pose limits could even be checked."""
+
+    def compose_node(self, parent, index):
+        self._mpsynth_nodes = getattr(self, "_mpsynth_nodes", 0) + 1
+        if self._mpsynth_nodes > MAX_YAML_NODES:
+            raise _TooLarge(f"{self._mark_text()}the document has more than {MAX_YAML_NODES} values; "
+                            f"a pose file of {MAX_POSES} poses has far fewer, refusing to read further")
+        if isinstance(index, int) and index >= MAX_POSES:  # the (index+1)-th item of a list
+            raise _TooLarge(f"{self._mark_text()}a list has more than {MAX_POSES} items "
+                            f"(at most {MAX_POSES} poses are accepted); refusing to read further")
+        return super().compose_node(parent, index)
+
+    def _mark_text(self) -> str:
+        try:
+            mark = self.peek_event().start_mark
+            return f"line {mark.line + 1}: "
+        except Exception:  # pragma: no cover - the message stays useful without a line
+            return ""
+
+    def flatten_mapping(self, node):
+        if _merged_size(node, {}) > MAX_MERGED_KEYS:
+            raise _TooLarge(f"line {node.start_mark.line + 1}: merge keys ('<<') expand a mapping to more than "
+                            f"{MAX_MERGED_KEYS} entries; refusing to expand it")
+        return super().flatten_mapping(node)
 
     def construct_mapping(self, node, deep=False):
         if isinstance(node, yaml.MappingNode):
@@ -434,6 +468,28 @@ class _StrictSafeLoader(yaml.SafeLoader):
                     )
                 seen[key] = True
         return super().construct_mapping(node, deep=deep)
+
+
+def _merged_size(node, memo: dict) -> int:
+    """Number of entries ``node`` (a MappingNode) has once its merge keys are expanded; stops counting
+    early above MAX_MERGED_KEYS. Shared (aliased) mappings are counted once per use, as the expansion
+    copies them; ``memo`` keeps that linear in the number of nodes."""
+    key = id(node)
+    if key in memo:
+        return memo[key]
+    memo[key] = 0  # a mapping that merges itself is reported by the expansion (nested too deeply)
+    n = 0
+    for k, v in node.value:
+        if k.tag != "tag:yaml.org,2002:merge":
+            n += 1
+            continue
+        for sub in (v.value if isinstance(v, yaml.SequenceNode) else [v]):
+            if isinstance(sub, yaml.MappingNode):
+                n += _merged_size(sub, memo)
+        if n > MAX_MERGED_KEYS:
+            break
+    memo[key] = n
+    return n
 
 
 _StrictSafeLoader.add_implicit_resolver(
@@ -490,6 +546,8 @@ def _load_document(text: str, name: str, force_json: bool) -> Any:
             json_err = e
     try:
         return yaml.load(text, Loader=_StrictSafeLoader)  # noqa: S506 - a SafeLoader subclass
+    except _TooLarge as e:
+        raise InputError(f"{name}: {e}") from None
     except yaml.YAMLError as e:
         if json_err is not None:
             raise json_err from None
