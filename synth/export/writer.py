@@ -140,22 +140,34 @@ def _umask() -> int:
     return mask
 
 
-@contextmanager
-def atomic_directory(out_dir, force: bool = False):
-    """Context manager: yields a temporary directory (Path) that becomes ``out_dir`` on a clean exit
-    and vanishes on an exception or signal. See the module docstring."""
+def check_output_target(out_dir, force: bool = False) -> Path:
+    """Raise InputError now if ``out_dir`` could not be written (missing or unwritable parent, a
+    foreign non-empty directory without ``force``); returns its absolute path. Lets a command refuse
+    a bad OUT before doing any work; `atomic_directory` checks again."""
     out = Path(os.path.abspath(os.fspath(out_dir)))
     if out.parent == out:
         raise InputError(f"{out}: cannot write the output to a file system root")
     _check_target(out, force)
+    return out
+
+
+@contextmanager
+def atomic_directory(out_dir, force: bool = False):
+    """Context manager: yields a temporary directory (Path) that becomes ``out_dir`` on a clean exit
+    and vanishes on an exception or signal. See the module docstring."""
+    out = check_output_target(out_dir, force)
     guard = _SignalGuard()
     tmp = None
     guard.install()
     try:
+        guard.defer = True  # a signal between mkdtemp and the assignment would leak the directory
         try:
             tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.mpsynth-tmp-", dir=out.parent))
         except OSError as e:
             raise InputError(f"{out.parent}: cannot create the output directory there ({e.strerror})") from None
+        guard.defer = False
+        if guard.pending:  # arrived during mkdtemp: act on it now that the directory is known
+            raise_for_signal(guard.pending)
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes it 0700; OUT should look like a mkdir'ed dir
         yield tmp
         (tmp / MARKER).write_text(_MARKER_TEXT, encoding="utf-8")
