@@ -92,6 +92,23 @@ def mesh_sizes(kwargs, length_scale: float) -> dict:
     return out
 
 
+MESH_SIZE_RANGE = (1e-6, 1e4)  # explicit mesh sizes, relative to the linkage's size (extent)
+
+
+def check_mesh_sizes(sizes: dict, extent: float, scale: float, unit: str) -> None:
+    """Refuse explicit mesh sizes (metres) that are absurd for a linkage of size ``extent`` (metres):
+    outside MESH_SIZE_RANGE times the extent the meshes cannot be built. Messages use the input unit."""
+    from synth.errors import InputError
+
+    lo, hi = MESH_SIZE_RANGE
+    for key, v in sizes.items():
+        if not (lo * extent <= v <= hi * extent):
+            raise InputError(
+                f"--{key.replace('_', '-')} {v / scale:.6g} {unit} is out of range for a linkage of size "
+                f"{extent / scale:.3g} {unit}: give a value between {lo * extent / scale:.3g} and "
+                f"{hi * extent / scale:.3g} {unit}")
+
+
 def default_robot_name(source: str) -> str:
     from pathlib import Path
 

@@ -42,11 +42,39 @@ class LazyGroup(click.Group):
         module, func = COMMANDS[name][0].split(":")
         return getattr(importlib.import_module(module), func)
 
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        """click's main, but usage errors (bad option values, missing arguments, unknown commands) are
+        one line ``mpsynth: ...`` on stderr with exit code 2, like every other input error."""
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        try:
+            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.exceptions.NoArgsIsHelpError as e:  # plain `mpsynth`: the help text
+            e.show()
+            sys.exit(e.exit_code)
+        except click.ClickException as e:
+            sys.exit(_report_click_error(e))
+        except click.exceptions.Abort as e:  # Ctrl-C outside a command's own handling, or EOF
+            interrupted = isinstance(e.__cause__ or e.__context__, KeyboardInterrupt)
+            click.echo("mpsynth: interrupted" if interrupted else "mpsynth: aborted", err=True)
+            sys.exit(130 if interrupted else 1)
+        sys.exit(rv if isinstance(rv, int) else 0)  # an int here is the code of a click Exit (--help)
+
     def format_commands(self, ctx, formatter):
         rows = [(n, COMMANDS[n][1]) for n in self.list_commands(ctx)]
         if rows:
             with formatter.section("Commands"):
                 formatter.write_dl(rows)
+
+
+def _report_click_error(e: click.ClickException) -> int:
+    """One stderr line for a click error; returns its exit code."""
+    msg = " ".join(e.format_message().split()).rstrip(".")
+    ctx = getattr(e, "ctx", None)
+    if isinstance(e, click.UsageError) and ctx is not None:
+        msg += f" (see '{ctx.command_path} --help')"
+    click.echo(f"mpsynth: {msg}", err=True)
+    return e.exit_code
 
 
 def _available(target: str) -> bool:
