@@ -7,14 +7,18 @@ whose root a + ib has the smaller real part a.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .assemble import two_branch_linkage
 from .checks import pose_difference, self_check
-from .dq import common_normal_feet
 from .errors import InputError, NotGenericError, SynthesisError
 from .factor import factorize
-from .interpolate import condition, conic, relative_displacements, to_world
+from .interpolate import Conditioning, condition, conic, relative_displacements, to_world
+from .scalar import bennett_core, pair_geometry
+from .scalar import cross as scalar_cross
+from .scalar import dot as scalar_dot
 
 COINCIDENT_TOL = 1e-9  # relative to the pose spread (translation) and radians (rotation)
 
@@ -35,11 +39,48 @@ def check_distinct(T, names, tol=COINCIDENT_TOL):
 def bennett(poses, names=None, *, check_samples: int = 200):
     """Synthesize the Bennett linkage whose coupler visits the three poses (shape (3, 4, 4), metres).
 
+    ``check_samples``: number of parameters covering the real line at which the loop closure and the
+    motion are verified (``linkage.checks``); the tool frame is always verified at every pose's reported
+    joint angles.
+
+    Generic input takes a fast path in plain floats (`synth.scalar.bennett_core`); anything not clearly
+    generic (nearly degenerate poses, nearly real or repeated norm roots, a multiply-back error above
+    1e-14) goes through the general engine (`synth.factor.factorize` with its refinements), which also
+    gives every refusal its message. Both produce the same linkage up to rounding.
+
     Raises SynthesisError (degenerate or non-real cases, with a plain-language reason)."""
     T = np.asarray(poses, float)
     if T.shape != (3, 4, 4):
         raise InputError(f"a Bennett linkage needs exactly 3 poses (array of shape (3, 4, 4)), got {T.shape}")
+    if not math.isfinite(float(T.sum())) and not np.all(np.isfinite(T)):
+        raise InputError("the poses contain NaN or infinity")
     names = list(names) if names is not None else [f"p{i}" for i in range(3)]
+    core = bennett_core(T)
+    if core is None:
+        return _bennett_general(T, names, check_samples)
+    cond = Conditioning(centre=np.array(core["centre"]), scale=core["scale"])
+    info = {"factorization_residual": core["residual"],
+            "study_form": {k: v * cond.scale for k, v in zip(("B01", "B02", "B12"), core["B"])},
+            "conditioning": {"centre": list(core["centre"]), "scale": cond.scale}}
+    linkage = two_branch_linkage("bennett", core["H"], core["K"], core["C"], T, names, _TS, info)
+    return _finish(linkage, core["B"], cond, check_samples)
+
+
+_TS = (np.inf, 0.0, 1.0)
+
+
+def _finish(linkage, B, cond, check_samples):
+    loop = ["h1", "h2", "k2", "k1"]
+    geo = loop_geometry(linkage, loop)
+    linkage.info["bennett"] = bennett_parameters(linkage, geo)
+    linkage.info["dh"] = dh_table(linkage, loop, geo)
+    linkage.info["warnings"] = _warnings(linkage, B, cond)
+    linkage.checks = self_check(linkage, check_samples)
+    return linkage
+
+
+def _bennett_general(T, names, check_samples):
+    """The general path: `factorize` with root merging, refinement and every refusal message."""
     check_distinct(T, names)
     Tc, cond = condition(T)
     D = relative_displacements(Tc)
@@ -70,20 +111,17 @@ def bennett(poses, names=None, *, check_samples: int = 200):
             "study_form": {k: float(v * cond.scale) for k, v in zip(("B01", "B02", "B12"), con.B)},
             "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)}}
     linkage = two_branch_linkage("bennett", H, K, C, T, names, con.ts, info)
-    linkage.info["bennett"] = bennett_parameters(linkage)
-    linkage.info["dh"] = dh_table(linkage, ["h1", "h2", "k2", "k1"])
-    linkage.info["warnings"] = _warnings(linkage, con, cond)
-    linkage.checks = self_check(linkage, check_samples)
-    return linkage
+    return _finish(linkage, con.B.tolist(), cond, check_samples)
 
 
-def _warnings(linkage, con, cond) -> list[str]:
+def _warnings(linkage, B, cond) -> list[str]:
     out = []
-    far = max(np.linalg.norm(j.point - cond.centre) for j in linkage.joints) / cond.scale
+    c = cond.centre.tolist()
+    far = max(math.dist(scalar_cross(j.direction.tolist(), j.moment.tolist()), c) for j in linkage.joints) / cond.scale
     if far > 1e3:
         out.append(f"joint axes lie {far:.3g} pose spreads away from the poses: the poses are nearly "
                    "related by pure translations, the linkage is valid but impractically large")
-    if np.min(np.abs(con.B)) < 1e-3:
+    if min(abs(x) for x in B) < 1e-3:
         out.append("some relative displacement has nearly zero pitch: the result is valid but "
                    "sensitive to small changes of the poses")
     return out
@@ -92,55 +130,51 @@ def _warnings(linkage, con, cond) -> list[str]:
 def _pair_geometry(j1, j2):
     """(distance, signed twist, foot on j1, foot on j2, unit common normal) between two joint axes.
     The twist is the angle from u1 to u2 about the common normal from j1 to j2."""
-    f1, f2 = common_normal_feet(j1.direction, j1.moment, j2.direction, j2.moment)
-    d = f2 - f1
-    dist = float(np.linalg.norm(d))
-    c = np.cross(j1.direction, j2.direction)
-    if dist > 1e-12:
-        n = d / dist
-    elif np.linalg.norm(c) > 1e-12:
-        n = c / np.linalg.norm(c)
-    else:
-        n = np.zeros(3)
-    twist = float(np.arctan2(np.dot(np.cross(j1.direction, j2.direction), n), np.dot(j1.direction, j2.direction)))
-    return dist, twist, f1, f2, n
+    dist, twist, f1, f2, n = pair_geometry(j1.direction.tolist(), j1.moment.tolist(),
+                                           j2.direction.tolist(), j2.moment.tolist())
+    return dist, twist, np.array(f1), np.array(f2), np.array(n)
 
 
-def bennett_parameters(linkage) -> dict:
+def loop_geometry(linkage, loop: list[str]) -> list[tuple]:
+    """`pair_geometry` (distance, signed twist, foot on i, foot on i+1, unit normal; plain floats) of
+    every consecutive pair of joints around the closed loop ``loop``."""
+    L = [(j.direction.tolist(), j.moment.tolist()) for j in (linkage.joint(n) for n in loop)]
+    m = len(L)
+    return [pair_geometry(*L[i], *L[(i + 1) % m]) for i in range(m)]
+
+
+def bennett_parameters(linkage, geo=None) -> dict:
     """Link lengths and twists of the loop h1-h2-k2-k1: a, alpha (links h1h2 and k2k1), b, beta
-    (coupler h2k2 and base k1h1), and the Bennett condition residual |a/sin(alpha)| - |b/sin(beta)|."""
-    J = {j.name: j for j in linkage.joints}
-    a1, al1, *_ = _pair_geometry(J["h1"], J["h2"])
-    b1, be1, *_ = _pair_geometry(J["h2"], J["k2"])
-    a2, al2, *_ = _pair_geometry(J["k2"], J["k1"])
-    b2, be2, *_ = _pair_geometry(J["k1"], J["h1"])
-    ra = a1 / abs(np.sin(al1)) if abs(np.sin(al1)) > 1e-15 else float("inf")
-    rb = b1 / abs(np.sin(be1)) if abs(np.sin(be1)) > 1e-15 else float("inf")
+    (coupler h2k2 and base k1h1), and the Bennett condition residual |a/sin(alpha)| - |b/sin(beta)|.
+    ``geo``: `loop_geometry(linkage, ["h1", "h2", "k2", "k1"])` if already computed."""
+    geo = geo or loop_geometry(linkage, ["h1", "h2", "k2", "k1"])
+    (a1, al1, *_), (b1, be1, *_), (a2, al2, *_), (b2, be2, *_) = geo
+    ra = a1 / abs(math.sin(al1)) if abs(math.sin(al1)) > 1e-15 else float("inf")
+    rb = b1 / abs(math.sin(be1)) if abs(math.sin(be1)) > 1e-15 else float("inf")
     scale = max(a1, b1, 1e-300)
     return {
         "a": a1, "alpha": al1, "b": b1, "beta": be1,
         "opposite_length_mismatch": max(abs(a1 - a2), abs(b1 - b2)) / scale,
         "opposite_twist_mismatch": max(abs(abs(al1) - abs(al2)), abs(abs(be1) - abs(be2))),
         "a_over_sin_alpha": ra, "b_over_sin_beta": rb,
-        "bennett_condition_residual": abs(ra - rb) / max(ra, rb, 1e-300) if np.isfinite(ra + rb) else None,
+        "bennett_condition_residual": abs(ra - rb) / max(ra, rb, 1e-300) if math.isfinite(ra + rb) else None,
     }
 
 
-def dh_table(linkage, loop: list[str]) -> list[dict]:
+def dh_table(linkage, loop: list[str], geo=None) -> list[dict]:
     """Denavit-Hartenberg parameters around a closed loop of joints at the reference configuration:
     for joint i, ``a``/``alpha`` to the next joint (signed twist about the common normal), ``d`` the
     offset along axis i between the incoming and outgoing common normals, ``theta`` the angle between
-    them about axis i."""
-    J = [linkage.joint(n) for n in loop]
-    m = len(J)
-    geo = [_pair_geometry(J[i], J[(i + 1) % m]) for i in range(m)]
+    them about axis i. ``geo``: `loop_geometry(linkage, loop)` if already computed."""
+    geo = geo or loop_geometry(linkage, loop)
+    m = len(loop)
     rows = []
     for i in range(m):
         dist, twist, f_out, _, n_out = geo[i]
         _, _, _, f_in, n_in = geo[i - 1]
-        u = J[i].direction
-        d = float(np.dot(f_out - f_in, u))
-        theta = float(np.arctan2(np.dot(np.cross(n_in, n_out), u), np.dot(n_in, n_out)))
+        u = linkage.joint(loop[i]).direction.tolist()
+        d = scalar_dot((f_out[0] - f_in[0], f_out[1] - f_in[1], f_out[2] - f_in[2]), u)
+        theta = math.atan2(scalar_dot(scalar_cross(n_in, n_out), u), scalar_dot(n_in, n_out))
         rows.append({"joint": loop[i], "next": loop[(i + 1) % m], "a": dist, "alpha": twist, "d": d,
                      "theta": theta})
     return rows
