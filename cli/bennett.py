@@ -22,6 +22,7 @@ def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, packag
     Writes OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/*.stl (lengths in metres) when -o is
     given; prints a summary on stderr and, with --json, linkage.json on stdout."""
     from synth.bennett import bennett as synth_bennett
+    from synth.errors import SynthesisError
     from synth.poses import load_poses
 
     ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=normalize)
@@ -31,7 +32,10 @@ def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, packag
         from synth.export.writer import check_output_target
 
         check_output_target(out, force)  # refuse an unusable OUT before doing the work
-    linkage = synth_bennett(ps.matrices, ps.names)
+    try:
+        linkage = synth_bennett(ps.matrices, ps.names)
+    except SynthesisError as e:  # name the file, like every input error
+        raise SynthesisError(f"{ps.source}: {e}") from e
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
          as_json=as_json)
 

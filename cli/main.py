@@ -60,6 +60,18 @@ class LazyGroup(click.Group):
             sys.exit(130 if interrupted else 1)
         sys.exit(rv if isinstance(rv, int) else 0)  # an int here is the code of a click Exit (--help)
 
+    def resolve_command(self, ctx, args):
+        try:
+            return super().resolve_command(ctx, args)
+        except click.UsageError as e:
+            import difflib
+
+            name = args[0] if args else ""
+            close = difflib.get_close_matches(name, list(COMMANDS), n=1, cutoff=0.6)
+            if close and name not in COMMANDS and "Did you mean" not in e.message:
+                e.message = f"{e.message.rstrip('.')}; did you mean '{close[0]}'?"
+            raise
+
     def format_commands(self, ctx, formatter):
         rows = [(n, COMMANDS[n][1]) for n in self.list_commands(ctx)]
         if rows:
