@@ -7,7 +7,9 @@ parent, so the final rename cannot cross file systems). On a clean exit it drops
 SIGINT/SIGTERM while inside (handlers are installed only for that time, main thread only), the
 temporary directory is removed and the exception propagates: SIGINT as KeyboardInterrupt (exit
 status 130 when uncaught), SIGTERM as SystemExit(143). Signals arriving during the final renames
-or the clean-up are deferred until those are done.
+or the clean-up are deferred until those are done. Should the exception be swallowed by the code
+inside (some libraries wrap failed optional imports, KeyboardInterrupt included), it is raised again
+before the commit: a signal received while writing always means no new OUT.
 
 An existing OUT is replaced only when it is empty, or written by mpsynth (the marker, or a
 ``linkage.json`` / ``index.json`` whose ``format`` starts with "mpsynth."), or when ``force`` is true;
@@ -105,6 +107,7 @@ class _SignalGuard:
     def __init__(self):
         self.defer = False
         self.pending = None
+        self.raised = None  # the signal already turned into an exception (which a library may swallow)
         self.saved = {}
 
     def install(self):
@@ -125,6 +128,7 @@ class _SignalGuard:
             self.pending = self.pending or signum
             return
         self.defer = True  # the first signal interrupts; a second one waits for the clean-up
+        self.raised = signum
         raise_for_signal(signum)
 
 
@@ -170,8 +174,10 @@ def atomic_directory(out_dir, force: bool = False):
             raise_for_signal(guard.pending)
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes it 0700; OUT should look like a mkdir'ed dir
         yield tmp
-        (tmp / MARKER).write_text(_MARKER_TEXT, encoding="utf-8")
         guard.defer = True
+        if guard.raised:  # the exception was swallowed (e.g. trimesh's optional imports catch BaseException)
+            raise_for_signal(guard.raised)
+        (tmp / MARKER).write_text(_MARKER_TEXT, encoding="utf-8")
         _check_target(out, force)  # again: OUT may have appeared while we were writing
         _commit(tmp, out)
     except BaseException:
