@@ -1,0 +1,54 @@
+"""The Python API in synth/__init__.py: names, laziness, equivalence with the modules."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import synth
+
+from conftest import REPO, random_poses
+
+
+def test_import_synth_is_cheap():
+    code = ("import sys, synth; heavy = [m for m in ('numpy', 'sympy', 'scipy', 'trimesh', 'click') "
+            "if m in sys.modules]; print(heavy)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_api_functions_survive_submodule_imports():
+    import synth.bennett  # noqa: F401  (the import system would rebind synth.bennett to the module)
+    from synth.bennett import check_distinct  # noqa: F401
+
+    assert callable(synth.bennett) and synth.bennett.__module__ == "synth"
+    assert synth.sixbar.__module__ == "synth"
+    from synth.factor import factorize
+
+    assert synth.factorize is factorize
+    assert synth.SynthesisError.__name__ == "SynthesisError"
+    with pytest.raises(AttributeError):
+        synth.no_such_name  # noqa: B018
+
+
+def test_bennett_api_equals_module_function():
+    from synth.bennett import bennett as module_bennett
+
+    T = random_poses(np.random.default_rng(7), 3)
+    A = synth.bennett(T)
+    B = module_bennett(T, check_samples=synth.DEFAULT_CHECK_SAMPLES)
+    assert A.checks["samples"] == synth.DEFAULT_CHECK_SAMPLES
+    for ja, jb in zip(A.joints, B.joints):
+        np.testing.assert_array_equal(ja.direction, jb.direction)
+        np.testing.assert_array_equal(ja.moment, jb.moment)
+    full = synth.bennett(T, check_samples=200)
+    assert full.checks["samples"] == 200 and full.checks["max_closure_error"] < 1e-12
+
+
+def test_bennett_api_errors():
+    with pytest.raises(synth.InputError):
+        synth.bennett(np.zeros((4, 4, 4)))
+    with pytest.raises(synth.SynthesisError, match="coincide"):
+        synth.bennett(np.stack([np.eye(4)] * 3))
