@@ -1,0 +1,139 @@
+"""`mpsynth batch JOBS.jsonl [-j N]`: many synthesis jobs from JSON lines, results as JSON lines."""
+from __future__ import annotations
+
+import io
+import os
+import sys
+import time
+
+import click
+
+from .common import debug_option, echo, run_guarded
+
+
+class Progress:
+    """A one-line progress display on stderr (only used when stderr is a terminal)."""
+
+    WIDTH = 28
+
+    def __init__(self, total: int | None, stream=None):
+        self.total = total
+        self.stream = stream or sys.stderr
+        self.start = time.monotonic()
+        self.last = 0.0
+        self.done = self.failed = 0
+
+    def update(self, ok: bool, force: bool = False) -> None:
+        self.done += 1
+        self.failed += 0 if ok else 1
+        now = time.monotonic()
+        if not force and now - self.last < 0.1:
+            return
+        self.last = now
+        rate = self.done / max(now - self.start, 1e-9)
+        if self.total:
+            frac = min(self.done / self.total, 1.0)
+            fill = int(round(frac * self.WIDTH))
+            bar = "#" * fill + "." * (self.WIDTH - fill)
+            eta = (self.total - self.done) / rate if rate > 0 else 0
+            text = f"[{bar}] {self.done}/{self.total} jobs, {self.failed} failed, {rate:.1f}/s, eta {eta:.0f} s"
+        else:
+            text = f"{self.done} jobs, {self.failed} failed, {rate:.1f}/s"
+        self.stream.write("\r" + text + "\x1b[K")
+        self.stream.flush()
+
+    def close(self) -> None:
+        self.stream.write("\r\x1b[K")
+        self.stream.flush()
+
+
+def _count_jobs(path: str) -> int | None:
+    try:
+        with open(path, "rb") as fh:
+            return sum(1 for line in fh if line.strip())
+    except OSError:
+        return None
+
+
+@click.command(epilog="""\b
+Example:
+  mpsynth batch jobs.jsonl -j 4 > results.jsonl
+  cat jobs.jsonl | mpsynth batch - | jq -c 'select(.ok)'
+
+\b
+A job line: {"id": "a1", "kind": "bennett", "poses": [...], "units": {...}, "out": "dir"}
+  kind: bennett (3 poses) | sixbar (4 poses); poses and units exactly as in a pose file;
+  optional: out (write the linkage there), name, normalize, force, pin_radius, link_radius, pin_length.
+A result line: {"id", "line", "ok": true, "kind", "joints", "extent", "checks", "out"}
+            or {"id", "line", "ok": false, "exit_code": 1|2|3, "error": "..."}
+
+\b
+Exit codes: 0 every job succeeded, 1 some job failed (its result line says why), 2 JOBS unreadable.""")
+@click.argument("jobs_file", metavar="JOBS", type=click.Path(dir_okay=False, allow_dash=True))
+@click.option("-j", "--jobs", "workers", type=int, default=1, show_default=True,
+              help="Worker processes (0: one per CPU).")
+@click.option("--chunksize", type=int, help="Jobs handed to a worker at a time (default: from the job count).")
+@click.option("--full", is_flag=True, help="Add the whole linkage.json document to every successful result.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar or summary on stderr.")
+@debug_option
+@run_guarded
+def batch(jobs_file, workers, chunksize, full, quiet, debug):
+    """Run the synthesis jobs in JOBS (JSON lines; '-' reads standard input), one result line per job
+    on stdout, in input order, streamed as the jobs finish. A failing job (malformed line, bad poses,
+    no real linkage) gives a result line with its error and never stops the batch."""
+    from synth.batchjobs import dumps, run_jobs
+    from synth.errors import InputError
+
+    if workers == 0:
+        workers = os.cpu_count() or 1
+    if workers < 0 or workers > 1024:
+        raise InputError(f"-j {workers}: must be between 0 and 1024")
+    if chunksize is not None and chunksize < 1:
+        raise InputError(f"--chunksize {chunksize}: must be at least 1")
+    if jobs_file == "-":
+        stream = io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8", errors="replace") \
+            if hasattr(sys.stdin, "buffer") else sys.stdin
+        total = None
+    else:
+        try:
+            stream = open(jobs_file, encoding="utf-8", errors="replace")
+        except FileNotFoundError:
+            raise InputError(f"{jobs_file}: cannot read file: no such file") from None
+        except IsADirectoryError:
+            raise InputError(f"{jobs_file}: cannot read file: it is a directory") from None
+        except OSError as e:
+            raise InputError(f"{jobs_file}: cannot read file: {e.strerror or e}") from None
+        total = _count_jobs(jobs_file)
+
+    progress = Progress(total) if (not quiet and sys.stderr.isatty()) else None
+    start = time.monotonic()
+    n = failed = 0
+    codes: dict[int, int] = {}
+    try:
+        with stream:
+            for res in run_jobs(stream, jobs=workers, chunksize=chunksize, full=full, total=total):
+                sys.stdout.write(dumps(res) + "\n")
+                sys.stdout.flush()
+                n += 1
+                if not res["ok"]:
+                    failed += 1
+                    codes[res["exit_code"]] = codes.get(res["exit_code"], 0) + 1
+                if progress:
+                    progress.update(res["ok"])
+    except BrokenPipeError:  # the reader went away (e.g. `| head`): stop quietly
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        sys.exit(1 if failed else 0)
+    finally:
+        if progress:
+            progress.close()
+    if not quiet:
+        dt = time.monotonic() - start
+        why = {2: "bad input", 1: "no linkage", 3: "internal error"}
+        detail = ", ".join(f"{c} {why.get(k, k)}" for k, c in sorted(codes.items()))
+        echo(f"batch: {n} jobs, {n - failed} ok, {failed} failed{f' ({detail})' if detail else ''} "
+             f"in {dt:.2f} s ({n / max(dt, 1e-9):.1f} jobs/s, -j {workers})")
+    sys.exit(1 if failed else 0)

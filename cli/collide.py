@@ -1,0 +1,47 @@
+"""`mpsynth collide OUT`: self-collision of the written link meshes along the whole motion."""
+from __future__ import annotations
+
+import sys
+
+import click
+
+from .common import debug_option, echo, json_option, print_json, run_guarded
+
+
+@click.command(epilog="""\b
+Examples:
+  mpsynth collide out/bennett
+  mpsynth collide out/bennett --steps 1440 --json | jq '.collisions[].links'
+
+\b
+Exit codes: 0 no collision, 1 some pair of links collides, 2 bad input or python-fcl missing.""")
+@click.argument("out", metavar="OUT", type=click.Path())
+@click.option("--steps", type=int, default=360, show_default=True,
+              help="Configurations checked over one full cycle (evenly spaced in joint angle).")
+@click.option("--no-clearance", is_flag=True, help="Skip the smallest-distance figure of the pairs that never collide.")
+@click.option("-q", "--quiet", is_flag=True, help="No report on stderr.")
+@json_option
+@debug_option
+@run_guarded
+def collide(out, steps, no_clearance, quiet, as_json, debug):
+    """Check the link meshes of output directory OUT for self-collision at STEPS configurations of one
+    full cycle. Links that share a joint, and the welded copies of a loop closure (coupler and
+    coupler_k), touch by design and are not checked. Reports every colliding pair with the ranges of
+    the motion parameter t (and joint angles) where it collides.
+
+    Needs python-fcl: pip install 'mpsynth[collide]'."""
+    from synth.collide import collide as do_collide
+    from synth.collide import summary_lines
+    from synth.errors import InputError
+    from synth.readback import read_output
+
+    if steps < 8 or steps > 1_000_000:
+        raise InputError(f"--steps {steps}: must be between 8 and 1000000")
+    rb = read_output(out)
+    report = do_collide(rb, steps=steps, clearance=not no_clearance)
+    if not quiet:
+        for line in summary_lines(report, rb.linkage.joints[0].name if rb.linkage.joints else None):
+            echo(line)
+    if as_json:
+        print_json(report)
+    sys.exit(1 if report["colliding"] else 0)

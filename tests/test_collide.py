@@ -1,0 +1,127 @@
+"""`mpsynth collide`: self-collision of non-adjacent links along the motion (python-fcl via trimesh)."""
+from __future__ import annotations
+
+import json
+import math
+import re
+import shutil
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from cli.main import mpsynth
+from synth.bennett import bennett
+from synth.collide import _runs, candidate_pairs
+from synth.export import write_output
+from synth.poses import load_poses
+from synth.readback import read_output
+
+from conftest import REPO
+
+
+def run(*args):
+    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
+
+
+def needs_fcl():
+    pytest.importorskip("fcl", reason="python-fcl is not installed (pip install 'mpsynth[collide]')")
+
+
+@pytest.fixture(scope="module")
+def quat_linkage():
+    ps = load_poses(str(REPO / "fixtures" / "bennett_quat.yaml"))
+    return bennett(ps.matrices, ps.names)
+
+
+@pytest.fixture(scope="module")
+def out_quat(tmp_path_factory, quat_linkage):
+    out = tmp_path_factory.mktemp("collide") / "bennett_quat"
+    write_output(quat_linkage, out, robot_name="bennett_quat")
+    return out
+
+
+def test_pairs_checked_and_excluded(out_quat):
+    test, skip = candidate_pairs(read_output(out_quat))
+    assert sorted(map(sorted, test)) == [["base", "coupler"], ["link_h1", "link_k1"]]
+    assert len(skip) == 4  # the four joints; coupler_k has no mesh
+
+
+def test_runs_are_cyclic():
+    h = np.array([1, 1, 0, 0, 1, 0, 1, 1], bool)
+    assert _runs(h) == [(4, 4), (6, 1)]  # the last run wraps around through the end
+    assert _runs(np.ones(5, bool)) == [(0, 4)] and _runs(np.zeros(5, bool)) == []
+
+
+def test_fixture_bennett_collides_where_it_folds(out_quat):
+    """The worked example's Bennett linkage (MATH.md 11 D) with the default meshes: base and coupler
+    pass through each other twice per cycle (the loop folds nearly flat); the two side links keep a
+    clearance of about 12 mm."""
+    needs_fcl()
+    r = run("collide", out_quat, "--steps", 180, "--json")
+    assert r.exit_code == 1, r.output
+    rep = json.loads(r.stdout)
+    assert rep["colliding"] and rep["steps"] == 180
+    assert [c["links"] for c in rep["collisions"]] == [["base", "coupler"]]
+    ranges = rep["collisions"][0]["ranges"]
+    assert len(ranges) == 2
+    (a0, a1), (b0, b1) = [(x["t_start"], x["t_end"]) for x in ranges]
+    assert 0.05 < a0 < a1 < 0.3 and 1.5 < b0 < b1 < 8
+    # the range ends are refined: just outside them the pair is free, just inside it collides
+    rb = read_output(out_quat)
+    from synth.collide import _PairTester
+
+    tester = _PairTester(rb, "base", "coupler")
+    for lo, hi in ((a0, a1), (b0, b1)):
+        pl, ph = math.atan(lo), math.atan(hi)
+        assert tester.hit(math.tan(pl + 1e-5)) and tester.hit(math.tan(ph - 1e-5))
+        assert not tester.hit(math.tan(pl - 1e-4)) and not tester.hit(math.tan(ph + 1e-4))
+    (clear,) = rep["clearance"]
+    assert clear["links"] == ["link_h1", "link_k1"] and 0.005 < clear["min_distance"] < 0.03
+    assert "COLLIDE base <-> coupler" in r.stderr and "clearance" in r.stderr
+
+
+def test_big_pins_collide_everywhere(tmp_path, quat_linkage):
+    """Pins as thick as the linkage: every non-adjacent pair touches in every configuration."""
+    needs_fcl()
+    out = tmp_path / "fat"
+    write_output(quat_linkage, out, robot_name="fat", pin_radius=0.3)
+    r = run("collide", out, "--steps", 36, "--json")
+    assert r.exit_code == 1
+    rep = json.loads(r.stdout)
+    assert sorted(c["links"] for c in rep["collisions"]) == [["base", "coupler"], ["link_h1", "link_k1"]]
+    for c in rep["collisions"]:
+        assert c["samples"] == 36 and c["ranges"] == [{"whole_cycle": True, "t_start": None, "t_end": None,
+                                                        "samples": 36}]
+    assert "over the whole cycle" in r.stderr
+
+
+def test_no_collision_exits_0(tmp_path, out_quat):
+    """An output whose coupler has no geometry: the only non-adjacent pair (the side links) is clear."""
+    needs_fcl()
+    out = tmp_path / "nocoupler"
+    shutil.copytree(out_quat, out)
+    urdf = (out / "linkage.urdf").read_text()
+    urdf, n = re.subn(r'(<link name="coupler">.*?)<visual>.*?</collision>', r"\1", urdf, flags=re.S)
+    assert n == 1
+    (out / "linkage.urdf").write_text(urdf)
+    r = run("collide", out, "--steps", 90, "--json")
+    assert r.exit_code == 0, r.output
+    rep = json.loads(r.stdout)
+    assert not rep["colliding"] and rep["pairs_checked"] == [["link_h1", "link_k1"]]
+    assert "ok      link_h1 <-> link_k1" in r.stderr
+
+
+def test_missing_fcl_exits_2(out_quat, monkeypatch):
+    import synth.collide
+
+    monkeypatch.setattr(synth.collide, "fcl_available", lambda: False)
+    r = run("collide", out_quat)
+    assert r.exit_code == 2 and "pip install 'mpsynth[collide]'" in r.stderr
+
+
+def test_collide_usage_errors(tmp_path, out_quat):
+    r = run("collide", tmp_path / "missing")
+    assert r.exit_code == 2 and "no such output directory" in r.stderr
+    r = run("collide", out_quat, "--steps", 2)
+    assert r.exit_code == 2 and "--steps" in r.stderr
