@@ -253,6 +253,23 @@ def check_motion_polynomial(C, tol=1e-9):
         raise InputError(f"not a motion polynomial: its norm is not real (Study condition violated by {res:.2g})")
 
 
+def _factorize_fast(C, validate) -> FactorResult | None:
+    """`factorize` for generic input in plain floats (`synth.scalar.factorize_generic`: the same
+    steps, no numpy call per step); None when C is not clearly generic (then the code below decides)."""
+    from .scalar import factorize_generic
+
+    if C.ndim != 2 or C.shape[0] > 4:  # degree <= 3: plain floats beat numpy's batching over orders
+        return None
+    out = factorize_generic(C, validate)
+    if out is None:
+        return None
+    N, z, quads, orders, factors, residuals = out
+    facts = [Factorization(factors=np.array(H), order=tuple(o), residual=r)
+             for o, H, r in zip(orders, factors, residuals)]
+    return FactorResult(C=C, norm=np.array(N), quadratics=np.array(quads), multiplicity=[1] * len(quads),
+                        factorizations=facts, generic=True, real_factor_roots=[], failed_orders=[])
+
+
 def factorize(C, *, validate=True) -> FactorResult:
     """All factorizations of a monic motion polynomial C (shape (n+1, 8)) from Algorithm 1.
 
@@ -260,6 +277,9 @@ def factorize(C, *, validate=True) -> FactorResult:
     ``failed_orders``); when none succeeds, raises NotGenericError (primal part with a real factor)
     or NoFactorizationError."""
     C = np.asarray(C, float)
+    fast = _factorize_fast(C, validate)
+    if fast is not None:
+        return fast
     if validate:
         check_motion_polynomial(C)
     N = norm_poly(C)

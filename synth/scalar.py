@@ -340,3 +340,150 @@ def dq_pose_difference(A, B):
 def rotation_dq(u, m, c, s):
     """cos(theta/2) + sin(theta/2) (u - eps m): rotation by theta about the line (u, m)."""
     return (c, s * u[0], s * u[1], s * u[2], 0.0, -s * m[0], -s * m[1], -s * m[2])
+
+
+# ----------------------------------------------------------------------------- Algorithm 1 (MATH.md 4)
+FAST_STUDY_TOL = 1e-9  # as synth.factor.check_motion_polynomial
+
+
+def _poly_norm_and_study(rows):
+    """(N ascending, Study residual) of a dual-quaternion polynomial: N_k = sum_{i+j=k} P_i.P_j and the
+    dual scalar part of C C~, sum_{i+j=k} (P_i.Q_j + Q_i.P_j), relative to the largest coefficient (the
+    vector parts of C C~ vanish identically)."""
+    n1 = len(rows)
+    N = [0.0] * (2 * n1 - 1)
+    S = [0.0] * (2 * n1 - 1)
+    for i, a in enumerate(rows):
+        a0, a1, a2, a3, a4, a5, a6, a7 = a
+        for j, b in enumerate(rows):
+            N[i + j] += a0 * b[0] + a1 * b[1] + a2 * b[2] + a3 * b[3]
+            S[i + j] += (a0 * b[4] + a1 * b[5] + a2 * b[6] + a3 * b[7]) + (a4 * b[0] + a5 * b[1] + a6 * b[2] + a7 * b[3])
+    scale = max(max(map(abs, N)), max(map(abs, S)))
+    return N, (max(map(abs, S)) / scale if scale > 0 else 0.0)
+
+
+def _dq_neg(h):
+    return (-h[0], -h[1], -h[2], -h[3], -h[4], -h[5], -h[6], -h[7])
+
+
+def _mul_linear(A, h):
+    """A (t - h) for a polynomial A (rows ascending, 8-tuples); rows equal to 1 are not multiplied."""
+    one = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    nh = _dq_neg(h)
+    Ah = [nh if a == one else dq_mul(a, nh) for a in A]
+    out = [Ah[0]]
+    for k in range(1, len(A)):
+        out.append(tuple([x + y for x, y in zip(A[k - 1], Ah[k])]))
+    out.append(A[-1])
+    return out
+
+
+def factorize_generic(C, validate=True):
+    """All factorizations of a monic motion polynomial C ((n+1, 8) ndarray) in plain floats, for
+    *generic* input only: returns None unless C is valid (when ``validate``), the roots of N(C) are
+    non-real and well separated (FAST_MIN_IMAG, FAST_MIN_SEPARATION), the primal part has no real factor,
+    every Algorithm-1 step is generic with an exact division, and every factorization multiplies back
+    to within 1e-14. `synth.factor.factorize` then handles everything else (validation errors, repeated
+    or real roots, refinement). Otherwise returns (N, roots (sorted by real, imag part), quadratics,
+    orders, factor lists, residuals) with the same conventions and results as the general code."""
+    import itertools
+
+    rows = [tuple(r) for r in C.tolist()]
+    n = len(rows) - 1
+    if n < 1 or len(rows[0]) != 8:
+        return None
+    flat = [x for r in rows for x in r]
+    if not math.isfinite(sum(flat)):
+        return None
+    if validate and max(abs(x - y) for x, y in zip(rows[-1], (1.0, 0, 0, 0, 0, 0, 0, 0))) > FAST_STUDY_TOL:
+        return None
+    N, study = _poly_norm_and_study(rows)
+    if validate and not study <= FAST_STUDY_TOL:
+        return None
+    # roots of N: Ferrari for the quartic, companion eigenvalues above
+    lead = N[-1]
+    if not lead > 0:
+        return None
+    if n == 1:
+        a, b = N[1] / lead, N[0] / lead
+        up = [complex(-a / 2, math.sqrt(b - a * a / 4))] if b - a * a / 4 > 0 else []
+    elif n == 2:
+        up = [z for z in quartic_roots(*(x / lead for x in N[:4])) if z.imag > 0]
+    else:
+        import numpy as np
+
+        comp = np.zeros((2 * n, 2 * n))
+        comp[0] = [-x / lead for x in N[-2::-1]]
+        comp[range(1, 2 * n), range(2 * n - 1)] = 1.0
+        up = [z for z in np.linalg.eigvals(comp).tolist() if z.imag > 0]
+    if len(up) != n:
+        return None
+    z = sorted((polish_root(N, w) for w in up), key=lambda w: (w.real, w.imag))
+    for i, w in enumerate(z):
+        if not w.imag > FAST_MIN_IMAG * max(1.0, abs(w)):
+            return None
+        for v in z[:i]:
+            if not abs(w - v) > FAST_MIN_SEPARATION * max(1.0, abs(w), abs(v)):
+                return None
+    # no real factor of the primal part: P(z) != 0 at every root (as synth.factor.real_factor_roots)
+    pscale = max(abs(x) for r in rows for x in r[:4])
+    for w in z:
+        val = [0j, 0j, 0j, 0j]
+        for r in reversed(rows):
+            val = [v * w + r[k] for k, v in enumerate(val)]
+        ref = pscale * sum(abs(w) ** k for k in range(n + 1))
+        if math.sqrt(sum(abs(v) ** 2 for v in val)) <= 1e-6 * ref:
+            return None
+    quads = [(w.real * w.real + w.imag * w.imag, -2.0 * w.real) for w in z]
+    cmax = max(1.0, max(map(abs, flat)))
+    orders = list(itertools.permutations(range(n)))
+    found = {}
+
+    def step(D, remaining, right):
+        """Algorithm 1 on D (rows) for every order of the quadratics in ``remaining``; ``right``: the
+        factors found so far (leftmost first). Returns False to abandon the fast path."""
+        m = len(D) - 1
+        if m == 0:
+            found[tuple(q for q, _ in right)] = [h for _, h in right]
+            return True
+        prim = max([math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]) for r in D])
+        loose = 1e-11 * max(1.0, max([max(map(abs, r)) for r in D]))
+        for q in remaining:
+            c0, c1 = quads[q]
+            if m == 1:
+                r1, r0 = D[1], D[0]
+            else:
+                R = list(D)
+                for k in range(m, 1, -1):
+                    top = R[k]
+                    R[k - 1] = [x - c1 * y for x, y in zip(R[k - 1], top)]
+                    R[k - 2] = [x - c0 * y for x, y in zip(R[k - 2], top)]
+                r1, r0 = tuple(R[1]), tuple(R[0])
+            if not math.sqrt(r1[0] ** 2 + r1[1] ** 2 + r1[2] ** 2 + r1[3] ** 2) > 1e-9 * prim:
+                return False
+            h = _dq_neg(dq_mul(dq_inv(r1), r0))
+            d = D[m]
+            Dn = [d]
+            for k in range(m - 1, 0, -1):
+                d = tuple([x + y for x, y in zip(D[k], dq_mul(d, h))])
+                Dn.append(d)
+            if max(map(abs, map(float.__add__, D[0], dq_mul(d, h)))) > loose:
+                return False
+            if not step(Dn[::-1], [p for p in remaining if p != q], [(q, h)] + right):
+                return False
+        return True
+
+    if not step(rows, list(range(n)), []):
+        return None
+    factors, residuals = [], []
+    for order in orders:
+        H = found[order]
+        P = [_dq_neg(H[0]), (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)]
+        for h in H[1:]:
+            P = _mul_linear(P, h)
+        res = max([max(map(abs, map(float.__sub__, a, b))) for a, b in zip(P, rows)]) / cmax
+        if not res <= FAST_MAX_RESIDUAL:
+            return None
+        factors.append(H)
+        residuals.append(res)
+    return N, z, quads, orders, factors, residuals
