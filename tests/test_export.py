@@ -215,9 +215,14 @@ def test_urdf_structure(bennett, masses):
         assert inertial is not None
         mass = float(inertial.find("mass").get("value"))
         if name in GEOMETRIC:
-            assert mass == masses[name][0] and mass > 0.01
+            # the coupler shares its mass equally with its welded duplicate coupler_k
+            expect = masses[name][0] / (2 if name == "coupler" else 1)
+            assert mass == pytest.approx(expect, rel=1e-15) and mass > 0.01
             for tag in ("visual", "collision"):
                 assert link.find(f"{tag}/geometry/mesh").get("filename") == f"meshes/{name}.stl"
+        elif name == "coupler_k":
+            assert mass == pytest.approx(masses["coupler"][0] / 2, rel=1e-15)
+            assert link.find("visual") is None
         else:
             assert mass == 1e-6
             assert link.find("visual") is None
@@ -518,3 +523,17 @@ def test_check_urdf(written):
     assert res.returncode == 0, res.stdout + res.stderr
     assert "Successfully Parsed XML" in res.stdout
     assert "root Link: base" in res.stdout
+
+
+def test_welded_duplicate_shares_the_coupler_mass(tmp_path):
+    """coupler_k gets half of the coupler's mass (a 1e-6 kg body on a weld opens PyBullet's weld)."""
+    import xml.etree.ElementTree as ET
+
+    from linkage_fixtures import bennett_linkage
+    from synth.export import write_output
+
+    out = tmp_path / "o"
+    write_output(bennett_linkage(), out, robot_name="b")
+    root = ET.parse(out / "linkage.urdf").getroot()
+    mass = {l.get("name"): float(l.find("inertial/mass").get("value")) for l in root.findall("link")}
+    assert mass["coupler_k"] == pytest.approx(mass["coupler"]) and mass["coupler"] > 1e-3

@@ -58,7 +58,8 @@ def test_engine_follows_exact_motion(outputs, engine, kind):
     assert res["max_joint_deviation"] < 1e-3, res
     assert res["max_closure_gap"] < 2e-4, res  # metres, for linkages about 0.5 m across
     assert res["max_closure_angle"] < 5e-4, res
-    assert res["driver"] == "h1" and res["shared_inertial"] == ["coupler"]
+    # the exported URDF already shares the coupler mass with coupler_k, so no split is needed here
+    assert res["driver"] == "h1" and res["shared_inertial"] == []
     assert r.exit_code == 0 and res["ok"]
 
 

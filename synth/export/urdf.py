@@ -67,6 +67,39 @@ def _inertial(parent, mass, com, inertia):
                   iyy=_f(I[1, 1]), iyz=_f(I[1, 2]), izz=_f(I[2, 2]))
 
 
+def marker_frames(linkage, origins=None) -> dict:
+    """``linkage.info["markers"]``: {name: {"link": tree link, "position": [x, y, z]}} -- extra frames
+    (e.g. the ``tracer`` of ``mpsynth curve``) fixed to a link, with world-parallel axes and their origin
+    at the world ``position`` at the reference configuration. Returns {name: {"link", "xyz"}} with xyz
+    in the link's frame; each becomes a link and a fixed joint ``<name>_mount``."""
+    origins = link_origins(linkage) if origins is None else origins
+    out = {}
+    for name, spec in (linkage.info.get("markers") or {}).items():
+        if name in origins or name == TOOL_LINK:
+            raise ValueError(f"marker {name!r} clashes with a link name")
+        if spec.get("link") not in origins:
+            raise ValueError(f"marker {name!r} hangs on unknown link {spec.get('link')!r}")
+        xyz = np.asarray(spec["position"], float) - origins[spec["link"]]
+        out[str(name)] = {"link": spec["link"], "xyz": xyz}
+    return out
+
+
+def _share_welded_masses(linkage, masses, origins, geometric) -> dict:
+    """Split the mass of each welded link with geometry equally with its geometry-less duplicate
+    (e.g. coupler / coupler_k). The welded pair keeps the same total mass, centre of mass and
+    inertia, but neither body is nearly massless: a 1e-6 kg body on a weld constraint makes physics
+    engines (PyBullet) open the weld. Frames are translated copies of the world frame, so a point
+    moves between the two link frames by the difference of their origins."""
+    out = dict(masses)
+    for a, b in linkage.closures:
+        if a in geometric and b not in geometric and a in out:
+            mass, com, inertia = out[a]
+            com = np.asarray(com, float)
+            out[a] = (mass / 2, com, np.asarray(inertia, float) / 2)
+            out[b] = (mass / 2, com + np.asarray(origins[a]) - np.asarray(origins[b]), np.asarray(inertia, float) / 2)
+    return out
+
+
 def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str | None = None,
               masses: dict | None = None) -> str:
     """The URDF document (str, with XML declaration) of ``linkage``.
@@ -92,15 +125,17 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
         if n not in masses:
             raise ValueError(f"no mass properties for link {n!r}")
 
+    masses = _share_welded_masses(linkage, masses, origins, geometric)
+
     robot = ET.Element("robot", name=str(robot_name))
     robot.append(ET.Comment(
         " written by mpsynth: a closed-loop linkage cut into a tree (OUTPUT.md, 'two branches, one weld');"
-        " the <gazebo> fixed joints weld the cut links back together "))
+        " the fixed joints in the gazebo elements weld the cut links back together "))
     for n in names:
         link = ET.SubElement(robot, "link", name=n)
+        if n in masses:
+            _inertial(link, *masses[n])
         if n in geometric:
-            mass, com, inertia = masses[n]
-            _inertial(link, mass, com, inertia)
             fn = mesh_filename(n, mesh_dir, package)
             for tag in ("visual", "collision"):
                 el = ET.SubElement(link, tag)
@@ -110,7 +145,7 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
                 if tag == "visual":
                     mat = ET.SubElement(el, "material", name=f"mpsynth_{n}")
                     ET.SubElement(mat, "color", rgba=_COLORS.get(n, _DEFAULT_COLOR))
-        else:
+        elif n not in masses:
             _inertial(link, TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
     tool = ET.SubElement(robot, "link", name=TOOL_LINK)
     _inertial(tool, TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
@@ -127,6 +162,13 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
     ET.SubElement(el, "parent", link=linkage.tool_link)
     ET.SubElement(el, "child", link=TOOL_LINK)
     ET.SubElement(el, "origin", xyz=_vec(T[:3, 3]), rpy=_vec(rpy_from_matrix(T[:3, :3])))
+
+    for name, spec in marker_frames(linkage, origins).items():  # info["markers"]: fixed point frames
+        _inertial(ET.SubElement(robot, "link", name=name), TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
+        el = ET.SubElement(robot, "joint", name=f"{name}_mount", type="fixed")
+        ET.SubElement(el, "parent", link=spec["link"])
+        ET.SubElement(el, "child", link=name)
+        ET.SubElement(el, "origin", xyz=_vec(spec["xyz"]), rpy="0.0 0.0 0.0")
 
     for name, (a, b) in zip(closure_names(len(linkage.closures)), linkage.closures):
         gz = ET.SubElement(robot, "gazebo")
