@@ -21,6 +21,11 @@ from .scalar import cross as scalar_cross
 from .scalar import dot as scalar_dot
 
 COINCIDENT_TOL = 1e-9  # relative to the pose spread (translation) and radians (rotation)
+ACCEPT_TOL = 1e-8  # largest self-check error accepted, relative (see `_accept`)
+ACCURATE = 1e-9  # a self-check error above this (relative) gets a warning
+FLOOR_ULPS = 2 ** 17  # rounding floor of the world-frame checks, in ulps of the pose coordinates
+SENSITIVITY_EPS = 1e-9  # relative pose perturbation of the condition estimate (`sensitivity`)
+SENSITIVE = 1e4  # condition estimate above which a valid result gets a warning
 
 
 def check_distinct(T, names, tol=COINCIDENT_TOL):
@@ -74,17 +79,144 @@ def _finish(linkage, B, cond, check_samples):
     geo = loop_geometry(linkage, loop)
     linkage.info["bennett"] = bennett_parameters(linkage, geo)
     linkage.info["dh"] = dh_table(linkage, loop, geo)
-    linkage.info["warnings"] = _warnings(linkage, B, cond)
     linkage.checks = self_check(linkage, check_samples)
+    _accept(linkage, cond)
+    linkage.info["warnings"] = _warnings(linkage, B, cond)
     return linkage
+
+
+def _accept(linkage, cond) -> None:
+    """Refuse a linkage whose own self-check fails: near degenerate poses can defeat double precision
+    (the conic's coefficients or the factorization lose most digits), and a linkage that misses its
+    poses must never be reported as a result. Translation errors are relative to the pose spread (to
+    the axes' largest distance from the poses for the closure), plus a floor of FLOOR_ULPS ulps of the
+    coordinates' magnitude (~3e-11 of it): a pose 1e6 m from the origin is only known to ~1e-10 m, and
+    the checks, evaluated in world coordinates, lose several more digits there. Errors between
+    ACCURATE and ACCEPT_TOL are accepted with a warning (`_warnings`)."""
+    c = linkage.checks
+    T = np.array([p.matrix for p in linkage.poses])
+    spread = float(cond.scale)
+    # the linkage's size about the poses: the largest distance of an axis from the poses' centroid
+    # (not Linkage.extent(), whose axis points are the ones closest to the world origin)
+    cen = cond.centre
+    size = max([spread] + [float(np.linalg.norm(j.moment - np.cross(cen, j.direction))) for j in linkage.joints])
+    floor = FLOOR_ULPS * np.finfo(float).eps * float(np.abs(T[:, :3, 3]).max())
+    rel = max(c["max_pose_translation_error"] / (spread + floor / ACCEPT_TOL),
+              c["max_pose_rotation_error"],
+              c["max_closure_translation_error"] / (size + floor / ACCEPT_TOL),
+              c["max_closure_rotation_error"])
+    linkage.info["relative_error"] = rel
+    if not rel <= ACCEPT_TOL:  # (also catches NaN)
+        names = [p.name for p in linkage.poses]
+        raise SynthesisError(
+            f"the poses are too close to a degenerate configuration{_near_degenerate(T, names, spread)}: the "
+            f"linkage computed in double precision misses them by {rel:.1e} (relative; at most {ACCEPT_TOL:g} "
+            "is accepted), so no reliable linkage can be given; move the poses further apart")
+
+
+def _near_degenerate(T, names, spread) -> str:
+    """' (poses i and j ...)' naming the pair of poses closest to a degenerate relation, or ''."""
+    found = _near_relations(T, names, spread)
+    if sum(1 for k, _ in found if k == 2) == 3:
+        return " (the three poses are nearly related by planar motions)"
+    return f" ({min(found)[1]})" if found else ""
+
+
+def _near_relations(T, names, spread) -> list[tuple[int, str]]:
+    """(kind, text) for each pair of poses nearly coinciding (0), nearly related by a pure translation
+    (1) or by a pure rotation (2), within 1e-3 (relative)."""
+    found = []
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        R = T[j, :3, :3] @ T[i, :3, :3].T
+        d = T[j, :3, 3] - R @ T[i, :3, 3]
+        ang = float(np.arccos(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0)))
+        w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+        along = abs(float(np.dot(d, w / np.linalg.norm(w)))) if np.linalg.norm(w) > 1e-300 else 0.0
+        trans = float(np.linalg.norm(d)) / spread
+        if ang < 1e-3 and trans < 1e-3:
+            found.append((0, f"poses {i} ({names[i]!r}) and {j} ({names[j]!r}) nearly coincide"))
+        elif ang < 1e-3:
+            found.append((1, f"poses {i} ({names[i]!r}) and {j} ({names[j]!r}) differ by nearly a pure translation"))
+        elif along / spread < 1e-3 * max(ang, 1e-300) or along / spread < 1e-6:
+            found.append((2, f"poses {i} ({names[i]!r}) and {j} ({names[j]!r}) differ by nearly a pure rotation"))
+    return found
+
+
+def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int = 0) -> float:
+    """Condition estimate of the synthesis: the largest change of the joint axes (unit directions,
+    and moments about the poses' centroid divided by the pose spread) per unit relative change of
+    the poses, over ``trials`` random perturbations of size ``eps`` (rotations of eps radians,
+    translations of eps pose spreads). Infinite when a perturbed input has no Bennett linkage.
+    Deterministic (fixed seed)."""
+    T = np.array([p.matrix for p in linkage.poses])
+    c = T[:, :3, 3].mean(axis=0)
+    spread = max(float(np.sqrt(np.mean(np.sum((T[:, :3, 3] - c) ** 2, axis=1)))), 1e-300)
+    ref = {j.name: np.concatenate([j.direction, (j.moment - np.cross(c, j.direction)) / spread])
+           for j in linkage.joints}
+    rng = np.random.default_rng(seed)
+    worst = 0.0
+    for _ in range(trials):
+        Tp = T.copy()
+        for i in range(3):
+            w = rng.normal(size=3)
+            v = rng.normal(size=3)
+            Tp[i] = T[i] @ _small_motion(w * (eps / np.linalg.norm(w)), v * (eps * spread / np.linalg.norm(v)))
+        try:
+            H, K = _factors(Tp, [p.name for p in linkage.poses])
+        except SynthesisError:
+            return float("inf")
+        new = {}
+        for prefix, F in (("h", H), ("k", K)):
+            for n, h in enumerate(np.asarray(F, float), 1):
+                b = np.linalg.norm(h[1:4])
+                u, m = -h[1:4] / b, h[5:8] / b
+                new[f"{prefix}{n}"] = np.concatenate([u, (m - np.cross(c, u)) / spread])
+        swap = {"h1": "k1", "h2": "k2", "k1": "h1", "k2": "h2"}
+        d = min(max(float(np.abs(new[n] - ref[n]).max()) for n in ref),  # branches may swap labels
+                max(float(np.abs(new[swap[n]] - ref[n]).max()) for n in ref))
+        worst = max(worst, d / eps)
+    return worst
+
+
+def _small_motion(w, v):
+    """4x4 rigid motion: rotation vector w (Rodrigues), translation v."""
+    th = float(np.linalg.norm(w))
+    k = w / th
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    M = np.eye(4)
+    M[:3, :3] = np.eye(3) + math.sin(th) * K + (1 - math.cos(th)) * (K @ K)
+    M[:3, 3] = v
+    return M
+
+
+def _factors(T, names):
+    """(H, K): the world-frame factors of both branches (fast path, else the general engine)."""
+    core = bennett_core(T)
+    if core is not None:
+        return core["H"], core["K"]
+    H, K, *_ = _general_factors(T, names)
+    return H, K
 
 
 def _bennett_general(T, names, check_samples):
     """The general path: `factorize` with root merging, refinement and every refusal message."""
+    H, K, C, con, cond, info = _general_factors(T, names)
+    linkage = two_branch_linkage("bennett", H, K, C, T, names, con.ts, info)
+    return _finish(linkage, con.B.tolist(), cond, check_samples)
+
+
+def _general_factors(T, names):
     check_distinct(T, names)
     Tc, cond = condition(T)
     D = relative_displacements(Tc)
-    con = conic(D)
+    try:
+        con = conic(D)
+    except SynthesisError as e:
+        close = [text for kind, text in _near_relations(T, names, float(cond.scale)) if kind == 0]
+        if close:  # the Study form of nearly equal poses vanishes quadratically: say what really happens
+            raise SynthesisError(f"{close[0]} (they differ by less than 1e-3, relative): the conic through "
+                                 "them is numerically degenerate; give three clearly distinct poses") from e
+        raise
     try:
         res = factorize(con.C, validate=False)
     except NotGenericError as e:
@@ -110,20 +242,40 @@ def _bennett_general(T, names, check_samples):
             # the Study form is translation invariant and scales with length: report it in metres
             "study_form": {k: float(v * cond.scale) for k, v in zip(("B01", "B02", "B12"), con.B)},
             "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)}}
-    linkage = two_branch_linkage("bennett", H, K, C, T, names, con.ts, info)
-    return _finish(linkage, con.B.tolist(), cond, check_samples)
+    return H, K, C, con, cond, info
 
 
 def _warnings(linkage, B, cond) -> list[str]:
+    """Warnings for a valid result: axes far from the poses, and sensitivity to the poses. The condition
+    estimate (`sensitivity`, two extra syntheses) runs only when a cheap indicator suggests trouble:
+    axes more than 3 pose spreads away, a Study form value |B| < 1e-2 (nearly zero pitch), or norm
+    roots that are close or nearly real."""
     out = []
+    rel = linkage.info.get("relative_error", 0.0)
+    if rel > ACCURATE:
+        out.append(f"the linkage reproduces the poses less accurately than usual (relative error between "
+                   f"{ACCURATE:g} and {ACCEPT_TOL:g}): the poses are close to a degenerate configuration")
     c = cond.centre.tolist()
-    far = max(math.dist(scalar_cross(j.direction.tolist(), j.moment.tolist()), c) for j in linkage.joints) / cond.scale
+    # distance of each axis from the poses' centroid: |moment about the centroid| = |m - c x u|
+    far = max(math.hypot(*(mi - ci for mi, ci in zip(j.moment.tolist(), scalar_cross(c, j.direction.tolist()))))
+              for j in linkage.joints) / cond.scale
     if far > 1e3:
         out.append(f"joint axes lie {far:.3g} pose spreads away from the poses: the poses are nearly "
                    "related by pure translations, the linkage is valid but impractically large")
-    if min(abs(x) for x in B) < 1e-3:
-        out.append("some relative displacement has nearly zero pitch: the result is valid but "
-                   "sensitive to small changes of the poses")
+    bs = sorted({(round(j.a, 12), round(j.b, 12)) for j in linkage.joints})
+    roots_close = len(bs) == 2 and math.dist(*bs) < 1e-2 * max(1.0, *(abs(x) for ab in bs for x in ab))
+    nearly_real = min(j.b for j in linkage.joints) < 1e-2 * max(1.0, *(abs(j.a) for j in linkage.joints))
+    if far > 3 or min(abs(x) for x in B) < 1e-2 or roots_close or nearly_real:
+        kappa = sensitivity(linkage)
+        linkage.info["condition_estimate"] = kappa
+        if kappa > SENSITIVE:
+            # orders of magnitude only: the text must not depend on rounding (batch and single paths agree)
+            mag = math.floor(math.log10(kappa)) if math.isfinite(kappa) else None
+            shown = "infinite (a tiny change makes it degenerate)" if mag is None else f"about 1e{mag}"
+            moved = "1" if mag is None or mag >= 9 else f"1e{mag - 9}"
+            out.append(f"the result is valid but sensitive to the poses: changing them by 1e-9 (relative) "
+                       f"moves the joint axes by up to about {moved} (condition estimate {shown}); small errors "
+                       "in the poses give a different linkage")
     return out
 
 
