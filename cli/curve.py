@@ -1,0 +1,130 @@
+"""`mpsynth curve SPEC -o OUT`: a multi-loop revolute linkage that performs a rational motion or whose
+`tracer` frame draws a rational curve (issue 5; MATH-EXCEPTIONAL.md)."""
+from __future__ import annotations
+
+import click
+
+from .common import (debug_option, default_robot_name, echo, json_option, mesh_sizes, print_json,
+                     print_linkage_summary, run_guarded)
+
+UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}
+
+EPILOG = """\b
+SPEC (YAML or JSON, '-' for stdin), one of:
+  curve:                       # the point (x/w, y/w, z/w); w without real zero
+    x: "1 - t^2"
+    y: "2*2*t"
+    z: "0"
+    w: "1 + t^2"
+  motion:
+    expression: "t^2 + 1 + eps*(i + 2*j*t)"
+  motion:
+    coefficients: [[1,0,0,0, 0,1,0,0], [0,0,0,0, 0,0,2,0], [1,0,0,0, 0,0,0,0]]   # constant term first
+Polynomials use t, i, j, k, eps, numbers, + - * / ^ and parentheses (write * explicitly if the
+spec is also read by verify_output.py). Lengths are in --units (default m); outputs are in metres.
+
+\b
+Examples:
+  mpsynth curve fixtures/curve_ellipse.yaml -o out/ellipse      # 10 joints, link 'tracer' draws it
+  mpsynth curve fixtures/motion_elliptic.yaml -o out/elliptic   # 13 joints, 'coupler' translates
+  python ../shared/tools/verify_output.py out/ellipse --trace tracer --curve fixtures/curve_ellipse.yaml
+
+\b
+Exit codes: 0 linkage written, 1 no revolute linkage (unbounded curve or motion: "needs a
+sliding joint"; no factorization), 2 bad input."""
+
+
+def _check_target(out, force):
+    try:
+        from synth.export.writer import check_output_target
+    except ImportError:  # pragma: no cover - older exporter
+        return
+    check_output_target(out, force)
+
+
+def _check_sizes(sizes, linkage, scale, unit):
+    try:
+        from .common import check_mesh_sizes
+    except ImportError:  # pragma: no cover - older helpers
+        return
+    check_mesh_sizes(sizes, linkage.extent(), scale, unit)
+
+
+@click.command(epilog=EPILOG)
+@click.argument("spec", metavar="SPEC")
+@click.option("-o", "--out", "out", type=click.Path(file_okay=False),
+              help="Output directory (linkage.urdf, linkage.json, meshes/). Without it nothing is written.")
+@click.option("--units", type=click.Choice(list(UNITS)), default="m", show_default=True,
+              help="Length unit of the spec (curve coordinates; dual parts of a motion).")
+@click.option("--method", type=click.Choice(["auto", "translation", "rotation"]), default="auto",
+              show_default=True,
+              help="Curves: 'translation' = the curvilinear translation times a real co-factor; 'rotation' = "
+                   "times a rotation about the tracer point (fewer joints for planar curves); 'auto' = fewer joints.")
+@click.option("--name", help="Robot name in the URDF (default: the spec file's stem).")
+@click.option("--force", is_flag=True, help="Replace OUT even if it holds files not written by mpsynth.")
+@click.option("--pin-radius", type=float, help="Pin (joint) radius in --units.")
+@click.option("--link-radius", type=float, help="Bar (link) radius in --units.")
+@click.option("--pin-length", type=float, help="Pin length in --units.")
+@click.option("--package", help="Write mesh paths as package://PACKAGE/meshes/... (ROS).")
+@click.option("-q", "--quiet", is_flag=True, help="No summary on stderr.")
+@json_option
+@debug_option
+@run_guarded
+def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_length, package, quiet,
+          as_json, debug):
+    """Synthesize a linkage of revolute joints only (several Bennett loops) whose link `coupler`
+    performs the rational motion of SPEC, or whose link `tracer` draws the rational curve of SPEC.
+
+    The motion is factorized after multiplication by a real co-factor (Theorem 2); one extra rotation
+    and Bennett flips then close the loops. Writes OUT/linkage.urdf, OUT/linkage.json and
+    OUT/meshes/*.stl (metres) when -o is given; prints a summary with the joint and link counts on
+    stderr and, with --json, linkage.json on stdout."""
+    from synth.curve import CurveSpec, load_spec, spec_linkage
+
+    scale = UNITS[units]
+    parsed = load_spec(spec)
+    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length), scale)
+    if out:
+        _check_target(out, force)
+    if method != "auto" and not isinstance(parsed, CurveSpec):
+        echo("  note: --method applies to curves only; ignored for a motion")
+    linkage = spec_linkage(parsed, scale=scale, method=method)
+    emit(linkage, source=spec, scale=scale, unit=units, out=out, name=name, force=force, package=package,
+         sizes=sizes, quiet=quiet, as_json=as_json)
+
+
+def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quiet, as_json):
+    """Write (when OUT is given) first, then summarize on stderr and print JSON as asked."""
+    from synth.export import linkage_document, write_output
+
+    files = None
+    if out:
+        _check_sizes(sizes, linkage, scale, unit)
+        files = write_output(linkage, out, robot_name=name or default_robot_name(source), force=force,
+                             package=package, **sizes)
+    if not quiet:
+        print_linkage_summary(linkage, scale, unit)
+        counts = linkage.info["counts"]
+        echo(f"  counts: {counts['joints']} revolute joints, {counts['links']} links "
+             f"(+{counts['links_with_duplicates'] - counts['links']} welded loop duplicates), "
+             f"{counts['loops']} loops")
+        mot = linkage.info.get("motion", {})
+        if linkage.kind == "curve":
+            cur = linkage.info["curve"]
+            echo(f"  curve: x = {cur['x']}, y = {cur['y']}, z = {cur['z']}, w = {cur['w']}; drawn by the "
+                 f"origin of link 'tracer' (method {cur['method']})")
+            echo(f"  tracer stays on the curve to {linkage.checks['max_trace_error'] / scale:.2e} {unit}")
+        echo(f"  co-factor R = {mot.get('cofactor_text', '1')} (mrpf = {mot.get('mrpf_text', '1')}), "
+             f"factorization residual {mot.get('factorization_residual', 0.0):.1e}, "
+             f"motion error {linkage.checks.get('max_motion_error', 0.0):.1e}")
+        mob = linkage.info.get("mobility", {})
+        if mob:
+            echo(f"  mobility: dof {mob['dof']} at all sampled t, worst conditioning {mob['conditioning']:.1e}")
+    if files is not None:
+        if not quiet:
+            n_mesh = sum(1 for f in files if str(f).endswith(".stl"))
+            echo(f"  wrote {out}/: linkage.urdf, linkage.json, {n_mesh} meshes in meshes/")
+    elif not quiet and not as_json:
+        echo("  no files written (give -o OUT to write URDF, STL and JSON)")
+    if as_json:
+        print_json(linkage_document(linkage))

@@ -1,0 +1,97 @@
+"""mrpf(P): exact (sympy over QQ) and numeric detection (MATH-EXCEPTIONAL.md section 2, example E1)."""
+from fractions import Fraction as F
+
+import numpy as np
+import pytest
+
+from synth.expr import parse_polynomial
+from synth.motion import poly_mul, product_of_linear
+from synth.realfactor import (UnboundedMotionError, mrpf, mrpf_exact, mrpf_numeric, real_gcd_numeric,
+                              require_bounded)
+
+ELLIPTIC = "t^2 + 1 + eps*(i + 2*j*t)"
+SURVEY_UNBOUNDED = "(t-1)*(t-j) - eps*((i+k)*t - 2*k)"
+
+
+def test_e1_elliptic_translation_exact():
+    g, bounded = mrpf_exact(parse_polynomial(ELLIPTIC, exact=True))
+    assert g == [1, 0, 1] and bounded
+    rf = mrpf(parse_polynomial(ELLIPTIC, exact=True))
+    assert rf.exact == [F(1), F(0), F(1)] and rf.degree == 2 and not rf.generic
+    assert rf.quadratics.tolist() == [[1.0, 0.0]] and rf.multiplicity == [1]
+    require_bounded(rf)
+
+
+def test_e1_survey_unbounded_exact():
+    rf = mrpf(parse_polynomial(SURVEY_UNBOUNDED, exact=True))
+    assert rf.exact == [F(-1), F(1)] and not rf.bounded
+    with pytest.raises(UnboundedMotionError, match="sliding joint") as e:
+        require_bounded(rf)
+    assert isinstance(e.value, ValueError) and e.value.exit_code == 1
+
+
+def test_e1_numeric():
+    rf = mrpf(parse_polynomial(ELLIPTIC))
+    assert np.allclose(rf.g, [1, 0, 1], atol=1e-12) and rf.bounded
+    rf = mrpf(parse_polynomial(SURVEY_UNBOUNDED))
+    assert np.allclose(rf.g, [-1, 1], atol=1e-10) and not rf.bounded
+    assert rf.real_roots == pytest.approx([1.0])
+
+
+def test_generic_has_trivial_mrpf():
+    C = parse_polynomial("(t - i - eps*j)*(t - 1 - 2*j - eps*(3*i + k))", exact=True)
+    assert mrpf_exact(C) == ([F(1)], True)
+    assert mrpf_numeric(np.array(C, float)).tolist() == [1.0]
+
+
+def _noisy_case():
+    # P = (t^2 + 1)(t^2 + 2t + 3)(t - i - 2j) with some dual part
+    return parse_polynomial("(t^2+1)*(t^2+2*t+3)*(t-i-2*j) + eps*(i*t+j)")
+
+
+def test_numeric_finds_g_with_noise():
+    C = _noisy_case()
+    expected = np.array([3, 2, 4, 2, 1.0])  # (t^2 + 1)(t^2 + 2t + 3)
+    assert np.allclose(mrpf_numeric(C), expected, atol=1e-12)
+    rng = np.random.default_rng(1)
+    noisy = C + 1e-13 * rng.normal(size=C.shape)
+    assert np.allclose(mrpf_numeric(noisy), expected, atol=1e-9)
+
+
+def test_numeric_perturbation_gives_generic():
+    rng = np.random.default_rng(2)
+    C = _noisy_case() + 1e-3 * rng.normal(size=(6, 8))
+    assert mrpf_numeric(C).tolist() == [1.0]
+
+
+def test_repeated_quadratic_factor():
+    # (t^2 + 1)^2 (t - j + 2k) in the primal part
+    C = parse_polynomial("(t^2+1)^2*(t - j + 2*k) + eps*(t^2*i + k)", exact=True)
+    g, bounded = mrpf_exact(C)
+    assert g == [1, 0, 2, 0, 1] and bounded
+    assert np.allclose(mrpf_numeric(np.array(C, float)), [1, 0, 2, 0, 1], atol=1e-8)
+    rf = mrpf(np.array(C, float))
+    assert rf.multiplicity == [2] and np.allclose(rf.quadratics, [[1, 0]], atol=1e-6)
+
+
+def test_random_products_numeric_vs_exact():
+    """Random rational rotations times real quadratics: numeric and exact g agree."""
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        u = rng.integers(-3, 4, size=3)
+        if not u.any():
+            u[0] = 1
+        G = product_of_linear(np.array([[rng.integers(-2, 3), *u, 0, 0, 0, 0]], float))
+        a, b = rng.integers(-3, 4), rng.integers(1, 4)
+        M = np.zeros((3, 8))
+        M[:, 0] = [a * a + b * b, -2 * a, 1]
+        C = poly_mul(M, G)
+        exact = [[F(int(round(x))) for x in row] for row in C]
+        g_ex, _ = mrpf_exact(exact)
+        assert np.allclose(mrpf_numeric(C), [float(x) for x in g_ex], atol=1e-9)
+
+
+def test_real_gcd_of_all_components():
+    # (t^2 + 4) * (t - i + eps j): every component divisible by t^2 + 4
+    C = parse_polynomial("(t^2 + 4)*(t - i + eps*j)")
+    assert np.allclose(real_gcd_numeric(C), [4, 0, 1], atol=1e-12)
