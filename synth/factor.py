@@ -28,6 +28,7 @@ REAL_ROOT_TOL = 1e-7  # |Im z| <= tol * max(1, |z|): the root is taken as real
 MERGE_TOL = 1e-6  # roots closer than tol * max(1, |z|) are one repeated root
 GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D)|: remainder not invertible
 PRISMATIC_TOL = 1e-7  # |vec(primal h)| <= tol * (1 + |h0|): a translation factor
+REFINE_TRIGGER = 5e-13  # multiply-back error above which the norm quadratics are refined on C (target 1e-12)
 
 
 @dataclass
@@ -109,35 +110,105 @@ def _polish_roots(coeffs, z, iterations=3):
     return z
 
 
+def _merge_radius(m: int) -> float:
+    """Relative radius within which m computed roots are taken as one m-fold root: the root finder
+    splits an m-fold root by ~eps^(1/m), so MERGE_TOL for a double root, MERGE_TOL^(2/m) beyond
+    (capped at 1e-2: multiplicities above ~6 are not resolved reliably in double precision)."""
+    return min(MERGE_TOL ** (2.0 / m), 1e-2)
+
+
+def _cluster_roots(z):
+    """Group roots that are one repeated root split by the root finder. Divisive single linkage: a
+    group whose radius (largest distance from its mean) exceeds _merge_radius(size) * max(1, |mean|)
+    is cut at the longest edge of its minimum spanning tree, recursively. Returns index lists."""
+    z = np.asarray(z, complex)
+    if len(z) == 0:
+        return []
+    # fast path: a root farther than any merge radius from every other root is a simple root
+    dist = np.abs(z[:, None] - z[None, :])
+    reach = 2.05 * _merge_radius(2 * len(z)) * np.maximum(1.0, np.maximum.outer(np.abs(z), np.abs(z)))
+    np.fill_diagonal(dist, np.inf)
+    isolated = np.all(dist > reach, axis=1)
+    out = [[int(i)] for i in np.flatnonzero(isolated)]
+    rest = np.flatnonzero(~isolated)
+    stack = [rest] if len(rest) else []
+    while stack:
+        idx = stack.pop()
+        m = len(idx)
+        c = np.mean(z[idx])
+        if m == 1 or np.max(np.abs(z[idx] - c)) <= _merge_radius(m) * max(1.0, abs(c)):
+            out.append([int(i) for i in idx])
+            continue
+        # Prim's minimum spanning tree on the group; cut its longest edge
+        w = z[idx]
+        dist = np.abs(w[:, None] - w[None, :])
+        in_tree = np.zeros(m, bool)
+        in_tree[0] = True
+        best = dist[0].copy()
+        parent = np.zeros(m, int)
+        edges = []
+        for _ in range(m - 1):
+            cand = np.where(in_tree, np.inf, best)
+            v = int(np.argmin(cand))
+            edges.append((cand[v], int(parent[v]), v))
+            in_tree[v] = True
+            closer = dist[v] < best
+            best = np.where(closer, dist[v], best)
+            parent = np.where(closer, v, parent)
+        cut = max(range(len(edges)), key=lambda e: edges[e][0])
+        # components after removing the cut edge
+        adj = [[] for _ in range(m)]
+        for e, (_, a, b) in enumerate(edges):
+            if e != cut:
+                adj[a].append(b)
+                adj[b].append(a)
+        seen = np.zeros(m, bool)
+        todo = [edges[cut][1]]
+        seen[todo[0]] = True
+        while todo:
+            a = todo.pop()
+            for b in adj[a]:
+                if not seen[b]:
+                    seen[b] = True
+                    todo.append(b)
+        stack.append(idx[seen])
+        stack.append(idx[~seen])
+    return out
+
+
 def norm_quadratics(N):
     """Monic real quadratic factors of a monic real polynomial N of even degree 2n, as
     (quadratics (m, 2) = [c0, c1], multiplicities, roots (Im >= 0) per quadratic).
 
     Complex conjugate pairs give t^2 - 2 Re z t + |z|^2; roots with |Im z| <= REAL_ROOT_TOL max(1,|z|)
-    count as real and are paired in sorted order. Roots closer than MERGE_TOL are merged (a repeated
-    root is split by ~sqrt(machine eps) by the root finder; the mean of the cluster is accurate)."""
+    count as real and are paired in sorted order. A repeated root is split by the root finder
+    (~eps^(1/m) for multiplicity m): such clusters are merged (see `_cluster_roots`), and the mean of the
+    cluster is polished by Newton steps on the (m-1)-th derivative of N, where it is a simple root
+    (Newton on N itself would spoil it)."""
     N = np.asarray(N, float)
     z = np.roots(N[::-1])
-    z = _polish_roots(N, z)
     scale = np.maximum(1.0, np.abs(z))
     real = np.abs(z.imag) <= REAL_ROOT_TOL * scale
     upper = z[(~real) & (z.imag > 0)]
     reals = np.sort(z[real].real)
-    # clusters of the upper roots
-    clusters: list[list[complex]] = []
-    for r in sorted(upper, key=lambda w: (w.real, w.imag)):
-        for cl in clusters:
-            c0 = np.mean(cl)
-            if abs(r - c0) <= MERGE_TOL * max(1.0, abs(c0)):
-                cl.append(r)
-                break
-        else:
-            clusters.append([r])
+    groups = _cluster_roots(upper)
+    # sort by (Re z, Im z); Re rounded so that equal real parts (e.g. 0 and 1e-17) tie and Im decides,
+    # which keeps the order of the quadratics (and of the factorizations) the same as in exact mode
+    groups.sort(key=lambda g: (round(float(np.mean(upper[g]).real), 9), float(np.mean(upper[g]).imag)))
+    centers = np.array([np.mean(upper[g]) for g in groups], complex)
+    simple = np.array([len(g) == 1 for g in groups], bool)
+    centers[simple] = _polish_roots(N, centers[simple])
     quads, mult, roots = [], [], []
-    for cl in clusters:
-        c = complex(np.mean(cl))
+    for g, c in zip(groups, centers):
+        m = len(g)
+        if m > 1:
+            coeffs = N
+            for _ in range(m - 1):
+                coeffs = coeffs[1:] * np.arange(1, len(coeffs))
+            c = _polish_roots(coeffs, np.array([c]))[0]
+        c = complex(c)
         quads.append([abs(c) ** 2, -2 * c.real])
-        mult.append(len(cl))
+        mult.append(m)
         roots.append(c)
     if len(reals) % 2:
         raise NoFactorizationError("the norm polynomial has an odd number of real roots (not a motion polynomial)")
@@ -198,6 +269,44 @@ def _refine_quadratic(D, M):
             break
         M, r = Mn, rn
     return M
+
+
+def _refine_quadratics(C, quads, mult, roots, iterations=4):
+    """Gauss-Newton on every simple, non-real norm quadratic at once so that the zero h(M) of
+    C mod M right-divides C exactly. The roots of N(C) are worse conditioned than this condition
+    (N has twice the degree, and the conjugate roots), so this gains ~2 digits when roots are close.
+    Used only when the multiply-back check is not at machine precision. Returns new quadratics."""
+    quads = np.array(quads, float)
+    sel = np.array([m == 1 and not isinstance(r, tuple) for m, r in zip(mult, roots)], bool)
+    if not np.any(sel):
+        return quads
+    M = quads[sel]
+    Cb = np.broadcast_to(C, (len(M),) + C.shape)
+
+    def resid(Mv):
+        _, r1, r0 = divide_real_quadratic(Cb, Mv)
+        return right_value(Cb, -dq_mul(dq_inv(r1), r0))
+
+    r = resid(M)
+    for _ in range(iterations):
+        dM = 1e-7 * np.maximum(1.0, np.abs(M))
+        J = np.stack([(resid(M + dM * e) - r) / dM[:, j:j + 1] for j, e in enumerate(np.eye(2))], -1)
+        JT = np.swapaxes(J, -1, -2)
+        A = JT @ J
+        g = (JT @ r[..., None])[..., 0]
+        det = A[:, 0, 0] * A[:, 1, 1] - A[:, 0, 1] * A[:, 1, 0]
+        det = np.where(det != 0, det, 1.0)
+        step = -np.stack([A[:, 1, 1] * g[:, 0] - A[:, 0, 1] * g[:, 1],
+                          A[:, 0, 0] * g[:, 1] - A[:, 1, 0] * g[:, 0]], -1) / det[:, None]
+        Mn = M + np.where(np.isfinite(step), step, 0.0)
+        rn = resid(Mn)
+        better = np.linalg.norm(rn, axis=-1) < np.linalg.norm(r, axis=-1)
+        if not np.any(better):
+            break
+        M = np.where(better[:, None], Mn, M)
+        r = np.where(better[:, None], rn, r)
+    quads[sel] = M
+    return quads
 
 
 def _distinct_orders(mult):
@@ -264,6 +373,15 @@ def _factorize_fast(C, validate) -> FactorResult | None:
     if out is None:
         return None
     N, z, quads, orders, factors, residuals = out
+    # number the quadratics like norm_quadratics: by (Re z rounded, Im z), so that equal real parts tie
+    # exactly and the numbering of the factorizations matches the general code and exact mode
+    perm = sorted(range(len(z)), key=lambda i: (round(z[i].real, 9), z[i].imag))
+    if perm != list(range(len(z))):
+        new_of_old = {old: new for new, old in enumerate(perm)}
+        quads = [quads[i] for i in perm]
+        entries = sorted(((tuple(new_of_old[q] for q in o), H, r) for o, H, r in zip(orders, factors, residuals)),
+                         key=lambda e: e[0])
+        orders, factors, residuals = (list(x) for x in zip(*entries))
     facts = [Factorization(factors=np.array(H), order=tuple(o), residual=r)
              for o, H, r in zip(orders, factors, residuals)]
     return FactorResult(C=C, norm=np.array(N), quadratics=np.array(quads), multiplicity=[1] * len(quads),
@@ -287,13 +405,21 @@ def factorize(C, *, validate=True) -> FactorResult:
     rf = real_factor_roots(C, roots)
     orders = _distinct_orders(mult)
     H, ok = _factor_orders(C, quads, orders)
-    facts, failed = [], []
+    res = np.full(len(orders), np.inf)
     if np.any(ok):
-        res = relative_error(product_of_linear(H[ok]), C)
+        res[ok] = relative_error(product_of_linear(H[ok]), C)
+        if np.max(res[ok]) > REFINE_TRIGGER:  # close roots: sharpen the quadratics on C and redo
+            quads2 = _refine_quadratics(C, quads, mult, roots)
+            H2, ok2 = _factor_orders(C, quads2, orders)
+            res2 = np.full(len(orders), np.inf)
+            if np.any(ok2):
+                res2[ok2] = relative_error(product_of_linear(H2[ok2]), C)
+            if np.sum(ok2) >= np.sum(ok) and np.max(res2[ok2], initial=0.0) < np.max(res[ok]):
+                quads, H, ok, res = quads2, H2, ok2, res2
+    facts, failed = [], []
     for idx, order in enumerate(orders):
         if ok[idx]:
-            r = float(res[int(np.sum(ok[:idx]))])
-            facts.append(Factorization(factors=H[idx], order=tuple(order), residual=r))
+            facts.append(Factorization(factors=H[idx], order=tuple(order), residual=float(res[idx])))
         else:
             failed.append(tuple(order))
     result = FactorResult(C=C, norm=N, quadratics=quads, multiplicity=mult, factorizations=facts,
@@ -309,6 +435,12 @@ def factorize(C, *, validate=True) -> FactorResult:
 
 
 def _real_factor_text(z: complex) -> str:
+    def num(x):
+        return f"{x:.6g}"
+
     if abs(z.imag) <= REAL_ROOT_TOL * max(1, abs(z)):
-        return f"(t - {z.real:.6g})"
-    return f"(t^2 - {2 * z.real:.6g} t + {abs(z) ** 2:.6g})"
+        x = z.real
+        return "t" if abs(x) <= 1e-12 else f"(t {'-' if x > 0 else '+'} {num(abs(x))})"
+    c1, c0 = -2 * z.real, abs(z) ** 2
+    mid = "" if abs(c1) <= 1e-12 * max(1.0, c0) else f" {'+' if c1 > 0 else '-'} {num(abs(c1))} t"
+    return f"(t^2{mid} + {num(c0)})"
