@@ -1,0 +1,139 @@
+"""`mpsynth sixbar POSES -o OUT`: four poses in, ranked spatial 6R linkages out."""
+from __future__ import annotations
+
+import click
+
+from .common import (default_robot_name, echo, mesh_sizes, print_json, run_guarded, synthesis_options)
+
+INDEX_FORMAT = "mpsynth.sixbar-index/1"
+
+
+@click.command(epilog="""\b
+Numbering:
+  --family 1|2   family 1 is the family of cubic motions with the larger t3 (parameter of pose 3)
+  --member L     the member of the family with C(0) = L * D1 (its weight at pose 1)
+  --pair K       1..9: the pairs of factorizations that close a 6R loop, in lexicographic order
+\b
+Examples:
+  mpsynth sixbar fixtures/sixbar_example.yaml -o out/sixbar
+  mpsynth sixbar fixtures/sixbar_example.yaml --top 5 -o out/designs
+  mpsynth sixbar poses.yaml --family 2 --member 0.5 --pair 1 -o out/one""")
+@click.argument("poses", metavar="POSES")
+@click.option("--family", type=click.IntRange(1, 2), help="Only this family of cubic motions (1 or 2).")
+@click.option("--member", type=float, help="Only this member of the family, by its label lambda1 (C(0) = lambda1 D1).")
+@click.option("--pair", type=click.IntRange(1, 9), help="Only this loop pair (1..9) of the member's factorizations.")
+@click.option("--top", type=click.IntRange(1, 1000), default=None,
+              help="Write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
+@synthesis_options
+@run_guarded
+def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_radius, pin_length, package,
+           normalize, quiet, as_json, debug):
+    """Synthesize a spatial 6R linkage whose coupler passes through the four poses in POSES (YAML or
+    JSON, '-' for stdin; see README for the format).
+
+    By default the best design by the engineering score (well-conditioned factorization first, then a
+    compact linkage without nearly parallel or nearly intersecting consecutive axes) over both families
+    of cubic motions is written to OUT (linkage.urdf, linkage.json, meshes/*.stl, lengths in metres).
+    Exit status 1 when no real 6R linkage exists (e.g. the poses' quadric is oval)."""
+    from synth.poses import load_poses
+
+    ps = load_poses(poses, count=(4, "mpsynth sixbar"), normalize=normalize)
+    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length),
+                       ps.length_scale)
+    if top is None:
+        _single(ps, family, member, pair, out=out, name=name, force=force, package=package, sizes=sizes,
+                quiet=quiet, as_json=as_json)
+    else:
+        _ranked(ps, family, member, pair, top, out=out, name=name, force=force, package=package, sizes=sizes,
+                quiet=quiet, as_json=as_json)
+
+
+def _design_line(info) -> str:
+    p = info["score_parts"]
+    return (f"  6R design: family {info['family']} (t3 = {info['t3']:.6g}), member lambda1 = {info['member']:.6g}, "
+            f"pair {info['pair']}; score {info['score']:.3g} (conditioning {p['conditioning']:.3g}, "
+            f"extent {p['extent']:.3g} x spread, min twist {p['min_twist'] * 57.29577951308232:.1f} deg, "
+            f"min offset {p['min_offset']:.3g} x spread)")
+
+
+def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json):
+    from synth.sixbar import sixbar as synth_sixbar
+
+    from .bennett import emit
+
+    linkage = synth_sixbar(ps.matrices, ps.names, family=family, member=member, pair=pair)
+    if not quiet:
+        echo(_design_line(linkage.info))
+    emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
+         as_json=as_json)
+
+
+def solution_id(rank: int, linkage) -> str:
+    """Directory name of a ranked solution: rank, family and pair (the member is in index.json)."""
+    return f"{rank:02d}-f{linkage.info['family']}-p{linkage.info['pair']}"
+
+
+def index_document(linkages, ids, source: str, length_scale: float, length_unit: str) -> dict:
+    from synth.sixbar import SCORE_RULE
+
+    sols = []
+    for rank, (lk, sid) in enumerate(zip(linkages, ids), start=1):
+        c = lk.checks
+        sols.append({
+            "id": sid, "rank": rank, "path": f"{sid}/", "family": lk.info["family"], "member": lk.info["member"],
+            "pair": lk.info["pair"], "t3": lk.info["t3"], "score": lk.info["score"],
+            "score_parts": lk.info["score_parts"],
+            "checks": {k: c[k] for k in ("max_pose_error", "max_pose_translation_error", "max_pose_rotation_error",
+                                         "max_closure_error", "max_closure_translation_error",
+                                         "max_closure_rotation_error", "max_motion_error")},
+        })
+    return {"format": INDEX_FORMAT, "kind": "6r", "poses": source, "units": {"length": "m", "angle": "rad"},
+            "input_length_unit": length_unit, "input_length_scale": length_scale,
+            "score_rule": SCORE_RULE, "solutions": sols}
+
+
+def ranking_table(doc) -> list[str]:
+    head = (f"  {'rank':>4} {'id':12} {'fam':>3} {'member':>12} {'pair':>4} {'score':>9} {'cond':>8} {'extent':>7} "
+            f"{'twist':>6} {'offset':>7} {'pose err':>9} {'closure':>9}")
+    rows = [head]
+    for s in doc["solutions"]:
+        p = s["score_parts"]
+        rows.append(f"  {s['rank']:>4} {s['id']:12} {s['family']:>3} {s['member']:>12.6g} {s['pair']:>4} "
+                    f"{s['score']:>9.3g} {p['conditioning']:>8.3g} {p['extent']:>7.3g} "
+                    f"{p['min_twist'] * 57.29577951308232:>6.1f} {p['min_offset']:>7.3g} "
+                    f"{s['checks']['max_pose_error']:>9.1e} {s['checks']['max_closure_error']:>9.1e}")
+    return rows
+
+
+def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, quiet, as_json):
+    from pathlib import Path
+
+    from synth.export import atomic_directory, write_json, write_linkage_files
+    from synth.sixbar import sixbar_candidates
+
+    linkages = sixbar_candidates(ps.matrices, ps.names, family=family, member=member, pair=pair, top=top,
+                                 build=True)
+    ids = [solution_id(r, lk) for r, lk in enumerate(linkages, start=1)]
+    doc = index_document(linkages, ids, ps.source, ps.length_scale, ps.length_unit)
+    if not quiet:
+        echo(f"6r designs through {len(ps)} poses: the {len(linkages)} best of the scan"
+             + (f" (asked for {top})" if len(linkages) < top else "")
+             + " (extent and offset in pose spreads, twist in degrees, errors in m + rad)")
+        for row in ranking_table(doc):
+            echo(row)
+    if out:
+        base = name or default_robot_name(ps.source)
+        with atomic_directory(Path(out), force=force) as tmp:
+            for lk, sid in zip(linkages, ids):
+                d = tmp / sid
+                d.mkdir()
+                write_linkage_files(lk, d, robot_name=f"{base}_{sid.replace('-', '_')}", package=package, **sizes)
+            write_json(doc, tmp / "index.json")
+        if not quiet:
+            echo(f"  wrote {out}/: index.json and {len(ids)} solution directories ({', '.join(ids)})")
+    elif not quiet and not as_json:
+        echo("  no files written (give -o OUT to write every design's URDF, STL and JSON)")
+    if as_json:
+        from synth.export.jsonout import plain
+
+        print_json(plain(doc))
