@@ -41,6 +41,7 @@ Examples:
   mpsynth factor --expr "(t-1)*(t-j) - eps*((i+k)*t - 2*k)"
   mpsynth factor poly.yaml --json
   echo 'expression: (t-2k-eps i)(t-j-eps k)' | mpsynth factor - --exact
+  mpsynth factor --cofactor --exact --expr "t^2 + 1 + eps*(i + 2*j*t)"   # C (t^2 + 1) = 4 rotations
 
 \b
 Output: C = (t - h1)(t - h2)...(t - hn) for each factorization. A revolute factor
@@ -346,6 +347,83 @@ def compute(inp: PolynomialInput, *, exact: bool = False) -> Report:
     return _numeric_report(C)
 
 
+@dataclass
+class CofactorInfo:
+    """--cofactor: C R = (t - h1)...(t - hm) with the real monic co-factor R (Theorem 2, issue 5)."""
+    R: list  # ascending coefficients (floats, or Fractions in exact mode)
+    mrpf: list  # maximal real factor of the primal part, ascending
+    bound_met: bool  # deg R <= deg mrpf
+    components: list  # per primary translation: kind ("circular", "ellipse", ...), deg R, rotations
+
+
+def compute_cofactor(inp: PolynomialInput, *, exact: bool = False) -> tuple[Report, CofactorInfo]:
+    """--cofactor: one factorization of C R (synth.cofactor). The report's polynomial is C R. Exact mode
+    prints fractions when the rationalized answer passes an exact multiply-back check (otherwise
+    floats, with a note). Unbounded motions raise UnboundedMotionError (exit 1, "needs a sliding joint")."""
+    import numpy as np
+
+    from synth.cofactor import exact_result, factorize_with_cofactor
+    from synth.factor import check_motion_polynomial
+    from synth.motion import norm_poly, poly_mul
+
+    C = _float_rows(inp)
+    _prefixed(inp.source, check_motion_polynomial, C)
+    try:
+        Cx = _exact_rows(inp)  # exact mrpf detection for rational input
+    except Exception:  # noqa: BLE001 - e.g. a float that is not a finite rational: numeric detection
+        Cx = None
+    res = factorize_with_cofactor(Cx if Cx is not None else C)
+    factors, R, notes = np.asarray(res.factors).tolist(), [float(x) for x in res.R], []
+    is_exact = False
+    if exact:
+        got = exact_result(Cx, res) if Cx is not None else None
+        if got is not None:
+            R, factors = got
+            is_exact = True
+        else:
+            notes.append("--exact: the co-factor answer is not rational (or not certified); floats shown")
+    R8 = np.zeros((len(res.R), 8))
+    R8[:, 0] = res.R
+    CR = poly_mul(C, R8)
+    joints = []
+    for h in factors:
+        hf = [float(x) for x in h]
+        a, b2 = h[0], sum(x * x for x in h[1:4])
+        joints.append(_joint(hf, (a * a + b2, -2 * a)))
+    row = FactorizationRow(factors=factors, joints=joints, residual=0.0 if is_exact else res.residual)
+    norm = [float(x) for x in norm_poly(CR)]
+    rep = Report(exact=is_exact, degree=len(factors), generic=res.generic, norm=norm,
+                 norm_factors=[j.quadratic for j in joints], factorizations=[row],
+                 coefficients=CR.tolist(), notes=notes)
+    info = CofactorInfo(R=R, mrpf=[float(x) for x in res.g], bound_met=res.bound_met,
+                        components=[{k: v for k, v in c.items() if k != "family"} for c in res.report])
+    return rep, info
+
+
+def cofactor_document(rep: Report, info: CofactorInfo) -> dict:
+    """report_document of C R plus "cofactor" (coefficients of R, ascending), "mrpf", "bound_met"."""
+    doc = report_document(rep)
+    doc["cofactor"] = [_num_json(x, rep.exact) for x in info.R]
+    doc["mrpf"] = info.mrpf
+    doc["bound_met"] = info.bound_met
+    doc["components"] = info.components
+    doc["notes"] = rep.notes
+    return doc
+
+
+def format_cofactor(rep: Report, info: CofactorInfo) -> str:
+    from synth.realfactor import poly_text
+
+    deg_r, deg_g = len(info.R) - 1, len(info.mrpf) - 1
+    head = [f"real co-factor R = {poly_text(info.R)} (deg R = {deg_r}, mrpf of the primal part = "
+            f"{poly_text(info.mrpf)}, deg {deg_g}{'' if info.bound_met else '; above the bound'})",
+            "C R = (t - h1)...(t - h" + str(rep.degree) + ") is the same motion as C; components: "
+            + (", ".join(c.get("kind", "?") for c in info.components) or "none (generic)")]
+    body = format_table(rep).splitlines()[1:]  # its first line would describe C R, not C
+    body = [line.replace("N(C) =", "N(C R) =", 1).replace("C = (t", "C R = (t", 1) for line in body]
+    return "\n".join(head + body + rep.notes)
+
+
 # ============================================================== 3. output
 def _num_json(x, exact: bool):
     if exact:
@@ -519,14 +597,24 @@ def format_table(rep: Report) -> str:
               help="The polynomial as an expression in t, i, j, k, eps instead of a FILE.")
 @click.option("--exact", is_flag=True,
               help="Exact rational arithmetic (rational input whose norm factors over Q); prints fractions.")
+@click.option("--cofactor", is_flag=True,
+              help="Non-generic input (the primal part has a real factor): find a real co-factor R with "
+                   "C R = (t - h1)...(t - hm), the same motion (Theorem 2). Unbounded motions: exit 1.")
 @json_option
 @debug_option
 @run_guarded
-def factor(file, expr, exact, as_json, debug):
+def factor(file, expr, exact, cofactor, as_json, debug):
     """Factorize the monic motion polynomial C in FILE (YAML or JSON, '-' for stdin) or --expr into
     linear factors C = (t - h1)...(t - hn): every factorization (n! when the norm's quadratic
     factors are distinct), each factor a revolute joint (axis, angle law) or a translation."""
     inp = load_input(file, expr)
+    if cofactor:
+        rep, info = compute_cofactor(inp, exact=exact)
+        if as_json:
+            print_json(cofactor_document(rep, info))
+        else:
+            click.echo(format_cofactor(rep, info))
+        return
     rep = compute(inp, exact=exact)
     if as_json:
         print_json(report_document(rep))

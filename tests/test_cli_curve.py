@@ -192,3 +192,31 @@ def test_flip_does_not_exist_exit_1():
 def test_flip_bad_input_exit_2(m, h, match):
     r = run("flip", m, h)
     assert r.exit_code == 2 and match in r.stderr, r.output
+
+
+# ------------------------------------------------------------------ factor --cofactor
+def test_factor_cofactor_elliptic_exact_json():
+    r = run("factor", "--cofactor", "--exact", "--json", "--expr", "t^2 + 1 + eps*(i + 2*j*t)")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert doc["cofactor"] == ["1", "0", "1"] and doc["exact"] and doc["bound_met"]
+    assert doc["factorizations"][0]["factors"][0] == ["0", "0", "0", "1", "0", "0", "-3/4", "0"]
+    assert len(doc["factorizations"][0]["factors"]) == 4
+
+
+def test_factor_cofactor_numeric_table():
+    r = run("factor", "--cofactor", "--expr", "(t^2 + 1 + eps*(i + 2*j*t))*(t - k)")
+    assert r.exit_code == 0, r.output
+    assert "real co-factor R = 1" in r.stdout and "C R = (t - h1)(t - h2)(t - h3)" in r.stdout
+    r = run("factor", "--cofactor", "--json", "--expr", "t^2 + 1 + eps*(i + 2*j*t)")
+    assert json.loads(r.stdout)["cofactor"] == [1.0, 0.0, 1.0]
+
+
+def test_factor_cofactor_unbounded_exit_1():
+    r = run("factor", "--cofactor", "--expr", "(t-1)*(t-j) - eps*((i+k)*t - 2*k)")
+    assert r.exit_code == 1 and "needs a sliding joint" in r.stderr
+
+
+def test_factor_cofactor_bad_input_exit_2():
+    r = run("factor", "--cofactor", "--expr", "2*t^2 + 1")
+    assert r.exit_code == 2
