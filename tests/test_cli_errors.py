@@ -450,3 +450,50 @@ def test_expression_parser_huge_degree_refused_fast():
         with pytest.raises(InputError):
             parse_polynomial(text)
         assert time.monotonic() - t0 < 5, text
+
+
+CLI_PAYLOADS = ["__import__('os').system('touch pwned')", "t.__class__", "exec('open(\"pwned\", \"w\")')",
+                "lambda: 0", "t - i; __import__('os')", "`touch pwned`", "$(touch pwned)"]
+EXPRESSION_FIELDS = {  # every command field that takes a polynomial expression: (setup(tmp, payload) -> args)
+    "factor --expr": lambda tmp, p: ["factor", "--expr", p],
+    "factor file expression:": lambda tmp, p: (_write(tmp / "f.yaml", {"expression": p}), ["factor", "f.yaml"])[1],
+    "curve motion: expression": lambda tmp, p: (_write(tmp / "c.yaml", {"motion": {"expression": p}}),
+                                                 ["curve", "c.yaml", "-o", "out"])[1],
+    "curve curve: x": lambda tmp, p: (_write(tmp / "c.yaml", {"curve": {"x": p, "y": "t", "z": "0", "w": "t^2 + 1"}}),
+                                      ["curve", "c.yaml", "-o", "out"])[1],
+}
+YAML_COMMANDS = {"factor": ["factor", "p.yaml"], "curve": ["curve", "p.yaml", "-o", "out"],
+                 "bennett": ["bennett", "p.yaml", "-o", "out"]}
+
+
+def _write(path, doc):
+    path.write_text(json.dumps(doc))  # JSON is YAML: quoting stays exact
+
+
+def _committed(command: str) -> bool:
+    r = subprocess.run(["git", "log", "--oneline", "-1", "--", f"cli/{command}.py"], cwd=REPO, capture_output=True,
+                       text=True)
+    return bool(r.stdout.strip())
+
+
+@pytest.mark.parametrize("field", list(EXPRESSION_FIELDS))
+@pytest.mark.parametrize("payload", CLI_PAYLOADS, ids=[str(i) for i in range(len(CLI_PAYLOADS))])
+def test_expression_fields_execute_nothing(field, payload, tmp_path):
+    if not _committed(field.split()[0]):
+        pytest.skip(f"mpsynth {field.split()[0]} is not committed yet")
+    args = EXPRESSION_FIELDS[field](tmp_path, payload)
+    before = set(os.listdir(tmp_path))
+    code, out, err = invoke(args, tmp_path)
+    assert_one_line_error(code, out, err, 2, [])
+    assert set(os.listdir(tmp_path)) == before and leftovers(tmp_path) == []  # no pwned, no out
+
+
+@pytest.mark.parametrize("command", list(YAML_COMMANDS))
+@pytest.mark.parametrize("payload", YAML_TAG_PAYLOADS[:5], ids=[str(i) for i in range(5)])
+def test_yaml_tags_in_every_yaml_input(command, payload, tmp_path):
+    if not _committed(command):
+        pytest.skip(f"mpsynth {command} is not committed yet")
+    (tmp_path / "p.yaml").write_text(f"x: {payload}\n")
+    code, out, err = invoke(YAML_COMMANDS[command], tmp_path)
+    assert_one_line_error(code, out, err, 2, ["p.yaml"])
+    assert sorted(os.listdir(tmp_path)) == ["p.yaml"]
