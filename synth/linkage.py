@@ -108,10 +108,51 @@ class Linkage:
         """World pose of the tool frame for the given joint angles."""
         return self.displacements(angles)[self.tool_link] @ self.tool_ref
 
+    def joint_sites(self) -> dict[str, np.ndarray]:
+        """A representative point on every joint axis (metres, reference configuration): the mean of
+        the feet of the common normals to the neighbouring axes of the links carrying the joint (where
+        its pins are); for a joint that no link pairs, the axis point nearest the pose positions.
+        Unlike ``Joint.point`` (nearest the world origin) it stays near the mechanism wherever the
+        world origin is."""
+        feet: dict[str, list[np.ndarray]] = {j.name: [] for j in self.joints}
+        byname = {j.name: j for j in self.joints}
+        for names in self.links.values():
+            js = [byname[n] for n in names if n in byname]
+            for j1, j2 in zip(js, js[1:]):
+                f1, f2 = pair_feet(j1, j2)
+                feet[j1.name].append(f1)
+                feet[j2.name].append(f2)
+        centre = self._pose_centre()
+        out = {}
+        for j in self.joints:
+            if feet[j.name]:
+                out[j.name] = np.mean(feet[j.name], axis=0)
+            else:
+                out[j.name] = j.point + np.dot(centre - j.point, j.direction) * j.direction
+        return out
+
+    def _pose_centre(self) -> np.ndarray:
+        pts = [p.matrix[:3, 3] for p in self.poses] + [self.tool_ref[:3, 3]]
+        return np.mean(pts, axis=0)
+
     def extent(self) -> float:
-        """A length scale of the linkage: RMS distance of the joints' feet (closest points between
-        consecutive axes) and tool positions from their centroid, at least 1e-9 m."""
-        pts = [j.point for j in self.joints] + [p.matrix[:3, 3] for p in self.poses]
+        """A length scale of the linkage: RMS distance of the joint sites (see ``joint_sites``) and the
+        tool positions from their centroid, at least 1e-9 m."""
+        pts = list(self.joint_sites().values()) + [p.matrix[:3, 3] for p in self.poses]
         pts = np.array(pts + [self.tool_ref[:3, 3]])
         c = pts.mean(axis=0)
         return float(max(np.sqrt(np.mean(np.sum((pts - c) ** 2, axis=1))), 1e-9))
+
+
+def pair_feet(j1: Joint, j2: Joint) -> tuple[np.ndarray, np.ndarray]:
+    """Feet of the common normal of two joint axes (on j1, on j2). Parallel axes have no unique common
+    normal: take the one through the midpoint of the two axis points nearest the origin."""
+    from .dq import common_normal_feet
+
+    u1, u2 = j1.direction, j2.direction
+    if np.linalg.norm(np.cross(u1, u2)) < 1e-9:
+        mid = (j1.point + j2.point) / 2
+        f1 = j1.point + np.dot(mid - j1.point, u1) * u1
+        f2 = j2.point + np.dot(f1 - j2.point, u2) * u2
+        return f1, f2
+    return common_normal_feet(u1, j1.moment, u2, j2.moment)

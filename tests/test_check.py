@@ -126,7 +126,9 @@ def test_perturbed_axis_caught_without_linkage_json_lines(copy):
     for j in doc["joints"]:
         if j["name"] == "k1":
             d = axis / np.linalg.norm(axis)
-            p = np.cross(j["line"]["direction"], j["line"]["moment"])
+            # the URDF rotates about its joint frame origin; k1's parent is base (the world frame)
+            p = np.array([float(v) for v in re.search(
+                r'<joint name="k1" type="continuous">.*?<origin xyz="([^"]+)"', text, re.S).group(1).split()])
             j["line"] = {"direction": d.tolist(), "moment": np.cross(p, d).tolist()}
     (copy / "linkage.json").write_text(json.dumps(doc))
     msg = _problems(copy, "--no-meshes")

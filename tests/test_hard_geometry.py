@@ -319,12 +319,6 @@ def test_far_cli_end_to_end(tmp_path):
     assert json.loads((out / "linkage.json").read_text())["checks"]["max_pose_error"] < 1e-9
 
 
-EXTENT_BUG = ("synth/linkage.py Linkage.extent() measures the joint axes at their points closest to the "
-              "world origin, not near the linkage: for poses far from the origin the default mesh sizes "
-              "blow up (and with a 1 mm linkage 1e6 m away mesh building fails: internal error, exit 3)")
-
-
-@pytest.mark.xfail(strict=True, reason=EXTENT_BUG)
 def test_default_mesh_size_follows_the_linkage_not_the_origin():
     from synth.export.meshes import default_sizes
 
@@ -335,7 +329,6 @@ def test_default_mesh_size_follows_the_linkage_not_the_origin():
     assert default_sizes(bennett(T))[0] == pytest.approx(near, rel=1e-3)  # pin radius: 0.03 m vs 5 m
 
 
-@pytest.mark.xfail(strict=True, reason=EXTENT_BUG)
 def test_far_and_tiny_cli_end_to_end(tmp_path):
     rng = np.random.default_rng(11)
     T = random_poses(rng, 3, scale=1e-3, offset=(1e6, -2e6, 5e5))

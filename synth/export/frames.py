@@ -1,7 +1,7 @@
 """Link frames and the roll-pitch-yaw conversion shared by the exporters.
 
-The frame of link X (OUTPUT.md, linkage.py) sits at the foot point ``Joint.point`` of the joint whose
-child is X, with axes parallel to the world axes at the reference configuration; ``base`` has the
+The frame of link X (OUTPUT.md, linkage.py) sits at the site (``Linkage.joint_sites``: where the pins
+are) on the axis of the joint whose child is X, with axes parallel to the world axes at the reference configuration; ``base`` has the
 world frame. So every frame differs from the world frame by a translation only, and a URDF joint's
 origin is the plain difference of the two origins with rpy "0 0 0".
 """
@@ -15,12 +15,13 @@ import numpy as np
 def link_origins(linkage) -> dict[str, np.ndarray]:
     """World position (3,) of every tree link's frame origin at the reference configuration."""
     out: dict[str, np.ndarray] = {"base": np.zeros(3)}
+    sites = linkage.joint_sites()
     for j in linkage.joints:
         if j.parent not in out:
             raise ValueError(f"joint {j.name}: parent link {j.parent!r} comes before it is defined")
         if j.child in out:
             raise ValueError(f"joint {j.name}: link {j.child!r} already has a parent")
-        out[j.child] = np.asarray(j.point, float)
+        out[j.child] = np.asarray(sites[j.name], float)
     return out
 
 

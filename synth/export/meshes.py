@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from ..dq import common_normal_feet
+from ..linkage import pair_feet
 from .frames import link_origins
 
 PIN_RADIUS = 0.02  # times linkage.extent()
@@ -84,17 +84,6 @@ def _cylinder(a, b, radius, sections):
     return mesh
 
 
-def _pair_feet(j1, j2):
-    """Feet of the common normal of the axes of joints j1, j2 (on j1's axis, on j2's axis)."""
-    u1, u2 = j1.direction, j2.direction
-    if np.linalg.norm(np.cross(u1, u2)) < 1e-9:  # parallel: pick the normal through the midpoint
-        mid = (j1.point + j2.point) / 2
-        f1 = j1.point + np.dot(mid - j1.point, u1) * u1
-        f2 = j2.point + np.dot(f1 - j2.point, u2) * u2
-        return f1, f2
-    return common_normal_feet(j1.direction, j1.moment, j2.direction, j2.moment)
-
-
 def link_parts(linkage, name, pin_radius, link_radius, pin_length):
     """Closed primitive meshes (pins, bars) of one link, in world coordinates at the reference
     configuration. Empty for a link without joints."""
@@ -106,14 +95,14 @@ def link_parts(linkage, name, pin_radius, link_radius, pin_length):
     feet: dict[str, list[np.ndarray]] = {n: [] for n in names}
     bars = []
     for j1, j2 in zip(joints, joints[1:]):
-        f1, f2 = _pair_feet(j1, j2)
+        f1, f2 = pair_feet(j1, j2)
         feet[j1.name].append(f1)
         feet[j2.name].append(f2)
         if np.linalg.norm(f2 - f1) > 1e-9 * scale:
             bars.append(_cylinder(f1, f2, link_radius, BAR_SECTIONS))
     pins = []
     for j in joints:
-        pts = feet[j.name] or [j.point]
+        pts = feet[j.name] or [linkage.joint_sites()[j.name]]
         s = [float(np.dot(p - j.point, j.direction)) for p in pts]
         lo = j.point + (min(s) - pin_length / 2) * j.direction
         hi = j.point + (max(s) + pin_length / 2) * j.direction

@@ -101,13 +101,15 @@ def _share_welded_masses(linkage, masses, origins, geometric) -> dict:
 
 
 def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str | None = None,
-              masses: dict | None = None) -> str:
+              masses: dict | None = None, mesh_offsets: dict | None = None) -> str:
     """The URDF document (str, with XML declaration) of ``linkage``.
 
     ``masses``: {link: (mass kg, centre of mass (3,) in the link frame, 3x3 inertia about the centre
     of mass)} for the links with geometry, as returned by ``meshes.mesh_inertials``; when None it is
     computed from ``meshes.link_meshes(linkage)`` with default sizes and aluminium density. Links
-    with geometry are those with a non-empty joint list in ``linkage.links``."""
+    with geometry are those with a non-empty joint list in ``linkage.links``. ``mesh_offsets``:
+    {link: (3,) position (metres, link frame) of the STL file's origin}; the writer stores each STL
+    about its own centre so that single-precision STL coordinates stay accurate far from the origin."""
     origins = link_origins(linkage)
     names = list(origins)
     if TOOL_LINK in origins:
@@ -139,7 +141,8 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
             fn = mesh_filename(n, mesh_dir, package)
             for tag in ("visual", "collision"):
                 el = ET.SubElement(link, tag)
-                ET.SubElement(el, "origin", xyz="0.0 0.0 0.0", rpy="0.0 0.0 0.0")
+                offset = (mesh_offsets or {}).get(n, np.zeros(3))
+                ET.SubElement(el, "origin", xyz=_vec(offset), rpy="0.0 0.0 0.0")
                 geom = ET.SubElement(el, "geometry")
                 ET.SubElement(geom, "mesh", filename=fn, scale=_MESH_SCALE)
                 if tag == "visual":

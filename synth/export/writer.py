@@ -26,6 +26,8 @@ import threading
 from contextlib import contextmanager
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError
 
 MARKER = ".mpsynth-output"
@@ -205,13 +207,19 @@ def write_linkage_files(linkage, directory, *, robot_name: str, package: str | N
     written = []
     if meshes:
         (directory / "meshes").mkdir()
+    offsets = {}
     for name, mesh in meshes.items():
         rel = Path("meshes") / f"{name}.stl"
         stl = mesh.copy()
+        # stored about its own centre (STL is single precision; the base link's frame is the world
+        # frame, which may be far away), placed by the URDF visual/collision origin
+        offsets[name] = np.asarray(mesh.bounds, float).mean(axis=0)
+        stl.apply_translation(-offsets[name])
         stl.apply_scale(1.0 / MESH_UNIT_SCALE)  # metres -> millimetres, the unit slicers assume
         (directory / rel).write_bytes(stl.export(file_type="stl"))
         written.append(rel)
-    text = urdf_text(linkage, robot_name, mesh_dir="meshes", package=package, masses=mesh_inertials(meshes))
+    text = urdf_text(linkage, robot_name, mesh_dir="meshes", package=package, masses=mesh_inertials(meshes),
+                     mesh_offsets=offsets)
     (directory / "linkage.urdf").write_text(text, encoding="utf-8")
     write_json(linkage_document(linkage), directory / "linkage.json")
     return [Path("linkage.urdf"), Path("linkage.json")] + written
