@@ -9,7 +9,7 @@ from .common import (check_mesh_sizes, default_robot_name, echo, fmt_len, mesh_s
 
 @click.command(epilog="""\b
 Example:
-  mpsynth bennett fixtures/bennett_mm_deg.yaml -o out/bennett
+  mpsynth bennett fixtures/bennett_mm_deg.yaml -o out_bennett
   cat poses.yaml | mpsynth bennett - --json | jq .checks""")
 @click.argument("poses", metavar="POSES")
 @synthesis_options

@@ -10,8 +10,8 @@ from .common import debug_option, echo, json_option, print_json, run_guarded
 
 @click.command(epilog="""\b
 Example:
-  mpsynth bennett fixtures/bennett_quat.yaml -o out/b && mpsynth check out/b --poses fixtures/bennett_quat.yaml
-  mpsynth check out/b --json | jq .figures.continuation""")
+  mpsynth bennett fixtures/bennett_quat.yaml -o out_b && mpsynth check out_b --poses fixtures/bennett_quat.yaml
+  mpsynth check out_b --json | jq .figures.continuation""")
 @click.argument("out", metavar="OUT")
 @click.option("--poses", "poses", metavar="POSES",
               help="Pose file the output was made from: the tool frame must reach these poses too.")

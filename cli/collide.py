@@ -10,8 +10,8 @@ from .common import debug_option, echo, json_option, print_json, run_guarded
 
 @click.command(epilog="""\b
 Examples:
-  mpsynth collide out/bennett
-  mpsynth collide out/bennett --steps 1440 --json | jq '.collisions[].links'
+  mpsynth collide out_bennett
+  mpsynth collide out_bennett --steps 1440 --json | jq '.collisions[].links'
 
 \b
 Exit codes: 0 no collision, 1 some pair of links collides, 2 bad input or python-fcl missing.""")

@@ -25,9 +25,9 @@ spec is also read by verify_output.py). Lengths are in --units (default m); outp
 
 \b
 Examples:
-  mpsynth curve fixtures/curve_ellipse.yaml -o out/ellipse      # 10 joints, link 'tracer' draws it
-  mpsynth curve fixtures/motion_elliptic.yaml -o out/elliptic   # 13 joints, 'coupler' translates
-  python ../shared/tools/verify_output.py out/ellipse --trace tracer --curve fixtures/curve_ellipse.yaml
+  mpsynth curve fixtures/curve_ellipse.yaml -o out_ellipse      # 10 joints, link 'tracer' draws it
+  mpsynth curve fixtures/motion_elliptic.yaml -o out_elliptic   # 13 joints, 'coupler' translates
+  python ../shared/tools/verify_output.py out_ellipse --trace tracer --curve fixtures/curve_ellipse.yaml
 
 \b
 Exit codes: 0 linkage written, 1 no revolute linkage (unbounded curve or motion: "needs a

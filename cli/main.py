@@ -101,8 +101,8 @@ def mpsynth():
 
     \b
     Examples:
-      mpsynth bennett fixtures/bennett_mm_deg.yaml -o out/bennett
-      mpsynth sixbar fixtures/sixbar_example.yaml -o out/sixbar
+      mpsynth bennett fixtures/bennett_mm_deg.yaml -o out_bennett
+      mpsynth sixbar fixtures/sixbar_example.yaml -o out_sixbar
       mpsynth factor --expr "(t-1)*(t-j) - eps*((i+k)*t - 2*k)"
 
     Exit codes: 0 success, 1 no real linkage (the message says why), 2 bad input or usage.

@@ -23,8 +23,8 @@ def parse_size(value: str) -> tuple[int, int]:
 
 @click.command(epilog="""\b
 Examples:
-  mpsynth render out/bennett --png bennett.png
-  mpsynth render out/bennett --gif bennett.gif --frames 90 --size 640x480""")
+  mpsynth render out_bennett --png bennett.png
+  mpsynth render out_bennett --gif bennett.gif --frames 90 --size 640x480""")
 @click.argument("out", metavar="OUT", type=click.Path())
 @click.option("--png", type=click.Path(dir_okay=False), help="Write a picture of the linkage to this PNG file.")
 @click.option("--gif", type=click.Path(dir_okay=False), help="Write an animation of one full cycle to this GIF file.")

@@ -10,9 +10,9 @@ from .common import debug_option, echo, json_option, print_json, run_guarded
 
 @click.command(epilog="""\b
 Example:
-  mpsynth bennett fixtures/bennett_quat.yaml -o out/b
-  mpsynth simulate out/b --engine mujoco --export-mjcf out/b/linkage.mjcf.xml
-  mpsynth simulate out/b --engine pybullet --json | jq .max_joint_deviation""")
+  mpsynth bennett fixtures/bennett_quat.yaml -o out_b
+  mpsynth simulate out_b --engine mujoco --export-mjcf out_b/linkage.mjcf.xml
+  mpsynth simulate out_b --engine pybullet --json | jq .max_joint_deviation""")
 @click.argument("out", metavar="OUT")
 @click.option("--engine", type=click.Choice(["pybullet", "mujoco"]), required=True, help="Physics engine.")
 @click.option("--seconds", type=float, default=2.0, show_default=True,

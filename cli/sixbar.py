@@ -15,9 +15,9 @@ Numbering:
   --pair K       1..9: the pairs of factorizations that close a 6R loop, in lexicographic order
 \b
 Examples:
-  mpsynth sixbar fixtures/sixbar_example.yaml -o out/sixbar
-  mpsynth sixbar fixtures/sixbar_example.yaml --top 5 -o out/designs
-  mpsynth sixbar poses.yaml --family 2 --member 0.5 --pair 1 -o out/one""")
+  mpsynth sixbar fixtures/sixbar_example.yaml -o out_sixbar
+  mpsynth sixbar fixtures/sixbar_example.yaml --top 5 -o out_designs
+  mpsynth sixbar poses.yaml --family 2 --member 0.5 --pair 1 -o out_one""")
 @click.argument("poses", metavar="POSES")
 @click.option("--family", type=click.IntRange(1, 2), help="Only this family of cubic motions (1 or 2).")
 @click.option("--member", type=float, help="Only this member of the family, by its label lambda1 (C(0) = lambda1 D1).")

@@ -8,7 +8,7 @@ from .common import debug_option, echo, json_option, print_json, run_guarded
 
 @click.command(epilog="""\b
 Example:
-  mpsynth view out/bennett -o bennett.html     # then open bennett.html in a browser (no network needed)""")
+  mpsynth view out_bennett -o bennett.html     # then open bennett.html in a browser (no network needed)""")
 @click.argument("out", metavar="OUT", type=click.Path())
 @click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
               help="The HTML file to write.")
