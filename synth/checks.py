@@ -177,54 +177,75 @@ def _evaluate_small(linkage: Linkage, samples: int):
     """`_evaluate` in plain floats, for few samples: the same figures, no numpy call per joint."""
     import math
 
-    from .scalar import dq_mul, dq_pose_difference, rotation_dq
+    from .scalar import dq_mul, dq_translation
 
-    joints = [(j.direction.tolist(), j.moment.tolist(), j.a, j.b, j.parent, j.child, j.name)
-              for j in linkage.joints]
+    joints = linkage.joints
+    U = [j.direction.tolist() for j in joints]
+    M = [j.moment.tolist() for j in joints]
+    slot = {"base": 0}  # link -> index into the displacement list
+    for j in joints:
+        slot.setdefault(j.child, len(slot))
+    chain = [(slot[j.parent], slot[j.child], u, m) for j, u, m in zip(joints, U, M)]
+    nlinks = len(slot)
     identity = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
     def fk(cs):
-        out = {"base": identity}
-        for (u, m, _, _, parent, child, _), (c, s) in zip(joints, cs):
-            G = rotation_dq(u, m, c, s)
-            out[child] = G if parent == "base" else dq_mul(out[parent], G)
-        return out
+        disp = [identity] * nlinks
+        for (p, ch, u, m), (c, s) in zip(chain, cs):
+            G = (c, s * u[0], s * u[1], s * u[2], 0.0, -s * m[0], -s * m[1], -s * m[2])
+            disp[ch] = G if p == 0 else dq_mul(disp[p], G)
+        return disp
 
-    tool_link = linkage.tool_link
+    def diff(A, dA, B):
+        dB = dq_translation(B)
+        dt = math.sqrt((dA[0] - dB[0]) ** 2 + (dA[1] - dB[1]) ** 2 + (dA[2] - dB[2]) ** 2)
+        # angle of pA~ pB: scalar and vector part of the quaternion product
+        a0, a1, a2, a3 = A[0], -A[1], -A[2], -A[3]
+        b0, b1, b2, b3 = B[0], B[1], B[2], B[3]
+        e0 = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3
+        e1 = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2
+        e2 = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1
+        e3 = a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0
+        return dt, 2.0 * math.atan2(math.sqrt(e1 * e1 + e2 * e2 + e3 * e3), abs(e0))
+
+    tool = slot[linkage.tool_link]
+    closures = [(slot[x], slot[y]) for x, y in linkage.closures]
     pt = pr = 0.0
     if linkage.poses:
         Href = _pose_dq(linkage.tool_ref)
+        names = [j.name for j in joints]
         for rec in linkage.poses:
             cs = []
-            for *_, name in joints:
+            for name in names:
                 h = 0.5 * rec.joint_angles[name]
                 cs.append((math.cos(h), math.sin(h)))
-            T = dq_mul(fk(cs)[tool_link], Href)
-            dt, dr = dq_pose_difference(T, _pose_dq(rec.matrix))
+            T = dq_mul(fk(cs)[tool], Href)
+            dt, dr = diff(T, dq_translation(T), _pose_dq(rec.matrix))
             pt, pr = max(pt, dt), max(pr, dr)
-    a = [j[2] for j in joints]
-    b = [j[3] for j in joints]
+    a = [j.a for j in joints]
+    b = [j.b for j in joints]
     centre, scale = sum(a) / len(a), max(sum(b) / len(b), 1e-12)
     ts = [centre + scale * math.tan(-math.pi / 2 + math.pi * (k + 1) / samples) for k in range(samples - 1)]
     C = linkage.motion.tolist()
     ct = cr = me = 0.0
+    laws = list(zip(a, b))
     for t in ts + [math.inf]:
-        if math.isinf(t):
+        if t == math.inf:
             cs = [(1.0, 0.0)] * len(joints)
             Ct = C[-1]
         else:
             cs = []
-            for _, _, aj, bj, *_ in joints:
+            for aj, bj in laws:
                 e = t - aj
                 r = math.hypot(e, bj)
                 cs.append((e / r, bj / r))
-            Ct = list(C[-1])
+            Ct = C[-1]
             for row in C[-2::-1]:
                 Ct = [x * t + y for x, y in zip(Ct, row)]
         disp = fk(cs)
-        for x, y in linkage.closures:
-            dt, dr = dq_pose_difference(disp[x], disp[y])
+        for x, y in closures:
+            dt, dr = diff(disp[x], dq_translation(disp[x]), disp[y])
             ct, cr = max(ct, dt), max(cr, dr)
-        dt, dr = dq_pose_difference(disp[tool_link], Ct)
+        dt, dr = diff(disp[tool], dq_translation(disp[tool]), Ct)
         me = max(me, dt + dr)
     return (pt, pr), (ct, cr), me

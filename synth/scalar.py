@@ -223,7 +223,7 @@ def polish_root(c, z, iterations=3):
 FAST_MIN_B = 1e-6  # |B_ij| (conditioned) at or below this: degenerate or nearly so -> general path
 FAST_MIN_IMAG = 1e-5  # Im z <= tol * max(1, |z|): nearly real norm root -> general path
 FAST_MIN_SEPARATION = 1e-5  # |z1 - z2| <= tol * max(1, |z|): nearly repeated norm root -> general path
-FAST_MAX_RESIDUAL = 1e-14  # multiply-back error above this: the general path refines -> general path
+FAST_MAX_RESIDUAL = 5e-13  # multiply-back error above this: the general path refines (= factor.REFINE_TRIGGER)
 
 
 def bennett_core(T):
@@ -355,9 +355,11 @@ def _poly_norm_and_study(rows):
     S = [0.0] * (2 * n1 - 1)
     for i, a in enumerate(rows):
         a0, a1, a2, a3, a4, a5, a6, a7 = a
-        for j, b in enumerate(rows):
-            N[i + j] += a0 * b[0] + a1 * b[1] + a2 * b[2] + a3 * b[3]
-            S[i + j] += (a0 * b[4] + a1 * b[5] + a2 * b[6] + a3 * b[7]) + (a4 * b[0] + a5 * b[1] + a6 * b[2] + a7 * b[3])
+        for j in range(i, n1):  # (i, j) and (j, i) contribute alike
+            b = rows[j]
+            f = 1.0 if i == j else 2.0
+            N[i + j] += f * (a0 * b[0] + a1 * b[1] + a2 * b[2] + a3 * b[3])
+            S[i + j] += f * ((a0 * b[4] + a1 * b[5] + a2 * b[6] + a3 * b[7]) + (a4 * b[0] + a5 * b[1] + a6 * b[2] + a7 * b[3]))
     scale = max(max(map(abs, N)), max(map(abs, S)))
     return N, (max(map(abs, S)) / scale if scale > 0 else 0.0)
 
@@ -379,8 +381,8 @@ def _mul_linear(A, h):
 
 
 def factorize_generic(C, validate=True):
-    """All factorizations of a monic motion polynomial C ((n+1, 8) ndarray) in plain floats, for
-    *generic* input only: returns None unless C is valid (when ``validate``), the roots of N(C) are
+    """All factorizations of a monic motion polynomial C ((n+1, 8) ndarray, degree n <= 3) in plain
+    floats, for *generic* input only: returns None unless C is valid (when ``validate``), the roots of N(C) are
     non-real and well separated (FAST_MIN_IMAG, FAST_MIN_SEPARATION), the primal part has no real factor,
     every Algorithm-1 step is generic with an exact division, and every factorization multiplies back
     to within 1e-14. `synth.factor.factorize` then handles everything else (validation errors, repeated
@@ -390,7 +392,7 @@ def factorize_generic(C, validate=True):
 
     rows = [tuple(r) for r in C.tolist()]
     n = len(rows) - 1
-    if n < 1 or len(rows[0]) != 8:
+    if not 1 <= n <= 3 or len(rows[0]) != 8:
         return None
     flat = [x for r in rows for x in r]
     if not math.isfinite(sum(flat)):
@@ -437,48 +439,48 @@ def factorize_generic(C, validate=True):
     quads = [(w.real * w.real + w.imag * w.imag, -2.0 * w.real) for w in z]
     cmax = max(1.0, max(map(abs, flat)))
     orders = list(itertools.permutations(range(n)))
-    found = {}
-
-    def step(D, remaining, right):
-        """Algorithm 1 on D (rows) for every order of the quadratics in ``remaining``; ``right``: the
-        factors found so far (leftmost first). Returns False to abandon the fast path."""
-        m = len(D) - 1
-        if m == 0:
-            found[tuple(q for q, _ in right)] = [h for _, h in right]
-            return True
-        prim = max([math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]) for r in D])
-        loose = 1e-11 * max(1.0, max([max(map(abs, r)) for r in D]))
-        for q in remaining:
-            c0, c1 = quads[q]
-            if m == 1:
-                r1, r0 = D[1], D[0]
-            else:
-                R = list(D)
-                for k in range(m, 1, -1):
-                    top = R[k]
-                    R[k - 1] = [x - c1 * y for x, y in zip(R[k - 1], top)]
-                    R[k - 2] = [x - c0 * y for x, y in zip(R[k - 2], top)]
-                r1, r0 = tuple(R[1]), tuple(R[0])
-            if not math.sqrt(r1[0] ** 2 + r1[1] ** 2 + r1[2] ** 2 + r1[3] ** 2) > 1e-9 * prim:
-                return False
-            h = _dq_neg(dq_mul(dq_inv(r1), r0))
-            d = D[m]
-            Dn = [d]
-            for k in range(m - 1, 0, -1):
-                d = tuple([x + y for x, y in zip(D[k], dq_mul(d, h))])
-                Dn.append(d)
-            if max(map(abs, map(float.__add__, D[0], dq_mul(d, h)))) > loose:
-                return False
-            if not step(Dn[::-1], [p for p in remaining if p != q], [(q, h)] + right):
-                return False
-        return True
-
-    if not step(rows, list(range(n)), []):
+    one = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    if rows[-1] != one:  # the shortcuts below need an exactly monic C
         return None
+
+    def right_factor(D, q):
+        """The zero h of D mod M_q (Algorithm 1, step c): t - h right-divides D; None if not generic."""
+        c0, c1 = quads[q]
+        R = list(D)
+        for k in range(len(D) - 1, 1, -1):
+            top = R[k]
+            R[k - 1] = [x - c1 * y for x, y in zip(R[k - 1], top)]
+            R[k - 2] = [x - c0 * y for x, y in zip(R[k - 2], top)]
+        r1, r0 = tuple(R[1]), tuple(R[0])
+        if not math.sqrt(r1[0] ** 2 + r1[1] ** 2 + r1[2] ** 2 + r1[3] ** 2) > 1e-9 * prim:
+            return None
+        return _dq_neg(dq_mul(dq_inv(r1), r0))
+
+    prim = max([math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]) for r in rows])
+    # the rightmost factor depends only on its norm quadratic, and so does the leftmost one (the
+    # rightmost factor of the conjugate polynomial, conjugated); the middle one of a cubic follows from
+    # the t^2 coefficient, c2 = -(h1 + h2 + h3). Every factorization is multiplied back below.
+    right = [right_factor(rows, q) for q in range(n)]
+    if any(h is None for h in right):
+        return None
+    if n == 3:
+        conj_rows = [dq_conj(r) for r in rows]
+        left = [right_factor(conj_rows, q) for q in range(n)]
+        if any(h is None for h in left):
+            return None
+        left = [dq_conj(h) for h in left]
+    c_top = rows[n - 1]
     factors, residuals = [], []
     for order in orders:
-        H = found[order]
-        P = [_dq_neg(H[0]), (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)]
+        hn = right[order[-1]]
+        if n == 1:
+            H = [hn]
+        elif n == 2:
+            H = [tuple([-(a + b) for a, b in zip(c_top, hn)]), hn]
+        else:
+            h1 = left[order[0]]
+            H = [h1, tuple([-(a + b + c) for a, b, c in zip(c_top, h1, hn)]), hn]
+        P = [_dq_neg(H[0]), one]
         for h in H[1:]:
             P = _mul_linear(P, h)
         res = max([max(map(abs, map(float.__sub__, a, b))) for a, b in zip(P, rows)]) / cmax
