@@ -26,6 +26,7 @@ ACCURATE = 1e-9  # a self-check error above this (relative) gets a warning
 FLOOR_ULPS = 2 ** 17  # rounding floor of the world-frame checks, in ulps of the pose coordinates
 SENSITIVITY_EPS = 1e-9  # relative pose perturbation of the condition estimate (`sensitivity`)
 SENSITIVE = 1e4  # condition estimate above which a valid result gets a warning
+EPS = float(np.finfo(float).eps)
 
 
 def check_distinct(T, names, tol=COINCIDENT_TOL):
@@ -50,7 +51,7 @@ def bennett(poses, names=None, *, check_samples: int = 200):
 
     Generic input takes a fast path in plain floats (`synth.scalar.bennett_core`); anything not clearly
     generic (nearly degenerate poses, nearly real or repeated norm roots, a multiply-back error above
-    1e-14) goes through the general engine (`synth.factor.factorize` with its refinements), which also
+    5e-13) goes through the general engine (`synth.factor.factorize` with its refinements), which also
     gives every refusal its message. Both produce the same linkage up to rounding.
 
     Raises SynthesisError (degenerate or non-real cases, with a plain-language reason)."""
@@ -94,24 +95,33 @@ def _accept(linkage, cond) -> None:
     the checks, evaluated in world coordinates, lose several more digits there. Errors between
     ACCURATE and ACCEPT_TOL are accepted with a warning (`_warnings`)."""
     c = linkage.checks
-    T = np.array([p.matrix for p in linkage.poses])
     spread = float(cond.scale)
     # the linkage's size about the poses: the largest distance of an axis from the poses' centroid
     # (not Linkage.extent(), whose axis points are the ones closest to the world origin)
-    cen = cond.centre
-    size = max([spread] + [float(np.linalg.norm(j.moment - np.cross(cen, j.direction))) for j in linkage.joints])
-    floor = FLOOR_ULPS * np.finfo(float).eps * float(np.abs(T[:, :3, 3]).max())
+    size = max(spread, _axis_distance(linkage, cond.centre.tolist()))
+    pmax = max(abs(x) for p in linkage.poses for x in p.matrix[:3, 3].tolist())
+    floor = FLOOR_ULPS * EPS * pmax
     rel = max(c["max_pose_translation_error"] / (spread + floor / ACCEPT_TOL),
               c["max_pose_rotation_error"],
               c["max_closure_translation_error"] / (size + floor / ACCEPT_TOL),
               c["max_closure_rotation_error"])
     linkage.info["relative_error"] = rel
     if not rel <= ACCEPT_TOL:  # (also catches NaN)
+        T = np.array([p.matrix for p in linkage.poses])
         names = [p.name for p in linkage.poses]
         raise SynthesisError(
             f"the poses are too close to a degenerate configuration{_near_degenerate(T, names, spread)}: the "
             f"linkage computed in double precision misses them by {rel:.1e} (relative; at most {ACCEPT_TOL:g} "
             "is accepted), so no reliable linkage can be given; move the poses further apart")
+
+
+def _axis_distance(linkage, c) -> float:
+    """Largest distance of a joint axis from the point c: |moment about c| = |m - c x u|."""
+    out = 0.0
+    for j in linkage.joints:
+        m, cu = j.moment.tolist(), scalar_cross(c, j.direction.tolist())
+        out = max(out, math.hypot(m[0] - cu[0], m[1] - cu[1], m[2] - cu[2]))
+    return out
 
 
 def _near_degenerate(T, names, spread) -> str:
@@ -151,8 +161,13 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
     T = np.array([p.matrix for p in linkage.poses])
     c = T[:, :3, 3].mean(axis=0)
     spread = max(float(np.sqrt(np.mean(np.sum((T[:, :3, 3] - c) ** 2, axis=1)))), 1e-300)
-    ref = {j.name: np.concatenate([j.direction, (j.moment - np.cross(c, j.direction)) / spread])
-           for j in linkage.joints}
+    c = c.tolist()
+
+    def line(u, m):
+        cu = scalar_cross(c, u)
+        return (u[0], u[1], u[2], (m[0] - cu[0]) / spread, (m[1] - cu[1]) / spread, (m[2] - cu[2]) / spread)
+
+    ref = {j.name: line(j.direction.tolist(), j.moment.tolist()) for j in linkage.joints}
     rng = np.random.default_rng(seed)
     worst = 0.0
     for _ in range(trials):
@@ -167,26 +182,32 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
             return float("inf")
         new = {}
         for prefix, F in (("h", H), ("k", K)):
-            for n, h in enumerate(np.asarray(F, float), 1):
-                b = np.linalg.norm(h[1:4])
-                u, m = -h[1:4] / b, h[5:8] / b
-                new[f"{prefix}{n}"] = np.concatenate([u, (m - np.cross(c, u)) / spread])
+            for n, h in enumerate(F, 1):
+                h = [float(x) for x in h]
+                b = math.sqrt(h[1] * h[1] + h[2] * h[2] + h[3] * h[3])
+                new[f"{prefix}{n}"] = line((-h[1] / b, -h[2] / b, -h[3] / b), (h[5] / b, h[6] / b, h[7] / b))
         swap = {"h1": "k1", "h2": "k2", "k1": "h1", "k2": "h2"}
-        d = min(max(float(np.abs(new[n] - ref[n]).max()) for n in ref),  # branches may swap labels
-                max(float(np.abs(new[swap[n]] - ref[n]).max()) for n in ref))
+
+        def dev(pairs):
+            return max(abs(x - y) for a, b in pairs for x, y in zip(a, b))
+
+        d = min(dev((new[n], ref[n]) for n in ref),  # branches may swap labels
+                dev((new[swap[n]], ref[n]) for n in ref))
         worst = max(worst, d / eps)
     return worst
 
 
 def _small_motion(w, v):
     """4x4 rigid motion: rotation vector w (Rodrigues), translation v."""
-    th = float(np.linalg.norm(w))
-    k = w / th
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    M = np.eye(4)
-    M[:3, :3] = np.eye(3) + math.sin(th) * K + (1 - math.cos(th)) * (K @ K)
-    M[:3, 3] = v
-    return M
+    w0, w1, w2 = w.tolist()
+    th = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    k0, k1, k2 = w0 / th, w1 / th, w2 / th
+    s, c1 = math.sin(th), 1 - math.cos(th)
+    # I + sin K + (1 - cos) K^2 with K = [k]x, K^2 = k k^T - I
+    return np.array([[1 + c1 * (k0 * k0 - 1), -s * k2 + c1 * k0 * k1, s * k1 + c1 * k0 * k2, v[0]],
+                     [s * k2 + c1 * k0 * k1, 1 + c1 * (k1 * k1 - 1), -s * k0 + c1 * k1 * k2, v[1]],
+                     [-s * k1 + c1 * k0 * k2, s * k0 + c1 * k1 * k2, 1 + c1 * (k2 * k2 - 1), v[2]],
+                     [0.0, 0.0, 0.0, 1.0]])
 
 
 def _factors(T, names):
@@ -255,10 +276,8 @@ def _warnings(linkage, B, cond) -> list[str]:
     if rel > ACCURATE:
         out.append(f"the linkage reproduces the poses less accurately than usual (relative error between "
                    f"{ACCURATE:g} and {ACCEPT_TOL:g}): the poses are close to a degenerate configuration")
-    c = cond.centre.tolist()
     # distance of each axis from the poses' centroid: |moment about the centroid| = |m - c x u|
-    far = max(math.hypot(*(mi - ci for mi, ci in zip(j.moment.tolist(), scalar_cross(c, j.direction.tolist()))))
-              for j in linkage.joints) / cond.scale
+    far = _axis_distance(linkage, cond.centre.tolist()) / cond.scale
     if far > 1e3:
         out.append(f"joint axes lie {far:.3g} pose spreads away from the poses: the poses are nearly "
                    "related by pure translations, the linkage is valid but impractically large")
