@@ -25,7 +25,7 @@ import types
 __all__ = ["bennett", "sixbar", "bennett_batch", "factorize", "BennettBatch", "Linkage", "MpsynthError",
            "InputError", "SynthesisError"]
 
-DEFAULT_CHECK_SAMPLES = 8  # synth.bennett / bennett_batch: closure + motion checked at this many parameters
+DEFAULT_CHECK_SAMPLES = 4  # synth.bennett / bennett_batch: closure + motion checked at this many parameters
 
 _bennett_impl = None
 

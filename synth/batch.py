@@ -32,12 +32,14 @@ import numpy as np
 
 from .interpolate import condition, conic, relative_displacements
 from .motion import norm_poly
-from .scalar import FAST_MIN_B, FAST_MIN_IMAG, FAST_MIN_SEPARATION
+from .scalar import FAST_MAX_RESIDUAL, FAST_MIN_B, FAST_MIN_IMAG, FAST_MIN_SEPARATION
+
+ACCEPT_TOL = 1e-8  # synth.bennett.ACCEPT_TOL (checked in tests): sets above 0.1 x this go to synth.bennett
 
 JOINTS = ("h1", "h2", "k1", "k2")
 TS = np.array([np.inf, 0.0, 1.0])
-BATCH_MAX_RESIDUAL = 1e-12  # multiply-back error (conditioned) above this: the set goes to synth.bennett
-DEFAULT_CHECK_SAMPLES = 8
+BATCH_MAX_RESIDUAL = FAST_MAX_RESIDUAL  # multiply-back error above this: the set goes to synth.bennett
+DEFAULT_CHECK_SAMPLES = 4  # as synth.DEFAULT_CHECK_SAMPLES
 
 
 # ============================================================================ component-first algebra
@@ -194,6 +196,7 @@ class BennettBatch:
     residual: np.ndarray  # (N,): largest multiply-back error of the two factorizations (conditioned)
     bennett: dict  # a, alpha, b, beta, opposite_length_mismatch, opposite_twist_mismatch: each (N,)
     errors: dict  # pose_translation, pose_rotation, closure_translation, closure_rotation, motion: (N,)
+    relative_error: np.ndarray = None  # (N,): the figure synth.bennett's acceptance gate compares to 1e-8
     check_samples: int = DEFAULT_CHECK_SAMPLES
     names: list = field(default_factory=lambda: ["p0", "p1", "p2"])
     general: np.ndarray = None  # (N,) bool: the set went through synth.bennett (general engine)
@@ -340,6 +343,9 @@ def _core(T, S):
 
     # ---------------------------------------------------------------- self-checks
     errors = _checks(T, Tf, U, M, a, b, pose_angles, motion, S)
+    # the acceptance gate of synth.bennett (`_accept`): sets near its threshold go to synth.bennett
+    rel = _relative_error(Tf, U, M, c, L, errors)
+    good &= rel <= 0.1 * ACCEPT_TOL
 
     bad = ~good
     for arr in [lines, laws, pose_angles, factors, motion, residual, *bennett.values(), *errors.values()]:
@@ -347,9 +353,24 @@ def _core(T, S):
     status = ["" if g else "?" for g in good.tolist()]
     for i in np.flatnonzero(~finite).tolist():
         status[i] = "the poses contain NaN or infinity"
+    rel[bad] = np.nan
     return dict(ok=good.copy(), status=status, lines=lines, laws=laws, pose_angles=pose_angles, factors=factors,
                 motion=motion, study_form=B * L[:, None], centre=c, scale=L, residual=residual, bennett=bennett,
-                errors=errors, general=finite & ~good)
+                errors=errors, relative_error=rel, general=finite & ~good)
+
+
+def _relative_error(T, U, M, c, L, errors):
+    """`synth.bennett._accept`'s figure: largest self-check error relative to the pose spread (closure:
+    to the axes' largest distance from the centroid), with its rounding floor of the coordinates."""
+    from .bennett import EPS, FLOOR_ULPS
+
+    cu = _cross(tuple(x[:, None] for x in (c[:, 0], c[:, 1], c[:, 2])), U)  # (N, 4) each
+    dist = np.sqrt(sum((m - x) ** 2 for m, x in zip(M, cu))).max(axis=1)
+    size = np.maximum(L, dist)
+    floor = FLOOR_ULPS * EPS * np.abs(T[:, :, :3, 3]).max(axis=(1, 2))
+    return np.maximum.reduce([errors["pose_translation"] / (L + floor / ACCEPT_TOL), errors["pose_rotation"],
+                              errors["closure_translation"] / (size + floor / ACCEPT_TOL),
+                              errors["closure_rotation"]])
 
 
 def _pair_geometry(u1, m1, u2, m2):
@@ -461,5 +482,6 @@ def _fill(res: BennettBatch, i, L):
     res.errors["closure_translation"][i] = c["max_closure_translation_error"]
     res.errors["closure_rotation"][i] = c["max_closure_rotation_error"]
     res.errors["motion"][i] = c["max_motion_error"]
+    res.relative_error[i] = L.info.get("relative_error", np.nan)
     res.ok[i] = True
     res.status[i] = ""
