@@ -97,20 +97,14 @@ def _read_text(path: str) -> tuple[str, str]:
         raise _input_error(f"{name}: not UTF-8 text") from None
 
 
-def _no_duplicates(pairs):
-    out = {}
-    for k, v in pairs:
-        if k in out:
-            raise ValueError(f"duplicate key {k!r}")
-        out[k] = v
-    return out
-
 
 def _parse_document(name: str, text: str):
     stripped = text.lstrip()
     if name.lower().endswith(".json") or stripped.startswith("{"):
         try:
-            return json.loads(text, object_pairs_hook=_no_duplicates)
+            from synth.poses import json_object_pairs
+
+            return json.loads(text, object_pairs_hook=json_object_pairs)
         except ValueError as e:
             if name.lower().endswith(".json"):
                 raise _input_error(f"{name}: invalid JSON: {e}") from None

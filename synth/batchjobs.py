@@ -52,14 +52,6 @@ def _one_line(msg: str, limit: int = 2000) -> str:
     return msg if len(msg) <= limit else msg[: limit - 3] + "..."
 
 
-def _pairs(pairs):
-    out = {}
-    for k, v in pairs:
-        if k in out:
-            raise ValueError(f"duplicate key {k!r}")
-        out[k] = v
-    return out
-
 
 def _reject_constant(name):
     raise ValueError(f"{name} is not a valid JSON number")
@@ -70,7 +62,9 @@ def parse_job(text: str) -> dict:
     if len(text) > MAX_LINE:
         raise _JobError("line is longer than 10 MB")
     try:
-        job = json.loads(text, object_pairs_hook=_pairs, parse_constant=_reject_constant)
+        from .poses import json_object_pairs
+
+        job = json.loads(text, object_pairs_hook=json_object_pairs, parse_constant=_reject_constant)
     except json.JSONDecodeError as e:
         raise _JobError(f"invalid JSON at column {e.colno}: {e.msg}") from None
     except (ValueError, RecursionError) as e:

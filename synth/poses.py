@@ -513,7 +513,8 @@ def _looks_like_json(text: str) -> bool:
     return re.match(r"\s*(\{\s*(\"|\})|\[)", text) is not None
 
 
-def _json_pairs(pairs):
+def json_object_pairs(pairs):
+    """``object_pairs_hook`` for json.loads that rejects duplicate keys (OUTPUT.md: an input error)."""
     out = {}
     for k, v in pairs:
         if k in out:
@@ -524,7 +525,7 @@ def _json_pairs(pairs):
 
 def _load_json(text: str, name: str) -> Any:
     try:
-        return json.loads(text, object_pairs_hook=_json_pairs)
+        return json.loads(text, object_pairs_hook=json_object_pairs)
     except json.JSONDecodeError as e:
         raise InputError(
             f"{name}: JSON syntax error at line {e.lineno}, column {e.colno}: {_clean(e.msg)}"
