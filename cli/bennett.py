@@ -3,8 +3,7 @@ from __future__ import annotations
 
 import click
 
-from .common import (check_mesh_sizes, default_robot_name, echo, fmt_len, mesh_sizes, print_json,
-                     print_linkage_summary, run_guarded, synthesis_options)
+from .common import echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options
 
 
 @click.command(epilog="""\b
@@ -41,28 +40,15 @@ def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, packag
 
 
 def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json):
-    """Write (when OUT is given), summarize on stderr and print JSON as asked. Writing comes first, so
-    that a failure to write is the only line on stderr."""
-    from synth.export import linkage_document, write_output
+    """Write, summarize and print a two-branch linkage (bennett, sixbar) read from the pose set ``ps``."""
 
-    unit, scale = ps.length_unit, ps.length_scale
-    files = None
-    if out:
-        check_mesh_sizes(sizes, linkage.extent(), scale, unit)
-        files = write_output(linkage, out, robot_name=name or default_robot_name(ps.source), force=force,
-                             package=package, **sizes)
-    if not quiet:
-        print_linkage_summary(linkage, scale, unit)
-        b = linkage.info.get("bennett")
-        if b:
-            echo(f"  Bennett: a = {fmt_len(b['a'], scale, unit)}, alpha = {b['alpha']:.6f} rad, "
-                 f"b = {fmt_len(b['b'], scale, unit)}, beta = {b['beta']:.6f} rad, "
-                 f"a/sin(alpha) - b/sin(beta) relative {b['bennett_condition_residual']:.1e}")
-    if files is not None:
-        if not quiet:
-            n_mesh = sum(1 for f in files if str(f).endswith(".stl"))
-            echo(f"  wrote {out}/: linkage.urdf, linkage.json, {n_mesh} meshes in meshes/")
-    elif not quiet and not as_json:
-        echo("  no files written (give -o OUT to write URDF, STL and JSON)")
-    if as_json:
-        print_json(linkage_document(linkage))
+    def details():
+        bp = linkage.info.get("bennett")
+        if bp:
+            scale, unit = ps.length_scale, ps.length_unit
+            echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {bp['alpha']:.6f} rad, "
+                 f"b = {fmt_len(bp['b'], scale, unit)}, beta = {bp['beta']:.6f} rad, "
+                 f"a/sin(alpha) - b/sin(beta) relative {bp['bennett_condition_residual']:.1e}")
+
+    emit_linkage(linkage, source=ps.source, scale=ps.length_scale, unit=ps.length_unit, out=out, name=name,
+                 force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details)

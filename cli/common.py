@@ -141,3 +141,28 @@ def print_linkage_summary(linkage, scale: float, unit: str) -> None:
              f"{unit} + {c['max_closure_rotation_error']:.2e} rad over {c.get('samples', 0)} samples")
     for w in linkage.info.get("warnings", []):
         echo(f"  warning: {w}")
+
+
+def emit_linkage(linkage, *, source, scale, unit, out, name, force, package, sizes, quiet, as_json,
+                 details=None):
+    """The common ending of a synthesis command: write OUT (when given) first, so that a failure to
+    write is the only line on stderr; then the summary on stderr (plus ``details()``, a callable that
+    echoes command-specific lines), then linkage.json on stdout with --json."""
+    from synth.export import linkage_document, write_output
+
+    files = None
+    if out:
+        check_mesh_sizes(sizes, linkage.extent(), scale, unit)
+        files = write_output(linkage, out, robot_name=name or default_robot_name(source), force=force,
+                             package=package, **sizes)
+    if not quiet:
+        print_linkage_summary(linkage, scale, unit)
+        if details is not None:
+            details()
+        if files is not None:
+            n_mesh = sum(1 for f in files if str(f).endswith(".stl"))
+            echo(f"  wrote {out}/: linkage.urdf, linkage.json, {n_mesh} meshes in meshes/")
+        elif not as_json:
+            echo("  no files written (give -o OUT to write URDF, STL and JSON)")
+    if as_json:
+        print_json(linkage_document(linkage))

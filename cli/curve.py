@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import (debug_option, default_robot_name, echo, json_option, mesh_sizes, print_json,
-                     print_linkage_summary, run_guarded)
+from .common import debug_option, echo, emit_linkage, json_option, mesh_sizes, run_guarded
 
 UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}
 
@@ -40,14 +39,6 @@ def _check_target(out, force):
     except ImportError:  # pragma: no cover - older exporter
         return
     check_output_target(out, force)
-
-
-def _check_sizes(sizes, linkage, scale, unit):
-    try:
-        from .common import check_mesh_sizes
-    except ImportError:  # pragma: no cover - older helpers
-        return
-    check_mesh_sizes(sizes, linkage.extent(), scale, unit)
 
 
 @click.command(epilog=EPILOG)
@@ -95,15 +86,8 @@ def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_le
 
 def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quiet, as_json):
     """Write (when OUT is given) first, then summarize on stderr and print JSON as asked."""
-    from synth.export import linkage_document, write_output
 
-    files = None
-    if out:
-        _check_sizes(sizes, linkage, scale, unit)
-        files = write_output(linkage, out, robot_name=name or default_robot_name(source), force=force,
-                             package=package, **sizes)
-    if not quiet:
-        print_linkage_summary(linkage, scale, unit)
+    def details():
         counts = linkage.info["counts"]
         echo(f"  counts: {counts['joints']} revolute joints, {counts['links']} links "
              f"(+{counts['links_with_duplicates'] - counts['links']} welded loop duplicates), "
@@ -120,11 +104,6 @@ def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quie
         mob = linkage.info.get("mobility", {})
         if mob:
             echo(f"  mobility: dof {mob['dof']} at all sampled t, worst conditioning {mob['conditioning']:.1e}")
-    if files is not None:
-        if not quiet:
-            n_mesh = sum(1 for f in files if str(f).endswith(".stl"))
-            echo(f"  wrote {out}/: linkage.urdf, linkage.json, {n_mesh} meshes in meshes/")
-    elif not quiet and not as_json:
-        echo("  no files written (give -o OUT to write URDF, STL and JSON)")
-    if as_json:
-        print_json(linkage_document(linkage))
+
+    emit_linkage(linkage, source=source, scale=scale, unit=unit, out=out, name=name, force=force,
+                 package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details)

@@ -94,8 +94,16 @@ def _available(target: str) -> bool:
     return importlib.util.find_spec(module) is not None
 
 
+def _print_version(ctx, param, value):
+    """--version, resolved only when asked (importlib.metadata costs ~25 ms of every start-up)."""
+    if value and not ctx.resilient_parsing:
+        click.echo(f"mpsynth, version {_version()}")
+        ctx.exit()
+
+
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(_version(), "--version", prog_name="mpsynth")
+@click.option("--version", is_flag=True, expose_value=False, is_eager=True, callback=_print_version,
+              help="Show the version and exit.")
 def mpsynth():
     """Design closed-loop linkages whose coupler visits given poses, by factorizing motion polynomials.
 
@@ -110,8 +118,6 @@ def mpsynth():
 
 
 def main(argv=None):
-    import importlib.util  # noqa: F401  (used by _available)
-
     try:
         return mpsynth.main(args=argv, prog_name="mpsynth", standalone_mode=True)
     except KeyboardInterrupt:  # pragma: no cover
