@@ -118,8 +118,6 @@ def mpsynth():
 
 
 def main(argv=None):
-    import importlib.util  # noqa: F401  (used by _available)
-
     try:
         return mpsynth.main(args=argv, prog_name="mpsynth", standalone_mode=True)
     except KeyboardInterrupt:  # pragma: no cover
