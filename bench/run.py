@@ -59,6 +59,10 @@ def machine() -> dict:
     except OSError:
         pass
     info["load"] = os.getloadavg()
+    # a plain-Python reference to compare machines: sum(range(10**6)), best of 5
+    import timeit
+
+    info["calibration_ms"] = min(timeit.repeat("sum(range(10**6))", number=1, repeat=5)) * 1e3
     info["openblas_threads"] = os.environ.get("OPENBLAS_NUM_THREADS", "unset")
     return info
 
@@ -163,15 +167,23 @@ def imported_modules(cmd_args) -> set:
 
 # ============================================================================ rational-linkages
 RL_HELPER = r'''
-import json, statistics, sys, time, warnings
+import json, signal, statistics, sys, time, warnings
 warnings.simplefilter("ignore")
 t0 = time.perf_counter()
 from rational_linkages import DualQuaternion, MotionInterpolation, RationalMechanism, TransfMatrix
 t_import = time.perf_counter() - t0
-import rational_linkages
+import importlib.metadata
 spec = json.loads(sys.argv[1])
-out = {"version": getattr(rational_linkages, "__version__", None), "import_in_process": t_import,
-       "bennett": [], "sixbar": [], "matrices3": [], "matrices4": []}
+out = {"version": importlib.metadata.version("rational-linkages"), "import_in_process": t_import,
+       "bennett": [], "sixbar": [], "matrices3": [], "matrices4": [], "failed": {"bennett": 0, "sixbar": 0}}
+
+class Timeout(Exception):
+    pass
+
+def on_alarm(*_):
+    raise Timeout()
+
+signal.signal(signal.SIGALRM, on_alarm)
 
 def run(dqs):
     poses = [DualQuaternion(list(map(float, d))) for d in dqs]
@@ -183,12 +195,25 @@ def run(dqs):
 
 for key, mkey in (("bennett", "matrices3"), ("sixbar", "matrices4")):
     for dqs in spec[key]:
-        ts = [run(dqs) for _ in range(spec["repeat"])]
+        if len(out[key]) >= spec["count"][key]:
+            break
+        try:
+            signal.alarm(spec["limit"][key])
+            ts = [run(dqs) for _ in range(spec["repeat"])]
+            signal.alarm(0)
+        except Exception:  # its factorization fails on some inputs, or takes longer than the limit
+            signal.alarm(0)
+            out["failed"][key] += 1
+            continue
         out[key].append(min(ts))
         out[mkey].append([TransfMatrix(DualQuaternion(list(map(float, d))).dq2matrix()).to_standard().tolist()
                           for d in dqs])
 print(json.dumps(out))
 '''
+
+
+RL_EXAMPLE_6R = [[1, 0, 0, 0, 0, 0, 0, 0], [0, 0, 0, 1, 1, 0, 1, 0], [1, 2, 0, 0, -2, 1, 0, 0], [3, 0, 1, 0, 1, 0, -3, 0]]
+RL_LIMIT = {"bennett": 120, "sixbar": 30}  # seconds per set before rational-linkages is given up on
 
 
 def integer_dq(rng, k=3):
@@ -212,7 +237,10 @@ def run_rl(python, rng, sets3, sets4, repeat, timeout):
     import synth
     from synth.errors import SynthesisError
 
-    spec = {"bennett": rl_sets(rng, sets3, 3), "sixbar": rl_sets(rng, sets4, 4), "repeat": repeat}
+    # candidates: more than needed; the helper keeps the first sets it can synthesize. 6R: the example of
+    # its documentation (MotionInterpolation), then random sets (on which it rarely succeeds)
+    spec = {"bennett": rl_sets(rng, 4 * sets3, 3), "sixbar": [RL_EXAMPLE_6R] + rl_sets(rng, 2 * sets4, 4),
+            "repeat": repeat, "count": {"bennett": sets3, "sixbar": sets4}, "limit": RL_LIMIT}
     # cold import of the package (new process each)
     imports = []
     for _ in range(3):
@@ -241,7 +269,18 @@ def run_rl(python, rng, sets3, sets4, repeat, timeout):
         ours_s.append(per_call(synth.sixbar, [T], 5)[0])
         fam, mem = L.info["family"], L.info["member"]
         ours_m.append(per_call(lambda x: one_member_loops(x, fam, mem), [T], 5)[0])
-    return rl, {"bennett": ours_b, "sixbar": ours_s, "member": ours_m, "sixbar_skipped": skipped}
+    ours_import = cold([sys.executable, "-c", "import synth.bennett"], 5)[0]
+    return rl, {"bennett": ours_b, "sixbar": ours_s, "member": ours_m, "sixbar_skipped": skipped,
+                "import_cold": ours_import}
+
+
+def _rl_note(r) -> str:
+    f = r.get("failed", {})
+    if not any(f.values()):
+        return ""
+    return (f"\nrational-linkages failed (an error, or no result within {RL_LIMIT['bennett']} s / "
+            f"{RL_LIMIT['sixbar']} s) on {f.get('bennett', 0)} Bennett and {f.get('sixbar', 0)} 6R candidate sets; "
+            "the figures above are over the sets it did synthesize (mpsynth synthesized all of them).")
 
 
 # ============================================================================ main
@@ -320,7 +359,7 @@ def main(argv=None):
     rl = None
     if args.rl_python:
         print("rational-linkages: timing its Bennett and 6R pipelines (symbolic; takes a minute) ...", flush=True)
-        rl = run_rl(args.rl_python, rng, 3 if q else 5, 2 if q else 4, 1 if q else 2, timeout=1800)
+        rl = run_rl(args.rl_python, rng, 3 if q else 5, 1 if q else 2, 1 if q else 2, timeout=1800)
 
     info["load_end"] = os.getloadavg()
     text = report(info, rows, heavy, rl)
@@ -335,12 +374,14 @@ def report(info, rows, heavy, rl) -> str:
     L.append(f"- Machine: {info.get('cpu')}, {info['nproc']} CPUs (nproc), {info.get('ram_gb')} GB RAM; "
              f"{info['platform']}")
     L.append(f"- Python {info['python']}, numpy {info['numpy']}, OPENBLAS_NUM_THREADS={info['openblas_threads']}")
+    L.append(f"- Calibration: `sum(range(10**6))` takes {info['calibration_ms']:.1f} ms here (best of 5; a recent "
+             "desktop CPU with CPython 3.11 takes roughly 10-15 ms): scale the in-process figures accordingly")
     L.append(f"- Load average (1/5/15 min) at start {', '.join(f'{x:.2f}' for x in info['load'])}, at end "
              f"{', '.join(f'{x:.2f}' for x in info['load_end'])}" + (
                  " -- other processes were competing for the CPUs, so wall-clock figures are inflated; the CPU "
                  "column (process time per call) is the steadier one" if max(info["load"]) > 0.5 * info["nproc"] else ""))
     L.append("")
-    L.append("| figure | median | min | CPU/call | target | ratio (>= 1: met) |")
+    L.append("| figure | median | min | CPU/call (mean) | target | ratio (>= 1: met) |")
     L.append("|---|---|---|---|---|---|")
     for name, label, med, mn, cpu in rows:
         tgt = TARGETS.get(name)
@@ -366,13 +407,16 @@ def report(info, rows, heavy, rl) -> str:
         L.append(f"## rational-linkages {r.get('version') or ''} on the same pose sets\n")
         L.append("Pose sets: small-integer dual quaternions on the Study quadric, first pose the identity (its "
                  "symbolic pipeline needs exact, small rationals: on random floating-point poses its 6R "
-                 "interpolation did not finish within 10 minutes). rational-linkages: "
+                 "interpolation did not finish within 10 minutes); for 6R the example of its documentation "
+                 "first, then random ones. rational-linkages: "
                  "`MotionInterpolation.interpolate(poses)`, `.factorize()`, `RationalMechanism(...)`, minimum of "
                  "its repeats per set, median over sets. mpsynth: `synth.bennett` / `synth.sixbar` (default: scan of "
                  "both families, best candidate, self-checks) on the identical 4x4 matrices, median.\n")
         L.append("| figure | rational-linkages | mpsynth | speed-up |")
         L.append("|---|---|---|---|")
-        L.append(f"| cold `import` | {fmt_time(r['import_cold'])} | (`import synth`: lazy) | - |")
+        ours_imp = ours.get("import_cold")
+        L.append(f"| cold `import` (new process) | {fmt_time(r['import_cold'])} | {fmt_time(ours_imp)} "
+                 f"(`import synth.bennett`, numpy included) | {r['import_cold'] / ours_imp:,.1f}x |")
         rb, ob = statistics.median(r["bennett"]), statistics.median(ours["bennett"])
         L.append(f"| Bennett from 3 poses | {fmt_time(rb)} | {fmt_time(ob)} | {rb / ob:,.0f}x |")
         if ours["sixbar"]:
@@ -380,6 +424,7 @@ def report(info, rows, heavy, rl) -> str:
                            statistics.median(ours["member"]))
             L.append(f"| 6R from 4 poses (default) | {fmt_time(rs)} | {fmt_time(os_)} | {rs / os_:,.0f}x |")
             L.append(f"| 6R, one member's loops | {fmt_time(rs)} | {fmt_time(om)} | {rs / om:,.0f}x |")
+        L.append(_rl_note(r))
         if ours["sixbar_skipped"]:
             L.append(f"\n{ours['sixbar_skipped']} of the 4-pose sets have no real 6R of this kind for mpsynth "
                      "(oval quadric) and were not compared.")

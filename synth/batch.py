@@ -21,8 +21,8 @@ Conventions (the same as `synth.bennett`):
 Sets that are not clearly generic (degenerate, nearly degenerate, or whose fast numerics are not at
 full precision) are handed one by one to `synth.bennett.bennett`, which either synthesizes them with the
 general engine or refuses them; its message becomes the set's ``status``. One bad set never raises.
-For random poses this is ~2% of the sets; a batch of degenerate sets is therefore slow (milliseconds
-per set), but every set gets exactly the answer and the message that `synth.bennett` gives.
+For random poses this is well under 1% of the sets; a batch of degenerate sets is therefore slow
+(milliseconds per set), but every set gets exactly the answer and the message that `synth.bennett` gives.
 """
 from __future__ import annotations
 
@@ -250,7 +250,6 @@ def bennett_batch(poses, *, check_samples: int = DEFAULT_CHECK_SAMPLES, names=No
     T = np.asarray(poses, float)
     if T.ndim != 4 or T.shape[1:] != (3, 4, 4):
         raise InputError(f"bennett_batch needs poses of shape (N, 3, 4, 4), got {T.shape}")
-    N = T.shape[0]
     names = list(names) if names is not None else ["p0", "p1", "p2"]
     with np.errstate(all="ignore"):
         out = _core(T, check_samples)
