@@ -418,12 +418,13 @@ def report(info, rows, heavy, rl) -> str:
         L.append(f"| cold `import` (new process) | {fmt_time(r['import_cold'])} | {fmt_time(ours_imp)} "
                  f"(`import synth.bennett`, numpy included) | {r['import_cold'] / ours_imp:,.1f}x |")
         rb, ob = statistics.median(r["bennett"]), statistics.median(ours["bennett"])
-        L.append(f"| Bennett from 3 poses | {fmt_time(rb)} | {fmt_time(ob)} | {rb / ob:,.0f}x |")
+        L.append(f"| Bennett from 3 poses ({len(r['bennett'])} sets) | {fmt_time(rb)} | {fmt_time(ob)} | {rb / ob:,.0f}x |")
         if ours["sixbar"]:
             rs, os_, om = (statistics.median(r["sixbar"]), statistics.median(ours["sixbar"]),
                            statistics.median(ours["member"]))
-            L.append(f"| 6R from 4 poses (default) | {fmt_time(rs)} | {fmt_time(os_)} | {rs / os_:,.0f}x |")
-            L.append(f"| 6R, one member's loops | {fmt_time(rs)} | {fmt_time(om)} | {rs / om:,.0f}x |")
+            k = f"{len(ours['sixbar'])} set{'s' if len(ours['sixbar']) != 1 else ''}"
+            L.append(f"| 6R from 4 poses, default ({k}) | {fmt_time(rs)} | {fmt_time(os_)} | {rs / os_:,.0f}x |")
+            L.append(f"| 6R, one member's loops ({k}) | {fmt_time(rs)} | {fmt_time(om)} | {rs / om:,.0f}x |")
         L.append(_rl_note(r))
         if ours["sixbar_skipped"]:
             L.append(f"\n{ours['sixbar_skipped']} of the 4-pose sets have no real 6R of this kind for mpsynth "

@@ -7,6 +7,8 @@ one batched product per joint, whatever the number of samples.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .linkage import Linkage
@@ -139,15 +141,53 @@ def motion_error(linkage: Linkage, samples: int = 200) -> float:
 
 
 def extent(linkage: Linkage) -> float:
-    """`Linkage.extent` (RMS distance of the joints' closest points to the origin and the tool positions
-    from their centroid, at least 1e-9), computed without per-joint numpy calls."""
-    from .scalar import cross
+    """`Linkage.extent` in plain floats (no numpy call per joint): RMS distance of the joint sites
+    (`Linkage.joint_sites`: mean of the common-normal feet along the links carrying the joint, else the
+    axis point nearest the poses' centre) and the tool positions from their centroid, at least 1e-9.
+    tests/test_fastpaths.py checks that both agree."""
+    from .scalar import common_normal_feet, cross, dot
 
-    pts = [cross(j.direction.tolist(), j.moment.tolist()) for j in linkage.joints]
-    pts += [tuple(p.matrix[:3, 3].tolist()) for p in linkage.poses] + [tuple(linkage.tool_ref[:3, 3].tolist())]
+    lines = {j.name: (j.direction.tolist(), j.moment.tolist()) for j in linkage.joints}
+    acc = {name: [0.0, 0.0, 0.0, 0] for name in lines}  # sum of feet, count
+    for names in linkage.links.values():
+        js = [n for n in names if n in lines]
+        for n1, n2 in zip(js, js[1:]):
+            (u1, m1), (u2, m2) = lines[n1], lines[n2]
+            c = cross(u1, u2)
+            if math.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) < 1e-9:
+                # parallel: the normal through the midpoint of the points nearest the origin (pair_feet)
+                p1, p2 = cross(u1, m1), cross(u2, m2)
+                k1 = ((p2[0] - p1[0]) * u1[0] + (p2[1] - p1[1]) * u1[1] + (p2[2] - p1[2]) * u1[2]) / 2
+                f1 = (p1[0] + k1 * u1[0], p1[1] + k1 * u1[1], p1[2] + k1 * u1[2])
+                k2 = dot((f1[0] - p2[0], f1[1] - p2[1], f1[2] - p2[2]), u2)
+                f2 = (p2[0] + k2 * u2[0], p2[1] + k2 * u2[1], p2[2] + k2 * u2[2])
+            else:
+                f1, f2 = common_normal_feet(u1, m1, u2, m2)
+            for name, f in ((n1, f1), (n2, f2)):
+                a = acc[name]
+                a[0] += f[0]
+                a[1] += f[1]
+                a[2] += f[2]
+                a[3] += 1
+    tools = [p.matrix[:3, 3].tolist() for p in linkage.poses] + [linkage.tool_ref[:3, 3].tolist()]
+    nt = len(tools)
+    cx = sum([p[0] for p in tools]) / nt
+    cy = sum([p[1] for p in tools]) / nt
+    cz = sum([p[2] for p in tools]) / nt
+    pts = list(tools)
+    for name, (u, m) in lines.items():
+        a = acc[name]
+        if a[3]:
+            pts.append((a[0] / a[3], a[1] / a[3], a[2] / a[3]))
+        else:  # the axis point nearest the poses' centre
+            p = cross(u, m)
+            k = (cx - p[0]) * u[0] + (cy - p[1]) * u[1] + (cz - p[2]) * u[2]
+            pts.append((p[0] + k * u[0], p[1] + k * u[1], p[2] + k * u[2]))
     n = len(pts)
-    c = [sum(p[k] for p in pts) / n for k in range(3)]
-    ms = sum((p[0] - c[0]) ** 2 + (p[1] - c[1]) ** 2 + (p[2] - c[2]) ** 2 for p in pts) / n
+    mx = sum([p[0] for p in pts]) / n
+    my = sum([p[1] for p in pts]) / n
+    mz = sum([p[2] for p in pts]) / n
+    ms = sum([(p[0] - mx) ** 2 + (p[1] - my) ** 2 + (p[2] - mz) ** 2 for p in pts]) / n
     return float(max(ms ** 0.5, 1e-9))
 
 

@@ -103,3 +103,29 @@ def test_thresholds_agree_with_the_general_engine():
 
     assert scalar.FAST_MAX_RESIDUAL == factor_mod.REFINE_TRIGGER
     assert batch.ACCEPT_TOL == bennett_mod.ACCEPT_TOL
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_checks_extent_equals_linkage_extent(seed):
+    from synth.checks import extent
+
+    rng = np.random.default_rng(seed)
+    T = random_poses(rng, 3, scale=10 ** rng.uniform(-2, 2), offset=rng.normal(size=3) * 10)
+    L = bennett_mod.bennett(T, check_samples=4)
+    assert extent(L) == pytest.approx(L.extent(), rel=1e-12)
+    assert L.checks["length_scale"] == pytest.approx(L.extent(), rel=1e-12)
+    # a joint no link pairs, and parallel axes
+    L.links = {"base": ["h1"], "coupler": ["h2", "k2"], "coupler_k": []}
+    assert extent(L) == pytest.approx(L.extent(), rel=1e-12)
+    L.joints[3].direction = L.joints[1].direction.copy()
+    L.joints[3].moment = L.joints[1].moment + np.cross([0.1, 0.2, 0.3], L.joints[1].direction)
+    assert extent(L) == pytest.approx(L.extent(), rel=1e-12)
+
+
+def test_checks_extent_equals_linkage_extent_sixbar():
+    import synth
+    from synth.checks import extent
+
+    rng = np.random.default_rng(3)
+    L = synth.sixbar(random_poses(rng, 4))
+    assert extent(L) == pytest.approx(L.extent(), rel=1e-12)
