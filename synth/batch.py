@@ -32,7 +32,7 @@ import numpy as np
 
 from .interpolate import condition, conic, relative_displacements
 from .motion import norm_poly
-from .scalar import FAST_MAX_RESIDUAL, FAST_MIN_B, FAST_MIN_IMAG, FAST_MIN_SEPARATION
+from .scalar import FAST_MAX_RESIDUAL, FAST_MIN_B, FAST_MIN_IMAG, FAST_MIN_SEPARATION, qmul
 
 ACCEPT_TOL = 1e-8  # synth.bennett.ACCEPT_TOL (checked in tests): sets above 0.1 x this go to synth.bennett
 
@@ -45,13 +45,7 @@ DEFAULT_CHECK_SAMPLES = 4  # as synth.DEFAULT_CHECK_SAMPLES
 # ============================================================================ component-first algebra
 # Quaternions as 4-tuples of arrays and dual quaternions as 8-tuples of arrays (one array per
 # component): every operation is a few dozen ufunc calls on contiguous arrays, whatever the batch shape.
-def _qm(a, b):
-    a0, a1, a2, a3 = a
-    b0, b1, b2, b3 = b
-    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+_qm = qmul  # the tuple product of synth.scalar works on tuples of arrays as well
 
 
 def _dm(a, b):

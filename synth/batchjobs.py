@@ -234,11 +234,10 @@ def _worker_init():
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    from . import bennett, poses  # noqa: F401
-    try:
-        from . import sixbar  # noqa: F401
-    except ImportError:
-        pass
+    import importlib
+
+    for module in ("synth.bennett", "synth.poses", "synth.sixbar"):  # modules, not the API functions
+        importlib.import_module(module)
 
 
 def dumps(result: dict) -> str:

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from numbers import Rational
 
+from .scalar import qmul as q_mul  # generic over the element type: Fractions here
 from .errors import InputError, NoFactorizationError, NotGenericError, SynthesisError
 
 __all__ = [
@@ -85,15 +86,6 @@ def as_exact_polynomial(rows) -> list[tuple[Fraction, ...]]:
 
 
 # ============================================================== dual quaternions
-def q_mul(a, b):
-    a0, a1, a2, a3 = a
-    b0, b1, b2, b3 = b
-    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
-
-
 def _add4(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3])
 
