@@ -34,6 +34,7 @@ import numpy as np
 
 from .dq import qmul
 from .errors import NoFactorizationError
+from .motion import poly_mul
 from .realfactor import RealFactor, mrpf, poly_text, require_bounded
 
 TEMPLATE_TOL = 1e-8  # relative least-squares residual of the template split
@@ -92,14 +93,7 @@ class CofactorResult:
 # ====================================================================== polynomial helpers
 def qp_mul(A, B):
     """Product of quaternion polynomials (..., na, 4) x (..., nb, 4) (ascending; order matters)."""
-    A = np.asarray(A, float)
-    B = np.asarray(B, float)
-    na, nb = A.shape[-2], B.shape[-2]
-    batch = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
-    out = np.zeros(batch + (na + nb - 1, 4))
-    for i in range(na):
-        out[..., i:i + nb, :] += qmul(A[..., i:i + 1, :], B)
-    return out
+    return poly_mul(A, B, mul=qmul)
 
 
 def real_mul(a, b):

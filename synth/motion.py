@@ -16,15 +16,16 @@ def degree(C) -> int:
     return np.asarray(C).shape[-2] - 1
 
 
-def poly_mul(A, B):
-    """Product A B of dual-quaternion polynomials (order matters)."""
+def poly_mul(A, B, mul=dq_mul):
+    """Product A B of polynomials with (dual) quaternion coefficients (order matters): ``mul`` is the
+    coefficient product, `dq_mul` (rows of 8) by default, `synth.dq.qmul` for quaternion rows of 4."""
     A = np.asarray(A, float)
     B = np.asarray(B, float)
     na, nb = A.shape[-2], B.shape[-2]
     batch = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
-    out = np.zeros(batch + (na + nb - 1, 8))
+    out = np.zeros(batch + (na + nb - 1, A.shape[-1]))
     for i in range(na):
-        out[..., i : i + nb, :] += dq_mul(A[..., i : i + 1, :], B)
+        out[..., i : i + nb, :] += mul(A[..., i : i + 1, :], B)
     return out
 
 
