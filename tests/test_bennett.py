@@ -82,12 +82,16 @@ def test_example_d_bennett_conditions(example_d):
 def _check_linkage(L, T, rel=1e-9):
     spread = np.sqrt(np.mean(np.sum((T[:, :3, 3] - T[:, :3, 3].mean(0)) ** 2, axis=1)))
     size = max(spread, L.extent())
+    # World coordinates a distance D from the origin carry an absolute rounding floor: rotations about
+    # axes that far out turn a 1e-13 rad angle error into 1e-13 D of translation. 1e-12 D (~5000 ulp)
+    # only matters for small linkages far from the origin (e.g. 17 mm at 161 m: closure 1e-10 m).
+    floor = 1e-12 * float(np.linalg.norm(T[:, :3, 3].mean(0)))
     c = L.checks
-    assert c["max_pose_translation_error"] <= rel * spread, c
+    assert c["max_pose_translation_error"] <= rel * spread + floor, c
     assert c["max_pose_rotation_error"] <= rel, c
-    assert c["max_closure_translation_error"] <= rel * size, c
+    assert c["max_closure_translation_error"] <= rel * size + floor, c
     assert c["max_closure_rotation_error"] <= rel, c
-    assert c["max_motion_error"] <= rel * max(1.0, size)
+    assert c["max_motion_error"] <= rel * max(1.0, size) + floor
     # both branches multiply back to the motion polynomial
     from synth.assemble import joint_from_factor  # noqa: F401 (documentation of the convention)
     # the tool frame through the motion polynomial reproduces every pose
