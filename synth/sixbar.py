@@ -457,11 +457,16 @@ def _warnings(cand: Candidate) -> list[str]:
 
 def checks_pass(linkage, scale: float, tol: float = CHECK_TOL) -> bool:
     """Self-check errors within ``tol`` relative: translations to the pose spread (closure: to the larger
-    of the spread and the linkage's size), rotations in radians."""
+    of the spread and the linkage's size) plus the rounding floor of coordinates far from the origin,
+    rotations in radians."""
+    from .bennett import EPS, FLOOR_ULPS
+
     c = linkage.checks
     size = max(scale, c.get("length_scale", scale))
-    vals = [c["max_pose_translation_error"] / scale, c["max_pose_rotation_error"],
-            c["max_closure_translation_error"] / size, c["max_closure_rotation_error"]]
+    # world coordinates far from the origin carry an absolute rounding floor (as in synth.bennett._accept)
+    floor = FLOOR_ULPS * EPS * max(abs(x) for p in linkage.poses for x in p.matrix[:3, 3].tolist())
+    vals = [c["max_pose_translation_error"] / (scale + floor / tol), c["max_pose_rotation_error"],
+            c["max_closure_translation_error"] / (size + floor / tol), c["max_closure_rotation_error"]]
     return all(np.isfinite(v) and v <= tol for v in vals)
 
 
