@@ -21,6 +21,7 @@ import json
 import os
 import shutil
 import signal
+import sys
 import tempfile
 import threading
 from contextlib import contextmanager
@@ -118,12 +119,24 @@ class _SignalGuard:
         for s in self.SIGNALS:
             self.saved[s] = signal.getsignal(s)
             signal.signal(s, self._handle)
+        self.saved_hook = sys.unraisablehook
+        sys.unraisablehook = self._unraisable
 
     def restore(self):
         for s, h in self.saved.items():
             signal.signal(s, h if h is not None else signal.SIG_DFL)
         self.saved = {}
+        if getattr(self, "saved_hook", None) is not None:
+            sys.unraisablehook, self.saved_hook = self.saved_hook, None
         return self.pending
+
+    def _unraisable(self, info):
+        """A signal that lands inside a callback Python cannot propagate from (e.g. an import lock's
+        weakref callback) is printed as 'Exception ignored ... Traceback'. It is ours and is raised
+        again before the commit (``raised``), so keep stderr to the contract's one line."""
+        if self.raised is not None and isinstance(info.exc_value, (KeyboardInterrupt, SystemExit)):
+            return
+        self.saved_hook(info)
 
     def _handle(self, signum, frame):
         if self.defer:
