@@ -195,10 +195,15 @@ def atomic_directory(out_dir, force: bool = False):
         (tmp / MARKER).write_text(_MARKER_TEXT, encoding="utf-8")
         _check_target(out, force)  # again: OUT may have appeared while we were writing
         _commit(tmp, out)
-    except BaseException:
+    except BaseException as e:
         guard.defer = True
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
+        if guard.raised and not isinstance(e, (KeyboardInterrupt, SystemExit)):
+            # the signal was swallowed (trimesh's optional imports catch BaseException) and this error is
+            # only its side effect (e.g. a module replaced by an exception wrapper): report the signal
+            guard.restore()
+            raise_for_signal(guard.raised)
         raise
     finally:
         pending = guard.restore()
