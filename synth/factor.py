@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field
+from itertools import chain
 
 import numpy as np
 
@@ -23,6 +24,7 @@ from .motion import (
     right_value,
     study_residual,
 )
+from .scalar import factorize_generic
 
 REAL_ROOT_TOL = 1e-7  # |Im z| <= tol * max(1, |z|): the root is taken as real
 MERGE_TOL = 1e-6  # roots closer than tol * max(1, |z|) are one repeated root
@@ -365,8 +367,6 @@ def check_motion_polynomial(C, tol=1e-9):
 def _factorize_fast(C, validate) -> FactorResult | None:
     """`factorize` for generic input in plain floats (`synth.scalar.factorize_generic`: the same
     steps, no numpy call per step); None when C is not clearly generic (then the code below decides)."""
-    from .scalar import factorize_generic
-
     if C.ndim != 2 or C.shape[0] > 4:  # degree <= 3: plain floats beat numpy's batching over orders
         return None
     out = factorize_generic(C, validate)
@@ -375,15 +375,19 @@ def _factorize_fast(C, validate) -> FactorResult | None:
     N, z, quads, orders, factors, residuals = out
     # number the quadratics like norm_quadratics: by (Re z rounded, Im z), so that equal real parts tie
     # exactly and the numbering of the factorizations matches the general code and exact mode
-    perm = sorted(range(len(z)), key=lambda i: (round(z[i].real, 9), z[i].imag))
-    if perm != list(range(len(z))):
+    keys = [(round(w.real, 9), w.imag) for w in z]
+    if keys != sorted(keys):
+        perm = sorted(range(len(z)), key=keys.__getitem__)
         new_of_old = {old: new for new, old in enumerate(perm)}
         quads = [quads[i] for i in perm]
         entries = sorted(((tuple(new_of_old[q] for q in o), H, r) for o, H, r in zip(orders, factors, residuals)),
                          key=lambda e: e[0])
         orders, factors, residuals = (list(x) for x in zip(*entries))
-    facts = [Factorization(factors=np.array(H), order=tuple(o), residual=r)
-             for o, H, r in zip(orders, factors, residuals)]
+    n = C.shape[0] - 1
+    # (n!, n, 8); each factorization gets a view, as in the general code
+    H = np.fromiter(chain.from_iterable(chain.from_iterable(factors)), float, 8 * n * len(factors))
+    H = H.reshape(len(factors), n, 8)
+    facts = [Factorization(factors=h, order=o, residual=r) for h, o, r in zip(H, orders, residuals)]
     return FactorResult(C=C, norm=np.array(N), quadratics=np.array(quads), multiplicity=[1] * len(quads),
                         factorizations=facts, generic=True, real_factor_roots=[], failed_orders=[])
 

@@ -14,6 +14,7 @@ Vectorized (batched) code lives in `synth.batch`; this module is for the single-
 from __future__ import annotations
 
 import cmath
+import itertools
 import math
 
 TWO_PI = 2.0 * math.pi
@@ -344,6 +345,9 @@ def rotation_dq(u, m, c, s):
 
 # ----------------------------------------------------------------------------- Algorithm 1 (MATH.md 4)
 FAST_STUDY_TOL = 1e-9  # as synth.factor.check_motion_polynomial
+FAST_REAL_FACTOR_TOL = 1e-6  # |P(z)| <= tol * ref at a norm root: real factor (as synth.factor.real_factor_roots)
+FAST_MIN_REMAINDER = 1e-9  # |primal r1| <= tol * max |primal C_k|: not generic (as synth.factor.GENERIC_TOL)
+_ONE = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 def _poly_norm_and_study(rows):
@@ -356,10 +360,10 @@ def _poly_norm_and_study(rows):
     for i, a in enumerate(rows):
         a0, a1, a2, a3, a4, a5, a6, a7 = a
         for j in range(i, n1):  # (i, j) and (j, i) contribute alike
-            b = rows[j]
+            b0, b1, b2, b3, b4, b5, b6, b7 = rows[j]
             f = 1.0 if i == j else 2.0
-            N[i + j] += f * (a0 * b[0] + a1 * b[1] + a2 * b[2] + a3 * b[3])
-            S[i + j] += f * ((a0 * b[4] + a1 * b[5] + a2 * b[6] + a3 * b[7]) + (a4 * b[0] + a5 * b[1] + a6 * b[2] + a7 * b[3]))
+            N[i + j] += f * (a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3)
+            S[i + j] += f * ((a0 * b4 + a1 * b5 + a2 * b6 + a3 * b7) + (a4 * b0 + a5 * b1 + a6 * b2 + a7 * b3))
     scale = max(max(map(abs, N)), max(map(abs, S)))
     return N, (max(map(abs, S)) / scale if scale > 0 else 0.0)
 
@@ -368,16 +372,231 @@ def _dq_neg(h):
     return (-h[0], -h[1], -h[2], -h[3], -h[4], -h[5], -h[6], -h[7])
 
 
-def _mul_linear(A, h):
-    """A (t - h) for a polynomial A (rows ascending, 8-tuples); rows equal to 1 are not multiplied."""
-    one = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    nh = _dq_neg(h)
-    Ah = [nh if a == one else dq_mul(a, nh) for a in A]
-    out = [Ah[0]]
-    for k in range(1, len(A)):
-        out.append(tuple([x + y for x, y in zip(A[k - 1], Ah[k])]))
-    out.append(A[-1])
-    return out
+_SUBDIAGONAL = {}  # 2n -> companion matrix template (ones below the diagonal)
+
+
+def _eigvals_function():
+    """numpy's LAPACK eigenvalue kernel without the checks of `numpy.linalg.eigvals` (a third of its
+    cost for a 6x6 matrix; our matrix is finite and real); that function itself if the kernel moved."""
+    import numpy as np
+
+    try:
+        from numpy.linalg import _umath_linalg
+
+        kernel = _umath_linalg.eigvals
+        kernel(np.eye(2), signature="d->D")
+    except Exception:  # pragma: no cover - other numpy layouts
+        return np.linalg.eigvals
+
+    def eigvals(a):
+        with np.errstate(all="ignore"):  # no convergence: NaN, then the general path decides
+            return kernel(a, signature="d->D")
+
+    return eigvals
+
+
+_EIGVALS = None  # eigenvalue function, chosen on first use
+
+
+def _companion_eigenvalues(N):
+    """Roots of the real polynomial N (ascending, N[-1] > 0) as the eigenvalues of its companion matrix
+    (LAPACK through numpy; the only numpy call of the fast path)."""
+    global _EIGVALS
+    m = len(N) - 1
+    base = _SUBDIAGONAL.get(m)
+    if base is None:
+        import numpy as np
+
+        base = _SUBDIAGONAL[m] = np.eye(m, k=-1)
+    if _EIGVALS is None:
+        _EIGVALS = _eigvals_function()
+    comp = base.copy()
+    lead = N[-1]
+    comp[0] = [-x / lead for x in N[-2::-1]]
+    return _EIGVALS(comp).tolist()
+
+
+def norm_upper_roots(N):
+    """The n roots with Im z > 0 of a real polynomial N of degree 2n <= 6 (ascending, N[-1] > 0): closed
+    form for n <= 2 (Ferrari), companion eigenvalues for n = 3; each polished by 3 Newton steps on N
+    (as `synth.factor.norm_quadratics`) and sorted by (Re z, Im z). None unless there are exactly n."""
+    n = (len(N) - 1) // 2
+    lead = N[-1]
+    if n == 1:
+        a, b = N[1] / lead, N[0] / lead
+        up = [complex(-a / 2, math.sqrt(b - a * a / 4))] if b - a * a / 4 > 0 else []
+    elif n == 2:
+        up = [z for z in quartic_roots(*(x / lead for x in N[:4])) if z.imag > 0]
+    else:
+        up = [z for z in _companion_eigenvalues(N) if z.imag > 0]
+    if len(up) != n:
+        return None
+    return sorted((polish_root(N, w) for w in up), key=lambda w: (w.real, w.imag))
+
+
+def _clearly_separated(z):
+    """Every root clearly non-real (FAST_MIN_IMAG) and every two clearly apart (FAST_MIN_SEPARATION)."""
+    for i, w in enumerate(z):
+        if not w.imag > FAST_MIN_IMAG * max(1.0, abs(w)):
+            return False
+        for v in z[:i]:
+            if not abs(w - v) > FAST_MIN_SEPARATION * max(1.0, abs(w), abs(v)):
+                return False
+    return True
+
+
+def remainder_mod_quadratic(rows, c0, c1):
+    """(r1, r0) with C = Q (t^2 + c1 t + c0) + r1 t + r0 (rows ascending, 8 numbers each; the same steps
+    as `synth.motion.divide_real_quadratic`, where a coefficient exactly 1 is not multiplied)."""
+    R = list(rows)
+    for k in range(len(R) - 1, 1, -1):
+        top = R[k]
+        if top == _ONE:
+            a, b = R[k - 1], R[k - 2]
+            R[k - 1] = (a[0] - c1,) + tuple(a[1:])
+            R[k - 2] = (b[0] - c0,) + tuple(b[1:])
+        else:
+            R[k - 1] = [x - c1 * y for x, y in zip(R[k - 1], top)]
+            R[k - 2] = [x - c0 * y for x, y in zip(R[k - 2], top)]
+    return R[1], R[0]
+
+
+def _outer_factors(rows, z, prim, pscale, left):
+    """For the norm root z (quadratic M = t^2 - 2 Re z t + |z|^2): the rightmost factor h with
+    C = C' (t - h), and when ``left`` the leftmost k with C = (t - k) C'', both from the remainder
+    r1 t + r0 of C mod M: h = -r1^-1 r0, and k = conj of the rightmost factor of conj(C), whose
+    remainder is conj(r1) t + conj(r0). None when C is not clearly generic at z: the primal part of r1
+    is (nearly) zero, or P(z) = primal(r1) z + primal(r0) (nearly) vanishes, i.e. the primal part has
+    the real factor M (as `synth.factor.real_factor_roots`)."""
+    x, y = z.real, z.imag
+    r1, r0 = remainder_mod_quadratic(rows, x * x + y * y, -2.0 * x)
+    p0, p1, p2, p3 = r1[:4]
+    if not math.sqrt(p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3) > FAST_MIN_REMAINDER * prim:
+        return None
+    az = abs(z)
+    ref = 1.0  # sum of |z|^k, k = 0..n
+    for _ in range(len(rows) - 1):
+        ref = ref * az + 1.0
+    u0, u1, u2, u3 = p0 * x + r0[0], p1 * x + r0[1], p2 * x + r0[2], p3 * x + r0[3]
+    if (math.sqrt(u0 * u0 + u1 * u1 + u2 * u2 + u3 * u3 + (p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3) * (y * y))
+            <= FAST_REAL_FACTOR_TOL * pscale * ref):
+        return None
+    inv = dq_inv(r1)
+    if left:
+        return _outer_pair(inv, r0)
+    return _dq_neg(dq_mul(inv, r0)), None
+
+
+def _outer_pair(a, b):
+    """(-(a b), -conj(conj(a) conj(b))) of 8-tuples: for a = r1^-1, b = r0 the right factor h = -r1^-1 r0 and
+    the left factor k (the rightmost factor of conj(C), conjugated), with the formulas of `dq_mul` (bitwise
+    equal to composing dq_mul, dq_conj and negation)."""
+    a0, a1, a2, a3, a4, a5, a6, a7 = a
+    b0, b1, b2, b3, b4, b5, b6, b7 = b
+    na1, na2, na3, na5, na6, na7 = -a1, -a2, -a3, -a5, -a6, -a7
+    nb1, nb2, nb3, nb5, nb6, nb7 = -b1, -b2, -b3, -b5, -b6, -b7
+    h = (-(a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3),
+         -(a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2),
+         -(a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1),
+         -(a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0),
+         -((a0 * b4 - a1 * b5 - a2 * b6 - a3 * b7) + (a4 * b0 - a5 * b1 - a6 * b2 - a7 * b3)),
+         -((a0 * b5 + a1 * b4 + a2 * b7 - a3 * b6) + (a4 * b1 + a5 * b0 + a6 * b3 - a7 * b2)),
+         -((a0 * b6 - a1 * b7 + a2 * b4 + a3 * b5) + (a4 * b2 - a5 * b3 + a6 * b0 + a7 * b1)),
+         -((a0 * b7 + a1 * b6 - a2 * b5 + a3 * b4) + (a4 * b3 + a5 * b2 - a6 * b1 + a7 * b0)))
+    k = (-(a0 * b0 - na1 * nb1 - na2 * nb2 - na3 * nb3),
+         a0 * nb1 + na1 * b0 + na2 * nb3 - na3 * nb2,
+         a0 * nb2 - na1 * nb3 + na2 * b0 + na3 * nb1,
+         a0 * nb3 + na1 * nb2 - na2 * nb1 + na3 * b0,
+         -((a0 * b4 - na1 * nb5 - na2 * nb6 - na3 * nb7) + (a4 * b0 - na5 * nb1 - na6 * nb2 - na7 * nb3)),
+         (a0 * nb5 + na1 * b4 + na2 * nb7 - na3 * nb6) + (a4 * nb1 + na5 * b0 + na6 * nb3 - na7 * nb2),
+         (a0 * nb6 - na1 * nb7 + na2 * b4 + na3 * nb5) + (a4 * nb2 - na5 * nb3 + na6 * b0 + na7 * nb1),
+         (a0 * nb7 + na1 * nb6 - na2 * nb5 + na3 * b4) + (a4 * nb3 + na5 * nb2 - na6 * nb1 + na7 * b0))
+    return h, k
+
+
+def _dq_mul_add_error(a, b, c, d):
+    """max_k |(a b + c - d)_k| for 8-tuples, the product with the formulas of `dq_mul` (bitwise equal)."""
+    a0, a1, a2, a3, a4, a5, a6, a7 = a
+    b0, b1, b2, b3, b4, b5, b6, b7 = b
+    c0, c1, c2, c3, c4, c5, c6, c7 = c
+    d0, d1, d2, d3, d4, d5, d6, d7 = d
+    return max(abs((a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3) + c0 - d0),
+               abs((a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2) + c1 - d1),
+               abs((a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1) + c2 - d2),
+               abs((a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0) + c3 - d3),
+               abs(((a0 * b4 - a1 * b5 - a2 * b6 - a3 * b7) + (a4 * b0 - a5 * b1 - a6 * b2 - a7 * b3)) + c4 - d4),
+               abs(((a0 * b5 + a1 * b4 + a2 * b7 - a3 * b6) + (a4 * b1 + a5 * b0 + a6 * b3 - a7 * b2)) + c5 - d5),
+               abs(((a0 * b6 - a1 * b7 + a2 * b4 + a3 * b5) + (a4 * b2 - a5 * b3 + a6 * b0 + a7 * b1)) + c6 - d6),
+               abs(((a0 * b7 + a1 * b6 - a2 * b5 + a3 * b4) + (a4 * b3 + a5 * b2 - a6 * b1 + a7 * b0)) + c7 - d7))
+
+
+_ZERO = (0.0,) * 8
+
+
+def _multiply_back_error(H, rows):
+    """max |(t - h_1)...(t - h_n) - C| over all coefficients, for n <= 3 and monic C (rows ascending);
+    the same floating-point steps as `synth.motion.product_of_linear`, with the signs folded in (exact)."""
+    if len(H) == 1:
+        return max([abs(a + c) for a, c in zip(H[0], rows[0])])
+    h1, h2 = H[0], H[1]
+    if len(H) == 2:  # (t - h1)(t - h2) = t^2 - (h1 + h2) t + h1 h2
+        return max(_dq_mul_add_error(h1, h2, _ZERO, rows[0]),
+                   max([abs((a + b) + c) for a, b, c in zip(h1, h2, rows[1])]))
+    h3 = H[2]  # (t^2 - s t + A)(t - h3) = t^3 - (s + h3) t^2 + (A + s h3) t - A h3
+    A = dq_mul(h1, h2)
+    s = [a + b for a, b in zip(h1, h2)]
+    return max(_dq_mul_add_error(A, h3, rows[0], _ZERO),
+               _dq_mul_add_error(s, h3, A, rows[1]),
+               max([abs((a + b) + c) for a, b, c in zip(s, h3, rows[2])]))
+
+
+def _cubic_order(h1, h3, c0, c1, c2):
+    """For a monic cubic C = c0 + c1 t + c2 t^2 + t^3 with outer factors h1, h3: the middle factor
+    h2 = -(c2 + h1 + h3) and max |(t - h1)(t - h2)(t - h3) - C|; `_multiply_back_error` unrolled (the same
+    floating-point steps: A = h1 h2, s = h1 + h2, rows A h3 + c0, (A + s h3) - c1, (s + h3) + c2).
+    The error is inf unless every number is finite."""
+    a0, a1, a2, a3, a4, a5, a6, a7 = h1
+    d0, d1, d2, d3, d4, d5, d6, d7 = h3
+    h2 = (-((c2[0] + a0) + d0), -((c2[1] + a1) + d1), -((c2[2] + a2) + d2), -((c2[3] + a3) + d3),
+          -((c2[4] + a4) + d4), -((c2[5] + a5) + d5), -((c2[6] + a6) + d6), -((c2[7] + a7) + d7))
+    b0, b1, b2, b3, b4, b5, b6, b7 = h2
+    A0 = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3
+    A1 = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2
+    A2 = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1
+    A3 = a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0
+    A4 = (a0 * b4 - a1 * b5 - a2 * b6 - a3 * b7) + (a4 * b0 - a5 * b1 - a6 * b2 - a7 * b3)
+    A5 = (a0 * b5 + a1 * b4 + a2 * b7 - a3 * b6) + (a4 * b1 + a5 * b0 + a6 * b3 - a7 * b2)
+    A6 = (a0 * b6 - a1 * b7 + a2 * b4 + a3 * b5) + (a4 * b2 - a5 * b3 + a6 * b0 + a7 * b1)
+    A7 = (a0 * b7 + a1 * b6 - a2 * b5 + a3 * b4) + (a4 * b3 + a5 * b2 - a6 * b1 + a7 * b0)
+    s0, s1, s2, s3, s4, s5, s6, s7 = a0 + b0, a1 + b1, a2 + b2, a3 + b3, a4 + b4, a5 + b5, a6 + b6, a7 + b7
+    e = (
+        (A0 * d0 - A1 * d1 - A2 * d2 - A3 * d3) + c0[0],
+        (A0 * d1 + A1 * d0 + A2 * d3 - A3 * d2) + c0[1],
+        (A0 * d2 - A1 * d3 + A2 * d0 + A3 * d1) + c0[2],
+        (A0 * d3 + A1 * d2 - A2 * d1 + A3 * d0) + c0[3],
+        ((A0 * d4 - A1 * d5 - A2 * d6 - A3 * d7) + (A4 * d0 - A5 * d1 - A6 * d2 - A7 * d3)) + c0[4],
+        ((A0 * d5 + A1 * d4 + A2 * d7 - A3 * d6) + (A4 * d1 + A5 * d0 + A6 * d3 - A7 * d2)) + c0[5],
+        ((A0 * d6 - A1 * d7 + A2 * d4 + A3 * d5) + (A4 * d2 - A5 * d3 + A6 * d0 + A7 * d1)) + c0[6],
+        ((A0 * d7 + A1 * d6 - A2 * d5 + A3 * d4) + (A4 * d3 + A5 * d2 - A6 * d1 + A7 * d0)) + c0[7],
+        ((s0 * d0 - s1 * d1 - s2 * d2 - s3 * d3) + A0) - c1[0],
+        ((s0 * d1 + s1 * d0 + s2 * d3 - s3 * d2) + A1) - c1[1],
+        ((s0 * d2 - s1 * d3 + s2 * d0 + s3 * d1) + A2) - c1[2],
+        ((s0 * d3 + s1 * d2 - s2 * d1 + s3 * d0) + A3) - c1[3],
+        (((s0 * d4 - s1 * d5 - s2 * d6 - s3 * d7) + (s4 * d0 - s5 * d1 - s6 * d2 - s7 * d3)) + A4) - c1[4],
+        (((s0 * d5 + s1 * d4 + s2 * d7 - s3 * d6) + (s4 * d1 + s5 * d0 + s6 * d3 - s7 * d2)) + A5) - c1[5],
+        (((s0 * d6 - s1 * d7 + s2 * d4 + s3 * d5) + (s4 * d2 - s5 * d3 + s6 * d0 + s7 * d1)) + A6) - c1[6],
+        (((s0 * d7 + s1 * d6 - s2 * d5 + s3 * d4) + (s4 * d3 + s5 * d2 - s6 * d1 + s7 * d0)) + A7) - c1[7],
+        (s0 + d0) + c2[0],
+        (s1 + d1) + c2[1],
+        (s2 + d2) + c2[2],
+        (s3 + d3) + c2[3],
+        (s4 + d4) + c2[4],
+        (s5 + d5) + c2[5],
+        (s6 + d6) + c2[6],
+        (s7 + d7) + c2[7],
+    )
+    err = max(max(e), -min(e))
+    return h2, (err if math.isfinite(sum(e)) else math.inf)
 
 
 def factorize_generic(C, validate=True):
@@ -385,107 +604,56 @@ def factorize_generic(C, validate=True):
     floats, for *generic* input only: returns None unless C is valid (when ``validate``), the roots of N(C) are
     non-real and well separated (FAST_MIN_IMAG, FAST_MIN_SEPARATION), the primal part has no real factor,
     every Algorithm-1 step is generic with an exact division, and every factorization multiplies back
-    to within 1e-14. `synth.factor.factorize` then handles everything else (validation errors, repeated
-    or real roots, refinement). Otherwise returns (N, roots (sorted by real, imag part), quadratics,
-    orders, factor lists, residuals) with the same conventions and results as the general code."""
-    import itertools
-
+    to within FAST_MAX_RESIDUAL. `synth.factor.factorize` then handles everything else (validation
+    errors, repeated or real roots, refinement). Otherwise returns (N, roots (sorted by real, imag part),
+    quadratics, orders, factor lists, residuals) with the same conventions and results as the general code."""
     rows = [tuple(r) for r in C.tolist()]
     n = len(rows) - 1
     if not 1 <= n <= 3 or len(rows[0]) != 8:
         return None
+    if rows[-1] != _ONE:  # the shortcuts below need an exactly monic C (so it is valid as to that)
+        return None
     flat = [x for r in rows for x in r]
     if not math.isfinite(sum(flat)):
-        return None
-    if validate and max(abs(x - y) for x, y in zip(rows[-1], (1.0, 0, 0, 0, 0, 0, 0, 0))) > FAST_STUDY_TOL:
         return None
     N, study = _poly_norm_and_study(rows)
     if validate and not study <= FAST_STUDY_TOL:
         return None
-    # roots of N: Ferrari for the quartic, companion eigenvalues above
-    lead = N[-1]
-    if not lead > 0:
+    z = norm_upper_roots(N)
+    if z is None or not _clearly_separated(z):
         return None
-    if n == 1:
-        a, b = N[1] / lead, N[0] / lead
-        up = [complex(-a / 2, math.sqrt(b - a * a / 4))] if b - a * a / 4 > 0 else []
-    elif n == 2:
-        up = [z for z in quartic_roots(*(x / lead for x in N[:4])) if z.imag > 0]
-    else:
-        import numpy as np
-
-        comp = np.zeros((2 * n, 2 * n))
-        comp[0] = [-x / lead for x in N[-2::-1]]
-        comp[range(1, 2 * n), range(2 * n - 1)] = 1.0
-        up = [z for z in np.linalg.eigvals(comp).tolist() if z.imag > 0]
-    if len(up) != n:
-        return None
-    z = sorted((polish_root(N, w) for w in up), key=lambda w: (w.real, w.imag))
-    for i, w in enumerate(z):
-        if not w.imag > FAST_MIN_IMAG * max(1.0, abs(w)):
-            return None
-        for v in z[:i]:
-            if not abs(w - v) > FAST_MIN_SEPARATION * max(1.0, abs(w), abs(v)):
-                return None
-    # no real factor of the primal part: P(z) != 0 at every root (as synth.factor.real_factor_roots)
-    pscale = max(abs(x) for r in rows for x in r[:4])
-    for w in z:
-        val = [0j, 0j, 0j, 0j]
-        for r in reversed(rows):
-            val = [v * w + r[k] for k, v in enumerate(val)]
-        ref = pscale * sum(abs(w) ** k for k in range(n + 1))
-        if math.sqrt(sum(abs(v) ** 2 for v in val)) <= 1e-6 * ref:
-            return None
     quads = [(w.real * w.real + w.imag * w.imag, -2.0 * w.real) for w in z]
-    cmax = max(1.0, max(map(abs, flat)))
-    orders = list(itertools.permutations(range(n)))
-    one = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    if rows[-1] != one:  # the shortcuts below need an exactly monic C
-        return None
-
-    def right_factor(D, q):
-        """The zero h of D mod M_q (Algorithm 1, step c): t - h right-divides D; None if not generic."""
-        c0, c1 = quads[q]
-        R = list(D)
-        for k in range(len(D) - 1, 1, -1):
-            top = R[k]
-            R[k - 1] = [x - c1 * y for x, y in zip(R[k - 1], top)]
-            R[k - 2] = [x - c0 * y for x, y in zip(R[k - 2], top)]
-        r1, r0 = tuple(R[1]), tuple(R[0])
-        if not math.sqrt(r1[0] ** 2 + r1[1] ** 2 + r1[2] ** 2 + r1[3] ** 2) > 1e-9 * prim:
-            return None
-        return _dq_neg(dq_mul(dq_inv(r1), r0))
-
     prim = max([math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]) for r in rows])
-    # the rightmost factor depends only on its norm quadratic, and so does the leftmost one (the
-    # rightmost factor of the conjugate polynomial, conjugated); the middle one of a cubic follows from
-    # the t^2 coefficient, c2 = -(h1 + h2 + h3). Every factorization is multiplied back below.
-    right = [right_factor(rows, q) for q in range(n)]
-    if any(h is None for h in right):
+    pscale = max([abs(x) for r in rows for x in r[:4]])
+    # the rightmost factor depends only on its norm quadratic, and so does the leftmost one; the middle
+    # one of a cubic follows from the t^2 coefficient, c2 = -(h1 + h2 + h3). Every factorization is
+    # multiplied back below.
+    outer = [_outer_factors(rows, w, prim, pscale, n == 3) for w in z]
+    if None in outer:
         return None
-    if n == 3:
-        conj_rows = [dq_conj(r) for r in rows]
-        left = [right_factor(conj_rows, q) for q in range(n)]
-        if any(h is None for h in left):
-            return None
-        left = [dq_conj(h) for h in left]
+    right = [o[0] for o in outer]
+    cmax = max(1.0, max(map(abs, flat)))
     c_top = rows[n - 1]
+    orders = _PERMUTATIONS[n]
     factors, residuals = [], []
     for order in orders:
         hn = right[order[-1]]
         if n == 1:
             H = [hn]
+            res = _multiply_back_error(H, rows) / cmax
         elif n == 2:
             H = [tuple([-(a + b) for a, b in zip(c_top, hn)]), hn]
+            res = _multiply_back_error(H, rows) / cmax
         else:
-            h1 = left[order[0]]
-            H = [h1, tuple([-(a + b + c) for a, b, c in zip(c_top, h1, hn)]), hn]
-        P = [_dq_neg(H[0]), one]
-        for h in H[1:]:
-            P = _mul_linear(P, h)
-        res = max([max(map(abs, map(float.__sub__, a, b))) for a, b in zip(P, rows)]) / cmax
+            h1 = outer[order[0]][1]
+            h2, err = _cubic_order(h1, hn, rows[0], rows[1], c_top)
+            H = [h1, h2, hn]
+            res = err / cmax
         if not res <= FAST_MAX_RESIDUAL:
             return None
         factors.append(H)
         residuals.append(res)
     return N, z, quads, orders, factors, residuals
+
+
+_PERMUTATIONS = {n: list(itertools.permutations(range(n))) for n in (1, 2, 3)}
