@@ -205,13 +205,13 @@ def quartic_roots(a0, a1, a2, a3):
 def polish_root(c, z, iterations=3):
     """Newton steps on the real polynomial with ascending coefficients c at the complex point z (as
     `synth.factor._polish_roots`)."""
-    n = len(c) - 1
+    lead, rest = c[-1], c[-2::-1]  # rest: c[n-1], ..., c[0]
     for _ in range(iterations):
-        f = c[n]
+        f = lead
         df = 0.0
-        for k in range(n - 1, -1, -1):
+        for ck in rest:
             df = df * z + f
-            f = f * z + c[k]
+            f = f * z + ck
         if df == 0:
             break
         z = z - f / df
