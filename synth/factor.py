@@ -364,6 +364,28 @@ def check_motion_polynomial(C, tol=1e-9):
         raise InputError(f"not a motion polynomial: its norm is not real (Study condition violated by {res:.2g})")
 
 
+def _real_parts_apart(z) -> bool:
+    """Consecutive roots (sorted by real part) differ in real part by more than 1e-8 relative: then
+    rounding the real parts to 9 decimals (the numbering of `norm_quadratics`) keeps their order."""
+    return all(b.real - a.real > 1e-8 * max(1.0, abs(a.real), abs(b.real)) for a, b in zip(z, z[1:]))
+
+
+def _renumber(z, quads, orders, factors, residuals):
+    """Number the quadratics like norm_quadratics: by (Re z rounded, Im z), so that equal real parts tie
+    exactly and the numbering of the factorizations matches the general code and exact mode (z comes
+    sorted by (Re z, Im z)). Returns (quads, orders, factors, residuals), reordered if need be."""
+    if _real_parts_apart(z):
+        return quads, orders, factors, residuals
+    keys = [(round(w.real, 9), w.imag) for w in z]
+    if keys == sorted(keys):
+        return quads, orders, factors, residuals
+    perm = sorted(range(len(z)), key=keys.__getitem__)
+    new_of_old = {old: new for new, old in enumerate(perm)}
+    entries = sorted(((tuple(new_of_old[q] for q in o), H, r) for o, H, r in zip(orders, factors, residuals)),
+                     key=lambda e: e[0])
+    return ([quads[i] for i in perm], *(list(x) for x in zip(*entries)))
+
+
 def _factorize_fast(C, validate) -> FactorResult | None:
     """`factorize` for generic input in plain floats (`synth.scalar.factorize_generic`: the same
     steps, no numpy call per step); None when C is not clearly generic (then the code below decides)."""
@@ -373,21 +395,11 @@ def _factorize_fast(C, validate) -> FactorResult | None:
     if out is None:
         return None
     N, z, quads, orders, factors, residuals = out
-    # number the quadratics like norm_quadratics: by (Re z rounded, Im z), so that equal real parts tie
-    # exactly and the numbering of the factorizations matches the general code and exact mode
-    keys = [(round(w.real, 9), w.imag) for w in z]
-    if keys != sorted(keys):
-        perm = sorted(range(len(z)), key=keys.__getitem__)
-        new_of_old = {old: new for new, old in enumerate(perm)}
-        quads = [quads[i] for i in perm]
-        entries = sorted(((tuple(new_of_old[q] for q in o), H, r) for o, H, r in zip(orders, factors, residuals)),
-                         key=lambda e: e[0])
-        orders, factors, residuals = (list(x) for x in zip(*entries))
+    quads, orders, factors, residuals = _renumber(z, quads, orders, factors, residuals)
     n = C.shape[0] - 1
     # (n!, n, 8); each factorization gets a view, as in the general code
     H = np.fromiter(chain.from_iterable(chain.from_iterable(factors)), float, 8 * n * len(factors))
-    H = H.reshape(len(factors), n, 8)
-    facts = [Factorization(factors=h, order=o, residual=r) for h, o, r in zip(H, orders, residuals)]
+    facts = list(map(Factorization, H.reshape(len(factors), n, 8), orders, residuals))  # factors, order, residual
     return FactorResult(C=C, norm=np.array(N), quadratics=np.array(quads), multiplicity=[1] * len(quads),
                         factorizations=facts, generic=True, real_factor_roots=[], failed_orders=[])
 

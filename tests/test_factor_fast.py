@@ -103,6 +103,22 @@ def test_fast_path_is_taken_and_tight_for_separated_cubics(seed):
         assert f.residual == pytest.approx(float(relative_error(product_of_linear(f.factors), C)), abs=2e-15)
 
 
+@pytest.mark.parametrize("a1", [0.0, 1e-12, -1e-12, 3e-10])
+@pytest.mark.parametrize("order", [(0, 1, 2), (2, 0, 1), (1, 2, 0)])
+def test_fast_path_numbers_tied_real_parts_like_the_general_engine(a1, order):
+    """Norm roots a1 + i and 0 + 2i: sorted by real part the second comes first (for a1 > 0), but the
+    general engine numbers by the real part rounded to 9 decimals, then the imaginary part."""
+    rng = np.random.default_rng(7)
+    hs = [revolute_factor(a1, 1.0, rng.normal(size=3), rng.normal(size=3)),
+          revolute_factor(0.0, 2.0, rng.normal(size=3), rng.normal(size=3)),
+          revolute_factor(1.0, 1.5, rng.normal(size=3), rng.normal(size=3))]
+    C = product_of_linear(np.stack([hs[i] for i in order]))
+    fast = factor_mod._factorize_fast(C, True)
+    assert fast is not None
+    same_result(fast, general(C), atol=1e-12 * max(1.0, float(np.abs(C).max())))
+    assert fast.quadratics[0][0] == pytest.approx(1.0) and fast.quadratics[1][0] == pytest.approx(4.0)
+
+
 @st.composite
 def nearly_repeated(draw):
     """Products of 2..3 revolute factors where two norm roots lie within 1e-12..1e-6 (relative) of each
