@@ -4,6 +4,7 @@ closed solids; the closed-surface check; and writing an output without importing
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -265,3 +266,28 @@ def test_writing_an_output_does_not_import_trimesh(tmp_path):
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == ""
     assert (tmp_path / "OUT" / "meshes" / "base.stl").is_file()
+
+
+# ------------------------------------------------------------------ signals during import manifold3d
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_signal_during_manifold3d_import_arrives_after_it(tmp_path, sig):
+    """A signal that lands while manifold3d initialises is delivered when the import is done (inside
+    nanobind's module init a KeyboardInterrupt aborts the process). A stand-in manifold3d signals
+    itself halfway through its import."""
+    (tmp_path / "manifold3d.py").write_text(
+        "import os, signal\n"
+        f"os.kill(os.getpid(), signal.{sig})\n"
+        "total = sum(range(100000))  # bytecode during which a Python handler would run\n"
+        "finished = True\n")
+    code = ("import signal, sys\n"
+            "from synth.export.solid import import_manifold3d\n"
+            "def term(signum, frame):\n    raise SystemExit(143)\n"
+            "signal.signal(signal.SIGTERM, term)\n"
+            "try:\n    import_manifold3d()\n"
+            "except (KeyboardInterrupt, SystemExit) as e:\n"
+            "    print(type(e).__name__, sys.modules['manifold3d'].finished)\n"
+            "    print(signal.getsignal(signal.SIGINT) is signal.default_int_handler, signal.getsignal(signal.SIGTERM) is term)\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path), str(REPO)]))
+    r = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60, env=env)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == [{"SIGINT": "KeyboardInterrupt", "SIGTERM": "SystemExit"}[sig], "True", "True", "True"]

@@ -28,8 +28,8 @@ import numpy as np
 
 from ..linkage import pair_feet
 from .frames import link_origins
-from .solid import (Solid, concatenate, cylinder, mass_properties, read_stl_triangles, signed_volume,
-                    stl_bytes, surface_defect, union, weld)
+from .solid import (Solid, concatenate, cylinder, import_manifold3d, mass_properties, read_stl_triangles,
+                    signed_volume, stl_bytes, surface_defect, union, weld)
 from .urdf import MESH_UNIT_SCALE
 
 PIN_RADIUS = 0.02  # times linkage.extent()
@@ -63,7 +63,7 @@ def default_sizes(linkage, pin_radius=None, link_radius=None, pin_length=None) -
 def have_manifold() -> bool:
     """True when the manifold3d boolean engine is importable."""
     try:
-        import manifold3d  # noqa: F401
+        import_manifold3d()
     except ImportError:
         return False
     return True

@@ -11,6 +11,9 @@ triangle the unit normal and the three corners as little-endian float32, and a z
 """
 from __future__ import annotations
 
+import signal
+import sys
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -98,14 +101,34 @@ def concatenate(parts) -> Solid:
                  np.concatenate([p.faces + k for p, k in zip(parts, offsets)]))
 
 
+def import_manifold3d():
+    """The manifold3d module. The first import runs with SIGINT/SIGTERM held back and delivers them
+    once it is done: a KeyboardInterrupt raised inside manifold3d's (nanobind) module initialisation
+    aborts the whole process (SIGABRT/SIGSEGV) instead of propagating. Raises ImportError."""
+    if "manifold3d" in sys.modules or threading.current_thread() is not threading.main_thread():
+        import manifold3d  # only the main thread runs Python signal handlers
+
+        return manifold3d
+    held = (signal.SIGINT, signal.SIGTERM)
+    pending = []
+    saved = {s: signal.signal(s, lambda signum, frame: pending.append(signum)) for s in held}
+    try:
+        import manifold3d
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        for s in dict.fromkeys(pending):
+            signal.raise_signal(s)  # to whatever handler was installed before
+    return manifold3d
+
+
 def union(parts) -> Solid:
     """Boolean union of closed parts with manifold3d: one closed 2-manifold.
 
     Computed at unit size around the origin in single precision (manifold3d's ``Mesh``): its tolerances
     are then relative, so micrometre-sized parts and parts far from the world origin work alike, and
     the result keeps no slivers finer than the float32 STL it is written to."""
-    import manifold3d
-
+    manifold3d = import_manifold3d()
     lo = np.min([p.vertices.min(axis=0) for p in parts], axis=0)
     hi = np.max([p.vertices.max(axis=0) for p in parts], axis=0)
     centre, size = (lo + hi) / 2, float(np.max(hi - lo))
