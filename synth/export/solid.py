@@ -170,19 +170,30 @@ def surface_defect(faces) -> str | None:
     return None
 
 
+def _cone(triangles):
+    """(r, a, b, c, 6 V): the mean corner r, the corners relative to it (each (m, 3)) and six times the
+    signed volume of every tetrahedron (r, a, b, c) (m,). Taken about r, sums over the tetrahedra stay
+    well conditioned far from the origin."""
+    tri = np.asarray(triangles, np.float64)
+    r = tri.reshape(-1, 3).mean(axis=0)
+    a, b, c = (tri[:, k] - r for k in range(3))
+    return r, a, b, c, np.einsum("ij,ij->i", a, np.cross(b, c))
+
+
+def signed_volume(triangles) -> float:
+    """Volume enclosed by closed, outward-wound triangles (m, 3, 3) (negative when wound inward)."""
+    return float(_cone(triangles)[-1].sum()) / 6.0
+
+
 def mass_properties(triangles, density: float) -> tuple[float, np.ndarray, np.ndarray]:
     """(mass, centre of mass (3,), inertia tensor (3, 3) about the centre of mass in the mesh's axes) of
     the uniform solid bounded by closed, outward-wound ``triangles`` (m, 3, 3).
 
-    Divergence theorem: the solid is the signed sum of the tetrahedra (r, a, b, c) over its triangles
-    (a, b, c), with r the mean corner (so the sums stay well conditioned far from the origin). With
+    Divergence theorem: the solid is the signed sum of the tetrahedra (r, a, b, c) of `_cone`. With
     corners relative to r and 6 V_t = a . (b x c), a tetrahedron contributes V_t, V_t (a + b + c) / 4 to
     the first moment and V_t / 20 (a a^T + b b^T + c c^T + s s^T), s = a + b + c, to the second
     moments S = integral of x x^T dV. The inertia tensor is density (trace(S) E - S) about the centre."""
-    tri = np.asarray(triangles, np.float64)
-    r = tri.reshape(-1, 3).mean(axis=0)
-    a, b, c = (tri[:, k] - r for k in range(3))
-    vol6 = np.einsum("ij,ij->i", a, np.cross(b, c))
+    r, a, b, c, vol6 = _cone(triangles)
     volume = float(vol6.sum()) / 6.0
     s = a + b + c
     first = vol6 @ s / 24.0
@@ -191,14 +202,6 @@ def mass_properties(triangles, density: float) -> tuple[float, np.ndarray, np.nd
     S = second - volume * np.outer(com, com)
     inertia = density * (np.trace(S) * np.eye(3) - S)
     return density * volume, r + com, inertia
-
-
-def signed_volume(triangles) -> float:
-    """Volume enclosed by closed, outward-wound triangles (m, 3, 3) (negative when wound inward)."""
-    tri = np.asarray(triangles, np.float64)
-    r = tri.reshape(-1, 3).mean(axis=0)
-    a, b, c = (tri[:, k] - r for k in range(3))
-    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0
 
 
 def stl_bytes(triangles) -> bytes:
