@@ -13,11 +13,12 @@ Default sizes scale with ``linkage.extent()`` (E, the RMS spread of the joints' 
 positions): pin radius 0.02 E, bar radius 0.015 E, pin length 0.15 E. Explicit values (metres)
 override them.
 
-The parts are united with ``trimesh.boolean.union`` (manifold3d engine) into one closed 2-manifold,
-a valid solid for slicers and physics engines; without manifold3d they are concatenated (still
-watertight, but overlapping shells).
+The parts are united with manifold3d into one closed 2-manifold, a valid solid for slicers and
+physics engines; without manifold3d they are concatenated (still closed, but overlapping shells).
 
-trimesh is imported inside the functions so that importing this module stays cheap.
+Meshes are `solid.Solid` (numpy arrays): building, checking and writing them never imports trimesh
+(whose import costs more than the whole rest of a run); ``link_meshes`` hands out trimesh objects
+for the tools that want them.
 """
 from __future__ import annotations
 
@@ -27,6 +28,9 @@ import numpy as np
 
 from ..linkage import pair_feet
 from .frames import link_origins
+from .solid import (Solid, concatenate, cylinder, import_manifold3d, mass_properties, read_stl_triangles,
+                    signed_volume, stl_bytes, surface_defect, union, weld)
+from .urdf import MESH_UNIT_SCALE
 
 PIN_RADIUS = 0.02  # times linkage.extent()
 LINK_RADIUS = 0.015
@@ -57,34 +61,15 @@ def default_sizes(linkage, pin_radius=None, link_radius=None, pin_length=None) -
 
 
 def have_manifold() -> bool:
-    """True when trimesh's manifold3d boolean engine is importable."""
+    """True when the manifold3d boolean engine is importable."""
     try:
-        import manifold3d  # noqa: F401
+        import_manifold3d()
     except ImportError:
         return False
     return True
 
 
-def _cylinder(a, b, radius, sections):
-    """Closed cylinder from point a to point b."""
-    import trimesh
-
-    a = np.asarray(a, float)
-    b = np.asarray(b, float)
-    axis = b - a
-    height = float(np.linalg.norm(axis))
-    T = np.eye(4)
-    T[:3, :3] = trimesh.geometry.align_vectors([0.0, 0.0, 1.0], axis / height)[:3, :3]
-    T[:3, 3] = (a + b) / 2
-    # built at unit radius, then scaled: trimesh merges vertices closer than 1e-8 at creation, which
-    # would destroy micrometre-sized cylinders
-    mesh = trimesh.creation.cylinder(radius=1.0, height=height / radius, sections=sections)
-    mesh.apply_scale(radius)
-    mesh.apply_transform(T)
-    return mesh
-
-
-def link_parts(linkage, name, pin_radius, link_radius, pin_length):
+def link_parts(linkage, name, pin_radius, link_radius, pin_length) -> list[Solid]:
     """Closed primitive meshes (pins, bars) of one link, in world coordinates at the reference
     configuration. Empty for a link without joints."""
     names = list(linkage.links.get(name, []))
@@ -99,41 +84,34 @@ def link_parts(linkage, name, pin_radius, link_radius, pin_length):
         feet[j1.name].append(f1)
         feet[j2.name].append(f2)
         if np.linalg.norm(f2 - f1) > 1e-9 * scale:
-            bars.append(_cylinder(f1, f2, link_radius, BAR_SECTIONS))
+            bars.append(cylinder(f1, f2, link_radius, BAR_SECTIONS))
     pins = []
     for j in joints:
         pts = feet[j.name] or [linkage.joint_sites()[j.name]]
         s = [float(np.dot(p - j.point, j.direction)) for p in pts]
         lo = j.point + (min(s) - pin_length / 2) * j.direction
         hi = j.point + (max(s) + pin_length / 2) * j.direction
-        pins.append(_cylinder(lo, hi, pin_radius, PIN_SECTIONS))
+        pins.append(cylinder(lo, hi, pin_radius, PIN_SECTIONS))
     return pins + bars
 
 
-def _solid(parts):
-    import trimesh
-
+def _solid(parts) -> Solid:
     if len(parts) == 1:
         return parts[0]
-    if have_manifold():
-        # Unite at unit size around the origin: trimesh's and manifold's absolute tolerances would
-        # otherwise reject micrometre-sized parts or parts far from the world origin.
-        lo = np.min([p.bounds[0] for p in parts], axis=0)
-        hi = np.max([p.bounds[1] for p in parts], axis=0)
-        centre, size = (lo + hi) / 2, float(np.max(hi - lo))
-        unit = [p.copy() for p in parts]
-        for p in unit:
-            p.apply_translation(-centre)
-            p.apply_scale(1.0 / size)
-        mesh = trimesh.boolean.union(unit, engine="manifold")
-        mesh.apply_scale(size)
-        mesh.apply_translation(centre)
-        return mesh
-    return trimesh.util.concatenate(parts)
+    return union(parts) if have_manifold() else concatenate(parts)
 
 
-def link_meshes(linkage, pin_radius=None, link_radius=None, pin_length=None) -> dict:
-    """{link name: trimesh.Trimesh} for every link with joints, each in its own link frame (metres)."""
+def check_closed(mesh: Solid, what: str) -> None:
+    """RuntimeError unless ``mesh`` is a closed oriented surface around a positive volume."""
+    defect = surface_defect(mesh.faces)
+    if defect is None and not signed_volume(mesh.triangles) > 0:
+        defect = "no positive volume"
+    if defect is not None:
+        raise RuntimeError(f"{what} is not a closed solid ({defect})")
+
+
+def link_solids(linkage, pin_radius=None, link_radius=None, pin_length=None) -> dict[str, Solid]:
+    """{link name: Solid} for every link with joints, each in its own link frame (metres)."""
     pin_radius, link_radius, pin_length = default_sizes(linkage, pin_radius, link_radius, pin_length)
     origins = link_origins(linkage)
     out = {}
@@ -141,24 +119,35 @@ def link_meshes(linkage, pin_radius=None, link_radius=None, pin_length=None) -> 
         parts = link_parts(linkage, name, pin_radius, link_radius, pin_length)
         if not parts:
             continue
-        mesh = _solid(parts)
-        mesh.apply_translation(-origins[name])
-        if not mesh.is_watertight or not mesh.volume > 0:
-            raise RuntimeError(f"mesh of link {name} is not a closed solid")
+        mesh = _solid(parts).translated(-origins[name])
+        check_closed(mesh, f"mesh of link {name}")
         out[name] = mesh
     return out
 
 
+def link_meshes(linkage, pin_radius=None, link_radius=None, pin_length=None) -> dict:
+    """{link name: trimesh.Trimesh}: `link_solids` as trimesh objects (imports trimesh)."""
+    return {n: m.to_trimesh() for n, m in link_solids(linkage, pin_radius, link_radius, pin_length).items()}
+
+
 def mesh_inertials(meshes: dict, density: float = DENSITY) -> dict:
-    """{link: (mass kg, centre of mass (3,), inertia 3x3 about the centre of mass, link axes)}."""
+    """{link: (mass kg, centre of mass (3,), inertia 3x3 about the centre of mass, link axes)} of
+    closed meshes (`Solid` or anything with ``vertices`` and ``faces``)."""
     out = {}
     for name, mesh in meshes.items():
-        mp = _mass_properties(mesh, density)
-        out[name] = (float(mp["mass"]), np.asarray(mp["center_mass"], float), np.asarray(mp["inertia"], float))
+        triangles = np.asarray(mesh.vertices, float)[np.asarray(mesh.faces)]
+        mass, com, inertia = mass_properties(triangles, density)
+        out[name] = (float(mass), com, inertia)
     return out
 
 
-def _mass_properties(mesh, density):
-    from trimesh.triangles import mass_properties
-
-    return mass_properties(triangles=mesh.triangles, density=density, skip_inertia=False)
+def stl_file(mesh: Solid, what: str = "mesh") -> tuple[bytes, np.ndarray]:
+    """(binary STL, offset): the mesh stored about its own centre ``offset`` (bounding-box centre,
+    metres, link frame; STL is single precision and the base link's frame is the world frame, which
+    may be far away) in millimetres (``urdf.MESH_UNIT_SCALE``, the unit slicers assume). The bytes are
+    read back and checked to be a closed solid as a reader of the file sees it (float32 corners
+    welded where bit-equal); RuntimeError otherwise."""
+    offset = mesh.bounds.mean(axis=0)
+    data = stl_bytes((mesh.triangles - offset) * (1.0 / MESH_UNIT_SCALE))
+    check_closed(weld(read_stl_triangles(data)), f"{what} as written to STL")
+    return data, offset

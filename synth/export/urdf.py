@@ -106,7 +106,7 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
 
     ``masses``: {link: (mass kg, centre of mass (3,) in the link frame, 3x3 inertia about the centre
     of mass)} for the links with geometry, as returned by ``meshes.mesh_inertials``; when None it is
-    computed from ``meshes.link_meshes(linkage)`` with default sizes and aluminium density. Links
+    computed from ``meshes.link_solids(linkage)`` with default sizes and aluminium density. Links
     with geometry are those with a non-empty joint list in ``linkage.links``. ``mesh_offsets``:
     {link: (3,) position (metres, link frame) of the STL file's origin}; the writer stores each STL
     about its own centre so that single-precision STL coordinates stay accurate far from the origin."""
@@ -120,9 +120,9 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
                 raise ValueError(f"closure ({a}, {b}) names unknown link {link!r}")
     geometric = [n for n in names if linkage.links.get(n)]
     if masses is None:
-        from .meshes import link_meshes, mesh_inertials
+        from .meshes import link_solids, mesh_inertials
 
-        masses = mesh_inertials(link_meshes(linkage))
+        masses = mesh_inertials(link_solids(linkage))
     for n in geometric:
         if n not in masses:
             raise ValueError(f"no mass properties for link {n!r}")

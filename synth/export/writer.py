@@ -27,8 +27,6 @@ import threading
 from contextlib import contextmanager
 from pathlib import Path
 
-import numpy as np
-
 from ..errors import InputError
 
 MARKER = ".mpsynth-output"
@@ -217,24 +215,20 @@ def write_linkage_files(linkage, directory, *, robot_name: str, package: str | N
     atomic: use inside ``atomic_directory``, e.g. for ``OUT/<id>/`` layouts). Returns the paths
     written, relative to ``directory``."""
     from .jsonout import linkage_document, write_json
-    from .meshes import link_meshes, mesh_inertials
-    from .urdf import MESH_UNIT_SCALE, urdf_text
+    from .meshes import link_solids, mesh_inertials, stl_file
+    from .urdf import urdf_text
 
     directory = Path(directory)
-    meshes = link_meshes(linkage, pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length)
+    meshes = link_solids(linkage, pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length)
     written = []
     if meshes:
         (directory / "meshes").mkdir()
     offsets = {}
     for name, mesh in meshes.items():
         rel = Path("meshes") / f"{name}.stl"
-        stl = mesh.copy()
-        # stored about its own centre (STL is single precision; the base link's frame is the world
-        # frame, which may be far away), placed by the URDF visual/collision origin
-        offsets[name] = np.asarray(mesh.bounds, float).mean(axis=0)
-        stl.apply_translation(-offsets[name])
-        stl.apply_scale(1.0 / MESH_UNIT_SCALE)  # metres -> millimetres, the unit slicers assume
-        (directory / rel).write_bytes(stl.export(file_type="stl"))
+        # stored about its own centre, in millimetres, placed by the URDF visual/collision origin
+        data, offsets[name] = stl_file(mesh, f"mesh of link {name}")
+        (directory / rel).write_bytes(data)
         written.append(rel)
     text = urdf_text(linkage, robot_name, mesh_dir="meshes", package=package, masses=mesh_inertials(meshes),
                      mesh_offsets=offsets)

@@ -1,0 +1,228 @@
+"""Closed triangle meshes in plain numpy (plus manifold3d for the boolean union): the export path's
+mesh toolkit, so that writing an output never imports trimesh (and with it scipy and networkx).
+
+A `Solid` is an indexed triangle mesh: ``vertices`` (n, 3) float64 and ``faces`` (m, 3) int64, each
+triangle wound counter-clockwise seen from outside (outward normals by the right-hand rule). It is
+*closed* when every edge is shared by exactly two triangles that run through it in opposite
+directions (an oriented 2-manifold without boundary) and it encloses a positive volume.
+
+Binary STL layout (the common one): an 80-byte zero header, the triangle count (uint32), then per
+triangle the unit normal and the three corners as little-endian float32, and a zero uint16.
+"""
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
+
+
+@dataclass(frozen=True)
+class Solid:
+    """An indexed triangle mesh; see the module docstring for the conventions."""
+
+    vertices: np.ndarray  # (n, 3) float64
+    faces: np.ndarray  # (m, 3) int64
+
+    @property
+    def triangles(self) -> np.ndarray:
+        """(m, 3, 3): the corners of every face."""
+        return self.vertices[self.faces]
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """(2, 3): the lower and upper corner of the axis-aligned bounding box."""
+        return np.array([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+
+    def translated(self, d) -> "Solid":
+        return Solid(self.vertices + np.asarray(d, float), self.faces)
+
+    def to_trimesh(self):
+        """The same mesh as a ``trimesh.Trimesh`` (imports trimesh)."""
+        import trimesh
+
+        return trimesh.Trimesh(vertices=self.vertices.copy(), faces=self.faces.copy(), process=False)
+
+
+# ---------------------------------------------------------------------- primitives
+def _proper_completion(w) -> np.ndarray:
+    """A rotation matrix whose first column is +-w/|w|: the left singular vectors of the column w."""
+    U = np.linalg.svd(np.reshape(np.asarray(w, float), (3, 1)))[0]
+    if np.linalg.det(U) < 0:
+        U[:, -1] = -U[:, -1]
+    return U
+
+
+_Z_COMPLETION = _proper_completion([0.0, 0.0, 1.0])
+
+
+def axis_rotation(w) -> np.ndarray:
+    """A rotation taking the z axis onto the line of unit vector ``w``: U_w U_z^T with U_v the proper
+    completion of v from the SVD. (The facets of our cylinders sit where they always did; a cylinder
+    centred on its axis does not care which way along the line z goes.)"""
+    return _proper_completion(w) @ _Z_COMPLETION.T
+
+
+def cylinder(a, b, radius: float, sections: int) -> Solid:
+    """Closed cylinder of ``radius`` from point ``a`` to point ``b``: a regular ``sections``-gon prism
+    (corners at angles 2 pi k / sections in the frame of `axis_rotation`) with fan-triangulated caps."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    axis = b - a
+    height = float(np.linalg.norm(axis))
+    n = int(sections)
+    theta = np.linspace(0.0, 2.0 * np.pi, n + 1)[:-1]
+    ring = np.column_stack([radius * np.cos(theta), radius * np.sin(theta)])
+    half = height / 2
+    local = np.concatenate([
+        np.column_stack([ring, np.full(n, -half)]),  # bottom ring 0..n-1
+        np.column_stack([ring, np.full(n, half)]),  # top ring n..2n-1
+        [[0.0, 0.0, -half], [0.0, 0.0, half]],  # cap centres 2n, 2n+1
+    ])
+    i = np.arange(n)
+    j = (i + 1) % n
+    faces = np.concatenate([
+        np.column_stack([np.full(n, 2 * n), j, i]),  # bottom cap, normal -z
+        np.column_stack([np.full(n, 2 * n + 1), n + i, n + j]),  # top cap, normal +z
+        np.column_stack([i, j, n + j]),  # sides, outward
+        np.column_stack([i, n + j, n + i]),
+    ])
+    vertices = local @ axis_rotation(axis / height).T + (a + b) / 2
+    return Solid(vertices, faces.astype(np.int64))
+
+
+def concatenate(parts) -> Solid:
+    """All parts in one mesh (overlapping shells stay separate shells)."""
+    offsets = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
+    return Solid(np.concatenate([p.vertices for p in parts]),
+                 np.concatenate([p.faces + k for p, k in zip(parts, offsets)]))
+
+
+def import_manifold3d():
+    """The manifold3d module. The first import runs with SIGINT/SIGTERM held back and delivers them
+    once it is done: a KeyboardInterrupt raised inside manifold3d's (nanobind) module initialisation
+    aborts the whole process (SIGABRT/SIGSEGV) instead of propagating. Raises ImportError."""
+    if "manifold3d" in sys.modules or threading.current_thread() is not threading.main_thread():
+        import manifold3d  # only the main thread runs Python signal handlers
+
+        return manifold3d
+    held = (signal.SIGINT, signal.SIGTERM)
+    pending = []
+    saved = {s: signal.signal(s, lambda signum, frame: pending.append(signum)) for s in held}
+    try:
+        import manifold3d
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        for s in dict.fromkeys(pending):
+            signal.raise_signal(s)  # to whatever handler was installed before
+    return manifold3d
+
+
+def union(parts) -> Solid:
+    """Boolean union of closed parts with manifold3d: one closed 2-manifold.
+
+    Computed at unit size around the origin in single precision (manifold3d's ``Mesh``): its tolerances
+    are then relative, so micrometre-sized parts and parts far from the world origin work alike, and
+    the result keeps no slivers finer than the float32 STL it is written to."""
+    manifold3d = import_manifold3d()
+    lo = np.min([p.vertices.min(axis=0) for p in parts], axis=0)
+    hi = np.max([p.vertices.max(axis=0) for p in parts], axis=0)
+    centre, size = (lo + hi) / 2, float(np.max(hi - lo))
+    solids = [manifold3d.Manifold(manifold3d.Mesh(
+        vert_properties=np.ascontiguousarray((p.vertices - centre) / size, dtype=np.float32),
+        tri_verts=np.ascontiguousarray(p.faces, dtype=np.uint32))) for p in parts]
+    mesh = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add).to_mesh()
+    vertices = np.asarray(mesh.vert_properties, np.float64)[:, :3] * size + centre
+    return Solid(vertices, np.asarray(mesh.tri_verts, np.int64).reshape(-1, 3))
+
+
+# ---------------------------------------------------------------------- checks and integrals
+def weld(triangles) -> Solid:
+    """The indexed mesh of a triangle soup (m, 3, 3): corners with bit-equal coordinates become one
+    vertex (what a reader of an STL file sees). -0.0 and 0.0 count as equal."""
+    tri = np.asarray(triangles)
+    corners = np.ascontiguousarray(tri.reshape(-1, 3) + tri.dtype.type(0.0))
+    vertices, index = np.unique(corners, axis=0, return_inverse=True)
+    return Solid(vertices.astype(np.float64), index.reshape(-1, 3).astype(np.int64))
+
+
+def surface_defect(faces) -> str | None:
+    """Why the faces (m, 3) do not form a closed oriented surface, or None when they do: every edge
+    must be used by exactly two triangles, once in each direction (so no edge is open, none is shared
+    by three or more faces, and neighbours agree on the orientation); no triangle may repeat a vertex."""
+    faces = np.asarray(faces, np.int64)
+    if len(faces) == 0:
+        return "no triangles"
+    if np.any((faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 2] == faces[:, 0])):
+        return "a triangle with a repeated vertex"
+    n = int(faces.max()) + 1
+    tail = faces.ravel()
+    head = faces[:, [1, 2, 0]].ravel()
+    forward = np.sort(tail * n + head)
+    if np.any(forward[1:] == forward[:-1]):
+        return "an edge run through twice in the same direction (non-manifold or inconsistent winding)"
+    if not np.array_equal(forward, np.sort(head * n + tail)):
+        return "an edge without its opposite half (a hole or a non-manifold edge)"
+    return None
+
+
+def _cone(triangles):
+    """(r, a, b, c, 6 V): the mean corner r, the corners relative to it (each (m, 3)) and six times the
+    signed volume of every tetrahedron (r, a, b, c) (m,). Taken about r, sums over the tetrahedra stay
+    well conditioned far from the origin."""
+    tri = np.asarray(triangles, np.float64)
+    r = tri.reshape(-1, 3).mean(axis=0)
+    a, b, c = (tri[:, k] - r for k in range(3))
+    return r, a, b, c, np.einsum("ij,ij->i", a, np.cross(b, c))
+
+
+def signed_volume(triangles) -> float:
+    """Volume enclosed by closed, outward-wound triangles (m, 3, 3) (negative when wound inward)."""
+    return float(_cone(triangles)[-1].sum()) / 6.0
+
+
+def mass_properties(triangles, density: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass, centre of mass (3,), inertia tensor (3, 3) about the centre of mass in the mesh's axes) of
+    the uniform solid bounded by closed, outward-wound ``triangles`` (m, 3, 3).
+
+    Divergence theorem: the solid is the signed sum of the tetrahedra (r, a, b, c) of `_cone`. With
+    corners relative to r and 6 V_t = a . (b x c), a tetrahedron contributes V_t, V_t (a + b + c) / 4 to
+    the first moment and V_t / 20 (a a^T + b b^T + c c^T + s s^T), s = a + b + c, to the second
+    moments S = integral of x x^T dV. The inertia tensor is density (trace(S) E - S) about the centre."""
+    r, a, b, c, vol6 = _cone(triangles)
+    volume = float(vol6.sum()) / 6.0
+    s = a + b + c
+    first = vol6 @ s / 24.0
+    second = sum(np.einsum("i,ij,ik->jk", vol6, p, p) for p in (a, b, c, s)) / 120.0
+    com = first / volume
+    S = second - volume * np.outer(com, com)
+    inertia = density * (np.trace(S) * np.eye(3) - S)
+    return density * volume, r + com, inertia
+
+
+def stl_bytes(triangles) -> bytes:
+    """Binary STL of the triangles (m, 3, 3), stored as float32 (see the module docstring); the normal
+    of a triangle whose float64 cross product vanishes is written as zero."""
+    tri = np.asarray(triangles, np.float64)
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    records = np.zeros(len(tri), STL_RECORD)
+    records["normal"] = normal
+    records["corners"] = tri
+    return bytes(80) + np.uint32(len(tri)).astype("<u4").tobytes() + records.tobytes()
+
+
+def read_stl_triangles(data: bytes) -> np.ndarray:
+    """(m, 3, 3) float32 corners of a binary STL as `stl_bytes` writes it; ValueError when the size does
+    not match the count."""
+    if len(data) < 84:
+        raise ValueError("shorter than a binary STL header")
+    count = int(np.frombuffer(data, "<u4", 1, 80)[0])
+    if len(data) != 84 + STL_RECORD.itemsize * count:
+        raise ValueError(f"{len(data)} bytes do not hold the {count} triangles the header announces")
+    return np.frombuffer(data, STL_RECORD, count, 84)["corners"]

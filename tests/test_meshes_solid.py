@@ -1,0 +1,293 @@
+"""The trimesh-free mesh path (synth/export/solid.py, meshes.link_solids / stl_file) against trimesh:
+the same cylinders, the same union, the same mass properties, STL files trimesh reads as the same
+closed solids; the closed-surface check; and writing an output without importing trimesh."""
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from conftest import REPO, random_poses  # noqa: E402
+from linkage_fixtures import bennett_linkage  # noqa: E402
+
+import synth  # noqa: E402
+from synth.export import meshes as meshes_mod  # noqa: E402
+from synth.export import write_output  # noqa: E402
+from synth.export.frames import link_origins  # noqa: E402
+from synth.export.solid import (Solid, axis_rotation, concatenate, cylinder, mass_properties,  # noqa: E402
+                                read_stl_triangles, signed_volume, stl_bytes, surface_defect, union, weld)
+from synth.export.urdf import MESH_UNIT_SCALE  # noqa: E402
+from synth.poses import load_poses  # noqa: E402
+
+trimesh = pytest.importorskip("trimesh")
+
+
+def linkages():
+    """The hand-checked Bennett, the CLI fixtures' Bennett and 6R, and random Bennetts of several sizes,
+    one far from the origin."""
+    out = {"bennett_fixture": bennett_linkage()}
+    out["bennett_mm_deg"] = synth.bennett(load_poses(str(REPO / "fixtures/bennett_mm_deg.yaml")).matrices)
+    out["sixbar"] = synth.sixbar(load_poses(str(REPO / "fixtures/sixbar_example.yaml")).matrices)
+    rng = np.random.default_rng(11)
+    for scale, offset in ((1e-3, 0.0), (1.0, 0.0), (30.0, 0.0), (1.0, 50.0)):
+        out[f"random_{scale:g}m_at_{offset:g}"] = synth.bennett(random_poses(rng, 3, scale=scale,
+                                                                              offset=(offset, -offset, offset)))
+    return out
+
+
+LINKAGES = linkages()
+
+
+def trimesh_cylinder(a, b, radius, sections):
+    """The way link parts were built with trimesh before: a revolved profile aligned with align_vectors."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    T = trimesh.geometry.align_vectors([0.0, 0.0, 1.0], (b - a) / np.linalg.norm(b - a))
+    T[:3, 3] = (a + b) / 2
+    return trimesh.creation.cylinder(radius=radius, height=float(np.linalg.norm(b - a)), sections=sections,
+                                     transform=T)
+
+
+def trimesh_union(parts):
+    """trimesh's manifold union of the parts at unit size (the previous exporter)."""
+    lo = np.min([p.vertices.min(axis=0) for p in parts], axis=0)
+    hi = np.max([p.vertices.max(axis=0) for p in parts], axis=0)
+    centre, size = (lo + hi) / 2, float(np.max(hi - lo))
+    unit = [trimesh.Trimesh((p.vertices - centre) / size, p.faces) for p in parts]
+    mesh = trimesh.boolean.union(unit, engine="manifold")
+    return Solid(np.asarray(mesh.vertices) * size + centre, np.asarray(mesh.faces, np.int64))
+
+
+def trimesh_mass(triangles, density=meshes_mod.DENSITY):
+    """trimesh's mass properties. Its sums run about the origin, so they are computed here about the
+    bounding-box centre: a base link far from the world origin would otherwise lose digits to
+    cancellation in trimesh (ours run about the mean corner)."""
+    from trimesh.triangles import mass_properties as tm_mass
+
+    triangles = np.asarray(triangles, float)
+    flat = triangles.reshape(-1, 3)
+    centre = (flat.min(axis=0) + flat.max(axis=0)) / 2
+    mp = tm_mass(triangles=triangles - centre, density=density, skip_inertia=False)
+    return float(mp["mass"]), np.asarray(mp["center_mass"]) + centre, np.asarray(mp["inertia"])
+
+
+def assert_same_mass(ours, theirs, rtol, length):
+    """Mass and inertia relative to their size, centre of mass relative to the body's ``length``."""
+    (m1, c1, I1), (m2, c2, I2) = ours, theirs
+    assert abs(m1 - m2) <= rtol * m2
+    assert np.max(np.abs(c1 - c2)) <= rtol * length
+    assert np.max(np.abs(I1 - I2)) <= rtol * np.max(np.abs(I2))
+
+
+unit_vectors = st.tuples(*[st.floats(-1, 1)] * 3).map(np.array).filter(lambda v: np.linalg.norm(v) > 1e-3)
+points = st.tuples(*[st.floats(-10, 10)] * 3).map(np.array)
+
+
+# ------------------------------------------------------------------ primitives
+@settings(max_examples=60, deadline=None)
+@given(a=points, d=unit_vectors, length=st.floats(1e-3, 10), radius=st.floats(1e-3, 1),
+       sections=st.sampled_from([3, 7, 32, 48]))
+def test_cylinder_is_trimeshs_cylinder(a, d, length, radius, sections):
+    b = a + length * d / np.linalg.norm(d)
+    ours, theirs = cylinder(a, b, radius, sections), trimesh_cylinder(a, b, radius, sections)
+    assert len(ours.vertices) == len(theirs.vertices) and len(ours.faces) == len(theirs.faces)
+    gap = np.abs(ours.vertices[:, None] - theirs.vertices[None]).max(axis=2).min(axis=1)
+    assert gap.max() <= 1e-14 * (1 + np.abs(a).max() + length)  # the same corners
+    assert surface_defect(ours.faces) is None
+    prism = sections / 2 * radius ** 2 * math.sin(2 * math.pi / sections) * length
+    assert signed_volume(ours.triangles) == pytest.approx(prism, rel=1e-12)  # outward winding
+    assert trimesh.Trimesh(ours.vertices, ours.faces).is_volume
+
+
+@settings(max_examples=100, deadline=None)
+@given(w=unit_vectors)
+def test_axis_rotation_is_a_rotation_onto_the_line(w):
+    w = w / np.linalg.norm(w)
+    R = axis_rotation(w)
+    assert np.allclose(R @ R.T, np.eye(3), atol=1e-14) and np.linalg.det(R) == pytest.approx(1.0, abs=1e-14)
+    assert np.linalg.norm(np.cross(R[:, 2], w)) < 1e-14
+
+
+# ------------------------------------------------------------------ mass properties
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), far=st.sampled_from([0.0, 1.0, 100.0]))
+def test_mass_properties_equal_trimeshs(seed, far):
+    """On unions of random cylinders within 1e-9; moved far away, ours keep the inertia about the centre
+    of mass to 1e-9."""
+    rng = np.random.default_rng(seed)
+    parts = [cylinder(a, a + rng.normal(size=3), rng.uniform(0.05, 0.3), int(rng.integers(8, 40)))
+             for a in rng.normal(size=(int(rng.integers(1, 4)), 3)) * 0.3]
+    solid = union(parts) if len(parts) > 1 else parts[0]
+    assert surface_defect(solid.faces) is None
+    length = float(np.max(np.ptp(solid.vertices, axis=0)))
+    ours = mass_properties(solid.triangles, 1234.5)
+    assert_same_mass(ours, trimesh_mass(solid.triangles, 1234.5), 1e-9, length)
+    shift = far * np.array([1000.0, -700.0, 300.0])
+    m, c, I = mass_properties(solid.translated(shift).triangles, 1234.5)
+    assert_same_mass((m, c - shift, I), ours, 1e-9, length)
+
+
+@pytest.mark.parametrize("name", list(LINKAGES))
+def test_link_solids_equal_the_trimesh_path(name):
+    """Every link: the parts united by trimesh's manifold union (the previous exporter) and by ours give
+    the same solid. The union is computed in float32 at unit size, so the two triangulations agree to
+    float32 rounding (~6e-8 of the size), not to the last bit; the mass properties of one mesh agree
+    with trimesh's to 1e-9."""
+    lk = LINKAGES[name]
+    sizes = meshes_mod.default_sizes(lk)
+    origins = link_origins(lk)
+    solids = meshes_mod.link_solids(lk)
+    ours = meshes_mod.mesh_inertials(solids)
+    assert set(solids) == {n for n in lk.link_names if lk.links.get(n)}
+    for link, solid in solids.items():
+        length = float(np.max(np.ptp(solid.vertices, axis=0)))
+        assert_same_mass(ours[link], trimesh_mass(solid.triangles), 1e-9, length)
+        parts = meshes_mod.link_parts(lk, link, *sizes)  # trimesh's cylinders: see the test above
+        old = (parts[0] if len(parts) == 1 else trimesh_union(parts)).translated(-origins[link])
+        assert_same_mass(ours[link], trimesh_mass(old.triangles), 1e-6, length)
+        assert np.allclose(solid.bounds, old.bounds, rtol=0, atol=1e-6 * length)
+
+
+# ------------------------------------------------------------------ closed-surface check
+def test_surface_defects_are_found():
+    c = cylinder([0, 0, 0], [0, 0, 1], 0.5, 12)
+    assert surface_defect(c.faces) is None
+    assert "hole" in surface_defect(c.faces[1:])
+    flipped = c.faces.copy()
+    flipped[3] = flipped[3, ::-1]
+    assert surface_defect(flipped) is not None
+    assert surface_defect(np.concatenate([c.faces, c.faces[:1]])) is not None  # an edge used thrice
+    two = concatenate([c, c.translated([0, 0, 1])])
+    assert surface_defect(two.faces) is None  # two closed shells
+    welded = weld(two.triangles)  # ... which touch along a whole cap: no longer a 2-manifold
+    assert surface_defect(welded.faces) is not None
+    degenerate = c.faces.copy()
+    degenerate[0, 1] = degenerate[0, 0]
+    assert "repeated" in surface_defect(degenerate)
+    assert surface_defect(np.zeros((0, 3), int)) == "no triangles"
+    inside_out = Solid(c.vertices, c.faces[:, ::-1].copy())
+    assert surface_defect(inside_out.faces) is None and signed_volume(inside_out.triangles) < 0
+    with pytest.raises(RuntimeError, match="not a closed solid"):
+        meshes_mod.check_closed(inside_out, "x")
+    with pytest.raises(RuntimeError, match="not a closed solid"):
+        meshes_mod.stl_file(Solid(c.vertices, c.faces[1:]), "x")
+
+
+def test_weld_merges_bit_equal_corners_and_signed_zeros():
+    tri = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]], [[-0.0, 0, 0], [0, 1, 0], [1, 0, 0]]], np.float32)
+    w = weld(tri)
+    assert len(w.vertices) == 3 and sorted(w.faces[0]) == sorted(w.faces[1])
+
+
+# ------------------------------------------------------------------ STL
+@pytest.mark.parametrize("name", ["bennett_fixture", "random_0.001m_at_0", "random_1m_at_50"])
+def test_stl_file_is_trimeshs_stl_of_the_centred_mm_mesh(name):
+    """Byte layout as trimesh's exporter writes it (corners and count bit-equal, normals to float32
+    rounding); trimesh reads each file as a watertight volume of the same size; the offset is the
+    bounding-box centre."""
+    for link, solid in meshes_mod.link_solids(LINKAGES[name]).items():
+        data, offset = meshes_mod.stl_file(solid)
+        assert np.array_equal(offset, solid.bounds.mean(axis=0))
+        mm = trimesh.Trimesh((solid.vertices - offset) * (1.0 / MESH_UNIT_SCALE), solid.faces, process=False)
+        theirs = mm.export(file_type="stl")
+        assert len(data) == len(theirs) and data[:84] == theirs[:84]
+        ours_rec = np.frombuffer(data, dtype=np.uint8, offset=84).reshape(-1, 50)
+        theirs_rec = np.frombuffer(theirs, dtype=np.uint8, offset=84).reshape(-1, 50)
+        assert np.array_equal(ours_rec[:, 12:], theirs_rec[:, 12:])  # corners and attribute
+        n1 = ours_rec[:, :12].copy().view("<f4")
+        n2 = theirs_rec[:, :12].copy().view("<f4")
+        assert np.max(np.abs(n1 - n2)) < 1e-6
+        loaded = trimesh.load(trimesh.util.wrap_as_stream(data), file_type="stl", force="mesh")
+        assert loaded.is_watertight and loaded.is_volume and loaded.body_count == 1, link
+        volume = signed_volume(solid.triangles) / MESH_UNIT_SCALE ** 3
+        assert loaded.volume == pytest.approx(volume, rel=1e-5)  # float32 corners
+        assert np.array_equal(read_stl_triangles(data), np.asarray(loaded.triangles, np.float32))
+
+
+def test_stl_round_trip_and_truncation():
+    c = cylinder([1, 2, 3], [2, 2, 3], 0.25, 16)
+    data = stl_bytes(c.triangles)
+    assert len(data) == 84 + 50 * len(c.faces)
+    assert np.array_equal(read_stl_triangles(data), c.triangles.astype(np.float32))
+    with pytest.raises(ValueError):
+        read_stl_triangles(data[:-1])
+    with pytest.raises(ValueError):
+        read_stl_triangles(data[:50])
+
+
+def test_written_output_matches_its_stl_files(tmp_path):
+    """URDF inertials of a written output are the mass properties of the meshes in its STL files as
+    trimesh loads them (float32 millimetre corners about the visual origin) to float32 rounding."""
+    import xml.etree.ElementTree as ET
+
+    lk = LINKAGES["bennett_mm_deg"]
+    out = tmp_path / "OUT"
+    write_output(lk, out, robot_name="t")
+    robot = ET.parse(out / "linkage.urdf").getroot()
+    masses = meshes_mod.mesh_inertials(meshes_mod.link_solids(lk))
+    seen = 0
+    for link in robot.findall("link"):
+        vis = link.find("visual")
+        if vis is None:
+            continue
+        seen += 1
+        offset = np.array([float(x) for x in vis.find("origin").get("xyz").split()])
+        mesh = trimesh.load(str(out / vis.find("geometry/mesh").get("filename")), force="mesh")
+        assert mesh.is_watertight and mesh.is_volume
+        mass, com, inertia = trimesh_mass(mesh.triangles * MESH_UNIT_SCALE + offset)
+        el = link.find("inertial")
+        urdf_mass = float(el.find("mass").get("value"))
+        urdf_com = np.array([float(x) for x in el.find("origin").get("xyz").split()])
+        name = link.get("name")
+        if name in masses:  # a welded pair (coupler / coupler_k) shares the mass; see urdf.py
+            assert urdf_mass == pytest.approx(masses[name][0] / (2 if name in dict(lk.closures) else 1))
+        assert mass == pytest.approx(masses[name][0], rel=1e-5)
+        assert np.max(np.abs(com - urdf_com)) < 1e-5 * np.ptp(mesh.vertices).max() * MESH_UNIT_SCALE
+    assert seen == 4
+
+
+# ------------------------------------------------------------------ no trimesh on the write path
+def test_writing_an_output_does_not_import_trimesh(tmp_path):
+    code = ("import sys\n"
+            "from cli.main import main\n"
+            f"sys.argv = ['mpsynth', 'bennett', {str(REPO / 'fixtures/bennett_mm_deg.yaml')!r}, '-o', "
+            f"{str(tmp_path / 'OUT')!r}, '-q']\n"
+            "try:\n    main()\nexcept SystemExit as e:\n    assert not e.code, e.code\n"
+            "heavy = sorted({m.split('.')[0] for m in sys.modules} & {'trimesh', 'scipy', 'networkx', 'yourdfpy'})\n"
+            "print(','.join(heavy))\n")
+    r = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == ""
+    assert (tmp_path / "OUT" / "meshes" / "base.stl").is_file()
+
+
+# ------------------------------------------------------------------ signals during import manifold3d
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_signal_during_manifold3d_import_arrives_after_it(tmp_path, sig):
+    """A signal that lands while manifold3d initialises is delivered when the import is done (inside
+    nanobind's module init a KeyboardInterrupt aborts the process). A stand-in manifold3d signals
+    itself halfway through its import."""
+    (tmp_path / "manifold3d.py").write_text(
+        "import os, signal\n"
+        f"os.kill(os.getpid(), signal.{sig})\n"
+        "total = sum(range(100000))  # bytecode during which a Python handler would run\n"
+        "finished = True\n")
+    code = ("import signal, sys\n"
+            "from synth.export.solid import import_manifold3d\n"
+            "def term(signum, frame):\n    raise SystemExit(143)\n"
+            "signal.signal(signal.SIGTERM, term)\n"
+            "try:\n    import_manifold3d()\n"
+            "except (KeyboardInterrupt, SystemExit) as e:\n"
+            "    print(type(e).__name__, sys.modules['manifold3d'].finished)\n"
+            "    print(signal.getsignal(signal.SIGINT) is signal.default_int_handler, signal.getsignal(signal.SIGTERM) is term)\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path), str(REPO)]))
+    r = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60, env=env)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == [{"SIGINT": "KeyboardInterrupt", "SIGTERM": "SystemExit"}[sig], "True", "True", "True"]
