@@ -2,16 +2,19 @@
 polynomial, following OUTPUT.md's "two branches, one weld" convention."""
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from .linkage import Joint, Linkage, PoseRecord
 
+TWO_PI = 2.0 * math.pi
+
 
 def joint_from_factor(name: str, parent: str, child: str, h) -> Joint:
     """Revolute joint t - h: Plücker line (u = -v/|v|, m = w/|v|) and angle law a = h0, b = |v|."""
-    h0, v1, v2, v3, _, w1, w2, w3 = (float(x) for x in (h.tolist() if isinstance(h, np.ndarray) else h))
+    h0, v1, v2, v3, _, w1, w2, w3 = map(float, h.tolist() if isinstance(h, np.ndarray) else h)
     b = math.sqrt(v1 * v1 + v2 * v2 + v3 * v3)
     return Joint(name=name, parent=parent, child=child, direction=np.array([-v1 / b, -v2 / b, -v3 / b]),
                  moment=np.array([w1 / b, w2 / b, w3 / b]), a=h0, b=b)
@@ -27,33 +30,48 @@ def _angle(a: float, b: float, t: float) -> float:
 def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> Linkage:
     """Linkage with branch h: base -h1-> link_h1 ... -hn-> coupler and branch k likewise ending in
     coupler_k. H, K: (n, 8) factors in the world frame (metres) with C = (t-h1)...(t-hn) =
-    (t-k1)...(t-kn); poses (m, 4, 4) with parameters ts (first = inf)."""
-    n = len(H)
-    joints: list[Joint] = []
-    links: dict[str, list[str]] = {"base": ["h1", "k1"]}
-    for branch, F in (("h", H), ("k", K)):
+    (t-k1)...(t-kn); poses (m, 4, 4) with parameters ts (first = inf). ``motion=None`` leaves
+    ``linkage.motion`` None (for a caller that defers it)."""
+    specs, links, branches = _layout(len(H))
+    F = [h.tolist() if isinstance(h, np.ndarray) else h for h in (*H, *K)]
+    laws, lines = [], []
+    for h in F:  # joint_from_factor, with all Plücker coordinates in one array
+        h0, v1, v2, v3, _, w1, w2, w3 = map(float, h)
+        b = math.sqrt(v1 * v1 + v2 * v2 + v3 * v3)
+        laws.append((h0, b))
+        lines += (-v1 / b, -v2 / b, -v3 / b, w1 / b, w2 / b, w3 / b)
+    lines = np.array(lines).reshape(len(F), 2, 3)
+    joints = [Joint(name, parent, child, um[0], um[1], a, b)
+              for (name, parent, child), um, (a, b) in zip(specs, lines, laws)]
+    linkage = Linkage(kind, joints, {k: list(v) for k, v in links.items()}, [list(x) for x in branches],
+                      [("coupler", "coupler_k")], np.asarray(poses[0], float),
+                      None if motion is None else np.asarray(motion, float), info=dict(info or {}))
+    poses = np.asarray(poses, float)
+    jn = [name for name, _, _ in specs]
+    for name, T, t in zip(names, poses, map(float, ts)):
+        if math.isinf(t):  # as _angle
+            ang = dict.fromkeys(jn, 0.0)
+        else:
+            ang = {n: (2.0 * math.atan2(b, t - a)) % TWO_PI for n, (a, b) in zip(jn, laws)}
+        linkage.poses.append(PoseRecord(name, T, t, ang))
+    return linkage
+
+
+@functools.lru_cache(maxsize=None)
+def _layout(n: int):
+    """(joint (name, parent, child) in tree order, links, branches) of two branches of n joints."""
+    specs = []
+    links: dict[str, tuple] = {"base": ("h1", "k1")}
+    for branch in "hk":
         for i in range(n):
             parent = "base" if i == 0 else f"link_{branch}{i}"
             if i == n - 1:
                 child = "coupler" if branch == "h" else "coupler_k"
             else:
                 child = f"link_{branch}{i + 1}"
-                links[child] = [f"{branch}{i + 1}", f"{branch}{i + 2}"]
-            joints.append(joint_from_factor(f"{branch}{i + 1}", parent, child, F[i]))
-    links["coupler"] = [f"h{n}", f"k{n}"]
-    links["coupler_k"] = []
-    linkage = Linkage(
-        kind=kind,
-        joints=joints,
-        links=links,
-        branches=[[f"h{i + 1}" for i in range(n)], [f"k{i + 1}" for i in range(n)]],
-        closures=[("coupler", "coupler_k")],
-        tool_ref=np.asarray(poses[0], float),
-        motion=np.asarray(motion, float),
-        info=dict(info or {}),
-    )
-    poses = np.asarray(poses, float)
-    for name, T, t in zip(names, poses, np.asarray(ts, float).tolist()):
-        ang = {j.name: _angle(j.a, j.b, t) for j in joints}
-        linkage.poses.append(PoseRecord(name=name, matrix=T, t=t, joint_angles=ang))
-    return linkage
+                links[child] = (f"{branch}{i + 1}", f"{branch}{i + 2}")
+            specs.append((f"{branch}{i + 1}", parent, child))
+    links["coupler"] = (f"h{n}", f"k{n}")
+    links["coupler_k"] = ()
+    branches = (tuple(f"h{i + 1}" for i in range(n)), tuple(f"k{i + 1}" for i in range(n)))
+    return tuple(specs), links, branches

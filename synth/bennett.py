@@ -8,11 +8,12 @@ whose root a + ib has the smaller real part a.
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 
 from .assemble import two_branch_linkage
-from .checks import pose_difference, self_check
+from .checks import self_check
 from .errors import InputError, NotGenericError, SynthesisError
 from .factor import factorize
 from .interpolate import Conditioning, condition, conic, relative_displacements, to_world
@@ -30,16 +31,31 @@ EPS = float(np.finfo(float).eps)
 
 
 def check_distinct(T, names, tol=COINCIDENT_TOL):
-    """Refuse coincident poses with a message naming them."""
-    T = np.asarray(T, float)
-    pos = T[:, :3, 3]
-    L = max(float(np.sqrt(np.mean(np.sum((pos - pos.mean(0)) ** 2, axis=1)))), 1e-300)
-    for i in range(len(T)):
-        for j in range(i + 1, len(T)):
-            dt, dr = pose_difference(T[i], T[j])
+    """Refuse coincident poses with a message naming them. (Plain floats: the pairwise differences
+    are those of `synth.checks.pose_difference`.)"""
+    M = np.asarray(T, float).tolist()
+    pos = [(R[0][3], R[1][3], R[2][3]) for R in M]
+    n = len(pos)
+    cx, cy, cz = (sum([p[k] for p in pos]) / n for k in range(3))
+    L = max(math.sqrt(sum([(x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2 for x, y, z in pos]) / n), 1e-300)
+    for i in range(n):
+        for j in range(i + 1, n):
+            dt, dr = _pose_difference(M[i], M[j])
             if dt <= tol * max(L, 1e-300) and dr <= tol or (dt == 0 and dr <= tol):
                 raise SynthesisError(f"poses {i} ({names[i]!r}) and {j} ({names[j]!r}) coincide: "
                                      "three distinct poses are needed")
+
+
+def _pose_difference(A, B):
+    """`synth.checks.pose_difference` of two 4x4 nested lists: (|d_A - d_B|, angle of R_A^T R_B)."""
+    dt = math.sqrt((A[0][3] - B[0][3]) ** 2 + (A[1][3] - B[1][3]) ** 2 + (A[2][3] - B[2][3]) ** 2)
+    # R = R_A^T R_B: R[r][c] = sum_k A[k][r] B[k][c]; only the skew part and the trace are needed
+    def r(a, b):
+        return A[0][a] * B[0][b] + A[1][a] * B[1][b] + A[2][a] * B[2][b]
+
+    s = 0.5 * math.sqrt((r(2, 1) - r(1, 2)) ** 2 + (r(0, 2) - r(2, 0)) ** 2 + (r(1, 0) - r(0, 1)) ** 2)
+    c = 0.5 * (r(0, 0) + r(1, 1) + r(2, 2) - 1)
+    return dt, math.atan2(s, c)
 
 
 def bennett(poses, names=None, *, check_samples: int = 200):
@@ -58,36 +74,114 @@ def bennett(poses, names=None, *, check_samples: int = 200):
     T = np.asarray(poses, float)
     if T.shape != (3, 4, 4):
         raise InputError(f"a Bennett linkage needs exactly 3 poses (array of shape (3, 4, 4)), got {T.shape}")
-    if not math.isfinite(float(T.sum())) and not np.all(np.isfinite(T)):
-        raise InputError("the poses contain NaN or infinity")
-    names = list(names) if names is not None else [f"p{i}" for i in range(3)]
-    core = bennett_core(T)
+    names = list(names) if names is not None else ["p0", "p1", "p2"]
+    core = bennett_core(T)  # None for non-finite input, among others
     if core is None:
+        if not np.all(np.isfinite(T)):
+            raise InputError("the poses contain NaN or infinity")
         return _bennett_general(T, names, check_samples)
-    cond = Conditioning(centre=np.array(core["centre"]), scale=core["scale"])
+    if not error_estimate(core) <= ESTIMATE_TOL:  # (also NaN) the self-check decides now
+        info, cond = _fast_info(core)
+        linkage = two_branch_linkage("bennett", core["H"], core["K"], core["C"], T, names, _TS, info)
+        return _finish(linkage, core["B"], cond, check_samples)
+    # The self-check cannot fail (see `error_estimate`): it and what derives from it (motion, checks,
+    # info) are computed on first access, with the values that `_finish` would give now.
+    linkage = two_branch_linkage("bennett", core["H"], core["K"], None, T, names, _TS)
+    linkage.defer(motion=partial(np.array, core["C"], float), checks=partial(self_check, linkage, check_samples),
+                  info=partial(_deferred_info, linkage, core))
+    return linkage
+
+
+def _fast_info(core):
+    """(info, Conditioning) of a fast-path result before the self-check."""
+    centre, scale = core["centre"], core["scale"]
     info = {"factorization_residual": core["residual"],
-            "study_form": {k: v * cond.scale for k, v in zip(("B01", "B02", "B12"), core["B"])},
-            "conditioning": {"centre": list(core["centre"]), "scale": cond.scale}}
-    linkage = two_branch_linkage("bennett", core["H"], core["K"], core["C"], T, names, _TS, info)
-    return _finish(linkage, core["B"], cond, check_samples)
+            "study_form": {k: v * scale for k, v in zip(("B01", "B02", "B12"), core["B"])},
+            "conditioning": {"centre": list(centre), "scale": scale}}
+    return info, Conditioning(centre=np.array(centre), scale=scale)
+
+
+def _deferred_info(linkage, core) -> dict:
+    info, cond = _fast_info(core)
+    return _complete_info(linkage, info, core["B"], cond)
 
 
 _TS = (np.inf, 0.0, 1.0)
 
 
 def _finish(linkage, B, cond, check_samples):
-    loop = ["h1", "h2", "k2", "k1"]
-    geo = loop_geometry(linkage, loop)
-    linkage.info["bennett"] = bennett_parameters(linkage, geo)
-    linkage.info["dh"] = dh_table(linkage, loop, geo)
+    """Self-check the linkage (refusing it when it misses its poses, `_accept`) and complete its info."""
     linkage.checks = self_check(linkage, check_samples)
-    _accept(linkage, cond)
-    linkage.info["warnings"] = _warnings(linkage, B, cond)
+    linkage.info = _complete_info(linkage, linkage.info, B, cond)
     return linkage
 
 
-def _accept(linkage, cond) -> None:
-    """Refuse a linkage whose own self-check fails: near degenerate poses can defeat double precision
+def _complete_info(linkage, info, B, cond) -> dict:
+    """``info`` plus the Bennett parameters, DH table, relative self-check error and warnings; raises
+    SynthesisError when the self-check (``linkage.checks``) fails (`_accept`)."""
+    info = dict(info)
+    loop = ["h1", "h2", "k2", "k1"]
+    geo = loop_geometry(linkage, loop)
+    info["bennett"] = bennett_parameters(linkage, geo)
+    info["dh"] = dh_table(linkage, loop, geo)
+    info["relative_error"] = _accept(linkage, cond)
+    info["warnings"] = _warnings(linkage, B, cond, info)
+    return info
+
+
+# ----------------------------------------------------------------------------- a priori error bound
+ESTIMATE_TOL = 1e-9  # error_estimate at or below this: _accept's relative error is far below ACCEPT_TOL
+SQRT3 = math.sqrt(3.0)
+
+
+def error_estimate(core) -> float:
+    """A cheap, conservative estimate of `_accept`'s relative self-check error for a fast-path result
+    (`synth.scalar.bennett_core`), from quantities the core already has; no forward kinematics.
+
+    First-order rounding analysis, in the conditioned frame (pose spread 1) where the core works:
+    - factorization: the multiply-back error (``residual``, relative to the largest coefficient cmax)
+      perturbs C(t) by residual cmax (1 + |t|); the checks compare *normalized* motions, so it is
+      amplified by (1 + |t|) / |C(t)|, bounded over all real t with the norm roots x + iy:
+      |t - z| >= max(y, |t - x|) gives kappa = (1 + (1 + |x1|) / y1) / y2 (or the same with 1, 2 swapped);
+    - interpolation: C(1) = c0 + c1 + 1 = mu2 D2 is formed with cancellation, eps (1 + |mu1| + |mu2|) / |mu|;
+    - world coordinates: rounding of eps times the coordinates' size (positions and axes, up to
+      pmax + axis distance), amplified like the factorization error (1 + cmax kappa), relative to the
+      pose spread plus `_accept`'s floor.
+    The constants are calibrated on random sweeps (uniform, extreme scales and offsets, nearly degenerate
+    families: tests/test_bennett_lazy.py): the self-check error stayed below 0.25 of this estimate, so
+    an estimate <= ESTIMATE_TOL (1e-9) means a relative error <= ~2.5e-10, 40x inside ACCEPT_TOL."""
+    B01, B02, B12 = core["B"]
+    mu1, mu2 = abs(B02 / B12), abs(B01 / B12)  # |C(0)| = |c0| = |mu1|, |C(1)| = |mu2| (primal parts)
+    za, zb = core["roots"]
+    x1, y1, x2, y2 = abs(za.real), za.imag, abs(zb.real), zb.imag
+    kappa = min((1.0 + (1.0 + x1) / y1) / y2, (1.0 + (1.0 + x2) / y2) / y1)
+    L = core["scale"]
+    cx, cy, cz = core["centre"]
+    cmax = 1.0  # largest coefficient of c0, c1 in the conditioned frame (inverse of bennett_core's `world`)
+    for h in core["C"][:2]:
+        p1, p2, p3 = h[1], h[2], h[3]
+        cmax = max(cmax, *map(abs, h[:4]), max(map(abs, (h[4], h[5] - (p2 * cz - p3 * cy), h[6] - (p3 * cx - p1 * cz),
+                                                       h[7] - (p1 * cy - p2 * cx)))) / L)
+    size2 = 0.0  # largest squared distance of an axis from the centroid: |w + c x v|^2 / |v|^2, h = (a, v, 0, w)
+    for h in (*core["H"], *core["K"]):
+        v1, v2, v3 = h[1], h[2], h[3]
+        d1 = h[5] + (cy * v3 - cz * v2)
+        d2 = h[6] + (cz * v1 - cx * v3)
+        d3 = h[7] + (cx * v2 - cy * v1)
+        r = (d1 * d1 + d2 * d2 + d3 * d3) / (v1 * v1 + v2 * v2 + v3 * v3)
+        if r > size2:
+            size2 = r
+    size = max(L, math.sqrt(size2))
+    cinf = max(abs(cx), abs(cy), abs(cz))  # pmax (largest |coordinate| of a position) is in [cinf, cinf + sqrt3 L]
+    fact = core["residual"] * cmax * kappa
+    interp = EPS * (1.0 + mu1 + mu2) / min(mu1, mu2)
+    world = EPS * (cinf + SQRT3 * L + size) / (L + FLOOR_ULPS * EPS * cinf / ACCEPT_TOL) * (1.0 + cmax * kappa)
+    return 4.0 * fact + 4.0 * interp + 1000.0 * world
+
+
+def _accept(linkage, cond) -> float:
+    """The largest relative self-check error (info's ``relative_error``); refuse a linkage whose own
+    self-check fails: near degenerate poses can defeat double precision
     (the conic's coefficients or the factorization lose most digits), and a linkage that misses its
     poses must never be reported as a result. Translation errors are relative to the pose spread (to
     the axes' largest distance from the poses for the closure), plus a floor of FLOOR_ULPS ulps of the
@@ -105,7 +199,6 @@ def _accept(linkage, cond) -> None:
               c["max_pose_rotation_error"],
               c["max_closure_translation_error"] / (size + floor / ACCEPT_TOL),
               c["max_closure_rotation_error"])
-    linkage.info["relative_error"] = rel
     if not rel <= ACCEPT_TOL:  # (also catches NaN)
         T = np.array([p.matrix for p in linkage.poses])
         names = [p.name for p in linkage.poses]
@@ -113,6 +206,7 @@ def _accept(linkage, cond) -> None:
             f"the poses are too close to a degenerate configuration{_near_degenerate(T, names, spread)}: the "
             f"linkage computed in double precision misses them by {rel:.1e} (relative; at most {ACCEPT_TOL:g} "
             "is accepted), so no reliable linkage can be given; move the poses further apart")
+    return rel
 
 
 def _axis_distance(linkage, c) -> float:
@@ -266,13 +360,13 @@ def _general_factors(T, names):
     return H, K, C, con, cond, info
 
 
-def _warnings(linkage, B, cond) -> list[str]:
+def _warnings(linkage, B, cond, info) -> list[str]:
     """Warnings for a valid result: axes far from the poses, and sensitivity to the poses. The condition
     estimate (`sensitivity`, two extra syntheses) runs only when a cheap indicator suggests trouble:
     axes more than 3 pose spreads away, a Study form value |B| < 1e-2 (nearly zero pitch), or norm
     roots that are close or nearly real."""
     out = []
-    rel = linkage.info.get("relative_error", 0.0)
+    rel = info.get("relative_error", 0.0)
     if rel > ACCURATE:
         out.append(f"the linkage reproduces the poses less accurately than usual (relative error between "
                    f"{ACCURATE:g} and {ACCEPT_TOL:g}): the poses are close to a degenerate configuration")
@@ -286,7 +380,7 @@ def _warnings(linkage, B, cond) -> list[str]:
     nearly_real = min(j.b for j in linkage.joints) < 1e-2 * max(1.0, *(abs(j.a) for j in linkage.joints))
     if far > 3 or min(abs(x) for x in B) < 1e-2 or roots_close or nearly_real:
         kappa = sensitivity(linkage)
-        linkage.info["condition_estimate"] = kappa
+        info["condition_estimate"] = kappa
         if kappa > SENSITIVE:
             # orders of magnitude only: the text must not depend on rounding (batch and single paths agree)
             mag = math.floor(math.log10(kappa)) if math.isfinite(kappa) else None

@@ -74,6 +74,29 @@ class Linkage:
     checks: dict[str, float] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)  # kind-specific extras, JSON-serializable
 
+    # ------------------------------------------------------------------ deferred attributes
+    def defer(self, **compute) -> None:
+        """Compute the attributes ``compute`` (name -> function of no arguments returning the value) on
+        first access instead of now; the value is then stored as an ordinary attribute. Reading an
+        attribute before it was computed is indistinguishable from an eager one (``__eq__``, ``repr``,
+        ``dataclasses.asdict``, copies and pickling all go through attribute access)."""
+        d = self.__dict__
+        for name in compute:
+            d.pop(name, None)
+        pending = d.get("_deferred")
+        d["_deferred"] = {**pending, **compute} if pending else compute
+
+    def __getattr__(self, name):
+        # only reached when the ordinary lookup fails, i.e. for a deferred attribute not yet computed
+        pending = self.__dict__.get("_deferred")
+        if not pending or name not in pending:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        value = pending[name]()
+        # a new dict, not pop(): a shallow copy of the linkage shares the old one
+        self.__dict__["_deferred"] = {k: f for k, f in self.__dict__["_deferred"].items() if k != name}
+        self.__dict__[name] = value
+        return value
+
     # ------------------------------------------------------------------ queries
     def joint(self, name: str) -> Joint:
         for j in self.joints:
