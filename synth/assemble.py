@@ -10,6 +10,7 @@ import numpy as np
 from .linkage import Joint, Linkage, PoseRecord
 
 TWO_PI = 2.0 * math.pi
+INF = math.inf
 
 
 def joint_from_factor(name: str, parent: str, child: str, h) -> Joint:
@@ -33,28 +34,29 @@ def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> 
     (t-k1)...(t-kn); poses (m, 4, 4) with parameters ts (first = inf). ``motion=None`` leaves
     ``linkage.motion`` None (for a caller that defers it)."""
     specs, links, branches = _layout(len(H))
-    F = [h.tolist() if isinstance(h, np.ndarray) else h for h in (*H, *K)]
     laws, lines = [], []
-    for h in F:  # joint_from_factor, with all Plücker coordinates in one array
-        h0, v1, v2, v3, _, w1, w2, w3 = map(float, h)
+    for h in (*H, *K):  # joint_from_factor, with all Plücker coordinates in one array
+        if type(h) is not tuple:
+            h = h.tolist() if isinstance(h, np.ndarray) else tuple(map(float, h))
+        h0, v1, v2, v3, _, w1, w2, w3 = h
         b = math.sqrt(v1 * v1 + v2 * v2 + v3 * v3)
-        laws.append((h0, b))
+        laws.append((float(h0), b))
         lines += (-v1 / b, -v2 / b, -v3 / b, w1 / b, w2 / b, w3 / b)
-    lines = np.array(lines).reshape(len(F), 2, 3)
-    joints = [Joint(name, parent, child, um[0], um[1], a, b)
-              for (name, parent, child), um, (a, b) in zip(specs, lines, laws)]
-    linkage = Linkage(kind, joints, {k: list(v) for k, v in links.items()}, [list(x) for x in branches],
-                      [("coupler", "coupler_k")], np.asarray(poses[0], float),
-                      None if motion is None else np.asarray(motion, float), info=dict(info or {}))
+    lines = np.array(lines, float).reshape(-1, 3)
+    joints = [Joint(name, parent, child, lines[2 * i], lines[2 * i + 1], a, b)
+              for i, ((name, parent, child), (a, b)) in enumerate(zip(specs, laws))]
     poses = np.asarray(poses, float)
-    jn = [name for name, _, _ in specs]
+    jn = [spec[0] for spec in specs]
+    records = []
     for name, T, t in zip(names, poses, map(float, ts)):
-        if math.isinf(t):  # as _angle
+        if t == INF or t == -INF:  # as _angle
             ang = dict.fromkeys(jn, 0.0)
         else:
             ang = {n: (2.0 * math.atan2(b, t - a)) % TWO_PI for n, (a, b) in zip(jn, laws)}
-        linkage.poses.append(PoseRecord(name, T, t, ang))
-    return linkage
+        records.append(PoseRecord(name, T, t, ang))
+    return Linkage(kind, joints, {k: list(v) for k, v in links.items()}, [list(x) for x in branches],
+                   [("coupler", "coupler_k")], poses[0], None if motion is None else np.asarray(motion, float),
+                   records, info=dict(info) if info else {})
 
 
 @functools.lru_cache(maxsize=None)

@@ -87,8 +87,8 @@ def bennett(poses, names=None, *, check_samples: int = 200):
     # The self-check cannot fail (see `error_estimate`): it and what derives from it (motion, checks,
     # info) are computed on first access, with the values that `_finish` would give now.
     linkage = two_branch_linkage("bennett", core["H"], core["K"], None, T, names, _TS)
-    linkage.defer(motion=partial(np.array, core["C"], float), checks=partial(self_check, linkage, check_samples),
-                  info=partial(_deferred_info, linkage, core))
+    linkage.defer(motion=partial(_deferred_motion, core), checks=partial(_deferred_checks, check_samples),
+                  info=partial(_deferred_info, core))
     return linkage
 
 
@@ -101,7 +101,15 @@ def _fast_info(core):
     return info, Conditioning(centre=np.array(centre), scale=scale)
 
 
-def _deferred_info(linkage, core) -> dict:
+def _deferred_motion(core, linkage):
+    return np.array(core["C"], float)
+
+
+def _deferred_checks(samples, linkage):
+    return self_check(linkage, samples)
+
+
+def _deferred_info(core, linkage) -> dict:
     info, cond = _fast_info(core)
     return _complete_info(linkage, info, core["B"], cond)
 
@@ -153,21 +161,21 @@ def error_estimate(core) -> float:
     B01, B02, B12 = core["B"]
     mu1, mu2 = abs(B02 / B12), abs(B01 / B12)  # |C(0)| = |c0| = |mu1|, |C(1)| = |mu2| (primal parts)
     za, zb = core["roots"]
-    x1, y1, x2, y2 = abs(za.real), za.imag, abs(zb.real), zb.imag
-    kappa = min((1.0 + (1.0 + x1) / y1) / y2, (1.0 + (1.0 + x2) / y2) / y1)
+    y1, y2 = za.imag, zb.imag
+    kappa = min((1.0 + (1.0 + abs(za.real)) / y1) / y2, (1.0 + (1.0 + abs(zb.real)) / y2) / y1)
     L = core["scale"]
     cx, cy, cz = core["centre"]
-    cmax = 1.0  # largest coefficient of c0, c1 in the conditioned frame (inverse of bennett_core's `world`)
-    for h in core["C"][:2]:
-        p1, p2, p3 = h[1], h[2], h[3]
-        cmax = max(cmax, *map(abs, h[:4]), max(map(abs, (h[4], h[5] - (p2 * cz - p3 * cy), h[6] - (p3 * cx - p1 * cz),
-                                                       h[7] - (p1 * cy - p2 * cx)))) / L)
-    size2 = 0.0  # largest squared distance of an axis from the centroid: |w + c x v|^2 / |v|^2, h = (a, v, 0, w)
-    for h in (*core["H"], *core["K"]):
-        v1, v2, v3 = h[1], h[2], h[3]
-        d1 = h[5] + (cy * v3 - cz * v2)
-        d2 = h[6] + (cz * v1 - cx * v3)
-        d3 = h[7] + (cx * v2 - cy * v1)
+    # largest coefficient of c0, c1 in the conditioned frame (the inverse of bennett_core's `world`)
+    (a0, a1, a2, a3, a4, a5, a6, a7), (b0, b1, b2, b3, b4, b5, b6, b7), _ = core["C"]
+    cmax = max(1.0, abs(a0), abs(a1), abs(a2), abs(a3), abs(b0), abs(b1), abs(b2), abs(b3),
+               max(abs(a4), abs(a5 - (a2 * cz - a3 * cy)), abs(a6 - (a3 * cx - a1 * cz)), abs(a7 - (a1 * cy - a2 * cx)),
+                   abs(b4), abs(b5 - (b2 * cz - b3 * cy)), abs(b6 - (b3 * cx - b1 * cz)), abs(b7 - (b1 * cy - b2 * cx))) / L)
+    # largest distance of an axis from the centroid: |w + c x v| / |v| for the factor t - h, h = (a, v, 0, w)
+    size2 = 0.0
+    for _, v1, v2, v3, _, w1, w2, w3 in (*core["H"], *core["K"]):
+        d1 = w1 + (cy * v3 - cz * v2)
+        d2 = w2 + (cz * v1 - cx * v3)
+        d3 = w3 + (cx * v2 - cy * v1)
         r = (d1 * d1 + d2 * d2 + d3 * d3) / (v1 * v1 + v2 * v2 + v3 * v3)
         if r > size2:
             size2 = r

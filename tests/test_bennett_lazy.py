@@ -187,8 +187,8 @@ def test_setting_a_deferred_attribute_overrides_it(pair):
 def test_defer_on_a_plain_linkage():
     lk = Linkage("motion", [], {}, [], [], np.eye(4), np.zeros((1, 8)))
     calls = []
-    lk.defer(checks=lambda: calls.append(1) or {"a": 1.0})
-    assert calls == [] and lk.checks == {"a": 1.0} and lk.checks == {"a": 1.0} and calls == [1]
+    lk.defer(checks=lambda self: calls.append(self) or {"a": 1.0})
+    assert calls == [] and lk.checks == {"a": 1.0} and lk.checks == {"a": 1.0} and calls == [lk]
 
 
 def test_refusal_safety_net_when_deferred_check_fails(monkeypatch):
@@ -251,3 +251,51 @@ def test_check_distinct_accepts_lists_and_nan():
     T = np.array([np.eye(4), np.eye(4)])
     T[1, 0, 3] = np.nan
     sb.check_distinct(T, ["a", "b"])  # NaN compares false: not 'coincident' (as before)
+
+
+# ------------------------------------------------------------------ two_branch_linkage
+def _two_branch_reference(kind, H, K, motion, poses, names, ts, info=None):
+    """The former two_branch_linkage (one numpy array per Plücker vector, per-call layout)."""
+    from synth.assemble import _angle, joint_from_factor
+    from synth.linkage import PoseRecord
+
+    n = len(H)
+    joints, links = [], {"base": ["h1", "k1"]}
+    for branch, F in (("h", H), ("k", K)):
+        for i in range(n):
+            parent = "base" if i == 0 else f"link_{branch}{i}"
+            if i == n - 1:
+                child = "coupler" if branch == "h" else "coupler_k"
+            else:
+                child = f"link_{branch}{i + 1}"
+                links[child] = [f"{branch}{i + 1}", f"{branch}{i + 2}"]
+            joints.append(joint_from_factor(f"{branch}{i + 1}", parent, child, F[i]))
+    links["coupler"] = [f"h{n}", f"k{n}"]
+    links["coupler_k"] = []
+    lk = Linkage(kind=kind, joints=joints, links=links,
+                 branches=[[f"h{i + 1}" for i in range(n)], [f"k{i + 1}" for i in range(n)]],
+                 closures=[("coupler", "coupler_k")], tool_ref=np.asarray(poses[0], float),
+                 motion=np.asarray(motion, float), info=dict(info or {}))
+    for name, T, t in zip(names, np.asarray(poses, float), np.asarray(ts, float).tolist()):
+        lk.poses.append(PoseRecord(name=name, matrix=T, t=t, joint_angles={j.name: _angle(j.a, j.b, t) for j in joints}))
+    return lk
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+@pytest.mark.parametrize("as_array", [False, True])
+def test_two_branch_linkage_matches_reference(n, as_array):
+    rng = np.random.default_rng(n)
+    H, K = rng.normal(size=(n, 8)), rng.normal(size=(n, 8))
+    H[:, 4] = K[:, 4] = 0.0
+    if not as_array:
+        H, K = [tuple(h.tolist()) for h in H], [list(k) for k in K]  # tuples of floats, lists of numpy floats
+    poses = random_poses(rng, n + 1)
+    ts = [np.inf, 0.0, 1.0, -np.inf][:n + 1]
+    names = [f"q{i}" for i in range(n + 1)]
+    C = rng.normal(size=(n + 1, 8))
+    a = two_branch_linkage("6r", H, K, C, poses, names, ts, {"x": 1})
+    b = _two_branch_reference("6r", H, K, C, poses, names, ts, {"x": 1})
+    assert repr(a) == repr(b)
+    assert all(type(j.a) is float and type(j.b) is float for j in a.joints)
+    assert all(type(x) is float for p in a.poses for x in [p.t, *p.joint_angles.values()])
+    same_linkage(a, b)
