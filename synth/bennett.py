@@ -7,6 +7,7 @@ whose root a + ib has the smaller real part a.
 """
 from __future__ import annotations
 
+import functools
 import math
 from functools import partial
 
@@ -80,15 +81,14 @@ def bennett(poses, names=None, *, check_samples: int = 200):
         if not np.all(np.isfinite(T)):
             raise InputError("the poses contain NaN or infinity")
         return _bennett_general(T, names, check_samples)
-    if not error_estimate(core) <= ESTIMATE_TOL:  # (also NaN) the self-check decides now
-        info, cond = _fast_info(core)
-        linkage = two_branch_linkage("bennett", core["H"], core["K"], core["C"], T, names, _TS, info)
-        return _finish(linkage, core["B"], cond, check_samples)
-    # The self-check cannot fail (see `error_estimate`): it and what derives from it (motion, checks,
-    # info) are computed on first access, with the values that `_finish` would give now.
+    # The self-check and what derives from it (motion, checks, info) are computed on first access,
+    # with the values that `_finish` would give now. The refusal cannot wait: unless the error bound
+    # shows that the self-check cannot fail, it runs now and decides (`_accept`).
     linkage = two_branch_linkage("bennett", core["H"], core["K"], None, T, names, _TS)
     linkage.defer(motion=partial(_deferred_motion, core), checks=partial(_deferred_checks, check_samples),
                   info=partial(_deferred_info, core))
+    if not error_estimate(core) <= ESTIMATE_TOL:  # (also NaN)
+        _accept(linkage, _fast_info(core)[1])
     return linkage
 
 
@@ -270,14 +270,13 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
         return (u[0], u[1], u[2], (m[0] - cu[0]) / spread, (m[1] - cu[1]) / spread, (m[2] - cu[2]) / spread)
 
     ref = {j.name: line(j.direction.tolist(), j.moment.tolist()) for j in linkage.joints}
-    rng = np.random.default_rng(seed)
+    draws = iter(_random_directions(seed, trials))
     worst = 0.0
     for _ in range(trials):
         Tp = T.copy()
         for i in range(3):
-            w = rng.normal(size=3)
-            v = rng.normal(size=3)
-            Tp[i] = T[i] @ _small_motion(w * (eps / np.linalg.norm(w)), v * (eps * spread / np.linalg.norm(v)))
+            w, nw, v, nv = next(draws)
+            Tp[i] = T[i] @ _small_motion(w * (eps / nw), v * (eps * spread / nv))
         try:
             H, K = _factors(Tp, [p.name for p in linkage.poses])
         except SynthesisError:
@@ -297,6 +296,20 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
                 dev((new[swap[n]], ref[n]) for n in ref))
         worst = max(worst, d / eps)
     return worst
+
+
+@functools.lru_cache(maxsize=8)
+def _random_directions(seed: int, trials: int) -> tuple:
+    """`sensitivity`'s random draws, (w, |w|, v, |v|) for each trial and pose (normal 3-vectors, in
+    the order drawn). Cached: the seed is fixed, and a new Generator costs more than the rest."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(3 * trials):
+        w = rng.normal(size=3)
+        v = rng.normal(size=3)
+        w.flags.writeable = v.flags.writeable = False
+        out.append((w, np.linalg.norm(w), v, np.linalg.norm(v)))
+    return tuple(out)
 
 
 def _small_motion(w, v):
