@@ -13,12 +13,13 @@ from functools import partial
 
 import numpy as np
 
-from .assemble import two_branch_linkage
+from .assemble import bennett_linkage, two_branch_linkage
 from .checks import self_check
 from .errors import InputError, NotGenericError, SynthesisError
 from .factor import factorize
 from .interpolate import Conditioning, condition, conic, relative_displacements, to_world
-from .scalar import bennett_core, pair_geometry
+from .bennett_fast import bennett_core  # = synth.scalar.bennett_core, fused (bitwise the same)
+from .scalar import pair_geometry
 from .scalar import cross as scalar_cross
 from .scalar import dot as scalar_dot
 
@@ -66,10 +67,13 @@ def bennett(poses, names=None, *, check_samples: int = 200):
     motion are verified (``linkage.checks``); the tool frame is always verified at every pose's reported
     joint angles.
 
-    Generic input takes a fast path in plain floats (`synth.scalar.bennett_core`); anything not clearly
-    generic (nearly degenerate poses, nearly real or repeated norm roots, a multiply-back error above
-    5e-13) goes through the general engine (`synth.factor.factorize` with its refinements), which also
-    gives every refusal its message. Both produce the same linkage up to rounding.
+    Generic input takes a fast path in plain floats (`synth.scalar.bennett_core`, in its fused form
+    `synth.bennett_fast.bennett_core`); anything not clearly generic (nearly degenerate poses, nearly
+    real or repeated norm roots, a multiply-back error above 5e-13) goes through the general engine
+    (`synth.factor.factorize` with its refinements), which also gives every refusal its message. Both
+    produce the same linkage up to rounding. On the fast path, ``motion``, ``checks`` and ``info`` are
+    computed on first access (`Linkage.defer`); the self-check runs at once, and refuses the result,
+    unless `error_estimate` shows that it cannot fail.
 
     Raises SynthesisError (degenerate or non-real cases, with a plain-language reason)."""
     T = np.asarray(poses, float)
@@ -84,7 +88,10 @@ def bennett(poses, names=None, *, check_samples: int = 200):
     # The self-check and what derives from it (motion, checks, info) are computed on first access,
     # with the values that `_finish` would give now. The refusal cannot wait: unless the error bound
     # shows that the self-check cannot fail, it runs now and decides (`_accept`).
-    linkage = two_branch_linkage("bennett", core["H"], core["K"], None, T, names, _TS)
+    if len(names) == 3:
+        linkage = bennett_linkage(core["H"], core["K"], T, names)
+    else:
+        linkage = two_branch_linkage("bennett", core["H"], core["K"], None, T, names, _TS)
     linkage.defer(motion=partial(_deferred_motion, core), checks=partial(_deferred_checks, check_samples),
                   info=partial(_deferred_info, core))
     if not error_estimate(core) <= ESTIMATE_TOL:  # (also NaN)
@@ -165,11 +172,10 @@ def error_estimate(core) -> float:
     kappa = min((1.0 + (1.0 + abs(za.real)) / y1) / y2, (1.0 + (1.0 + abs(zb.real)) / y2) / y1)
     L = core["scale"]
     cx, cy, cz = core["centre"]
-    # largest coefficient of c0, c1 in the conditioned frame (the inverse of bennett_core's `world`)
-    (a0, a1, a2, a3, a4, a5, a6, a7), (b0, b1, b2, b3, b4, b5, b6, b7), _ = core["C"]
-    cmax = max(1.0, abs(a0), abs(a1), abs(a2), abs(a3), abs(b0), abs(b1), abs(b2), abs(b3),
-               max(abs(a4), abs(a5 - (a2 * cz - a3 * cy)), abs(a6 - (a3 * cx - a1 * cz)), abs(a7 - (a1 * cy - a2 * cx)),
-                   abs(b4), abs(b5 - (b2 * cz - b3 * cy)), abs(b6 - (b3 * cx - b1 * cz)), abs(b7 - (b1 * cy - b2 * cx))) / L)
+    # bound on the largest coefficient of c0 = -mu1 D1 and c1 = mu1 D1 + mu2 D2 - 1 (conditioned): the
+    # relative displacements D have unit primal parts and dual parts -d r / 2 with |d| <= sqrt(6), as
+    # the conditioned positions have an RMS distance of 1 from their centroid
+    cmax = 1.0 + SQRT3 * (mu1 + mu2)
     # largest distance of an axis from the centroid: |w + c x v| / |v| for the factor t - h, h = (a, v, 0, w)
     size2 = 0.0
     for _, v1, v2, v3, _, w1, w2, w3 in (*core["H"], *core["K"]):

@@ -299,3 +299,28 @@ def test_two_branch_linkage_matches_reference(n, as_array):
     assert all(type(j.a) is float and type(j.b) is float for j in a.joints)
     assert all(type(x) is float for p in a.poses for x in [p.t, *p.joint_angles.values()])
     same_linkage(a, b)
+
+
+# ------------------------------------------------------------------ fused core
+@pytest.mark.parametrize("kind", KINDS)
+def test_fused_core_is_bitwise_the_scalar_core(kind):
+    from synth.bennett_fast import bennett_core as fused
+
+    rng = np.random.default_rng(77 + sum(map(ord, kind)))
+    for _ in range(150):
+        T = generate(kind, rng)
+        assert repr(fused(T)) == repr(bennett_core(T))  # repr: signs of zeros and every last bit
+
+
+@given(seed=st.integers(0, 2 ** 32 - 1), scale=st.floats(-8, 8), offset=st.floats(-8, 8),
+       flip=st.booleans())
+@settings(max_examples=150, deadline=None)
+def test_fused_core_is_bitwise_the_scalar_core_hypothesis(seed, scale, offset, flip):
+    from synth.bennett_fast import bennett_core as fused
+
+    rng = np.random.default_rng(seed)
+    T = random_poses(rng, 3, scale=10 ** scale, offset=rng.normal(size=3) * 10 ** offset, near_pi=flip)
+    if seed % 7 == 0:  # coincident / non-finite / exactly planar inputs
+        T[seed % 3] = T[(seed + 1) % 3] if seed % 2 else T[seed % 3]
+        T[0, 0, 3] = [np.nan, np.inf, T[0, 0, 3]][seed % 3]
+    assert repr(fused(T)) == repr(bennett_core(T))
