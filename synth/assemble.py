@@ -98,8 +98,10 @@ def bennett_linkage(H, K, poses, names) -> Linkage:
     n0, n1, n2 = names
     P0, P1, P2 = poses
     return Linkage("bennett",
-                   [Joint("h1", "base", "link_h1", U[0], U[1], a1, b1), Joint("h2", "link_h1", "coupler", U[2], U[3], a2, b2),
-                    Joint("k1", "base", "link_k1", U[4], U[5], a3, b3), Joint("k2", "link_k1", "coupler_k", U[6], U[7], a4, b4)],
+                   [Joint("h1", "base", "link_h1", U[0], U[1], a1, b1),
+                    Joint("h2", "link_h1", "coupler", U[2], U[3], a2, b2),
+                    Joint("k1", "base", "link_k1", U[4], U[5], a3, b3),
+                    Joint("k2", "link_k1", "coupler_k", U[6], U[7], a4, b4)],
                    {"base": ["h1", "k1"], "link_h1": ["h1", "h2"], "link_k1": ["k1", "k2"], "coupler": ["h2", "k2"],
                     "coupler_k": []},
                    [["h1", "h2"], ["k1", "k2"]], [("coupler", "coupler_k")], P0, None,

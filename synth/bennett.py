@@ -7,9 +7,8 @@ whose root a + ib has the smaller real part a.
 """
 from __future__ import annotations
 
-import functools
 import math
-from functools import partial
+from functools import lru_cache, partial
 
 import numpy as np
 
@@ -50,14 +49,20 @@ def check_distinct(T, names, tol=COINCIDENT_TOL):
 
 def _pose_difference(A, B):
     """`synth.checks.pose_difference` of two 4x4 nested lists: (|d_A - d_B|, angle of R_A^T R_B)."""
-    dt = math.sqrt((A[0][3] - B[0][3]) ** 2 + (A[1][3] - B[1][3]) ** 2 + (A[2][3] - B[2][3]) ** 2)
-    # R = R_A^T R_B: R[r][c] = sum_k A[k][r] B[k][c]; only the skew part and the trace are needed
-    def r(a, b):
-        return A[0][a] * B[0][b] + A[1][a] * B[1][b] + A[2][a] * B[2][b]
-
-    s = 0.5 * math.sqrt((r(2, 1) - r(1, 2)) ** 2 + (r(0, 2) - r(2, 0)) ** 2 + (r(1, 0) - r(0, 1)) ** 2)
-    c = 0.5 * (r(0, 0) + r(1, 1) + r(2, 2) - 1)
-    return dt, math.atan2(s, c)
+    (a00, a01, a02, a03), (a10, a11, a12, a13), (a20, a21, a22, a23) = A[0], A[1], A[2]
+    (b00, b01, b02, b03), (b10, b11, b12, b13), (b20, b21, b22, b23) = B[0], B[1], B[2]
+    dt = math.sqrt((a03 - b03) ** 2 + (a13 - b13) ** 2 + (a23 - b23) ** 2)
+    # R = R_A^T R_B, R[r][c] = sum_k A[k][r] B[k][c]: only its skew part and trace are needed
+    r01 = a00 * b01 + a10 * b11 + a20 * b21
+    r02 = a00 * b02 + a10 * b12 + a20 * b22
+    r10 = a01 * b00 + a11 * b10 + a21 * b20
+    r12 = a01 * b02 + a11 * b12 + a21 * b22
+    r20 = a02 * b00 + a12 * b10 + a22 * b20
+    r21 = a02 * b01 + a12 * b11 + a22 * b21
+    trace = ((a00 * b00 + a10 * b10 + a20 * b20) + (a01 * b01 + a11 * b11 + a21 * b21)
+             + (a02 * b02 + a12 * b12 + a22 * b22))
+    s = 0.5 * math.sqrt((r21 - r12) ** 2 + (r02 - r20) ** 2 + (r10 - r01) ** 2)
+    return dt, math.atan2(s, 0.5 * (trace - 1))
 
 
 def bennett(poses, names=None, *, check_samples: int = 200):
@@ -304,7 +309,7 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
     return worst
 
 
-@functools.lru_cache(maxsize=8)
+@lru_cache(maxsize=8)
 def _random_directions(seed: int, trials: int) -> tuple:
     """`sensitivity`'s random draws, (w, |w|, v, |v|) for each trial and pose (normal 3-vectors, in
     the order drawn). Cached: the seed is fixed, and a new Generator costs more than the rest."""

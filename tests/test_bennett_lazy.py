@@ -277,7 +277,8 @@ def _two_branch_reference(kind, H, K, motion, poses, names, ts, info=None):
                  closures=[("coupler", "coupler_k")], tool_ref=np.asarray(poses[0], float),
                  motion=np.asarray(motion, float), info=dict(info or {}))
     for name, T, t in zip(names, np.asarray(poses, float), np.asarray(ts, float).tolist()):
-        lk.poses.append(PoseRecord(name=name, matrix=T, t=t, joint_angles={j.name: _angle(j.a, j.b, t) for j in joints}))
+        ang = {j.name: _angle(j.a, j.b, t) for j in joints}
+        lk.poses.append(PoseRecord(name=name, matrix=T, t=t, joint_angles=ang))
     return lk
 
 
