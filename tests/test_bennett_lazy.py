@@ -325,3 +325,92 @@ def test_fused_core_is_bitwise_the_scalar_core_hypothesis(seed, scale, offset, f
         T[seed % 3] = T[(seed + 1) % 3] if seed % 2 else T[seed % 3]
         T[0, 0, 3] = [np.nan, np.inf, T[0, 0, 3]][seed % 3]
     assert repr(fused(T)) == repr(bennett_core(T))
+
+
+# ------------------------------------------------------------------ small-sample checks
+def _evaluate_small_reference(linkage, samples):
+    """The former synth.checks._evaluate_small (every pose and t = inf evaluated)."""
+    from synth.checks import _pose_dq
+    from synth.scalar import dq_mul, dq_translation
+
+    joints = linkage.joints
+    slot = {"base": 0}
+    for j in joints:
+        slot.setdefault(j.child, len(slot))
+    chain = [(slot[j.parent], slot[j.child], j.direction.tolist(), j.moment.tolist()) for j in joints]
+    identity = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+    def fk(cs):
+        disp = [identity] * len(slot)
+        for (p, ch, u, m), (c, s) in zip(chain, cs):
+            G = (c, s * u[0], s * u[1], s * u[2], 0.0, -s * m[0], -s * m[1], -s * m[2])
+            disp[ch] = G if p == 0 else dq_mul(disp[p], G)
+        return disp
+
+    def diff(A, B):
+        dA, dB = dq_translation(A), dq_translation(B)
+        dt = math.sqrt((dA[0] - dB[0]) ** 2 + (dA[1] - dB[1]) ** 2 + (dA[2] - dB[2]) ** 2)
+        a0, a1, a2, a3 = A[0], -A[1], -A[2], -A[3]
+        b0, b1, b2, b3 = B[0], B[1], B[2], B[3]
+        e0 = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3
+        e1 = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2
+        e2 = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1
+        e3 = a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0
+        return dt, 2.0 * math.atan2(math.sqrt(e1 * e1 + e2 * e2 + e3 * e3), abs(e0))
+
+    tool = slot[linkage.tool_link]
+    pt = pr = 0.0
+    Href = _pose_dq(linkage.tool_ref)
+    for rec in linkage.poses:
+        cs = [(math.cos(0.5 * rec.joint_angles[j.name]), math.sin(0.5 * rec.joint_angles[j.name])) for j in joints]
+        dt, dr = diff(dq_mul(fk(cs)[tool], Href), _pose_dq(rec.matrix))
+        pt, pr = max(pt, dt), max(pr, dr)
+    a, b = [j.a for j in joints], [j.b for j in joints]
+    centre, scale = sum(a) / len(a), max(sum(b) / len(b), 1e-12)
+    ts = [centre + scale * math.tan(-math.pi / 2 + math.pi * (k + 1) / samples) for k in range(samples - 1)]
+    C = linkage.motion.tolist()
+    ct = cr = me = 0.0
+    for t in ts + [math.inf]:
+        if t == math.inf:
+            cs, Ct = [(1.0, 0.0)] * len(joints), C[-1]
+        else:
+            cs = [((t - aj) / math.hypot(t - aj, bj), bj / math.hypot(t - aj, bj)) for aj, bj in zip(a, b)]
+            Ct = C[-1]
+            for row in C[-2::-1]:
+                Ct = [x * t + y for x, y in zip(Ct, row)]
+        disp = fk(cs)
+        for x, y in linkage.closures:
+            dt, dr = diff(disp[slot[x]], disp[slot[y]])
+            ct, cr = max(ct, dt), max(cr, dr)
+        dt, dr = diff(disp[tool], Ct)
+        me = max(me, dt + dr)
+    return (pt, pr), (ct, cr), me
+
+
+@pytest.mark.parametrize("samples", [1, 2, 4, 32])
+def test_small_sample_checks_equal_the_former_ones(samples):
+    from synth.checks import _evaluate_small
+
+    rng = np.random.default_rng(samples)
+    for k in range(30):
+        lk = eager(random_poses(rng, 3), samples)[0]
+        if k % 3 == 1:  # a non-monic motion: t = inf is checked
+            lk.motion = lk.motion * 1.5
+        if k % 3 == 2:  # the tool frame off pose 0, where every angle is 0: the pose error is not 0
+            lk.tool_ref = lk.tool_ref @ thg.small_motion(rng, 1e-3)
+        assert repr(_evaluate_small(lk, samples)) == repr(_evaluate_small_reference(lk, samples))
+
+
+def test_small_sample_checks_equal_the_former_ones_6r():
+    from synth.checks import _evaluate_small
+
+    rng = np.random.default_rng(9)
+    done = 0
+    while done < 3:
+        try:
+            lk = synth.sixbar(random_poses(rng, 4))
+        except SynthesisError:
+            continue
+        done += 1
+        for samples in (4, 32):
+            assert repr(_evaluate_small(lk, samples)) == repr(_evaluate_small_reference(lk, samples))
