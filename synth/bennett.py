@@ -8,15 +8,17 @@ whose root a + ib has the smaller real part a.
 from __future__ import annotations
 
 import math
+from functools import lru_cache, partial
 
 import numpy as np
 
-from .assemble import two_branch_linkage
-from .checks import pose_difference, self_check
+from .assemble import bennett_linkage, two_branch_linkage
+from .checks import self_check
 from .errors import InputError, NotGenericError, SynthesisError
 from .factor import factorize
 from .interpolate import Conditioning, condition, conic, relative_displacements, to_world
-from .scalar import bennett_core, pair_geometry
+from .bennett_fast import bennett_core  # = synth.scalar.bennett_core, fused (bitwise the same)
+from .scalar import pair_geometry
 from .scalar import cross as scalar_cross
 from .scalar import dot as scalar_dot
 
@@ -30,16 +32,37 @@ EPS = float(np.finfo(float).eps)
 
 
 def check_distinct(T, names, tol=COINCIDENT_TOL):
-    """Refuse coincident poses with a message naming them."""
-    T = np.asarray(T, float)
-    pos = T[:, :3, 3]
-    L = max(float(np.sqrt(np.mean(np.sum((pos - pos.mean(0)) ** 2, axis=1)))), 1e-300)
-    for i in range(len(T)):
-        for j in range(i + 1, len(T)):
-            dt, dr = pose_difference(T[i], T[j])
+    """Refuse coincident poses with a message naming them. (Plain floats: the pairwise differences
+    are those of `synth.checks.pose_difference`.)"""
+    M = np.asarray(T, float).tolist()
+    pos = [(R[0][3], R[1][3], R[2][3]) for R in M]
+    n = len(pos)
+    cx, cy, cz = (sum([p[k] for p in pos]) / n for k in range(3))
+    L = max(math.sqrt(sum([(x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2 for x, y, z in pos]) / n), 1e-300)
+    for i in range(n):
+        for j in range(i + 1, n):
+            dt, dr = _pose_difference(M[i], M[j])
             if dt <= tol * max(L, 1e-300) and dr <= tol or (dt == 0 and dr <= tol):
                 raise SynthesisError(f"poses {i} ({names[i]!r}) and {j} ({names[j]!r}) coincide: "
                                      "three distinct poses are needed")
+
+
+def _pose_difference(A, B):
+    """`synth.checks.pose_difference` of two 4x4 nested lists: (|d_A - d_B|, angle of R_A^T R_B)."""
+    (a00, a01, a02, a03), (a10, a11, a12, a13), (a20, a21, a22, a23) = A[0], A[1], A[2]
+    (b00, b01, b02, b03), (b10, b11, b12, b13), (b20, b21, b22, b23) = B[0], B[1], B[2]
+    dt = math.sqrt((a03 - b03) ** 2 + (a13 - b13) ** 2 + (a23 - b23) ** 2)
+    # R = R_A^T R_B, R[r][c] = sum_k A[k][r] B[k][c]: only its skew part and trace are needed
+    r01 = a00 * b01 + a10 * b11 + a20 * b21
+    r02 = a00 * b02 + a10 * b12 + a20 * b22
+    r10 = a01 * b00 + a11 * b10 + a21 * b20
+    r12 = a01 * b02 + a11 * b12 + a21 * b22
+    r20 = a02 * b00 + a12 * b10 + a22 * b20
+    r21 = a02 * b01 + a12 * b11 + a22 * b21
+    trace = ((a00 * b00 + a10 * b10 + a20 * b20) + (a01 * b01 + a11 * b11 + a21 * b21)
+             + (a02 * b02 + a12 * b12 + a22 * b22))
+    s = 0.5 * math.sqrt((r21 - r12) ** 2 + (r02 - r20) ** 2 + (r10 - r01) ** 2)
+    return dt, math.atan2(s, 0.5 * (trace - 1))
 
 
 def bennett(poses, names=None, *, check_samples: int = 200):
@@ -49,45 +72,135 @@ def bennett(poses, names=None, *, check_samples: int = 200):
     motion are verified (``linkage.checks``); the tool frame is always verified at every pose's reported
     joint angles.
 
-    Generic input takes a fast path in plain floats (`synth.scalar.bennett_core`); anything not clearly
-    generic (nearly degenerate poses, nearly real or repeated norm roots, a multiply-back error above
-    5e-13) goes through the general engine (`synth.factor.factorize` with its refinements), which also
-    gives every refusal its message. Both produce the same linkage up to rounding.
+    Generic input takes a fast path in plain floats (`synth.scalar.bennett_core`, in its fused form
+    `synth.bennett_fast.bennett_core`); anything not clearly generic (nearly degenerate poses, nearly
+    real or repeated norm roots, a multiply-back error above 5e-13) goes through the general engine
+    (`synth.factor.factorize` with its refinements), which also gives every refusal its message. Both
+    produce the same linkage up to rounding. On the fast path, ``motion``, ``checks`` and ``info`` are
+    computed on first access (`Linkage.defer`); the self-check runs at once, and refuses the result,
+    unless `error_estimate` shows that it cannot fail.
 
     Raises SynthesisError (degenerate or non-real cases, with a plain-language reason)."""
     T = np.asarray(poses, float)
     if T.shape != (3, 4, 4):
         raise InputError(f"a Bennett linkage needs exactly 3 poses (array of shape (3, 4, 4)), got {T.shape}")
-    if not math.isfinite(float(T.sum())) and not np.all(np.isfinite(T)):
-        raise InputError("the poses contain NaN or infinity")
-    names = list(names) if names is not None else [f"p{i}" for i in range(3)]
-    core = bennett_core(T)
+    names = list(names) if names is not None else ["p0", "p1", "p2"]
+    core = bennett_core(T)  # None for non-finite input, among others
     if core is None:
+        if not np.all(np.isfinite(T)):
+            raise InputError("the poses contain NaN or infinity")
         return _bennett_general(T, names, check_samples)
-    cond = Conditioning(centre=np.array(core["centre"]), scale=core["scale"])
+    # The self-check and what derives from it (motion, checks, info) are computed on first access,
+    # with the values that `_finish` would give now. The refusal cannot wait: unless the error bound
+    # shows that the self-check cannot fail, it runs now and decides (`_accept`).
+    if len(names) == 3:
+        linkage = bennett_linkage(core["H"], core["K"], T, names)
+    else:
+        linkage = two_branch_linkage("bennett", core["H"], core["K"], None, T, names, _TS)
+    linkage.defer(motion=partial(_deferred_motion, core), checks=partial(_deferred_checks, check_samples),
+                  info=partial(_deferred_info, core))
+    if not error_estimate(core) <= ESTIMATE_TOL:  # (also NaN)
+        _accept(linkage, _fast_info(core)[1])
+    return linkage
+
+
+def _fast_info(core):
+    """(info, Conditioning) of a fast-path result before the self-check."""
+    centre, scale = core["centre"], core["scale"]
     info = {"factorization_residual": core["residual"],
-            "study_form": {k: v * cond.scale for k, v in zip(("B01", "B02", "B12"), core["B"])},
-            "conditioning": {"centre": list(core["centre"]), "scale": cond.scale}}
-    linkage = two_branch_linkage("bennett", core["H"], core["K"], core["C"], T, names, _TS, info)
-    return _finish(linkage, core["B"], cond, check_samples)
+            "study_form": {k: v * scale for k, v in zip(("B01", "B02", "B12"), core["B"])},
+            "conditioning": {"centre": list(centre), "scale": scale}}
+    return info, Conditioning(centre=np.array(centre), scale=scale)
+
+
+def _deferred_motion(core, linkage):
+    return np.array(core["C"], float)
+
+
+def _deferred_checks(samples, linkage):
+    return self_check(linkage, samples)
+
+
+def _deferred_info(core, linkage) -> dict:
+    info, cond = _fast_info(core)
+    return _complete_info(linkage, info, core["B"], cond)
 
 
 _TS = (np.inf, 0.0, 1.0)
 
 
 def _finish(linkage, B, cond, check_samples):
-    loop = ["h1", "h2", "k2", "k1"]
-    geo = loop_geometry(linkage, loop)
-    linkage.info["bennett"] = bennett_parameters(linkage, geo)
-    linkage.info["dh"] = dh_table(linkage, loop, geo)
+    """Self-check the linkage (refusing it when it misses its poses, `_accept`) and complete its info."""
     linkage.checks = self_check(linkage, check_samples)
-    _accept(linkage, cond)
-    linkage.info["warnings"] = _warnings(linkage, B, cond)
+    linkage.info = _complete_info(linkage, linkage.info, B, cond)
     return linkage
 
 
-def _accept(linkage, cond) -> None:
-    """Refuse a linkage whose own self-check fails: near degenerate poses can defeat double precision
+def _complete_info(linkage, info, B, cond) -> dict:
+    """``info`` plus the Bennett parameters, DH table, relative self-check error and warnings; raises
+    SynthesisError when the self-check (``linkage.checks``) fails (`_accept`)."""
+    info = dict(info)
+    loop = ["h1", "h2", "k2", "k1"]
+    geo = loop_geometry(linkage, loop)
+    info["bennett"] = bennett_parameters(linkage, geo)
+    info["dh"] = dh_table(linkage, loop, geo)
+    info["relative_error"] = _accept(linkage, cond)
+    info["warnings"] = _warnings(linkage, B, cond, info)
+    return info
+
+
+# ----------------------------------------------------------------------------- a priori error bound
+ESTIMATE_TOL = 1e-9  # error_estimate at or below this: _accept's relative error is far below ACCEPT_TOL
+SQRT3 = math.sqrt(3.0)
+
+
+def error_estimate(core) -> float:
+    """A cheap, conservative estimate of `_accept`'s relative self-check error for a fast-path result
+    (`synth.scalar.bennett_core`), from quantities the core already has; no forward kinematics.
+
+    First-order rounding analysis, in the conditioned frame (pose spread 1) where the core works:
+    - factorization: the multiply-back error (``residual``, relative to the largest coefficient cmax)
+      perturbs C(t) by residual cmax (1 + |t|); the checks compare *normalized* motions, so it is
+      amplified by (1 + |t|) / |C(t)|, bounded over all real t with the norm roots x + iy:
+      |t - z| >= max(y, |t - x|) gives kappa = (1 + (1 + |x1|) / y1) / y2 (or the same with 1, 2 swapped);
+    - interpolation: C(1) = c0 + c1 + 1 = mu2 D2 is formed with cancellation, eps (1 + |mu1| + |mu2|) / |mu|;
+    - world coordinates: rounding of eps times the coordinates' size (positions and axes, up to
+      pmax + axis distance), amplified like the factorization error (1 + cmax kappa), relative to the
+      pose spread plus `_accept`'s floor.
+    The constants are calibrated on random sweeps (uniform, extreme scales and offsets, nearly degenerate
+    families: tests/test_bennett_lazy.py): the self-check error stayed below 0.25 of this estimate, so
+    an estimate <= ESTIMATE_TOL (1e-9) means a relative error <= ~2.5e-10, 40x inside ACCEPT_TOL."""
+    B01, B02, B12 = core["B"]
+    mu1, mu2 = abs(B02 / B12), abs(B01 / B12)  # |C(0)| = |c0| = |mu1|, |C(1)| = |mu2| (primal parts)
+    za, zb = core["roots"]
+    y1, y2 = za.imag, zb.imag
+    kappa = min((1.0 + (1.0 + abs(za.real)) / y1) / y2, (1.0 + (1.0 + abs(zb.real)) / y2) / y1)
+    L = core["scale"]
+    cx, cy, cz = core["centre"]
+    # bound on the largest coefficient of c0 = -mu1 D1 and c1 = mu1 D1 + mu2 D2 - 1 (conditioned): the
+    # relative displacements D have unit primal parts and dual parts -d r / 2 with |d| <= sqrt(6), as
+    # the conditioned positions have an RMS distance of 1 from their centroid
+    cmax = 1.0 + SQRT3 * (mu1 + mu2)
+    # largest distance of an axis from the centroid: |w + c x v| / |v| for the factor t - h, h = (a, v, 0, w)
+    size2 = 0.0
+    for _, v1, v2, v3, _, w1, w2, w3 in (*core["H"], *core["K"]):
+        d1 = w1 + (cy * v3 - cz * v2)
+        d2 = w2 + (cz * v1 - cx * v3)
+        d3 = w3 + (cx * v2 - cy * v1)
+        r = (d1 * d1 + d2 * d2 + d3 * d3) / (v1 * v1 + v2 * v2 + v3 * v3)
+        if r > size2:
+            size2 = r
+    size = max(L, math.sqrt(size2))
+    cinf = max(abs(cx), abs(cy), abs(cz))  # pmax (largest |coordinate| of a position) is in [cinf, cinf + sqrt3 L]
+    fact = core["residual"] * cmax * kappa
+    interp = EPS * (1.0 + mu1 + mu2) / min(mu1, mu2)
+    world = EPS * (cinf + SQRT3 * L + size) / (L + FLOOR_ULPS * EPS * cinf / ACCEPT_TOL) * (1.0 + cmax * kappa)
+    return 4.0 * fact + 4.0 * interp + 1000.0 * world
+
+
+def _accept(linkage, cond) -> float:
+    """The largest relative self-check error (info's ``relative_error``); refuse a linkage whose own
+    self-check fails: near degenerate poses can defeat double precision
     (the conic's coefficients or the factorization lose most digits), and a linkage that misses its
     poses must never be reported as a result. Translation errors are relative to the pose spread (to
     the axes' largest distance from the poses for the closure), plus a floor of FLOOR_ULPS ulps of the
@@ -105,7 +218,6 @@ def _accept(linkage, cond) -> None:
               c["max_pose_rotation_error"],
               c["max_closure_translation_error"] / (size + floor / ACCEPT_TOL),
               c["max_closure_rotation_error"])
-    linkage.info["relative_error"] = rel
     if not rel <= ACCEPT_TOL:  # (also catches NaN)
         T = np.array([p.matrix for p in linkage.poses])
         names = [p.name for p in linkage.poses]
@@ -113,6 +225,7 @@ def _accept(linkage, cond) -> None:
             f"the poses are too close to a degenerate configuration{_near_degenerate(T, names, spread)}: the "
             f"linkage computed in double precision misses them by {rel:.1e} (relative; at most {ACCEPT_TOL:g} "
             "is accepted), so no reliable linkage can be given; move the poses further apart")
+    return rel
 
 
 def _axis_distance(linkage, c) -> float:
@@ -168,14 +281,13 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
         return (u[0], u[1], u[2], (m[0] - cu[0]) / spread, (m[1] - cu[1]) / spread, (m[2] - cu[2]) / spread)
 
     ref = {j.name: line(j.direction.tolist(), j.moment.tolist()) for j in linkage.joints}
-    rng = np.random.default_rng(seed)
+    draws = iter(_random_directions(seed, trials))
     worst = 0.0
     for _ in range(trials):
         Tp = T.copy()
         for i in range(3):
-            w = rng.normal(size=3)
-            v = rng.normal(size=3)
-            Tp[i] = T[i] @ _small_motion(w * (eps / np.linalg.norm(w)), v * (eps * spread / np.linalg.norm(v)))
+            w, nw, v, nv = next(draws)
+            Tp[i] = T[i] @ _small_motion(w * (eps / nw), v * (eps * spread / nv))
         try:
             H, K = _factors(Tp, [p.name for p in linkage.poses])
         except SynthesisError:
@@ -195,6 +307,20 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
                 dev((new[swap[n]], ref[n]) for n in ref))
         worst = max(worst, d / eps)
     return worst
+
+
+@lru_cache(maxsize=8)
+def _random_directions(seed: int, trials: int) -> tuple:
+    """`sensitivity`'s random draws, (w, |w|, v, |v|) for each trial and pose (normal 3-vectors, in
+    the order drawn). Cached: the seed is fixed, and a new Generator costs more than the rest."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(3 * trials):
+        w = rng.normal(size=3)
+        v = rng.normal(size=3)
+        w.flags.writeable = v.flags.writeable = False
+        out.append((w, np.linalg.norm(w), v, np.linalg.norm(v)))
+    return tuple(out)
 
 
 def _small_motion(w, v):
@@ -266,13 +392,13 @@ def _general_factors(T, names):
     return H, K, C, con, cond, info
 
 
-def _warnings(linkage, B, cond) -> list[str]:
+def _warnings(linkage, B, cond, info) -> list[str]:
     """Warnings for a valid result: axes far from the poses, and sensitivity to the poses. The condition
     estimate (`sensitivity`, two extra syntheses) runs only when a cheap indicator suggests trouble:
     axes more than 3 pose spreads away, a Study form value |B| < 1e-2 (nearly zero pitch), or norm
     roots that are close or nearly real."""
     out = []
-    rel = linkage.info.get("relative_error", 0.0)
+    rel = info.get("relative_error", 0.0)
     if rel > ACCURATE:
         out.append(f"the linkage reproduces the poses less accurately than usual (relative error between "
                    f"{ACCURATE:g} and {ACCEPT_TOL:g}): the poses are close to a degenerate configuration")
@@ -286,7 +412,7 @@ def _warnings(linkage, B, cond) -> list[str]:
     nearly_real = min(j.b for j in linkage.joints) < 1e-2 * max(1.0, *(abs(j.a) for j in linkage.joints))
     if far > 3 or min(abs(x) for x in B) < 1e-2 or roots_close or nearly_real:
         kappa = sensitivity(linkage)
-        linkage.info["condition_estimate"] = kappa
+        info["condition_estimate"] = kappa
         if kappa > SENSITIVE:
             # orders of magnitude only: the text must not depend on rounding (batch and single paths agree)
             mag = math.floor(math.log10(kappa)) if math.isfinite(kappa) else None

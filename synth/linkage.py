@@ -74,6 +74,38 @@ class Linkage:
     checks: dict[str, float] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)  # kind-specific extras, JSON-serializable
 
+    # ------------------------------------------------------------------ deferred attributes
+    def defer(self, **compute) -> None:
+        """Compute the attributes ``compute`` (name -> function of the linkage returning the value) on
+        first access instead of now; the value is then stored as an ordinary attribute. Reading a
+        deferred attribute is indistinguishable from reading an eager one (``repr``, ``asdict`` and
+        ``replace`` go through attribute access); copying or pickling the linkage computes every
+        deferred attribute first, so copies carry the values of the linkage as it was built.
+        An assignment before the first access replaces the deferred value."""
+        d = self.__dict__
+        for name in compute:
+            d.pop(name, None)
+        pending = d.get("_deferred")
+        d["_deferred"] = {**pending, **compute} if pending else compute
+
+    def __getattr__(self, name):
+        # only reached when the ordinary lookup fails, i.e. for a deferred attribute not yet computed
+        pending = self.__dict__.get("_deferred")
+        if not pending or name not in pending:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        value = pending[name](self)
+        if name not in self.__dict__:  # (unless assigned meanwhile)
+            self.__dict__[name] = value
+        self.__dict__["_deferred"] = {k: f for k, f in self.__dict__["_deferred"].items() if k != name}
+        return self.__dict__[name]
+
+    def __reduce_ex__(self, protocol):
+        # copy, deepcopy and pickle: compute the deferred attributes from this linkage first
+        for name in list(self.__dict__.get("_deferred") or ()):
+            getattr(self, name)
+        self.__dict__.pop("_deferred", None)
+        return super().__reduce_ex__(protocol)
+
     # ------------------------------------------------------------------ queries
     def joint(self, name: str) -> Joint:
         for j in self.joints:
