@@ -214,12 +214,13 @@ class CubicFamily:
         lam1 = float(lam1)
         if not np.isfinite(lam1):
             raise SynthesisError("member lambda1 must be a finite number (lambda1 = inf misses pose 0)")
-        M = np.array([self.lead, self.weights[:, 1]])
-        if abs(np.linalg.det(M)) <= 1e-14 * np.abs(M).max() ** 2:
+        (la, lb), (wa, wb) = self.lead.tolist(), self.weights[:, 1].tolist()
+        det = la * wb - lb * wa  # a (la, lb) + b ... : a la + b lb = 1, a wa + b wb = lam1 (Cramer)
+        if abs(det) <= 1e-14 * max(abs(la), abs(lb), abs(wa), abs(wb)) ** 2:
             raise SynthesisError(f"family {self.index}: the member label lambda1 is degenerate for these poses")
-        a, b = np.linalg.solve(M, [1.0, lam1])
+        a, b = (wb - lb * lam1) / det, (la * lam1 - wa) / det
         C = a * self.basis[0] + b * self.basis[1]
-        C[3] = np.eye(8)[0]
+        C[3] = _ONE
         return C
 
     def bad_members(self) -> dict[str, float]:
@@ -330,15 +331,15 @@ def norm_roots(C, newton: int = 2) -> np.ndarray:
     C = np.asarray(C, float)
     P = C[..., :4]
     batch = P.shape[:-2]
-    N = ((P @ P.swapaxes(-1, -2)).reshape(batch + (16,)) @ _ANTIDIAG)  # (..., 7): N_k = sum_{i+j=k} P_i.P_j
-    comp = np.empty(batch + (6, 6))
+    N = (P @ P.swapaxes(-1, -2)).reshape(-1, 16) @ _ANTIDIAG  # (n, 7): N_k = sum_{i+j=k} P_i.P_j
+    comp = np.empty((N.shape[0], 6, 6))
     comp[...] = _SUBDIAG
-    comp[..., :, 5] = N[..., :6] / -N[..., 6:7]
-    z = np.linalg.eigvals(comp).reshape(-1, 6)
+    comp[:, :, 5] = N[:, :6] / -N[:, 6:7]
+    z = np.linalg.eigvals(comp)
     rows = np.arange(z.shape[0])[:, None]
     z = z[rows, np.argsort(-z.imag, axis=-1)[:, :3]]  # one root of each pair
     z = np.where(z.imag < 0, z.conj(), z)
-    c = [N[..., k : k + 1] for k in range(7)]  # Horner on N and N' (pre-sliced: numpy calls are the cost)
+    c = [N[:, k : k + 1] for k in range(7)]  # Horner on N and N' (pre-sliced: numpy calls are the cost)
     d = [c[k] * k for k in range(1, 7)]
     for _ in range(newton):
         f = c[6] * z + c[5]
@@ -348,9 +349,7 @@ def norm_roots(C, newton: int = 2) -> np.ndarray:
             if k:
                 df = df * z + d[k - 1]
         z = z - f / np.where(df != 0, df, 1)
-    return np.take_along_axis(z, np.argsort(z.real + 1e-12 * z.imag, axis=-1, kind="stable"), -1)
-
-
+    return z[rows, np.argsort(z.real + 1e-12 * z.imag, axis=-1, kind="stable")].reshape(batch + (3,))
 
 
 def root_conditioning(z) -> tuple[np.ndarray, np.ndarray]:
