@@ -214,12 +214,13 @@ class CubicFamily:
         lam1 = float(lam1)
         if not np.isfinite(lam1):
             raise SynthesisError("member lambda1 must be a finite number (lambda1 = inf misses pose 0)")
-        M = np.array([self.lead, self.weights[:, 1]])
-        if abs(np.linalg.det(M)) <= 1e-14 * np.abs(M).max() ** 2:
+        (la, lb), (wa, wb) = self.lead.tolist(), self.weights[:, 1].tolist()
+        det = la * wb - lb * wa  # a (la, lb) + b ... : a la + b lb = 1, a wa + b wb = lam1 (Cramer)
+        if abs(det) <= 1e-14 * max(abs(la), abs(lb), abs(wa), abs(wb)) ** 2:
             raise SynthesisError(f"family {self.index}: the member label lambda1 is degenerate for these poses")
-        a, b = np.linalg.solve(M, [1.0, lam1])
+        a, b = (wb - lb * lam1) / det, (la * lam1 - wa) / det
         C = a * self.basis[0] + b * self.basis[1]
-        C[3] = np.eye(8)[0]
+        C[3] = _ONE
         return C
 
     def bad_members(self) -> dict[str, float]:
@@ -320,28 +321,35 @@ def families(q: Quadric) -> tuple[list[CubicFamily], dict[int, str]]:
 
 
 # ============================================================================ member scoring
+_ANTIDIAG = (np.add.outer(np.arange(4), np.arange(4)).reshape(16, 1) == np.arange(7)).astype(float)  # (16, 7)
+_SUBDIAG = np.eye(6, k=-1)  # companion matrix without its last column
+
+
 def norm_roots(C, newton: int = 2) -> np.ndarray:
     """The three roots z (Im z >= 0) of N(C) for monic cubics C (..., 4, 8), shape (..., 3), sorted by
     (Re z, Im z). Companion-matrix eigenvalues, then ``newton`` Newton steps on N(C)."""
     C = np.asarray(C, float)
-    N = norm_poly(C)  # (..., 7), monic
-    batch = N.shape[:-1]
-    comp = np.zeros(batch + (6, 6))
-    comp[..., 1:, :-1] = np.eye(5)
-    comp[..., :, -1] = -N[..., :6] / N[..., 6:7]
+    P = C[..., :4]
+    batch = P.shape[:-2]
+    N = (P @ P.swapaxes(-1, -2)).reshape(-1, 16) @ _ANTIDIAG  # (n, 7): N_k = sum_{i+j=k} P_i.P_j
+    comp = np.empty((N.shape[0], 6, 6))
+    comp[...] = _SUBDIAG
+    comp[:, :, 5] = N[:, :6] / -N[:, 6:7]
     z = np.linalg.eigvals(comp)
-    z = np.take_along_axis(z, np.argsort(-z.imag, axis=-1)[..., :3], -1)  # one root of each pair
+    rows = np.arange(z.shape[0])[:, None]
+    z = z[rows, np.argsort(-z.imag, axis=-1)[:, :3]]  # one root of each pair
     z = np.where(z.imag < 0, z.conj(), z)
-    d = N[..., 1:] * np.arange(1, 7)
+    c = [N[:, k : k + 1] for k in range(7)]  # Horner on N and N' (pre-sliced: numpy calls are the cost)
+    d = [c[k] * k for k in range(1, 7)]
     for _ in range(newton):
-        f = N[..., 6:7] * z + N[..., 5:6]
-        df = d[..., 5:6] * z + d[..., 4:5]
+        f = c[6] * z + c[5]
+        df = d[5] * z + d[4]
         for k in range(4, -1, -1):
-            f = f * z + N[..., k : k + 1]
+            f = f * z + c[k]
             if k:
-                df = df * z + d[..., k - 1 : k]
+                df = df * z + d[k - 1]
         z = z - f / np.where(df != 0, df, 1)
-    return np.take_along_axis(z, np.argsort(z.real + 1e-12 * z.imag, axis=-1, kind="stable"), -1)
+    return z[rows, np.argsort(z.real + 1e-12 * z.imag, axis=-1, kind="stable")].reshape(batch + (3,))
 
 
 def root_conditioning(z) -> tuple[np.ndarray, np.ndarray]:
@@ -515,48 +523,81 @@ def _rmat(a):
     return (a @ _TR).reshape(a.shape[:-1] + (8, 8))
 
 
+def _product_residual(C, H):
+    """Coefficient errors of (t - h1)(t - h2)(t - h3) - C for t^0, t^1, t^2 as (..., 3, 8), and h1 h2."""
+    h1, h2, h3 = H[..., 0, :], H[..., 1, :], H[..., 2, :]
+    X = _mul(h1, h2)
+    r = np.empty(H.shape)
+    r[..., 0, :] = -_mul(X, h3) - C[..., 0, :]
+    r[..., 1, :] = X + _mul(h1 + h2, h3) - C[..., 1, :]
+    r[..., 2, :] = -(h1 + h2 + h3) - C[..., 2, :]
+    return r, X
+
+
+def _newton_step(H, X, r):
+    """Newton correction (..., 3, 8) of the product equations for factors H (..., 3, 8) with residuals
+    r (..., 3, 8) (t^0, t^1, t^2; X = h1 h2). The t^2 equation is linear, -(dh1 + dh2 + dh3) = -r2, so
+    dh1 = r2 - dh2 - dh3 and a 16 x 16 system remains (row-vector convention, a x = x L(a), x a = x R(a)):
+    t^0: dh2 (R(h2 h3) - L(h1) R(h3)) + dh3 (R(h2 h3) - L(h1 h2)) = -(r0 - r2 h2 h3),
+    t^1: dh2 (L(h1) - R(h2)) + dh3 (L(h1 + h2) - R(h2 + h3)) = -(r1 + r2 (h2 + h3))."""
+    h1, h2, h3 = H[..., 0, :], H[..., 1, :], H[..., 2, :]
+    r2 = r[..., 2, :]
+    Y = _mul(h2, h3)
+    h23 = h2 + h3
+    batch = h1.shape[:-1]
+    Lm = (np.concatenate([h1, X, h1 + h2], -1).reshape(-1, 8) @ _TL).reshape(batch + (3, 8, 8))
+    Rm = (np.concatenate([Y, h3, h2, h23], -1).reshape(-1, 8) @ _TR).reshape(batch + (4, 8, 8))
+    J = np.empty(batch + (16, 16))
+    J[..., :8, :8] = Rm[..., 0, :, :] - Lm[..., 0, :, :] @ Rm[..., 1, :, :]
+    J[..., :8, 8:] = Lm[..., 0, :, :] - Rm[..., 2, :, :]
+    J[..., 8:, :8] = Rm[..., 0, :, :] - Lm[..., 1, :, :]
+    J[..., 8:, 8:] = Lm[..., 2, :, :] - Rm[..., 3, :, :]
+    rhs = np.concatenate([_mul(r2, Y) - r[..., 0, :], -r[..., 1, :] - _mul(r2, h23)], -1)
+    d = np.linalg.solve(np.swapaxes(J, -1, -2), rhs[..., None])  # (..., 16, 1)
+    D = np.empty(H.shape)
+    D[..., 1:, :] = d.reshape(batch + (2, 8))
+    D[..., 0, :] = r2 - D[..., 1, :] - D[..., 2, :]
+    return D
+
+
+STEP_TOL = 1e-10  # a Newton correction at most this (relative) leaves only rounding for the next one
+
+
 def polish(C, H, iterations: int = 2, return_residual: bool = False):
     """Newton's method on the product equations (t - h1)(t - h2)(t - h3) = C for factorizations
     H (..., 3, 8) of cubics C (..., 4, 8) (broadcast): 24 equations (coefficients of t^0, t^1, t^2) in
-    the 24 unknowns h1, h2, h3. A factorization is locally unique, so the Jacobian is regular and one
-    or two steps bring the multiply-back error to rounding level (MATH.md section 4 note ii: nearly
-    real or nearly equal norm roots lose digits in Algorithm 1). A step is kept only where it lowers
-    the residual. Returns the polished factors (and, with ``return_residual``, the largest absolute
-    coefficient error of each product)."""
-    H = np.array(H, float)
+    the 24 unknowns h1, h2, h3 (the t^2 equation is linear and eliminated, `_newton_step`). A
+    factorization is locally unique, so the Jacobian is regular and one or two steps bring the
+    multiply-back error to rounding level (MATH.md section 4 note ii: nearly real or nearly equal norm
+    roots lose digits in Algorithm 1). At most ``iterations`` steps; none after a step of at most
+    STEP_TOL (relative), whose successor, quadratically smaller, would be below rounding. A step is kept
+    only where it lowers the residual. Returns the polished factors (and, with ``return_residual``, the
+    largest absolute coefficient error of each product)."""
     C = np.asarray(C, float)
-    tiny = 2e-16 * np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
-    prev = None
-    for it in range(iterations + 1):
-        h1, h2, h3 = H[..., 0, :], H[..., 1, :], H[..., 2, :]
-        X = _mul(h1, h2)
-        r = np.concatenate([-_mul(X, h3) - C[..., 0, :], X + _mul(h1 + h2, h3) - C[..., 1, :],
-                            -(h1 + h2 + h3) - C[..., 2, :]], -1)  # (..., 24)
-        rm = np.max(np.abs(r), -1)
-        if prev is not None:  # keep the step only where it helped
-            H0, r0, rm0 = prev
-            worse = ~(rm < rm0)
-            if np.any(worse):
-                H = np.where(worse[..., None, None], H0, H)
-                r = np.where(worse[..., None], r0, r)
-                rm = np.where(worse, rm0, rm)
-                h1, h2, h3 = H[..., 0, :], H[..., 1, :], H[..., 2, :]
-                X = _mul(h1, h2)
-        if it == iterations or not np.any(rm > tiny):
-            break
-        I8 = np.broadcast_to(np.eye(8), h1.shape[:-1] + (8, 8))
-        L1, R3 = _lmat(h1), _rmat(h3)
-        J = np.concatenate([  # rows: delta h1, h2, h3; columns: c0, c1, c2 (row-vector convention)
-            np.concatenate([-_rmat(_mul(h2, h3)), _rmat(h2) + R3, -I8], -1),
-            np.concatenate([-(L1 @ R3), L1 + R3, -I8], -1),
-            np.concatenate([-_lmat(X), L1 + _lmat(h2), -I8], -1)], -2)  # (..., 24, 24)
-        with np.errstate(all="ignore"):
+    H = np.array(np.broadcast_to(H, np.broadcast_shapes(C.shape[:-2], np.shape(H)[:-2]) + (3, 8)), float)
+    tiny = 2e-16 * np.maximum(1.0, np.abs(C).max((-2, -1)))
+    r, X = _product_residual(C, H)
+    rm = np.abs(r).max((-2, -1))
+    with np.errstate(all="ignore"):
+        for _ in range(iterations):
+            if not (rm > tiny).any():
+                break
             try:
-                delta = np.linalg.solve(np.swapaxes(J, -1, -2), -r[..., None])[..., 0]
+                D = _newton_step(H, X, r)
             except np.linalg.LinAlgError:
                 break
-        prev = (H, r, rm)
-        H = H + delta.reshape(H.shape)
+            Hn = H + D
+            rn, Xn = _product_residual(C, Hn)
+            rmn = np.abs(rn).max((-2, -1))
+            better = rmn < rm  # keep the step only where it helped
+            if better.all():
+                H, X, r, rm = Hn, Xn, rn, rmn
+            else:
+                b = better[..., None, None]
+                H, r, X, rm = np.where(b, Hn, H), np.where(b, rn, r), np.where(b[..., 0], Xn, X), np.where(better, rmn, rm)
+            big = np.abs(D).max((-2, -1)) > STEP_TOL * np.maximum(1.0, np.abs(H).max((-2, -1)))
+            if not (better & big).any():
+                break
     return (H, rm) if return_residual else H
 
 

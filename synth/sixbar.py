@@ -133,10 +133,13 @@ class MemberEval:
 
 def member_lambdas(fam: CubicFamily, C) -> np.ndarray:
     """(lambda1, lambda2, lambda3) of a monic member: C(t_i) = lambda_i D_i."""
-    from .motion import evaluate
+    vals = _powers(fam.ts[1:]) @ np.asarray(C, float)[..., :4]  # primal parts of C(0), C(1), C(t3)
+    return (vals * fam.D[1:, :4]).sum(-1)
 
-    vals = evaluate(C, fam.ts[1:])  # (3, 8)
-    return np.sum(vals[:, :4] * fam.D[1:, :4], axis=-1)
+
+def _powers(t):
+    """(len(t), 4): 1, t, t^2, t^3."""
+    return np.asarray(t, float)[:, None] ** np.arange(4)
 
 
 def grid_angles(n: int = GRID) -> np.ndarray:
@@ -162,8 +165,9 @@ def evaluate_members(C, lam, phi, fams, *, refine: bool = False) -> MemberEval:
     C = np.array(C, float)
     G = C.shape[0]
     with np.errstate(all="ignore"):
-        finite = np.all(np.isfinite(C), axis=(-2, -1)) & (np.max(np.abs(C), axis=(-2, -1)) < 1e12)
-        C[~finite] = np.eye(8)[0]
+        finite = np.isfinite(C).all((-2, -1)) & (np.abs(C).max((-2, -1)) < 1e12)
+        if not finite.all():
+            C[~finite] = np.eye(8)[0]
         z = norm_roots(C, newton=2 if refine else 1)
         im, sep = root_conditioning(z)
         mf = factor_members(C, z, refine=refine, exact_residual=refine)
@@ -173,14 +177,15 @@ def evaluate_members(C, lam, phi, fams, *, refine: bool = False) -> MemberEval:
             if id(f) not in sep3:
                 sep3[id(f)] = parameter_separation(f.t3)
         t3s = np.array([sep3[id(f)] for f in fams])
+        zero = np.zeros((1, 9))
 
         def wide(x):
-            return np.broadcast_to(x[:, None], (G, 9))
+            return x[:, None] + zero  # (G,) -> (G, 9)
 
-        kappa = wide(np.minimum(np.minimum(im, sep), t3s))
+        kappa = np.minimum(np.minimum(im, sep), t3s)
         residual = np.maximum(mf.residual[:, PAIRS[:, 0]], mf.residual[:, PAIRS[:, 1]])
         parts = {
-            "conditioning": kappa,
+            "conditioning": wide(kappa),
             "root_imag": wide(im),
             "root_separation": wide(sep),
             "t3_separation": wide(t3s),
@@ -192,8 +197,8 @@ def evaluate_members(C, lam, phi, fams, *, refine: bool = False) -> MemberEval:
         parts.update(penalties(parts))
         cost = (COND_WEIGHT * parts["penalty_conditioning"] + parts["penalty_size"] + parts["penalty_parallel"]
                 + parts["penalty_intersect"])
-        valid = (finite[:, None] & mf.ok[:, PAIRS[:, 0]] & mf.ok[:, PAIRS[:, 1]] & (residual <= RESIDUAL_TOL)
-                 & np.isfinite(cost) & (kappa > 0))
+        valid = (mf.ok[:, PAIRS[:, 0]] & mf.ok[:, PAIRS[:, 1]] & (residual <= RESIDUAL_TOL) & np.isfinite(cost)
+                 & (finite & (kappa > 0))[:, None])
         score = np.where(valid, 10.0 ** -cost, 0.0)
     return MemberEval(fams=list(fams), phi=np.asarray(phi, float).reshape(G), lam=np.asarray(lam).reshape(G, 3),
                       factors=mf, parts=parts, valid=valid, score=np.nan_to_num(score))
@@ -565,8 +570,9 @@ def one_member_loops(poses, family: int, member: float, names=None, problem: Pro
         mf = factor_members(fam.member(float(member))[None], refine=True)
         valid = mf.ok[0, PAIRS[:, 0]] & mf.ok[0, PAIRS[:, 1]]
         sc = parts = None
-    F = to_world(mf.H[0], cond)
+    W = to_world(np.concatenate([mf.H[0].reshape(18, 8), mf.C[0]]), cond)  # one call for all
+    F = W[:18].reshape(6, 3, 8)
     return MemberLoops(
-        family=fam.index, member=float(member), t3=fam.t3, C=to_world(mf.C[0], cond), factorizations=F,
+        family=fam.index, member=float(member), t3=fam.t3, C=W[18:], factorizations=F,
         orders=PERMS.copy(), ok=mf.ok[0], residual=mf.residual[0], pairs=PAIRS.copy(),
         H=F[PAIRS[:, 0]], K=F[PAIRS[:, 1]], valid=valid, score=sc, parts=parts)
