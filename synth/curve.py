@@ -25,6 +25,7 @@ import numpy as np
 
 from .cofactor import CofactorResult, factorize_with_cofactor
 from .errors import InputError, SynthesisError
+from .exact import real_divmod, real_root_count
 from .linkage import Linkage
 from .realfactor import UnboundedMotionError, poly_text, real_gcd_exact, real_gcd_numeric
 
@@ -206,15 +207,7 @@ def normalize_motion(C, scale: float = 1.0):
     if exact_n is not None:
         g, _ = real_gcd_exact(exact_n)
         if len(g) > 1:
-            import sympy
-
-            t = sympy.Symbol("t")
-            G = sympy.Poly([sympy.Rational(x.numerator, x.denominator) for x in reversed(g)], t)
-            new = []
-            for col in range(8):
-                P = sympy.Poly([sympy.Rational(r[col].numerator, r[col].denominator) for r in reversed(exact_n)], t)
-                q, r = sympy.div(P, G)
-                new.append([Fraction(int(c.p), int(c.q)) for c in reversed(q.all_coeffs())])
+            new = [_exact_quotient([r[col] for r in exact_n], g) for col in range(8)]
             deg = len(exact_n) - len(g)
             exact_n = [[(new[c][k] if k < len(new[c]) else Fraction(0)) for c in range(8)] for k in range(deg + 1)]
             Cn = np.array([[float(x) for x in r] for r in exact_n])
@@ -285,6 +278,13 @@ def _poly_float(c):
     return np.array([float(x) for x in c])
 
 
+def _exact_quotient(p, g) -> list[Fraction]:
+    """p / g over Q (ascending; g divides p exactly), at least one coefficient long."""
+    q, r = real_divmod(p, g)
+    assert not r, "g must divide p"
+    return q or [Fraction(0)]
+
+
 def reduce_curve(polys):
     """Divide x, y, z, w (ascending Fractions or floats) by their common factor, make w monic. Returns
     (X (3, deg w + 1) floats, w floats, exact lists or None)."""
@@ -296,16 +296,7 @@ def reduce_curve(polys):
             raise InputError("curve: w is zero")
         g, _ = real_gcd_exact(cols)
         if len(g) > 1:
-            import sympy
-
-            t = sympy.Symbol("t")
-            G = sympy.Poly([sympy.Rational(x.numerator, x.denominator) for x in reversed(g)], t)
-            new = []
-            for p in polys:
-                P = sympy.Poly([sympy.Rational(Fraction(x).numerator, Fraction(x).denominator) for x in reversed(p)], t)
-                q, _ = sympy.div(P, G)
-                new.append([Fraction(int(c.p), int(c.q)) for c in reversed(q.all_coeffs())])
-            polys = new
+            polys = [_exact_quotient([Fraction(x) for x in p], g) for p in polys]
         polys = [[Fraction(v) for v in p] for p in polys]
         for p in polys:
             while len(p) > 1 and p[-1] == 0:
@@ -338,11 +329,10 @@ def curve_translation(polys, scale: float = 1.0):
         raise InputError("the curve is a single point (after cancelling common factors, x, y, z and w are "
                          "constants)")
     if exact:
-        import sympy
+        if real_root_count(w) > 0:
+            import sympy  # only to name the zeros in the message
 
-        t = sympy.Symbol("t")
-        W = sympy.Poly([sympy.Rational(x.numerator, x.denominator) for x in reversed(w)], t)
-        if W.count_roots() > 0:
+            W = sympy.Poly([sympy.Rational(x.numerator, x.denominator) for x in reversed(w)], sympy.Symbol("t"))
             roots = [float(r) for r in sympy.real_roots(W)]
             raise UnboundedCurveError("unbounded curve: w has a real zero at t = "
                                       + ", ".join(f"{r:.6g}" for r in sorted(set(roots))))

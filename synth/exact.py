@@ -203,16 +203,23 @@ def _rtrim(p):
     return p
 
 
-def _rmod(a, b):
+def real_divmod(a, b) -> tuple[list, list]:
+    """(quotient, remainder) of real polynomials over Q (ascending; b nonzero), both trimmed."""
     a = _rtrim(a)
     b = _rtrim(b)
+    q = [0] * max(len(a) - len(b) + 1, 0)
     while len(a) >= len(b) and a:
         f = a[-1] / b[-1]
         s = len(a) - len(b)
+        q[s] = f
         for i, c in enumerate(b):
             a[s + i] -= f * c
         a = _rtrim(a)
-    return a
+    return _rtrim(q), a
+
+
+def _rmod(a, b):
+    return real_divmod(a, b)[1]
 
 
 def real_gcd(polys) -> list[Fraction]:
@@ -225,6 +232,23 @@ def real_gcd(polys) -> list[Fraction]:
     if not g:
         return []
     return [c / g[-1] for c in g]
+
+
+def real_root_count(p) -> int:
+    """Number of distinct real zeros of a nonzero real polynomial over Q (ascending), by Sturm's theorem."""
+    p = _rtrim(p)
+    seq = [p, _rtrim([k * c for k, c in enumerate(p)][1:])]
+    while seq[-1]:
+        seq.append([-c for c in _rmod(seq[-2], seq[-1])])
+    seq.pop()
+
+    def changes(signs):
+        signs = [s for s in signs if s]
+        return sum(a != b for a, b in zip(signs, signs[1:]))
+
+    at_plus = [(q[-1] > 0) - (q[-1] < 0) for q in seq]
+    at_minus = [s if (len(q) - 1) % 2 == 0 else -s for s, q in zip(at_plus, seq)]
+    return changes(at_minus) - changes(at_plus)
 
 
 def real_poly_text(p) -> str:

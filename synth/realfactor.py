@@ -5,8 +5,8 @@ mrpf(P) = g = the monic gcd of the four real component polynomials p0..p3 of P. 
 guaranteed to work when deg g = 0 (generic). C is **bounded** iff g has no real zero (a real zero of
 N(P) = sum p_i^2 is a common zero of all p_i); unbounded motions need a prismatic joint.
 
-- exact (`mrpf_exact`): sympy gcd over QQ for rational coefficients (ints / Fractions);
-  boundedness from ``count_roots(g) == 0``;
+- exact (`mrpf_exact`): Euclid's gcd over Q for rational coefficients (ints / Fractions);
+  boundedness from a Sturm count of g's real zeros;
 - numeric (`mrpf_numeric`): the generalized Sylvester matrix S (rows t^j p_i, j < n) has the row space
   {multiples of g of degree < 2n}, so deg g = 2n - rank S (singular values > tol * sigma_max); g is
   the row-space vector with zero coefficients above deg g; Gauss-Newton then polishes g on
@@ -22,6 +22,7 @@ from fractions import Fraction
 import numpy as np
 
 from .errors import InputError, SynthesisError
+from .exact import real_gcd, real_root_count
 
 NUMERIC_TOL = 1e-9
 
@@ -106,25 +107,14 @@ def mrpf_exact(C) -> tuple[list, bool]:
 def real_gcd_exact(C, columns=None) -> tuple[list, bool]:
     """(monic gcd as ascending Fractions; True when it has no real zero) of the given columns of the
     rational coefficient rows C (default: all columns)."""
-    import sympy
-
     rows, exact = _rows(C)
     if not exact:
         rows = [[Fraction(x) for x in r] for r in rows]
-    t = sympy.Symbol("t")
-    g = None
-    for i in (range(len(rows[0])) if columns is None else columns):
-        coeffs = [sympy.Rational(r[i].numerator, r[i].denominator) for r in rows]
-        if all(c == 0 for c in coeffs):
-            continue
-        p = sympy.Poly(list(reversed(coeffs)), t, domain="QQ")
-        g = p if g is None else sympy.gcd(g, p)
-    if g is None:
+    cols = range(len(rows[0])) if columns is None else columns
+    g = real_gcd([r[i] for r in rows] for i in cols)
+    if not g:
         raise InputError("the polynomials are all zero (for a motion: its primal part is zero)")
-    g = g.monic()
-    coeffs = [Fraction(int(c.p), int(c.q)) for c in reversed(g.all_coeffs())]
-    bounded = g.degree() == 0 or g.count_roots() == 0
-    return coeffs, bool(bounded)
+    return g, len(g) == 1 or real_root_count(g) == 0
 
 
 # ------------------------------------------------------------------ numeric

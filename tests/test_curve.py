@@ -247,3 +247,13 @@ def test_rotation_cofactor_reproduces_e4():
     coupler = np.asarray(lk.info["motion"]["coupler"])
     assert min(np.max(np.abs(coupler - o)) for o in options) < 1e-12
     assert len(lk.joints) == 10 and lk.info["motion"]["deg_R"] == 0
+
+
+def test_common_factor_of_the_curve_is_cancelled_exactly():
+    """x, y, z, w sharing (t^2 + 2)(t - 3) draw the same ellipse as the reduced curve (exact division)."""
+    base = ["2 - t^2", "3*t + 2", "6 + t + 4*t^2", "1 + t^2"]
+    lk0 = _curve(base)
+    lk = _curve([f"({p})*(t^2 + 2)*(t - 3)" for p in base])
+    assert len(lk.joints) == len(lk0.joints) == 10
+    assert np.allclose(lk.info["markers"]["tracer"]["position"], lk0.info["markers"]["tracer"]["position"])
+    assert lk.checks["max_trace_error"] < 1e-10

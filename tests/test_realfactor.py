@@ -95,3 +95,50 @@ def test_real_gcd_of_all_components():
     # (t^2 + 4) * (t - i + eps j): every component divisible by t^2 + 4
     C = parse_polynomial("(t^2 + 4)*(t - i + eps*j)")
     assert np.allclose(real_gcd_numeric(C), [4, 0, 1], atol=1e-12)
+
+
+def _sympy_gcd_and_bounded(cols):
+    import sympy
+    t = sympy.Symbol("t")
+    g = None
+    for c in cols:
+        if any(c):
+            p = sympy.Poly(list(reversed([sympy.Rational(x.numerator, x.denominator) for x in c])), t, domain="QQ")
+            g = p if g is None else sympy.gcd(g, p)
+    g = g.monic()
+    return [F(int(c.p), int(c.q)) for c in reversed(g.all_coeffs())], g.degree() == 0 or g.count_roots() == 0
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_real_gcd_exact_agrees_with_sympy(seed):
+    """Euclid + Sturm over Fractions give sympy's gcd over QQ and its real-root verdict (common factors with
+    and without real zeros, repeated ones, coprime columns, a zero column)."""
+    from synth.realfactor import real_gcd_exact
+    rng = np.random.default_rng(seed)
+
+    def rnd(deg):
+        return [F(int(rng.integers(-5, 6)), int(rng.integers(1, 4))) for _ in range(deg)] + [F(int(rng.integers(1, 4)))]
+
+    common = [F(1)]
+    for _ in range(int(rng.integers(0, 3))):
+        f = [F(int(rng.integers(-3, 4))), F(int(rng.integers(-3, 4)), 2), F(1)]  # real zeros or not
+        common = [sum(common[i] * f[k - i] for i in range(len(common)) if 0 <= k - i < len(f))
+                  for k in range(len(common) + 2)]
+    cols = []
+    for c in range(4):
+        q = rnd(int(rng.integers(0, 3)))
+        cols.append([sum(common[i] * q[k - i] for i in range(len(common)) if 0 <= k - i < len(q))
+                     for k in range(len(common) + len(q) - 1)])
+    if seed % 7 == 0:
+        cols[1] = [F(0)] * len(cols[1])
+    n = max(map(len, cols))
+    rows = [[c[k] if k < len(c) else F(0) for c in cols] for k in range(n)]
+    assert real_gcd_exact(rows) == _sympy_gcd_and_bounded([[r[i] for r in rows] for i in range(4)])
+
+
+@pytest.mark.parametrize("g,count", [([F(1)], 0), ([F(1), F(0), F(1)], 0), ([F(-1), F(0), F(1)], 2),
+                                     ([F(1), F(-2), F(1)], 1), ([F(0), F(0), F(0), F(1)], 1),
+                                     ([F(-6), F(11), F(-6), F(1)], 3), ([F(2), F(0), F(-3), F(0), F(1)], 4)])
+def test_real_root_count(g, count):
+    from synth.exact import real_root_count
+    assert real_root_count(g) == count
