@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import lapack
 from .dq import dq_mul
 from .errors import SynthesisError
 from .motion import norm_poly
@@ -93,17 +94,17 @@ def quadric(D) -> Quadric:
     Raises SynthesisError when the poses do not span a 3-space, or V lies in S (planar or spherical
     pose sets), or the section is a cone."""
     D = np.asarray(D, float)
-    sv = np.linalg.svd(D, compute_uv=False)
+    sv = lapack.svd_values(D)
     if sv[3] < RANK_TOL * sv[0]:
         raise SynthesisError(
             "the four poses are not independent (the fourth relative displacement is a combination of the "
             "others: all four lie on one Bennett motion, or some poses repeat a common screw motion); "
             "there is no unique cubic through them. Use `mpsynth bennett` on three of them, or move one "
             "pose off that motion")
-    B, _ = np.linalg.qr(D.T)
+    B = lapack.qr_q(D.T)
     A = B.T @ _G @ B
     A = 0.5 * (A + A.T)
-    lam, U = np.linalg.eigh(A)
+    lam, U = lapack.eigh(A)
     order = np.argsort(-lam)
     lam, U = lam[order], U[:, order]
     big = float(np.max(np.abs(lam)))
@@ -159,7 +160,7 @@ def ruling_coordinates(q: Quadric, h=None) -> tuple[np.ndarray, np.ndarray, np.n
     u (..., 2), v (..., 2) and the relative size of the second singular value (0 on the quadric)."""
     h = q.D if h is None else np.asarray(h, float)
     M = ruling_matrix(q.coordinates(h) @ q.W)
-    Uu, s, Vt = np.linalg.svd(M)
+    Uu, s, Vt = lapack.svd(M)
     return Uu[..., :, 0], Vt[..., 0, :], s[..., 1] / s[..., 0]
 
 
@@ -274,7 +275,7 @@ def _families(q: Quadric, u, v):
     bi = b[:, 1:]  # (2, 3, 2)
     E = np.concatenate([tt * tt * _det2(b[:, :1], bi)[..., None], tt * bi[..., 1:2], -tt * bi[..., 0:1],
                         bi[..., 1:2], -bi[..., 0:1]], -1)  # (2, 3, 5)
-    _, sv, Vt = np.linalg.svd(E)
+    _, sv, Vt = lapack.svd(E)
     for f in (0, 1):
         if why[f] is None and sv[f, 2] < RULING_TOL * sv[f, 0]:
             why[f] = "the pose parameters coincide (t3 = 0 or 1): two poses lie on one ruling line"
@@ -382,6 +383,9 @@ class MemberFactors:
     ok: np.ndarray  # (G, 6) Algorithm 1 succeeded (invertible remainders, no translation factor)
     residual: np.ndarray  # (G, 6) multiply-back relative error
     translation: np.ndarray  # (G, 6) some factor is a translation (then not ok)
+
+
+_sum0 = np.add.reduce  # np.sum(x, 0) without its Python wrapper (the same reduction)
 
 
 def _dot(a, b):
@@ -651,14 +655,21 @@ def loop_geometry(mf: MemberFactors) -> dict[str, np.ndarray]:
     m = np.moveaxis(m, -1, 0)
     e0, e1 = EDGES[:, 0], EDGES[:, 1]
     dist, ang, f1, f2 = _pair_geometry(u[..., e0], m[..., e0], u[..., e1], m[..., e1])  # (G, 18)
-    foot = np.maximum(np.sum(f1 * f1, 0), np.sum(f2 * f2, 0))
-    return {"min_offset": np.min(dist[:, LOOP_EDGES], -1), "min_twist": np.min(ang[:, LOOP_EDGES], -1),
-            "extent": np.sqrt(np.max(foot[:, LOOP_EDGES], -1))}
+    foot = np.maximum(_sum0(f1 * f1), _sum0(f2 * f2))
+    return {"min_offset": np.minimum.reduce(dist[:, LOOP_EDGES], -1),
+            "min_twist": np.minimum.reduce(ang[:, LOOP_EDGES], -1),
+            "extent": np.sqrt(np.maximum.reduce(foot[:, LOOP_EDGES], -1))}
 
 
 def _cross(a, b):
     """Cross product of component-first vectors (3, ...)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    out = np.empty((3,) + np.broadcast_shapes(a0.shape, b0.shape))
+    np.subtract(a1 * b2, a2 * b1, out=out[0])
+    np.subtract(a2 * b0, a0 * b2, out=out[1])
+    np.subtract(a0 * b1, a1 * b0, out=out[2])
+    return out
 
 
 def _pair_geometry(u, m, u2, m2):
@@ -667,13 +678,13 @@ def _pair_geometry(u, m, u2, m2):
     onto the second line."""
     p1, p2 = _cross(u, m), _cross(u2, m2)
     c = _cross(u, u2)
-    s2 = np.sum(c * c, 0)
-    ang = np.arctan2(np.sqrt(s2), np.abs(np.sum(u * u2, 0)))
+    s2 = _sum0(c * c)
+    ang = np.arctan2(np.sqrt(s2), np.abs(_sum0(u * u2)))
     d = p2 - p1
     par = s2 < 1e-24
     s2s = np.where(par, 1.0, s2)
-    a1 = np.where(par, 0.0, np.sum(_cross(d, u2) * c, 0) / s2s)
-    a2 = np.where(par, np.sum(-d * u2, 0), np.sum(_cross(d, u) * c, 0) / s2s)
+    a1 = np.where(par, 0.0, _sum0(_cross(d, u2) * c) / s2s)
+    a2 = np.where(par, _sum0(-d * u2), _sum0(_cross(d, u) * c) / s2s)
     f1 = p1 + a1 * u
     f2 = p2 + a2 * u2
-    return np.sqrt(np.sum((f2 - f1) ** 2, 0)), ang, f1, f2
+    return np.sqrt(_sum0((f2 - f1) ** 2)), ang, f1, f2
