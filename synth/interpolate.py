@@ -52,9 +52,21 @@ def to_world(h, cond: Conditioning):
 def relative_displacements(T):
     """D_i = T_i T_0^{-1} as unit dual quaternions with p0 >= 0, shape (..., k, 8); D_0 = 1."""
     T = np.asarray(T, float)
-    H = pose_to_dq(T)
+    H = pose_to_dq(T) if T.ndim != 3 or len(T) > 8 else _pose_to_dq_few(T)
     H0inv = H[..., :1, :] * np.array([1.0, -1, -1, -1, 1, -1, -1, -1])  # unit: inverse = conjugate
     return normalize_dq(dq_mul(H, H0inv))
+
+
+def _pose_to_dq_few(T):
+    """`synth.dq.pose_to_dq` of a few poses (k, 4, 4), bitwise: the rotation quaternions in plain floats
+    (`synth.scalar.matrix_to_quat`, the same formulas; numpy's per-case masks cost more for a few
+    poses), the rest as there."""
+    from .dq import qmul
+    from .scalar import matrix_to_quat
+
+    r = np.array([matrix_to_quat(R) for R in T.tolist()])
+    d = np.concatenate([np.zeros(T.shape[:-2] + (1,)), T[..., :3, 3]], axis=-1)
+    return np.concatenate([r, -0.5 * qmul(d, r)], axis=-1)
 
 
 @dataclass

@@ -150,16 +150,21 @@ def grid_angles(n: int = GRID) -> np.ndarray:
 
 
 def grid_members(fams: list[CubicFamily], grid: int = GRID):
-    """Members of the scan: (C (G, 4, 8), lambdas (G, 3), phi (G,), family of each member)."""
+    """Members of the scan: (C (G, 4, 8), lambdas (G, 3), phi (G,), family of each member); all families
+    at once, with the arithmetic of `CubicFamily.members` and `CubicFamily.lambdas`."""
     phi = grid_angles(grid)
-    Cs, lams, fl = [], [], []
+    c, s = np.cos(phi), np.sin(phi)
+    basis = np.stack([f.basis for f in fams], 1)[:, :, None]  # (2, F, 1, 4, 8): Q_a, Q_b
+    lead = np.stack([f.lead for f in fams], 1)[..., None]  # (2, F, 1)
+    w = np.stack([f.weights for f in fams], 1)[:, :, None]  # (2, F, 1, 4)
     with np.errstate(all="ignore"):
-        for fam in fams:
-            C, _ = fam.members(phi)
-            Cs.append(C)
-            lams.append(fam.lambdas(phi))
-            fl += [fam] * grid
-    return np.concatenate(Cs), np.concatenate(lams), np.tile(phi, len(fams)), fl
+        ld = c * lead[0] + s * lead[1]  # (F, G)
+        C = (c[:, None, None] * basis[0] + s[:, None, None] * basis[1]) / ld[..., None, None]
+        C[..., 3, :] = np.eye(8)[0]
+        wg = c[:, None] * w[0] + s[:, None] * w[1]  # (F, G, 4)
+        lams = wg[..., 1:] / wg[..., :1]
+    fl = [f for f in fams for _ in range(grid)]
+    return C.reshape(-1, 4, 8), lams.reshape(-1, 3), np.tile(phi, len(fams)), fl
 
 
 def evaluate_members(C, lam, phi, fams, *, refine: bool = False) -> MemberEval:
@@ -543,18 +548,29 @@ def error_estimate(problem: Problem, cand: Candidate) -> float:
         r.append(math.hypot(1.0 + abs(w.real), w.imag) / w.imag)
         y.append(w.imag)
     kappa = min(r[1] * r[2] / y[0], r[0] * r[2] / y[1], r[0] * r[1] / y[2])
-    C = cand.C
-    cmax = max(1.0, float(np.abs(C).max()))
-    vals = _powers(np.array([0.0, 1.0, cand.t3])) @ C  # C(t_i), i = 1..3
-    lam = np.array(cand.lambdas)[:, None]
-    interp = float((np.abs(vals - lam * problem.D[1:]).max(-1) / np.abs(lam[:, 0])).max())
-    F = np.concatenate([cand.H, cand.K])
-    v, w = F[:, 1:4], F[:, 5:8]
-    size = math.sqrt(float(((w * w).sum(-1) / (v * v).sum(-1)).max()))  # conditioned: origin at the centroid
+    C = cand.C.tolist()
+    cmax = max(1.0, max(abs(x) for row in C for x in row))
+    interp = 0.0
+    for t, lam, Di in zip((0.0, 1.0, cand.t3), cand.lambdas, problem.D[1:].tolist()):
+        if not abs(lam) > 0:
+            return math.inf
+        for k in range(8):  # |C(t_i) - lambda_i D_i| / |lambda_i|, C(t) by Horner
+            e = abs(((C[3][k] * t + C[2][k]) * t + C[1][k]) * t + C[0][k] - lam * Di[k]) / abs(lam)
+            if not e <= interp:  # (NaN too)
+                interp = e
+    size2 = 0.0  # largest squared distance of an axis from the centroid (conditioned: the origin)
+    for h in (*cand.H.tolist(), *cand.K.tolist()):
+        vv = h[1] * h[1] + h[2] * h[2] + h[3] * h[3]
+        if not vv > 0:
+            return math.inf
+        d2 = (h[5] * h[5] + h[6] * h[6] + h[7] * h[7]) / vv
+        if not d2 <= size2:
+            size2 = d2
     L = float(problem.cond.scale)
-    cinf = float(np.abs(problem.cond.centre).max())
+    cinf = max(abs(x) for x in problem.cond.centre.tolist())
     fact = (cand.parts["residual"] + EPS) * cmax * kappa
-    world = EPS * (cinf / L + SQRT3 + size) / (1.0 + FLOOR_ULPS * EPS * cinf / (CHECK_TOL * L)) * (1.0 + max(r))
+    world = (EPS * (cinf / L + SQRT3 + math.sqrt(size2)) / (1.0 + FLOOR_ULPS * EPS * cinf / (CHECK_TOL * L))
+             * (1.0 + max(r)))
     est = 4.0 * fact + 16.0 * interp + 1000.0 * world
     return est if est == est else math.inf
 
