@@ -144,8 +144,13 @@ def oval_message(q: Quadric) -> str:
 def ruling_matrix(y) -> np.ndarray:
     """M(y) = [[y1 + y3, y2 + y4], [y4 - y2, y1 - y3]] for y (..., 4); det M = y1^2+y2^2-y3^2-y4^2."""
     y = np.asarray(y, float)
-    y1, y2, y3, y4 = np.moveaxis(y, -1, 0)
-    return np.stack([np.stack([y1 + y3, y2 + y4], -1), np.stack([y4 - y2, y1 - y3], -1)], -2)
+    y1, y2, y3, y4 = y[..., 0], y[..., 1], y[..., 2], y[..., 3]
+    M = np.empty(y.shape[:-1] + (2, 2))
+    np.add(y1, y3, out=M[..., 0, 0])
+    np.add(y2, y4, out=M[..., 0, 1])
+    np.subtract(y4, y2, out=M[..., 1, 0])
+    np.subtract(y1, y3, out=M[..., 1, 1])
+    return M
 
 
 def ruling_inverse(M) -> np.ndarray:
@@ -245,63 +250,79 @@ def _families(q: Quadric, u, v):
     """Both families at once (index 0: u linear / v quadratic, index 1: the roles swapped). Returns,
     per family, either (t3, basis, lead, weights) or a string saying why the family does not exist.
     u, v: the ruling coordinates of the four poses."""
-    a = np.stack([u, v])  # (2, 4, 2): the linear ruling of each family
-    b = np.stack([v, u])  # the quadratic ruling
-    d01 = _det2(a[:, 0], a[:, 1])
-    why = [None, None]
-    for f in (0, 1):
-        if abs(d01[f]) < RULING_TOL:
-            why[f] = "poses 0 and 1 lie on one ruling line (they differ by a pure rotation or translation)"
-    d01 = np.where(np.abs(d01) < RULING_TOL, 1.0, d01)
-    alpha = _det2(a[:, 2], a[:, 1]) / d01  # alpha a_0 + beta a_1 = a_2 (Cramer)
-    beta = _det2(a[:, 0], a[:, 2]) / d01
-    d03 = _det2(a[:, 0], a[:, 3])
-    with np.errstate(all="ignore"):
-        t3 = -beta * _det2(a[:, 1], a[:, 3]) / (alpha * d03)
-    for f in (0, 1):
-        if why[f]:
-            continue
-        if abs(alpha[f]) < RULING_TOL or abs(beta[f]) < RULING_TOL:
-            why[f] = "pose 2 lies on a ruling line through pose 0 or 1 (a pure rotation or translation between them)"
-        elif abs(d03[f]) < RULING_TOL:
-            why[f] = ("pose 3 lies on the ruling line through pose 0 (a pure rotation or translation between "
-                      "them, t3 = inf)")
-        elif min(abs(t3[f]), abs(t3[f] - 1)) < RULING_TOL:
-            why[f] = ("pose 3 lies on a ruling line through pose 1 or 2 (a pure rotation or translation between "
-                      "them): every member of this family has a real factor")
-    t3 = np.where([w is None for w in why], t3, 2.0)  # placeholders keep the batch finite
-    # v(t) = gamma b0 t^2 + w1 t + w0 with det(v(t_i), b_i) = 0, i = 1, 2, 3; unknowns z = (gamma, w1, w0)
-    tt = np.stack([np.zeros(2), np.ones(2), t3], -1)[..., None]  # (2, 3, 1)
-    bi = b[:, 1:]  # (2, 3, 2)
-    E = np.concatenate([tt * tt * _det2(b[:, :1], bi)[..., None], tt * bi[..., 1:2], -tt * bi[..., 0:1],
-                        bi[..., 1:2], -bi[..., 0:1]], -1)  # (2, 3, 5)
-    _, sv, Vt = lapack.svd(E)
+    a = np.array([u, v])  # (2, 4, 2): the linear ruling of each family
+    b = a[::-1]  # the quadratic ruling
+    # the 2 x 2 determinants and the system E in plain floats (elementwise, as numpy would do them)
+    why, alpha, beta, t3, E = [None, None], [0.0, 0.0], [0.0, 0.0], [2.0, 2.0], []
+    for f, (A, B) in enumerate(((u.tolist(), v.tolist()), (v.tolist(), u.tolist()))):
+        why[f], alpha[f], beta[f], t3f = _ruling_parameters(A)
+        if why[f] is None:
+            t3[f] = t3f  # else a placeholder keeps the batch finite
+        # v(t) = gamma b0 t^2 + w1 t + w0 with det(v(t_i), b_i) = 0, i = 1, 2, 3; unknowns z = (gamma, w1, w0)
+        E.append([[t * t * (B[0][0] * bi[1] - B[0][1] * bi[0]), t * bi[1], -t * bi[0], bi[1], -bi[0]]
+                  for t, bi in zip((0.0, 1.0, t3[f]), B[1:])])
+    _, sv, Vt = lapack.svd(np.array(E))  # (2, 3, 5)
     for f in (0, 1):
         if why[f] is None and sv[f, 2] < RULING_TOL * sv[f, 0]:
             why[f] = "the pose parameters coincide (t3 = 0 or 1): two poses lie on one ruling line"
+    alpha, beta = np.array(alpha), np.array(beta)
+    tt = np.array([[0.0, 1.0, t3[0]], [0.0, 1.0, t3[1]]])[..., None]  # (2, 3, 1)
     null = Vt[:, 3:]  # (2, 2, 5)
     # M(t) = a(t) b(t)^T with a(t) = alpha a_0 t + beta a_1 and b(t) = gamma b_0 t^2 + w1 t + w0 is
     # bilinear in (a, z); coefficient of t^j: sum over p + r = j of a_p b_r(z)^T
-    Az = np.stack([beta[:, None] * a[:, 1], alpha[:, None] * a[:, 0]], 1)  # (2, 2, 2): family, t^p
-    Bz = np.broadcast_to(_BZ, (2, 3, 5, 2)).copy()
+    Az = np.empty((2, 2, 2))  # family, t^p
+    Az[:, 0] = beta[:, None] * a[:, 1]
+    Az[:, 1] = alpha[:, None] * a[:, 0]
+    Bz = np.array([_BZ, _BZ])
     Bz[:, 2, 0] = b[:, 0]
     full = Az[:, :, None, None, :, None] * Bz[:, None, :, :, None, :]  # (f, p, r, k, 2, 2)
-    Mz = np.stack([full[:, 0, 0], full[:, 0, 1] + full[:, 1, 0], full[:, 0, 2] + full[:, 1, 1], full[:, 1, 2]], 1)
+    Mz = np.empty((2, 4, 5, 2, 2))
+    Mz[:, 0] = full[:, 0, 0]
+    np.add(full[:, 0, 1], full[:, 1, 0], out=Mz[:, 1])
+    np.add(full[:, 0, 2], full[:, 1, 1], out=Mz[:, 2])
+    Mz[:, 3] = full[:, 1, 2]
     Mz[1] = np.swapaxes(Mz[1], -1, -2)  # family 2 uses M^T
     Y = Mz.reshape(2, 4, 5, 4) @ _RULING_INV.T  # y(M) per coefficient and unit z: (2, 4, 5, 4)
     Q = (null @ np.swapaxes(Y, 1, 2).reshape(2, 5, 16)).reshape(2, 2, 4, 4) @ q.P.T  # (2, 2, 4, 8)
     # orthonormal pencil basis (Gram-Schmidt on the two 32-vectors)
     Qa, Qb = Q[:, 0].reshape(2, 32), Q[:, 1].reshape(2, 32)
-    Qa = Qa / np.linalg.norm(Qa, axis=-1, keepdims=True)
-    Qb = Qb - np.sum(Qa * Qb, -1, keepdims=True) * Qa
-    Qb = Qb / np.linalg.norm(Qb, axis=-1, keepdims=True)
-    basis = np.stack([Qa, Qb], 1).reshape(2, 2, 4, 8)
+    Qa = Qa / np.sqrt(np.add.reduce(Qa * Qa, -1, keepdims=True))  # (np.linalg.norm's own reduction)
+    Qb = Qb - np.add.reduce(Qa * Qb, -1, keepdims=True) * Qa
+    Qb = Qb / np.sqrt(np.add.reduce(Qb * Qb, -1, keepdims=True))
+    basis = np.concatenate([Qa, Qb], 1).reshape(2, 2, 4, 8)
     lead = basis[:, :, 3, 0]  # (2, 2)
     # weights: Q(t_i) . D_i (primal parts; |p(D_i)| = 1), and the lead for i = 0
     V = tt ** np.arange(4)  # (2, 3, 4)
     vals = V[:, None] @ basis[..., :4]  # (2, 2, 3, 4)
-    w = np.concatenate([lead[..., None], np.sum(vals * q.D[1:, :4], -1)], -1)  # (2, 2, 4)
+    w = np.concatenate([lead[..., None], np.add.reduce(vals * q.D[1:, :4], -1)], -1)  # (2, 2, 4)
     return [why[f] if why[f] else (float(t3[f]), basis[f], lead[f], w[f]) for f in (0, 1)]
+
+
+def _ruling_parameters(A):
+    """(why not, alpha, beta, t3) of one family from the linear ruling coordinates A (4 points x 2) of the
+    poses: alpha a_0 + beta a_1 = a_2 (Cramer) and t3, in plain floats; ``why`` says why the family
+    does not exist (None if it does)."""
+    (a00, a01), (a10, a11), (a20, a21), (a30, a31) = A
+    d01 = a00 * a11 - a01 * a10
+    why = None
+    if abs(d01) < RULING_TOL:
+        why = "poses 0 and 1 lie on one ruling line (they differ by a pure rotation or translation)"
+        d01 = 1.0
+    alpha = (a20 * a11 - a21 * a10) / d01
+    beta = (a00 * a21 - a01 * a20) / d01
+    d03 = a00 * a31 - a01 * a30
+    with np.errstate(all="ignore"):  # numpy's division: +-inf or NaN for a zero denominator
+        t3 = float(np.float64(-beta * (a10 * a31 - a11 * a30)) / np.float64(alpha * d03))
+    if why:
+        pass
+    elif abs(alpha) < RULING_TOL or abs(beta) < RULING_TOL:
+        why = "pose 2 lies on a ruling line through pose 0 or 1 (a pure rotation or translation between them)"
+    elif abs(d03) < RULING_TOL:
+        why = "pose 3 lies on the ruling line through pose 0 (a pure rotation or translation between them, t3 = inf)"
+    elif min(abs(t3), abs(t3 - 1)) < RULING_TOL:
+        why = ("pose 3 lies on a ruling line through pose 1 or 2 (a pure rotation or translation between "
+               "them): every member of this family has a real factor")
+    return why, alpha, beta, t3
 
 
 def families(q: Quadric) -> tuple[list[CubicFamily], dict[int, str]]:

@@ -7,6 +7,7 @@ quaternions (factors, polynomials) back. Relative displacements are taken in the
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,12 +27,34 @@ def condition(T) -> tuple[np.ndarray, Conditioning]:
     Works on (..., k, 4, 4)."""
     T = np.asarray(T, float)
     pos = T[..., :3, 3]
-    c = pos.mean(axis=-2)
-    L = np.sqrt(np.mean(np.sum((pos - c[..., None, :]) ** 2, axis=-1), axis=-1))
+    if T.ndim == 3 and len(T) < 8:  # one set of a few poses: plain floats, numpy's order of summation
+        c, L = _centroid_spread(pos.tolist())
+        c = np.array(c)
+    else:
+        c = pos.mean(axis=-2)
+        L = np.sqrt(np.mean(np.sum((pos - c[..., None, :]) ** 2, axis=-1), axis=-1))
     L = np.where(L > 0, L, 1.0)
     Tc = T.copy()
     Tc[..., :3, 3] = (pos - c[..., None, :]) / L[..., None, None]
     return Tc, Conditioning(centre=c, scale=L)
+
+
+def _centroid_spread(P):
+    """Centroid and RMS distance from it of k < 8 points P (lists of 3 floats), summed as numpy's
+    reductions of fewer than 8 terms do (from +0.0, in order; 8 or more are summed pairwise): bitwise
+    `condition`'s vectorized figures."""
+    k = len(P)
+    c = []
+    for j in range(3):
+        acc = 0.0
+        for p in P:
+            acc += p[j]
+        c.append(acc / k)
+    acc = 0.0
+    for x, y, z in P:
+        dx, dy, dz = x - c[0], y - c[1], z - c[2]
+        acc += 0.0 + dx * dx + dy * dy + dz * dz
+    return c, math.sqrt(acc / k)
 
 
 def to_world(h, cond: Conditioning):

@@ -208,7 +208,8 @@ def evaluate_members(C, lam, phi, fams, *, refine: bool = False) -> MemberEval:
                  & (finite & (kappa > 0))[:, None])
         score = np.where(valid, 10.0 ** -cost, 0.0)
     return MemberEval(fams=list(fams), phi=np.asarray(phi, float).reshape(G), lam=np.asarray(lam).reshape(G, 3),
-                      factors=mf, parts=parts, valid=valid, score=np.nan_to_num(score))
+                      factors=mf, parts=parts, valid=valid,
+                      score=score if np.isfinite(score).all() else np.nan_to_num(score))
 
 
 def evaluate_member(fam: CubicFamily, member: float) -> MemberEval:
@@ -270,7 +271,9 @@ def _local_maxima(score: np.ndarray, fams) -> np.ndarray:
     The rows are consecutive blocks of equal length, one per family (`grid_members`)."""
     nf = len({id(f) for f in fams})
     s = score.reshape(nf, -1, score.shape[-1])
-    keep = (s > 0) & (s >= np.roll(s, 1, axis=1)) & (s >= np.roll(s, -1, axis=1))
+    prev = np.concatenate([s[:, -1:], s[:, :-1]], 1)  # np.roll(s, 1, axis=1)
+    nxt = np.concatenate([s[:, 1:], s[:, :1]], 1)  # np.roll(s, -1, axis=1)
+    keep = (s > 0) & (s >= prev) & (s >= nxt)
     return keep.reshape(score.shape)
 
 

@@ -112,3 +112,98 @@ def test_lapack_kernels_defer_errors_to_numpy():
         lapack.svd_values(bad)
     with pytest.raises(np.linalg.LinAlgError):
         lapack.eigh(bad)
+
+
+# ----------------------------------------------------------------------------- prepare: plain-float parts
+def condition_vectorized(T):
+    pos = T[..., :3, 3]
+    c = pos.mean(axis=-2)
+    L = np.sqrt(np.mean(np.sum((pos - c[..., None, :]) ** 2, axis=-1), axis=-1))
+    L = np.where(L > 0, L, 1.0)
+    Tc = T.copy()
+    Tc[..., :3, 3] = (pos - c[..., None, :]) / L[..., None, None]
+    return Tc, c, L
+
+
+def random_set(rng, k):
+    from scipy.spatial.transform import Rotation
+
+    T = np.tile(np.eye(4), (k, 1, 1))
+    T[:, :3, :3] = Rotation.random(k, random_state=rng).as_matrix()
+    T[:, :3, 3] = rng.normal(size=(k, 3)) * 10 ** rng.uniform(-8, 8) + rng.normal(size=3) * 10 ** rng.uniform(-3, 9)
+    return T
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.integers(1, 12), st.sampled_from(["plain", "zeros", "repeat", "near_pi"]))
+def test_condition_and_displacements_bitwise(seed, k, kind):
+    from scipy.spatial.transform import Rotation
+
+    from synth.dq import pose_to_dq
+    from synth.interpolate import _pose_to_dq_few, condition
+
+    rng = np.random.default_rng(seed)
+    T = random_set(rng, k)
+    if kind == "zeros":
+        T[:, :3, 3] = -0.0
+    elif kind == "repeat":
+        T[-1] = T[0]
+    elif kind == "near_pi":
+        T[:, :3, :3] = Rotation.from_rotvec(rng.normal(size=(k, 3)) * 1e-3 + [np.pi, 0, 0]).as_matrix()
+    Tc, cond = condition(T)
+    Tr, c, L = condition_vectorized(T)
+    assert np.array_equal(Tc, Tr) and np.array_equal(cond.centre, c) and np.array_equal(cond.scale, L)
+    assert np.array_equal(np.signbit(cond.centre), np.signbit(c)) and np.shape(cond.scale) == np.shape(L)
+    assert np.array_equal(_pose_to_dq_few(Tc), pose_to_dq(Tc))
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_grid_members_bitwise(seed):
+    T = random_poses(np.random.default_rng(9000 + seed))
+    try:
+        problem = sb.prepare(T)
+    except Exception:
+        return
+    for fams in (problem.families, problem.families[:1], problem.families[::-1]):
+        for grid in (24, 5):
+            C, lam, phi, fl = sb.grid_members(fams, grid)
+            ph = sb.grid_angles(grid)
+            with np.errstate(all="ignore"):
+                assert np.array_equal(C, np.concatenate([f.members(ph)[0] for f in fams]), equal_nan=True)
+                assert np.array_equal(lam, np.concatenate([f.lambdas(ph) for f in fams]), equal_nan=True)
+            assert np.array_equal(phi, np.tile(ph, len(fams))) and fl == [f for f in fams for _ in range(grid)]
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.integers(0, 4))
+def test_ruling_parameters_as_vectorized(seed, special):
+    """`synth.cubic._ruling_parameters` (plain floats) against the vectorized formulas it replaces."""
+    from synth.cubic import RULING_TOL, _det2, _ruling_parameters
+
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(4, 2))
+    if special == 1:
+        A[1] = A[0] * 2.0  # poses 0 and 1 on one ruling line
+    elif special == 2:
+        A[2] = A[0] * 3.0  # alpha = 0
+    elif special == 3:
+        A[3] = -A[0]  # d03 = 0
+    elif special == 4:
+        A[3] = A[2] * 0.5  # t3 = 1
+    a = A[None]
+    d01r = _det2(a[:, 0], a[:, 1])
+    d01 = np.where(np.abs(d01r) < RULING_TOL, 1.0, d01r)
+    alpha = _det2(a[:, 2], a[:, 1]) / d01
+    beta = _det2(a[:, 0], a[:, 2]) / d01
+    with np.errstate(all="ignore"):
+        t3 = -beta * _det2(a[:, 1], a[:, 3]) / (alpha * _det2(a[:, 0], a[:, 3]))
+    why, al, be, t = _ruling_parameters(A.tolist())
+    assert (al, be) == (alpha[0], beta[0])
+    assert t == t3[0] or (np.isnan(t) and np.isnan(t3[0]))
+    d03 = _det2(a[:, 0], a[:, 3])[0]
+    expected = ("poses 0 and 1" if abs(d01r[0]) < RULING_TOL else
+                "pose 2 lies" if abs(alpha[0]) < RULING_TOL or abs(beta[0]) < RULING_TOL else
+                "pose 3 lies on the ruling line through pose 0" if abs(d03) < RULING_TOL else
+                "pose 3 lies on a ruling line through pose 1" if min(abs(t3[0]), abs(t3[0] - 1)) < RULING_TOL else None)
+    assert why == expected if expected is None else why.startswith(expected)
+    assert special == 0 or why is not None
