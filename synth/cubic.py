@@ -480,16 +480,19 @@ def factor_members(C, roots=None, *, refine: bool = True, exact_residual: bool =
     return MemberFactors(C=C, roots=z, H=H, ok=ok & ~trans, residual=res, translation=trans)
 
 
+_amax = np.maximum.reduce  # np.max without its Python wrapper (the same reduction)
+
+
 def multiply_back(C, H):
     """Relative multiply-back error of (t - h1)(t - h2)(t - h3) against C (G, 4, 8) for factorizations
     H (G, P, 3, 8), together with each factor's Study condition (dual scalar and v.w, relative): (G, P)."""
     with np.errstate(all="ignore"):
         h1, h2, h3 = H[:, :, 0], H[:, :, 1], H[:, :, 2]
         X = _mul(h1, h2)
-        e1 = np.max(np.abs(X + _mul(h1 + h2, h3) - C[:, None, 1]), -1)
-        e0 = np.max(np.abs(-_mul(X, h3) - C[:, None, 0]), -1)
-        e2 = np.max(np.abs(-(h1 + h2 + h3) - C[:, None, 2]), -1)
-        scale = np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))[:, None]
+        e1 = _amax(np.abs(X + _mul(h1 + h2, h3) - C[:, None, 1]), -1)
+        e0 = _amax(np.abs(-_mul(X, h3) - C[:, None, 0]), -1)
+        e2 = _amax(np.abs(-(h1 + h2 + h3) - C[:, None, 2]), -1)
+        scale = np.maximum(1.0, _amax(np.abs(C), axis=(-2, -1)))[:, None]
         r = np.maximum(np.maximum(np.maximum(e0, e1), e2) / scale, _study(H))
     return np.where(np.isfinite(r), r, np.inf)
 
@@ -498,8 +501,8 @@ def _study(H):
     """Study condition of the factors t - h of factorizations H (..., 3, 8), relative: the dual scalar
     and v.w of h must vanish; the largest violation per factorization."""
     with np.errstate(all="ignore"):
-        hs = np.maximum(1.0, np.max(np.abs(H), axis=(-2, -1)))
-        return np.max(np.abs(H[..., 4]) + np.abs(_dot(H[..., 1:4], H[..., 5:8])) / hs[..., None], -1) / hs
+        hs = np.maximum(1.0, _amax(np.abs(H), axis=(-2, -1)))
+        return _amax(np.abs(H[..., 4]) + np.abs(_dot(H[..., 1:4], H[..., 5:8])) / hs[..., None], -1) / hs
 
 
 def _step1(c, m0, m1, prim=None):
@@ -675,7 +678,8 @@ def loop_geometry(mf: MemberFactors) -> dict[str, np.ndarray]:
     u = np.moveaxis(u, -1, 0)
     m = np.moveaxis(m, -1, 0)
     e0, e1 = EDGES[:, 0], EDGES[:, 1]
-    dist, ang, f1, f2 = _pair_geometry(u[..., e0], m[..., e0], u[..., e1], m[..., e1])  # (G, 18)
+    p = _cross(u, m)  # each joint's point nearest the origin, once (not once per edge)
+    dist, ang, f1, f2 = _pair_geometry(u[..., e0], None, u[..., e1], None, p[..., e0], p[..., e1])  # (G, 18)
     foot = np.maximum(_sum0(f1 * f1), _sum0(f2 * f2))
     return {"min_offset": np.minimum.reduce(dist[:, LOOP_EDGES], -1),
             "min_twist": np.minimum.reduce(ang[:, LOOP_EDGES], -1),
@@ -693,11 +697,12 @@ def _cross(a, b):
     return out
 
 
-def _pair_geometry(u, m, u2, m2):
+def _pair_geometry(u, m, u2, m2, p1=None, p2=None):
     """Distance, line angle in [0, pi/2] and common-normal feet of line pairs given component-first
     (3, ...). Parallel pairs: feet at the first line's point closest to the origin and its projection
-    onto the second line."""
-    p1, p2 = _cross(u, m), _cross(u2, m2)
+    onto the second line. ``p1``, ``p2``: those points u x m if known (then m, m2 are not used)."""
+    if p1 is None:
+        p1, p2 = _cross(u, m), _cross(u2, m2)
     c = _cross(u, u2)
     s2 = _sum0(c * c)
     ang = np.arctan2(np.sqrt(s2), np.abs(_sum0(u * u2)))

@@ -66,9 +66,15 @@ def to_world(h, cond: Conditioning):
     h[..., 4:] *= L[..., None] if L.ndim else L
     # tau h tau^-1 = h + eps/2 (p c - c p) for tau = 1 - eps c/2 (c pure): dual part += (p c - c p)/2
     # with (p c - c p) = 2 vec(p) x c.
-    p = h[..., :4]
-    cc = np.broadcast_to(c, p[..., 1:].shape)
-    h[..., 5:8] += np.cross(p[..., 1:], cc)
+    if c.shape != (3,):
+        p = h[..., :4]
+        h[..., 5:8] += np.cross(p[..., 1:], np.broadcast_to(c, p[..., 1:].shape))
+        return h
+    p1, p2, p3 = h[..., 1], h[..., 2], h[..., 3]
+    c1, c2, c3 = c.tolist()
+    h[..., 5] += p2 * c3 - p3 * c2  # np.cross's arithmetic, without its overhead (bitwise)
+    h[..., 6] += p3 * c1 - p1 * c3
+    h[..., 7] += p1 * c2 - p2 * c1
     return h
 
 

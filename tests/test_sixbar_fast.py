@@ -207,3 +207,19 @@ def test_ruling_parameters_as_vectorized(seed, special):
                 "pose 3 lies on a ruling line through pose 1" if min(abs(t3[0]), abs(t3[0] - 1)) < RULING_TOL else None)
     assert why == expected if expected is None else why.startswith(expected)
     assert special == 0 or why is not None
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.integers(0, 11))
+def test_to_world_bitwise(seed, n):
+    """`to_world` with its cross product unrolled against np.cross (the former code)."""
+    from synth.interpolate import Conditioning, to_world
+
+    rng = np.random.default_rng(seed)
+    h = rng.normal(size=(n, 8)) * 10 ** rng.uniform(-5, 5, size=8) if n else rng.normal(size=8)
+    cond = Conditioning(centre=rng.normal(size=3) * 10 ** rng.uniform(-3, 8),
+                        scale=np.asarray(10 ** rng.uniform(-6, 6)))
+    ref = np.array(h, float)
+    ref[..., 4:] *= cond.scale
+    ref[..., 5:8] += np.cross(ref[..., 1:4], np.broadcast_to(cond.centre, ref[..., 1:4].shape))
+    assert np.array_equal(to_world(h, cond), ref)
