@@ -105,16 +105,17 @@ def quadric(D) -> Quadric:
     A = B.T @ _G @ B
     A = 0.5 * (A + A.T)
     lam, U = lapack.eigh(A)
-    order = np.argsort(-lam)
+    ev = lam.tolist()
+    order = sorted(range(4), key=lambda i: -ev[i])  # decreasing; stable like argsort for 4 elements
     lam, U = lam[order], U[:, order]
-    big = float(np.max(np.abs(lam)))
+    big = max(abs(x) for x in ev)
     if big <= PLANAR_TOL:
         raise SynthesisError(
             "every relative displacement of the four poses has zero pitch (planar motions, pure translations "
             "or rotations about a common point): the 3-space through them lies inside the Study quadric, so "
             "the cubic motion through the poses is not unique and a planar or spherical mechanism fits them, "
             "not a spatial 6R. Move a pose out of the plane of motion (or off the common centre of rotation)")
-    zero = int(np.sum(np.abs(lam) <= CONE_TOL * big))
+    zero = sum(abs(x) <= CONE_TOL * big for x in ev)
     if zero >= 2:
         raise SynthesisError(
             "the quadric through the four poses degenerates into a pair of planes (two Gram eigenvalues "
@@ -126,7 +127,7 @@ def quadric(D) -> Quadric:
             "the quadric through the four poses is a cone (one Gram eigenvalue vanishes): the poses are in a "
             "special position where the two families of cubic motions merge and degenerate. Perturb one pose "
             "(e.g. its position by 1% of the pose spread) and try again")
-    sig = (int(np.sum(lam > 0)), int(np.sum(lam < 0)))
+    sig = (sum(x > 0 for x in ev), sum(x < 0 for x in ev))
     return Quadric(D=D, B=B, A=A, eigenvalues=lam, U=U, signature=sig, singular_values=sv)
 
 
