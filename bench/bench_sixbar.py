@@ -12,7 +12,9 @@ default synthesis < 5 ms, one member's 9 loops < 1 ms. Reported parts:
   scan           GRID members per family factorized and scored    (synth.sixbar.scan)
   build          best candidate -> world-frame Linkage (+ DH)     (synth.sixbar.build_linkage, no check)
   self_check     pose reproduction + closure over 200 samples     (synth.checks.self_check)
-  sixbar()       all of the above                                 (synth.sixbar.sixbar, the default)
+  sixbar()       all of the above; the self-check deferred to the first access of linkage.checks
+                 when sixbar.error_estimate shows that it cannot fail (synth.sixbar.sixbar, the default)
+  ... + checks   the same with linkage.checks read (what the CLI, which writes them, pays)
   one member     6 factorizations (Gauss-Newton-refined) + 9 loops + their scores, world frame,
                  poses already prepared                          (synth.sixbar.one_member_loops)
   ... unscored   the same without the scores                      (one_member_loops(score=False))
@@ -82,7 +84,7 @@ def main(argv=None):
     ap.add_argument("--sets", type=int, default=10, help="pose sets (the first is MATH.md 11 E)")
     ap.add_argument("--repeat", type=int, default=30, help="repeats per measurement")
     args = ap.parse_args(argv)
-    rows = {k: [] for k in ("prepare", "scan", "build", "self_check", "sixbar()", "one member",
+    rows = {k: [] for k in ("prepare", "scan", "build", "self_check", "sixbar()", "... + checks", "one member",
                             "... unscored", "... + prepare")}
     for T in pose_sets(args.sets):
         sixbar(T)  # warm-up (imports, caches)
@@ -95,6 +97,7 @@ def main(argv=None):
         rows["build"].append(timed(lambda: build_linkage(pr, cand, check=False), args.repeat))
         rows["self_check"].append(timed(lambda: self_check(lk, 200), args.repeat))
         rows["sixbar()"].append(timed(lambda: sixbar(T), args.repeat))
+        rows["... + checks"].append(timed(lambda: sixbar(T).checks, args.repeat))
         fam, member = cand.family, cand.member
         rows["one member"].append(timed(lambda: one_member_loops(T, fam, member, problem=pr), args.repeat))
         rows["... unscored"].append(timed(lambda: one_member_loops(T, fam, member, problem=pr, score=False),

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import lapack
 from .dq import dq_mul
 from .errors import SynthesisError
 from .motion import norm_poly
@@ -93,27 +94,28 @@ def quadric(D) -> Quadric:
     Raises SynthesisError when the poses do not span a 3-space, or V lies in S (planar or spherical
     pose sets), or the section is a cone."""
     D = np.asarray(D, float)
-    sv = np.linalg.svd(D, compute_uv=False)
+    sv = lapack.svd_values(D)
     if sv[3] < RANK_TOL * sv[0]:
         raise SynthesisError(
             "the four poses are not independent (the fourth relative displacement is a combination of the "
             "others: all four lie on one Bennett motion, or some poses repeat a common screw motion); "
             "there is no unique cubic through them. Use `mpsynth bennett` on three of them, or move one "
             "pose off that motion")
-    B, _ = np.linalg.qr(D.T)
+    B = lapack.qr_q(D.T)
     A = B.T @ _G @ B
     A = 0.5 * (A + A.T)
-    lam, U = np.linalg.eigh(A)
-    order = np.argsort(-lam)
+    lam, U = lapack.eigh(A)
+    ev = lam.tolist()
+    order = sorted(range(4), key=lambda i: -ev[i])  # decreasing; stable like argsort for 4 elements
     lam, U = lam[order], U[:, order]
-    big = float(np.max(np.abs(lam)))
+    big = max(abs(x) for x in ev)
     if big <= PLANAR_TOL:
         raise SynthesisError(
             "every relative displacement of the four poses has zero pitch (planar motions, pure translations "
             "or rotations about a common point): the 3-space through them lies inside the Study quadric, so "
             "the cubic motion through the poses is not unique and a planar or spherical mechanism fits them, "
             "not a spatial 6R. Move a pose out of the plane of motion (or off the common centre of rotation)")
-    zero = int(np.sum(np.abs(lam) <= CONE_TOL * big))
+    zero = sum(abs(x) <= CONE_TOL * big for x in ev)
     if zero >= 2:
         raise SynthesisError(
             "the quadric through the four poses degenerates into a pair of planes (two Gram eigenvalues "
@@ -125,7 +127,7 @@ def quadric(D) -> Quadric:
             "the quadric through the four poses is a cone (one Gram eigenvalue vanishes): the poses are in a "
             "special position where the two families of cubic motions merge and degenerate. Perturb one pose "
             "(e.g. its position by 1% of the pose spread) and try again")
-    sig = (int(np.sum(lam > 0)), int(np.sum(lam < 0)))
+    sig = (sum(x > 0 for x in ev), sum(x < 0 for x in ev))
     return Quadric(D=D, B=B, A=A, eigenvalues=lam, U=U, signature=sig, singular_values=sv)
 
 
@@ -143,8 +145,13 @@ def oval_message(q: Quadric) -> str:
 def ruling_matrix(y) -> np.ndarray:
     """M(y) = [[y1 + y3, y2 + y4], [y4 - y2, y1 - y3]] for y (..., 4); det M = y1^2+y2^2-y3^2-y4^2."""
     y = np.asarray(y, float)
-    y1, y2, y3, y4 = np.moveaxis(y, -1, 0)
-    return np.stack([np.stack([y1 + y3, y2 + y4], -1), np.stack([y4 - y2, y1 - y3], -1)], -2)
+    y1, y2, y3, y4 = y[..., 0], y[..., 1], y[..., 2], y[..., 3]
+    M = np.empty(y.shape[:-1] + (2, 2))
+    np.add(y1, y3, out=M[..., 0, 0])
+    np.add(y2, y4, out=M[..., 0, 1])
+    np.subtract(y4, y2, out=M[..., 1, 0])
+    np.subtract(y1, y3, out=M[..., 1, 1])
+    return M
 
 
 def ruling_inverse(M) -> np.ndarray:
@@ -159,7 +166,7 @@ def ruling_coordinates(q: Quadric, h=None) -> tuple[np.ndarray, np.ndarray, np.n
     u (..., 2), v (..., 2) and the relative size of the second singular value (0 on the quadric)."""
     h = q.D if h is None else np.asarray(h, float)
     M = ruling_matrix(q.coordinates(h) @ q.W)
-    Uu, s, Vt = np.linalg.svd(M)
+    Uu, s, Vt = lapack.svd(M)
     return Uu[..., :, 0], Vt[..., 0, :], s[..., 1] / s[..., 0]
 
 
@@ -244,63 +251,79 @@ def _families(q: Quadric, u, v):
     """Both families at once (index 0: u linear / v quadratic, index 1: the roles swapped). Returns,
     per family, either (t3, basis, lead, weights) or a string saying why the family does not exist.
     u, v: the ruling coordinates of the four poses."""
-    a = np.stack([u, v])  # (2, 4, 2): the linear ruling of each family
-    b = np.stack([v, u])  # the quadratic ruling
-    d01 = _det2(a[:, 0], a[:, 1])
-    why = [None, None]
-    for f in (0, 1):
-        if abs(d01[f]) < RULING_TOL:
-            why[f] = "poses 0 and 1 lie on one ruling line (they differ by a pure rotation or translation)"
-    d01 = np.where(np.abs(d01) < RULING_TOL, 1.0, d01)
-    alpha = _det2(a[:, 2], a[:, 1]) / d01  # alpha a_0 + beta a_1 = a_2 (Cramer)
-    beta = _det2(a[:, 0], a[:, 2]) / d01
-    d03 = _det2(a[:, 0], a[:, 3])
-    with np.errstate(all="ignore"):
-        t3 = -beta * _det2(a[:, 1], a[:, 3]) / (alpha * d03)
-    for f in (0, 1):
-        if why[f]:
-            continue
-        if abs(alpha[f]) < RULING_TOL or abs(beta[f]) < RULING_TOL:
-            why[f] = "pose 2 lies on a ruling line through pose 0 or 1 (a pure rotation or translation between them)"
-        elif abs(d03[f]) < RULING_TOL:
-            why[f] = ("pose 3 lies on the ruling line through pose 0 (a pure rotation or translation between "
-                      "them, t3 = inf)")
-        elif min(abs(t3[f]), abs(t3[f] - 1)) < RULING_TOL:
-            why[f] = ("pose 3 lies on a ruling line through pose 1 or 2 (a pure rotation or translation between "
-                      "them): every member of this family has a real factor")
-    t3 = np.where([w is None for w in why], t3, 2.0)  # placeholders keep the batch finite
-    # v(t) = gamma b0 t^2 + w1 t + w0 with det(v(t_i), b_i) = 0, i = 1, 2, 3; unknowns z = (gamma, w1, w0)
-    tt = np.stack([np.zeros(2), np.ones(2), t3], -1)[..., None]  # (2, 3, 1)
-    bi = b[:, 1:]  # (2, 3, 2)
-    E = np.concatenate([tt * tt * _det2(b[:, :1], bi)[..., None], tt * bi[..., 1:2], -tt * bi[..., 0:1],
-                        bi[..., 1:2], -bi[..., 0:1]], -1)  # (2, 3, 5)
-    _, sv, Vt = np.linalg.svd(E)
+    a = np.array([u, v])  # (2, 4, 2): the linear ruling of each family
+    b = a[::-1]  # the quadratic ruling
+    # the 2 x 2 determinants and the system E in plain floats (elementwise, as numpy would do them)
+    why, alpha, beta, t3, E = [None, None], [0.0, 0.0], [0.0, 0.0], [2.0, 2.0], []
+    for f, (A, B) in enumerate(((u.tolist(), v.tolist()), (v.tolist(), u.tolist()))):
+        why[f], alpha[f], beta[f], t3f = _ruling_parameters(A)
+        if why[f] is None:
+            t3[f] = t3f  # else a placeholder keeps the batch finite
+        # v(t) = gamma b0 t^2 + w1 t + w0 with det(v(t_i), b_i) = 0, i = 1, 2, 3; unknowns z = (gamma, w1, w0)
+        E.append([[t * t * (B[0][0] * bi[1] - B[0][1] * bi[0]), t * bi[1], -t * bi[0], bi[1], -bi[0]]
+                  for t, bi in zip((0.0, 1.0, t3[f]), B[1:])])
+    _, sv, Vt = lapack.svd(np.array(E))  # (2, 3, 5)
     for f in (0, 1):
         if why[f] is None and sv[f, 2] < RULING_TOL * sv[f, 0]:
             why[f] = "the pose parameters coincide (t3 = 0 or 1): two poses lie on one ruling line"
+    alpha, beta = np.array(alpha), np.array(beta)
+    tt = np.array([[0.0, 1.0, t3[0]], [0.0, 1.0, t3[1]]])[..., None]  # (2, 3, 1)
     null = Vt[:, 3:]  # (2, 2, 5)
     # M(t) = a(t) b(t)^T with a(t) = alpha a_0 t + beta a_1 and b(t) = gamma b_0 t^2 + w1 t + w0 is
     # bilinear in (a, z); coefficient of t^j: sum over p + r = j of a_p b_r(z)^T
-    Az = np.stack([beta[:, None] * a[:, 1], alpha[:, None] * a[:, 0]], 1)  # (2, 2, 2): family, t^p
-    Bz = np.broadcast_to(_BZ, (2, 3, 5, 2)).copy()
+    Az = np.empty((2, 2, 2))  # family, t^p
+    Az[:, 0] = beta[:, None] * a[:, 1]
+    Az[:, 1] = alpha[:, None] * a[:, 0]
+    Bz = np.array([_BZ, _BZ])
     Bz[:, 2, 0] = b[:, 0]
     full = Az[:, :, None, None, :, None] * Bz[:, None, :, :, None, :]  # (f, p, r, k, 2, 2)
-    Mz = np.stack([full[:, 0, 0], full[:, 0, 1] + full[:, 1, 0], full[:, 0, 2] + full[:, 1, 1], full[:, 1, 2]], 1)
+    Mz = np.empty((2, 4, 5, 2, 2))
+    Mz[:, 0] = full[:, 0, 0]
+    np.add(full[:, 0, 1], full[:, 1, 0], out=Mz[:, 1])
+    np.add(full[:, 0, 2], full[:, 1, 1], out=Mz[:, 2])
+    Mz[:, 3] = full[:, 1, 2]
     Mz[1] = np.swapaxes(Mz[1], -1, -2)  # family 2 uses M^T
     Y = Mz.reshape(2, 4, 5, 4) @ _RULING_INV.T  # y(M) per coefficient and unit z: (2, 4, 5, 4)
     Q = (null @ np.swapaxes(Y, 1, 2).reshape(2, 5, 16)).reshape(2, 2, 4, 4) @ q.P.T  # (2, 2, 4, 8)
     # orthonormal pencil basis (Gram-Schmidt on the two 32-vectors)
     Qa, Qb = Q[:, 0].reshape(2, 32), Q[:, 1].reshape(2, 32)
-    Qa = Qa / np.linalg.norm(Qa, axis=-1, keepdims=True)
-    Qb = Qb - np.sum(Qa * Qb, -1, keepdims=True) * Qa
-    Qb = Qb / np.linalg.norm(Qb, axis=-1, keepdims=True)
-    basis = np.stack([Qa, Qb], 1).reshape(2, 2, 4, 8)
+    Qa = Qa / np.sqrt(np.add.reduce(Qa * Qa, -1, keepdims=True))  # (np.linalg.norm's own reduction)
+    Qb = Qb - np.add.reduce(Qa * Qb, -1, keepdims=True) * Qa
+    Qb = Qb / np.sqrt(np.add.reduce(Qb * Qb, -1, keepdims=True))
+    basis = np.concatenate([Qa, Qb], 1).reshape(2, 2, 4, 8)
     lead = basis[:, :, 3, 0]  # (2, 2)
     # weights: Q(t_i) . D_i (primal parts; |p(D_i)| = 1), and the lead for i = 0
     V = tt ** np.arange(4)  # (2, 3, 4)
     vals = V[:, None] @ basis[..., :4]  # (2, 2, 3, 4)
-    w = np.concatenate([lead[..., None], np.sum(vals * q.D[1:, :4], -1)], -1)  # (2, 2, 4)
+    w = np.concatenate([lead[..., None], np.add.reduce(vals * q.D[1:, :4], -1)], -1)  # (2, 2, 4)
     return [why[f] if why[f] else (float(t3[f]), basis[f], lead[f], w[f]) for f in (0, 1)]
+
+
+def _ruling_parameters(A):
+    """(why not, alpha, beta, t3) of one family from the linear ruling coordinates A (4 points x 2) of the
+    poses: alpha a_0 + beta a_1 = a_2 (Cramer) and t3, in plain floats; ``why`` says why the family
+    does not exist (None if it does)."""
+    (a00, a01), (a10, a11), (a20, a21), (a30, a31) = A
+    d01 = a00 * a11 - a01 * a10
+    why = None
+    if abs(d01) < RULING_TOL:
+        why = "poses 0 and 1 lie on one ruling line (they differ by a pure rotation or translation)"
+        d01 = 1.0
+    alpha = (a20 * a11 - a21 * a10) / d01
+    beta = (a00 * a21 - a01 * a20) / d01
+    d03 = a00 * a31 - a01 * a30
+    with np.errstate(all="ignore"):  # numpy's division: +-inf or NaN for a zero denominator
+        t3 = float(np.float64(-beta * (a10 * a31 - a11 * a30)) / np.float64(alpha * d03))
+    if why:
+        pass
+    elif abs(alpha) < RULING_TOL or abs(beta) < RULING_TOL:
+        why = "pose 2 lies on a ruling line through pose 0 or 1 (a pure rotation or translation between them)"
+    elif abs(d03) < RULING_TOL:
+        why = "pose 3 lies on the ruling line through pose 0 (a pure rotation or translation between them, t3 = inf)"
+    elif min(abs(t3), abs(t3 - 1)) < RULING_TOL:
+        why = ("pose 3 lies on a ruling line through pose 1 or 2 (a pure rotation or translation between "
+               "them): every member of this family has a real factor")
+    return why, alpha, beta, t3
 
 
 def families(q: Quadric) -> tuple[list[CubicFamily], dict[int, str]]:
@@ -384,6 +407,9 @@ class MemberFactors:
     translation: np.ndarray  # (G, 6) some factor is a translation (then not ok)
 
 
+_sum0 = np.add.reduce  # np.sum(x, 0) without its Python wrapper (the same reduction)
+
+
 def _dot(a, b):
     """Dot products over the last axis (einsum: faster than sum for short axes)."""
     return np.einsum("...i,...i->...", a, b)
@@ -455,16 +481,19 @@ def factor_members(C, roots=None, *, refine: bool = True, exact_residual: bool =
     return MemberFactors(C=C, roots=z, H=H, ok=ok & ~trans, residual=res, translation=trans)
 
 
+_amax = np.maximum.reduce  # np.max without its Python wrapper (the same reduction)
+
+
 def multiply_back(C, H):
     """Relative multiply-back error of (t - h1)(t - h2)(t - h3) against C (G, 4, 8) for factorizations
     H (G, P, 3, 8), together with each factor's Study condition (dual scalar and v.w, relative): (G, P)."""
     with np.errstate(all="ignore"):
         h1, h2, h3 = H[:, :, 0], H[:, :, 1], H[:, :, 2]
         X = _mul(h1, h2)
-        e1 = np.max(np.abs(X + _mul(h1 + h2, h3) - C[:, None, 1]), -1)
-        e0 = np.max(np.abs(-_mul(X, h3) - C[:, None, 0]), -1)
-        e2 = np.max(np.abs(-(h1 + h2 + h3) - C[:, None, 2]), -1)
-        scale = np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))[:, None]
+        e1 = _amax(np.abs(X + _mul(h1 + h2, h3) - C[:, None, 1]), -1)
+        e0 = _amax(np.abs(-_mul(X, h3) - C[:, None, 0]), -1)
+        e2 = _amax(np.abs(-(h1 + h2 + h3) - C[:, None, 2]), -1)
+        scale = np.maximum(1.0, _amax(np.abs(C), axis=(-2, -1)))[:, None]
         r = np.maximum(np.maximum(np.maximum(e0, e1), e2) / scale, _study(H))
     return np.where(np.isfinite(r), r, np.inf)
 
@@ -473,8 +502,8 @@ def _study(H):
     """Study condition of the factors t - h of factorizations H (..., 3, 8), relative: the dual scalar
     and v.w of h must vanish; the largest violation per factorization."""
     with np.errstate(all="ignore"):
-        hs = np.maximum(1.0, np.max(np.abs(H), axis=(-2, -1)))
-        return np.max(np.abs(H[..., 4]) + np.abs(_dot(H[..., 1:4], H[..., 5:8])) / hs[..., None], -1) / hs
+        hs = np.maximum(1.0, _amax(np.abs(H), axis=(-2, -1)))
+        return _amax(np.abs(H[..., 4]) + np.abs(_dot(H[..., 1:4], H[..., 5:8])) / hs[..., None], -1) / hs
 
 
 def _step1(c, m0, m1, prim=None):
@@ -650,30 +679,39 @@ def loop_geometry(mf: MemberFactors) -> dict[str, np.ndarray]:
     u = np.moveaxis(u, -1, 0)
     m = np.moveaxis(m, -1, 0)
     e0, e1 = EDGES[:, 0], EDGES[:, 1]
-    dist, ang, f1, f2 = _pair_geometry(u[..., e0], m[..., e0], u[..., e1], m[..., e1])  # (G, 18)
-    foot = np.maximum(np.sum(f1 * f1, 0), np.sum(f2 * f2, 0))
-    return {"min_offset": np.min(dist[:, LOOP_EDGES], -1), "min_twist": np.min(ang[:, LOOP_EDGES], -1),
-            "extent": np.sqrt(np.max(foot[:, LOOP_EDGES], -1))}
+    p = _cross(u, m)  # each joint's point nearest the origin, once (not once per edge)
+    dist, ang, f1, f2 = _pair_geometry(u[..., e0], None, u[..., e1], None, p[..., e0], p[..., e1])  # (G, 18)
+    foot = np.maximum(_sum0(f1 * f1), _sum0(f2 * f2))
+    return {"min_offset": np.minimum.reduce(dist[:, LOOP_EDGES], -1),
+            "min_twist": np.minimum.reduce(ang[:, LOOP_EDGES], -1),
+            "extent": np.sqrt(np.maximum.reduce(foot[:, LOOP_EDGES], -1))}
 
 
 def _cross(a, b):
     """Cross product of component-first vectors (3, ...)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    out = np.empty((3,) + np.broadcast_shapes(a0.shape, b0.shape))
+    np.subtract(a1 * b2, a2 * b1, out=out[0])
+    np.subtract(a2 * b0, a0 * b2, out=out[1])
+    np.subtract(a0 * b1, a1 * b0, out=out[2])
+    return out
 
 
-def _pair_geometry(u, m, u2, m2):
+def _pair_geometry(u, m, u2, m2, p1=None, p2=None):
     """Distance, line angle in [0, pi/2] and common-normal feet of line pairs given component-first
     (3, ...). Parallel pairs: feet at the first line's point closest to the origin and its projection
-    onto the second line."""
-    p1, p2 = _cross(u, m), _cross(u2, m2)
+    onto the second line. ``p1``, ``p2``: those points u x m if known (then m, m2 are not used)."""
+    if p1 is None:
+        p1, p2 = _cross(u, m), _cross(u2, m2)
     c = _cross(u, u2)
-    s2 = np.sum(c * c, 0)
-    ang = np.arctan2(np.sqrt(s2), np.abs(np.sum(u * u2, 0)))
+    s2 = _sum0(c * c)
+    ang = np.arctan2(np.sqrt(s2), np.abs(_sum0(u * u2)))
     d = p2 - p1
     par = s2 < 1e-24
     s2s = np.where(par, 1.0, s2)
-    a1 = np.where(par, 0.0, np.sum(_cross(d, u2) * c, 0) / s2s)
-    a2 = np.where(par, np.sum(-d * u2, 0), np.sum(_cross(d, u) * c, 0) / s2s)
+    a1 = np.where(par, 0.0, _sum0(_cross(d, u2) * c) / s2s)
+    a2 = np.where(par, _sum0(-d * u2), _sum0(_cross(d, u) * c) / s2s)
     f1 = p1 + a1 * u
     f2 = p2 + a2 * u2
-    return np.sqrt(np.sum((f2 - f1) ** 2, 0)), ang, f1, f2
+    return np.sqrt(_sum0((f2 - f1) ** 2)), ang, f1, f2

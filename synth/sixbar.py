@@ -35,14 +35,16 @@ translation, a failed factorization or a multiply-back error > 1e-10 is dropped.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 
 from .assemble import two_branch_linkage
 from .bennett import check_distinct
 from .checks import self_check
-from .cubic import (PAIRS, PERMS, CubicFamily, MemberFactors, _cross, _pair_geometry, factor_members, families,
+from .cubic import (PAIRS, PERMS, CubicFamily, MemberFactors, factor_members, families,
                     loop_geometry, multiply_back, norm_roots, parameter_separation, polish, quadric,
                     root_conditioning)
 from .errors import InputError, SynthesisError
@@ -148,16 +150,21 @@ def grid_angles(n: int = GRID) -> np.ndarray:
 
 
 def grid_members(fams: list[CubicFamily], grid: int = GRID):
-    """Members of the scan: (C (G, 4, 8), lambdas (G, 3), phi (G,), family of each member)."""
+    """Members of the scan: (C (G, 4, 8), lambdas (G, 3), phi (G,), family of each member); all families
+    at once, with the arithmetic of `CubicFamily.members` and `CubicFamily.lambdas`."""
     phi = grid_angles(grid)
-    Cs, lams, fl = [], [], []
+    c, s = np.cos(phi), np.sin(phi)
+    basis = np.stack([f.basis for f in fams], 1)[:, :, None]  # (2, F, 1, 4, 8): Q_a, Q_b
+    lead = np.stack([f.lead for f in fams], 1)[..., None]  # (2, F, 1)
+    w = np.stack([f.weights for f in fams], 1)[:, :, None]  # (2, F, 1, 4)
     with np.errstate(all="ignore"):
-        for fam in fams:
-            C, _ = fam.members(phi)
-            Cs.append(C)
-            lams.append(fam.lambdas(phi))
-            fl += [fam] * grid
-    return np.concatenate(Cs), np.concatenate(lams), np.tile(phi, len(fams)), fl
+        ld = c * lead[0] + s * lead[1]  # (F, G)
+        C = (c[:, None, None] * basis[0] + s[:, None, None] * basis[1]) / ld[..., None, None]
+        C[..., 3, :] = np.eye(8)[0]
+        wg = c[:, None] * w[0] + s[:, None] * w[1]  # (F, G, 4)
+        lams = wg[..., 1:] / wg[..., :1]
+    fl = [f for f in fams for _ in range(grid)]
+    return C.reshape(-1, 4, 8), lams.reshape(-1, 3), np.tile(phi, len(fams)), fl
 
 
 def evaluate_members(C, lam, phi, fams, *, refine: bool = False) -> MemberEval:
@@ -201,7 +208,8 @@ def evaluate_members(C, lam, phi, fams, *, refine: bool = False) -> MemberEval:
                  & (finite & (kappa > 0))[:, None])
         score = np.where(valid, 10.0 ** -cost, 0.0)
     return MemberEval(fams=list(fams), phi=np.asarray(phi, float).reshape(G), lam=np.asarray(lam).reshape(G, 3),
-                      factors=mf, parts=parts, valid=valid, score=np.nan_to_num(score))
+                      factors=mf, parts=parts, valid=valid,
+                      score=score if np.isfinite(score).all() else np.nan_to_num(score))
 
 
 def evaluate_member(fam: CubicFamily, member: float) -> MemberEval:
@@ -263,7 +271,9 @@ def _local_maxima(score: np.ndarray, fams) -> np.ndarray:
     The rows are consecutive blocks of equal length, one per family (`grid_members`)."""
     nf = len({id(f) for f in fams})
     s = score.reshape(nf, -1, score.shape[-1])
-    keep = (s > 0) & (s >= np.roll(s, 1, axis=1)) & (s >= np.roll(s, -1, axis=1))
+    prev = np.concatenate([s[:, -1:], s[:, :-1]], 1)  # np.roll(s, 1, axis=1)
+    nxt = np.concatenate([s[:, 1:], s[:, :1]], 1)  # np.roll(s, -1, axis=1)
+    keep = (s > 0) & (s >= prev) & (s >= nxt)
     return keep.reshape(score.shape)
 
 
@@ -380,7 +390,14 @@ def _explicit_failure(problem: Problem, family, member, pair) -> SynthesisError:
 def build_linkage(problem: Problem, cand: Candidate, *, check_samples: int = 200, check: bool = True):
     """World-frame Linkage of a candidate (its factors polished first, `_polish`), with info and
     (unless ``check`` is false) self-checks."""
-    cand = _polish(cand)
+    linkage = _assemble(problem, _polish(cand))
+    if check:
+        linkage.checks = self_check(linkage, check_samples)
+    return linkage
+
+
+def _assemble(problem: Problem, cand: Candidate):
+    """World-frame Linkage of a (polished) candidate with its info, without self-checks."""
     cond = problem.cond
     W = to_world(np.concatenate([cand.H, cand.K, cand.C]), cond)  # one call for all: (3 + 3 + 4, 8)
     H, K, C = W[:3], W[3:6], W[6:]
@@ -398,8 +415,6 @@ def build_linkage(problem: Problem, cand: Candidate, *, check_samples: int = 200
     linkage = two_branch_linkage("6r", H, K, C, problem.poses, problem.names, ts, info)
     linkage.info["dh"] = loop_dh(linkage, LOOP)
     linkage.info["warnings"] = _warnings(cand)
-    if check:
-        linkage.checks = self_check(linkage, check_samples)
     return linkage
 
 
@@ -429,24 +444,55 @@ def loop_dh(linkage, loop: list[str]) -> list[dict]:
     """Denavit-Hartenberg parameters around the closed loop at the reference configuration, with the
     definitions of `synth.bennett.dh_table` (for joint i: ``a``/``alpha`` to the next joint, the twist
     signed about the common normal from i to i+1; ``d`` the offset along axis i between the incoming
-    and outgoing common normals' feet; ``theta`` the angle between those normals about axis i),
-    computed for all joints at once."""
-    J = [linkage.joint(n) for n in loop]
-    u = np.array([j.direction for j in J]).T  # (3, m), component-first
-    mo = np.array([j.moment for j in J]).T
-    nxt = np.r_[1:len(J), 0]
-    dist, _, f_out, f_in_next = _pair_geometry(u, mo, u[:, nxt], mo[:, nxt])
-    c = _cross(u, u[:, nxt])
-    cn = np.sqrt(np.sum(c * c, 0))
-    with np.errstate(all="ignore"):
-        n = np.where(dist > 1e-12, (f_in_next - f_out) / dist, np.where(cn > 1e-12, c / cn, 0.0))
-    twist = np.arctan2(np.sum(c * n, 0), np.sum(u * u[:, nxt], 0))
-    prev = np.r_[len(J) - 1, 0:len(J) - 1]
-    f_in, n_in = f_in_next[:, prev], n[:, prev]
-    d = np.sum((f_out - f_in) * u, 0)
-    theta = np.arctan2(np.sum(_cross(n_in, n) * u, 0), np.sum(n_in * n, 0))
-    return [{"joint": loop[i], "next": loop[int(nxt[i])], "a": float(dist[i]), "alpha": float(twist[i]),
-             "d": float(d[i]), "theta": float(theta[i])} for i in range(len(J))]
+    and outgoing common normals' feet; ``theta`` the angle between those normals about axis i).
+    Plain floats, the operations of `synth.cubic._pair_geometry` in the same order (bitwise the
+    former vectorized figures; parallel consecutive axes: feet as there)."""
+    J = {j.name: j for j in linkage.joints}
+    lines = [(J[n].direction.tolist(), J[n].moment.tolist()) for n in loop]
+    m = len(lines)
+    feet, dist, normal, twist = [], [], [], []
+    for i in range(m):
+        (u, mo), (u2, m2) = lines[i], lines[(i + 1) % m]
+        p1, p2, c = _xp(u, mo), _xp(u2, m2), _xp(u, u2)
+        s2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2]
+        d = (p2[0] - p1[0], p2[1] - p1[1], p2[2] - p1[2])
+        if s2 < 1e-24:  # parallel
+            a1, a2 = 0.0, _dp((-d[0], -d[1], -d[2]), u2)
+        else:
+            a1, a2 = _dp(_xp(d, u2), c) / s2, _dp(_xp(d, u), c) / s2
+        f1 = (p1[0] + a1 * u[0], p1[1] + a1 * u[1], p1[2] + a1 * u[2])
+        f2 = (p2[0] + a2 * u2[0], p2[1] + a2 * u2[1], p2[2] + a2 * u2[2])
+        e = (f2[0] - f1[0], f2[1] - f1[1], f2[2] - f1[2])
+        r = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+        cn = math.sqrt(s2)
+        if r > 1e-12:
+            n = (e[0] / r, e[1] / r, e[2] / r)
+        elif cn > 1e-12:
+            n = (c[0] / cn, c[1] / cn, c[2] / cn)
+        else:
+            n = (0.0, 0.0, 0.0)
+        feet.append((f1, f2))
+        dist.append(r)
+        normal.append(n)
+        twist.append(math.atan2(_dp(c, n), _dp(u, u2)))
+    out = []
+    for i in range(m):
+        u = lines[i][0]
+        f_out, f_in, n, n_in = feet[i][0], feet[i - 1][1], normal[i], normal[i - 1]
+        d = _dp((f_out[0] - f_in[0], f_out[1] - f_in[1], f_out[2] - f_in[2]), u)
+        theta = math.atan2(_dp(_xp(n_in, n), u), _dp(n_in, n))
+        out.append({"joint": loop[i], "next": loop[(i + 1) % m], "a": dist[i], "alpha": twist[i], "d": d,
+                    "theta": theta})
+    return out
+
+
+def _xp(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _dp(a, b):
+    """Dot product summed as numpy's reduction does (from +0.0: a sum of zeros is +0.0)."""
+    return 0.0 + a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 def _warnings(cand: Candidate) -> list[str]:
@@ -473,6 +519,66 @@ def checks_pass(linkage, scale: float, tol: float = CHECK_TOL) -> bool:
     vals = [c["max_pose_translation_error"] / (scale + floor / tol), c["max_pose_rotation_error"],
             c["max_closure_translation_error"] / (size + floor / tol), c["max_closure_rotation_error"]]
     return all(np.isfinite(v) and v <= tol for v in vals)
+
+
+ESTIMATE_TOL = 1e-10  # error_estimate at or below this: the self-check cannot fail (see `error_estimate`)
+
+
+def error_estimate(problem: Problem, cand: Candidate) -> float:
+    """A cheap, conservative bound on `checks_pass`'s relative self-check error for the built (polished)
+    candidate, without forward kinematics (as `synth.bennett.error_estimate` for Bennett linkages).
+
+    First-order rounding analysis in the conditioned frame (pose spread 1), cmax = max(1, max |C|), over
+    the norm roots z = x + iy (the joints' angle laws: a = x, b = y):
+    - factorization: both branches multiply back to C within ``residual`` cmax per coefficient; the
+      checks compare normalized motions, so that is amplified by (1 + |t|)^2 / |C(t)| with
+      |C(t)| = prod |t - z_k|, over all real t at most kappa = min_k prod_{j != k} r_j / y_k where
+      r = sup_t (1 + |t|) / |t - z| = |1 + |x| + iy| / y;
+    - interpolation: C(t_i) = lambda_i D_i holds to the measured relative error of the pencil (its
+      basis comes from a null space), which the pose checks see directly;
+    - world coordinates: rounding of eps times the coordinates' size (centroid, spread, axis distance),
+      relative to the spread plus `checks_pass`'s floor, amplified by 1 + max r as a perturbation of
+      one factor (t - h_k) is relative to |t - h_k| >= y_k.
+    The constants are calibrated on random sweeps (tests/test_sixbar_lazy.py): the self-check error
+    stayed below 0.25 of this estimate, so an estimate <= ESTIMATE_TOL means a relative error of at most
+    ~2.5e-11, 40x inside CHECK_TOL."""
+    from .bennett import EPS, FLOOR_ULPS
+
+    r, y = [], []
+    for w in cand.roots.tolist():
+        if not w.imag > 0:
+            return math.inf
+        r.append(math.hypot(1.0 + abs(w.real), w.imag) / w.imag)
+        y.append(w.imag)
+    kappa = min(r[1] * r[2] / y[0], r[0] * r[2] / y[1], r[0] * r[1] / y[2])
+    C = cand.C.tolist()
+    cmax = max(1.0, max(abs(x) for row in C for x in row))
+    interp = 0.0
+    for t, lam, Di in zip((0.0, 1.0, cand.t3), cand.lambdas, problem.D[1:].tolist()):
+        if not abs(lam) > 0:
+            return math.inf
+        for k in range(8):  # |C(t_i) - lambda_i D_i| / |lambda_i|, C(t) by Horner
+            e = abs(((C[3][k] * t + C[2][k]) * t + C[1][k]) * t + C[0][k] - lam * Di[k]) / abs(lam)
+            if not e <= interp:  # (NaN too)
+                interp = e
+    size2 = 0.0  # largest squared distance of an axis from the centroid (conditioned: the origin)
+    for h in (*cand.H.tolist(), *cand.K.tolist()):
+        vv = h[1] * h[1] + h[2] * h[2] + h[3] * h[3]
+        if not vv > 0:
+            return math.inf
+        d2 = (h[5] * h[5] + h[6] * h[6] + h[7] * h[7]) / vv
+        if not d2 <= size2:
+            size2 = d2
+    L = float(problem.cond.scale)
+    cinf = max(abs(x) for x in problem.cond.centre.tolist())
+    fact = (cand.parts["residual"] + EPS) * cmax * kappa
+    world = (EPS * (cinf / L + SQRT3 + math.sqrt(size2)) / (1.0 + FLOOR_ULPS * EPS * cinf / (CHECK_TOL * L))
+             * (1.0 + max(r)))
+    est = 4.0 * fact + 16.0 * interp + 1000.0 * world
+    return est if est == est else math.inf
+
+
+SQRT3 = math.sqrt(3.0)
 
 
 def sixbar_candidates(poses, names=None, *, family=None, member=None, pair=None, top=None,
@@ -504,15 +610,21 @@ def sixbar(poses, names=None, *, family=None, member=None, pair=None, grid: int 
     """Synthesize the best 6R linkage (by the engineering score) whose coupler visits the four poses
     (shape (4, 4, 4), metres). ``family`` (1|2), ``member`` (lambda1) and ``pair`` (1..9) restrict the
     choice; ``grid`` members per family are scanned and the best ``refine`` candidates refined locally
-    (`scan`). Raises SynthesisError (oval section, degenerate poses, no valid candidate) with a
-    plain-language reason, InputError for bad arguments."""
+    (`scan`). The self-check (``linkage.checks``) runs on first access when `error_estimate` shows
+    that it cannot fail, else at once, to decide. Raises SynthesisError (oval section, degenerate poses,
+    no valid candidate) with a plain-language reason, InputError for bad arguments."""
     problem = prepare(poses, names)
     cands = scan(problem, family=family, member=member, pair=pair, grid=grid, refine=refine)
     if not len(cands):
         raise _explicit_failure(problem, family, member, pair)
     first = None
     for i in range(min(len(cands), MAX_ATTEMPTS)):  # candidates are made lazily, one at a time
-        linkage = build_linkage(problem, cands[i], check_samples=check_samples)
+        cand = _polish(cands[i])
+        linkage = _assemble(problem, cand)
+        if error_estimate(problem, cand) <= ESTIMATE_TOL:  # the self-check cannot fail: run it on access
+            linkage.defer(checks=partial(_deferred_checks, check_samples))
+            return linkage
+        linkage.checks = self_check(linkage, check_samples)
         first = first or linkage
         if checks_pass(linkage, problem.cond.scale):
             return linkage
@@ -525,6 +637,10 @@ def sixbar(poses, names=None, *, family=None, member=None, pair=None, grid: int 
     raise SynthesisError(
         f"the best 6R candidates do not pass the self-check (pose error {c['max_pose_error']:.2g}, closure "
         f"error {c['max_closure_error']:.2g}): {hint}")
+
+
+def _deferred_checks(samples, linkage):
+    return self_check(linkage, samples)
 
 
 # ============================================================================ one member, all loops
