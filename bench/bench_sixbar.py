@@ -13,8 +13,9 @@ default synthesis < 5 ms, one member's 9 loops < 1 ms. Reported parts:
   build          best candidate -> world-frame Linkage (+ DH)     (synth.sixbar.build_linkage, no check)
   self_check     pose reproduction + closure over 200 samples     (synth.checks.self_check)
   sixbar()       all of the above                                 (synth.sixbar.sixbar, the default)
-  one member     6 factorizations (Gauss-Newton-refined) + 9 loops + their scores, world frame,
-                 poses already prepared                          (synth.sixbar.one_member_loops)
+  one member     6 factorizations (Newton-polished) + 9 loops + their scores, world frame,
+                 poses already prepared                          (synth.sixbar.one_member_loops; a
+                 clearly generic member takes the plain-float path of synth.sixbar_member)
   ... unscored   the same without the scores                      (one_member_loops(score=False))
   ... + prepare  the same from the raw poses                      (one_member_loops(problem=None))
 """
