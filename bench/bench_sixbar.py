@@ -15,8 +15,9 @@ default synthesis < 5 ms, one member's 9 loops < 1 ms. Reported parts:
   sixbar()       all of the above; the self-check deferred to the first access of linkage.checks
                  when sixbar.error_estimate shows that it cannot fail (synth.sixbar.sixbar, the default)
   ... + checks   the same with linkage.checks read (what the CLI, which writes them, pays)
-  one member     6 factorizations (Gauss-Newton-refined) + 9 loops + their scores, world frame,
-                 poses already prepared                          (synth.sixbar.one_member_loops)
+  one member     6 factorizations (Newton-polished) + 9 loops + their scores, world frame,
+                 poses already prepared                          (synth.sixbar.one_member_loops; a
+                 clearly generic member takes the plain-float path of synth.sixbar_member)
   ... unscored   the same without the scores                      (one_member_loops(score=False))
   ... + prepare  the same from the raw poses                      (one_member_loops(problem=None))
 """

@@ -678,17 +678,44 @@ def one_member_loops(poses, family: int, member: float, names=None, problem: Pro
     ``problem`` (from `prepare`) skips the set-up for repeated calls on the same poses."""
     problem = problem or prepare(poses, names)
     fam = problem.family(int(family))
-    cond = problem.cond
-    if score:
-        ev = evaluate_member(fam, float(member))
-        mf, valid, sc, parts = ev.factors, ev.valid[0], ev.score[0], {k: v[0] for k, v in ev.parts.items()}
+    fast = _member_loops_fast(fam, float(member), score)
+    if fast is not None:
+        C, F, ok, residual, valid, sc, parts = fast
     else:
-        mf = factor_members(fam.member(float(member))[None], refine=True)
-        valid = mf.ok[0, PAIRS[:, 0]] & mf.ok[0, PAIRS[:, 1]]
-        sc = parts = None
-    W = to_world(np.concatenate([mf.H[0].reshape(18, 8), mf.C[0]]), cond)  # one call for all
+        if score:
+            ev = evaluate_member(fam, float(member))
+            mf, valid, sc, parts = ev.factors, ev.valid[0], ev.score[0], {k: v[0] for k, v in ev.parts.items()}
+        else:
+            mf = factor_members(fam.member(float(member))[None], refine=True)
+            valid = mf.ok[0, PAIRS[:, 0]] & mf.ok[0, PAIRS[:, 1]]
+            sc = parts = None
+        C, F, ok, residual = mf.C[0], mf.H[0], mf.ok[0], mf.residual[0]
+    W = to_world(np.concatenate([F.reshape(18, 8), C]), problem.cond)  # one call for all
     F = W[:18].reshape(6, 3, 8)
     return MemberLoops(
         family=fam.index, member=float(member), t3=fam.t3, C=W[18:], factorizations=F,
-        orders=PERMS.copy(), ok=mf.ok[0], residual=mf.residual[0], pairs=PAIRS.copy(),
+        orders=PERMS.copy(), ok=ok, residual=residual, pairs=PAIRS.copy(),
         H=F[PAIRS[:, 0]], K=F[PAIRS[:, 1]], valid=valid, score=sc, parts=parts)
+
+
+def _member_loops_fast(fam: CubicFamily, member: float, score: bool):
+    """(C, factorizations, ok, residual, valid, score, parts) of one member in the conditioned frame by
+    the plain-float path (`synth.sixbar_member`), or None when the member is not clearly generic (the
+    general path then decides)."""
+    from .sixbar_member import factor_member, score_loops
+
+    C = fam.member(member)
+    got = factor_member([tuple(r) for r in C.tolist()])
+    if got is None:
+        return None
+    z, H, res = got
+    if score:
+        scored = score_loops(z, fam.t3, H, res)
+        if scored is None:
+            return None
+        p, sc = scored
+        parts = {k: np.array(p[k]) for k in PART_KEYS}
+        sc = np.array(sc)
+    else:
+        parts = sc = None
+    return C, np.array(H), np.ones(6, bool), np.array(res), np.ones(9, bool), sc, parts
