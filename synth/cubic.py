@@ -38,7 +38,6 @@ import numpy as np
 from . import lapack
 from .dq import dq_mul
 from .errors import SynthesisError
-from .motion import norm_poly
 
 RANK_TOL = 1e-9  # 4th singular value of [D_0..D_3] below this times the 1st: the poses span < 3-space
 PLANAR_TOL = 1e-12  # all eigenvalues of A at most this: the 3-space lies inside the Study quadric

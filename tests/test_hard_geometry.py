@@ -85,7 +85,6 @@ def independent_errors(L, T):
     closure along the motion; translation relative to the pose spread (closure: to the size of the
     linkage about the poses), plus a floor of 64 ulps of the coordinates (the input's own precision)."""
     T = np.asarray(T, float)
-    c = T[:, :3, 3].mean(0)
     spread = spread_of(T)
     floor = FLOOR_ULPS * EPS * float(np.abs(T[:, :3, 3]).max())
     size = size_of(L, T)
