@@ -110,7 +110,7 @@ def main(argv=None):
         mins, meds, cpus = ([x[i] for x in v] for i in range(3))
         print(f"  {k:14} wall {statistics.median(mins):7.3f} [{statistics.median(meds):7.3f}]  "
               f"cpu {statistics.median(cpus):7.3f}   worst set {max(mins):7.3f}")
-    print("targets: sixbar() < 5 ms; one member (poses prepared, scored) < 1 ms; ... + prepare (from raw poses) < 1 ms")
+    print("targets: sixbar() < 5 ms; one member (poses prepared, scored) < 1 ms")
 
 
 if __name__ == "__main__":
