@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import math
 
 import numpy as np
 import pytest
@@ -20,8 +21,15 @@ from test_sixbar import random_poses
 sb = importlib.import_module("synth.sixbar")
 
 
+def _atan2(y, x):
+    """Elementwise libm atan2 (math.atan2, which `loop_dh` calls). numpy's np.arctan2 takes a SIMD kernel
+    on some CPUs (AVX-512: ~7% of random arguments differ from libm in the last bit), so the former
+    vectorized formula is not bitwise the same number on every machine; everything else in it is."""
+    return np.array([math.atan2(a, b) for a, b in zip(y, x)])
+
+
 def loop_dh_vectorized(linkage, loop):
-    """The former `loop_dh` (numpy, all joints at once): the reference."""
+    """The former `loop_dh` (numpy, all joints at once; atan2 from libm, see `_atan2`): the reference."""
     J = [linkage.joint(n) for n in loop]
     u = np.array([j.direction for j in J]).T
     mo = np.array([j.moment for j in J]).T
@@ -31,11 +39,11 @@ def loop_dh_vectorized(linkage, loop):
     cn = np.sqrt(np.sum(c * c, 0))
     with np.errstate(all="ignore"):
         n = np.where(dist > 1e-12, (f_in_next - f_out) / dist, np.where(cn > 1e-12, c / cn, 0.0))
-    twist = np.arctan2(np.sum(c * n, 0), np.sum(u * u[:, nxt], 0))
+    twist = _atan2(np.sum(c * n, 0), np.sum(u * u[:, nxt], 0))
     prev = np.r_[len(J) - 1, 0:len(J) - 1]
     f_in, n_in = f_in_next[:, prev], n[:, prev]
     d = np.sum((f_out - f_in) * u, 0)
-    theta = np.arctan2(np.sum(_cross(n_in, n) * u, 0), np.sum(n_in * n, 0))
+    theta = _atan2(np.sum(_cross(n_in, n) * u, 0), np.sum(n_in * n, 0))
     return [{"joint": loop[i], "next": loop[int(nxt[i])], "a": float(dist[i]), "alpha": float(twist[i]),
              "d": float(d[i]), "theta": float(theta[i])} for i in range(len(J))]
 
