@@ -6,7 +6,7 @@ Run on demand (not part of pytest):
     .venv/bin/python bench/bench_factor.py --degrees 3 --repeat 200
 
 For every degree: ``--count`` random products of revolute factors (seeded), each timed ``--repeat``
-times round-robin after a warm-up, ``synth.factor.factorize(C)`` with validation. Reports the median
+times round-robin after a warm-up, ``synth.algebra.factorize.factorize(C)`` with validation. Reports the median
 and minimum in-process wall time per call and the mean CPU time per call (``time.process_time``; on a
 shared machine CPU time and the minimum are the steadier figures). Target for the cubic: 200 us.
 """
@@ -23,8 +23,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 
-from synth.factor import factorize  # noqa: E402
-from synth.motion import product_of_linear, relative_error  # noqa: E402
+from synth.algebra.factorize import factorize  # noqa: E402
+from synth.algebra.polynomial import product_of_linear, relative_error  # noqa: E402
 
 TARGET_CUBIC_US = 200.0
 

@@ -8,16 +8,16 @@ time of the process), then the median over the sets: the minimum is the least di
 processes on a busy machine, CPU time excludes waiting for a core. Targets (issue 4):
 default synthesis < 5 ms, one member's 9 loops < 1 ms. Reported parts:
 
-  prepare        conditioning, quadric, both families            (synth.sixbar.prepare)
-  scan           GRID members per family factorized and scored    (synth.sixbar.scan)
-  build          best candidate -> world-frame Linkage (+ DH)     (synth.sixbar.build_linkage, no check)
+  prepare        conditioning, quadric, both families            (synth.synthesis.sixbar.prepare)
+  scan           GRID members per family factorized and scored    (synth.synthesis.sixbar.scan)
+  build          best candidate -> world-frame Linkage (+ DH)     (synth.synthesis.sixbar.build_linkage, no check)
   self_check     pose reproduction + closure over 200 samples     (synth.checks.self_check)
   sixbar()       all of the above; the self-check deferred to the first access of linkage.checks
-                 when sixbar.error_estimate shows that it cannot fail (synth.sixbar.sixbar, the default)
+                 when sixbar.error_estimate shows that it cannot fail (synth.synthesis.sixbar.sixbar, the default)
   ... + checks   the same with linkage.checks read (what the CLI, which writes them, pays)
   one member     6 factorizations (Newton-polished) + 9 loops + their scores, world frame,
-                 poses already prepared                          (synth.sixbar.one_member_loops; a
-                 clearly generic member takes the plain-float path of synth.sixbar_member)
+                 poses already prepared                          (synth.synthesis.sixbar.one_member_loops; a
+                 clearly generic member takes the plain-float path of synth.synthesis.sixbar_member)
   ... unscored   the same without the scores                      (one_member_loops(score=False))
   ... + prepare  the same from the raw poses                      (one_member_loops(problem=None))
 """
@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from synth.checks import self_check  # noqa: E402
 from synth.errors import SynthesisError  # noqa: E402
-from synth.sixbar import build_linkage, one_member_loops, prepare, scan, sixbar  # noqa: E402
+from synth.synthesis.sixbar import build_linkage, one_member_loops, prepare, scan, sixbar  # noqa: E402
 
 
 def timed(fn, repeat):
@@ -70,7 +70,7 @@ def pose_sets(n, seed=2024):
 
 def example():
     """MATH.md section 11 E."""
-    from synth.dq import quat_to_matrix
+    from synth.algebra.dq import quat_to_matrix
 
     T = np.tile(np.eye(4), (4, 1, 1))
     for i, (p, q) in enumerate([((0, 0, 0), (1, 0, 0, 0)), ((1, 0, 0.5), (0.6, 0, 0, 0.8)),

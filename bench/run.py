@@ -106,7 +106,7 @@ def random_poses(rng, n):
 
 
 def random_cubic(rng):
-    from synth.motion import product_of_linear
+    from synth.algebra.polynomial import product_of_linear
 
     h = rng.normal(size=(3, 8))
     h[:, 4] = 0.0
@@ -117,7 +117,7 @@ def random_cubic(rng):
 
 
 def sixbar_sets(rng, count):
-    """Random 4-pose sets with a ruled quadric (a real 6R exists), checked with synth.sixbar."""
+    """Random 4-pose sets with a ruled quadric (a real 6R exists), checked with synth.synthesis.sixbar."""
     import synth
     from synth.errors import SynthesisError
 
@@ -270,12 +270,12 @@ def run_rl(python, rng, sets3, sets4, repeat, timeout):
         except SynthesisError:  # e.g. an oval quadric: no real 6R of this kind (rational-linkages
             skipped += 1        # still returns a complex/approximate result); not compared
             continue
-        from synth.sixbar import one_member_loops
+        from synth.synthesis.sixbar import one_member_loops
 
         ours_s.append(per_call(synth.sixbar, [T], 5)[0])
         fam, mem = L.info["family"], L.info["member"]
         ours_m.append(per_call(lambda x: one_member_loops(x, fam, mem), [T], 5)[0])
-    ours_import = cold([sys.executable, "-c", "import synth.bennett"], 5)[0]
+    ours_import = cold([sys.executable, "-c", "import synth.synthesis.bennett"], 5)[0]
     return rl, {"bennett": ours_b, "sixbar": ours_s, "member": ours_m, "sixbar_skipped": skipped,
                 "import_cold": ours_import}
 
@@ -312,7 +312,7 @@ def main(argv=None):
           f"numpy {info['numpy']}, load {info['load'][0]:.2f}", flush=True)
 
     import synth
-    from synth.factor import factorize
+    from synth.algebra.factorize import factorize
 
     rows = []  # (name, label, measured, min, cpu)
 
@@ -323,11 +323,11 @@ def main(argv=None):
     cubics = [random_cubic(rng) for _ in range(20)]
     rows.append(("factor_cubic", "synth.factorize(random cubic), all 6", *per_call(factorize, cubics, 10 if q else 50)))
     try:
-        from synth.sixbar import one_member_loops
+        from synth.synthesis.sixbar import one_member_loops
 
         six = sixbar_sets(rng, 5 if q else 10)
         rows.append(("sixbar", "synth.sixbar(poses) (default)", *per_call(synth.sixbar, [s[0] for s in six], 2 if q else 5)))
-        from synth.sixbar import prepare
+        from synth.synthesis.sixbar import prepare
 
         prepared = [(prepare(s[0]),) + s for s in six]
         rows.append(("sixbar_member_prepared", "one member's 9 loops, scored, poses prepared "
@@ -432,7 +432,7 @@ def report(info, rows, heavy, rl) -> str:
         L.append("|---|---|---|---|")
         ours_imp = ours.get("import_cold")
         L.append(f"| cold `import` (new process) | {fmt_time(r['import_cold'])} | {fmt_time(ours_imp)} "
-                 f"(`import synth.bennett`, numpy included) | {r['import_cold'] / ours_imp:,.1f}x |")
+                 f"(`import synth.synthesis.bennett`, numpy included) | {r['import_cold'] / ours_imp:,.1f}x |")
         rb, ob = statistics.median(r["bennett"]), statistics.median(ours["bennett"])
         L.append(f"| Bennett from 3 poses ({len(r['bennett'])} sets) | {fmt_time(rb)} | {fmt_time(ob)} | {rb / ob:,.0f}x |")
         if ours["sixbar"]:

@@ -81,7 +81,7 @@ def batch(jobs_file, workers, chunksize, full, quiet, debug):
     """Run the synthesis jobs in JOBS (JSON lines; '-' reads standard input), one result line per job
     on stdout, in input order, streamed as the jobs finish. A failing job (malformed line, bad poses,
     no real linkage) gives a result line with its error and never stops the batch."""
-    from synth.batchjobs import dumps, run_jobs
+    from synth.tools.batchjobs import dumps, run_jobs
     from synth.errors import InputError
 
     if workers == 0:

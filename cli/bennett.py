@@ -20,19 +20,20 @@ def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, packag
 
     Writes OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/*.stl (lengths in metres) when -o is
     given; prints a summary on stderr and, with --json, linkage.json on stdout."""
-    from synth.bennett import bennett as synth_bennett
+    from synth.synthesis.bennett import bennett as synth_bennett
+    from synth.checks import VERIFY_SAMPLES
     from synth.errors import SynthesisError
-    from synth.poses import load_poses
+    from synth.io.poses import load_poses
 
     ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=normalize)
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length),
                        ps.length_scale)
     if out:
-        from synth.export.writer import check_output_target
+        from synth.io.writer import check_output_target
 
         check_output_target(out, force)  # refuse an unusable OUT before doing the work
     try:
-        linkage = synth_bennett(ps.matrices, ps.names)
+        linkage = synth_bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
     except SynthesisError as e:  # name the file, like every input error
         raise SynthesisError(f"{ps.source}: {e}") from e
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,

@@ -35,13 +35,13 @@ def check(out, poses, tol, steps, no_meshes, quiet, as_json, debug):
     Exit 0 when everything holds, 1 with one line per problem on stderr, 2 when OUT cannot be read.
     A multi-solution OUT (index.json) is checked solution by solution."""
     from synth.errors import InputError
-    from synth.verify import check_tree
+    from synth.io.verify import check_tree
 
     if not (tol > 0 and tol < 1):
         raise InputError(f"--tol must be in (0, 1), got {tol}")
     ps = None
     if poses:
-        from synth.poses import load_poses
+        from synth.io.poses import load_poses
 
         ps = load_poses(poses)
     result = check_tree(out, ps, rtol=tol, steps=steps, meshes=not no_meshes)

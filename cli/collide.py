@@ -30,10 +30,10 @@ def collide(out, steps, no_clearance, quiet, as_json, debug):
     the motion parameter t (and joint angles) where it collides.
 
     Needs python-fcl: pip install 'mpsynth[collide]'."""
-    from synth.collide import collide as do_collide
-    from synth.collide import summary_lines
+    from synth.tools.collide import collide as do_collide
+    from synth.tools.collide import summary_lines
     from synth.errors import InputError
-    from synth.readback import read_output
+    from synth.io.readback import read_output
 
     if steps < 8 or steps > 1_000_000:
         raise InputError(f"--steps {steps}: must be between 8 and 1000000")

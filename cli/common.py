@@ -148,7 +148,8 @@ def emit_linkage(linkage, *, source, scale, unit, out, name, force, package, siz
     """The common ending of a synthesis command: write OUT (when given) first, so that a failure to
     write is the only line on stderr; then the summary on stderr (plus ``details()``, a callable that
     echoes command-specific lines), then linkage.json on stdout with --json."""
-    from synth.export import linkage_document, write_output
+    from synth.io.jsonout import linkage_document
+    from synth.io.writer import write_output
 
     files = None
     if out:

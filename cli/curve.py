@@ -35,7 +35,7 @@ sliding joint"; no factorization), 2 bad input."""
 
 def _check_target(out, force):
     try:
-        from synth.export.writer import check_output_target
+        from synth.io.writer import check_output_target
     except ImportError:  # pragma: no cover - older exporter
         return
     check_output_target(out, force)
@@ -70,7 +70,7 @@ def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_le
     and Bennett flips then close the loops. Writes OUT/linkage.urdf, OUT/linkage.json and
     OUT/meshes/*.stl (metres) when -o is given; prints a summary with the joint and link counts on
     stderr and, with --json, linkage.json on stdout."""
-    from synth.curve import CurveSpec, load_spec, spec_linkage
+    from synth.synthesis.curve import CurveSpec, load_spec, spec_linkage
 
     scale = UNITS[units]
     parsed = load_spec(spec)

@@ -102,7 +102,7 @@ def _parse_document(name: str, text: str):
     stripped = text.lstrip()
     if name.lower().endswith(".json") or stripped.startswith("{"):
         try:
-            from synth.poses import json_object_pairs
+            from synth.io.poses import json_object_pairs
 
             return json.loads(text, object_pairs_hook=json_object_pairs)
         except ValueError as e:
@@ -173,10 +173,10 @@ def _float_rows(inp: PolynomialInput):
     """The numeric polynomial (n+1, 8) of the input."""
     import numpy as np
 
-    from synth.exact import to_fraction
+    from synth.algebra.exact import to_fraction
 
     if inp.expression is not None:
-        from synth.expr import parse_polynomial
+        from synth.algebra.expr import parse_polynomial
 
         return parse_polynomial(inp.expression, max_degree=MAX_DEGREE, source=f"{inp.source}: expression"
                                 if inp.source != "--expr" else "--expr")
@@ -201,10 +201,10 @@ def _float_rows(inp: PolynomialInput):
 
 
 def _exact_rows(inp: PolynomialInput):
-    from synth.exact import to_fraction
+    from synth.algebra.exact import to_fraction
 
     if inp.expression is not None:
-        from synth.expr import parse_polynomial
+        from synth.algebra.expr import parse_polynomial
 
         return parse_polynomial(inp.expression, exact=True, max_degree=MAX_DEGREE,
                                 source=f"{inp.source}: expression" if inp.source != "--expr" else "--expr")
@@ -261,7 +261,7 @@ def _clean(v) -> list:
 def _joint(h_float, quadratic) -> Joint:
     import numpy as np
 
-    from synth.factor import classify
+    from synth.algebra.factorize import classify
 
     h = np.asarray(h_float, float)
     f = classify(h)
@@ -279,7 +279,7 @@ def _joint(h_float, quadratic) -> Joint:
 def _numeric_report(C) -> Report:
     import numpy as np
 
-    from synth.factor import factorize
+    from synth.algebra.factorize import factorize
 
     res = factorize(C)
     quads = [(float(c0), float(c1)) for c0, c1 in res.quadratics]
@@ -295,7 +295,7 @@ def _numeric_report(C) -> Report:
 
 
 def _exact_report(C) -> Report:
-    from synth.exact import factorize_exact
+    from synth.algebra.exact import factorize_exact
 
     res = factorize_exact(C)
     rows = []
@@ -329,12 +329,12 @@ def compute(inp: PolynomialInput, *, exact: bool = False) -> Report:
     for invalid polynomials, NotGenericError / NoFactorizationError / SynthesisError (exit 1) when
     no factorization is found. (A --cofactor mode for non-generic input would branch here.)"""
     if exact:
-        from synth.exact import check_exact_motion_polynomial
+        from synth.algebra.exact import check_exact_motion_polynomial
 
         C = _exact_rows(inp)
         _prefixed(inp.source, check_exact_motion_polynomial, C)
         return _exact_report(C)
-    from synth.factor import check_motion_polynomial
+    from synth.algebra.factorize import check_motion_polynomial
 
     C = _float_rows(inp)
     _prefixed(inp.source, check_motion_polynomial, C)
@@ -351,14 +351,14 @@ class CofactorInfo:
 
 
 def compute_cofactor(inp: PolynomialInput, *, exact: bool = False) -> tuple[Report, CofactorInfo]:
-    """--cofactor: one factorization of C R (synth.cofactor). The report's polynomial is C R. Exact mode
+    """--cofactor: one factorization of C R (synth.algebra.cofactor). The report's polynomial is C R. Exact mode
     prints fractions when the rationalized answer passes an exact multiply-back check (otherwise
     floats, with a note). Unbounded motions raise UnboundedMotionError (exit 1, "needs a sliding joint")."""
     import numpy as np
 
-    from synth.cofactor import exact_result, factorize_with_cofactor
-    from synth.factor import check_motion_polynomial
-    from synth.motion import norm_poly, poly_mul
+    from synth.algebra.cofactor import exact_result, factorize_with_cofactor
+    from synth.algebra.factorize import check_motion_polynomial
+    from synth.algebra.polynomial import norm_poly, poly_mul
 
     C = _float_rows(inp)
     _prefixed(inp.source, check_motion_polynomial, C)
@@ -406,7 +406,7 @@ def cofactor_document(rep: Report, info: CofactorInfo) -> dict:
 
 
 def format_cofactor(rep: Report, info: CofactorInfo) -> str:
-    from synth.realfactor import poly_text
+    from synth.algebra.realfactor import poly_text
 
     deg_r, deg_g = len(info.R) - 1, len(info.mrpf) - 1
     head = [f"real co-factor R = {poly_text(info.R)} (deg R = {deg_r}, mrpf of the primal part = "

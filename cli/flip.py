@@ -35,7 +35,7 @@ def parse_factor(text: str, what: str):
     """The dual quaternion m of the rotation factor t - m from TEXT (8 numbers or an expression).
     Returns 8 Fractions (exact) or 8 floats. Raises InputError."""
     from synth.errors import InputError
-    from synth.expr import parse_polynomial
+    from synth.algebra.expr import parse_polynomial
 
     if not isinstance(text, str) or not text.strip():
         raise InputError(f"{what}: empty")
@@ -69,7 +69,7 @@ def parse_factor(text: str, what: str):
 
 def _check_rotation(h, what):
     from synth.errors import InputError
-    from synth.flip import is_rotation
+    from synth.algebra.flip import is_rotation
 
     if not is_rotation(h):
         v = [float(x) for x in h[1:4]]
@@ -124,7 +124,7 @@ def fmt_dq(h) -> str:
 def _axis(h):
     import numpy as np
 
-    from synth.dq import plucker
+    from synth.algebra.dq import plucker
 
     u, m = plucker(np.array([float(x) for x in h]))
     p = np.cross(u, m)
@@ -142,7 +142,7 @@ def _axis(h):
 @run_guarded
 def flip(m, h, as_json, debug):
     """Bennett flip of two rotation factors: print K and N with (t - m)(t - h) = (t - k)(t - n)."""
-    from synth.flip import bennett_flip, flip_residual, is_exact
+    from synth.algebra.flip import bennett_flip, flip_residual, is_exact
 
     M = parse_factor(m, "M")
     H = parse_factor(h, "H")

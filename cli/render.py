@@ -47,8 +47,8 @@ def render(out, png, gif, frames, size, at, elev, azim, spacing, quiet, as_json,
     --png writes one picture; --gif an animation of one full cycle of the motion (every joint turns
     once). Needs matplotlib: pip install 'mpsynth[viz]'."""
     from synth.errors import InputError
-    from synth.readback import read_output
-    from synth.render import render as do_render
+    from synth.io.readback import read_output
+    from synth.tools.render import render as do_render
 
     if not png and not gif:
         raise InputError("nothing to do: give --png FILE and/or --gif FILE")

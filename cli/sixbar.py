@@ -35,7 +35,7 @@ def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_
     compact linkage without nearly parallel or nearly intersecting consecutive axes) over both families
     of cubic motions is written to OUT (linkage.urdf, linkage.json, meshes/*.stl, lengths in metres).
     Exit status 1 when no real 6R linkage exists (e.g. the poses' quadric is oval)."""
-    from synth.poses import load_poses
+    from synth.io.poses import load_poses
 
     ps = load_poses(poses, count=(4, "mpsynth sixbar"), normalize=normalize)
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length),
@@ -57,7 +57,7 @@ def _design_line(info) -> str:
 
 
 def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json):
-    from synth.sixbar import sixbar as synth_sixbar
+    from synth.synthesis.sixbar import sixbar as synth_sixbar
 
     from .bennett import emit
 
@@ -74,7 +74,7 @@ def solution_id(rank: int, linkage) -> str:
 
 
 def index_document(linkages, ids, source: str, length_scale: float, length_unit: str) -> dict:
-    from synth.sixbar import SCORE_RULE
+    from synth.synthesis.sixbar import SCORE_RULE
 
     sols = []
     for rank, (lk, sid) in enumerate(zip(linkages, ids), start=1):
@@ -108,8 +108,10 @@ def ranking_table(doc) -> list[str]:
 def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, quiet, as_json):
     from pathlib import Path
 
-    from synth.export import atomic_directory, write_json, write_linkage_files
-    from synth.sixbar import sixbar_candidates
+    from synth.io.writer import atomic_directory, write_linkage_files
+
+    from synth.io.jsonout import write_json
+    from synth.synthesis.sixbar import sixbar_candidates
 
     linkages = sixbar_candidates(ps.matrices, ps.names, family=family, member=member, pair=pair, top=top,
                                  build=True)
@@ -134,6 +136,6 @@ def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, 
     elif not quiet and not as_json:
         echo("  no files written (give -o OUT to write every design's URDF, STL and JSON)")
     if as_json:
-        from synth.export.jsonout import plain
+        from synth.io.jsonout import plain
 
         print_json(plain(doc))

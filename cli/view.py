@@ -22,8 +22,8 @@ def view(out, output, frames, quiet, as_json, debug):
     wheel to zoom) with its motion: play button and frame slider, the tool frame, the task poses and
     the tool path. Everything is inside the file (meshes, motion, viewer): it works offline."""
     from synth.errors import InputError
-    from synth.readback import read_output
-    from synth.viewer import write_viewer
+    from synth.io.readback import read_output
+    from synth.tools.viewer import write_viewer
 
     if frames < 2 or frames > 5000:
         raise InputError(f"--frames {frames}: must be between 2 and 5000")

@@ -11,8 +11,11 @@ import math
 
 import numpy as np
 
-from .linkage import Linkage
+from synth.linkage import Linkage
 
+
+DEFAULT_CHECK_SAMPLES = 4  # synthesis functions check closure and motion at this many parameters
+VERIFY_SAMPLES = 200  # the CLI verifies this many before writing anything
 
 def rotation_angle(R):
     """Rotation angle (rad) of rotation matrices (..., 3, 3), accurate for small and large angles."""
@@ -36,7 +39,7 @@ def dq_pose_difference(A, B):
     """(translation error, rotation angle) between the poses of dual quaternions A, B (..., 8) (Study
     condition assumed, any nonzero scale): |d_A - d_B| with d = 2 vec(p q~)/|p|^2, and the angle of
     p_A~ p_B, 2 atan2(|vec|, |scalar|) in [0, pi]."""
-    from .dq import qconj, qmul
+    from synth.algebra.dq import qconj, qmul
 
     A = np.asarray(A, float)
     B = np.asarray(B, float)
@@ -62,7 +65,7 @@ def sample_parameters(linkage: Linkage, samples: int = 200) -> np.ndarray:
 
 
 def _pose_dq(T):
-    from .scalar import pose_to_dq
+    from synth.algebra.scalar import pose_to_dq
 
     T = np.asarray(T, float).tolist()
     return pose_to_dq([r[:3] for r in T[:3]], [T[0][3], T[1][3], T[2][3]])
@@ -71,7 +74,7 @@ def _pose_dq(T):
 def link_displacements(linkage: Linkage, angles) -> dict[str, np.ndarray]:
     """Unit dual quaternions (..., 8) of every link's world displacement from the reference
     configuration for joint angles ``angles`` (J, ...) in the order of ``linkage.joints``."""
-    from .dq import dq_mul
+    from synth.algebra.dq import dq_mul
 
     th = 0.5 * np.asarray(angles, float)
     U = np.array([j.direction for j in linkage.joints], float)
@@ -94,8 +97,8 @@ def link_displacements(linkage: Linkage, angles) -> dict[str, np.ndarray]:
 def _evaluate(linkage: Linkage, samples: int):
     """All check figures from one forward-kinematics pass over the poses' reported angles and the
     sampled parameters."""
-    from .dq import dq_mul
-    from .motion import evaluate
+    from synth.algebra.dq import dq_mul
+    from synth.algebra.polynomial import evaluate
 
     joints = linkage.joints
     P = len(linkage.poses)
@@ -145,7 +148,7 @@ def extent(linkage: Linkage) -> float:
     (`Linkage.joint_sites`: mean of the common-normal feet along the links carrying the joint, else the
     axis point nearest the poses' centre) and the tool positions from their centroid, at least 1e-9.
     tests/test_fastpaths.py checks that both agree."""
-    from .scalar import common_normal_feet, cross, dot
+    from synth.algebra.scalar import common_normal_feet, cross, dot
 
     lines = {j.name: (j.direction.tolist(), j.moment.tolist()) for j in linkage.joints}
     acc = {name: [0.0, 0.0, 0.0, 0] for name in lines}  # sum of feet, count
@@ -217,7 +220,7 @@ def _evaluate_small(linkage: Linkage, samples: int):
     """`_evaluate` in plain floats, for few samples: the same figures, no numpy call per joint."""
     import math
 
-    from .scalar import dq_mul, dq_translation
+    from synth.algebra.scalar import dq_mul, dq_translation
 
     joints = linkage.joints
     U = [j.direction.tolist() for j in joints]

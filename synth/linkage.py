@@ -128,7 +128,7 @@ class Linkage:
     def displacements(self, angles: dict[str, Any]) -> dict[str, np.ndarray]:
         """World displacement (4x4, or (...,4,4) for array angles) of every link from the reference
         configuration, for the given joint angles."""
-        from .dq import rotation_about_line  # local: keeps this module import-light
+        from synth.algebra.dq import rotation_about_line  # local: keeps this module import-light
 
         out: dict[str, np.ndarray] = {"base": np.eye(4)}
         for j in self.joints:
@@ -179,7 +179,7 @@ class Linkage:
 def pair_feet(j1: Joint, j2: Joint) -> tuple[np.ndarray, np.ndarray]:
     """Feet of the common normal of two joint axes (on j1, on j2). Parallel axes have no unique common
     normal: take the one through the midpoint of the two axis points nearest the origin."""
-    from .dq import common_normal_feet
+    from synth.algebra.dq import common_normal_feet
 
     u1, u2 = j1.direction, j2.direction
     if np.linalg.norm(np.cross(u1, u2)) < 1e-9:

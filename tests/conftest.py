@@ -16,7 +16,7 @@ def random_rotation(rng, near_pi: bool = False):
     if near_pi:  # rotation angle within ~1e-3 of pi
         q[0] = rng.uniform(-1e-3, 1e-3)
         q[1:] *= np.sqrt(1 - q[0] ** 2) / np.linalg.norm(q[1:])
-    from synth.dq import quat_to_matrix
+    from synth.algebra.dq import quat_to_matrix
 
     return quat_to_matrix(q)
 

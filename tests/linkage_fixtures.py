@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from synth.dq import dq_mul, plucker, quat_to_matrix
+from synth.algebra.dq import dq_mul, plucker, quat_to_matrix
 from synth.linkage import Joint, Linkage, PoseRecord
 
 C1 = np.array([-38 / 53, 40 / 53, 0, -20 / 53, 0, 15 / 212, -29 / 53, 83 / 212])

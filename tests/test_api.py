@@ -10,6 +10,7 @@ import pytest
 import synth
 
 from conftest import REPO, random_poses
+from synth.checks import DEFAULT_CHECK_SAMPLES
 
 
 def test_import_synth_is_cheap():
@@ -19,27 +20,24 @@ def test_import_synth_is_cheap():
     assert out.stdout.strip() == "[]"
 
 
-def test_api_functions_survive_submodule_imports():
-    import synth.bennett  # noqa: F401  (the import system would rebind synth.bennett to the module)
-    from synth.bennett import check_distinct  # noqa: F401
+def test_api_names_are_the_library_functions():
+    from synth.algebra.factorize import factorize
+    from synth.synthesis.bennett import bennett
+    from synth.synthesis.sixbar import sixbar
 
-    assert callable(synth.bennett) and synth.bennett.__module__ == "synth"
-    assert synth.sixbar.__module__ == "synth"
-    from synth.factor import factorize
-
-    assert synth.factorize is factorize
+    assert synth.bennett is bennett and synth.sixbar is sixbar and synth.factorize is factorize
     assert synth.SynthesisError.__name__ == "SynthesisError"
     with pytest.raises(AttributeError):
         synth.no_such_name  # noqa: B018
 
 
 def test_bennett_api_equals_module_function():
-    from synth.bennett import bennett as module_bennett
+    from synth.synthesis.bennett import bennett as module_bennett
 
     T = random_poses(np.random.default_rng(7), 3)
     A = synth.bennett(T)
-    B = module_bennett(T, check_samples=synth.DEFAULT_CHECK_SAMPLES)
-    assert A.checks["samples"] == synth.DEFAULT_CHECK_SAMPLES
+    B = module_bennett(T, check_samples=DEFAULT_CHECK_SAMPLES)
+    assert A.checks["samples"] == DEFAULT_CHECK_SAMPLES
     for ja, jb in zip(A.joints, B.joints):
         np.testing.assert_array_equal(ja.direction, jb.direction)
         np.testing.assert_array_equal(ja.moment, jb.moment)

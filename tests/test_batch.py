@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import synth
-from synth.batch import JOINTS, bennett_batch
+from synth.synthesis.bennett_batch import JOINTS, bennett_batch
 from synth.errors import InputError, SynthesisError
 
 from conftest import random_poses

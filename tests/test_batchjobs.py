@@ -1,4 +1,4 @@
-"""`mpsynth batch` (synth.batchjobs): JSON-lines jobs in, one JSON result line per job out, in input order."""
+"""`mpsynth batch` (synth.tools.batchjobs): JSON-lines jobs in, one JSON result line per job out, in input order."""
 from __future__ import annotations
 
 import json
@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
-from synth.batchjobs import run_job, run_jobs
+from synth.tools.batchjobs import run_job, run_jobs
 
 from conftest import REPO, random_poses
 
@@ -161,7 +161,7 @@ def test_full_result_and_mesh_sizes(tmp_path):
 
 
 def test_missing_sixbar_is_a_result_line(monkeypatch):
-    monkeypatch.setitem(sys.modules, "synth.sixbar", None)  # the import fails as if the module were absent
+    monkeypatch.setitem(sys.modules, "synth.synthesis.sixbar", None)  # the import fails as if the module were absent
     job = {"id": "s", "kind": "sixbar", "poses": matrix_specs(random_poses(np.random.default_rng(1), 4))}
     res = run_job((1, json.dumps(job)))
     assert res["ok"] is False and res["exit_code"] == 2 and "sixbar" in res["error"]

@@ -6,10 +6,10 @@ from fractions import Fraction as F
 import numpy as np
 import pytest
 
-from synth.bennett import bennett
-from synth.dq import pose_to_dq, quat_to_matrix, rotation_about_line
+from synth.synthesis.bennett import bennett
+from synth.algebra.dq import pose_to_dq, quat_to_matrix, rotation_about_line
 from synth.errors import InputError, SynthesisError
-from synth.motion import pose_at, product_of_linear, relative_error
+from synth.algebra.polynomial import pose_at, product_of_linear, relative_error
 
 from conftest import random_poses
 
@@ -93,7 +93,7 @@ def _check_linkage(L, T, rel=1e-9):
     assert c["max_closure_rotation_error"] <= rel, c
     assert c["max_motion_error"] <= rel * max(1.0, size) + floor
     # both branches multiply back to the motion polynomial
-    from synth.assemble import joint_from_factor  # noqa: F401 (documentation of the convention)
+    from synth.synthesis.assemble import joint_from_factor  # noqa: F401 (documentation of the convention)
     # the tool frame through the motion polynomial reproduces every pose
     for rec, Ti in zip(L.poses, T):
         M = pose_at(L.motion, rec.t) @ L.tool_ref

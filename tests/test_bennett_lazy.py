@@ -18,15 +18,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import synth
-from synth.assemble import two_branch_linkage
+from synth.synthesis.assemble import two_branch_linkage
 from synth.checks import pose_difference
 from synth.errors import SynthesisError
 from synth.linkage import Linkage
-from synth.scalar import bennett_core
+from synth.algebra.scalar import bennett_core
 
 from conftest import random_poses
 
-sb = importlib.import_module("synth.bennett")
+sb = importlib.import_module("synth.synthesis.bennett")
 thg = importlib.import_module("test_hard_geometry")
 
 
@@ -170,7 +170,7 @@ def test_deferred_linkage_copy_and_pickle(pair):
 
 
 def test_deferred_linkage_json_export(pair):
-    from synth.export import jsonout
+    from synth.io import jsonout
 
     lazy, ref, _ = pair
     assert jsonout._dumps(jsonout.linkage_document(lazy)) == jsonout._dumps(jsonout.linkage_document(ref))
@@ -256,7 +256,7 @@ def test_check_distinct_accepts_lists_and_nan():
 # ------------------------------------------------------------------ two_branch_linkage
 def _two_branch_reference(kind, H, K, motion, poses, names, ts, info=None):
     """The former two_branch_linkage (one numpy array per Plücker vector, per-call layout)."""
-    from synth.assemble import _angle, joint_from_factor
+    from synth.synthesis.assemble import _angle, joint_from_factor
     from synth.linkage import PoseRecord
 
     n = len(H)
@@ -305,7 +305,7 @@ def test_two_branch_linkage_matches_reference(n, as_array):
 # ------------------------------------------------------------------ fused core
 @pytest.mark.parametrize("kind", KINDS)
 def test_fused_core_is_bitwise_the_scalar_core(kind):
-    from synth.bennett_fast import bennett_core as fused
+    from synth.synthesis.bennett_fast import bennett_core as fused
 
     rng = np.random.default_rng(77 + sum(map(ord, kind)))
     for _ in range(150):
@@ -317,7 +317,7 @@ def test_fused_core_is_bitwise_the_scalar_core(kind):
        flip=st.booleans())
 @settings(max_examples=150, deadline=None)
 def test_fused_core_is_bitwise_the_scalar_core_hypothesis(seed, scale, offset, flip):
-    from synth.bennett_fast import bennett_core as fused
+    from synth.synthesis.bennett_fast import bennett_core as fused
 
     rng = np.random.default_rng(seed)
     T = random_poses(rng, 3, scale=10 ** scale, offset=rng.normal(size=3) * 10 ** offset, near_pi=flip)
@@ -331,7 +331,7 @@ def test_fused_core_is_bitwise_the_scalar_core_hypothesis(seed, scale, offset, f
 def _evaluate_small_reference(linkage, samples):
     """The former synth.checks._evaluate_small (every pose and t = inf evaluated)."""
     from synth.checks import _pose_dq
-    from synth.scalar import dq_mul, dq_translation
+    from synth.algebra.scalar import dq_mul, dq_translation
 
     joints = linkage.joints
     slot = {"base": 0}

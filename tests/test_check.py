@@ -11,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
-from synth.verify import check_output, continue_loop, law_angles, read_urdf
+from synth.io.verify import check_output, continue_loop, law_angles, read_urdf
 
 from conftest import REPO
 
@@ -179,7 +179,7 @@ def test_wrong_pose_is_caught(copy, tmp_path):
     poses = tmp_path / "poses.yaml"
     text = BENNETT.read_text()
     poses.write_text(text)
-    from synth.poses import load_poses
+    from synth.io.poses import load_poses
 
     good = load_poses(str(poses))
     # move the last pose by 1 mm: a valid pose file that the linkage does not reach

@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
-from synth.poses import load_poses
+from synth.io.poses import load_poses
 
 from conftest import REPO, random_poses, write_pose_yaml
 

@@ -168,7 +168,9 @@ ROWS = {
     "10^6-poses-json": (_million_json, 2, ["many.json", "1000000 poses", "10000"]),
     "10^6-poses-yaml": (_million_yaml, 2, ["many.yaml", "more than 10000 items"]),
     "10^6-aliases-yaml": (_alias_million, 2, ["alias.yaml", "more than 10000 items"]),
-    "yaml-merge-bomb": (_merge_bomb, 2, ["bomb.yaml", "merge keys"]),
+    # PyYAML < 6.0.4 expands merge keys with repeats (refused by our loader: "merge keys ..."); 6.0.4
+    # drops repeated keys, so the document is small and the unknown top-level keys are reported
+    "yaml-merge-bomb": (_merge_bomb, 2, ["bomb.yaml"]),
     # --- syntax and structure
     "yaml-syntax": (_file("p.yaml", "poses:\n  - {position: [0, 0, 0]\n  - x\n"), 2,
                     ["p.yaml", "YAML syntax error at line"]),
@@ -431,7 +433,7 @@ EXPR_PAYLOADS = [
 def test_expression_parser_rejects_code(payload, tmp_path, monkeypatch):
     """The parser behind `factor --expr`, `expression:` and `curve:` never evaluates its text."""
     from synth.errors import InputError
-    from synth.expr import parse_polynomial
+    from synth.algebra.expr import parse_polynomial
 
     monkeypatch.chdir(tmp_path)
     with pytest.raises(InputError) as e:
@@ -443,7 +445,7 @@ def test_expression_parser_rejects_code(payload, tmp_path, monkeypatch):
 
 def test_expression_parser_huge_degree_refused_fast():
     from synth.errors import InputError
-    from synth.expr import parse_polynomial
+    from synth.algebra.expr import parse_polynomial
 
     for text in ["(t - i)^10000", "t^10000 + 1", "(" * 5000 + "t" + ")" * 5000, "t" + "*t" * 9000]:
         t0 = time.monotonic()

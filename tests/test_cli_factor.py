@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
-from synth.motion import product_of_linear
+from synth.algebra.polynomial import product_of_linear
 
 from conftest import REPO
 
@@ -75,7 +75,7 @@ def test_table_exact():
 
 def test_printed_factors_parse_back():
     """The h column is in the expression language: the factors multiply back to C."""
-    from synth.expr import parse_polynomial
+    from synth.algebra.expr import parse_polynomial
 
     r = run("--expr", FLIP, "--exact")
     assert r.exit_code == 0
@@ -312,8 +312,8 @@ def test_subprocess_stdin_and_exit_codes():
 
 def test_angle_law_in_json_reproduces_poses():
     """theta(t) = 2 atan2(b, t - a) about (direction, moment) of each joint gives the pose of C(t)."""
-    from synth.dq import rotation_about_line
-    from synth.motion import pose_at
+    from synth.algebra.dq import rotation_about_line
+    from synth.algebra.polynomial import pose_at
 
     doc = run_json("--expr", EX_A)
     C = np.array(doc["coefficients"])

@@ -4,15 +4,15 @@ from fractions import Fraction as F
 import numpy as np
 import pytest
 
-from synth import cofactor as cf
-from synth.cofactor import (circular_residual, exact_check, exact_product, factor_circular,
+from synth.algebra import cofactor as cf
+from synth.algebra.cofactor import (circular_residual, exact_check, exact_product, factor_circular,
                             factorize_with_cofactor, rationalize_factors)
 from synth.errors import NotGenericError
-from synth.expr import parse_polynomial
-from synth.factor import factorize
-from synth.flip import is_rotation
-from synth.motion import poly_mul, product_of_linear, relative_error
-from synth.realfactor import UnboundedMotionError
+from synth.algebra.expr import parse_polynomial
+from synth.algebra.factorize import factorize
+from synth.algebra.flip import is_rotation
+from synth.algebra.polynomial import poly_mul, product_of_linear, relative_error
+from synth.algebra.realfactor import UnboundedMotionError
 
 ELLIPTIC = "t^2 + 1 + eps*(i + 2*j*t)"
 
@@ -146,7 +146,7 @@ def test_doc_e7_axis_of_h3_is_at_minus_a_plus_b_over_2():
     through ((a+b)/2, 0)'. With section 1's conventions (u = -v/|v|, m = w/|v|, point u x m) the line
     passes through (-(a+b)/2, 0): the sign in the text is wrong (the E6 table uses the right sign:
     h1 = k - 3/4 eps j at (-0.75, 0))."""
-    from synth.dq import plucker
+    from synth.algebra.dq import plucker
 
     u, m = plucker(np.array([0, 0, 0, 1, 0, 0, -1.5, 0]))
     assert np.allclose(np.cross(u, m), [-1.5, 0, 0])

@@ -11,11 +11,11 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
-from synth.bennett import bennett
-from synth.collide import _runs, candidate_pairs
-from synth.export import write_output
-from synth.poses import load_poses
-from synth.readback import read_output
+from synth.synthesis.bennett import bennett
+from synth.tools.collide import _runs, candidate_pairs
+from synth.io.writer import write_output
+from synth.io.poses import load_poses
+from synth.io.readback import read_output
 
 from conftest import REPO
 
@@ -69,7 +69,7 @@ def test_fixture_bennett_collides_where_it_folds(out_quat):
     assert 0.05 < a0 < a1 < 0.3 and 1.5 < b0 < b1 < 8
     # the range ends are refined: just outside them the pair is free, just inside it collides
     rb = read_output(out_quat)
-    from synth.collide import _PairTester
+    from synth.tools.collide import _PairTester
 
     tester = _PairTester(rb, "base", "coupler")
     for lo, hi in ((a0, a1), (b0, b1)):
@@ -113,9 +113,9 @@ def test_no_collision_exits_0(tmp_path, out_quat):
 
 
 def test_missing_fcl_exits_2(out_quat, monkeypatch):
-    import synth.collide
+    import synth.tools.collide
 
-    monkeypatch.setattr(synth.collide, "fcl_available", lambda: False)
+    monkeypatch.setattr(synth.tools.collide, "fcl_available", lambda: False)
     r = run("collide", out_quat)
     assert r.exit_code == 2 and "pip install 'mpsynth[collide]'" in r.stderr
 

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from synth.cubic import (PAIRS, PERMS, factor_members, families, loop_geometry, norm_roots, parameter_separation,
+from synth.synthesis.cubic import (PAIRS, PERMS, factor_members, families, loop_geometry, norm_roots, parameter_separation,
                          quadric, root_conditioning, ruling_coordinates, ruling_inverse, ruling_matrix)
-from synth.dq import dq_mul, quat_to_matrix
+from synth.algebra.dq import dq_mul, quat_to_matrix
 from synth.errors import SynthesisError
-from synth.factor import factorize
-from synth.interpolate import condition, relative_displacements, to_world
-from synth.motion import evaluate, norm_poly, product_of_linear, study_residual
+from synth.algebra.factorize import factorize
+from synth.synthesis.conic import condition, relative_displacements, to_world
+from synth.algebra.polynomial import evaluate, norm_poly, product_of_linear, study_residual
 
 # MATH.md section 11 E
 E_POSES = [((0, 0, 0), (1, 0, 0, 0)), ((1, 0, 0.5), (0.6, 0, 0, 0.8)), ((0.25, 1, 0.2), (0.6, 0.8, 0, 0)),
@@ -97,7 +97,7 @@ def test_example_e_six_factorizations_multiply_back():
     P = product_of_linear(mf.H[0])
     assert np.abs(P - C).max() / np.abs(C).max() < 2e-15
     assert len({tuple(np.round(h.ravel(), 9)) for h in mf.H[0]}) == 6  # six different factorizations
-    # agrees with Algorithm 1 of synth.factor (sequential division), matched by norm order
+    # agrees with Algorithm 1 of synth.algebra.factorize (sequential division), matched by norm order
     res = factorize(C)
     assert len(res.factorizations) == 6
     theirs = np.array([complex(-q[1] / 2, np.sqrt(q[0] - q[1] ** 2 / 4)) for q in res.quadratics])
@@ -195,7 +195,7 @@ def test_parameter_separation():
 
 
 def test_loop_geometry_matches_direct_computation():
-    from synth.dq import common_normal_feet, line_distance_angle, plucker
+    from synth.algebra.dq import common_normal_feet, line_distance_angle, plucker
 
     D, _ = setup(e_poses())
     fam = family_with_t3(families(quadric(D))[0], E_T3[1])
@@ -251,8 +251,8 @@ def test_three_planar_poses_refused():
 
 def test_dependent_poses_refused():
     """A fourth pose on the Bennett motion of the first three: the four do not span a 3-space."""
-    from synth.bennett import bennett
-    from synth.motion import pose_at
+    from synth.synthesis.bennett import bennett
+    from synth.algebra.polynomial import pose_at
 
     rng = np.random.default_rng(5)
     T3 = random_poses(rng)[:3]
@@ -292,7 +292,7 @@ def test_complex_t3_for_oval_sets():
 
 def test_dq_mul_table_used_by_factor_members():
     rng = np.random.default_rng(9)
-    from synth.cubic import _inv, _mul
+    from synth.synthesis.cubic import _inv, _mul
 
     a, b = rng.normal(size=(5, 8)), rng.normal(size=(5, 8))
     assert np.allclose(_mul(a, b), dq_mul(a, b))
@@ -320,7 +320,7 @@ def test_remainder_residual_estimate_matches_multiply_back():
 def test_polish_restores_accuracy_for_nearly_real_roots():
     """Seeded set whose best member has nearly real norm roots near t = 1 (t3 ~ 1.0099): the plain
     factorization multiplies back to ~5e-12, Newton polishing to rounding level."""
-    from synth.cubic import multiply_back, polish
+    from synth.synthesis.cubic import multiply_back, polish
 
     rng = np.random.default_rng(198)
     D, _ = setup(random_poses(rng))

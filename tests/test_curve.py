@@ -7,14 +7,14 @@ from fractions import Fraction as F
 import numpy as np
 import pytest
 
-from synth.curve import (CurveSpec, MotionSpec, UnboundedCurveError, curve_linkage, motion_linkage,
+from synth.synthesis.curve import (CurveSpec, MotionSpec, UnboundedCurveError, curve_linkage, motion_linkage,
                          parse_real_polynomial, parse_spec, trace_error)
-from synth.dq import dq_to_pose
+from synth.algebra.dq import dq_to_pose
 from synth.errors import InputError
-from synth.expr import parse_polynomial
-from synth.motion import evaluate, poly_mul
-from synth.multiloop import mobility
-from synth.realfactor import UnboundedMotionError
+from synth.algebra.expr import parse_polynomial
+from synth.algebra.polynomial import evaluate, poly_mul
+from synth.synthesis.multiloop import mobility
+from synth.algebra.realfactor import UnboundedMotionError
 
 ELLIPSE = ["1 - t^2", "2*2*t", "0", "1 + t^2"]
 
@@ -89,7 +89,7 @@ def test_elliptic_translation_has_at_most_13_joints():
 
 def test_motion_with_coefficients_and_leading_coefficient():
     """C c with a constant displacement c (not monic): the tool frame follows pose(C(t) c) exactly."""
-    from synth.dq import dq_mul, pose_to_dq
+    from synth.algebra.dq import dq_mul, pose_to_dq
 
     C = np.array(parse_polynomial("t^2 + 1 + eps*(i + 2*j*t)"))
     T = np.eye(4)
@@ -168,7 +168,7 @@ def test_repeated_denominator_uses_the_translation():
 def test_export_writes_the_tracer_frame(ellipse, tmp_path):
     """URDF: link `tracer` on `coupler` by a fixed joint; FK at all-zero angles puts it at p0 and
     every loop closure pair is a <gazebo> weld; linkage.json has kind, closures, links, curve."""
-    from synth.export import write_output
+    from synth.io.writer import write_output
 
     out = tmp_path / "ell"
     write_output(ellipse, out, robot_name="ellipse")

@@ -4,7 +4,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from synth.dq import (
+from synth.algebra.dq import (
     act_on_points,
     dq_conj,
     dq_inv,

@@ -1,4 +1,4 @@
-"""Tests of synth.export: meshes, URDF, linkage.json and the atomic writer (OUTPUT.md)."""
+"""Tests of synth.io: meshes, URDF, linkage.json and the atomic writer (OUTPUT.md)."""
 from __future__ import annotations
 
 import io
@@ -19,13 +19,15 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from linkage_fixtures import H1, H2, K1, K2, bennett_linkage, exact_factors  # noqa: E402
 
-from synth.dq import quat_to_matrix  # noqa: E402
+from synth.algebra.dq import quat_to_matrix  # noqa: E402
 from synth.errors import InputError  # noqa: E402
-from synth.export import atomic_directory, linkage_document, urdf_text, write_output  # noqa: E402
-from synth.export import writer as writer_mod  # noqa: E402
-from synth.export.frames import rpy_from_matrix, rpy_matrix  # noqa: E402
-from synth.export.jsonout import FORMAT, plain, write_json  # noqa: E402
-from synth.export.meshes import default_sizes, link_meshes, mesh_inertials  # noqa: E402
+from synth.io.writer import atomic_directory, write_output  # noqa: E402
+from synth.io.jsonout import linkage_document  # noqa: E402
+from synth.io.urdf import urdf_text  # noqa: E402
+from synth.io import writer as writer_mod  # noqa: E402
+from synth.io.frames import rpy_from_matrix, rpy_matrix  # noqa: E402
+from synth.io.jsonout import FORMAT, plain, write_json  # noqa: E402
+from synth.io.meshes import default_sizes, link_meshes, mesh_inertials  # noqa: E402
 from synth.linkage import Joint, Linkage  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -132,8 +134,8 @@ def test_meshes_watertight_single_solid(bennett, meshes):
 
 def test_meshes_in_link_frame_cover_joint_feet(bennett, meshes):
     """Both feet of the common normal of a link's two axes lie inside its mesh (in link frame)."""
-    from synth.dq import common_normal_feet
-    from synth.export.frames import link_origins
+    from synth.algebra.dq import common_normal_feet
+    from synth.io.frames import link_origins
 
     origins = link_origins(bennett)
     for name, mesh in meshes.items():
@@ -177,7 +179,7 @@ def _odd_linkage():
 
 @pytest.mark.parametrize("manifold", [True, False])
 def test_meshes_degenerate_axis_pairs(monkeypatch, manifold):
-    import synth.export.meshes as meshes_mod
+    import synth.io.meshes as meshes_mod
 
     if not manifold:
         monkeypatch.setattr(meshes_mod, "have_manifold", lambda: False)
@@ -313,7 +315,7 @@ def test_write_output_files(bennett, written):
 
 
 def test_exception_mid_write_leaves_nothing(bennett, tmp_path, monkeypatch):
-    import synth.export.urdf as urdf_mod
+    import synth.io.urdf as urdf_mod
 
     def boom(*a, **k):  # meshes are already written to the temp dir when this runs
         raise RuntimeError("boom")
@@ -325,7 +327,7 @@ def test_exception_mid_write_leaves_nothing(bennett, tmp_path, monkeypatch):
 
 
 def test_exception_mid_write_keeps_previous_output(bennett, tmp_path, monkeypatch):
-    import synth.export.urdf as urdf_mod
+    import synth.io.urdf as urdf_mod
 
     out = tmp_path / "OUT"
     write_output(bennett, out, robot_name="first")
@@ -474,8 +476,8 @@ def test_sigint_subprocess_exit_status(tmp_path):
         import sys, time
         sys.path.insert(0, {str(REPO / 'tests')!r})
         from linkage_fixtures import bennett_linkage
-        import synth.export.urdf as urdf_mod
-        from synth.export import write_output
+        import synth.io.urdf as urdf_mod
+        from synth.io.writer import write_output
         def slow(*a, **k):
             print("ready", flush=True)
             time.sleep(30)
@@ -497,7 +499,7 @@ def test_sigint_subprocess_exit_status(tmp_path):
 
 # ------------------------------------------------------------------ independent tools
 def test_import_is_light():
-    code = "import sys, synth.export; print('trimesh' in sys.modules)"
+    code = "import sys, synth.io.writer; print('trimesh' in sys.modules)"
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, check=True)
     assert res.stdout.strip() == "False"
 
@@ -530,7 +532,7 @@ def test_welded_duplicate_shares_the_coupler_mass(tmp_path):
     import xml.etree.ElementTree as ET
 
     from linkage_fixtures import bennett_linkage
-    from synth.export import write_output
+    from synth.io.writer import write_output
 
     out = tmp_path / "o"
     write_output(bennett_linkage(), out, robot_name="b")

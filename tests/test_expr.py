@@ -1,4 +1,4 @@
-"""Tests of synth.expr: the whitelisted dual-quaternion polynomial parser."""
+"""Tests of synth.algebra.expr: the whitelisted dual-quaternion polynomial parser."""
 from __future__ import annotations
 
 import ast
@@ -12,9 +12,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from synth.dq import dq_mul
+from synth.algebra.dq import dq_mul
 from synth.errors import InputError
-from synth.expr import parse_polynomial
+from synth.algebra.expr import parse_polynomial
 
 UNITS = {"1": 0, "i": 1, "j": 2, "k": 3, "eps": 4, "eps*i": 5, "eps*j": 6, "eps*k": 7}
 
@@ -300,7 +300,7 @@ def test_injection_attempts(text, tmp_path, monkeypatch):
 
 
 def test_no_dynamic_evaluation_in_source():
-    src = Path(__file__).resolve().parent.parent / "synth" / "expr.py"
+    src = Path(__file__).resolve().parent.parent / "synth" / "algebra" / "expr.py"
     tree = ast.parse(src.read_text())
     banned = {"eval", "exec", "compile", "sympify", "parse_expr", "literal_eval", "__import__"}
     for node in ast.walk(tree):

@@ -8,12 +8,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from synth import exact as X
-from synth.dq import dq_inv, dq_mul, line_distance_angle, plucker
+from synth.algebra import exact as X
+from synth.algebra.dq import dq_inv, dq_mul, line_distance_angle, plucker
 from synth.errors import InputError, NotGenericError, SynthesisError
-from synth.expr import parse_polynomial
-from synth.factor import check_motion_polynomial, classify, factorize, norm_quadratics
-from synth.motion import linear, norm_poly, poly_mul, product_of_linear, relative_error
+from synth.algebra.expr import parse_polynomial
+from synth.algebra.factorize import check_motion_polynomial, classify, factorize, norm_quadratics
+from synth.algebra.polynomial import linear, norm_poly, poly_mul, product_of_linear, relative_error
 
 
 def dq(s=0, i=0, j=0, k=0, es=0, ei=0, ej=0, ek=0):

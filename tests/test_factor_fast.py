@@ -1,4 +1,4 @@
-"""The plain-float factorization fast path (synth.scalar.factorize_generic behind synth.factor.factorize):
+"""The plain-float factorization fast path (synth.algebra.scalar.factorize_generic behind synth.algebra.factorize.factorize):
 agreement with the general batched engine on random revolute products, the safe path for nearly
 repeated / nearly real norm roots, and the unrolled kernels against the plain compositions they replace."""
 from __future__ import annotations
@@ -10,10 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from synth import scalar as S
-from synth.motion import product_of_linear, relative_error
+from synth.algebra import scalar as S
+from synth.algebra.polynomial import product_of_linear, relative_error
 
-factor_mod = importlib.import_module("synth.factor")
+factor_mod = importlib.import_module("synth.algebra.factorize")
 
 
 def revolute_factor(a, b, axis, point):
@@ -226,7 +226,7 @@ def test_multiply_back_error_matches_product_of_linear(n):
 
 
 def test_remainder_mod_quadratic_matches_numpy():
-    from synth.motion import divide_real_quadratic
+    from synth.algebra.polynomial import divide_real_quadratic
 
     rng = np.random.default_rng(4)
     for n in (2, 3, 4):

@@ -6,12 +6,12 @@ import importlib
 import numpy as np
 import pytest
 
-from synth.motion import product_of_linear, relative_error
+from synth.algebra.polynomial import product_of_linear, relative_error
 
 from conftest import random_poses
 
-factor_mod = importlib.import_module("synth.factor")
-bennett_mod = importlib.import_module("synth.bennett")
+factor_mod = importlib.import_module("synth.algebra.factorize")
+bennett_mod = importlib.import_module("synth.synthesis.bennett")
 
 
 def rotation_factors(rng, n, scale=1.0):
@@ -99,7 +99,8 @@ def test_bennett_fast_equals_general(seed):
 
 
 def test_thresholds_agree_with_the_general_engine():
-    from synth import batch, scalar
+    from synth.algebra import scalar
+    from synth.synthesis import bennett_batch as batch
 
     assert scalar.FAST_MAX_RESIDUAL == factor_mod.REFINE_TRIGGER
     assert batch.ACCEPT_TOL == bennett_mod.ACCEPT_TOL

@@ -4,9 +4,9 @@ from fractions import Fraction as F
 import numpy as np
 import pytest
 
-from synth.dq import line_distance_angle, plucker
+from synth.algebra.dq import line_distance_angle, plucker
 from synth.errors import SynthesisError
-from synth.flip import FlipError, bennett_flip, dq_mul_any, flip_residual, is_rotation
+from synth.algebra.flip import FlipError, bennett_flip, dq_mul_any, flip_residual, is_rotation
 
 
 def _product(a, b):

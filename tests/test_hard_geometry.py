@@ -15,7 +15,7 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
-from synth.bennett import bennett, sensitivity
+from synth.synthesis.bennett import bennett, sensitivity
 from synth.errors import SynthesisError
 
 from conftest import random_poses, write_pose_yaml
@@ -319,7 +319,7 @@ def test_far_cli_end_to_end(tmp_path):
 
 
 def test_default_mesh_size_follows_the_linkage_not_the_origin():
-    from synth.export.meshes import default_sizes
+    from synth.io.meshes import default_sizes
 
     rng = np.random.default_rng(11)
     T = random_poses(rng, 3)

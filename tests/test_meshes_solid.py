@@ -19,13 +19,13 @@ from conftest import REPO, random_poses  # noqa: E402
 from linkage_fixtures import bennett_linkage  # noqa: E402
 
 import synth  # noqa: E402
-from synth.export import meshes as meshes_mod  # noqa: E402
-from synth.export import write_output  # noqa: E402
-from synth.export.frames import link_origins  # noqa: E402
-from synth.export.solid import (Solid, axis_rotation, concatenate, cylinder, mass_properties,  # noqa: E402
+from synth.io import meshes as meshes_mod  # noqa: E402
+from synth.io.writer import write_output  # noqa: E402
+from synth.io.frames import link_origins  # noqa: E402
+from synth.io.solid import (Solid, axis_rotation, concatenate, cylinder, mass_properties,  # noqa: E402
                                 read_stl_triangles, signed_volume, stl_bytes, surface_defect, union, weld)
-from synth.export.urdf import MESH_UNIT_SCALE  # noqa: E402
-from synth.poses import load_poses  # noqa: E402
+from synth.io.urdf import MESH_UNIT_SCALE  # noqa: E402
+from synth.io.poses import load_poses  # noqa: E402
 
 trimesh = pytest.importorskip("trimesh")
 
@@ -280,7 +280,7 @@ def test_signal_during_manifold3d_import_arrives_after_it(tmp_path, sig):
         "total = sum(range(100000))  # bytecode during which a Python handler would run\n"
         "finished = True\n")
     code = ("import signal, sys\n"
-            "from synth.export.solid import import_manifold3d\n"
+            "from synth.io.solid import import_manifold3d\n"
             "def term(signum, frame):\n    raise SystemExit(143)\n"
             "signal.signal(signal.SIGTERM, term)\n"
             "try:\n    import_manifold3d()\n"

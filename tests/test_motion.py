@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from synth.dq import dq_inv, dq_mul, plucker, rotation_about_line
-from synth.factor import classify
-from synth.motion import (
+from synth.algebra.dq import dq_inv, dq_mul, plucker, rotation_about_line
+from synth.algebra.factorize import classify
+from synth.algebra.polynomial import (
     degree,
     divide_linear_right,
     divide_real_quadratic,

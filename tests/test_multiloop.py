@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 
 from synth.checks import closure_errors, motion_error, sample_parameters, self_check
-from synth.cofactor import exact_product, factorize_with_cofactor, rationalize_factors
-from synth.dq import line_distance_angle
+from synth.algebra.cofactor import exact_product, factorize_with_cofactor, rationalize_factors
+from synth.algebra.dq import line_distance_angle
 from synth.errors import SynthesisError
-from synth.expr import parse_polynomial
-from synth.multiloop import (choose_m0, ladder_factors, ladder_linkage, loop_sides, mobility,
+from synth.algebra.expr import parse_polynomial
+from synth.synthesis.multiloop import (choose_m0, ladder_factors, ladder_linkage, loop_sides, mobility,
                              score_linkage)
 
 E2 = [[0, 0, 0, 1, 0, 0, F(-3, 4), 0], [0, 0, 0, -1, 0, 0, F(-3, 4), 0],

@@ -1,4 +1,4 @@
-"""Tests of synth.poses: the pose-file reader and validator (OUTPUT.md input contract)."""
+"""Tests of synth.io.poses: the pose-file reader and validator (OUTPUT.md input contract)."""
 from __future__ import annotations
 
 import io
@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from synth.errors import InputError
-from synth.poses import (
+from synth.io.poses import (
     PoseSet,
     axis_angle_matrix,
     load_poses,

@@ -4,9 +4,9 @@ from fractions import Fraction as F
 import numpy as np
 import pytest
 
-from synth.expr import parse_polynomial
-from synth.motion import poly_mul, product_of_linear
-from synth.realfactor import (UnboundedMotionError, mrpf, mrpf_exact, mrpf_numeric, real_gcd_numeric,
+from synth.algebra.expr import parse_polynomial
+from synth.algebra.polynomial import poly_mul, product_of_linear
+from synth.algebra.realfactor import (UnboundedMotionError, mrpf, mrpf_exact, mrpf_numeric, real_gcd_numeric,
                               require_bounded)
 
 ELLIPTIC = "t^2 + 1 + eps*(i + 2*j*t)"
@@ -113,7 +113,7 @@ def _sympy_gcd_and_bounded(cols):
 def test_real_gcd_exact_agrees_with_sympy(seed):
     """Euclid + Sturm over Fractions give sympy's gcd over QQ and its real-root verdict (common factors with
     and without real zeros, repeated ones, coprime columns, a zero column)."""
-    from synth.realfactor import real_gcd_exact
+    from synth.algebra.realfactor import real_gcd_exact
     rng = np.random.default_rng(seed)
 
     def rnd(deg):
@@ -140,5 +140,5 @@ def test_real_gcd_exact_agrees_with_sympy(seed):
                                      ([F(1), F(-2), F(1)], 1), ([F(0), F(0), F(0), F(1)], 1),
                                      ([F(-6), F(11), F(-6), F(1)], 3), ([F(2), F(0), F(-3), F(0), F(1)], 4)])
 def test_real_root_count(g, count):
-    from synth.exact import real_root_count
+    from synth.algebra.exact import real_root_count
     assert real_root_count(g) == count

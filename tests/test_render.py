@@ -1,4 +1,4 @@
-"""Reading an output directory back (synth.readback) and `mpsynth render` (PNG, GIF) without a display."""
+"""Reading an output directory back (synth.io.readback) and `mpsynth render` (PNG, GIF) without a display."""
 from __future__ import annotations
 
 import hashlib
@@ -11,11 +11,11 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
-from synth.bennett import bennett
+from synth.synthesis.bennett import bennett
 from synth.errors import InputError
-from synth.export import write_output
-from synth.poses import load_poses
-from synth.readback import cycle_parameters, phi_of, read_output
+from synth.io.writer import write_output
+from synth.io.poses import load_poses
+from synth.io.readback import cycle_parameters, phi_of, read_output
 
 from conftest import REPO
 

@@ -96,7 +96,7 @@ def test_export_mjcf_without_mujoco_run(outputs, tmp_path):
 
 @pytest.mark.parametrize("engine", ["pybullet", "mujoco"])
 def test_engine_not_installed_exits_2(outputs, engine, monkeypatch):
-    import synth.sim as sim
+    import synth.tools.sim as sim
 
     real = importlib.util.find_spec
     monkeypatch.setattr(sim.importlib.util, "find_spec", lambda name, *a: None if name == engine else real(name, *a))
@@ -132,7 +132,7 @@ def test_pybullet_crash_is_reported(outputs, monkeypatch):
     """A child process killed by a signal (as a crashing engine is) gives exit 1 and a message."""
     import subprocess
 
-    import synth.sim.pybullet_sim as pb
+    import synth.tools.sim.pybullet_sim as pb
 
     real = subprocess.run
 

@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from synth.bennett import dh_table
+from synth.synthesis.bennett import dh_table
 from synth.errors import InputError, SynthesisError
-from synth.interpolate import condition, relative_displacements
-from synth.motion import product_of_linear
-from synth.sixbar import LOOP, one_member_loops, prepare, scan, sixbar, sixbar_candidates
+from synth.synthesis.conic import condition, relative_displacements
+from synth.algebra.polynomial import product_of_linear
+from synth.synthesis.sixbar import LOOP, one_member_loops, prepare, scan, sixbar, sixbar_candidates
 
 from test_cubic import E_T3, e_poses
 
@@ -26,7 +26,7 @@ def random_poses(rng, scale=1.0, offset=0.0):
 
 def gram_signature(T):
     """Signature of the Study form on the span of the relative displacements, computed here directly
-    (QR basis, A = B^T G B), independent of synth.cubic."""
+    (QR basis, A = B^T G B), independent of synth.synthesis.cubic."""
     D = relative_displacements(condition(T)[0])
     B, _ = np.linalg.qr(D.T)
     G = 0.5 * np.block([[np.zeros((4, 4)), np.eye(4)], [np.eye(4), np.zeros((4, 4))]])
@@ -43,7 +43,7 @@ def relative_errors(linkage, T, tol=TOL):
     """Errors relative to the pose spread (closure: to the linkage size); translations get the absolute
     rounding floor of world coordinates a distance D from the origin that the library's acceptance uses
     (2^17 ulps of D, ~2.9e-11 D: a 6R of 1 m at 1000 m closes to ~7e-9 m, 7e-12 of its coordinates)."""
-    from synth.bennett import EPS, FLOOR_ULPS
+    from synth.synthesis.bennett import EPS, FLOOR_ULPS
 
     c = linkage.checks
     L = spread(T)
@@ -143,7 +143,7 @@ def test_candidates_ranked_and_distinct():
 
 
 def test_score_parts_consistent():
-    from synth.sixbar import COND_WEIGHT
+    from synth.synthesis.sixbar import COND_WEIGHT
 
     for c in sixbar_candidates(e_poses(), top=5):
         p = c.parts

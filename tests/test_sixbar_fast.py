@@ -1,6 +1,6 @@
 """Fast paths of the default 6R synthesis (issues 4 and 7) against their general counterparts: the
-plain-float DH table (`synth.sixbar.loop_dh`) bitwise against the vectorized formulas it replaces, and
-the direct LAPACK kernels (`synth.lapack`) bitwise against `numpy.linalg`."""
+plain-float DH table (`synth.synthesis.sixbar.loop_dh`) bitwise against the vectorized formulas it replaces, and
+the direct LAPACK kernels (`synth.algebra.lapack`) bitwise against `numpy.linalg`."""
 from __future__ import annotations
 
 import importlib
@@ -12,13 +12,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from synth import lapack
-from synth.cubic import _cross, _pair_geometry
+from synth.algebra import lapack
+from synth.synthesis.cubic import _cross, _pair_geometry
 from synth.linkage import Joint, Linkage
 
 from test_sixbar import random_poses
 
-sb = importlib.import_module("synth.sixbar")
+sb = importlib.import_module("synth.synthesis.sixbar")
 
 
 def _atan2(y, x):
@@ -147,8 +147,8 @@ def random_set(rng, k):
 def test_condition_and_displacements_bitwise(seed, k, kind):
     from scipy.spatial.transform import Rotation
 
-    from synth.dq import pose_to_dq
-    from synth.interpolate import _pose_to_dq_few, condition
+    from synth.algebra.dq import pose_to_dq
+    from synth.synthesis.conic import _pose_to_dq_few, condition
 
     rng = np.random.default_rng(seed)
     T = random_set(rng, k)
@@ -185,8 +185,8 @@ def test_grid_members_bitwise(seed):
 @settings(max_examples=300, deadline=None)
 @given(st.integers(0, 2 ** 32 - 1), st.integers(0, 4))
 def test_ruling_parameters_as_vectorized(seed, special):
-    """`synth.cubic._ruling_parameters` (plain floats) against the vectorized formulas it replaces."""
-    from synth.cubic import RULING_TOL, _det2, _ruling_parameters
+    """`synth.synthesis.cubic._ruling_parameters` (plain floats) against the vectorized formulas it replaces."""
+    from synth.synthesis.cubic import RULING_TOL, _det2, _ruling_parameters
 
     rng = np.random.default_rng(seed)
     A = rng.normal(size=(4, 2))
@@ -221,7 +221,7 @@ def test_ruling_parameters_as_vectorized(seed, special):
 @given(st.integers(0, 2 ** 32 - 1), st.integers(0, 11))
 def test_to_world_bitwise(seed, n):
     """`to_world` with its cross product unrolled against np.cross (the former code)."""
-    from synth.interpolate import Conditioning, to_world
+    from synth.synthesis.conic import Conditioning, to_world
 
     rng = np.random.default_rng(seed)
     h = rng.normal(size=(n, 8)) * 10 ** rng.uniform(-5, 5, size=8) if n else rng.normal(size=8)

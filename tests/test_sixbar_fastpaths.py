@@ -9,12 +9,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from synth.cubic import (_T, factor_members, families, multiply_back, norm_roots, polish, quadric)
-from synth.dq import dq_mul
+from synth.synthesis.cubic import (_T, factor_members, families, multiply_back, norm_roots, polish, quadric)
+from synth.algebra.dq import dq_mul
 from synth.errors import SynthesisError
-from synth.interpolate import condition, relative_displacements
-from synth.motion import evaluate, norm_poly, product_of_linear
-from synth.sixbar import member_lambdas
+from synth.synthesis.conic import condition, relative_displacements
+from synth.algebra.polynomial import evaluate, norm_poly, product_of_linear
+from synth.synthesis.sixbar import member_lambdas
 
 
 def rotation_factors(rng, n=3):

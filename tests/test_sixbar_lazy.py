@@ -1,4 +1,4 @@
-"""`synth.sixbar.sixbar` defers its self-check (issue 7): `error_estimate` decides whether the self-check
+"""`synth.synthesis.sixbar.sixbar` defers its self-check (issue 7): `error_estimate` decides whether the self-check
 can fail; if not, ``checks`` is computed on first access. These tests check that the deferred linkage
 equals the eager one, that the estimate really bounds the self-check error (calibration, also on
 nearly degenerate sets) so that the gate never accepts what the eager self-check would refuse, and that
@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from synth.bennett import EPS, FLOOR_ULPS
+from synth.synthesis.bennett import EPS, FLOOR_ULPS
 from synth.checks import self_check
 from synth.errors import SynthesisError
 from test_bennett_lazy import same_linkage
 
-sb = importlib.import_module("synth.sixbar")
+sb = importlib.import_module("synth.synthesis.sixbar")
 
 
 def eager(T, samples=200):

@@ -12,10 +12,10 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
-from synth.bennett import bennett
-from synth.export import write_output
-from synth.poses import load_poses
-from synth.readback import read_output
+from synth.synthesis.bennett import bennett
+from synth.io.writer import write_output
+from synth.io.poses import load_poses
+from synth.io.readback import read_output
 
 from conftest import REPO
 
@@ -82,7 +82,7 @@ def test_page_carries_the_meshes_and_the_motion(page, out_quat):
 
 def test_viewer_script_parses():
     node = shutil.which("node")
-    from synth.viewer import VIEWER_JS
+    from synth.tools.viewer import VIEWER_JS
 
     assert "requestAnimationFrame" in VIEWER_JS and "getContext(\"webgl\"" in VIEWER_JS
     if node:  # syntax check with node when it is there

@@ -1,0 +1,1 @@
+"""Dual quaternions, motion polynomials and their factorization (no synthesis, no I/O)."""

@@ -1,0 +1,177 @@
+"""Motion polynomials: arrays (..., n+1, 8), row k = dual quaternion coefficient of t^k (ascending).
+
+``t`` is real and central. A motion polynomial C = P + eps Q has a real norm polynomial C C~ and an
+invertible (here: unit, monic) leading coefficient; C(t) is then a pose for every real t with
+N(C)(t) != 0, and C(inf) = 1 for monic C (MATH.md section 3). All functions broadcast over leading
+batch axes; real polynomials are arrays (..., m+1) in ascending powers.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from synth.algebra.dq import dq_conj, dq_mul, dq_to_pose
+
+
+def degree(C) -> int:
+    return np.asarray(C).shape[-2] - 1
+
+
+def poly_mul(A, B, mul=dq_mul):
+    """Product A B of polynomials with (dual) quaternion coefficients (order matters): ``mul`` is the
+    coefficient product, `dq_mul` (rows of 8) by default, `synth.algebra.dq.qmul` for quaternion rows of 4."""
+    A = np.asarray(A, float)
+    B = np.asarray(B, float)
+    na, nb = A.shape[-2], B.shape[-2]
+    batch = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
+    out = np.zeros(batch + (na + nb - 1, A.shape[-1]))
+    for i in range(na):
+        out[..., i : i + nb, :] += mul(A[..., i : i + 1, :], B)
+    return out
+
+
+def poly_conj(C):
+    """Conjugate every coefficient."""
+    return dq_conj(C)
+
+
+def linear(h):
+    """The monic linear polynomial t - h, shape (..., 2, 8)."""
+    h = np.asarray(h, float)
+    one = np.zeros_like(h)
+    one[..., 0] = 1.0
+    return np.stack([-h, one], axis=-2)
+
+
+def product_of_linear(hs):
+    """(t - h_1)(t - h_2)...(t - h_n) for hs of shape (..., n, 8)."""
+    hs = np.asarray(hs, float)
+    C = linear(hs[..., 0, :])
+    for i in range(1, hs.shape[-2]):
+        C = poly_mul(C, linear(hs[..., i, :]))
+    return C
+
+
+def norm_poly_full(C):
+    """C C~ as a dual-quaternion polynomial (..., 2n+1, 8); entries 1..7 vanish for a motion polynomial."""
+    return poly_mul(C, poly_conj(C))
+
+
+def norm_poly(C):
+    """The real norm polynomial N(C) = |P(t)|^2, shape (..., 2n+1), ascending. (Its dual part, 2 P.Q,
+    is the Study condition; see `study_residual`.)"""
+    P = np.asarray(C, float)[..., :4]
+    n1 = P.shape[-2]
+    out = np.zeros(P.shape[:-2] + (2 * n1 - 1,))
+    for i in range(n1):
+        out[..., i : i + n1] += np.einsum("...d,...jd->...j", P[..., i, :], P)
+    return out
+
+
+def study_residual(C):
+    """Largest |entry 1..7| of C C~ relative to its largest coefficient: 0 for a motion polynomial."""
+    F = norm_poly_full(C)
+    scale = np.max(np.abs(F), axis=(-2, -1))
+    return np.max(np.abs(F[..., 1:]), axis=(-2, -1)) / np.where(scale > 0, scale, 1.0)
+
+
+def is_motion_polynomial(C, tol=1e-10) -> bool:
+    C = np.asarray(C, float)
+    lead = C[..., -1, :4]
+    return bool(np.all(np.linalg.norm(lead, axis=-1) > 0) and np.all(study_residual(C) <= tol))
+
+
+def evaluate(C, t):
+    """C(t) for real t (scalar or array of shape S), giving (..., *S, 8). t = +-inf gives the leading
+    coefficient (the identity for monic C)."""
+    C = np.asarray(C, float)
+    t = np.asarray(t, float)
+    inf = np.isinf(t)
+    tt = np.where(inf, 0.0, t)[..., None]
+    batch = C.shape[:-2]
+    Cb = C.reshape(batch + (1,) * t.ndim + C.shape[-2:])
+    out = Cb[..., -1, :] * np.ones(tt.shape)
+    for k in range(C.shape[-2] - 2, -1, -1):
+        out = out * tt + Cb[..., k, :]
+    if np.any(inf):
+        out = np.where(inf[..., None], Cb[..., -1, :], out)
+    return out
+
+
+def pose_at(C, t):
+    """4x4 pose(s) of the motion C at parameter(s) t (including +-inf)."""
+    return dq_to_pose(evaluate(C, t))
+
+
+def right_value(C, h):
+    """Right value C(h) = sum c_k h^k (coefficients on the left): t - h right-divides C iff it is 0."""
+    C = np.asarray(C, float)
+    h = np.asarray(h, float)
+    out = C[..., -1, :] * np.ones(h.shape)
+    for k in range(C.shape[-2] - 2, -1, -1):
+        out = dq_mul(out, h) + C[..., k, :]
+    return out
+
+
+def divide_real_quadratic(C, M):
+    """C = Q M + (r1 t + r0) for a real monic quadratic M = t^2 + M[1] t + M[0] (M shape (..., 2) =
+    [c0, c1]). Returns Q (..., n-1, 8), r1, r0 (..., 8). Real M divides left and right alike."""
+    C = np.array(C, float)
+    M = np.asarray(M, float)
+    n = C.shape[-2] - 1
+    c0 = M[..., 0:1]
+    c1 = M[..., 1:2]
+    Q = np.zeros(C.shape[:-2] + (max(n - 1, 1), 8))
+    for k in range(n, 1, -1):
+        q = C[..., k, :]
+        Q[..., k - 2, :] = q
+        C[..., k - 1, :] -= c1 * q
+        C[..., k - 2, :] -= c0 * q
+    return Q, C[..., 1, :], C[..., 0, :]
+
+
+def divide_linear_right(C, h):
+    """C = D (t - h) + C(h): returns D (..., n, 8) and the remainder C(h) (..., 8)."""
+    C = np.asarray(C, float)
+    h = np.asarray(h, float)
+    n = C.shape[-2] - 1
+    D = np.zeros(C.shape[:-2] + (n, 8))
+    d = C[..., n, :] * np.ones(h.shape)
+    D[..., n - 1, :] = d
+    for k in range(n - 1, 0, -1):
+        d = C[..., k, :] + dq_mul(d, h)
+        D[..., k - 1, :] = d
+    rem = C[..., 0, :] + dq_mul(d, h)
+    return D, rem
+
+
+def divide_right(C, D):
+    """Right division C = Q D + R by D with invertible leading coefficient (MATH.md section 3)."""
+    from synth.algebra.dq import dq_inv
+
+    R = np.array(C, float)
+    D = np.asarray(D, float)
+    n, m = R.shape[-2] - 1, D.shape[-2] - 1
+    if n < m:
+        return np.zeros(R.shape[:-2] + (1, 8)), R
+    lead_inv = dq_inv(D[..., m, :])
+    Q = np.zeros(R.shape[:-2] + (n - m + 1, 8))
+    for k in range(n, m - 1, -1):
+        q = dq_mul(R[..., k, :], lead_inv)
+        Q[..., k - m, :] = q
+        R[..., k - m : k + 1, :] -= dq_mul(q[..., None, :], D)
+    return Q, R[..., :m, :] if m > 0 else R[..., :1, :] * 0
+
+
+def make_monic(C):
+    """Divide (on the left) by the leading coefficient, which must be invertible."""
+    from synth.algebra.dq import dq_inv
+
+    C = np.asarray(C, float)
+    return dq_mul(dq_inv(C[..., -1:, :]), C)
+
+
+def relative_error(A, B):
+    """max |A - B| / max(1, max |B|) over the last two axes."""
+    A = np.asarray(A, float)
+    B = np.asarray(B, float)
+    return np.max(np.abs(A - B), axis=(-2, -1)) / np.maximum(1.0, np.max(np.abs(B), axis=(-2, -1)))

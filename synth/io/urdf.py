@@ -1,0 +1,183 @@
+"""URDF text of a `Linkage`, following OUTPUT.md's closed-loop convention ("two branches, one weld").
+
+- root link ``base`` (the world frame of the poses); every tree joint is ``continuous``: each joint of
+  a motion-polynomial linkage makes exactly one full turn over the motion (MATH.md section 5), so no
+  joint limit exists and a ``revolute`` joint would need invented limits (which planners enforce);
+- link frames are translated copies of the world frame (see frames.py), so a joint's origin is the
+  difference of the child's and parent's frame origins with rpy "0 0 0", and its axis is the joint's
+  world direction at the reference configuration;
+- link ``tool`` hangs on ``linkage.tool_link`` by the fixed joint ``tool_mount``;
+- each loop cut is a ``<gazebo><joint type="fixed">`` weld named ``loop_closure``, ``loop_closure_2``...;
+- links with geometry get visual and collision meshes ``meshes/<link>.stl`` (or
+  ``package://NAME/meshes/<link>.stl``) and an inertial from the mesh (aluminium by default); links
+  without geometry get a tiny inertial (1e-6 kg, 1e-9 kg m^2);
+- STL files are in millimetres (what slicers assume) and referenced with ``scale="0.001 0.001 0.001"``;
+  a metre-unit STL of a 30 cm linkage would open in a slicer as a 0.3 mm part, and micrometre-sized
+  features of small linkages would fall below mesh tools' vertex-merge tolerances.
+
+All floats are written with ``repr`` (shortest round-trip form), so the file is exact to the last bit.
+"""
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+MESH_UNIT_SCALE = 0.001  # metres per STL unit (STL files are written in millimetres)
+_MESH_SCALE = f"{MESH_UNIT_SCALE!r} {MESH_UNIT_SCALE!r} {MESH_UNIT_SCALE!r}"
+
+import numpy as np
+
+from synth.io.frames import link_origins, rpy_from_matrix, tool_mount_origin
+
+TINY_MASS = 1e-6
+TINY_INERTIA = 1e-9
+TOOL_LINK = "tool"
+TOOL_JOINT = "tool_mount"
+
+_COLORS = {"base": "0.35 0.35 0.38 1", "coupler": "0.95 0.55 0.1 1"}
+_DEFAULT_COLOR = "0.45 0.6 0.8 1"
+
+
+def _f(x) -> str:
+    x = float(x)
+    if not np.isfinite(x):
+        raise ValueError(f"non-finite number {x} in URDF")
+    return repr(x + 0.0)  # + 0.0 turns -0.0 into 0.0
+
+
+def _vec(v) -> str:
+    return " ".join(_f(x) for x in v)
+
+
+def closure_names(n: int) -> list[str]:
+    """Names of the loop-closure welds: loop_closure, loop_closure_2, ..."""
+    return ["loop_closure"] + [f"loop_closure_{i}" for i in range(2, n + 1)]
+
+
+def mesh_filename(link: str, mesh_dir: str = "meshes", package: str | None = None) -> str:
+    rel = f"{mesh_dir.strip('/')}/{link}.stl" if mesh_dir else f"{link}.stl"
+    return f"package://{package}/{rel}" if package else rel
+
+
+def _inertial(parent, mass, com, inertia):
+    el = ET.SubElement(parent, "inertial")
+    ET.SubElement(el, "origin", xyz=_vec(com), rpy="0.0 0.0 0.0")
+    ET.SubElement(el, "mass", value=_f(mass))
+    I = np.asarray(inertia, float)
+    ET.SubElement(el, "inertia", ixx=_f(I[0, 0]), ixy=_f(I[0, 1]), ixz=_f(I[0, 2]),
+                  iyy=_f(I[1, 1]), iyz=_f(I[1, 2]), izz=_f(I[2, 2]))
+
+
+def marker_frames(linkage, origins=None) -> dict:
+    """``linkage.info["markers"]``: {name: {"link": tree link, "position": [x, y, z]}} -- extra frames
+    (e.g. the ``tracer`` of ``mpsynth curve``) fixed to a link, with world-parallel axes and their origin
+    at the world ``position`` at the reference configuration. Returns {name: {"link", "xyz"}} with xyz
+    in the link's frame; each becomes a link and a fixed joint ``<name>_mount``."""
+    origins = link_origins(linkage) if origins is None else origins
+    out = {}
+    for name, spec in (linkage.info.get("markers") or {}).items():
+        if name in origins or name == TOOL_LINK:
+            raise ValueError(f"marker {name!r} clashes with a link name")
+        if spec.get("link") not in origins:
+            raise ValueError(f"marker {name!r} hangs on unknown link {spec.get('link')!r}")
+        xyz = np.asarray(spec["position"], float) - origins[spec["link"]]
+        out[str(name)] = {"link": spec["link"], "xyz": xyz}
+    return out
+
+
+def _share_welded_masses(linkage, masses, origins, geometric) -> dict:
+    """Split the mass of each welded link with geometry equally with its geometry-less duplicate
+    (e.g. coupler / coupler_k). The welded pair keeps the same total mass, centre of mass and
+    inertia, but neither body is nearly massless: a 1e-6 kg body on a weld constraint makes physics
+    engines (PyBullet) open the weld. Frames are translated copies of the world frame, so a point
+    moves between the two link frames by the difference of their origins."""
+    out = dict(masses)
+    for a, b in linkage.closures:
+        if a in geometric and b not in geometric and a in out:
+            mass, com, inertia = out[a]
+            com = np.asarray(com, float)
+            out[a] = (mass / 2, com, np.asarray(inertia, float) / 2)
+            out[b] = (mass / 2, com + np.asarray(origins[a]) - np.asarray(origins[b]), np.asarray(inertia, float) / 2)
+    return out
+
+
+def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str | None = None,
+              masses: dict | None = None, mesh_offsets: dict | None = None) -> str:
+    """The URDF document (str, with XML declaration) of ``linkage``.
+
+    ``masses``: {link: (mass kg, centre of mass (3,) in the link frame, 3x3 inertia about the centre
+    of mass)} for the links with geometry, as returned by ``meshes.mesh_inertials``; when None it is
+    computed from ``meshes.link_solids(linkage)`` with default sizes and aluminium density. Links
+    with geometry are those with a non-empty joint list in ``linkage.links``. ``mesh_offsets``:
+    {link: (3,) position (metres, link frame) of the STL file's origin}; the writer stores each STL
+    about its own centre so that single-precision STL coordinates stay accurate far from the origin."""
+    origins = link_origins(linkage)
+    names = list(origins)
+    if TOOL_LINK in origins:
+        raise ValueError(f"link name {TOOL_LINK!r} is reserved for the tool frame")
+    for a, b in linkage.closures:
+        for link in (a, b):
+            if link not in origins:
+                raise ValueError(f"closure ({a}, {b}) names unknown link {link!r}")
+    geometric = [n for n in names if linkage.links.get(n)]
+    if masses is None:
+        from synth.io.meshes import link_solids, mesh_inertials
+
+        masses = mesh_inertials(link_solids(linkage))
+    for n in geometric:
+        if n not in masses:
+            raise ValueError(f"no mass properties for link {n!r}")
+
+    masses = _share_welded_masses(linkage, masses, origins, geometric)
+
+    robot = ET.Element("robot", name=str(robot_name))
+    robot.append(ET.Comment(
+        " written by mpsynth: a closed-loop linkage cut into a tree (OUTPUT.md, 'two branches, one weld');"
+        " the fixed joints in the gazebo elements weld the cut links back together "))
+    for n in names:
+        link = ET.SubElement(robot, "link", name=n)
+        if n in masses:
+            _inertial(link, *masses[n])
+        if n in geometric:
+            fn = mesh_filename(n, mesh_dir, package)
+            for tag in ("visual", "collision"):
+                el = ET.SubElement(link, tag)
+                offset = (mesh_offsets or {}).get(n, np.zeros(3))
+                ET.SubElement(el, "origin", xyz=_vec(offset), rpy="0.0 0.0 0.0")
+                geom = ET.SubElement(el, "geometry")
+                ET.SubElement(geom, "mesh", filename=fn, scale=_MESH_SCALE)
+                if tag == "visual":
+                    mat = ET.SubElement(el, "material", name=f"mpsynth_{n}")
+                    ET.SubElement(mat, "color", rgba=_COLORS.get(n, _DEFAULT_COLOR))
+        elif n not in masses:
+            _inertial(link, TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
+    tool = ET.SubElement(robot, "link", name=TOOL_LINK)
+    _inertial(tool, TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
+
+    for j in linkage.joints:
+        el = ET.SubElement(robot, "joint", name=j.name, type="continuous")
+        ET.SubElement(el, "parent", link=j.parent)
+        ET.SubElement(el, "child", link=j.child)
+        ET.SubElement(el, "origin", xyz=_vec(origins[j.child] - origins[j.parent]), rpy="0.0 0.0 0.0")
+        ET.SubElement(el, "axis", xyz=_vec(j.direction))
+
+    T = tool_mount_origin(linkage)
+    el = ET.SubElement(robot, "joint", name=TOOL_JOINT, type="fixed")
+    ET.SubElement(el, "parent", link=linkage.tool_link)
+    ET.SubElement(el, "child", link=TOOL_LINK)
+    ET.SubElement(el, "origin", xyz=_vec(T[:3, 3]), rpy=_vec(rpy_from_matrix(T[:3, :3])))
+
+    for name, spec in marker_frames(linkage, origins).items():  # info["markers"]: fixed point frames
+        _inertial(ET.SubElement(robot, "link", name=name), TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
+        el = ET.SubElement(robot, "joint", name=f"{name}_mount", type="fixed")
+        ET.SubElement(el, "parent", link=spec["link"])
+        ET.SubElement(el, "child", link=name)
+        ET.SubElement(el, "origin", xyz=_vec(spec["xyz"]), rpy="0.0 0.0 0.0")
+
+    for name, (a, b) in zip(closure_names(len(linkage.closures)), linkage.closures):
+        gz = ET.SubElement(robot, "gazebo")
+        el = ET.SubElement(gz, "joint", name=name, type="fixed")
+        ET.SubElement(el, "parent").text = a
+        ET.SubElement(el, "child").text = b
+
+    ET.indent(robot, space="  ")
+    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"

@@ -1,0 +1,1 @@
+"""Tools on a written linkage: render, viewer, collision check, simulation, batch jobs."""

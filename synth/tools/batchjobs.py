@@ -1,0 +1,245 @@
+"""Many synthesis jobs from JSON lines, one result line per job, in input order.
+
+A job is one JSON object on one line::
+
+    {"id": "a7", "kind": "bennett", "poses": [...], "units": {"length": "mm", "angle": "deg"},
+     "out": "runs/a7", "name": "a7", "normalize": false, "force": false,
+     "pin_radius": 4, "link_radius": 3, "pin_length": 20}
+
+``kind`` is ``"bennett"`` (3 poses) or ``"sixbar"`` (4 poses); ``poses`` is a list of pose specs
+exactly as in a pose file's ``poses`` list, ``units`` as in a pose file (both validated by
+``synth.io.poses.parse_pose_document``); everything but ``kind`` and ``poses`` is optional. With ``out``
+the linkage is written there (atomically, ``synth.io.writer.write_output``; robot name ``name``, else
+the id; missing parent directories are created, an unusable OUT is refused before the synthesis);
+mesh sizes are in the job's length unit. Unknown keys are an error (a typo must not be
+ignored silently).
+
+The result of a job is one JSON object::
+
+    {"id": .., "line": n, "ok": true, "kind": "bennett", "joints": 4, "extent": 0.41,
+     "checks": {...}, "out": "runs/a7" | null, ["linkage": {...linkage.json...}]}
+    {"id": .., "line": n, "ok": false, "exit_code": 2, "error": "one line"}
+
+``exit_code`` follows the CLI contract: 2 bad input (malformed JSON, bad poses, unknown kind), 1 no
+real linkage for valid input, 3 an internal error. ``line`` is the 1-based line number in the input
+(blank lines are skipped and produce no result). A job never raises: every failure is a result.
+
+``run_jobs(lines, jobs=N)`` runs them in N worker processes (``multiprocessing``, in chunks) and
+yields the results in input order as soon as each is ready (a result waits only for the jobs
+before it).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from typing import Any, Iterable, Iterator
+
+KINDS = {"bennett": 3, "sixbar": 4}
+JOB_KEYS = ("id", "kind", "poses", "units", "out", "name", "normalize", "force",
+            "pin_radius", "link_radius", "pin_length")
+MAX_LINE = 10 * 1024 * 1024
+
+
+class _JobError(Exception):
+    def __init__(self, message: str, exit_code: int = 2):
+        super().__init__(message)
+        self.exit_code = exit_code
+
+
+def _one_line(msg: str, limit: int = 2000) -> str:
+    msg = " ".join(str(msg).split())
+    return msg if len(msg) <= limit else msg[: limit - 3] + "..."
+
+
+
+def _reject_constant(name):
+    raise ValueError(f"{name} is not a valid JSON number")
+
+
+def parse_job(text: str) -> dict:
+    """The job object of one line; _JobError (exit code 2) when it is not a valid job."""
+    if len(text) > MAX_LINE:
+        raise _JobError("line is longer than 10 MB")
+    try:
+        from synth.io.poses import json_object_pairs
+
+        job = json.loads(text, object_pairs_hook=json_object_pairs, parse_constant=_reject_constant)
+    except json.JSONDecodeError as e:
+        raise _JobError(f"invalid JSON at column {e.colno}: {e.msg}") from None
+    except (ValueError, RecursionError) as e:
+        raise _JobError(f"invalid JSON: {e}") from None
+    if not isinstance(job, dict):
+        raise _JobError(f"a job must be a JSON object, got {type(job).__name__}")
+    return job
+
+
+def _check_job(job: dict) -> None:
+    unknown = [k for k in job if k not in JOB_KEYS]
+    if unknown:
+        import difflib
+
+        k = unknown[0]
+        close = difflib.get_close_matches(k, JOB_KEYS, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else f" (allowed: {', '.join(JOB_KEYS)})"
+        raise _JobError(f"unknown key {k!r}{hint}")
+    if "kind" not in job:
+        raise _JobError(f"missing 'kind' ({' or '.join(repr(k) for k in KINDS)})")
+    if job["kind"] not in KINDS:
+        raise _JobError(f"unknown kind {job['kind']!r} (allowed: {', '.join(KINDS)})")
+    if "poses" not in job:
+        raise _JobError("missing 'poses' (a list of pose specs as in a pose file)")
+    jid = job.get("id")
+    if jid is not None and not isinstance(jid, (str, int, float)) or isinstance(jid, bool):
+        raise _JobError("'id' must be a string or a number")
+    for key in ("out", "name"):
+        if key in job and not (isinstance(job[key], str) and job[key].strip()):
+            raise _JobError(f"{key!r} must be a non-empty string")
+    for key in ("normalize", "force"):
+        if key in job and not isinstance(job[key], bool):
+            raise _JobError(f"{key!r} must be true or false")
+    for key in ("pin_radius", "link_radius", "pin_length"):
+        if key in job:
+            v = job[key]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
+                raise _JobError(f"{key!r} must be a positive length in the job's unit")
+
+
+def _synthesize(kind: str, ps):
+    if kind == "bennett":
+        from synth.checks import VERIFY_SAMPLES
+        from synth.synthesis.bennett import bennett
+
+        return bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
+    try:
+        from synth.synthesis.sixbar import sixbar
+    except ImportError as e:
+        raise _JobError(f"kind 'sixbar' is not available in this installation ({e})") from None
+    return sixbar(ps.matrices, ps.names)
+
+
+def run_job(item: tuple[int, str], full: bool = False) -> dict:
+    """Run one job given as (line number, text). Never raises (but KeyboardInterrupt)."""
+    lineno, text = item
+    result: dict[str, Any] = {"id": None, "line": lineno}
+    try:
+        job = parse_job(text)
+        if isinstance(job.get("id"), (str, int, float)) and not isinstance(job.get("id"), bool):
+            result["id"] = job["id"]
+        _check_job(job)
+        from synth.errors import MpsynthError
+        from synth.io.poses import parse_pose_document
+
+        doc = {"poses": job["poses"]}
+        if "units" in job:
+            doc["units"] = job["units"]
+        kind = job["kind"]
+        try:
+            if "out" in job:
+                _prepare_out(job["out"], bool(job.get("force", False)))
+            ps = parse_pose_document(doc, source="poses", count=(KINDS[kind], f"kind {kind!r}"),
+                                     normalize=bool(job.get("normalize", False)))
+            linkage = _synthesize(kind, ps)
+            out = None
+            if "out" in job:
+                from synth.io.writer import write_output
+
+                sizes = {k: float(job[k]) * ps.length_scale for k in ("pin_radius", "link_radius", "pin_length")
+                         if k in job}
+                name = job.get("name") or (str(result["id"]) if result["id"] is not None else "linkage")
+                write_output(linkage, job["out"], robot_name=name, force=bool(job.get("force", False)), **sizes)
+                out = job["out"]
+        except MpsynthError as e:
+            raise _JobError(str(e), e.exit_code) from None
+        result.update(_success(kind, linkage, out, full))
+    except _JobError as e:
+        result.update({"ok": False, "exit_code": e.exit_code, "error": _one_line(e)})
+    except KeyboardInterrupt:
+        raise
+    except Exception as e:  # an internal error: still one result line
+        result.update({"ok": False, "exit_code": 3, "error": _one_line(f"internal error: {type(e).__name__}: {e}")})
+    return result
+
+
+def _prepare_out(out: str, force: bool) -> None:
+    """Create OUT's missing parent directories and refuse an unusable OUT before any work."""
+    from pathlib import Path
+
+    parent = Path(os.path.abspath(out)).parent
+    try:
+        os.makedirs(parent, exist_ok=True)
+    except OSError as e:
+        raise _JobError(f"{parent}: cannot create the output's parent directory ({e.strerror or e})") from None
+    from synth.io import writer
+
+    check = getattr(writer, "check_output_target", None)
+    if check is not None:
+        check(out, force=force)
+
+
+def _success(kind: str, linkage, out, full: bool) -> dict:
+    from synth.io.jsonout import plain
+
+    res = {"ok": True, "kind": kind, "joints": len(linkage.joints), "extent": float(linkage.extent()),
+           "checks": plain(dict(linkage.checks)), "out": out}
+    b = linkage.info.get("bennett")
+    if b:
+        res["bennett"] = plain({k: b[k] for k in ("a", "alpha", "b", "beta") if k in b})
+    if full:
+        from synth.io.jsonout import linkage_document
+
+        res["linkage"] = linkage_document(linkage)
+    return res
+
+
+def numbered_lines(lines: Iterable[str]) -> Iterator[tuple[int, str]]:
+    """(1-based line number, text) of the non-blank lines."""
+    for i, line in enumerate(lines, 1):
+        if line.strip():
+            yield i, line
+
+
+def _run_full(item):
+    return run_job(item, full=True)
+
+
+def run_jobs(lines: Iterable[str], jobs: int = 1, chunksize: int | None = None, full: bool = False,
+             total: int | None = None) -> Iterator[dict]:
+    """Results of the jobs in ``lines`` (an iterable of text lines), in input order."""
+    items = numbered_lines(lines)
+    func = _run_full if full else run_job
+    if jobs <= 1:
+        for item in items:
+            yield func(item)
+        return
+    import multiprocessing
+
+    if chunksize is None:
+        chunksize = max(1, min(16, (total or 64) // (jobs * 8)))
+    ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
+    pool = ctx.Pool(processes=jobs, initializer=_worker_init)
+    try:
+        for res in pool.imap(func, items, chunksize=chunksize):
+            yield res
+        pool.close()
+    except BaseException:
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
+
+
+def _worker_init():
+    """Workers ignore SIGINT (the parent handles ^C and terminates the pool) and pre-import the
+    synthesis modules once."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    import importlib
+
+    for module in ("synth.synthesis.bennett", "synth.io.poses", "synth.synthesis.sixbar"):  # modules, not the API functions
+        importlib.import_module(module)
+
+
+def dumps(result: dict) -> str:
+    return json.dumps(result, separators=(",", ":"), allow_nan=False)

@@ -1,0 +1,280 @@
+"""`mpsynth simulate`: drive a written linkage in a real physics engine and compare with the exact motion.
+
+Engines (optional extra ``mpsynth[sim]``): PyBullet (`pybullet_sim`, always run in a child process
+because a malformed model can crash it) and MuJoCo (`mujoco_sim`, model built by `mjcf`).
+
+What every engine does (OUTPUT.md's closed-loop convention):
+- load the tree of linkage.urdf with the base fixed, gravity off unless asked for;
+- close every loop the engine's way (PyBullet: a JOINT_FIXED user constraint between ``coupler`` and
+  ``coupler_k``; MuJoCo: an ``<equality><weld>``), with no contacts between the linkage's links;
+- the cut copy ``coupler_k`` carries only a 1e-6 kg placeholder inertial in the URDF, which the
+  engines' constraint solvers cannot hold (PyBullet's weld then gives way by decimetres); for the
+  simulation the coupler's mass and inertia are therefore shared half and half between ``coupler`` and
+  its welded copy (same centre of mass, same inertia tensor), which leaves the dynamics of the welded
+  pair unchanged (`sim_inertials`);
+- start at all-zero angles at rest (a valid configuration: the first pose), release every joint's
+  default motor and drive the first joint of the first branch through one full turn in ``seconds``
+  with a position motor, paced for an even joint-space speed of the whole linkage (`DriveProfile`);
+- after every step compare each other joint with the exact motion: the driver's actual angle gives the
+  motion parameter t = a + b cot(phi/2) of its angle law theta(t) = 2 atan2(b, t - a), which gives
+  every joint's exact angle (`synth.io.verify.law_angles`); and measure the gap of every weld (the engine's
+  own world frames of the two welded links against their relative pose at all-zero angles).
+"""
+from __future__ import annotations
+
+import importlib.util
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from synth.errors import InputError, MpsynthError
+
+ENGINES = ("pybullet", "mujoco")
+TWO_PI = 2.0 * math.pi
+NEGLIGIBLE_MASS = 1e-3  # a welded copy lighter than this fraction of its partner is a placeholder
+
+
+class EngineNotInstalled(MpsynthError):
+    """The physics engine cannot be imported (exit code 2)."""
+
+    exit_code = 2
+
+
+class SimulationError(MpsynthError):
+    """The engine failed (crashed, model rejected, diverged). Exit code 1."""
+
+    exit_code = 1
+
+
+def require_engine(engine: str) -> None:
+    if engine not in ENGINES:
+        raise InputError(f"unknown engine {engine!r}: choose one of {', '.join(ENGINES)}")
+    if importlib.util.find_spec(engine) is None:
+        raise EngineNotInstalled(f"{engine} is not installed: pip install 'mpsynth[sim]'")
+
+
+@dataclass
+class SimSetup:
+    """Everything the engines need, read from OUT (no engine imported here)."""
+
+    out: Path
+    urdf: object  # synth.io.verify.UrdfModel
+    name: str
+    laws: dict  # joint -> (a, b)
+    driver: str
+    joints: list  # revolute joints (URDF order), driver included
+    closures: list  # [(link, duplicate)]
+    closure_names: list
+    refs: list  # inv(F_link(0)) @ F_duplicate(0)
+    inertials: dict  # link -> (mass, 4x4 inertial frame in the link frame, 3x3 inertia), after the split
+    split: list = field(default_factory=list)  # links whose inertial was shared with their welded copy
+    size: float = 1.0  # RMS spread of the joint frames (m): the scale for the closure gap
+
+    def exact(self, phi):
+        """Exact angles of every joint when the driver is at angle(s) phi (radians, any turn)."""
+        from synth.io.verify import law_angles
+
+        return law_angles(self.laws, self.driver, np.mod(np.asarray(phi, float), TWO_PI))
+
+    def mesh_path(self, filename: str) -> Path:
+        """Absolute path of a URDF mesh filename (relative to OUT; package://NAME/x -> OUT/x)."""
+        if filename.startswith("package://"):
+            rest = filename[len("package://"):]
+            filename = rest.split("/", 1)[1] if "/" in rest else rest
+        return (self.out / filename).resolve()
+
+
+def load_setup(out) -> SimSetup:
+    """Read OUT (linkage.urdf, linkage.json). InputError when unreadable or not a simulable linkage."""
+    from synth.io.verify import _invert, read_output
+
+    o = read_output(out)
+    u, doc = o.urdf, o.doc
+    if u.problems:
+        raise InputError(f"{out}: linkage.urdf is malformed: {u.problems[0]}")
+    laws = {}
+    for j in doc.get("joints", []) if isinstance(doc.get("joints"), list) else []:
+        law = j.get("angle_law") if isinstance(j.get("angle_law"), dict) else j
+        if isinstance(j.get("name"), str) and isinstance(law.get("a"), (int, float)) and isinstance(law.get("b"), (int, float)):
+            laws[j["name"]] = (float(law["a"]), float(law["b"]))
+    joints = [jn for jn in u.order if u.joints[jn].kind in ("revolute", "continuous")]
+    if not joints:
+        raise InputError(f"{out}: the URDF has no revolute joint to drive")
+    missing = [jn for jn in joints if jn not in laws]
+    if missing:
+        raise InputError(f"{out}: linkage.json has no angle law for joint(s) {', '.join(missing)} "
+                         "(the exact motion to compare with)")
+    if not u.closures:
+        raise InputError(f"{out}: the URDF has no loop closure (<gazebo><joint type=\"fixed\">)")
+    closures = [(a, b) for _, a, b in u.closures]
+    names = [n for n, _, _ in u.closures]
+    for a, b in closures:
+        if a not in u.links or b not in u.links:
+            raise InputError(f"{out}: loop closure {a}-{b} names a missing link")
+    br = doc.get("branches")
+    driver = br[0][0] if (isinstance(br, list) and br and isinstance(br[0], list) and br[0]
+                          and br[0][0] in joints) else u.path(closures[0][0])[0]
+    F0 = u.fk({})
+    refs = [_invert(F0[a]) @ F0[b] for a, b in closures]
+    inertials, split = sim_inertials(u, closures, refs)
+    pts = np.array([F0[u.joints[jn].child][:3, 3] for jn in joints])
+    size = float(np.sqrt(np.mean(np.sum((pts - pts.mean(0)) ** 2, 1))))
+    return SimSetup(Path(out).resolve(), u, u.name or "linkage", laws, driver, joints, closures, names, refs,
+                    inertials, split, size)
+
+
+def sim_inertials(u, closures, refs):
+    """Inertials for the simulation: a welded copy with a negligible (placeholder) mass shares its
+    partner's mass and inertia equally (same centre of mass and axes, expressed in each link's frame).
+    Returns ({link: (mass, 4x4 frame, 3x3 inertia)}, [links split])."""
+    from synth.io.verify import _invert
+
+    out = {k: (m, T.copy(), I.copy()) for k, (m, T, I) in u.inertials.items()}
+    copies: dict[str, list] = {}
+    for (a, b), R in zip(closures, refs):
+        ma = u.inertials.get(a, (0.0, None, None))[0]
+        mb = u.inertials.get(b, (0.0, None, None))[0]
+        if ma > 0 and mb <= NEGLIGIBLE_MASS * ma:
+            copies.setdefault(a, []).append((b, R))
+    split = []
+    for a, dups in copies.items():
+        m, T, I = u.inertials[a]
+        k = len(dups) + 1
+        out[a] = (m / k, T.copy(), I / k)
+        for b, R in dups:  # R = pose of b in a's frame; the inertial frame in b's frame is R^-1 T
+            out[b] = (m / k, _invert(R) @ T, I / k)
+        split.append(a)
+    return out, split
+
+
+def ease(s):
+    """Smooth 0 -> 1 over s in [0, 1] with zero speed at both ends: s - sin(2 pi s) / (2 pi)."""
+    s = np.asarray(s, float)
+    return s - np.sin(TWO_PI * s) / TWO_PI
+
+
+class DriveProfile:
+    """The driver's target angle over time: one full turn in ``seconds``, paced so that the linkage moves
+    at an even speed in joint space (all joints together), easing in and out at rest.
+
+    Driving the first joint at an even pace would whip the other joints where their angle laws are
+    steep (a joint can turn 10-100 times faster than the driver for a moment), and the engines' errors
+    grow with those accelerations. So with ``w(phi) = |d q / d phi|`` along the exact motion and the
+    arc length ``L(phi) = integral of w``, the driver's angle at normalized time s is
+    ``phi = L^-1(L(2 pi) ease(s))``."""
+
+    def __init__(self, setup, seconds: float, grid: int = 8192):
+        self.seconds = seconds
+        phi = np.linspace(0.0, TWO_PI, grid + 1)
+        ex = setup.exact(phi)
+        dq = np.array([np.gradient(np.unwrap(ex[j]), phi) for j in setup.joints])
+        w = np.sqrt(np.sum(dq * dq, axis=0))
+        L = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(phi))])
+        self.phi, self.L, self.w, self.dw = phi, L, w, np.gradient(w, phi)
+        self.peak_ratio = float(np.abs(dq).max())  # fastest joint speed per unit driver speed
+
+    def angle(self, s):
+        """Driver angle(s) at normalized time(s) s in [0, 1]."""
+        return np.interp(ease(s) * self.L[-1], self.L, self.phi)
+
+    def track(self, n: int):
+        """(angle, speed, acceleration) arrays at the times k / n * seconds, k = 0..n-1. With l = L(phi):
+        phi' = l' / w(phi) and phi'' = (l'' - w'(phi) phi'^2) / w(phi)."""
+        s = np.arange(n) / n
+        T, Ltot = self.seconds, self.L[-1]
+        phi = self.angle(s)
+        w, dw = np.interp(phi, self.phi, self.w), np.interp(phi, self.phi, self.dw)
+        l1 = Ltot * (1.0 - np.cos(TWO_PI * s)) / T
+        l2 = Ltot * TWO_PI * np.sin(TWO_PI * s) / T ** 2
+        speed = l1 / w
+        return phi, speed, (l2 - dw * speed * speed) / w
+
+
+class Tracker:
+    """Running worst deviations: joints against the exact motion, welds against their rest pose."""
+
+    def __init__(self, setup: SimSetup):
+        self.setup = setup
+        self.max_dev = 0.0
+        self.worst_joint = None
+        self.max_gap = 0.0
+        self.max_gap_angle = 0.0
+        self.max_driver_error = 0.0
+        self.samples = 0
+
+    def joints(self, q: dict, target=None) -> None:
+        """q: joint -> angle, or arrays of angles over many steps; target: the driver's target(s)."""
+        s = self.setup
+        q = {jn: np.atleast_1d(np.asarray(v, float)) for jn, v in q.items()}
+        exact = s.exact(q[s.driver])
+        for jn in s.joints:
+            if jn == s.driver:
+                continue
+            d = float(np.abs(np.mod(q[jn] - exact[jn] + math.pi, TWO_PI) - math.pi).max())
+            if d > self.max_dev or self.worst_joint is None:
+                self.max_dev, self.worst_joint = max(d, self.max_dev), jn
+        if target is not None:
+            err = float(np.abs(q[s.driver] - np.asarray(target, float)).max())
+            self.max_driver_error = max(self.max_driver_error, err)
+        self.samples += len(q[s.driver])
+
+    def frames(self, frames: dict) -> None:
+        """frames: link -> world frame(s) (4x4 or (n, 4, 4)) as the engine reports them."""
+        from synth.io.verify import _pose_diff
+
+        for (a, b), R in zip(self.setup.closures, self.setup.refs):
+            dt, dr = _pose_diff(np.asarray(frames[a]) @ R, np.asarray(frames[b]))
+            self.max_gap = max(self.max_gap, float(np.max(dt)))
+            self.max_gap_angle = max(self.max_gap_angle, float(np.max(dr)))
+
+    def result(self, engine: str, steps: int, **extra) -> dict:
+        return {"engine": engine, "max_joint_deviation": self.max_dev, "max_closure_gap": self.max_gap,
+                "steps": steps, "max_closure_angle": self.max_gap_angle, "linkage_size": self.setup.size,
+                "worst_joint": self.worst_joint,
+                "driver": self.setup.driver, "max_driver_error": self.max_driver_error, **extra}
+
+
+def quat_wxyz(R) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of a rotation matrix (Shepperd's method)."""
+    R = np.asarray(R, float)
+    tr = np.trace(R)
+    if tr > 0:
+        s = 2.0 * math.sqrt(1.0 + tr)
+        q = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
+    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
+        q = [(R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
+    elif R[1, 1] > R[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])
+        q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s]
+    else:
+        s = 2.0 * math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])
+        q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
+    q = np.array(q)
+    q /= np.linalg.norm(q)
+    return q if q[0] >= 0 else -q
+
+
+def simulate(out, engine: str, *, seconds: float = 2.0, timestep: float | None = None, gravity: bool = False,
+             export_mjcf=None, timeout: float = 600.0) -> dict:
+    """Run ``engine`` on OUT; returns the result dict (see `Tracker.result`). Raises EngineNotInstalled
+    (exit 2), InputError (exit 2) or SimulationError (exit 1)."""
+    if not (seconds > 0 and math.isfinite(seconds) and seconds <= 3600):
+        raise InputError(f"--seconds must be in (0, 3600], got {seconds}")
+    if timestep is not None and not (0 < timestep <= seconds / 10):
+        raise InputError(f"--timestep must be positive and at most a tenth of --seconds, got {timestep}")
+    setup = load_setup(out)  # input errors before engine errors
+    if export_mjcf and engine != "mujoco":  # the MuJoCo run writes (and loads) it itself
+        from synth.tools.sim.mjcf import write_mjcf
+
+        write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity)
+    require_engine(engine)
+    if engine == "pybullet":
+        from synth.tools.sim.pybullet_sim import run_in_subprocess
+
+        return run_in_subprocess(setup, seconds=seconds, timestep=timestep, gravity=gravity, timeout=timeout)
+    from synth.tools.sim.mujoco_sim import run as run_mujoco
+
+    return run_mujoco(setup, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf)

@@ -1,0 +1,194 @@
+"""PyBullet run of a linkage, always in a child process (`run_in_subprocess`): a malformed model can
+crash the engine, which must not take the CLI down with it.
+
+The child (``python -m synth.tools.sim.pybullet_sim REQUEST.json``) loads a simulation copy of linkage.urdf
+(absolute mesh paths, the coupler's inertial shared with its welded copy, see `synth.tools.sim`) with a fixed
+base and ``URDF_USE_INERTIA_FROM_FILE`` (self-collision is off: PyBullet only enables it on request),
+adds one ``JOINT_FIXED`` user constraint per loop between ``coupler`` and ``coupler_k`` (frames relative
+to the links' centre-of-mass frames, as PyBullet wants, computed so that the weld holds the all-zero
+relative pose), releases the default velocity motors (``VELOCITY_CONTROL`` with force 0) and drives the
+first joint with ``POSITION_CONTROL``. Solver: fixed time step (default 1 ms), 3000 iterations (the loop
+is overconstrained: a weld of 6 equations on a 1-dof loop, which PyBullet's iterative solver only
+settles with many iterations; a 6R still gains from 300 to 3000), error reduction 0.8 per step (the
+default 0.2 lets the weld drift about four times further). The result goes to a JSON file named in the
+request.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+
+DEFAULT_TIMESTEP = 1e-3
+ITERATIONS = 3000
+ERP = 0.8  # error reduction per step; PyBullet's default 0.2 lets the weld drift 4x further
+MOTOR_FORCE = 1e4  # N m: a bound, not a gain (POSITION_CONTROL is a velocity-level constraint)
+
+
+def sim_urdf_text(setup) -> str:
+    """linkage.urdf for PyBullet: absolute mesh paths, simulation inertials, no <gazebo> tags."""
+    from synth.io.frames import rpy_from_matrix
+
+    root = ET.parse(setup.out / "linkage.urdf").getroot()
+    for g in root.findall("gazebo"):
+        root.remove(g)
+    for link in root.findall("link"):
+        name = link.get("name")
+        for m in link.iter("mesh"):
+            m.set("filename", str(setup.mesh_path(m.get("filename", ""))))
+        if name in setup.inertials:
+            mass, T, I = setup.inertials[name]
+            for old in link.findall("inertial"):
+                link.remove(old)
+            el = ET.Element("inertial")
+            ET.SubElement(el, "origin", xyz=" ".join(repr(float(v)) for v in T[:3, 3]),
+                          rpy=" ".join(repr(float(v)) for v in rpy_from_matrix(T[:3, :3])))
+            ET.SubElement(el, "mass", value=repr(float(mass)))
+            ET.SubElement(el, "inertia", ixx=repr(float(I[0, 0])), ixy=repr(float(I[0, 1])), ixz=repr(float(I[0, 2])),
+                          iyy=repr(float(I[1, 1])), iyz=repr(float(I[1, 2])), izz=repr(float(I[2, 2])))
+            link.insert(0, el)
+    return ET.tostring(root, encoding="unicode")
+
+
+def run_in_subprocess(setup, *, seconds: float, timestep: float | None, gravity: bool, timeout: float = 600.0) -> dict:
+    """Run `child_main` in a fresh Python; returns its result or raises SimulationError."""
+    from synth.tools.sim import SimulationError
+
+    with tempfile.TemporaryDirectory(prefix="mpsynth-pybullet-") as tmp:
+        tmp = Path(tmp)
+        urdf = tmp / "sim.urdf"
+        urdf.write_text(sim_urdf_text(setup), encoding="utf-8")
+        request = {"out": str(setup.out), "urdf": str(urdf), "result": str(tmp / "result.json"),
+                   "seconds": seconds, "timestep": timestep or DEFAULT_TIMESTEP, "gravity": gravity}
+        (tmp / "request.json").write_text(json.dumps(request), encoding="utf-8")
+        try:
+            r = subprocess.run([sys.executable, "-m", "synth.tools.sim.pybullet_sim", str(tmp / "request.json")],
+                               capture_output=True, text=True, timeout=timeout, cwd=str(_repo_root()))
+        except subprocess.TimeoutExpired:
+            raise SimulationError(f"pybullet did not finish within {timeout:.0f} s") from None
+        result_file = tmp / "result.json"
+        if r.returncode < 0:
+            raise SimulationError(f"pybullet crashed (signal {-r.returncode}) on {setup.out}")
+        if not result_file.exists():
+            tail = (r.stderr or r.stdout).strip().splitlines()[-1:] or ["no output"]
+            raise SimulationError(f"pybullet failed on {setup.out} (exit {r.returncode}): {tail[0]}")
+        res = json.loads(result_file.read_text(encoding="utf-8"))
+    if "error" in res:
+        raise SimulationError(f"pybullet failed on {setup.out}: {res['error']}")
+    return res
+
+
+def _repo_root() -> Path:
+    return Path(__file__).resolve().parents[2]
+
+
+def _T(pos, orn, p) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3)
+    T[:3, 3] = pos
+    return T
+
+
+def _pos_quat_xyzw(T):
+    from synth.tools.sim import quat_wxyz
+
+    w, x, y, z = quat_wxyz(T[:3, :3])
+    return [float(v) for v in T[:3, 3]], [float(x), float(y), float(z), float(w)]
+
+
+def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gravity: bool) -> dict:
+    """The PyBullet run itself (call it in a child process only)."""
+    import pybullet as p
+
+    from synth.io.verify import _invert
+    from synth.tools.sim import DriveProfile, Tracker
+
+    t_wall = time.perf_counter()
+    cid = p.connect(p.DIRECT)
+    try:
+        p.setGravity(0, 0, -9.81 if gravity else 0.0, physicsClientId=cid)
+        robot = p.loadURDF(str(urdf_path), useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE,
+                           physicsClientId=cid)
+        index, link_index = {}, {"base": -1}
+        for i in range(p.getNumJoints(robot, physicsClientId=cid)):
+            info = p.getJointInfo(robot, i, physicsClientId=cid)
+            index[info[1].decode()] = i
+            link_index[info[12].decode()] = i
+        missing = [jn for jn in setup.joints if jn not in index]
+        if missing:
+            raise RuntimeError(f"PyBullet did not load joint(s) {', '.join(missing)}")
+        # loop closures: frames relative to each link's centre-of-mass frame
+        F0 = setup.urdf.fk({})
+        constraints = []
+        for a, b in setup.closures:
+            ia, ib = link_index[a], link_index[b]
+            Ia = _T(*p.getDynamicsInfo(robot, ia, physicsClientId=cid)[3:5], p)
+            Ib = _T(*p.getDynamicsInfo(robot, ib, physicsClientId=cid)[3:5], p)
+            X = F0[a]  # the weld frame: link a's frame at all-zero angles
+            pa, qa = _pos_quat_xyzw(_invert(F0[a] @ Ia) @ X)
+            pb, qb = _pos_quat_xyzw(_invert(F0[b] @ Ib) @ X)
+            c = p.createConstraint(robot, ia, robot, ib, p.JOINT_FIXED, [0, 0, 0], pa, pb, qa, qb,
+                                   physicsClientId=cid)
+            p.changeConstraint(c, maxForce=1e9, physicsClientId=cid)
+            constraints.append(c)
+        p.setPhysicsEngineParameter(fixedTimeStep=timestep, numSolverIterations=ITERATIONS, numSubSteps=0, erp=ERP,
+                                    physicsClientId=cid)
+        for jn in setup.joints:
+            p.resetJointState(robot, index[jn], 0.0, 0.0, physicsClientId=cid)
+            p.setJointMotorControl2(robot, index[jn], p.VELOCITY_CONTROL, force=0, physicsClientId=cid)
+        n = max(int(round(seconds / timestep)), 10)
+        tracker = Tracker(setup)
+        ids = [index[jn] for jn in setup.joints]
+        welded = sorted({lk for pair in setup.closures for lk in pair})
+        driver = index[setup.driver]
+        targets = DriveProfile(setup, seconds).angle(np.arange(1, n + 1) / n)
+        qs = np.empty((n, len(ids)))
+        frames = {lk: np.zeros((n, 4, 4)) for lk in welded}
+        for k in range(n):
+            p.setJointMotorControl2(robot, driver, p.POSITION_CONTROL, targetPosition=float(targets[k]),
+                                    force=MOTOR_FORCE, positionGain=1.0, velocityGain=1.0, physicsClientId=cid)
+            p.stepSimulation(physicsClientId=cid)
+            qs[k] = [st[0] for st in p.getJointStates(robot, ids, physicsClientId=cid)]
+            if not np.all(np.isfinite(qs[k])):
+                raise RuntimeError(f"the simulation diverged at step {k + 1}")
+            for lk in welded:
+                st = p.getLinkState(robot, link_index[lk], computeForwardKinematics=True, physicsClientId=cid)
+                frames[lk][k] = _T(st[4], st[5], p)
+        tracker.joints({jn: qs[:, i] for i, jn in enumerate(setup.joints)}, targets)
+        tracker.frames(frames)
+        return tracker.result("pybullet", n, seconds=seconds, timestep=timestep, gravity=gravity,
+                              iterations=ITERATIONS, shared_inertial=setup.split,
+                              wall_time=time.perf_counter() - t_wall)
+    finally:
+        p.disconnect(physicsClientId=cid)
+
+
+def child_main(argv=None) -> int:
+    """Entry point of the child process: REQUEST.json in, RESULT.json out."""
+    import contextlib
+    import io
+
+    argv = sys.argv[1:] if argv is None else argv
+    req = json.loads(Path(argv[0]).read_text(encoding="utf-8"))
+    result_path = Path(req["result"])
+    try:
+        from synth.tools.sim import load_setup
+
+        setup = load_setup(req["out"])
+        with contextlib.redirect_stdout(io.StringIO()):  # PyBullet prints its build time on stdout
+            res = simulate_in_process(setup, req["urdf"], seconds=req["seconds"], timestep=req["timestep"],
+                                      gravity=req["gravity"])
+    except Exception as e:  # noqa: BLE001 - reported to the parent as one line
+        res = {"error": f"{type(e).__name__}: {e}"}
+    result_path.write_text(json.dumps(res), encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(child_main())
