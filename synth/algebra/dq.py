@@ -39,6 +39,7 @@ def _dual_tensor(T):
 _QT = _quat_tensor()
 _QT_FLAT = _QT.reshape(4, 16)
 _DT_FLAT = _dual_tensor(_QT).reshape(8, 64)
+_DT_RIGHT = _dual_tensor(_QT).transpose(1, 0, 2).reshape(8, 64)
 
 
 def qmul(a, b):
@@ -115,6 +116,12 @@ def dq_left_matrix(a):
     """The 8x8 matrix L with (a b) = b @ L (row-vector convention), shape (..., 8, 8)."""
     a = np.asarray(a, float)
     return (a @ _DT_FLAT).reshape(a.shape[:-1] + (8, 8))
+
+
+def dq_right_matrix(a):
+    """The 8x8 matrix R with (b a) = b @ R (row-vector convention), shape (..., 8, 8)."""
+    a = np.asarray(a, float)
+    return (a @ _DT_RIGHT).reshape(a.shape[:-1] + (8, 8))
 
 
 def dq_mul(a, b):

@@ -1,0 +1,204 @@
+"""Algorithm 1 (factorization of a monic motion polynomial into linear factors), batched.
+
+Everything here works on a leading batch axis: ``C`` is ``(..., n+1, 8)`` (ascending powers of t,
+monic: ``C[..., n, :] = 1``), dual quaternions are ``(..., 8)``. A single polynomial is a batch of one;
+the enumeration of factorizations is a batch over orders; a 6R family scan is a batch over members and
+orders. See docs/algorithm1.md for the theory and the worked numbers.
+
+Algorithm 1. Let the norm polynomial ``N = C C~`` have the monic real quadratic factors
+``M_1 .. M_n`` (one per conjugate pair of roots). For a chosen order (the quadratic of each factor, left
+to right), from the right: write ``D mod M = r1 t + r0``; if ``r1`` is invertible, ``h = -r1^{-1} r0`` is
+the unique right zero of ``D`` with ``N(t - h) = M``; divide ``D = D' (t - h)`` exactly and continue with
+``D'``. Then ``C = (t - h_1) ... (t - h_n)``.
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from synth.algebra.dq import dq_inv, dq_left_matrix, dq_mul, dq_right_matrix
+from synth.algebra.polynomial import divide_linear_right, divide_real_quadratic, poly_mul, product_of_linear
+
+GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D_k)|: the remainder is not invertible
+PRISMATIC_TOL = 1e-7  # |vec(primal h)| <= tol * (1 + |h0|): a translation factor, not a revolute one
+_ONE = np.eye(8)[0]
+
+
+def orders(n: int) -> np.ndarray:
+    """All n! orders of n distinct quadratics, lexicographic, shape (n!, n)."""
+    return np.array(list(itertools.permutations(range(n))), int).reshape(-1, n)
+
+
+def norm_roots(N, newton: int = 2) -> np.ndarray:
+    """One root of each conjugate pair of a real monic polynomial N (..., 2n+1) (ascending) without
+    real roots: shape (..., n), Im z >= 0, sorted by (Re z, Im z). Companion-matrix eigenvalues (batched
+    ``numpy.linalg.eigvals``), then ``newton`` Newton steps on N. Real or repeated roots are not
+    detected here (see `root_conditioning`)."""
+    N = np.asarray(N, float)
+    batch, m = N.shape[:-1], N.shape[-1] - 1
+    flat = N.reshape(-1, m + 1)
+    comp = np.zeros((flat.shape[0], m, m))
+    comp[:, 1:, :-1] = np.eye(m - 1)
+    comp[:, :, -1] = -flat[:, :m] / flat[:, m:]
+    z = np.linalg.eigvals(comp)
+    z = np.take_along_axis(z, np.argsort(-z.imag, axis=-1)[:, : m // 2], -1)
+    z = np.where(z.imag < 0, z.conj(), z)
+    d = flat[:, 1:] * np.arange(1, m + 1)
+    for _ in range(newton):
+        f = _horner(flat, z)
+        df = _horner(d, z)
+        step = f / np.where(df != 0, df, 1)
+        z = z - np.where(np.isfinite(step), step, 0)
+    z = np.where(z.imag < 0, z.conj(), z)
+    z = np.take_along_axis(z, np.argsort(z.real + 1e-12 * z.imag, axis=-1, kind="stable"), -1)
+    return z.reshape(batch + (m // 2,))
+
+
+def _horner(c, z):
+    """Values of the real polynomials c (B, k+1) (ascending) at z (B, r)."""
+    out = c[:, -1:] * np.ones(z.shape)
+    for k in range(c.shape[1] - 2, -1, -1):
+        out = out * z + c[:, k : k + 1]
+    return out
+
+
+def root_conditioning(z) -> tuple[np.ndarray, np.ndarray]:
+    """Distance of roots z (..., n) (Im z >= 0) from degeneracy, both in [0, 1):
+    ``min Im z / (1 + |z|^2)`` (a real root: a real factor of the primal part, or a joint whose angle
+    jumps) and ``min |z - z'| / (1 + max(|z|, |z'|)^2)`` (a repeated root: equal norm factors)."""
+    z = np.asarray(z)
+    w = 1 + np.abs(z) ** 2
+    im = np.min(np.abs(z.imag) / w, axis=-1)
+    n = z.shape[-1]
+    if n < 2:
+        return im, np.ones(im.shape)
+    i, j = np.triu_indices(n, 1)
+    sep = np.min(np.abs(z[..., i] - z[..., j]) / np.maximum(w[..., i], w[..., j]), axis=-1)
+    return im, sep
+
+
+def quadratics(z) -> np.ndarray:
+    """Monic real quadratics (..., n, 2) = [c0, c1] (t^2 + c1 t + c0) with the roots z, z-bar."""
+    z = np.asarray(z)
+    return np.stack([np.abs(z) ** 2, -2 * z.real], axis=-1)
+
+
+def algorithm1(C, M):
+    """Algorithm 1 on monic motion polynomials C (..., n+1, 8) for the norm quadratics M (..., n, 2)
+    of the factors, left to right (broadcast against C's batch). Returns the factors H (..., n, 8)
+    (``C = (t - H[0]) ... (t - H[n-1])`` when all goes well) and ``ok`` (...,): every remainder had an
+    invertible leading coefficient (GENERIC_TOL relative to C's primal part). Failed items hold
+    finite garbage, not NaN."""
+    C = np.asarray(C, float)
+    M = np.asarray(M, float)
+    n = C.shape[-2] - 1
+    batch = np.broadcast_shapes(C.shape[:-2], M.shape[:-2])
+    D = np.broadcast_to(C, batch + C.shape[-2:])
+    M = np.broadcast_to(M, batch + (n, 2))
+    prim = np.max(np.sum(C[..., :4] ** 2, axis=-1), axis=-1)  # (|primal| of the largest coefficient)^2
+    H = np.empty(batch + (n, 8))
+    ok = np.ones(batch, bool)
+    for pos in range(n - 1, -1, -1):
+        _, r1, r0 = divide_real_quadratic(D, M[..., pos, :])
+        good = np.sum(r1[..., :4] ** 2, axis=-1) > GENERIC_TOL**2 * prim
+        ok &= good
+        r1 = np.where(good[..., None], r1, _ONE)
+        h = -dq_mul(dq_inv(r1), r0)
+        H[..., pos, :] = h
+        if pos:
+            D, _ = divide_linear_right(D, h)
+    return H, ok
+
+
+def multiply_back(C, H) -> np.ndarray:
+    """Relative multiply-back error of the factorizations H (..., n, 8) of C (..., n+1, 8):
+    max |(t - h_1)...(t - h_n) - C| / max(1, max |C|), inf where not finite."""
+    with np.errstate(all="ignore"):
+        E = product_of_linear(H) - C
+        scale = np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
+        r = np.max(np.abs(E), axis=(-2, -1)) / scale
+    return np.where(np.isfinite(r), r, np.inf)
+
+
+def study_violation(H) -> np.ndarray:
+    """Largest Study-condition violation of the linear factors t - h, h (..., n, 8): the dual scalar
+    part and v.w of each h must vanish (relative to max(1, |h|)). Shape (...)."""
+    with np.errstate(all="ignore"):
+        s = np.maximum(1.0, np.max(np.abs(H), axis=-1))
+        v = (np.abs(H[..., 4]) + np.abs(np.sum(H[..., 1:4] * H[..., 5:8], -1)) / s) / s
+        return np.max(v, axis=-1)
+
+
+def is_translation(H) -> np.ndarray:
+    """Which factors t - h (..., 8) are translations (no rotation part): |vec(primal h)| small."""
+    return ~(np.linalg.norm(H[..., 1:4], axis=-1) > PRISMATIC_TOL * (1 + np.abs(H[..., 0])))
+
+
+def polish(C, H, iterations: int = 2, step_tol: float = 1e-10):
+    """Newton's method on the product equations (t - h_1)...(t - h_n) = C (coefficients of t^0 .. t^{n-1},
+    8n equations in the 8n unknowns) for factorizations H (..., n, 8) of C (..., n+1, 8), broadcast.
+    A factorization with distinct norm quadratics is locally unique, so the Jacobian is regular and one
+    or two steps bring the multiply-back error to rounding level; nearly real or nearly equal norm roots
+    otherwise cost Algorithm 1 digits. A step is kept only where it lowers the residual; iteration stops
+    after a step of at most ``step_tol`` (relative). Returns (polished H, largest absolute coefficient
+    error of each product)."""
+    C = np.asarray(C, float)
+    n = C.shape[-2] - 1
+    H = np.array(np.broadcast_to(H, np.broadcast_shapes(C.shape[:-2], np.shape(H)[:-2]) + (n, 8)), float)
+    r = (product_of_linear(H) - C)[..., :n, :]
+    rm = np.max(np.abs(r), axis=(-2, -1))
+    tiny = 2e-16 * np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
+    with np.errstate(all="ignore"):
+        for _ in range(iterations):
+            if not np.any(rm > tiny):
+                break
+            J = _jacobian(H)
+            try:
+                d = np.linalg.solve(J, -r.reshape(r.shape[:-2] + (8 * n, 1)))
+            except np.linalg.LinAlgError:
+                break
+            D = d.reshape(H.shape)
+            Hn = H + np.where(np.isfinite(D), D, 0)
+            rn = (product_of_linear(Hn) - C)[..., :n, :]
+            rmn = np.max(np.abs(rn), axis=(-2, -1))
+            better = rmn < rm
+            H = np.where(better[..., None, None], Hn, H)
+            r = np.where(better[..., None, None], rn, r)
+            rm = np.where(better, rmn, rm)
+            big = np.max(np.abs(D), axis=(-2, -1)) > step_tol * np.maximum(1.0, np.max(np.abs(H), axis=(-2, -1)))
+            if not np.any(better & big):
+                break
+    return H, rm
+
+
+def _jacobian(H):
+    """Jacobian (..., 8n, 8n) of the coefficients t^0..t^{n-1} of (t - h_1)...(t - h_n) with respect to
+    h_1..h_n (column-vector convention: a x = L(a) x, x a = R(a) x). The derivative in h_i is
+    -A_i(t) dh_i B_i(t) with A_i = prod_{j<i} (t - h_j), B_i = prod_{j>i} (t - h_j)."""
+    n = H.shape[-2]
+    batch = H.shape[:-2]
+    lin = np.zeros(batch + (n, 2, 8))
+    lin[..., 0, :] = -H
+    lin[..., 1, 0] = 1.0
+    J = np.zeros(batch + (n, 8, n, 8))  # (coefficient k, component, factor i, component)
+    for i in range(n):
+        A = _prod(lin[..., :i, :, :], batch)  # (..., i+1, 8)
+        B = _prod(lin[..., i + 1 :, :, :], batch)  # (..., n-i, 8)
+        LA = np.swapaxes(dq_left_matrix(A), -1, -2)  # column convention
+        RB = np.swapaxes(dq_right_matrix(B), -1, -2)
+        for a in range(A.shape[-2]):
+            for b in range(B.shape[-2]):
+                k = a + b
+                if k < n:
+                    J[..., k, :, i, :] -= LA[..., a, :, :] @ RB[..., b, :, :]
+    return J.reshape(batch + (8 * n, 8 * n))
+
+
+def _prod(lins, batch):
+    """Product of the linear polynomials lins (..., m, 2, 8), left to right; 1 when m = 0."""
+    out = np.zeros(batch + (1, 8))
+    out[..., 0, 0] = 1.0
+    for j in range(lins.shape[-3]):
+        out = poly_mul(out, lins[..., j, :, :])
+    return out
