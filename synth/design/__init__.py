@@ -1,0 +1,1 @@
+"""Physical design of a linkage (mounts, bars, hubs, pins, sizes) and its collision-free search."""

@@ -1,0 +1,205 @@
+"""The physical design of a linkage, apart from its kinematics.
+
+The kinematics (`synth.linkage.Linkage`) fix only the joint axes and the angle laws. Everything a
+person builds is free on top of them and recorded here (docs/design.md):
+
+- **mounts**: where each link holds each of its joints, as an offset (metres) along the joint's
+  direction from the joint's *site* (`Linkage.joint_sites()`, reference configuration);
+- **bars**: the body of a link between two of its mounts, a round bar with round ends along a
+  polyline from one mount to the other through optional ``via`` points (straight when empty;
+  "cranked" otherwise), in the link's own coordinates at the reference configuration (= world);
+- **hubs**: a short cylinder around the axis at every mount (the bore for the pin goes through it);
+- **pins**: one per joint, a cylinder along the axis from ``start`` to ``end`` (offsets as for
+  mounts) covering the hubs of both links on that joint, fixed in the hub of its ``carrier`` link
+  and turning in the bore of the other;
+- sizes: pin radius, bar radius, hub radius and length, radial hole clearance, and the clearance the
+  design was made for (bodies that share no joint keep at least this far apart).
+
+`capsules` turns a design into the geometry both the collision search and the mesh writer use:
+segments with a radius. A round bar with round ends *is* such a capsule; a hub or a pin (flat ends)
+lies inside the capsule of its segment and radius, so distances between capsules are lower bounds of
+the distances between the solids that are written.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Mount:
+    """Link ``link`` holds joint ``joint`` at ``offset`` metres along the joint's direction from the
+    joint's site."""
+
+    link: str
+    joint: str
+    offset: float
+
+
+@dataclass
+class Bar:
+    """The round bar of ``link`` from its mount on ``joints[0]`` to its mount on ``joints[1]`` through
+    the points ``via`` (each (3,), metres, reference configuration); straight when ``via`` is empty."""
+
+    link: str
+    joints: tuple[str, str]
+    via: list[np.ndarray] = field(default_factory=list)
+
+
+@dataclass
+class Pin:
+    """The pin of ``joint``: along the axis from offset ``start`` to ``end`` (metres, start < end),
+    fixed to the link ``carrier``."""
+
+    joint: str
+    start: float
+    end: float
+    carrier: str
+
+    @property
+    def length(self) -> float:
+        return self.end - self.start
+
+
+@dataclass
+class PhysicalDesign:
+    """Every free parameter of a buildable linkage (lengths in metres)."""
+
+    pin_radius: float
+    bar_radius: float
+    hub_radius: float  # > pin_radius + hole_clearance: the hub holds the bore
+    hub_length: float  # along the axis, centred on the mount
+    hole_clearance: float  # radial clearance of a bore around its pin
+    clearance: float  # required gap between bodies that share no joint
+    mounts: list[Mount]
+    bars: list[Bar]
+    pins: list[Pin]
+
+    def mount(self, link: str, joint: str) -> Mount:
+        for m in self.mounts:
+            if m.link == link and m.joint == joint:
+                return m
+        raise KeyError((link, joint))
+
+    def pin(self, joint: str) -> Pin:
+        for p in self.pins:
+            if p.joint == joint:
+                return p
+        raise KeyError(joint)
+
+    def to_dict(self) -> dict:
+        """JSON-ready description (the ``design`` section of linkage.json)."""
+        return {
+            "pin_radius": self.pin_radius, "bar_radius": self.bar_radius, "hub_radius": self.hub_radius,
+            "hub_length": self.hub_length, "hole_clearance": self.hole_clearance, "clearance": self.clearance,
+            "mounts": [{"link": m.link, "joint": m.joint, "offset": m.offset} for m in self.mounts],
+            "bars": [{"link": b.link, "joints": list(b.joints), "via": [list(map(float, v)) for v in b.via]}
+                     for b in self.bars],
+            "pins": [{"joint": p.joint, "start": p.start, "end": p.end, "length": p.length, "carrier": p.carrier}
+                     for p in self.pins],
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "PhysicalDesign":
+        return cls(
+            pin_radius=float(d["pin_radius"]), bar_radius=float(d["bar_radius"]),
+            hub_radius=float(d["hub_radius"]), hub_length=float(d["hub_length"]),
+            hole_clearance=float(d["hole_clearance"]), clearance=float(d["clearance"]),
+            mounts=[Mount(m["link"], m["joint"], float(m["offset"])) for m in d["mounts"]],
+            bars=[Bar(b["link"], tuple(b["joints"]), [np.asarray(v, float) for v in b["via"]]) for b in d["bars"]],
+            pins=[Pin(p["joint"], float(p["start"]), float(p["end"]), p["carrier"]) for p in d["pins"]],
+        )
+
+
+@dataclass
+class Capsule:
+    """A segment p0-p1 with a radius, fixed to ``link`` (reference configuration, metres). ``part`` is
+    "bar", "hub" or "pin"; ``joint`` names the joint of a hub or a pin."""
+
+    link: str
+    part: str
+    p0: np.ndarray
+    p1: np.ndarray
+    radius: float
+    joint: str | None = None
+
+
+def axis_point(linkage, joint: str, offset: float, sites=None) -> np.ndarray:
+    """The point at ``offset`` along ``joint``'s direction from its site (reference configuration)."""
+    sites = linkage.joint_sites() if sites is None else sites
+    j = linkage.joint(joint)
+    return sites[joint] + offset * j.direction
+
+
+def capsules(linkage, design: PhysicalDesign) -> list[Capsule]:
+    """The solids of the design as capsules, each fixed to its link: bar segments (bar radius), hubs
+    (hub radius, hub length) and pins (pin radius, on their carrier link)."""
+    sites = linkage.joint_sites()
+    out: list[Capsule] = []
+    for b in design.bars:
+        pts = [axis_point(linkage, b.joints[0], design.mount(b.link, b.joints[0]).offset, sites),
+               *[np.asarray(v, float) for v in b.via],
+               axis_point(linkage, b.joints[1], design.mount(b.link, b.joints[1]).offset, sites)]
+        for p0, p1 in zip(pts, pts[1:]):
+            out.append(Capsule(b.link, "bar", p0, p1, design.bar_radius))
+    for m in design.mounts:
+        u = linkage.joint(m.joint).direction
+        c = axis_point(linkage, m.joint, m.offset, sites)
+        h = design.hub_length / 2
+        out.append(Capsule(m.link, "hub", c - h * u, c + h * u, design.hub_radius, m.joint))
+    for p in design.pins:
+        out.append(Capsule(p.carrier, "pin", axis_point(linkage, p.joint, p.start, sites),
+                           axis_point(linkage, p.joint, p.end, sites), design.pin_radius, p.joint))
+    return out
+
+
+def joint_links(linkage) -> dict[str, list[str]]:
+    """The links that hold each joint (two in a loop: the links whose ``linkage.links`` name it)."""
+    out: dict[str, list[str]] = {j.name: [] for j in linkage.joints}
+    for link, names in linkage.links.items():
+        for n in names:
+            out[n].append(link)
+    return out
+
+
+def straight_design(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
+                    hole_clearance: float = 0.0, clearance: float = 0.0, offsets: dict | None = None) -> PhysicalDesign:
+    """A design with straight bars: every link mounted at ``offsets[(link, joint)]`` (default: the foot
+    of the common normal to the link's other axis, the kinematic "natural" place), a hub of
+    ``hub_length`` at each mount, and each joint's pin spanning the hubs of its two links."""
+    from synth.linkage import pair_feet
+
+    sites = linkage.joint_sites()
+    byname = {j.name: j for j in linkage.joints}
+    mounts, bars = [], []
+    for link, names in linkage.links.items():
+        for a, b in zip(names, names[1:]):
+            fa, fb = pair_feet(byname[a], byname[b])
+            for n, f in ((a, fa), (b, fb)):
+                if all(not (m.link == link and m.joint == n) for m in mounts):
+                    off = float(np.dot(f - sites[n], byname[n].direction))
+                    if offsets and (link, n) in offsets:
+                        off = float(offsets[(link, n)])
+                    mounts.append(Mount(link, n, off))
+            bars.append(Bar(link, (a, b)))
+        if len(names) == 1:
+            mounts.append(Mount(link, names[0], float((offsets or {}).get((link, names[0]), 0.0))))
+    design = PhysicalDesign(pin_radius=pin_radius, bar_radius=bar_radius,
+                            hub_radius=max(bar_radius, pin_radius + hole_clearance + 0.5 * pin_radius),
+                            hub_length=hub_length, hole_clearance=hole_clearance, clearance=clearance,
+                            mounts=mounts, bars=bars, pins=[])
+    design.pins = pins_for(linkage, design)
+    return design
+
+
+def pins_for(linkage, design: PhysicalDesign) -> list[Pin]:
+    """One pin per joint held by two links, spanning both hubs, carried by the first link."""
+    pins = []
+    for joint, links in joint_links(linkage).items():
+        offs = [design.mount(link, joint).offset for link in links]
+        if not offs:
+            continue
+        h = design.hub_length / 2
+        pins.append(Pin(joint, min(offs) - h, max(offs) + h, links[0]))
+    return pins
