@@ -11,7 +11,9 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
-from synth.io.verify import check_output, continue_loop, law_angles, read_urdf
+from synth.io.continuation import continue_loop, law_angles
+from synth.io.urdfmodel import read_urdf
+from synth.io.verify import check_output
 
 from conftest import REPO
 
@@ -230,7 +232,7 @@ def test_tool_link_missing_is_caught(copy):
 # ------------------------------------------------------------------------------------------ unreadable OUT
 def test_unreadable_outputs_exit_2(tmp_path, copy):
     r = run("check", tmp_path / "nowhere")
-    assert r.exit_code == 2 and "not a directory" in r.stderr
+    assert r.exit_code == 2 and "no such output directory" in r.stderr
     (copy / "linkage.json").write_text("{not json")
     r = run("check", copy)
     assert r.exit_code == 2 and "not valid JSON" in r.stderr

@@ -107,7 +107,7 @@ def test_engine_not_installed_exits_2(outputs, engine, monkeypatch):
 
 def test_bad_input_exits_2(tmp_path, outputs):
     r = run("simulate", tmp_path / "missing", "--engine", "mujoco")
-    assert r.exit_code == 2 and "not a directory" in r.stderr
+    assert r.exit_code == 2 and "no such output directory" in r.stderr
     r = run("simulate", outputs["bennett"], "--engine", "mujoco", "--seconds", "-1")
     assert r.exit_code == 2
     r = run("simulate", outputs["bennett"], "--engine", "bullet")

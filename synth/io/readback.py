@@ -1,5 +1,7 @@
-"""Read an output directory (OUTPUT.md) back: the linkage, its link frames, meshes and poses.
+"""The one reader of an output directory (OUTPUT.md): the linkage, its link frames, meshes and poses.
 
+``read_files(OUT)`` parses linkage.json (plain JSON) and linkage.urdf (`synth.io.urdfmodel`) without
+judging them: `mpsynth check` (`synth.io.verify`) and `mpsynth simulate` start from it.
 ``read_output(OUT)`` rebuilds a `synth.linkage.Linkage` from ``OUT/linkage.json`` (joint lines, angle
 laws, link tree, closures, poses, tool frame) and takes from ``OUT/linkage.urdf`` what only the URDF
 holds: the link frames at the reference configuration, the mesh files with their scale and visual
@@ -22,13 +24,13 @@ from __future__ import annotations
 
 import json
 import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from synth.errors import InputError
+from synth.io.urdfmodel import UrdfModel, read_urdf
 from synth.linkage import Joint, Linkage, PoseRecord
 
 AXIS_TOL = 1e-6  # URDF vs linkage.json: direction (rad) and distance of the joint origin from the line
@@ -55,6 +57,7 @@ class Readback:
     robot_name: str
     frame_ref: dict[str, np.ndarray]  # link -> (4, 4) world frame at the reference configuration
     visuals: dict[str, list[Visual]]  # link -> its visual meshes
+    urdf: UrdfModel | None = None  # the parsed URDF (`synth.io.urdfmodel`)
     tool_frame_link: str = "tool"
     _meshes: dict | None = field(default=None, repr=False)
 
@@ -201,6 +204,16 @@ def _angle_spaced_phi(linkage: Linkage, n: int) -> np.ndarray:
 
 
 # ====================================================================== reading
+@dataclass
+class OutputFiles:
+    """The two files of one output directory, parsed but not yet judged: `mpsynth check` lists what is
+    wrong with them (``urdf.problems`` and its own checks), `read_output` refuses them on the first."""
+
+    path: Path
+    urdf: UrdfModel
+    doc: dict
+
+
 def resolve_output(out) -> Path:
     """The directory holding linkage.json: OUT itself, or its only solution subdirectory."""
     root = Path(out)
@@ -221,30 +234,68 @@ def resolve_output(out) -> Path:
     raise InputError(f"{out}: no linkage.json here; expected an mpsynth output directory")
 
 
-def read_output(out) -> Readback:
-    """Read OUT (see the module docstring). Raises InputError (one line) on any problem."""
-    root = resolve_output(out)
-    doc = _read_json(root / "linkage.json")
-    linkage = linkage_from_document(doc, where=str(root / "linkage.json"))
-    urdf = root / "linkage.urdf"
-    if not urdf.is_file():
-        raise InputError(f"{root}: no linkage.urdf")
-    robot_name, frame_ref, visuals, urdf_joints = _read_urdf(urdf, linkage)
-    _cross_check(linkage, frame_ref, urdf_joints, urdf)
-    return Readback(root=root, document=doc, linkage=linkage, robot_name=robot_name, frame_ref=frame_ref,
-                    visuals=visuals)
+def solution_dirs(out) -> list[tuple[str, Path]]:
+    """[(id, directory)] of OUT: OUT itself, or, for a multi-solution OUT (index.json, no linkage.urdf),
+    every sub-directory holding a linkage.urdf, in name order."""
+    out = Path(out)
+    if (out / "linkage.urdf").exists() or not (out / "index.json").is_file():
+        return [("", out)]
+    subs = sorted(p for p in out.iterdir() if p.is_dir() and (p / "linkage.urdf").exists())
+    if not subs:
+        raise InputError(f"{out}: index.json but no solution directory with a linkage.urdf")
+    return [(p.name, p) for p in subs]
 
 
-def _read_json(path: Path) -> dict:
+def read_files(out) -> OutputFiles:
+    """Parse OUT/linkage.json (plain JSON) and OUT/linkage.urdf (`synth.io.urdfmodel.read_urdf`).
+    InputError (one line) only when a file is missing or unreadable, or not JSON / XML at all."""
+    out = Path(out)
+    if not out.exists():
+        raise InputError(f"{out}: no such output directory")
+    if not out.is_dir():
+        raise InputError(f"{out}: not a directory")
+    for name in ("linkage.json", "linkage.urdf"):
+        if not (out / name).is_file():
+            hint = " (a multi-solution output: give OUT/<id>)" if (out / "index.json").is_file() else ""
+            raise InputError(f"{out}: no {name}{hint}")
+    urdf = read_urdf(out / "linkage.urdf")
+    path = out / "linkage.json"
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as e:
-        raise InputError(f"{path}: cannot read ({e.strerror or e})") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(f"{path}: cannot read ({getattr(e, 'strerror', None) or e})") from None
     except ValueError as e:
         raise InputError(f"{path}: not valid JSON ({e})") from None
-    if not isinstance(doc, dict) or not str(doc.get("format", "")).startswith("mpsynth.linkage/"):
-        raise InputError(f"{path}: not an mpsynth linkage.json (no 'format': 'mpsynth.linkage/1')")
-    return doc
+    if not isinstance(doc, dict):
+        raise InputError(f"{path}: not a JSON object")
+    return OutputFiles(out, urdf, doc)
+
+
+def read_output(out) -> Readback:
+    """Read OUT (see the module docstring) and judge it strictly: raises InputError (one line) on the
+    first problem of either file, a missing mesh or a URDF axis off its linkage.json line."""
+    root = resolve_output(out)
+    files = read_files(root)
+    doc, model = files.doc, files.urdf
+    where = str(root / "linkage.json")
+    if not str(doc.get("format", "")).startswith("mpsynth.linkage/"):
+        raise InputError(f"{where}: not an mpsynth linkage.json (no 'format': 'mpsynth.linkage/1')")
+    linkage = linkage_from_document(doc, where=where)
+    urdf = root / "linkage.urdf"
+    if model.problems:
+        raise InputError(f"{urdf}: {model.problems[0]}")
+    frame_ref = model.fk({})
+    for n in linkage.link_names:
+        if n not in frame_ref:
+            raise InputError(f"{urdf}: link {n!r} of linkage.json is missing")
+    visuals: dict[str, list[Visual]] = {}
+    for m in model.meshes:
+        if m.tag == "visual" and m.filename:
+            visuals.setdefault(m.link, []).append(Visual(path=_mesh_path(m.filename, urdf), scale=m.scale,
+                                                         origin=m.origin, rgba=m.rgba))
+    _cross_check(linkage, frame_ref, model, urdf)
+    return Readback(root=root, document=doc, linkage=linkage, robot_name=model.name or "linkage",
+                    frame_ref=frame_ref, visuals=visuals, urdf=model)
 
 
 def _arr(x, shape, where):
@@ -315,29 +366,6 @@ def linkage_from_document(doc: dict, where: str = "linkage.json") -> Linkage:
 
 
 # ---------------------------------------------------------------------- URDF
-def _floats(text, n, where, default):
-    if text is None:
-        return np.array(default, float)
-    try:
-        v = np.array([float(x) for x in text.split()], float)
-    except ValueError:
-        raise InputError(f"{where}: expected {n} numbers, got {text!r}") from None
-    if v.shape != (n,) or not np.all(np.isfinite(v)):
-        raise InputError(f"{where}: expected {n} finite numbers, got {text!r}")
-    return v
-
-
-def _origin(el, where) -> np.ndarray:
-    from synth.io.frames import rpy_matrix
-
-    T = np.eye(4)
-    o = el.find("origin") if el is not None else None
-    if o is not None:
-        T[:3, 3] = _floats(o.get("xyz"), 3, f"{where} origin xyz", [0, 0, 0])
-        T[:3, :3] = rpy_matrix(*_floats(o.get("rpy"), 3, f"{where} origin rpy", [0, 0, 0]))
-    return T
-
-
 def _mesh_path(filename: str, urdf: Path) -> Path:
     root = urdf.parent
     if filename.startswith("package://"):
@@ -353,83 +381,17 @@ def _mesh_path(filename: str, urdf: Path) -> Path:
     raise InputError(f"{urdf}: mesh {filename!r} not found (looked for {candidates[0] if candidates else filename})")
 
 
-def _read_urdf(urdf: Path, linkage: Linkage):
-    try:
-        robot = ET.parse(urdf).getroot()
-    except (ET.ParseError, OSError) as e:
-        raise InputError(f"{urdf}: cannot parse URDF ({e})") from None
-    if robot.tag != "robot":
-        raise InputError(f"{urdf}: root element is <{robot.tag}>, expected <robot>")
-    materials = {}
-    for m in robot.findall("material"):
-        c = m.find("color")
-        if m.get("name") and c is not None:
-            materials[m.get("name")] = tuple(_floats(c.get("rgba"), 4, f"{urdf}: material", [0.5] * 4))
-    visuals: dict[str, list[Visual]] = {}
-    for link in robot.findall("link"):
-        name = link.get("name")
-        for vis in link.findall("visual"):
-            mesh = vis.find("geometry/mesh")
-            if mesh is None or not mesh.get("filename"):
-                continue
-            where = f"{urdf}: link {name} visual"
-            rgba = None
-            mat = vis.find("material")
-            if mat is not None:
-                c = mat.find("color")
-                if c is not None:
-                    rgba = tuple(_floats(c.get("rgba"), 4, f"{where} color", [0.5] * 4))
-                else:
-                    rgba = materials.get(mat.get("name"))
-            visuals.setdefault(name, []).append(Visual(
-                path=_mesh_path(mesh.get("filename"), urdf),
-                scale=_floats(mesh.get("scale"), 3, f"{where} mesh scale", [1, 1, 1]),
-                origin=_origin(vis, where), rgba=rgba))
-    joints = {}
-    for j in robot.findall("joint"):
-        p, c = j.find("parent"), j.find("child")
-        if p is None or c is None:
-            raise InputError(f"{urdf}: joint {j.get('name')} lacks <parent> or <child>")
-        axis = j.find("axis")
-        joints[j.get("name")] = dict(type=j.get("type"), parent=p.get("link"), child=c.get("link"),
-                                     origin=_origin(j, f"{urdf}: joint {j.get('name')}"),
-                                     axis=_floats(axis.get("xyz") if axis is not None else None, 3,
-                                                  f"{urdf}: joint {j.get('name')} axis", [1, 0, 0]))
-    # link frames at the reference configuration (all joint angles zero): forward kinematics from base
-    frame = {"base": np.eye(4)}
-    by_child = {d["child"]: (n, d) for n, d in joints.items()}
-    pending = [n for n in by_child]
-    for _ in range(len(pending) + 1):
-        left = []
-        for child in pending:
-            n, d = by_child[child]
-            if d["parent"] in frame:
-                frame[child] = frame[d["parent"]] @ d["origin"]
-            else:
-                left.append(child)
-        if not left or len(left) == len(pending):
-            pending = left
-            break
-        pending = left
-    if pending:
-        raise InputError(f"{urdf}: links {', '.join(pending)} are not connected to 'base'")
-    for n in linkage.link_names:
-        if n not in frame:
-            raise InputError(f"{urdf}: link {n!r} of linkage.json is missing")
-    return robot.get("name", "linkage"), frame, visuals, joints
-
-
-def _cross_check(linkage: Linkage, frame: dict, joints: dict, urdf: Path) -> None:
+def _cross_check(linkage: Linkage, frame: dict, model: UrdfModel, urdf: Path) -> None:
     scale = linkage.extent()
     for j in linkage.joints:
-        d = joints.get(j.name)
+        d = model.joints.get(j.name)
         if d is None:
             raise InputError(f"{urdf}: joint {j.name} of linkage.json is missing")
-        if (d["parent"], d["child"]) != (j.parent, j.child):
-            raise InputError(f"{urdf}: joint {j.name} connects {d['parent']}->{d['child']}, "
+        if (d.parent, d.child) != (j.parent, j.child):
+            raise InputError(f"{urdf}: joint {j.name} connects {d.parent}->{d.child}, "
                              f"linkage.json says {j.parent}->{j.child}")
         F = frame[j.child]
-        u = F[:3, :3] @ d["axis"]
+        u = F[:3, :3] @ d.axis
         u = u / max(np.linalg.norm(u), 1e-300)
         p = F[:3, 3]
         ang = math.asin(min(1.0, float(np.linalg.norm(np.cross(u, j.direction)))))

@@ -1,8 +1,9 @@
 """`mpsynth check`: read an output directory back and verify the whole claim it makes (OUTPUT.md).
 
-Nothing here trusts the synthesis code: the URDF is parsed with ``xml.etree`` into our own small model
-(forward kinematics by 4x4 products), linkage.json is read as plain JSON, meshes are loaded with
-trimesh from the files. The checks, each adding one line per problem:
+Nothing here trusts the synthesis code: OUT is read by the one reader of output directories
+(`synth.io.readback.read_files`: the URDF into our own small model, `synth.io.urdfmodel`, forward
+kinematics by 4x4 products; linkage.json as plain JSON), meshes are loaded with trimesh from the files,
+the independent continuation is `synth.io.continuation`. The checks, each adding one line per problem:
 
 1. structure: one root ``base``, unique names, one parent per link, no cycle, joints name existing
    links, the ``<gazebo><joint type="fixed">`` welds (named ``loop_closure``, ``loop_closure_2``, ...)
@@ -28,347 +29,20 @@ tolerance)`` rad. Figures of every measurement are returned for ``--json``.
 """
 from __future__ import annotations
 
-import json
 import math
-import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from synth.errors import InputError
-
-TWO_PI = 2.0 * math.pi
-
-
-# ----------------------------------------------------------------------------- small rotations
-def _skew(v):
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def _rpy(roll, pitch, yaw):
-    """URDF fixed-axis roll-pitch-yaw: Rz(yaw) Ry(pitch) Rx(roll)."""
-    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
-                              math.cos(yaw), math.sin(yaw))
-    return np.array([
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ])
-
-
-def _axis_rotations(u, q):
-    """Rotations (N, 3, 3) about unit axis u by angles q (N,) (Rodrigues)."""
-    q = np.atleast_1d(np.asarray(q, float))
-    K = _skew(u)
-    s, c = np.sin(q)[:, None, None], np.cos(q)[:, None, None]
-    return np.eye(3) + s * K + (1.0 - c) * (K @ K)
-
-
-def rot_angle(R):
-    """Rotation angle of rotations (..., 3, 3), accurate near 0 and pi."""
-    s = 0.5 * np.linalg.norm(np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
-                                       R[..., 1, 0] - R[..., 0, 1]], -1), axis=-1)
-    return np.arctan2(s, 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0))
-
-
-def _wrap(x):
-    """Angles to (-pi, pi]."""
-    return np.mod(np.asarray(x, float) + math.pi, TWO_PI) - math.pi
-
-
-def _invert(T):
-    Ti = np.zeros_like(T)
-    Rt = np.swapaxes(T[..., :3, :3], -1, -2)
-    Ti[..., :3, :3] = Rt
-    Ti[..., :3, 3] = -np.einsum("...ij,...j->...i", Rt, T[..., :3, 3])
-    Ti[..., 3, 3] = 1.0
-    return Ti
-
-
-# ----------------------------------------------------------------------------- URDF model
-@dataclass
-class UJoint:
-    name: str
-    kind: str
-    parent: str
-    child: str
-    origin: np.ndarray  # 4x4, joint frame in the parent link frame
-    axis: np.ndarray  # unit axis in the joint (= child link) frame
-    axis_raw: np.ndarray
-    limit: tuple | None = None  # (lower, upper) for revolute joints
-
-
-@dataclass
-class UMesh:
-    link: str
-    tag: str  # visual | collision
-    filename: str
-    scale: np.ndarray
-    origin: np.ndarray = field(default_factory=lambda: np.eye(4))  # geometry frame in the link frame
-
-
-@dataclass
-class UrdfModel:
-    """Just what the checks need from a URDF file."""
-
-    name: str
-    links: list[str]
-    joints: dict[str, UJoint]
-    closures: list[tuple[str, str, str]]  # (weld name, parent link, child link)
-    meshes: list[UMesh]
-    problems: list[str] = field(default_factory=list)
-    order: list[str] = field(default_factory=list)  # joints in topological order from base
-    inertials: dict = field(default_factory=dict)  # link -> (mass, 4x4 inertial frame, 3x3 inertia)
-    parent_joint: dict[str, str] = field(default_factory=dict)  # child link -> joint name
-
-    def path(self, link: str) -> list[str]:
-        """Joint names from base to ``link``."""
-        out, seen = [], set()
-        while link in self.parent_joint and link not in seen:
-            seen.add(link)
-            jn = self.parent_joint[link]
-            out.append(jn)
-            link = self.joints[jn].parent
-        return out[::-1]
-
-    def fk(self, cfg: dict, n: int | None = None) -> dict[str, np.ndarray]:
-        """World frames of every reachable link, (4, 4) or (n, 4, 4) when ``n`` is given; ``cfg`` maps
-        joint names to angles (scalars or arrays of length n), missing joints are 0."""
-        if n is None:
-            return self._fk1(cfg)
-        m = n
-        frames = {"base": np.broadcast_to(np.eye(4), (m, 4, 4)).copy()}
-        for jn in self.order:
-            j = self.joints[jn]
-            F = frames[j.parent] @ j.origin
-            if j.kind in ("revolute", "continuous"):
-                q = np.broadcast_to(np.asarray(cfg.get(jn, 0.0), float), (m,))
-                M = np.zeros((m, 4, 4))
-                M[:, :3, :3] = _axis_rotations(j.axis, q)
-                M[:, 3, 3] = 1.0
-                F = F @ M
-            elif j.kind == "prismatic":
-                q = np.broadcast_to(np.asarray(cfg.get(jn, 0.0), float), (m,))
-                M = np.broadcast_to(np.eye(4), (m, 4, 4)).copy()
-                M[:, :3, 3] = q[:, None] * j.axis
-                F = F @ M
-            frames[j.child] = F
-        return frames
-
-    def _fk1(self, cfg: dict) -> dict[str, np.ndarray]:
-        """`fk` for one configuration (the continuation's inner loop: plain 4x4 products)."""
-        frames = {"base": np.eye(4)}
-        for jn in self.order:
-            j = self.joints[jn]
-            F = frames[j.parent] @ j.origin
-            q = float(cfg.get(jn, 0.0))
-            if j.kind in ("revolute", "continuous") and q != 0.0:
-                x, y, z = j.axis
-                c, s = math.cos(q), math.sin(q)
-                C = 1.0 - c
-                M = np.array([[c + x * x * C, x * y * C - z * s, x * z * C + y * s, 0.0],
-                              [y * x * C + z * s, c + y * y * C, y * z * C - x * s, 0.0],
-                              [z * x * C - y * s, z * y * C + x * s, c + z * z * C, 0.0],
-                              [0.0, 0.0, 0.0, 1.0]])
-                F = F @ M
-            elif j.kind == "prismatic" and q != 0.0:
-                M = np.eye(4)
-                M[:3, 3] = q * j.axis
-                F = F @ M
-            frames[j.child] = F
-        return frames
-
-
-def _floats(text, count, what, problems):
-    try:
-        vals = [float(v) for v in (text or "").split()]
-    except ValueError:
-        vals = []
-    if len(vals) != count or not all(math.isfinite(v) for v in vals):
-        problems.append(f"URDF: {what} is {text!r}, expected {count} finite numbers")
-        return None
-    return vals
-
-
-def _origin(el, what, problems) -> np.ndarray:
-    """4x4 transform of an <origin xyz rpy> element (identity when absent)."""
-    T = np.eye(4)
-    if el is None:
-        return T
-    xyz = _floats(el.get("xyz", "0 0 0"), 3, f"{what} xyz", problems)
-    rpy = _floats(el.get("rpy", "0 0 0"), 3, f"{what} rpy", problems)
-    if xyz is not None and rpy is not None:
-        T[:3, :3] = _rpy(*rpy)
-        T[:3, 3] = xyz
-    return T
-
-
-def read_urdf(path) -> UrdfModel:
-    """Parse a URDF file into a `UrdfModel`. An unreadable or non-XML file raises InputError; anything
-    else wrong is listed in ``problems``."""
-    path = Path(path)
-    try:
-        root = ET.parse(path).getroot()
-    except OSError as e:
-        raise InputError(f"{path}: cannot read ({e.strerror or e})") from None
-    except ET.ParseError as e:
-        raise InputError(f"{path}: not well-formed XML ({e})") from None
-    if root.tag != "robot":
-        raise InputError(f"{path}: root element is <{root.tag}>, expected <robot>")
-    problems: list[str] = []
-    links: list[str] = []
-    meshes: list[UMesh] = []
-    inertials: dict = {}
-    for el in root.findall("link"):
-        name = el.get("name")
-        if not name:
-            problems.append("URDF: a <link> has no name")
-            continue
-        if name in links:
-            problems.append(f"URDF: link {name} is defined twice")
-            continue
-        links.append(name)
-        for tag in ("visual", "collision"):
-            for part in el.findall(tag):
-                m = part.find("geometry/mesh")
-                if m is None:
-                    continue
-                scale = _floats(m.get("scale", "1 1 1"), 3, f"mesh scale of link {name}", problems)
-                meshes.append(UMesh(name, tag, m.get("filename", ""), np.array(scale or [1.0, 1.0, 1.0]),
-                                    _origin(part.find("origin"), f"{tag} origin of link {name}", problems)))
-        inertial = el.find("inertial")
-        if inertial is not None:
-            mass_el, I_el = inertial.find("mass"), inertial.find("inertia")
-            mass = _floats(mass_el.get("value") if mass_el is not None else None, 1, f"mass of link {name}", problems)
-            keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
-            vals = _floats(" ".join(I_el.get(k, "0") for k in keys) if I_el is not None else None, 6,
-                           f"inertia of link {name}", problems)
-            if mass is not None and vals is not None:
-                ixx, ixy, ixz, iyy, iyz, izz = vals
-                I = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-                inertials[name] = (mass[0], _origin(inertial.find("origin"), f"inertial origin of link {name}",
-                                                    problems), I)
-    joints: dict[str, UJoint] = {}
-    parent_joint: dict[str, str] = {}
-    for el in root.findall("joint"):
-        name, kind = el.get("name"), el.get("type")
-        if not name:
-            problems.append("URDF: a <joint> has no name")
-            continue
-        if name in joints:
-            problems.append(f"URDF: joint {name} is defined twice")
-            continue
-        p, c = el.find("parent"), el.find("child")
-        parent = p.get("link") if p is not None else None
-        child = c.get("link") if c is not None else None
-        if not parent or not child:
-            problems.append(f"URDF: joint {name} lacks a parent or child link")
-            continue
-        bad = [lk for lk in (parent, child) if lk not in links]
-        if bad:
-            problems.append(f"URDF: joint {name} names missing link(s) {', '.join(bad)}")
-            continue
-        if kind not in ("revolute", "continuous", "prismatic", "fixed"):
-            problems.append(f"URDF: joint {name} has type {kind!r} (expected continuous, revolute or fixed)")
-            continue
-        n_before = len(problems)
-        T = _origin(el.find("origin"), f"origin of joint {name}", problems)
-        a = el.find("axis")
-        axis = _floats(a.get("xyz", "1 0 0") if a is not None else "1 0 0", 3, f"axis of joint {name}", problems)
-        if axis is None or len(problems) > n_before:
-            continue
-        axis = np.array(axis)
-        if kind != "fixed" and not np.linalg.norm(axis) > 0:
-            problems.append(f"URDF: joint {name} has a zero axis")
-            continue
-        limit = None
-        lim = el.find("limit")
-        if kind == "revolute" and lim is not None:
-            limit = (float(lim.get("lower", "0")), float(lim.get("upper", "0")))
-        if child in parent_joint:
-            problems.append(f"URDF: link {child} has two parents (joints {parent_joint[child]} and {name})")
-            continue
-        parent_joint[child] = name
-        unit = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > 0 else axis
-        joints[name] = UJoint(name, kind, parent, child, T, unit, axis, limit)
-    roots = [lk for lk in links if lk not in parent_joint]
-    if roots != ["base"]:
-        problems.append(f"URDF: root link(s) {roots}, expected exactly ['base']")
-    # topological order from base; links not reached hang in a cycle or under another root
-    order, reached, frontier = [], {"base"}, ["base"]
-    children: dict[str, list[str]] = {}
-    for jn, j in joints.items():
-        children.setdefault(j.parent, []).append(jn)
-    while frontier:
-        nxt = []
-        for lk in frontier:
-            for jn in children.get(lk, []):
-                order.append(jn)
-                reached.add(joints[jn].child)
-                nxt.append(joints[jn].child)
-        frontier = nxt
-    lost = [lk for lk in links if lk not in reached]
-    if lost and "base" in links:
-        problems.append(f"URDF: link(s) {', '.join(lost)} not connected to base")
-    closures = []
-    for g in root.findall("gazebo"):
-        for el in g.findall("joint"):
-            if el.get("type") != "fixed":
-                continue
-            p, c = el.find("parent"), el.find("child")
-            if p is None or c is None or not (p.text or "").strip() or not (c.text or "").strip():
-                problems.append(f"URDF: <gazebo> joint {el.get('name')} lacks <parent> or <child>")
-                continue
-            closures.append((el.get("name") or "", p.text.strip(), c.text.strip()))
-    return UrdfModel(root.get("name", ""), links, joints, closures, meshes, problems, order, inertials,
-                     parent_joint)
-
-
-# ----------------------------------------------------------------------------- reading OUT
-@dataclass
-class Output:
-    path: Path
-    urdf: UrdfModel
-    doc: dict
-
-
-def read_output(out) -> Output:
-    """Read OUT/linkage.urdf and OUT/linkage.json; InputError (exit 2) when OUT is unreadable."""
-    out = Path(out)
-    if not out.is_dir():
-        raise InputError(f"{out}: not a directory")
-    for name in ("linkage.urdf", "linkage.json"):
-        if not (out / name).is_file():
-            hint = " (a multi-solution output: give OUT/<id>)" if (out / "index.json").is_file() else ""
-            raise InputError(f"{out}: no {name}{hint}")
-    urdf = read_urdf(out / "linkage.urdf")
-    try:
-        doc = json.loads((out / "linkage.json").read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as e:
-        raise InputError(f"{out / 'linkage.json'}: cannot read ({e})") from None
-    except ValueError as e:
-        raise InputError(f"{out / 'linkage.json'}: not valid JSON ({e})") from None
-    if not isinstance(doc, dict):
-        raise InputError(f"{out / 'linkage.json'}: not a JSON object")
-    return Output(out, urdf, doc)
-
-
-def solution_dirs(out) -> list[tuple[str, Path]]:
-    """[(id, directory)] to check: OUT itself, or, for a multi-solution OUT (index.json, no
-    linkage.urdf), every sub-directory holding a linkage.urdf, in name order."""
-    out = Path(out)
-    if (out / "linkage.urdf").exists() or not (out / "index.json").is_file():
-        return [("", out)]
-    subs = sorted(p for p in out.iterdir() if p.is_dir() and (p / "linkage.urdf").exists())
-    if not subs:
-        raise InputError(f"{out}: index.json but no solution directory with a linkage.urdf")
-    return [(p.name, p) for p in subs]
+from synth.algebra.polynomial import pose_at
+from synth.io.continuation import continue_loop, law_angles
+from synth.io.frames import TWO_PI, invert_transform, pose_diff, wrap_angle
+from synth.io.readback import OutputFiles, read_files, solution_dirs
 
 
 # ----------------------------------------------------------------------------- checker
 class _Checker:
-    def __init__(self, output: Output, poses=None, rtol: float = 1e-8, steps: int = 360,
+    def __init__(self, output: OutputFiles, poses=None, rtol: float = 1e-8, steps: int = 360,
                  samples: int = 720, meshes: bool = True):
         self.o = output
         self.u = output.urdf
@@ -614,18 +288,18 @@ class _Checker:
                 if M is None:
                     self.fail(f"linkage.json: pose {i} ({name}) has no 4x4 matrix")
                 else:
-                    dt, dr = _pose_diff(F["tool"], M)
+                    dt, dr = pose_diff(F["tool"], M)
                     pt, pr = max(pt, dt), max(pr, dr)
                     if dt > self.tol_len or dr > self.tol_ang:
                         self.fail(f"tool frame misses pose {i} ({name}) of linkage.json by {dt:.3g} m, {dr:.3g} rad")
                 if file_T is not None and i < len(file_T):
-                    dt, dr = _pose_diff(F["tool"], file_T[i])
+                    dt, dr = pose_diff(F["tool"], file_T[i])
                     ft, fr = max(ft, dt), max(fr, dr)
                     if dt > self.tol_len or dr > self.tol_ang:
                         self.fail(f"tool frame misses pose {i} ({name}) of {self.poses_file.source} "
                                   f"by {dt:.3g} m, {dr:.3g} rad")
             for (a, b), R in zip(self.closures, ref):
-                dt, dr = _pose_diff(F[a] @ R, F[b])
+                dt, dr = pose_diff(F[a] @ R, F[b])
                 ct, cr = max(ct, dt), max(cr, dr)
                 if dt > self.tol_len or dr > self.tol_ang:
                     self.fail(f"loop {a}-{b} open at pose {i} ({name}) by {dt:.3g} m, {dr:.3g} rad")
@@ -636,7 +310,7 @@ class _Checker:
 
     def _closure_refs(self):
         F0 = self.u.fk({})
-        return [_invert(F0[a]) @ F0[b] for a, b in self.closures]
+        return [invert_transform(F0[a]) @ F0[b] for a, b in self.closures]
 
     # -------------------------------------------------------------- 4. exact cycle from the angle laws
     def laws(self):
@@ -664,7 +338,7 @@ class _Checker:
                 if jn in laws:
                     a, b = laws[jn]
                     th = 0.0 if math.isinf(t) else 2.0 * math.atan2(b, t - a)
-                    worst = max(worst, abs(float(_wrap(th - float(v)))))
+                    worst = max(worst, abs(float(wrap_angle(th - float(v)))))
         if worst > self.tol_ang:
             self.fail(f"linkage.json: pose joint angles differ from the angle laws by {worst:.3g} rad")
         self.figures["law_vs_pose_angles"] = worst
@@ -674,7 +348,7 @@ class _Checker:
         F = self.u.fk(cfg, n=len(phi))
         ct = cr = 0.0
         for (a, b), R in zip(self.closures, self._closure_refs()):
-            dt, dr = _pose_diff(F[a] @ R, F[b])
+            dt, dr = pose_diff(F[a] @ R, F[b])
             ct, cr = max(ct, float(dt.max())), max(cr, float(dr.max()))
         self.figures["law_closure_error"] = {"translation": ct, "rotation": cr, "samples": len(phi)}
         if ct > self.tol_len or cr > self.tol_ang:
@@ -684,16 +358,14 @@ class _Checker:
         tool_link = self.doc.get("tool_link", "coupler")
         if isinstance(C, list) and C and tool_link in F:
             try:
-                from synth.algebra.polynomial import pose_at
-
                 Cn = np.array(C, float)
                 a, b = laws[self.driver]
                 s, c = np.sin(phi / 2), np.cos(phi / 2)
                 with np.errstate(divide="ignore", invalid="ignore"):
                     t = np.where(s == 0, np.inf, a + b * c / s)
                 target = pose_at(Cn, t)
-                disp = F[tool_link] @ _invert(self.u.fk({})[tool_link])
-                dt, dr = _pose_diff(disp, target)
+                disp = F[tool_link] @ invert_transform(self.u.fk({})[tool_link])
+                dt, dr = pose_diff(disp, target)
                 me = {"translation": float(dt.max()), "rotation": float(dr.max())}
             except Exception as e:  # noqa: BLE001
                 self.fail(f"linkage.json: motion_polynomial cannot be evaluated ({type(e).__name__}: {e})")
@@ -718,7 +390,7 @@ class _Checker:
             exact = law_angles(laws, self.driver, path[:, 0])
             dev = 0.0
             for k, jn in enumerate(others):
-                dev = max(dev, float(np.abs(_wrap(path[:, k + 1] - exact[jn])).max()))
+                dev = max(dev, float(np.abs(wrap_angle(path[:, k + 1] - exact[jn])).max()))
         fig = {"driver": self.driver, "followed": result["followed"], "steps": result["accepted"],
                "rejected": result["rejected"], "max_residual": result["max_residual"]}
         if dev is not None:
@@ -728,7 +400,7 @@ class _Checker:
             self.fail(f"linkage driven by {self.driver} stuck at {math.degrees(result['angle']):.4g} deg of a "
                       f"full turn (loop residual {result['stuck_residual']:.3g})")
         else:
-            back = float(np.abs(_wrap(np.array(result["path"][-1][1:]))).max()) if others else 0.0
+            back = float(np.abs(wrap_angle(np.array(result["path"][-1][1:]))).max()) if others else 0.0
             fig["return_error"] = back
             if back > 1e-6:
                 self.fail(f"after a full turn of {self.driver} the linkage is not back at all-zero (off by {back:.3g} rad)")
@@ -767,7 +439,7 @@ def check_output(out, poses=None, *, rtol: float = 1e-8, steps: int = 360, sampl
                  meshes: bool = True) -> dict:
     """Check one output directory; returns ``{"ok", "problems", "figures"}``. ``poses`` is an optional
     `synth.io.poses.PoseSet` to compare the tool frame with. Raises InputError when OUT is unreadable."""
-    output = read_output(out)
+    output = read_files(out)
     problems, figures = _Checker(output, poses, rtol, steps, samples, meshes).run()
     return {"ok": not problems, "problems": problems, "figures": figures}
 
@@ -784,156 +456,6 @@ def check_tree(out, poses=None, **kw) -> dict:
         problems += [f"{sid}: {p}" for p in r["problems"]]
         figures[sid] = r["figures"]
     return {"ok": not problems, "problems": problems, "figures": figures}
-
-
-# ----------------------------------------------------------------------------- angle laws
-def law_angles(laws: dict, driver: str, phi) -> dict[str, np.ndarray]:
-    """Exact joint angles when the driver joint is at angle(s) ``phi`` in [0, 2pi]: the driver's law
-    theta = 2 atan2(b, t - a) gives t = a + b cot(phi/2); with s = sin(phi/2) >= 0, c = cos(phi/2),
-    theta_j = 2 atan2(b_j s, (a_d - a_j) s + b_d c), which is exact at phi = 0 (t = infinity) too."""
-    phi = np.asarray(phi, float)
-    ad, bd = laws[driver]
-    s, c = np.sin(phi / 2), np.cos(phi / 2)
-    out = {}
-    for jn, (a, b) in laws.items():
-        out[jn] = phi.copy() if jn == driver else np.mod(2.0 * np.arctan2(b * s, (ad - a) * s + bd * c), TWO_PI)
-    return out
-
-
-# ----------------------------------------------------------------------------- continuation
-def loop_residual(u: UrdfModel, closures, refs, cfg, unknowns, length, jacobian=True):
-    """Residual of all loops (6 per loop: translation / length, rotation) and its Jacobian with respect
-    to the ``unknowns`` joint angles (and, as a last column, nothing else)."""
-    F = u.fk(cfg)
-    rows, jac = [], []
-    axes = {}
-    paths = _path_sets(u, closures)
-    if jacobian:
-        for jn in unknowns:
-            j = u.joints[jn]
-            Fj = F[j.parent] @ j.origin
-            axes[jn] = (Fj[:3, :3] @ j.axis, Fj[:3, 3])
-    for (a, b), R in zip(closures, refs):
-        G = F[b] @ _invert(R)  # where link a should be, according to branch b
-        Fa = F[a]
-        M = G[:3, :3] @ Fa[:3, :3].T
-        e_p = (G[:3, 3] - Fa[:3, 3]) / length
-        e_r = 0.5 * np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]])
-        rows.append(np.concatenate([e_p, e_r]))
-        if jacobian:
-            pa, pb = paths[(a, b)]
-            J = np.zeros((6, len(unknowns)))
-            for k, jn in enumerate(unknowns):
-                w, c = axes[jn]
-                sb, sa = jn in pb, jn in pa
-                if sb == sa:
-                    continue
-                if sb:
-                    J[:3, k] = _cross(w, G[:3, 3] - c) / length
-                    J[3:, k] = w
-                else:
-                    J[:3, k] = -_cross(w, Fa[:3, 3] - c) / length
-                    J[3:, k] = -w
-            jac.append(J)
-    r = np.concatenate(rows) if rows else np.zeros(0)
-    return r, (np.vstack(jac) if jacobian and jac else None)
-
-
-def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-_PATHS: dict = {}
-
-
-def _path_sets(u, closures):
-    key = (id(u), tuple(closures))
-    if key not in _PATHS or _PATHS[key][0] is not u:
-        _PATHS.clear()
-        _PATHS[key] = (u, {(a, b): (set(u.path(a)), set(u.path(b))) for a, b in closures})
-    return _PATHS[key][1]
-
-
-def _gauss_newton(fun, x0, tol, max_iter=25):
-    """Gauss-Newton with step halving (least squares through the SVD, so redundant loop equations and
-    rank deficiency are fine). Returns (x, |r|)."""
-    x = x0.copy()
-    r, J = fun(x)
-    nr = float(np.linalg.norm(r))
-    for _ in range(max_iter):
-        if nr <= 1e-3 * tol:
-            break
-        dx = np.linalg.lstsq(J, -r, rcond=1e-12)[0]
-        lam, improved = 1.0, False
-        for _ in range(8):
-            xn = x + lam * dx
-            rn, Jn = fun(xn)
-            nrn = float(np.linalg.norm(rn))
-            if nrn < nr:
-                x, r, J, nr, improved = xn, rn, Jn, nrn, True
-                break
-            lam /= 2
-        if not improved or float(np.abs(lam * dx).max()) < 1e-16:
-            break
-    return x, nr
-
-
-def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, steps: int = 360,
-                  length: float = 1.0, tol: float = 1e-8, min_step: float = 1e-7) -> dict:
-    """Drive ``driver`` from 0 through a full turn, solving ``others`` so every loop stays closed.
-
-    Adaptive continuation: tangent predictor (from the loop Jacobian), Gauss-Newton corrector, the step
-    (at most 2 pi / steps) halves when the corrector fails or moves a joint by more than a quarter of
-    the step bound, and grows by 1.5 after a success; below ``min_step`` * 2 pi the linkage is stuck.
-    Returns ``followed`` (fraction of the turn), ``path`` (rows: driver angle, others' angles),
-    ``accepted``/``rejected`` step counts, ``max_residual`` (of accepted points) and, when stuck, the
-    ``angle`` and ``stuck_residual``."""
-    F0 = u.fk({})
-    refs = [_invert(F0[a]) @ F0[b] for a, b in closures]
-    all_j = [driver] + list(others)
-    h_max = TWO_PI / steps
-    h_min = TWO_PI * min_step
-
-    def fun_at(phi):
-        def f(x):
-            cfg = {driver: phi, **dict(zip(others, x))}
-            return loop_residual(u, closures, refs, cfg, others, length)
-        return f
-
-    def tangent(phi, x):
-        cfg = {driver: phi, **dict(zip(others, x))}
-        _, J = loop_residual(u, closures, refs, cfg, all_j, length)
-        if J is None or not others:
-            return np.zeros(len(others))
-        return np.linalg.lstsq(J[:, 1:], -J[:, 0], rcond=1e-10)[0]
-
-    phi, h = 0.0, h_max
-    x = np.zeros(len(others))
-    path = [np.concatenate([[0.0], x])]
-    accepted = rejected = 0
-    worst = float(np.linalg.norm(fun_at(0.0)(x)[0]))
-    stuck_res = 0.0
-    while phi < TWO_PI - 1e-13:
-        step = min(h, TWO_PI - phi)
-        guess = x + step * tangent(phi, x)
-        xn, res = _gauss_newton(fun_at(phi + step), guess, tol)
-        jump = float(np.abs(xn - guess).max()) if len(xn) else 0.0
-        if res <= tol and jump <= 0.25 * h_max + 1e-12 and np.all(np.isfinite(xn)):
-            phi += step
-            x = xn
-            worst = max(worst, res)
-            path.append(np.concatenate([[phi], x]))
-            accepted += 1
-            h = min(h_max, 1.5 * step)
-        else:
-            rejected += 1
-            stuck_res = res
-            if step <= h_min:
-                return {"followed": phi / TWO_PI, "path": path, "accepted": accepted, "rejected": rejected,
-                        "max_residual": worst, "angle": phi, "stuck_residual": stuck_res}
-            h = step / 2
-    return {"followed": 1.0, "path": path, "accepted": accepted, "rejected": rejected, "max_residual": worst,
-            "angle": TWO_PI, "stuck_residual": 0.0}
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -953,9 +475,3 @@ def _vector(v):
     return x if x.shape == (3,) and np.all(np.isfinite(x)) else None
 
 
-def _pose_diff(A, B):
-    dt = np.linalg.norm(A[..., :3, 3] - B[..., :3, 3], axis=-1)
-    dr = rot_angle(np.swapaxes(A[..., :3, :3], -1, -2) @ B[..., :3, :3])
-    if np.ndim(dt) == 0:
-        return float(dt), float(dr)
-    return dt, dr

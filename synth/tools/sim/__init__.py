@@ -17,7 +17,7 @@ What every engine does (OUTPUT.md's closed-loop convention):
   with a position motor, paced for an even joint-space speed of the whole linkage (`DriveProfile`);
 - after every step compare each other joint with the exact motion: the driver's actual angle gives the
   motion parameter t = a + b cot(phi/2) of its angle law theta(t) = 2 atan2(b, t - a), which gives
-  every joint's exact angle (`synth.io.verify.law_angles`); and measure the gap of every weld (the engine's
+  every joint's exact angle (`synth.io.continuation.law_angles`); and measure the gap of every weld (the engine's
   own world frames of the two welded links against their relative pose at all-zero angles).
 """
 from __future__ import annotations
@@ -30,6 +30,9 @@ from pathlib import Path
 import numpy as np
 
 from synth.errors import InputError, MpsynthError
+from synth.io.continuation import law_angles
+from synth.io.frames import invert_transform, pose_diff
+from synth.io.readback import read_files
 
 ENGINES = ("pybullet", "mujoco")
 TWO_PI = 2.0 * math.pi
@@ -60,7 +63,7 @@ class SimSetup:
     """Everything the engines need, read from OUT (no engine imported here)."""
 
     out: Path
-    urdf: object  # synth.io.verify.UrdfModel
+    urdf: object  # synth.io.urdfmodel.UrdfModel
     name: str
     laws: dict  # joint -> (a, b)
     driver: str
@@ -74,8 +77,6 @@ class SimSetup:
 
     def exact(self, phi):
         """Exact angles of every joint when the driver is at angle(s) phi (radians, any turn)."""
-        from synth.io.verify import law_angles
-
         return law_angles(self.laws, self.driver, np.mod(np.asarray(phi, float), TWO_PI))
 
     def mesh_path(self, filename: str) -> Path:
@@ -88,9 +89,7 @@ class SimSetup:
 
 def load_setup(out) -> SimSetup:
     """Read OUT (linkage.urdf, linkage.json). InputError when unreadable or not a simulable linkage."""
-    from synth.io.verify import _invert, read_output
-
-    o = read_output(out)
+    o = read_files(out)
     u, doc = o.urdf, o.doc
     if u.problems:
         raise InputError(f"{out}: linkage.urdf is malformed: {u.problems[0]}")
@@ -117,7 +116,7 @@ def load_setup(out) -> SimSetup:
     driver = br[0][0] if (isinstance(br, list) and br and isinstance(br[0], list) and br[0]
                           and br[0][0] in joints) else u.path(closures[0][0])[0]
     F0 = u.fk({})
-    refs = [_invert(F0[a]) @ F0[b] for a, b in closures]
+    refs = [invert_transform(F0[a]) @ F0[b] for a, b in closures]
     inertials, split = sim_inertials(u, closures, refs)
     pts = np.array([F0[u.joints[jn].child][:3, 3] for jn in joints])
     size = float(np.sqrt(np.mean(np.sum((pts - pts.mean(0)) ** 2, 1))))
@@ -129,8 +128,6 @@ def sim_inertials(u, closures, refs):
     """Inertials for the simulation: a welded copy with a negligible (placeholder) mass shares its
     partner's mass and inertia equally (same centre of mass and axes, expressed in each link's frame).
     Returns ({link: (mass, 4x4 frame, 3x3 inertia)}, [links split])."""
-    from synth.io.verify import _invert
-
     out = {k: (m, T.copy(), I.copy()) for k, (m, T, I) in u.inertials.items()}
     copies: dict[str, list] = {}
     for (a, b), R in zip(closures, refs):
@@ -144,7 +141,7 @@ def sim_inertials(u, closures, refs):
         k = len(dups) + 1
         out[a] = (m / k, T.copy(), I / k)
         for b, R in dups:  # R = pose of b in a's frame; the inertial frame in b's frame is R^-1 T
-            out[b] = (m / k, _invert(R) @ T, I / k)
+            out[b] = (m / k, invert_transform(R) @ T, I / k)
         split.append(a)
     return out, split
 
@@ -222,10 +219,8 @@ class Tracker:
 
     def frames(self, frames: dict) -> None:
         """frames: link -> world frame(s) (4x4 or (n, 4, 4)) as the engine reports them."""
-        from synth.io.verify import _pose_diff
-
         for (a, b), R in zip(self.setup.closures, self.setup.refs):
-            dt, dr = _pose_diff(np.asarray(frames[a]) @ R, np.asarray(frames[b]))
+            dt, dr = pose_diff(np.asarray(frames[a]) @ R, np.asarray(frames[b]))
             self.max_gap = max(self.max_gap, float(np.max(dt)))
             self.max_gap_angle = max(self.max_gap_angle, float(np.max(dr)))
 

@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.io.frames import invert_transform, rpy_from_matrix
+
 DEFAULT_TIMESTEP = 1e-3
 ITERATIONS = 3000
 ERP = 0.8  # error reduction per step; PyBullet's default 0.2 lets the weld drift 4x further
@@ -33,8 +35,6 @@ MOTOR_FORCE = 1e4  # N m: a bound, not a gain (POSITION_CONTROL is a velocity-le
 
 def sim_urdf_text(setup) -> str:
     """linkage.urdf for PyBullet: absolute mesh paths, simulation inertials, no <gazebo> tags."""
-    from synth.io.frames import rpy_from_matrix
-
     root = ET.parse(setup.out / "linkage.urdf").getroot()
     for g in root.findall("gazebo"):
         root.remove(g)
@@ -106,7 +106,6 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
     """The PyBullet run itself (call it in a child process only)."""
     import pybullet as p
 
-    from synth.io.verify import _invert
     from synth.tools.sim import DriveProfile, Tracker
 
     t_wall = time.perf_counter()
@@ -131,8 +130,8 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
             Ia = _T(*p.getDynamicsInfo(robot, ia, physicsClientId=cid)[3:5], p)
             Ib = _T(*p.getDynamicsInfo(robot, ib, physicsClientId=cid)[3:5], p)
             X = F0[a]  # the weld frame: link a's frame at all-zero angles
-            pa, qa = _pos_quat_xyzw(_invert(F0[a] @ Ia) @ X)
-            pb, qb = _pos_quat_xyzw(_invert(F0[b] @ Ib) @ X)
+            pa, qa = _pos_quat_xyzw(invert_transform(F0[a] @ Ia) @ X)
+            pb, qb = _pos_quat_xyzw(invert_transform(F0[b] @ Ib) @ X)
             c = p.createConstraint(robot, ia, robot, ib, p.JOINT_FIXED, [0, 0, 0], pa, pb, qa, qb,
                                    physicsClientId=cid)
             p.changeConstraint(c, maxForce=1e9, physicsClientId=cid)

@@ -1,0 +1,165 @@
+"""The exact motion of a written linkage from its angle laws, and an independent continuation of its loops.
+
+``law_angles``: every joint's exact angle when the driver joint is at a given angle (linkage.json's
+``joints[].angle_law``, theta_j(t) = 2 atan2(b_j, t - a_j); docs/conventions.md).
+``continue_loop``: drive one joint of a `synth.io.urdfmodel.UrdfModel` through a full turn in adaptive
+steps (tangent predictor, Gauss-Newton corrector on all loops together), without using the laws: what
+`mpsynth check` compares the laws with. Angles in radians, lengths in metres.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from synth.io.frames import TWO_PI, invert_transform
+from synth.io.urdfmodel import UrdfModel
+
+
+# ----------------------------------------------------------------------------- angle laws
+def law_angles(laws: dict, driver: str, phi) -> dict[str, np.ndarray]:
+    """Exact joint angles when the driver joint is at angle(s) ``phi`` in [0, 2pi]: the driver's law
+    theta = 2 atan2(b, t - a) gives t = a + b cot(phi/2); with s = sin(phi/2) >= 0, c = cos(phi/2),
+    theta_j = 2 atan2(b_j s, (a_d - a_j) s + b_d c), which is exact at phi = 0 (t = infinity) too."""
+    phi = np.asarray(phi, float)
+    ad, bd = laws[driver]
+    s, c = np.sin(phi / 2), np.cos(phi / 2)
+    out = {}
+    for jn, (a, b) in laws.items():
+        out[jn] = phi.copy() if jn == driver else np.mod(2.0 * np.arctan2(b * s, (ad - a) * s + bd * c), TWO_PI)
+    return out
+
+
+# ----------------------------------------------------------------------------- continuation
+def loop_residual(u: UrdfModel, closures, refs, cfg, unknowns, length, jacobian=True):
+    """Residual of all loops (6 per loop: translation / length, rotation) and its Jacobian with respect
+    to the ``unknowns`` joint angles (and, as a last column, nothing else)."""
+    F = u.fk(cfg)
+    rows, jac = [], []
+    axes = {}
+    paths = _path_sets(u, closures)
+    if jacobian:
+        for jn in unknowns:
+            j = u.joints[jn]
+            Fj = F[j.parent] @ j.origin
+            axes[jn] = (Fj[:3, :3] @ j.axis, Fj[:3, 3])
+    for (a, b), R in zip(closures, refs):
+        G = F[b] @ invert_transform(R)  # where link a should be, according to branch b
+        Fa = F[a]
+        M = G[:3, :3] @ Fa[:3, :3].T
+        e_p = (G[:3, 3] - Fa[:3, 3]) / length
+        e_r = 0.5 * np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]])
+        rows.append(np.concatenate([e_p, e_r]))
+        if jacobian:
+            pa, pb = paths[(a, b)]
+            J = np.zeros((6, len(unknowns)))
+            for k, jn in enumerate(unknowns):
+                w, c = axes[jn]
+                sb, sa = jn in pb, jn in pa
+                if sb == sa:
+                    continue
+                if sb:
+                    J[:3, k] = _cross(w, G[:3, 3] - c) / length
+                    J[3:, k] = w
+                else:
+                    J[:3, k] = -_cross(w, Fa[:3, 3] - c) / length
+                    J[3:, k] = -w
+            jac.append(J)
+    r = np.concatenate(rows) if rows else np.zeros(0)
+    return r, (np.vstack(jac) if jacobian and jac else None)
+
+
+def _cross(a, b):
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+_PATHS: dict = {}
+
+
+def _path_sets(u, closures):
+    key = (id(u), tuple(closures))
+    if key not in _PATHS or _PATHS[key][0] is not u:
+        _PATHS.clear()
+        _PATHS[key] = (u, {(a, b): (set(u.path(a)), set(u.path(b))) for a, b in closures})
+    return _PATHS[key][1]
+
+
+def _gauss_newton(fun, x0, tol, max_iter=25):
+    """Gauss-Newton with step halving (least squares through the SVD, so redundant loop equations and
+    rank deficiency are fine). Returns (x, |r|)."""
+    x = x0.copy()
+    r, J = fun(x)
+    nr = float(np.linalg.norm(r))
+    for _ in range(max_iter):
+        if nr <= 1e-3 * tol:
+            break
+        dx = np.linalg.lstsq(J, -r, rcond=1e-12)[0]
+        lam, improved = 1.0, False
+        for _ in range(8):
+            xn = x + lam * dx
+            rn, Jn = fun(xn)
+            nrn = float(np.linalg.norm(rn))
+            if nrn < nr:
+                x, r, J, nr, improved = xn, rn, Jn, nrn, True
+                break
+            lam /= 2
+        if not improved or float(np.abs(lam * dx).max()) < 1e-16:
+            break
+    return x, nr
+
+
+def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, steps: int = 360,
+                  length: float = 1.0, tol: float = 1e-8, min_step: float = 1e-7) -> dict:
+    """Drive ``driver`` from 0 through a full turn, solving ``others`` so every loop stays closed.
+
+    Adaptive continuation: tangent predictor (from the loop Jacobian), Gauss-Newton corrector, the step
+    (at most 2 pi / steps) halves when the corrector fails or moves a joint by more than a quarter of
+    the step bound, and grows by 1.5 after a success; below ``min_step`` * 2 pi the linkage is stuck.
+    Returns ``followed`` (fraction of the turn), ``path`` (rows: driver angle, others' angles),
+    ``accepted``/``rejected`` step counts, ``max_residual`` (of accepted points) and, when stuck, the
+    ``angle`` and ``stuck_residual``."""
+    F0 = u.fk({})
+    refs = [invert_transform(F0[a]) @ F0[b] for a, b in closures]
+    all_j = [driver] + list(others)
+    h_max = TWO_PI / steps
+    h_min = TWO_PI * min_step
+
+    def fun_at(phi):
+        def f(x):
+            cfg = {driver: phi, **dict(zip(others, x))}
+            return loop_residual(u, closures, refs, cfg, others, length)
+        return f
+
+    def tangent(phi, x):
+        cfg = {driver: phi, **dict(zip(others, x))}
+        _, J = loop_residual(u, closures, refs, cfg, all_j, length)
+        if J is None or not others:
+            return np.zeros(len(others))
+        return np.linalg.lstsq(J[:, 1:], -J[:, 0], rcond=1e-10)[0]
+
+    phi, h = 0.0, h_max
+    x = np.zeros(len(others))
+    path = [np.concatenate([[0.0], x])]
+    accepted = rejected = 0
+    worst = float(np.linalg.norm(fun_at(0.0)(x)[0]))
+    stuck_res = 0.0
+    while phi < TWO_PI - 1e-13:
+        step = min(h, TWO_PI - phi)
+        guess = x + step * tangent(phi, x)
+        xn, res = _gauss_newton(fun_at(phi + step), guess, tol)
+        jump = float(np.abs(xn - guess).max()) if len(xn) else 0.0
+        if res <= tol and jump <= 0.25 * h_max + 1e-12 and np.all(np.isfinite(xn)):
+            phi += step
+            x = xn
+            worst = max(worst, res)
+            path.append(np.concatenate([[phi], x]))
+            accepted += 1
+            h = min(h_max, 1.5 * step)
+        else:
+            rejected += 1
+            stuck_res = res
+            if step <= h_min:
+                return {"followed": phi / TWO_PI, "path": path, "accepted": accepted, "rejected": rejected,
+                        "max_residual": worst, "angle": phi, "stuck_residual": stuck_res}
+            h = step / 2
+    return {"followed": 1.0, "path": path, "accepted": accepted, "rejected": rejected, "max_residual": worst,
+            "angle": TWO_PI, "stuck_residual": 0.0}
+
