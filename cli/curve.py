@@ -70,7 +70,8 @@ def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_le
     and Bennett flips then close the loops. Writes OUT/linkage.urdf, OUT/linkage.json and
     OUT/meshes/*.stl (metres) when -o is given; prints a summary with the joint and link counts on
     stderr and, with --json, linkage.json on stdout."""
-    from synth.synthesis.curve import CurveSpec, load_spec, spec_linkage
+    from synth.io.curvespec import load_spec
+    from synth.synthesis.curve import CurveSpec, spec_linkage
 
     scale = UNITS[units]
     parsed = load_spec(spec)

@@ -102,7 +102,7 @@ def _parse_document(name: str, text: str):
     stripped = text.lstrip()
     if name.lower().endswith(".json") or stripped.startswith("{"):
         try:
-            from synth.io.poses import json_object_pairs
+            from synth.io.docload import json_object_pairs
 
             return json.loads(text, object_pairs_hook=json_object_pairs)
         except ValueError as e:

@@ -7,8 +7,9 @@ from fractions import Fraction as F
 import numpy as np
 import pytest
 
+from synth.io.curvespec import parse_real_polynomial, parse_spec
 from synth.synthesis.curve import (CurveSpec, MotionSpec, UnboundedCurveError, curve_linkage, motion_linkage,
-                         parse_real_polynomial, parse_spec, trace_error)
+                                   trace_error)
 from synth.algebra.dq import dq_to_pose
 from synth.errors import InputError
 from synth.algebra.expr import parse_polynomial

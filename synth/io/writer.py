@@ -249,3 +249,24 @@ def write_output(linkage, out_dir, *, robot_name: str, force: bool = False, pack
         rel = write_linkage_files(linkage, tmp, robot_name=robot_name, package=package,
                                   pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length)
     return [out / r for r in rel]
+
+
+def atomic_write(path, write) -> None:
+    """Write one file atomically: ``write(tmp)`` fills a temporary sibling of ``path``, which then
+    replaces ``path`` (mode 0644); on any failure the temporary file is removed and nothing is left.
+    InputError when the parent directory does not exist."""
+    path = Path(path)
+    if path.parent and not path.parent.exists():
+        raise InputError(f"{path.parent}: directory does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    os.close(fd)
+    try:
+        write(tmp)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise

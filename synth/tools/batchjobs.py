@@ -62,7 +62,7 @@ def parse_job(text: str) -> dict:
     if len(text) > MAX_LINE:
         raise _JobError("line is longer than 10 MB")
     try:
-        from synth.io.poses import json_object_pairs
+        from synth.io.docload import json_object_pairs
 
         job = json.loads(text, object_pairs_hook=json_object_pairs, parse_constant=_reject_constant)
     except json.JSONDecodeError as e:

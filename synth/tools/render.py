@@ -18,15 +18,13 @@ GIF at a few seconds.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 
 from synth.errors import InputError
 from synth.io.readback import Readback, cycle_parameters
+from synth.io.writer import atomic_write
 
 DEFAULT_SIZE = (800, 600)
 DPI = 100
@@ -115,7 +113,7 @@ class Scene:
 
         # camera: orthographic, from the side that shows the whole motion spread widest
         if elev is None or azim is None:
-            e0, a0 = _default_view(allp)
+            e0, a0 = default_view(allp)
             elev = e0 if elev is None else elev
             azim = a0 if azim is None else azim
         ax.view_init(elev=elev, azim=azim)
@@ -261,7 +259,7 @@ class Scene:
         from PIL import Image
 
         img = Image.fromarray(self.rgb())
-        _atomic_write(path, lambda tmp: img.save(tmp, format="PNG", optimize=True))
+        atomic_write(path, lambda tmp: img.save(tmp, format="PNG", optimize=True))
 
 
 def _apply(T, p):
@@ -275,7 +273,7 @@ def _kind_label(lk) -> str:
     return f"{k} linkage ({n} revolute joints, {loops} loop{'s' if loops != 1 else ''})"
 
 
-def _default_view(points) -> tuple[float, float]:
+def default_view(points) -> tuple[float, float]:
     """(elev, azim) in degrees of the orthographic camera that shows the points spread widest (largest
     projected area, sqrt of the determinant of the screen covariance), elevation in [10, 50] degrees
     so that z stays up; the areas of all candidate views within 3 % of the best one are equal in
@@ -313,24 +311,6 @@ def _light_direction(elev, azim) -> np.ndarray:
     right, up = _screen_axes(elev, azim)
     light = _eye(elev, azim) + 0.6 * up - 0.45 * right
     return light / np.linalg.norm(light)
-
-
-def _atomic_write(path, write) -> None:
-    path = Path(path)
-    if path.parent and not path.parent.exists():
-        raise InputError(f"{path.parent}: directory does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    os.close(fd)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
 
 def _resolve_at(rb: Readback, scene: Scene, at) -> float:
@@ -390,7 +370,7 @@ def render(rb: Readback, *, png=None, gif=None, frames: int = 60, size=DEFAULT_S
                              f"{first} = {math.degrees(float(angles[first][k])):6.1f} deg")
             images.append(Image.fromarray(scene.rgb()))
         ms = max(20, int(round(GIF_CYCLE_SECONDS * 1000 / len(images))))
-        _atomic_write(gif, lambda tmp: images[0].save(tmp, format="GIF", save_all=True,
+        atomic_write(gif, lambda tmp: images[0].save(tmp, format="GIF", save_all=True,
                                                       append_images=images[1:], duration=ms, loop=0))
         stats["gif_s"] = time.perf_counter() - t1
         stats["frames"] = len(images)

@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from synth.io.readback import Readback, cycle_parameters
-from synth.tools.render import BASE_COLOR, _atomic_write, _default_view, link_colors
+from synth.io.writer import atomic_write
+from synth.tools.render import BASE_COLOR, default_view, link_colors
 
 DEFAULT_FRAMES = 120
 
@@ -81,7 +82,7 @@ def scene_data(rb: Readback, frames: int = DEFAULT_FRAMES, spacing: str = "angle
         Pt = P[lk.tool_link]
         a = np.einsum("sij,j->si", Pt[:, :3, :3], c) + Pt[:, :3, 3]
         mount = _b64(np.concatenate([a, tool[:, :3, 3]], axis=1) - np.tile(centre, 2))
-    elev, azim = _default_view(allp)
+    elev, azim = default_view(allp)
     angles = lk.angles_at(ts)
     first_pose_t = {p.name: p.t for p in lk.poses}
     return {
@@ -155,7 +156,7 @@ def write_viewer(rb: Readback, path, frames: int = DEFAULT_FRAMES, spacing: str 
     """Write the page atomically; returns its size in bytes."""
     text = viewer_html(rb, frames, spacing)
     data = text.encode("utf-8")
-    _atomic_write(path, lambda tmp: Path(tmp).write_bytes(data))
+    atomic_write(path, lambda tmp: Path(tmp).write_bytes(data))
     return len(data)
 
 

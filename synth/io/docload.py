@@ -1,0 +1,243 @@
+"""Reading input text: the bounded source reader and the strict YAML / JSON loader shared by the
+input files (pose files `synth.io.poses`, curve specs `synth.io.curvespec`).
+
+``read_source(source, text)``: a file, ``-`` (standard input) or given text -> (display name, text),
+refusing more than ``MAX_FILE_BYTES`` and text that is not UTF-8. ``load_document(text, name,
+force_json)``: JSON (the ``json`` module, when forced or when the text looks like a JSON object) or YAML
+through a `yaml.SafeLoader` subclass that rejects duplicate keys, reads ``1e-3`` as a float (YAML 1.2
+style), and refuses documents far larger than any input while they are still being parsed (more than
+``MAX_POSES`` items in a list, ``MAX_YAML_NODES`` values, merge keys expanding a mapping beyond
+``MAX_MERGED_KEYS`` entries). Every problem is a one-line InputError ``<name>: <problem>``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+import sys
+from typing import Any
+
+import yaml
+
+from synth.errors import InputError
+
+MAX_FILE_BYTES = 10 * 1024 * 1024
+MAX_POSES = 10_000  # items of one list (at most this many poses are accepted)
+MAX_YAML_NODES = 30 * MAX_POSES  # values in a YAML document (a pose has at most about 25)
+MAX_MERGED_KEYS = 1000  # entries of one mapping after expanding YAML merge keys
+
+
+def clean_text(text: str, limit: int = 200) -> str:
+    """One-line, bounded rendering of arbitrary user text (escapes control characters)."""
+    out = []
+    for ch in str(text)[: limit + 1]:
+        if ch.isprintable() or ch == " ":
+            out.append(ch)
+        else:
+            out.append(ch.encode("unicode_escape").decode("ascii"))
+    s = "".join(out)
+    if len(s) > limit:
+        s = s[:limit] + "..."
+    return s
+
+
+def quote_text(text: str, limit: int = 60) -> str:
+    return '"' + clean_text(text, limit).replace('"', '\\"') + '"'
+
+
+
+class _TooLarge(yaml.YAMLError):
+    """The document is far larger than any pose file (raised while composing, before construction)."""
+
+
+class _StrictSafeLoader(yaml.SafeLoader):
+    """SafeLoader that rejects duplicate keys and reads 1e-3 as a float.
+
+    It also refuses, while the document is still being parsed, a list of more than ``MAX_POSES``
+    items, more than ``MAX_YAML_NODES`` values in total (aliases included) and merge keys (``<<``)
+    that would expand a mapping to more than ``MAX_MERGED_KEYS`` entries ("YAML bombs"): such
+    documents otherwise take minutes and gigabytes before the pose limits could even be checked."""
+
+    def compose_node(self, parent, index):
+        self._mpsynth_nodes = getattr(self, "_mpsynth_nodes", 0) + 1
+        if self._mpsynth_nodes > MAX_YAML_NODES:
+            raise _TooLarge(f"{self._mark_text()}the document has more than {MAX_YAML_NODES} values; "
+                            f"a pose file of {MAX_POSES} poses has far fewer, refusing to read further")
+        if isinstance(index, int) and index >= MAX_POSES:  # the (index+1)-th item of a list
+            raise _TooLarge(f"{self._mark_text()}a list has more than {MAX_POSES} items "
+                            f"(at most {MAX_POSES} poses are accepted); refusing to read further")
+        return super().compose_node(parent, index)
+
+    def _mark_text(self) -> str:
+        try:
+            mark = self.peek_event().start_mark
+            return f"line {mark.line + 1}: "
+        except Exception:  # pragma: no cover - the message stays useful without a line
+            return ""
+
+    def flatten_mapping(self, node):
+        if _merged_size(node, {}) > MAX_MERGED_KEYS:
+            raise _TooLarge(f"line {node.start_mark.line + 1}: merge keys ('<<') expand a mapping to more than "
+                            f"{MAX_MERGED_KEYS} entries; refusing to expand it")
+        return super().flatten_mapping(node)
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen = {}
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    hash(key)
+                except TypeError:
+                    continue  # the base class reports unhashable keys
+                if key in seen:
+                    raise yaml.constructor.ConstructorError(
+                        "while constructing a mapping",
+                        node.start_mark,
+                        f"found duplicate key {clean_text(repr(key), 40)}",
+                        key_node.start_mark,
+                    )
+                seen[key] = True
+        return super().construct_mapping(node, deep=deep)
+
+
+def _merged_size(node, memo: dict) -> int:
+    """Number of entries ``node`` (a MappingNode) has once its merge keys are expanded; stops counting
+    early above MAX_MERGED_KEYS. Shared (aliased) mappings are counted once per use, as the expansion
+    copies them; ``memo`` keeps that linear in the number of nodes."""
+    key = id(node)
+    if key in memo:
+        return memo[key]
+    memo[key] = 0  # a mapping that merges itself is reported by the expansion (nested too deeply)
+    n = 0
+    for k, v in node.value:
+        if k.tag != "tag:yaml.org,2002:merge":
+            n += 1
+            continue
+        for sub in (v.value if isinstance(v, yaml.SequenceNode) else [v]):
+            if isinstance(sub, yaml.MappingNode):
+                n += _merged_size(sub, memo)
+        if n > MAX_MERGED_KEYS:
+            break
+    memo[key] = n
+    return n
+
+
+_StrictSafeLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+def _yaml_error_message(e: Exception) -> str:
+    mark = getattr(e, "problem_mark", None) or getattr(e, "context_mark", None)
+    problem = getattr(e, "problem", None) or getattr(e, "context", None) or str(e)
+    problem = " ".join(str(problem).split())
+    kind = "YAML syntax error" if isinstance(e, (yaml.scanner.ScannerError, yaml.parser.ParserError)) else "YAML error"
+    if mark is not None:
+        return f"{kind} at line {mark.line + 1}, column {mark.column + 1}: {clean_text(problem)}"
+    return f"YAML error: {clean_text(problem)}"
+
+
+def _looks_like_json(text: str) -> bool:
+    return re.match(r"\s*(\{\s*(\"|\})|\[)", text) is not None
+
+
+def json_object_pairs(pairs):
+    """``object_pairs_hook`` for json.loads that rejects duplicate keys (OUTPUT.md: an input error)."""
+    out = {}
+    for k, v in pairs:
+        if k in out:
+            raise ValueError(f"duplicate key {quote_text(k, 40)}")
+        out[k] = v
+    return out
+
+
+def load_json(text: str, name: str) -> Any:
+    try:
+        return json.loads(text, object_pairs_hook=json_object_pairs)
+    except json.JSONDecodeError as e:
+        raise InputError(
+            f"{name}: JSON syntax error at line {e.lineno}, column {e.colno}: {clean_text(e.msg)}"
+        ) from None
+    except RecursionError:
+        raise InputError(f"{name}: JSON is nested too deeply") from None
+    except ValueError as e:
+        raise InputError(f"{name}: JSON error: {clean_text(' '.join(str(e).split()))}") from None
+
+
+def load_document(text: str, name: str, force_json: bool) -> Any:
+    if force_json:
+        return load_json(text, name)
+    json_err = None
+    if _looks_like_json(text):
+        try:
+            return load_json(text, name)
+        except InputError as e:
+            json_err = e
+    try:
+        return yaml.load(text, Loader=_StrictSafeLoader)  # noqa: S506 - a SafeLoader subclass
+    except _TooLarge as e:
+        raise InputError(f"{name}: {e}") from None
+    except yaml.YAMLError as e:
+        if json_err is not None:
+            raise json_err from None
+        raise InputError(f"{name}: {_yaml_error_message(e)}") from None
+    except RecursionError:
+        raise InputError(f"{name}: YAML is nested too deeply") from None
+    except Exception as e:  # constructor errors on odd scalars (e.g. impossible dates)
+        if json_err is not None:
+            raise json_err from None
+        raise InputError(f"{name}: YAML error: {clean_text(' '.join(str(e).split()))}") from None
+
+
+def read_source(source, text: str | None) -> tuple[str, str]:
+    """(display name, text)."""
+    if source is None:
+        source = "-"
+    raw_name = os.fspath(source)
+    name = "<stdin>" if raw_name == "-" else clean_text(raw_name)
+    if text is not None:
+        if isinstance(text, bytes):
+            data = text
+        else:
+            if len(text) > MAX_FILE_BYTES:
+                raise InputError(f"{name}: file is larger than 10 MB; refusing to read it")
+            data = text.encode("utf-8", "surrogatepass")
+    elif raw_name == "-":
+        stream = getattr(sys.stdin, "buffer", None)
+        if stream is None:
+            s = sys.stdin.read(MAX_FILE_BYTES + 1)
+            data = s.encode("utf-8", "surrogatepass")
+        else:
+            data = stream.read(MAX_FILE_BYTES + 1)
+    else:
+        try:
+            st = os.stat(raw_name)
+            if st.st_size > MAX_FILE_BYTES:
+                raise InputError(
+                    f"{name}: file is {st.st_size / 1e6:.1f} MB, larger than the 10 MB limit; refusing to read it"
+                )
+            with open(raw_name, "rb") as f:
+                data = f.read(MAX_FILE_BYTES + 1)
+        except InputError:
+            raise
+        except FileNotFoundError:
+            raise InputError(f"{name}: cannot read file: no such file") from None
+        except IsADirectoryError:
+            raise InputError(f"{name}: cannot read file: it is a directory") from None
+        except PermissionError:
+            raise InputError(f"{name}: cannot read file: permission denied") from None
+        except (OSError, ValueError) as e:
+            msg = getattr(e, "strerror", None) or str(e)
+            raise InputError(f"{name}: cannot read file: {clean_text(msg)}") from None
+    if len(data) > MAX_FILE_BYTES:
+        raise InputError(f"{name}: file is larger than 10 MB; refusing to read it")
+    try:
+        decoded = data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise InputError(f"{name}: not UTF-8 text (bad byte at offset {e.start})") from None
+    return name, decoded

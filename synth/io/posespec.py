@@ -1,0 +1,311 @@
+"""One pose of a pose file: units, numbers, rotations (OUTPUT.md, "Input: pose files").
+
+``pose_matrix(spec, length_scale, angle_unit, normalize)`` turns one pose mapping (``position`` and one
+of ``quaternion``, ``rpy``, ``axis_angle``, ``rotation``; or a 4x4 ``matrix`` alone) into a 4x4 pose in
+metres, raising `PoseProblem` with just the problem (the caller adds the file and pose);
+``pose_from_spec`` is the same with a one-line InputError. Rotation matrices are orthonormal to double
+precision: quaternions are normalized, given rotations that pass the 1e-6 test are projected onto the
+nearest rotation (SVD), angles that are exact multiples of 90 degrees get exact sines and cosines.
+The message helpers (`describe_value`, `check_keys`) keep every message one bounded line.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+from typing import Any, Iterable
+
+import numpy as np
+
+from synth.algebra.dq import matrix_to_quat
+from synth.errors import InputError
+from synth.io.docload import clean_text, quote_text
+
+#: metres per unit
+LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}
+#: radians per unit
+ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
+
+MAX_ABS_NUMBER = 1e12  # any number in the file
+MAX_POSITION_M = 1e9  # |position| after conversion to metres
+UNIT_TOL = 1e-6  # quaternion length, orthonormality, last matrix row
+PROJECT_TOL = 1e-3  # how far from orthonormal --normalize may project
+
+ORIENTATION_KEYS = ("quaternion", "rpy", "axis_angle", "rotation")
+POSE_KEYS = ("name", "position") + ORIENTATION_KEYS + ("matrix",)
+QUAT_KEYS = ("w", "x", "y", "z")
+AXIS_ANGLE_KEYS = ("axis", "angle")
+
+
+# ============================================================== message helpers
+class PoseProblem(Exception):
+    """A problem inside one pose or section, without the file/pose prefix."""
+
+
+def _key(key: Any) -> str:
+    if isinstance(key, str):
+        return quote_text(key, 40)
+    if _is_scalar(key):
+        return clean_text(repr(key), 40)
+    return describe_value(key)
+
+
+def _is_scalar(v: Any) -> bool:
+    return v is None or isinstance(v, (str, int, float, bool))
+
+
+def _num(x: float) -> str:
+    return f"{x:.10g}"
+
+
+def describe_value(v: Any) -> str:
+    """Short description of a value's type (bounded: never renders a whole structure)."""
+    if v is None:
+        return "null"
+    if isinstance(v, bool):
+        return f"a boolean ({'true' if v else 'false'})"
+    if isinstance(v, str):
+        return f"a string ({quote_text(v, 30)})"
+    if isinstance(v, float):
+        return f"the number {_num(v)}"
+    if isinstance(v, int):
+        return f"the number {v}" if abs(v) < 10**30 else "a huge number"
+    if isinstance(v, (list, tuple)):
+        return f"a list of {len(v)} item{'s' if len(v) != 1 else ''}"
+    if isinstance(v, dict):
+        return "a mapping"
+    return f"a value of type {type(v).__name__}"
+
+
+def _did_you_mean(key: Any, allowed: Iterable[str]) -> str:
+    allowed = list(allowed)
+    hint = ""
+    if isinstance(key, str):
+        close = difflib.get_close_matches(key.lower(), allowed, n=1, cutoff=0.6)
+        if close:
+            hint = f" (did you mean {quote_text(close[0])}?)"
+    if not hint:
+        hint = " (allowed: " + ", ".join(allowed) + ")"
+    return hint
+
+
+def check_keys(mapping: dict, allowed: tuple[str, ...], where: str) -> None:
+    for k in mapping:
+        if k not in allowed:
+            raise PoseProblem(f"unknown key {_key(k)}{where}{_did_you_mean(k, allowed)}")
+
+
+# ============================================================== numbers and shapes
+def _number(v: Any, what: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise PoseProblem(f"{what} must be a number, got {describe_value(v)}")
+    if isinstance(v, float) and not math.isfinite(v):
+        raise PoseProblem(f"{what} is not finite ({v})")
+    if abs(v) > MAX_ABS_NUMBER:
+        shown = _num(float(v)) if abs(v) < 1e300 else "a huge number"
+        raise PoseProblem(f"{what} is too large ({shown}; the limit is 1e12 in absolute value)")
+    return float(v)
+
+
+def _vector(v: Any, n: int, what: str) -> np.ndarray:
+    if not isinstance(v, (list, tuple)):
+        raise PoseProblem(f"{what} must be a list of {n} numbers, got {describe_value(v)}")
+    if len(v) != n:
+        raise PoseProblem(f"{what} must be a list of {n} numbers, got {describe_value(v)}")
+    return np.array([_number(x, f"{what}[{i}]") for i, x in enumerate(v)], dtype=float)
+
+
+def _matrix(v: Any, n: int, what: str) -> np.ndarray:
+    shape = f"a {n}x{n} matrix (a list of {n} rows of {n} numbers)"
+    if not isinstance(v, (list, tuple)) or len(v) != n:
+        raise PoseProblem(f"{what} must be {shape}, got {describe_value(v)}")
+    rows = []
+    for r, row in enumerate(v):
+        if not isinstance(row, (list, tuple)) or len(row) != n:
+            raise PoseProblem(f"{what} must be {shape}, but row {r} is {describe_value(row)}")
+        rows.append([_number(x, f"{what}[{r}][{c}]") for c, x in enumerate(row)])
+    return np.array(rows, dtype=float)
+
+
+# ============================================================== rotations
+def _sincos(angle: float, unit: str) -> tuple[float, float]:
+    """sin and cos of an angle given in ``unit``; exact for multiples of 90 degrees."""
+    if unit == "deg":
+        q, r = divmod(angle, 90.0)
+        if r == 0.0 and abs(q) < 2**52:
+            return ((0.0, 1.0), (1.0, 0.0), (0.0, -1.0), (-1.0, 0.0))[int(q) % 4]
+    a = angle * ANGLE_UNITS[unit]
+    if a == 0.0:
+        return 0.0, 1.0
+    return math.sin(a), math.cos(a)
+
+
+def quaternion_matrix(w: float, x: float, y: float, z: float) -> np.ndarray:
+    """Rotation matrix of the unit quaternion (w, x, y, z) (normalized here; must be nonzero)."""
+    n = math.hypot(w, x, y, z)
+    w, x, y, z = w / n, x / n, y / n, z / n
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _rpy_from_sincos(sr, cr, sp, cp, sy, cy) -> np.ndarray:
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    return Rz @ Ry @ Rx
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float, unit: str = "rad") -> np.ndarray:
+    """URDF fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll); angles in ``unit``."""
+    sr, cr = _sincos(roll, unit)
+    sp, cp = _sincos(pitch, unit)
+    sy, cy = _sincos(yaw, unit)
+    return _rpy_from_sincos(sr, cr, sp, cp, sy, cy)
+
+
+def axis_angle_matrix(axis, angle: float, unit: str = "rad") -> np.ndarray:
+    """Rodrigues' formula; ``axis`` is normalized here (must be nonzero)."""
+    k = np.asarray(axis, dtype=float)
+    k = k / math.hypot(*k)
+    s, c = _sincos(angle, unit)
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return c * np.eye(3) + s * K + (1.0 - c) * np.outer(k, k)
+
+
+def _checked_rotation(R: np.ndarray, what: str, normalize: bool) -> np.ndarray:
+    dev = float(np.max(np.abs(R.T @ R - np.eye(3))))
+    if not math.isfinite(dev):  # pragma: no cover - entries are bounded, kept for safety
+        raise PoseProblem(f"{what} is not a rotation")
+    if dev > UNIT_TOL:
+        if not normalize:
+            hint = (
+                " (fix it or use --normalize to project it onto the nearest rotation)"
+                if dev <= PROJECT_TOL
+                else ""
+            )
+            raise PoseProblem(
+                f"{what} is not orthonormal (max |R^T R - I| = {_num(dev)}, tolerance 1e-6){hint}"
+            )
+        if dev > PROJECT_TOL:
+            raise PoseProblem(
+                f"{what} is too far from orthonormal to project (max |R^T R - I| = {_num(dev)}, "
+                f"--normalize accepts up to 1e-3)"
+            )
+    det = float(np.linalg.det(R))
+    if det < 0:
+        raise PoseProblem(f"{what} has determinant {_num(det)} (a reflection); a rotation has determinant +1")
+    if dev > 1e-15:
+        # nearest rotation (SVD), then through a unit quaternion: orthonormal to a few ulps
+        U, _, Vt = np.linalg.svd(R)
+        R = quaternion_matrix(*matrix_to_quat(U @ Vt))
+    return R
+
+
+# ============================================================== one pose
+def _parse_quaternion(v: Any, normalize: bool) -> np.ndarray:
+    if isinstance(v, dict):
+        check_keys(v, QUAT_KEYS, " in quaternion")
+        missing = [k for k in QUAT_KEYS if k not in v]
+        if missing:
+            raise PoseProblem(f"quaternion is missing {', '.join(quote_text(k) for k in missing)} (give w, x, y, z)")
+        q = [_number(v[k], f"quaternion.{k}") for k in QUAT_KEYS]
+    elif isinstance(v, (list, tuple)):
+        if len(v) != 4:
+            raise PoseProblem(f"quaternion list must have 4 numbers [w, x, y, z], got {describe_value(v)}")
+        q = [_number(x, f"quaternion[{i}]") for i, x in enumerate(v)]
+    else:
+        raise PoseProblem(f"quaternion must be a mapping {{w, x, y, z}} or a list [w, x, y, z], got {describe_value(v)}")
+    n = math.hypot(*q)
+    if n < 1e-12:
+        raise PoseProblem(f"quaternion is zero (length {_num(n)}); it does not describe a rotation")
+    if abs(n - 1.0) > UNIT_TOL and not normalize:
+        raise PoseProblem(f"quaternion has length {_num(n)}, expected 1 (normalize it or use --normalize)")
+    return quaternion_matrix(*q)
+
+
+def _parse_axis_angle(v: Any, angle_unit: str) -> np.ndarray:
+    if not isinstance(v, dict):
+        raise PoseProblem(f"axis_angle must be a mapping {{axis: [x, y, z], angle: a}}, got {describe_value(v)}")
+    check_keys(v, AXIS_ANGLE_KEYS, " in axis_angle")
+    for k in AXIS_ANGLE_KEYS:
+        if k not in v:
+            raise PoseProblem(f"axis_angle is missing {quote_text(k)}")
+    axis = _vector(v["axis"], 3, "axis_angle.axis")
+    angle = _number(v["angle"], "axis_angle.angle")
+    if math.hypot(*axis) < 1e-12:
+        raise PoseProblem("axis_angle.axis is zero; give a nonzero direction")
+    return axis_angle_matrix(axis, angle, angle_unit)
+
+
+def pose_matrix(spec: Any, length_scale: float, angle_unit: str, normalize: bool) -> np.ndarray:
+    if not isinstance(spec, dict):
+        raise PoseProblem(
+            f"a pose must be a mapping with 'position' and an orientation, or 'matrix', got {describe_value(spec)}"
+        )
+    check_keys(spec, POSE_KEYS, "")
+    orient = [k for k in ORIENTATION_KEYS if k in spec]
+    T = np.eye(4)
+    if "matrix" in spec:
+        others = [k for k in ("position",) + ORIENTATION_KEYS if k in spec]
+        if others:
+            raise PoseProblem(
+                f"'matrix' must be alone, but the pose also has {', '.join(repr(k) for k in others)}"
+            )
+        M = _matrix(spec["matrix"], 4, "matrix")
+        last = M[3]
+        if float(np.max(np.abs(last - [0.0, 0.0, 0.0, 1.0]))) > UNIT_TOL:
+            raise PoseProblem(
+                f"matrix last row is [{', '.join(_num(x) for x in last)}], expected [0, 0, 0, 1]"
+            )
+        T[:3, :3] = _checked_rotation(M[:3, :3], "matrix rotation block", normalize)
+        T[:3, 3] = M[:3, 3] * length_scale
+        pos_what = "matrix translation"
+    else:
+        if len(orient) > 1:
+            raise PoseProblem(
+                f"two orientations given ({', '.join(repr(k) for k in orient)}); give exactly one"
+            )
+        if "position" not in spec:
+            raise PoseProblem("missing 'position' (a list of 3 numbers)")
+        if not orient:
+            raise PoseProblem(
+                "missing orientation: give one of 'quaternion', 'rpy', 'axis_angle', 'rotation' "
+                "(or a 4x4 'matrix' alone)"
+            )
+        T[:3, 3] = _vector(spec["position"], 3, "position") * length_scale
+        key = orient[0]
+        val = spec[key]
+        if key == "quaternion":
+            R = _parse_quaternion(val, normalize)
+        elif key == "rpy":
+            rpy = _vector(val, 3, "rpy")
+            R = rpy_matrix(*rpy, unit=angle_unit)
+        elif key == "axis_angle":
+            R = _parse_axis_angle(val, angle_unit)
+        else:
+            R = _checked_rotation(_matrix(val, 3, "rotation"), "rotation", normalize)
+        T[:3, :3] = R
+        pos_what = "position"
+    dist = math.hypot(*T[:3, 3])
+    if dist > MAX_POSITION_M:
+        raise PoseProblem(f"{pos_what} is too far from the origin ({_num(dist)} m; the limit is 1e9 m)")
+    return T
+
+
+def pose_from_spec(
+    spec: Any, *, length_unit: str = "m", angle_unit: str = "rad", normalize: bool = False
+) -> np.ndarray:
+    """The 4x4 pose (in metres) of one pose mapping as it appears in a pose file (the ``name`` key
+    is allowed and ignored). Raises InputError with just the problem (no file/pose prefix)."""
+    if length_unit not in LENGTH_UNITS:
+        raise InputError(f"unknown length unit {quote_text(str(length_unit))} (allowed: {', '.join(LENGTH_UNITS)})")
+    if angle_unit not in ANGLE_UNITS:
+        raise InputError(f"unknown angle unit {quote_text(str(angle_unit))} (allowed: {', '.join(ANGLE_UNITS)})")
+    try:
+        return pose_matrix(spec, LENGTH_UNITS[length_unit], angle_unit, normalize)
+    except PoseProblem as e:
+        raise InputError(str(e)) from None
