@@ -1,12 +1,15 @@
 """`mpsynth batch JOBS.jsonl [-j N]`: many synthesis jobs from JSON lines, results as JSON lines."""
 from __future__ import annotations
 
-import io
 import os
 import sys
 import time
 
 import click
+
+from synth.errors import InputError
+from synth.io.docload import open_lines
+from synth.tools.batchjobs import dumps, run_jobs
 
 from .common import debug_option, echo, run_guarded
 
@@ -47,14 +50,6 @@ class Progress:
         self.stream.flush()
 
 
-def _count_jobs(path: str) -> int | None:
-    try:
-        with open(path, "rb") as fh:
-            return sum(1 for line in fh if line.strip())
-    except OSError:
-        return None
-
-
 @click.command(epilog="""\b
 Example:
   mpsynth batch jobs.jsonl -j 4 > results.jsonl
@@ -81,29 +76,13 @@ def batch(jobs_file, workers, chunksize, full, quiet, debug):
     """Run the synthesis jobs in JOBS (JSON lines; '-' reads standard input), one result line per job
     on stdout, in input order, streamed as the jobs finish. A failing job (malformed line, bad poses,
     no real linkage) gives a result line with its error and never stops the batch."""
-    from synth.tools.batchjobs import dumps, run_jobs
-    from synth.errors import InputError
-
     if workers == 0:
         workers = os.cpu_count() or 1
     if workers < 0 or workers > 1024:
         raise InputError(f"-j {workers}: must be between 0 and 1024")
     if chunksize is not None and chunksize < 1:
         raise InputError(f"--chunksize {chunksize}: must be at least 1")
-    if jobs_file == "-":
-        stream = io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8", errors="replace") \
-            if hasattr(sys.stdin, "buffer") else sys.stdin
-        total = None
-    else:
-        try:
-            stream = open(jobs_file, encoding="utf-8", errors="replace")
-        except FileNotFoundError:
-            raise InputError(f"{jobs_file}: cannot read file: no such file") from None
-        except IsADirectoryError:
-            raise InputError(f"{jobs_file}: cannot read file: it is a directory") from None
-        except OSError as e:
-            raise InputError(f"{jobs_file}: cannot read file: {e.strerror or e}") from None
-        total = _count_jobs(jobs_file)
+    stream, total = open_lines(jobs_file)
 
     progress = Progress(total) if (not quiet and sys.stderr.isatty()) else None
     start = time.monotonic()

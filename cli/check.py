@@ -1,9 +1,13 @@
-"""`mpsynth check OUT [--poses POSES]`: verify an output directory (synth/verify.py)."""
+"""`mpsynth check OUT [--poses POSES]`: verify an output directory (`synth.io.verify`)."""
 from __future__ import annotations
 
 import sys
 
 import click
+
+from synth.errors import InputError
+from synth.io.poses import load_poses
+from synth.io.verify import check_tree
 
 from .common import debug_option, echo, json_option, print_json, run_guarded
 
@@ -34,15 +38,10 @@ def check(out, poses, tol, steps, no_meshes, quiet, as_json, debug):
 
     Exit 0 when everything holds, 1 with one line per problem on stderr, 2 when OUT cannot be read.
     A multi-solution OUT (index.json) is checked solution by solution."""
-    from synth.errors import InputError
-    from synth.io.verify import check_tree
-
     if not (tol > 0 and tol < 1):
         raise InputError(f"--tol must be in (0, 1), got {tol}")
     ps = None
     if poses:
-        from synth.io.poses import load_poses
-
         ps = load_poses(poses)
     result = check_tree(out, ps, rtol=tol, steps=steps, meshes=not no_meshes)
     for p in result["problems"]:

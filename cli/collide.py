@@ -5,6 +5,11 @@ import sys
 
 import click
 
+from synth.errors import InputError
+from synth.io.readback import read_output
+from synth.tools.collide import collide as do_collide
+from synth.tools.collide import summary_lines
+
 from .common import debug_option, echo, json_option, print_json, run_guarded
 
 
@@ -30,11 +35,6 @@ def collide(out, steps, no_clearance, quiet, as_json, debug):
     the motion parameter t (and joint angles) where it collides.
 
     Needs python-fcl: pip install 'mpsynth[collide]'."""
-    from synth.tools.collide import collide as do_collide
-    from synth.tools.collide import summary_lines
-    from synth.errors import InputError
-    from synth.io.readback import read_output
-
     if steps < 8 or steps > 1_000_000:
         raise InputError(f"--steps {steps}: must be between 8 and 1000000")
     rb = read_output(out)

@@ -4,9 +4,14 @@ from __future__ import annotations
 
 import click
 
+from synth.io.curvespec import load_spec
+from synth.io.posespec import LENGTH_UNITS
+from synth.io.writer import check_output_target
+from synth.synthesis.curve import CurveSpec, spec_linkage
+
 from .common import debug_option, echo, emit_linkage, json_option, mesh_sizes, run_guarded
 
-UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}
+UNITS = LENGTH_UNITS
 
 EPILOG = """\b
 SPEC (YAML or JSON, '-' for stdin), one of:
@@ -31,14 +36,6 @@ Examples:
 \b
 Exit codes: 0 linkage written, 1 no revolute linkage (unbounded curve or motion: "needs a
 sliding joint"; no factorization), 2 bad input."""
-
-
-def _check_target(out, force):
-    try:
-        from synth.io.writer import check_output_target
-    except ImportError:  # pragma: no cover - older exporter
-        return
-    check_output_target(out, force)
 
 
 @click.command(epilog=EPILOG)
@@ -70,14 +67,11 @@ def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_le
     and Bennett flips then close the loops. Writes OUT/linkage.urdf, OUT/linkage.json and
     OUT/meshes/*.stl (metres) when -o is given; prints a summary with the joint and link counts on
     stderr and, with --json, linkage.json on stdout."""
-    from synth.io.curvespec import load_spec
-    from synth.synthesis.curve import CurveSpec, spec_linkage
-
     scale = UNITS[units]
     parsed = load_spec(spec)
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length), scale)
     if out:
-        _check_target(out, force)
+        check_output_target(out, force)
     if method != "auto" and not isinstance(parsed, CurveSpec):
         echo("  note: --method applies to curves only; ignored for a motion")
     linkage = spec_linkage(parsed, scale=scale, method=method)

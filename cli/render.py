@@ -5,13 +5,15 @@ import re
 
 import click
 
+from synth.errors import InputError
+from synth.io.readback import read_output
+from synth.tools.render import render as do_render
+
 from .common import debug_option, echo, json_option, print_json, run_guarded
 
 
 def parse_size(value: str) -> tuple[int, int]:
     """'800x600' -> (800, 600); InputError on anything else."""
-    from synth.errors import InputError
-
     m = re.fullmatch(r"\s*(\d{2,5})\s*[xX*]\s*(\d{2,5})\s*", str(value))
     if not m:
         raise InputError(f"--size {value!r}: expected WIDTHxHEIGHT in pixels, e.g. 800x600")
@@ -46,10 +48,6 @@ def render(out, png, gif, frames, size, at, elev, azim, spacing, quiet, as_json,
 
     --png writes one picture; --gif an animation of one full cycle of the motion (every joint turns
     once). Needs matplotlib: pip install 'mpsynth[viz]'."""
-    from synth.errors import InputError
-    from synth.io.readback import read_output
-    from synth.tools.render import render as do_render
-
     if not png and not gif:
         raise InputError("nothing to do: give --png FILE and/or --gif FILE")
     if frames < 2 or frames > 2000:

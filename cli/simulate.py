@@ -5,6 +5,8 @@ import sys
 
 import click
 
+from synth.tools.sim import simulate as run_sim
+
 from .common import debug_option, echo, json_option, print_json, run_guarded
 
 
@@ -37,8 +39,6 @@ def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, quiet, a
 
     Exit 0 when every joint stays within --tol of the exact motion, 1 when not or when the engine fails,
     2 for unreadable input or an engine that is not installed (pip install 'mpsynth[sim]')."""
-    from synth.tools.sim import simulate as run_sim
-
     res = run_sim(out, engine, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf)
     ok = res["max_joint_deviation"] <= tol
     res["ok"] = ok

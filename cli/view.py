@@ -3,6 +3,10 @@ from __future__ import annotations
 
 import click
 
+from synth.errors import InputError
+from synth.io.readback import read_output
+from synth.tools.viewer import write_viewer
+
 from .common import debug_option, echo, json_option, print_json, run_guarded
 
 
@@ -21,10 +25,6 @@ def view(out, output, frames, quiet, as_json, debug):
     """Write one HTML file that shows the linkage in output directory OUT in 3D (WebGL; drag to rotate,
     wheel to zoom) with its motion: play button and frame slider, the tool frame, the task poses and
     the tool path. Everything is inside the file (meshes, motion, viewer): it works offline."""
-    from synth.errors import InputError
-    from synth.io.readback import read_output
-    from synth.tools.viewer import write_viewer
-
     if frames < 2 or frames > 5000:
         raise InputError(f"--frames {frames}: must be between 2 and 5000")
     rb = read_output(out)

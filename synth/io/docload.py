@@ -11,11 +11,12 @@ style), and refuses documents far larger than any input while they are still bei
 """
 from __future__ import annotations
 
+import io
 import json
 import os
 import re
 import sys
-from typing import Any
+from typing import IO, Any
 
 import yaml
 
@@ -192,6 +193,30 @@ def load_document(text: str, name: str, force_json: bool) -> Any:
         if json_err is not None:
             raise json_err from None
         raise InputError(f"{name}: YAML error: {clean_text(' '.join(str(e).split()))}") from None
+
+
+def open_lines(source) -> tuple[IO[str], int | None]:
+    """A text stream over the lines of ``source`` (a file, or ``-`` for standard input; undecodable
+    bytes replaced) and the number of its non-blank lines (None for standard input or when they
+    cannot be counted). InputError (one line) when the file cannot be opened."""
+    if source == "-":
+        stream = (io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8", errors="replace")
+                  if hasattr(sys.stdin, "buffer") else sys.stdin)
+        return stream, None
+    try:
+        stream = open(source, encoding="utf-8", errors="replace")
+    except FileNotFoundError:
+        raise InputError(f"{source}: cannot read file: no such file") from None
+    except IsADirectoryError:
+        raise InputError(f"{source}: cannot read file: it is a directory") from None
+    except OSError as e:
+        raise InputError(f"{source}: cannot read file: {e.strerror or e}") from None
+    try:
+        with open(source, "rb") as fh:
+            total = sum(1 for line in fh if line.strip())
+    except OSError:
+        total = None
+    return stream, total
 
 
 def read_source(source, text: str | None) -> tuple[str, str]:

@@ -30,10 +30,23 @@ before it).
 """
 from __future__ import annotations
 
+import difflib
+import importlib
 import json
 import math
+import multiprocessing
 import os
+import signal
+from pathlib import Path
 from typing import Any, Iterable, Iterator
+
+from synth.checks import VERIFY_SAMPLES
+from synth.errors import MpsynthError
+from synth.io.docload import json_object_pairs
+from synth.io.jsonout import linkage_document, plain
+from synth.io.poses import parse_pose_document
+from synth.io.writer import check_output_target, write_output
+from synth.synthesis.bennett import bennett
 
 KINDS = {"bennett": 3, "sixbar": 4}
 JOB_KEYS = ("id", "kind", "poses", "units", "out", "name", "normalize", "force",
@@ -62,8 +75,6 @@ def parse_job(text: str) -> dict:
     if len(text) > MAX_LINE:
         raise _JobError("line is longer than 10 MB")
     try:
-        from synth.io.docload import json_object_pairs
-
         job = json.loads(text, object_pairs_hook=json_object_pairs, parse_constant=_reject_constant)
     except json.JSONDecodeError as e:
         raise _JobError(f"invalid JSON at column {e.colno}: {e.msg}") from None
@@ -77,8 +88,6 @@ def parse_job(text: str) -> dict:
 def _check_job(job: dict) -> None:
     unknown = [k for k in job if k not in JOB_KEYS]
     if unknown:
-        import difflib
-
         k = unknown[0]
         close = difflib.get_close_matches(k, JOB_KEYS, n=1)
         hint = f" (did you mean {close[0]!r}?)" if close else f" (allowed: {', '.join(JOB_KEYS)})"
@@ -107,11 +116,8 @@ def _check_job(job: dict) -> None:
 
 def _synthesize(kind: str, ps):
     if kind == "bennett":
-        from synth.checks import VERIFY_SAMPLES
-        from synth.synthesis.bennett import bennett
-
         return bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
-    try:
+    try:  # sixbar is optional in an installation
         from synth.synthesis.sixbar import sixbar
     except ImportError as e:
         raise _JobError(f"kind 'sixbar' is not available in this installation ({e})") from None
@@ -127,9 +133,6 @@ def run_job(item: tuple[int, str], full: bool = False) -> dict:
         if isinstance(job.get("id"), (str, int, float)) and not isinstance(job.get("id"), bool):
             result["id"] = job["id"]
         _check_job(job)
-        from synth.errors import MpsynthError
-        from synth.io.poses import parse_pose_document
-
         doc = {"poses": job["poses"]}
         if "units" in job:
             doc["units"] = job["units"]
@@ -142,8 +145,6 @@ def run_job(item: tuple[int, str], full: bool = False) -> dict:
             linkage = _synthesize(kind, ps)
             out = None
             if "out" in job:
-                from synth.io.writer import write_output
-
                 sizes = {k: float(job[k]) * ps.length_scale for k in ("pin_radius", "link_radius", "pin_length")
                          if k in job}
                 name = job.get("name") or (str(result["id"]) if result["id"] is not None else "linkage")
@@ -163,31 +164,21 @@ def run_job(item: tuple[int, str], full: bool = False) -> dict:
 
 def _prepare_out(out: str, force: bool) -> None:
     """Create OUT's missing parent directories and refuse an unusable OUT before any work."""
-    from pathlib import Path
-
     parent = Path(os.path.abspath(out)).parent
     try:
         os.makedirs(parent, exist_ok=True)
     except OSError as e:
         raise _JobError(f"{parent}: cannot create the output's parent directory ({e.strerror or e})") from None
-    from synth.io import writer
-
-    check = getattr(writer, "check_output_target", None)
-    if check is not None:
-        check(out, force=force)
+    check_output_target(out, force=force)
 
 
 def _success(kind: str, linkage, out, full: bool) -> dict:
-    from synth.io.jsonout import plain
-
     res = {"ok": True, "kind": kind, "joints": len(linkage.joints), "extent": float(linkage.extent()),
            "checks": plain(dict(linkage.checks)), "out": out}
     b = linkage.info.get("bennett")
     if b:
         res["bennett"] = plain({k: b[k] for k in ("a", "alpha", "b", "beta") if k in b})
     if full:
-        from synth.io.jsonout import linkage_document
-
         res["linkage"] = linkage_document(linkage)
     return res
 
@@ -212,8 +203,6 @@ def run_jobs(lines: Iterable[str], jobs: int = 1, chunksize: int | None = None, 
         for item in items:
             yield func(item)
         return
-    import multiprocessing
-
     if chunksize is None:
         chunksize = max(1, min(16, (total or 64) // (jobs * 8)))
     ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
@@ -230,15 +219,13 @@ def run_jobs(lines: Iterable[str], jobs: int = 1, chunksize: int | None = None, 
 
 
 def _worker_init():
-    """Workers ignore SIGINT (the parent handles ^C and terminates the pool) and pre-import the
-    synthesis modules once."""
-    import signal
-
+    """Workers ignore SIGINT (the parent handles ^C and terminates the pool) and pre-import the optional
+    sixbar synthesis once (bennett and the pose reader come with this module)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    import importlib
-
-    for module in ("synth.synthesis.bennett", "synth.io.poses", "synth.synthesis.sixbar"):  # modules, not the API functions
-        importlib.import_module(module)
+    try:
+        importlib.import_module("synth.synthesis.sixbar")
+    except ImportError:
+        pass
 
 
 def dumps(result: dict) -> str:
