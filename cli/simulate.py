@@ -5,7 +5,7 @@ import sys
 
 import click
 
-from synth.tools.sim import simulate as run_sim
+from synth.tools.sim.run import simulate as run_sim
 
 from .common import debug_option, echo, json_option, print_json, run_guarded
 

@@ -148,7 +148,8 @@ def parse_pose_document(
     length_unit, angle_unit = "m", "rad"
     if "units" in doc:
         if not isinstance(units, dict):
-            raise InputError(f"{name}: units must be a mapping like {{length: mm, angle: deg}}, got {describe_value(units)}")
+            raise InputError(f"{name}: units must be a mapping like {{length: mm, angle: deg}}, "
+                             f"got {describe_value(units)}")
         try:
             check_keys(units, UNIT_KEYS, " in units")
         except PoseProblem as e:

@@ -218,7 +218,8 @@ def _parse_quaternion(v: Any, normalize: bool) -> np.ndarray:
             raise PoseProblem(f"quaternion list must have 4 numbers [w, x, y, z], got {describe_value(v)}")
         q = [_number(x, f"quaternion[{i}]") for i, x in enumerate(v)]
     else:
-        raise PoseProblem(f"quaternion must be a mapping {{w, x, y, z}} or a list [w, x, y, z], got {describe_value(v)}")
+        raise PoseProblem(f"quaternion must be a mapping {{w, x, y, z}} or a list [w, x, y, z], "
+                          f"got {describe_value(v)}")
     n = math.hypot(*q)
     if n < 1e-12:
         raise PoseProblem(f"quaternion is zero (length {_num(n)}); it does not describe a rotation")

@@ -271,6 +271,22 @@ def read_files(out) -> OutputFiles:
     return OutputFiles(out, urdf, doc)
 
 
+def angle_laws(doc: dict) -> dict[str, tuple[float, float]]:
+    """joint -> (a, b) of its angle law theta(t) = 2 atan2(b, t - a) (``joints[].angle_law``; older
+    documents carry ``a`` and ``b`` on the joint itself), for the joints of a linkage.json document
+    that have numeric ones; nothing is judged here (`mpsynth check` reports missing or bad laws)."""
+    laws = {}
+    joints = doc.get("joints")
+    for j in joints if isinstance(joints, list) else []:
+        if not isinstance(j, dict) or not isinstance(j.get("name"), str):
+            continue
+        law = j.get("angle_law") if isinstance(j.get("angle_law"), dict) else j
+        a, b = law.get("a"), law.get("b")
+        if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (a, b)):
+            laws[j["name"]] = (float(a), float(b))
+    return laws
+
+
 def read_output(out) -> Readback:
     """Read OUT (see the module docstring) and judge it strictly: raises InputError (one line) on the
     first problem of either file, a missing mesh or a URDF axis off its linkage.json line."""

@@ -37,7 +37,7 @@ import numpy as np
 from synth.algebra.polynomial import pose_at
 from synth.io.continuation import continue_loop, law_angles
 from synth.io.frames import TWO_PI, invert_transform, pose_diff, wrap_angle
-from synth.io.readback import OutputFiles, read_files, solution_dirs
+from synth.io.readback import OutputFiles, angle_laws, read_files, solution_dirs
 
 
 # ----------------------------------------------------------------------------- checker
@@ -70,13 +70,7 @@ class _Checker:
         return [p for p in ps if isinstance(p, dict)] if isinstance(ps, list) else []
 
     def _angle_laws(self) -> dict[str, tuple[float, float]]:
-        laws = {}
-        for j in self._json_joints():
-            law = j.get("angle_law") if isinstance(j.get("angle_law"), dict) else j
-            a, b = law.get("a"), law.get("b")
-            if isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
-                laws[j["name"]] = (float(a), float(b))
-        return laws
+        return angle_laws(self.doc)
 
     # -------------------------------------------------------------- scales
     def _scales(self):

@@ -28,6 +28,9 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from synth.errors import InputError
+from synth.io.jsonout import linkage_document, write_json
+from synth.io.meshes import default_sizes, link_solids, mesh_inertials, stl_file
+from synth.io import urdf
 
 MARKER = ".mpsynth-output"
 _MARKER_TEXT = json.dumps({"format": "mpsynth.output/1",
@@ -214,10 +217,6 @@ def write_linkage_files(linkage, directory, *, robot_name: str, package: str | N
     """Write linkage.urdf, linkage.json and meshes/<link>.stl into the existing ``directory`` (not
     atomic: use inside ``atomic_directory``, e.g. for ``OUT/<id>/`` layouts). Returns the paths
     written, relative to ``directory``."""
-    from synth.io.jsonout import linkage_document, write_json
-    from synth.io.meshes import link_solids, mesh_inertials, stl_file
-    from synth.io.urdf import urdf_text
-
     directory = Path(directory)
     meshes = link_solids(linkage, pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length)
     written = []
@@ -230,7 +229,7 @@ def write_linkage_files(linkage, directory, *, robot_name: str, package: str | N
         data, offsets[name] = stl_file(mesh, f"mesh of link {name}")
         (directory / rel).write_bytes(data)
         written.append(rel)
-    text = urdf_text(linkage, robot_name, mesh_dir="meshes", package=package, masses=mesh_inertials(meshes),
+    text = urdf.urdf_text(linkage, robot_name, mesh_dir="meshes", package=package, masses=mesh_inertials(meshes),
                      mesh_offsets=offsets)
     (directory / "linkage.urdf").write_text(text, encoding="utf-8")
     write_json(linkage_document(linkage), directory / "linkage.json")
@@ -241,8 +240,6 @@ def write_output(linkage, out_dir, *, robot_name: str, force: bool = False, pack
                  pin_radius=None, link_radius=None, pin_length=None) -> list[Path]:
     """Write OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/<link>.stl atomically; returns the
     final paths. Raises InputError for an unusable OUT (see the module docstring) or bad sizes."""
-    from synth.io.meshes import default_sizes
-
     default_sizes(linkage, pin_radius, link_radius, pin_length)  # fail on bad sizes before touching disk
     out = Path(os.path.abspath(os.fspath(out_dir)))
     with atomic_directory(out, force=force) as tmp:

@@ -1,7 +1,9 @@
 """`mpsynth simulate`: drive a written linkage in a real physics engine and compare with the exact motion.
 
 Engines (optional extra ``mpsynth[sim]``): PyBullet (`pybullet_sim`, always run in a child process
-because a malformed model can crash it) and MuJoCo (`mujoco_sim`, model built by `mjcf`).
+because a malformed model can crash it) and MuJoCo (`mujoco_sim`, model built by `mjcf`); `run.simulate`
+picks one. This module holds what they share (`load_setup`, `DriveProfile`, `Tracker`) and imports
+none of them.
 
 What every engine does (OUTPUT.md's closed-loop convention):
 - load the tree of linkage.urdf with the base fixed, gravity off unless asked for;
@@ -32,7 +34,7 @@ import numpy as np
 from synth.errors import InputError, MpsynthError
 from synth.io.continuation import law_angles
 from synth.io.frames import invert_transform, pose_diff
-from synth.io.readback import read_files
+from synth.io.readback import angle_laws, read_files
 
 ENGINES = ("pybullet", "mujoco")
 TWO_PI = 2.0 * math.pi
@@ -93,11 +95,7 @@ def load_setup(out) -> SimSetup:
     u, doc = o.urdf, o.doc
     if u.problems:
         raise InputError(f"{out}: linkage.urdf is malformed: {u.problems[0]}")
-    laws = {}
-    for j in doc.get("joints", []) if isinstance(doc.get("joints"), list) else []:
-        law = j.get("angle_law") if isinstance(j.get("angle_law"), dict) else j
-        if isinstance(j.get("name"), str) and isinstance(law.get("a"), (int, float)) and isinstance(law.get("b"), (int, float)):
-            laws[j["name"]] = (float(law["a"]), float(law["b"]))
+    laws = angle_laws(doc)
     joints = [jn for jn in u.order if u.joints[jn].kind in ("revolute", "continuous")]
     if not joints:
         raise InputError(f"{out}: the URDF has no revolute joint to drive")
@@ -250,26 +248,3 @@ def quat_wxyz(R) -> np.ndarray:
     q = np.array(q)
     q /= np.linalg.norm(q)
     return q if q[0] >= 0 else -q
-
-
-def simulate(out, engine: str, *, seconds: float = 2.0, timestep: float | None = None, gravity: bool = False,
-             export_mjcf=None, timeout: float = 600.0) -> dict:
-    """Run ``engine`` on OUT; returns the result dict (see `Tracker.result`). Raises EngineNotInstalled
-    (exit 2), InputError (exit 2) or SimulationError (exit 1)."""
-    if not (seconds > 0 and math.isfinite(seconds) and seconds <= 3600):
-        raise InputError(f"--seconds must be in (0, 3600], got {seconds}")
-    if timestep is not None and not (0 < timestep <= seconds / 10):
-        raise InputError(f"--timestep must be positive and at most a tenth of --seconds, got {timestep}")
-    setup = load_setup(out)  # input errors before engine errors
-    if export_mjcf and engine != "mujoco":  # the MuJoCo run writes (and loads) it itself
-        from synth.tools.sim.mjcf import write_mjcf
-
-        write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity)
-    require_engine(engine)
-    if engine == "pybullet":
-        from synth.tools.sim.pybullet_sim import run_in_subprocess
-
-        return run_in_subprocess(setup, seconds=seconds, timestep=timestep, gravity=gravity, timeout=timeout)
-    from synth.tools.sim.mujoco_sim import run as run_mujoco
-
-    return run_mujoco(setup, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf)

@@ -30,6 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.errors import InputError
+from synth.tools.sim import quat_wxyz
+
 DEFAULT_TIMESTEP = 5e-4
 ITERATIONS = 200
 SERVO_STEPS = 20  # servo time constant in time steps
@@ -47,8 +50,6 @@ def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, me
               kp: float | None = None, kv: float | None = None) -> str:
     """The MJCF document. Mesh files are written relative to ``mesh_base`` (the directory of the MJCF
     file) when given, else as absolute paths."""
-    from synth.tools.sim import quat_wxyz
-
     u = setup.urdf
     dt = timestep or DEFAULT_TIMESTEP
     if kp is None or kv is None:
@@ -130,8 +131,6 @@ def principal_inertia(I) -> tuple[np.ndarray, np.ndarray]:
     within the triangle inequality that MuJoCo enforces: a thin pin's moment about its own axis can
     round to zero or below, and is raised to 1e-9 of the largest moment (and to 1e-15 kg m^2, MuJoCo's
     smallest accepted value)."""
-    from synth.tools.sim import quat_wxyz
-
     I = 0.5 * (np.asarray(I, float) + np.asarray(I, float).T)
     ev, V = np.linalg.eigh(I)
     if np.linalg.det(V) < 0:
@@ -223,8 +222,6 @@ def _subtree(u, joint: str) -> list[str]:
 
 def write_mjcf(setup, path, *, timestep: float | None = None, gravity: bool = False) -> Path:
     """Write the MJCF to ``path`` (mesh paths relative to its directory)."""
-    from synth.errors import InputError
-
     path = Path(path)
     if not path.parent.exists():
         raise InputError(f"{path.parent}: directory does not exist (for --export-mjcf)")

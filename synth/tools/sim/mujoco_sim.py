@@ -11,26 +11,22 @@ import time
 
 import numpy as np
 
+from synth.tools.sim import DriveProfile, SimulationError, Tracker
+from synth.tools.sim.mjcf import DriveModel, mjcf_text, write_mjcf
+
 
 def build_model(setup, *, timestep=None, gravity=False):
     import mujoco
-
-    from synth.tools.sim.mjcf import mjcf_text
 
     text = mjcf_text(setup, timestep=timestep, gravity=gravity)
     try:
         return mujoco.MjModel.from_xml_string(text)
     except Exception as e:  # noqa: BLE001 - MuJoCo raises ValueError with its compiler message
-        from synth.tools.sim import SimulationError
-
         raise SimulationError(f"MuJoCo rejected the model of {setup.out}: {e}") from None
 
 
 def run(setup, *, seconds: float, timestep=None, gravity: bool = False, export_mjcf=None) -> dict:
     import mujoco
-
-    from synth.tools.sim import DriveProfile, SimulationError, Tracker
-    from synth.tools.sim.mjcf import DriveModel, write_mjcf
 
     t_wall = time.perf_counter()
     if export_mjcf:

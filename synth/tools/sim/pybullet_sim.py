@@ -15,6 +15,8 @@ request.
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import subprocess
 import sys
@@ -26,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.io.frames import invert_transform, rpy_from_matrix
+from synth.tools.sim import DriveProfile, SimulationError, Tracker, load_setup, quat_wxyz
 
 DEFAULT_TIMESTEP = 1e-3
 ITERATIONS = 3000
@@ -58,8 +61,6 @@ def sim_urdf_text(setup) -> str:
 
 def run_in_subprocess(setup, *, seconds: float, timestep: float | None, gravity: bool, timeout: float = 600.0) -> dict:
     """Run `child_main` in a fresh Python; returns its result or raises SimulationError."""
-    from synth.tools.sim import SimulationError
-
     with tempfile.TemporaryDirectory(prefix="mpsynth-pybullet-") as tmp:
         tmp = Path(tmp)
         urdf = tmp / "sim.urdf"
@@ -96,8 +97,6 @@ def _T(pos, orn, p) -> np.ndarray:
 
 
 def _pos_quat_xyzw(T):
-    from synth.tools.sim import quat_wxyz
-
     w, x, y, z = quat_wxyz(T[:3, :3])
     return [float(v) for v in T[:3, 3]], [float(x), float(y), float(z), float(w)]
 
@@ -105,8 +104,6 @@ def _pos_quat_xyzw(T):
 def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gravity: bool) -> dict:
     """The PyBullet run itself (call it in a child process only)."""
     import pybullet as p
-
-    from synth.tools.sim import DriveProfile, Tracker
 
     t_wall = time.perf_counter()
     cid = p.connect(p.DIRECT)
@@ -170,15 +167,10 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
 
 def child_main(argv=None) -> int:
     """Entry point of the child process: REQUEST.json in, RESULT.json out."""
-    import contextlib
-    import io
-
     argv = sys.argv[1:] if argv is None else argv
     req = json.loads(Path(argv[0]).read_text(encoding="utf-8"))
     result_path = Path(req["result"])
     try:
-        from synth.tools.sim import load_setup
-
         setup = load_setup(req["out"])
         with contextlib.redirect_stdout(io.StringIO()):  # PyBullet prints its build time on stdout
             res = simulate_in_process(setup, req["urdf"], seconds=req["seconds"], timestep=req["timestep"],
