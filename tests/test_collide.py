@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 from cli.main import mpsynth
 from synth.synthesis.bennett import bennett
-from synth.tools.collide import _runs, candidate_pairs
+from synth.tools.collide import cyclic_runs, candidate_pairs
 from synth.io.writer import write_output
 from synth.io.poses import load_poses
 from synth.io.readback import read_output
@@ -49,8 +49,8 @@ def test_pairs_checked_and_excluded(out_quat):
 
 def test_runs_are_cyclic():
     h = np.array([1, 1, 0, 0, 1, 0, 1, 1], bool)
-    assert _runs(h) == [(4, 4), (6, 1)]  # the last run wraps around through the end
-    assert _runs(np.ones(5, bool)) == [(0, 4)] and _runs(np.zeros(5, bool)) == []
+    assert cyclic_runs(h) == [(4, 4), (6, 1)]  # the last run wraps around through the end
+    assert cyclic_runs(np.ones(5, bool)) == [(0, 4)] and cyclic_runs(np.zeros(5, bool)) == []
 
 
 def test_fixture_bennett_collides_where_it_folds(out_quat):
@@ -69,9 +69,9 @@ def test_fixture_bennett_collides_where_it_folds(out_quat):
     assert 0.05 < a0 < a1 < 0.3 and 1.5 < b0 < b1 < 8
     # the range ends are refined: just outside them the pair is free, just inside it collides
     rb = read_output(out_quat)
-    from synth.tools.collide import _PairTester
+    from synth.tools.collide import PairTester
 
-    tester = _PairTester(rb, "base", "coupler")
+    tester = PairTester(rb, "base", "coupler")
     for lo, hi in ((a0, a1), (b0, b1)):
         pl, ph = math.atan(lo), math.atan(hi)
         assert tester.hit(math.tan(pl + 1e-5)) and tester.hit(math.tan(ph - 1e-5))

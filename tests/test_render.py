@@ -15,7 +15,7 @@ from synth.synthesis.bennett import bennett
 from synth.errors import InputError
 from synth.io.writer import write_output
 from synth.io.poses import load_poses
-from synth.io.readback import cycle_parameters, phi_of, read_output
+from synth.io.readback import angle_laws, cycle_parameters, mesh_path, phi_of, read_files, read_output
 
 from conftest import REPO
 
@@ -98,6 +98,35 @@ def test_readback_errors(tmp_path, out_quat):
     (moved / "linkage.json").write_text(json.dumps(doc))
     with pytest.raises(InputError, match="h2's axis differs"):
         read_output(moved)
+
+
+def test_mesh_path_is_one_rule_for_every_reader(tmp_path):
+    assert mesh_path("meshes/a.stl", tmp_path) == tmp_path / "meshes" / "a.stl"
+    assert mesh_path("package://robot/meshes/a.stl", tmp_path) == tmp_path / "meshes" / "a.stl"
+    for bad in ("", "/abs/a.stl", "file:///abs/a.stl", "http://host/a.stl", "package://robot", "package://robot/"):
+        assert mesh_path(bad, tmp_path) is None, bad
+
+
+def test_angle_laws_of_a_document():
+    doc = {"joints": [{"name": "h1", "angle_law": {"a": 1, "b": 2}}, {"name": "h2", "a": 0.5, "b": -1.0},
+                      {"name": "h3", "angle_law": {"a": True, "b": 1}}, {"name": "h4"}, "junk", {"a": 1, "b": 1}]}
+    assert angle_laws(doc) == {"h1": (1.0, 2.0), "h2": (0.5, -1.0)}
+    assert angle_laws({}) == {} and angle_laws({"joints": "x"}) == {}
+
+
+def test_strict_reader_refuses_what_the_lenient_one_lists(tmp_path, out_quat):
+    """read_files (check, simulate) lists a malformed URDF value as a problem; read_output (render, view,
+    collide) refuses the directory with that same line."""
+    bad = tmp_path / "bad"
+    shutil.copytree(out_quat, bad)
+    urdf = bad / "linkage.urdf"
+    text = urdf.read_text()
+    i = text.index('<axis xyz="')
+    urdf.write_text(text[:i] + '<axis xyz="1 0"' + text[text.index("/>", i):])
+    problems = read_files(bad).urdf.problems
+    assert "axis of joint h1" in problems[0] and "expected 3 finite numbers" in problems[0]
+    with pytest.raises(InputError, match="axis of joint h1 .* expected 3 finite numbers"):
+        read_output(bad)
 
 
 # ------------------------------------------------------------------ render

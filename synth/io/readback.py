@@ -307,7 +307,7 @@ def read_output(out) -> Readback:
     visuals: dict[str, list[Visual]] = {}
     for m in model.meshes:
         if m.tag == "visual" and m.filename:
-            visuals.setdefault(m.link, []).append(Visual(path=_mesh_path(m.filename, urdf), scale=m.scale,
+            visuals.setdefault(m.link, []).append(Visual(path=_mesh_file(m.filename, urdf), scale=m.scale,
                                                          origin=m.origin, rgba=m.rgba))
     _cross_check(linkage, frame_ref, model, urdf)
     return Readback(root=root, document=doc, linkage=linkage, robot_name=model.name or "linkage",
@@ -382,19 +382,26 @@ def linkage_from_document(doc: dict, where: str = "linkage.json") -> Linkage:
 
 
 # ---------------------------------------------------------------------- URDF
-def _mesh_path(filename: str, urdf: Path) -> Path:
-    root = urdf.parent
+def mesh_path(filename: str, root) -> Path | None:
+    """Where a URDF mesh ``filename`` lives in the output directory ``root`` (OUTPUT.md: mesh paths are
+    relative to the URDF; ``package://NAME/x`` means ``root/x``), or None when it is not such a path
+    (empty, absolute, another URL scheme). Whether the file exists is not checked."""
+    root = Path(root)
     if filename.startswith("package://"):
         rest = filename[len("package://"):].split("/", 1)
-        candidates = [root / rest[1]] if len(rest) == 2 else []
-    elif filename.startswith("file://"):
-        candidates = [Path(filename[len("file://"):])]
-    else:
-        candidates = [root / filename]
-    for c in candidates:
-        if c.is_file():
-            return c
-    raise InputError(f"{urdf}: mesh {filename!r} not found (looked for {candidates[0] if candidates else filename})")
+        return root / rest[1] if len(rest) == 2 and rest[1] else None
+    if not filename or filename.startswith("/") or "://" in filename:
+        return None
+    return root / filename
+
+
+def _mesh_file(filename: str, urdf: Path) -> Path:
+    p = mesh_path(filename, urdf.parent)
+    if p is None:
+        raise InputError(f"{urdf}: mesh {filename!r} is not a path relative to the URDF")
+    if not p.is_file():
+        raise InputError(f"{urdf}: mesh {filename!r} not found (looked for {p})")
+    return p
 
 
 def _cross_check(linkage: Linkage, frame: dict, model: UrdfModel, urdf: Path) -> None:

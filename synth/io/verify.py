@@ -37,7 +37,7 @@ import numpy as np
 from synth.algebra.polynomial import pose_at
 from synth.io.continuation import continue_loop, law_angles
 from synth.io.frames import TWO_PI, invert_transform, pose_diff, wrap_angle
-from synth.io.readback import OutputFiles, angle_laws, read_files, solution_dirs
+from synth.io.readback import OutputFiles, angle_laws, mesh_path, read_files, solution_dirs
 
 
 # ----------------------------------------------------------------------------- checker
@@ -199,14 +199,10 @@ class _Checker:
         for m in self.u.meshes:
             fn = m.filename
             where = f"mesh {fn} (link {m.link} {m.tag})"
-            if fn.startswith("package://"):
-                rel = fn[len("package://"):].split("/", 1)[1] if "/" in fn[len("package://"):] else ""
-            elif fn.startswith("/") or "://" in fn or not fn:
+            p = mesh_path(fn, self.o.path)
+            if p is None:
                 self.fail(f"{where}: not a path relative to the URDF")
                 continue
-            else:
-                rel = fn
-            p = self.o.path / rel
             if not p.is_file():
                 self.fail(f"{where}: file not found")
                 continue

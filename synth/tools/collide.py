@@ -74,7 +74,7 @@ def _t_of_phi(phi: float) -> float:
     return math.tan(p)
 
 
-class _PairTester:
+class PairTester:
     """Tests one pair of links at any parameter t with its own two-object collision manager."""
 
     def __init__(self, rb: Readback, a: str, b: str):
@@ -105,7 +105,7 @@ class _PairTester:
         return phi_hit
 
 
-def _runs(hit: np.ndarray) -> list[tuple[int, int]]:
+def cyclic_runs(hit: np.ndarray) -> list[tuple[int, int]]:
     """Cyclic runs of True as (first, last) indices (last < first when the run wraps around)."""
     n = len(hit)
     if hit.all():
@@ -163,9 +163,9 @@ def collide(rb: Readback, steps: int = 360, spacing: str = "angle", clearance: b
             if clearance:
                 clear.append({"links": list(p), **_clearance(rb, p, poses, ts)})
             continue
-        tester = _PairTester(rb, *p)
+        tester = PairTester(rb, *p)
         ranges = []
-        for first, last in _runs(h):
+        for first, last in cyclic_runs(h):
             if h.all():
                 ranges.append(_range(lk, None, None, steps))
                 continue

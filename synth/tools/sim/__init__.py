@@ -34,7 +34,7 @@ import numpy as np
 from synth.errors import InputError, MpsynthError
 from synth.io.continuation import law_angles
 from synth.io.frames import invert_transform, pose_diff
-from synth.io.readback import angle_laws, read_files
+from synth.io.readback import angle_laws, mesh_path, read_files
 
 ENGINES = ("pybullet", "mujoco")
 TWO_PI = 2.0 * math.pi
@@ -83,10 +83,8 @@ class SimSetup:
 
     def mesh_path(self, filename: str) -> Path:
         """Absolute path of a URDF mesh filename (relative to OUT; package://NAME/x -> OUT/x)."""
-        if filename.startswith("package://"):
-            rest = filename[len("package://"):]
-            filename = rest.split("/", 1)[1] if "/" in rest else rest
-        return (self.out / filename).resolve()
+        p = mesh_path(filename, self.out)
+        return (p if p is not None else self.out / filename).resolve()
 
 
 def load_setup(out) -> SimSetup:
