@@ -148,7 +148,7 @@ def _looks_like_json(text: str) -> bool:
 
 
 def json_object_pairs(pairs):
-    """``object_pairs_hook`` for json.loads that rejects duplicate keys (OUTPUT.md: an input error)."""
+    """``object_pairs_hook`` for json.loads that rejects duplicate keys (an input error)."""
     out = {}
     for k, v in pairs:
         if k in out:

@@ -1,7 +1,7 @@
 """Link frames, the roll-pitch-yaw conversion and small rigid-transform helpers shared by the exporters
 and the readers of an output directory.
 
-The frame of link X (OUTPUT.md, linkage.py) sits at the site (``Linkage.joint_sites``: where the pins
+The frame of link X (docs/conventions.md, synth/linkage.py) sits at the site (``Linkage.joint_sites``: where the pins
 are) on the axis of the joint whose child is X, with axes parallel to the world axes at the reference configuration; ``base`` has the
 world frame. So every frame differs from the world frame by a translation only, and a URDF joint's
 origin is the plain difference of the two origins with rpy "0 0 0".

@@ -1,4 +1,4 @@
-"""Read and validate pose files (OUTPUT.md, "Input: pose files").
+"""Read and validate pose files (docs/conventions.md, pose files).
 
 A pose file is YAML (or JSON, which is parsed with the ``json`` module when the file name ends in
 ``.json`` or the text looks like a JSON object) of the form::
@@ -21,7 +21,7 @@ The file is read by `synth.io.docload` (size limits, the strict YAML loader), ea
 and returns a `PoseSet`. Conventions:
 
 * **Pose indices are 0-based**, in the order the poses are listed, matching the default names
-  ``p0, p1, ...``, the ``poses`` list of ``linkage.json`` and the T0, T1, ... of MATH.md.
+  ``p0, p1, ...`` and the ``poses`` list of ``linkage.json`` (docs/conventions.md).
 * Every problem raises :class:`synth.errors.InputError` with a single line
   ``<file>: pose <i> ("<name>"): <problem>`` (``("<name>")`` only when the pose has a name;
   file-level problems are ``<file>: <problem>``). ``<file>`` is the path as given, or ``<stdin>``.
@@ -95,7 +95,7 @@ class PoseSet:
         return self.matrices[:, :3, :3]
 
     def dual_quaternions(self) -> np.ndarray:
-        """(N, 8) unit dual quaternions (MATH.md section 2 convention), lengths in metres."""
+        """(N, 8) unit dual quaternions (docs/conventions.md), lengths in metres."""
         return pose_to_dq(self.matrices)
 
 

@@ -1,4 +1,4 @@
-"""One pose of a pose file: units, numbers, rotations (OUTPUT.md, "Input: pose files").
+"""One pose of a pose file: units, numbers, rotations (docs/conventions.md, pose files).
 
 ``pose_matrix(spec, length_scale, angle_unit, normalize)`` turns one pose mapping (``position`` and one
 of ``quaternion``, ``rpy``, ``axis_angle``, ``rotation``; or a 4x4 ``matrix`` alone) into a 4x4 pose in

@@ -1,4 +1,4 @@
-"""The one reader of an output directory (OUTPUT.md): the linkage, its link frames, meshes and poses.
+"""The one reader of an output directory (docs/conventions.md): the linkage, its link frames, meshes and poses.
 
 ``read_files(OUT)`` parses linkage.json (plain JSON) and linkage.urdf (`synth.io.urdfmodel`) without
 judging them: `mpsynth check` (`synth.io.verify`) and `mpsynth simulate` start from it.
@@ -383,7 +383,7 @@ def linkage_from_document(doc: dict, where: str = "linkage.json") -> Linkage:
 
 # ---------------------------------------------------------------------- URDF
 def mesh_path(filename: str, root) -> Path | None:
-    """Where a URDF mesh ``filename`` lives in the output directory ``root`` (OUTPUT.md: mesh paths are
+    """Where a URDF mesh ``filename`` lives in the output directory ``root`` (docs/conventions.md: mesh paths are
     relative to the URDF; ``package://NAME/x`` means ``root/x``), or None when it is not such a path
     (empty, absolute, another URL scheme). Whether the file exists is not checked."""
     root = Path(root)

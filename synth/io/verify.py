@@ -1,4 +1,4 @@
-"""`mpsynth check`: read an output directory back and verify the whole claim it makes (OUTPUT.md).
+"""`mpsynth check`: read an output directory back and verify the whole claim it makes (docs/conventions.md).
 
 Nothing here trusts the synthesis code: OUT is read by the one reader of output directories
 (`synth.io.readback.read_files`: the URDF into our own small model, `synth.io.urdfmodel`, forward

@@ -5,7 +5,7 @@ because a malformed model can crash it) and MuJoCo (`mujoco_sim`, model built by
 picks one. This module holds what they share (`load_setup`, `DriveProfile`, `Tracker`) and imports
 none of them.
 
-What every engine does (OUTPUT.md's closed-loop convention):
+What every engine does (the closed-loop convention of docs/conventions.md):
 - load the tree of linkage.urdf with the base fixed, gravity off unless asked for;
 - close every loop the engine's way (PyBullet: a JOINT_FIXED user constraint between ``coupler`` and
   ``coupler_k``; MuJoCo: an ``<equality><weld>``), with no contacts between the linkage's links;
