@@ -26,24 +26,24 @@ def link_origins(linkage) -> dict[str, np.ndarray]:
     return out
 
 
-def _rx(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
-
-
-def _ry(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
-
-
 def _rz(a):
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
 
 
+def rpy_from_sincos(sr, cr, sp, cp, sy, cy) -> np.ndarray:
+    """URDF roll-pitch-yaw (fixed axes, R = Rz(yaw) @ Ry(pitch) @ Rx(roll)) from the sines and cosines
+    of the three angles (so a caller can pass exact values, e.g. for multiples of 90 degrees)."""
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    return Rz @ Ry @ Rx
+
+
 def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """URDF convention: fixed axes, R = Rz(yaw) @ Ry(pitch) @ Rx(roll)."""
-    return _rz(yaw) @ _ry(pitch) @ _rx(roll)
+    """URDF convention: fixed axes, R = Rz(yaw) @ Ry(pitch) @ Rx(roll); angles in radians."""
+    return rpy_from_sincos(math.sin(roll), math.cos(roll), math.sin(pitch), math.cos(pitch), math.sin(yaw),
+                           math.cos(yaw))
 
 
 def rpy_from_matrix(R) -> tuple[float, float, float]:

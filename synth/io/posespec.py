@@ -16,9 +16,10 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from synth.algebra.dq import matrix_to_quat
+from synth.algebra.dq import matrix_to_quat, quat_to_matrix
 from synth.errors import InputError
 from synth.io.docload import clean_text, quote_text
+from synth.io.frames import rpy_from_sincos, skew
 
 #: metres per unit
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}
@@ -141,22 +142,7 @@ def _sincos(angle: float, unit: str) -> tuple[float, float]:
 
 def quaternion_matrix(w: float, x: float, y: float, z: float) -> np.ndarray:
     """Rotation matrix of the unit quaternion (w, x, y, z) (normalized here; must be nonzero)."""
-    n = math.hypot(w, x, y, z)
-    w, x, y, z = w / n, x / n, y / n, z / n
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
-def _rpy_from_sincos(sr, cr, sp, cp, sy, cy) -> np.ndarray:
-    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
-    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
-    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
-    return Rz @ Ry @ Rx
+    return quat_to_matrix(np.array([w, x, y, z], float))
 
 
 def rpy_matrix(roll: float, pitch: float, yaw: float, unit: str = "rad") -> np.ndarray:
@@ -164,7 +150,7 @@ def rpy_matrix(roll: float, pitch: float, yaw: float, unit: str = "rad") -> np.n
     sr, cr = _sincos(roll, unit)
     sp, cp = _sincos(pitch, unit)
     sy, cy = _sincos(yaw, unit)
-    return _rpy_from_sincos(sr, cr, sp, cp, sy, cy)
+    return rpy_from_sincos(sr, cr, sp, cp, sy, cy)
 
 
 def axis_angle_matrix(axis, angle: float, unit: str = "rad") -> np.ndarray:
@@ -172,7 +158,7 @@ def axis_angle_matrix(axis, angle: float, unit: str = "rad") -> np.ndarray:
     k = np.asarray(axis, dtype=float)
     k = k / math.hypot(*k)
     s, c = _sincos(angle, unit)
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    K = skew(k)
     return c * np.eye(3) + s * K + (1.0 - c) * np.outer(k, k)
 
 
