@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.errors import InputError
+from synth.io.writer import atomic_write
 from synth.tools.sim import quat_wxyz
 
 DEFAULT_TIMESTEP = 5e-4
@@ -226,7 +227,5 @@ def write_mjcf(setup, path, *, timestep: float | None = None, gravity: bool = Fa
     if not path.parent.exists():
         raise InputError(f"{path.parent}: directory does not exist (for --export-mjcf)")
     text = mjcf_text(setup, timestep=timestep, gravity=gravity, mesh_base=path.parent.resolve())
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
     return path
