@@ -299,7 +299,7 @@ def read_output(out) -> Readback:
     linkage = linkage_from_document(doc, where=where)
     urdf = root / "linkage.urdf"
     if model.problems:
-        raise InputError(f"{urdf}: {model.problems[0]}")
+        raise InputError(f"{urdf}: {model.problems[0].removeprefix('URDF: ')}")
     frame_ref = model.fk({})
     for n in linkage.link_names:
         if n not in frame_ref:
