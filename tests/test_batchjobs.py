@@ -10,6 +10,8 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
+from synth.errors import InputError
+from synth.io.docload import open_lines
 from synth.tools.batchjobs import run_job, run_jobs
 
 from conftest import REPO, random_poses
@@ -173,3 +175,16 @@ def test_all_ok_exits_0_and_unreadable_jobs_exit_2(tmp_path):
     assert r.exit_code == 0 and json.loads(r.stdout)["id"] is None
     r = run("batch", tmp_path / "nope.jsonl")
     assert r.exit_code == 2 and "no such file" in r.stderr
+
+
+def test_open_lines_counts_jobs_and_names_unreadable_files(tmp_path):
+    f = tmp_path / "jobs.jsonl"
+    f.write_bytes(b'{"a": 1}\n\n   \n{"b": \xff}\n')
+    stream, total = open_lines(str(f))
+    with stream:
+        lines = list(stream)
+    assert total == 2 and len(lines) == 4 and "\ufffd" in lines[3]  # undecodable bytes replaced
+    with pytest.raises(InputError, match="it is a directory"):
+        open_lines(str(tmp_path))
+    with pytest.raises(InputError, match="no such file"):
+        open_lines(str(tmp_path / "nope.jsonl"))
