@@ -1,5 +1,5 @@
 """`mpsynth curve SPEC -o OUT`: a multi-loop revolute linkage that performs a rational motion or whose
-`tracer` frame draws a rational curve (issue 5; MATH-EXCEPTIONAL.md)."""
+`tracer` frame draws a rational curve (issue 5; docs/exceptional.md)."""
 from __future__ import annotations
 
 import click

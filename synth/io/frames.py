@@ -1,6 +1,6 @@
 """Link frames and the roll-pitch-yaw conversion shared by the exporters.
 
-The frame of link X (OUTPUT.md, linkage.py) sits at the site (``Linkage.joint_sites``: where the pins
+The frame of link X (docs/conventions.md, linkage.py) sits at the site (``Linkage.joint_sites``: where the pins
 are) on the axis of the joint whose child is X, with axes parallel to the world axes at the reference configuration; ``base`` has the
 world frame. So every frame differs from the world frame by a translation only, and a URDF joint's
 origin is the plain difference of the two origins with rpy "0 0 0".

@@ -1,4 +1,4 @@
-"""Read and validate pose files (OUTPUT.md, "Input: pose files").
+"""Read and validate pose files (docs/conventions.md, "Input and output contract").
 
 A pose file is YAML (or JSON, which is parsed with the ``json`` module when the file name ends in
 ``.json`` or the text looks like a JSON object) of the form::
@@ -19,7 +19,7 @@ A pose file is YAML (or JSON, which is parsed with the ``json`` module when the 
 Conventions of this module:
 
 * **Pose indices are 0-based**, in the order the poses are listed, matching the default names
-  ``p0, p1, ...``, the ``poses`` list of ``linkage.json`` and the T0, T1, ... of MATH.md.
+  ``p0, p1, ...``, the ``poses`` list of ``linkage.json`` and the T0, T1, ... of docs/conic.md and docs/cubic.md.
 * Every problem raises :class:`synth.errors.InputError` with a single line
   ``<file>: pose <i> ("<name>"): <problem>`` (``("<name>")`` only when the pose has a name;
   file-level problems are ``<file>: <problem>``). ``<file>`` is the path as given, or ``<stdin>``.
@@ -113,7 +113,7 @@ class PoseSet:
         return self.matrices[:, :3, :3]
 
     def dual_quaternions(self) -> np.ndarray:
-        """(N, 8) unit dual quaternions (MATH.md section 2 convention), lengths in metres."""
+        """(N, 8) unit dual quaternions (docs/conventions.md convention), lengths in metres."""
         from synth.algebra.dq import pose_to_dq
 
         return pose_to_dq(self.matrices)
@@ -514,7 +514,7 @@ def _looks_like_json(text: str) -> bool:
 
 
 def json_object_pairs(pairs):
-    """``object_pairs_hook`` for json.loads that rejects duplicate keys (OUTPUT.md: an input error)."""
+    """``object_pairs_hook`` for json.loads that rejects duplicate keys (docs/conventions.md: an input error)."""
     out = {}
     for k, v in pairs:
         if k in out:

@@ -1,4 +1,4 @@
-"""Read an output directory (OUTPUT.md) back: the linkage, its link frames, meshes and poses.
+"""Read an output directory (docs/conventions.md) back: the linkage, its link frames, meshes and poses.
 
 ``read_output(OUT)`` rebuilds a `synth.linkage.Linkage` from ``OUT/linkage.json`` (joint lines, angle
 laws, link tree, closures, poses, tool frame) and takes from ``OUT/linkage.urdf`` what only the URDF

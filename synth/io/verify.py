@@ -1,4 +1,4 @@
-"""`mpsynth check`: read an output directory back and verify the whole claim it makes (OUTPUT.md).
+"""`mpsynth check`: read an output directory back and verify the whole claim it makes (docs/conventions.md).
 
 Nothing here trusts the synthesis code: the URDF is parsed with ``xml.etree`` into our own small model
 (forward kinematics by 4x4 products), linkage.json is read as plain JSON, meshes are loaded with

@@ -1,4 +1,4 @@
-"""Write a linkage's output directory (OUTPUT.md) atomically.
+"""Write a linkage's output directory (docs/conventions.md) atomically.
 
 ``atomic_directory(OUT)`` yields a fresh temporary sibling directory ``.OUT.mpsynth-tmp-XXXX`` (same
 parent, so the final rename cannot cross file systems). On a clean exit it drops a marker file

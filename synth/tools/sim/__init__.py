@@ -3,7 +3,7 @@
 Engines (optional extra ``mpsynth[sim]``): PyBullet (`pybullet_sim`, always run in a child process
 because a malformed model can crash it) and MuJoCo (`mujoco_sim`, model built by `mjcf`).
 
-What every engine does (OUTPUT.md's closed-loop convention):
+What every engine does (the closed-loop convention of docs/conventions.md):
 - load the tree of linkage.urdf with the base fixed, gravity off unless asked for;
 - close every loop the engine's way (PyBullet: a JOINT_FIXED user constraint between ``coupler`` and
   ``coupler_k``; MuJoCo: an ``<equality><weld>``), with no contacts between the linkage's links;
