@@ -1,5 +1,5 @@
 """`mpsynth factor FILE | --expr TEXT`: every factorization of a monic motion polynomial into linear
-factors (revolute joints, or translations), from Algorithm 1 (MATH.md section 4).
+factors (revolute joints, or translations), from Algorithm 1 (docs/algorithm1.md).
 
 The command is three steps, kept apart so that further modes (e.g. a ``--cofactor`` option for
 non-generic input, issue 5) only add a branch in `compute`:

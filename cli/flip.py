@@ -1,4 +1,4 @@
-"""`mpsynth flip M H`: the Bennett flip (t - m)(t - h) = (t - k)(t - n) (MATH-EXCEPTIONAL.md section 6)."""
+"""`mpsynth flip M H`: the Bennett flip (t - m)(t - h) = (t - k)(t - n) (docs/exceptional.md)."""
 from __future__ import annotations
 
 import re

@@ -1,4 +1,4 @@
-"""Exceptions with the exit codes of the CLI contract (OUTPUT.md): 2 input error, 1 no real linkage."""
+"""Exceptions with the exit codes of the CLI contract (docs/conventions.md): 2 input error, 1 no real linkage."""
 from __future__ import annotations
 
 

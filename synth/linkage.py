@@ -1,6 +1,6 @@
 """The linkage: a plain data object shared by every synthesis and every exporter.
 
-Conventions (see ../shared/docs/OUTPUT.md and MATH.md section 5):
+Conventions (see docs/conventions.md, sections 4-6):
 - lengths in metres, angles in radians, everything in the world frame of the poses;
 - the *reference configuration* is the first pose (t = infinity, all joint angles 0);
 - a joint is a revolute axis given as a normalized Plücker line (unit `direction`, `moment` =

@@ -1,5 +1,5 @@
 """Theorem 2 of the survey: a real co-factor R with C R = (t - h_1)...(t - h_m) for a bounded monic
-motion polynomial C whose primal part has a real factor (MATH-EXCEPTIONAL.md sections 3-5).
+motion polynomial C whose primal part has a real factor (docs/exceptional.md, sections 2-3).
 
 Pipeline (``factorize_with_cofactor``):
 

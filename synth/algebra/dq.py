@@ -1,6 +1,6 @@
 """Dual quaternions as arrays of shape (..., 8) = [p0, p1, p2, p3, q0, q1, q2, q3] meaning p + eps q.
 
-Conventions (MATH.md section 1-2): Hamilton product (ij = k); a point x is moved by
+Conventions (docs/conventions.md): Hamilton product (ij = k); a point x is moved by
 ``x -> (p x p~ + p q~ - q p~) / N(p)``; the pose with rotation R (unit quaternion r) and translation d
 is ``r - (eps/2) d r``; ``h1 h2`` acts as "first h2, then h1" like ``T1 @ T2``. Every function
 broadcasts over leading batch axes. Lengths are in whatever unit the caller uses.

@@ -1,4 +1,4 @@
-"""Exact (rational) factorization of motion polynomials: Algorithm 1 of MATH.md section 4 in
+"""Exact (rational) factorization of motion polynomials: Algorithm 1 (docs/algorithm1.md) in
 ``fractions.Fraction`` arithmetic.
 
 Applies to monic motion polynomials with rational coefficients whose norm polynomial N(C) splits over

@@ -1,4 +1,4 @@
-"""Bennett flip (MATH-EXCEPTIONAL.md section 6): (t - m)(t - h) = (t - k)(t - n).
+"""Bennett flip (docs/exceptional.md, section 4): (t - m)(t - h) = (t - k)(t - n).
 
 With w = ~m - h (the remainder of (t-m)(t-h) by N(t-m) is w t + m(h - ~m)):
 

@@ -2,7 +2,7 @@
 
 ``t`` is real and central. A motion polynomial C = P + eps Q has a real norm polynomial C C~ and an
 invertible (here: unit, monic) leading coefficient; C(t) is then a pose for every real t with
-N(C)(t) != 0, and C(inf) = 1 for monic C (MATH.md section 3). All functions broadcast over leading
+N(C)(t) != 0, and C(inf) = 1 for monic C (docs/conventions.md). All functions broadcast over leading
 batch axes; real polynomials are arrays (..., m+1) in ascending powers.
 """
 from __future__ import annotations
@@ -145,7 +145,7 @@ def divide_linear_right(C, h):
 
 
 def divide_right(C, D):
-    """Right division C = Q D + R by D with invertible leading coefficient (MATH.md section 3)."""
+    """Right division C = Q D + R by D with invertible leading coefficient (docs/conventions.md)."""
     from synth.algebra.dq import dq_inv
 
     R = np.array(C, float)

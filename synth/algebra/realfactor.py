@@ -1,5 +1,5 @@
 """The maximal real polynomial factor mrpf(P) of a motion polynomial's primal part
-(MATH-EXCEPTIONAL.md section 2).
+(docs/exceptional.md, section 1).
 
 mrpf(P) = g = the monic gcd of the four real component polynomials p0..p3 of P. Algorithm 1 is
 guaranteed to work when deg g = 0 (generic). C is **bounded** iff g has no real zero (a real zero of

@@ -1,6 +1,6 @@
-"""linkage.json: the machine-readable description of a `Linkage` (schema in OUTPUT.md).
+"""linkage.json: the machine-readable description of a `Linkage` (schema in docs/conventions.md).
 
-Beyond OUTPUT.md's required keys we add (the contract allows new keys): ``poses[].t`` (the motion
+Beyond the contract's required keys we add (the contract allows new keys): ``poses[].t`` (the motion
 parameter of the pose, null for t = infinity), ``joints[].parent/child/angle_law`` (theta(t) =
 2 atan2(b, t - a)), ``links`` (link -> joints it carries), ``tool_link``, ``tool_ref`` and ``info``
 (the linkage's kind-specific extras). Only plain JSON types are written; non-finite numbers become null.

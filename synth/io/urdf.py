@@ -1,7 +1,7 @@
-"""URDF text of a `Linkage`, following OUTPUT.md's closed-loop convention ("two branches, one weld").
+"""URDF text of a `Linkage`, following the closed-loop convention of docs/conventions.md ("two branches, one weld").
 
 - root link ``base`` (the world frame of the poses); every tree joint is ``continuous``: each joint of
-  a motion-polynomial linkage makes exactly one full turn over the motion (MATH.md section 5), so no
+  a motion-polynomial linkage makes exactly one full turn over the motion (docs/conventions.md), so no
   joint limit exists and a ``revolute`` joint would need invented limits (which planners enforce);
 - link frames are translated copies of the world frame (see frames.py), so a joint's origin is the
   difference of the child's and parent's frame origins with rpy "0 0 0", and its axis is the joint's
@@ -131,7 +131,7 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
 
     robot = ET.Element("robot", name=str(robot_name))
     robot.append(ET.Comment(
-        " written by mpsynth: a closed-loop linkage cut into a tree (OUTPUT.md, 'two branches, one weld');"
+        " written by mpsynth: a closed-loop linkage cut into a tree (docs/conventions.md, 'two branches, one weld');"
         " the fixed joints in the gazebo elements weld the cut links back together "))
     for n in names:
         link = ET.SubElement(robot, "link", name=n)

@@ -1,5 +1,5 @@
 """Build a two-branch single-loop linkage (Bennett, 6R) from two factorizations of one motion
-polynomial, following OUTPUT.md's "two branches, one weld" convention."""
+polynomial, following the "two branches, one weld" convention of docs/conventions.md."""
 from __future__ import annotations
 
 import functools

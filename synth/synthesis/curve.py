@@ -1,4 +1,4 @@
-"""Linkages that perform a rational motion or draw a rational curve (issue 5; MATH-EXCEPTIONAL.md 5-7).
+"""Linkages that perform a rational motion or draw a rational curve (issue 5; docs/exceptional.md).
 
 ``motion_linkage(C)``: C (monic after normalization, bounded) -> C R = (t - h_1)...(t - h_N) by the
 co-factor algorithm -> the ladder of Bennett flips from one extra rotation m0 (chosen automatically).

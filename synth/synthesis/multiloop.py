@@ -1,4 +1,4 @@
-"""Multi-loop linkages from one factorization and Bennett flips (MATH-EXCEPTIONAL.md section 7).
+"""Multi-loop linkages from one factorization and Bennett flips (docs/exceptional.md, sections 4-5).
 
 Given C' = (t - h_1)...(t - h_N) and one more rotation t - m_0 with a *different* norm, flip N times,
 (t - m_{i-1})(t - h_i) = (t - k_i)(t - m_i), so that
@@ -16,7 +16,7 @@ The "ladder" link graph (links = vertices, joints = edges, "before -> after" in 
 anti-parallelogram). Pose rule: pose(after) = pose(before) @ Rot(axis_j, theta_j(t)), all joints written
 at the reference configuration (t = infinity, every angle 0).
 
-URDF tree (OUTPUT.md): spanning tree from ``base`` = the chain of the h_i (base -> link_a1 -> ... ->
+URDF tree (docs/conventions.md): spanning tree from ``base`` = the chain of the h_i (base -> link_a1 -> ... ->
 coupler) and the chain base -m_0-> link_k0 -k_1-> link_k1 ... -k_N-> link_kN. Every rung m_i
 (i = 1..N) is cut: it carries a duplicate ``<A_i>_m<i>`` of A_i as child of K_i, welded to A_i
 (``closures``, first the coupler's). A joint traversed against product order (m_0, from A_0 to K_0) gets
