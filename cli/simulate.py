@@ -24,11 +24,14 @@ Example:
               help="Exit 1 when a joint deviates from the exact motion by more than TOL radians.")
 @click.option("--export-mjcf", "export_mjcf", type=click.Path(dir_okay=False),
               help="Also write the MuJoCo model (MJCF; mesh paths relative to it) to this file.")
+@click.option("--contacts", is_flag=True,
+              help="Contacts between bodies that share no joint (convex hulls of the meshes); reports the steps "
+                   "with a contact and the largest contact force.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary on stderr.")
 @json_option
 @debug_option
 @run_guarded
-def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, quiet, as_json, debug):
+def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, contacts, quiet, as_json, debug):
     """Load OUT/linkage.urdf into PyBullet or MuJoCo, close each loop the engine's way (PyBullet: a
     JOINT_FIXED constraint between coupler and coupler_k; MuJoCo: an equality weld), drive the first
     joint through one full turn with a position motor (all other joints free, no self-contacts) and
@@ -39,7 +42,8 @@ def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, quiet, a
     2 for unreadable input or an engine that is not installed (pip install 'mpsynth[sim]')."""
     from synth.tools.sim import simulate as run_sim
 
-    res = run_sim(out, engine, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf)
+    res = run_sim(out, engine, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf,
+                  contacts=contacts)
     ok = res["max_joint_deviation"] <= tol
     res["ok"] = ok
     if not quiet:
@@ -48,6 +52,9 @@ def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, quiet, a
         echo(f"  worst joint deviation from the exact motion {res['max_joint_deviation']:.3e} rad "
              f"({res['worst_joint']}), worst closure gap {res['max_closure_gap']:.3e} m / "
              f"{res['max_closure_angle']:.3e} rad, {res['wall_time']:.2f} s wall time")
+        if contacts:
+            echo(f"  contacts between bodies that share no joint: {res['contact_steps']} of {res['steps']} steps, "
+                 f"largest contact force {res['max_contact_force']:.3g} N")
         if export_mjcf:
             echo(f"  wrote {export_mjcf}")
         if not ok:

@@ -231,6 +231,7 @@ def read_output(out) -> Readback:
         raise InputError(f"{root}: no linkage.urdf")
     robot_name, frame_ref, visuals, urdf_joints = _read_urdf(urdf, linkage)
     _cross_check(linkage, frame_ref, urdf_joints, urdf)
+    _fold_fixed_parts(visuals, urdf_joints, linkage)
     return Readback(root=root, document=doc, linkage=linkage, robot_name=robot_name, frame_ref=frame_ref,
                     visuals=visuals)
 
@@ -417,6 +418,17 @@ def _read_urdf(urdf: Path, linkage: Linkage):
         if n not in frame:
             raise InputError(f"{urdf}: link {n!r} of linkage.json is missing")
     return robot.get("name", "linkage"), frame, visuals, joints
+
+
+def _fold_fixed_parts(visuals: dict, joints: dict, linkage: Linkage) -> None:
+    """Give each link of the linkage the visuals of the parts fixed to it that are not links of the
+    linkage themselves (the pins ``pin_<joint>``), placed by their fixed joint's origin: one rigid body."""
+    names = set(linkage.link_names)
+    for d in joints.values():
+        if d["type"] == "fixed" and d["parent"] in names and d["child"] not in names and d["child"] in visuals:
+            for v in visuals[d["child"]]:
+                visuals.setdefault(d["parent"], []).append(
+                    Visual(path=v.path, scale=v.scale, origin=d["origin"] @ v.origin, rgba=v.rgba))
 
 
 def _cross_check(linkage: Linkage, frame: dict, joints: dict, urdf: Path) -> None:

@@ -12,6 +12,12 @@ What every engine does (OUTPUT.md's closed-loop convention):
   simulation the coupler's mass and inertia are therefore shared half and half between ``coupler`` and
   its welded copy (same centre of mass, same inertia tensor), which leaves the dynamics of the welded
   pair unchanged (`sim_inertials`);
+- with ``contacts`` (``mpsynth simulate --contacts``): contacts between the meshes of every two rigid
+  bodies that share no revolute joint (links merged across fixed joints, e.g. the pins, and loop welds;
+  `contact_exclusions`); the result counts the steps with such a contact and the largest contact
+  force. The engines collide the convex hulls of the meshes, which are larger than the design's solids
+  (the bores are filled, a cranked bar's hull spans its bend): a contact they report is a candidate;
+  ``mpsynth collide`` and ``verify_output.py --collisions`` judge the exact meshes;
 - start at all-zero angles at rest (a valid configuration: the first pose), release every joint's
   default motor and drive the first joint of the first branch through one full turn in ``seconds``
   with a position motor, paced for an even joint-space speed of the whole linkage (`DriveProfile`);
@@ -123,6 +129,30 @@ def load_setup(out) -> SimSetup:
     size = float(np.sqrt(np.mean(np.sum((pts - pts.mean(0)) ** 2, 1))))
     return SimSetup(Path(out).resolve(), u, u.name or "linkage", laws, driver, joints, closures, names, refs,
                     inertials, split, size)
+
+
+def contact_exclusions(setup) -> set:
+    """Pairs of URDF links (frozensets) that never get contacts: links of one rigid body (fixed joints,
+    loop welds) and links of two bodies joined by a revolute joint (they touch at the pin by design)."""
+    u = setup.urdf
+    body = {lk: lk for lk in u.links}
+
+    def find(x):
+        while body[x] != x:
+            x = body[x]
+        return x
+
+    for jn in u.order:
+        j = u.joints[jn]
+        if j.kind not in ("revolute", "continuous"):
+            body[find(j.child)] = find(j.parent)
+    for a, b in setup.closures:
+        body[find(b)] = find(a)
+    adjacent = {frozenset((find(u.joints[jn].parent), find(u.joints[jn].child))) for jn in u.order
+                if u.joints[jn].kind in ("revolute", "continuous")}
+    links = list(u.links)
+    return {frozenset((a, b)) for i, a in enumerate(links) for b in links[i + 1:]
+            if find(a) == find(b) or frozenset((find(a), find(b))) in adjacent}
 
 
 def sim_inertials(u, closures, refs):
@@ -258,7 +288,7 @@ def quat_wxyz(R) -> np.ndarray:
 
 
 def simulate(out, engine: str, *, seconds: float = 2.0, timestep: float | None = None, gravity: bool = False,
-             export_mjcf=None, timeout: float = 600.0) -> dict:
+             export_mjcf=None, timeout: float = 600.0, contacts: bool = False) -> dict:
     """Run ``engine`` on OUT; returns the result dict (see `Tracker.result`). Raises EngineNotInstalled
     (exit 2), InputError (exit 2) or SimulationError (exit 1)."""
     if not (seconds > 0 and math.isfinite(seconds) and seconds <= 3600):
@@ -269,12 +299,14 @@ def simulate(out, engine: str, *, seconds: float = 2.0, timestep: float | None =
     if export_mjcf and engine != "mujoco":  # the MuJoCo run writes (and loads) it itself
         from synth.tools.sim.mjcf import write_mjcf
 
-        write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity)
+        write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity, contacts=contacts)
     require_engine(engine)
     if engine == "pybullet":
         from synth.tools.sim.pybullet_sim import run_in_subprocess
 
-        return run_in_subprocess(setup, seconds=seconds, timestep=timestep, gravity=gravity, timeout=timeout)
+        return run_in_subprocess(setup, seconds=seconds, timestep=timestep, gravity=gravity, timeout=timeout,
+                                 contacts=contacts)
     from synth.tools.sim.mujoco_sim import run as run_mujoco
 
-    return run_mujoco(setup, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf)
+    return run_mujoco(setup, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf,
+                      contacts=contacts)

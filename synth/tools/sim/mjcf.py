@@ -44,9 +44,10 @@ def _v(v) -> str:
 
 
 def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, mesh_base: Path | None = None,
-              kp: float | None = None, kv: float | None = None) -> str:
+              kp: float | None = None, kv: float | None = None, contacts: bool = False) -> str:
     """The MJCF document. Mesh files are written relative to ``mesh_base`` (the directory of the MJCF
-    file) when given, else as absolute paths."""
+    file) when given, else as absolute paths. ``contacts``: exclude only the pairs of
+    `synth.tools.sim.contact_exclusions` (else every pair)."""
     from synth.tools.sim import quat_wxyz
 
     u = setup.urdf
@@ -109,9 +110,14 @@ def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, me
 
     contact = ET.SubElement(root, "contact")
     names = list(bodies)
+    if contacts:
+        from synth.tools.sim import contact_exclusions
+
+        excluded = contact_exclusions(setup)
     for i, a in enumerate(names):
         for b in names[i + 1:]:
-            ET.SubElement(contact, "exclude", body1=a, body2=b)
+            if not contacts or frozenset((a, b)) in excluded:
+                ET.SubElement(contact, "exclude", body1=a, body2=b)
 
     eq = ET.SubElement(root, "equality")
     for name, (a, b), R in zip(setup.closure_names, setup.closures, setup.refs):
@@ -221,14 +227,14 @@ def _subtree(u, joint: str) -> list[str]:
     return out
 
 
-def write_mjcf(setup, path, *, timestep: float | None = None, gravity: bool = False) -> Path:
+def write_mjcf(setup, path, *, timestep: float | None = None, gravity: bool = False, contacts: bool = False) -> Path:
     """Write the MJCF to ``path`` (mesh paths relative to its directory)."""
     from synth.errors import InputError
 
     path = Path(path)
     if not path.parent.exists():
         raise InputError(f"{path.parent}: directory does not exist (for --export-mjcf)")
-    text = mjcf_text(setup, timestep=timestep, gravity=gravity, mesh_base=path.parent.resolve())
+    text = mjcf_text(setup, timestep=timestep, gravity=gravity, mesh_base=path.parent.resolve(), contacts=contacts)
     tmp = path.with_name(f".{path.name}.tmp")
     tmp.write_text(text, encoding="utf-8")
     os.replace(tmp, path)
