@@ -34,7 +34,8 @@ Example:
 def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, contacts, quiet, as_json, debug):
     """Load OUT/linkage.urdf into PyBullet or MuJoCo, close each loop the engine's way (PyBullet: a
     JOINT_FIXED constraint between coupler and coupler_k; MuJoCo: an equality weld), drive the first
-    joint through one full turn with a position motor (all other joints free, no self-contacts) and
+    joint through one full turn (a driver with URDF limits, from its design's task range: from the lower to
+    the upper limit) with a position motor (all other joints free, no self-contacts unless --contacts) and
     report the worst deviation of every other joint from the exact motion of linkage.json's angle laws,
     and the worst gap of the welds.
 
@@ -47,8 +48,11 @@ def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, contacts
     ok = res["max_joint_deviation"] <= tol
     res["ok"] = ok
     if not quiet:
-        echo(f"simulate {out} with {engine}: {res['steps']} steps of {res['timestep']:.3g} s, driver {res['driver']}, "
-             f"gravity {'on' if gravity else 'off'}")
+        lo, hi = res["drive_range"]
+        sweep = "" if (lo, hi) == (0.0, 6.283185307179586) else (
+            f" over its limits {lo * 57.29577951308232:.1f} to {hi * 57.29577951308232:.1f} deg (the task range)")
+        echo(f"simulate {out} with {engine}: {res['steps']} steps of {res['timestep']:.3g} s, driver {res['driver']}"
+             f"{sweep}, gravity {'on' if gravity else 'off'}")
         echo(f"  worst joint deviation from the exact motion {res['max_joint_deviation']:.3e} rad "
              f"({res['worst_joint']}), worst closure gap {res['max_closure_gap']:.3e} m / "
              f"{res['max_closure_angle']:.3e} rad, {res['wall_time']:.2f} s wall time")

@@ -218,6 +218,26 @@ def test_contacts_seen_in_a_colliding_design(tmp_path, linkage, engine):
     assert r.exit_code == 0 and res["contact_steps"] == 0
 
 
+@pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
+def test_task_range_design_is_simulated_inside_its_limits(tmp_path, linkage, engine):
+    """A driver limited to the task range is driven from its lower to its upper limit (starting on the
+    exact motion there), and the other joints still follow the exact motion."""
+    if importlib.util.find_spec(engine) is None:
+        pytest.skip(f"{engine} is not installed")
+    lo, hi = task_arc(linkage, "h1")
+    rep = CollisionReport(True, "task", 1e-3, 2e-3, "h1", (lo, hi), certified=True)
+    out = tmp_path / "o"
+    write_output(linkage, out, robot_name="b", result=straight_result(linkage, rep))
+    r = run("simulate", out, "--engine", engine, "--json", "--seconds", "1")
+    assert r.exit_code == 0, r.output
+    res = json.loads(r.stdout)
+    _, lower, upper = driver_limits(rep)
+    assert res["drive_range"] == pytest.approx([lower, upper])
+    assert res["max_joint_deviation"] < 1e-3 and res["max_driver_error"] < 1e-2
+    r = run("check", out, "--poses", FIXTURE)  # mpsynth check accepts the limits of the claim
+    assert r.exit_code == 0, r.output
+
+
 def test_contact_exclusions_merge_pins_and_welds(tmp_path, linkage):
     from synth.tools.sim import contact_exclusions, load_setup
 

@@ -77,6 +77,15 @@ class SimSetup:
     inertials: dict  # link -> (mass, 4x4 inertial frame in the link frame, 3x3 inertia), after the split
     split: list = field(default_factory=list)  # links whose inertial was shared with their welded copy
     size: float = 1.0  # RMS spread of the joint frames (m): the scale for the closure gap
+    drive_range: tuple = (0.0, TWO_PI)  # the driver's sweep: its URDF limits when it has them, else a turn
+
+    def start_angles(self) -> dict:
+        """Joint angles at the start of the sweep: all zero, or the exact motion at the lower limit."""
+        lo = self.drive_range[0]
+        if lo == 0.0:
+            return {jn: 0.0 for jn in self.joints}
+        ex = self.exact(lo)
+        return {jn: (lo if jn == self.driver else float(np.asarray(ex[jn]))) for jn in self.joints}
 
     def exact(self, phi):
         """Exact angles of every joint when the driver is at angle(s) phi (radians, any turn)."""
@@ -127,8 +136,12 @@ def load_setup(out) -> SimSetup:
     inertials, split = sim_inertials(u, closures, refs)
     pts = np.array([F0[u.joints[jn].child][:3, 3] for jn in joints])
     size = float(np.sqrt(np.mean(np.sum((pts - pts.mean(0)) ** 2, 1))))
+    drive = (0.0, TWO_PI)
+    lim = u.joints[driver].limit if u.joints[driver].kind == "revolute" else None
+    if lim is not None and 0 < lim[1] - lim[0] < TWO_PI - 1e-9:  # a task-range design: stay inside
+        drive = (float(lim[0]), float(lim[1]))
     return SimSetup(Path(out).resolve(), u, u.name or "linkage", laws, driver, joints, closures, names, refs,
-                    inertials, split, size)
+                    inertials, split, size, drive)
 
 
 def contact_exclusions(setup) -> set:
@@ -197,7 +210,7 @@ class DriveProfile:
 
     def __init__(self, setup, seconds: float, grid: int = 8192):
         self.seconds = seconds
-        phi = np.linspace(0.0, TWO_PI, grid + 1)
+        phi = np.linspace(*setup.drive_range, grid + 1)
         ex = setup.exact(phi)
         dq = np.array([np.gradient(np.unwrap(ex[j]), phi) for j in setup.joints])
         w = np.sqrt(np.sum(dq * dq, axis=0))
@@ -263,7 +276,8 @@ class Tracker:
         return {"engine": engine, "max_joint_deviation": self.max_dev, "max_closure_gap": self.max_gap,
                 "steps": steps, "max_closure_angle": self.max_gap_angle, "linkage_size": self.setup.size,
                 "worst_joint": self.worst_joint,
-                "driver": self.setup.driver, "max_driver_error": self.max_driver_error, **extra}
+                "driver": self.setup.driver, "max_driver_error": self.max_driver_error,
+                "drive_range": [float(v) for v in self.setup.drive_range], **extra}
 
 
 def quat_wxyz(R) -> np.ndarray:

@@ -88,7 +88,10 @@ def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, me
         else:
             ET.SubElement(b, "inertial", pos="0 0 0", mass="1e-06", diaginertia="1e-09 1e-09 1e-09")
         if joint is not None:
-            ET.SubElement(b, "joint", name=joint.name, type="hinge", pos="0 0 0", axis=_v(joint.axis))
+            extra = {}
+            if joint.name == setup.driver and tuple(setup.drive_range) != (0.0, 2 * math.pi):
+                extra["range"] = _v(setup.drive_range)  # the task range of a task-range design
+            ET.SubElement(b, "joint", name=joint.name, type="hinge", pos="0 0 0", axis=_v(joint.axis), **extra)
         seen = set()
         for m in u.meshes:
             if m.link != link:

@@ -47,6 +47,8 @@ def run(setup, *, seconds: float, timestep=None, gravity: bool = False, export_m
     act = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"drive_{setup.driver}")
     kp, kv = float(model.actuator_gainprm[act, 0]), -float(model.actuator_biasprm[act, 2])
     mujoco.mj_resetData(model, data)
+    for jn, q in setup.start_angles().items():
+        data.qpos[qadr[jn]] = q
     mujoco.mj_forward(model, data)
     n = max(int(round(seconds / dt)), 10)
     tracker = Tracker(setup)

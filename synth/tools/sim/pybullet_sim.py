@@ -150,8 +150,9 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
             constraints.append(c)
         p.setPhysicsEngineParameter(fixedTimeStep=timestep, numSolverIterations=ITERATIONS, numSubSteps=0, erp=ERP,
                                     physicsClientId=cid)
+        start = setup.start_angles()
         for jn in setup.joints:
-            p.resetJointState(robot, index[jn], 0.0, 0.0, physicsClientId=cid)
+            p.resetJointState(robot, index[jn], start[jn], 0.0, physicsClientId=cid)
             p.setJointMotorControl2(robot, index[jn], p.VELOCITY_CONTROL, force=0, physicsClientId=cid)
         n = max(int(round(seconds / timestep)), 10)
         tracker = Tracker(setup)
