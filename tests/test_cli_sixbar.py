@@ -88,6 +88,7 @@ def test_top3_layout(example, tmp_path):
         assert (doc["info"]["family"], doc["info"]["member"], doc["info"]["pair"]) == (
             s["family"], s["member"], s["pair"])
         assert len(list((out / s["id"] / "meshes").glob("*.stl"))) == 12
+        assert s["collision"] == doc["collision"] and "collision-free" in s["design_summary"]
     # the default output is the first of the ranking
     single = tmp_path / "single"
     assert run("sixbar", example, "-o", single, "-q").exit_code == 0

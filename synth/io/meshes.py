@@ -36,8 +36,8 @@ import numpy as np
 from synth.design.model import PhysicalDesign, axis_point, capsules
 from synth.design.search import DesignResult, design_linkage
 from synth.io.frames import link_origins
-from synth.io.solid import (Solid, boolean, capsule, concatenate, cylinder, import_manifold3d, mass_properties,
-                            read_stl_triangles, signed_volume, stl_bytes, surface_defect, weld)
+from synth.io.solid import (Solid, boolean, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
+                            mass_properties, read_stl_triangles, signed_volume, stl_bytes, surface_defect, weld)
 from synth.io.urdf import MESH_UNIT_SCALE, pin_link_name
 
 PIN_RADIUS = 0.02  # times linkage.extent()
@@ -197,10 +197,14 @@ def mesh_inertials(meshes: dict, density: float = DENSITY) -> dict:
 def stl_file(mesh: Solid, what: str = "mesh") -> tuple[bytes, np.ndarray]:
     """(binary STL, offset): the mesh stored about its own centre ``offset`` (bounding-box centre,
     metres, link frame; STL is single precision and the base link's frame is the world frame, which
-    may be far away) in millimetres (``urdf.MESH_UNIT_SCALE``, the unit slicers assume). The bytes are
+    may be far away) in millimetres (``urdf.MESH_UNIT_SCALE``, the unit slicers assume); an edge shorter
+    than a float32 step there is collapsed (`solid.degenerate_free`). The bytes are
     read back and checked to be a closed solid as a reader of the file sees it (float32 corners
     welded where bit-equal); RuntimeError otherwise."""
     offset = mesh.bounds.mean(axis=0)
-    data = stl_bytes((mesh.triangles - offset) * (1.0 / MESH_UNIT_SCALE))
+    triangles = (mesh.triangles - offset) * (1.0 / MESH_UNIT_SCALE)
+    stored = weld(triangles.astype(np.float32))  # as a reader sees the file
+    keep = np.isin(np.arange(len(triangles)), degenerate_free(stored.faces))
+    data = stl_bytes(triangles[keep])  # edges shorter than a float32 step collapsed
     check_closed(weld(read_stl_triangles(data)), f"{what} as written to STL")
     return data, offset

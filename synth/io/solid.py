@@ -170,8 +170,9 @@ def boolean(parts, cut=()) -> Solid:
     one closed 2-manifold.
 
     Computed at unit size around the origin in single precision (manifold3d's ``Mesh``): its tolerances
-    are then relative, so micrometre-sized parts and parts far from the world origin work alike, and
-    the result keeps no slivers finer than the float32 STL it is written to."""
+    are then relative, so micrometre-sized parts and parts far from the world origin work alike. Edges
+    shorter than a float32 step of the STL can remain (where a bore cuts a bar's round end): the STL writer
+    drops the triangles they make degenerate (`degenerate_free`)."""
     manifold3d = import_manifold3d()
     lo = np.min([p.vertices.min(axis=0) for p in parts], axis=0)
     hi = np.max([p.vertices.max(axis=0) for p in parts], axis=0)
@@ -198,6 +199,14 @@ def weld(triangles) -> Solid:
     corners = np.ascontiguousarray(tri.reshape(-1, 3) + tri.dtype.type(0.0))
     vertices, index = np.unique(corners, axis=0, return_inverse=True)
     return Solid(vertices.astype(np.float64), index.reshape(-1, 3).astype(np.int64))
+
+
+def degenerate_free(faces) -> np.ndarray:
+    """Indices of the faces (m, 3) that repeat no vertex. After `weld` has merged the two ends of an edge
+    shorter than the float32 step, the two triangles on that edge degenerate and the others are the edge
+    collapse of the mesh (closed again unless the collapse pinches it, which `surface_defect` tells)."""
+    f = np.asarray(faces)
+    return np.flatnonzero((f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0]))
 
 
 def surface_defect(faces) -> str | None:

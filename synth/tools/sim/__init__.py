@@ -14,10 +14,8 @@ What every engine does (OUTPUT.md's closed-loop convention):
   pair unchanged (`sim_inertials`);
 - with ``contacts`` (``mpsynth simulate --contacts``): contacts between the meshes of every two rigid
   bodies that share no revolute joint (links merged across fixed joints, e.g. the pins, and loop welds;
-  `contact_exclusions`); the result counts the steps with such a contact and the largest contact
-  force. The engines collide the convex hulls of the meshes, which are larger than the design's solids
-  (the bores are filled, a cranked bar's hull spans its bend): a contact they report is a candidate;
-  ``mpsynth collide`` and ``verify_output.py --collisions`` judge the exact meshes;
+  `contact_exclusions`) with the design's capsules as collision geometry (`synth.tools.sim.contact`);
+  the result counts the steps with such a contact and the largest contact force;
 - start at all-zero angles at rest (a valid configuration: the first pose), release every joint's
   default motor and drive the first joint of the first branch through one full turn in ``seconds``
   with a position motor, paced for an even joint-space speed of the whole linkage (`DriveProfile`);

@@ -47,13 +47,19 @@ def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, me
               kp: float | None = None, kv: float | None = None, contacts: bool = False) -> str:
     """The MJCF document. Mesh files are written relative to ``mesh_base`` (the directory of the MJCF
     file) when given, else as absolute paths. ``contacts``: exclude only the pairs of
-    `synth.tools.sim.contact_exclusions` (else every pair)."""
+    `synth.tools.sim.contact_exclusions` (else every pair), and collide the design's capsules
+    (`synth.tools.sim.contact.contact_capsules`) instead of the meshes when linkage.json has a design."""
     from synth.tools.sim import quat_wxyz
 
     u = setup.urdf
     dt = timestep or DEFAULT_TIMESTEP
     if kp is None or kv is None:
         kp, kv = servo_gains(setup, dt)
+    caps = None
+    if contacts:  # collide the design's capsules (linkage.json) where there is one, else the meshes
+        from synth.tools.sim.contact import contact_capsules
+
+        caps = contact_capsules(setup)
     root = ET.Element("mujoco", model=setup.name)
     root.append(ET.Comment(" written by mpsynth simulate from linkage.urdf; loop welds in <equality>, the "
                            "coupler's mass shared with its welded copy, contacts between linkage links excluded "))
@@ -101,7 +107,14 @@ def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, me
                 continue
             seen.add((key, m.origin.tobytes()))
             ET.SubElement(b, "geom", type="mesh", mesh=mesh_names[key], pos=_v(m.origin[:3, 3]),
-                          quat=_v(quat_wxyz(m.origin[:3, :3])), rgba=_rgba(link))
+                          quat=_v(quat_wxyz(m.origin[:3, :3])), rgba=_rgba(link),
+                          **({"contype": "0", "conaffinity": "0"} if caps is not None else {}))
+        for p0, p1, r in (caps or {}).get(link, []):  # --contacts: the design's capsules collide
+            if np.linalg.norm(p1 - p0) > 1e-9 * r:
+                ET.SubElement(b, "geom", type="capsule", fromto=_v(list(p0) + list(p1)), size=_f(r), group="3",
+                              rgba="0 0 0 0", mass="0")
+            else:
+                ET.SubElement(b, "geom", type="sphere", pos=_v(p0), size=_f(r), group="3", rgba="0 0 0 0", mass="0")
         bodies[link] = b
         return b
 

@@ -32,17 +32,26 @@ ERP = 0.8  # error reduction per step; PyBullet's default 0.2 lets the weld drif
 MOTOR_FORCE = 1e4  # N m: a bound, not a gain (POSITION_CONTROL is a velocity-level constraint)
 
 
-def sim_urdf_text(setup) -> str:
-    """linkage.urdf for PyBullet: absolute mesh paths, simulation inertials, no <gazebo> tags."""
+def sim_urdf_text(setup, contacts: bool = False) -> str:
+    """linkage.urdf for PyBullet: absolute mesh paths, simulation inertials, no <gazebo> tags; with
+    ``contacts`` the collision meshes are replaced by the design's capsules when linkage.json has them
+    (`synth.tools.sim.contact`)."""
     from synth.io.frames import rpy_from_matrix
 
     root = ET.parse(setup.out / "linkage.urdf").getroot()
     for g in root.findall("gazebo"):
         root.remove(g)
+    caps = None
+    if contacts:
+        from synth.tools.sim.contact import contact_capsules
+
+        caps = contact_capsules(setup)
     for link in root.findall("link"):
         name = link.get("name")
         for m in link.iter("mesh"):
             m.set("filename", str(setup.mesh_path(m.get("filename", ""))))
+        if caps is not None:
+            _capsule_collisions(link, caps.get(name, []))
         if name in setup.inertials:
             mass, T, I = setup.inertials[name]
             for old in link.findall("inertial"):
@@ -57,6 +66,27 @@ def sim_urdf_text(setup) -> str:
     return ET.tostring(root, encoding="unicode")
 
 
+def _capsule_collisions(link, caps) -> None:
+    """Replace the <collision> elements of URDF ``link`` by PyBullet capsules (z along the segment)."""
+    from synth.io.frames import rpy_from_matrix
+    from synth.io.solid import axis_rotation
+
+    for old in link.findall("collision"):
+        link.remove(old)
+    for p0, p1, r in caps:
+        el = ET.SubElement(link, "collision")
+        d = p1 - p0
+        length = float(np.linalg.norm(d))
+        R = axis_rotation(d / length) if length > 1e-9 * r else np.eye(3)
+        ET.SubElement(el, "origin", xyz=" ".join(repr(float(v)) for v in (p0 + p1) / 2),
+                      rpy=" ".join(repr(float(v)) for v in rpy_from_matrix(R)))
+        geom = ET.SubElement(el, "geometry")
+        if length > 1e-9 * r:
+            ET.SubElement(geom, "capsule", radius=repr(r), length=repr(length))
+        else:
+            ET.SubElement(geom, "sphere", radius=repr(r))
+
+
 def run_in_subprocess(setup, *, seconds: float, timestep: float | None, gravity: bool, timeout: float = 600.0,
                       contacts: bool = False) -> dict:
     """Run `child_main` in a fresh Python; returns its result or raises SimulationError."""
@@ -65,7 +95,7 @@ def run_in_subprocess(setup, *, seconds: float, timestep: float | None, gravity:
     with tempfile.TemporaryDirectory(prefix="mpsynth-pybullet-") as tmp:
         tmp = Path(tmp)
         urdf = tmp / "sim.urdf"
-        urdf.write_text(sim_urdf_text(setup), encoding="utf-8")
+        urdf.write_text(sim_urdf_text(setup, contacts), encoding="utf-8")
         request = {"out": str(setup.out), "urdf": str(urdf), "result": str(tmp / "result.json"),
                    "seconds": seconds, "timestep": timestep or DEFAULT_TIMESTEP, "gravity": gravity,
                    "contacts": contacts}
