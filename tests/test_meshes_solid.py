@@ -332,3 +332,37 @@ def test_signal_during_manifold3d_import_arrives_after_it(tmp_path, sig):
     r = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60, env=env)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == [{"SIGINT": "KeyboardInterrupt", "SIGTERM": "SystemExit"}[sig], "True", "True", "True"]
+
+
+@pytest.mark.parametrize("name", ["bennett_fixture", "sixbar"])
+def test_cranked_bars_and_shifted_mounts(name):
+    """A design as the search makes them: mounts moved along the axes and bars cranked through via points.
+    Every part stays one closed solid inside its capsules, and the written STL reads back closed."""
+    from synth.design.model import axis_point, capsules, pins_for
+
+    lk = LINKAGES[name]
+    design = meshes_mod.design_for(lk).design
+    e = lk.extent()
+    rng = np.random.default_rng(3)
+    for m in design.mounts:
+        m.offset += float(rng.uniform(-0.1, 0.1)) * e
+    design.pins = pins_for(lk, design)
+    for b in design.bars:
+        p0 = axis_point(lk, b.joints[0], design.mount(b.link, b.joints[0]).offset)
+        p1 = axis_point(lk, b.joints[1], design.mount(b.link, b.joints[1]).offset)
+        b.via = [p0 + (p1 - p0) / 3 + rng.normal(size=3) * 0.1 * e, p0 + 2 * (p1 - p0) / 3]
+    solids = meshes_mod.design_solids(lk, design)
+    caps = capsules(lk, design)
+    origins = link_origins(lk)
+    for link, solid in solids.items():
+        length = float(np.max(np.ptp(solid.vertices, axis=0)))
+        if link in origins:
+            world = solid.vertices + origins[link]
+            mine = [c for c in caps if c.link == link and c.part != "pin"]
+        else:
+            joint = link[len("pin_"):]
+            world = solid.vertices + meshes_mod.pin_origin(lk, design, joint)
+            mine = [c for c in caps if c.part == "pin" and c.joint == joint]
+        excess = np.min([_segment_distance(world, c.p0, c.p1) - c.radius for c in mine], axis=0)
+        assert excess.max() <= 1e-6 * length, (link, excess.max())
+        meshes_mod.stl_file(solid, link)  # raises unless the STL reads back as a closed solid
