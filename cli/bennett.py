@@ -13,21 +13,23 @@ Example:
 @click.argument("poses", metavar="POSES")
 @synthesis_options
 @run_guarded
-def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, package, normalize, quiet,
-            as_json, debug):
+def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
+            require_collision_free, package, normalize, quiet, as_json, debug):
     """Synthesize the spatial Bennett 4R linkage whose coupler passes through the three poses in
     POSES (YAML or JSON, '-' for stdin; see README for the format).
 
     Writes OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/*.stl (lengths in metres) when -o is
-    given; prints a summary on stderr and, with --json, linkage.json on stdout."""
+    given: printable parts of a physical design (bars, hubs with bores, separate pins) and what it
+    achieves (collision-free over the full cycle or the task range, or not); prints a summary on stderr
+    and, with --json, linkage.json on stdout."""
     from synth.synthesis.bennett import bennett as synth_bennett
     from synth.checks import VERIFY_SAMPLES
     from synth.errors import SynthesisError
     from synth.io.poses import load_poses
 
     ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=normalize)
-    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length),
-                       ps.length_scale)
+    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
+                            clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
     if out:
         from synth.io.writer import check_output_target
 
@@ -37,10 +39,10 @@ def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, packag
     except SynthesisError as e:  # name the file, like every input error
         raise SynthesisError(f"{ps.source}: {e}") from e
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-         as_json=as_json)
+         as_json=as_json, require_free=require_collision_free)
 
 
-def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json):
+def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, require_free=False):
     """Write, summarize and print a two-branch linkage (bennett, sixbar) read from the pose set ``ps``."""
 
     def details():
@@ -52,4 +54,5 @@ def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json):
                  f"a/sin(alpha) - b/sin(beta) relative {bp['bennett_condition_residual']:.1e}")
 
     emit_linkage(linkage, source=ps.source, scale=ps.length_scale, unit=ps.length_unit, out=out, name=name,
-                 force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details)
+                 force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,
+                 require_free=require_free)

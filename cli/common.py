@@ -63,9 +63,7 @@ def synthesis_options(func):
                      help="Output directory (linkage.urdf, linkage.json, meshes/). Without it nothing is written."),
         click.option("--name", help="Robot name in the URDF (default: the pose file's stem)."),
         click.option("--force", is_flag=True, help="Replace OUT even if it holds files not written by mpsynth."),
-        click.option("--pin-radius", type=float, help="Pin (joint) radius in the input's length unit."),
-        click.option("--link-radius", type=float, help="Bar (link) radius in the input's length unit."),
-        click.option("--pin-length", type=float, help="Pin length in the input's length unit."),
+        *design_option_list("the input's length unit"),
         click.option("--package", help="Write mesh paths as package://PACKAGE/meshes/... (ROS)."),
         click.option("--normalize", is_flag=True,
                      help="Accept slightly non-unit quaternions / non-orthonormal rotations and normalize them."),
@@ -78,16 +76,39 @@ def synthesis_options(func):
     return func
 
 
+def design_option_list(unit: str) -> list:
+    """The physical-design options (sizes, clearances) of the synthesis commands; lengths in ``unit``."""
+    return [
+        click.option("--pin-radius", type=float, help=f"Pin (joint) radius in {unit} (default 0.02 x the linkage's size)."),
+        click.option("--link-radius", type=float, help=f"Bar (link) radius in {unit} (default 0.015 x the linkage's size)."),
+        click.option("--pin-length", type=float,
+                     help=f"Hub length along each joint axis in {unit} (default 0.06 x the linkage's size); a joint's "
+                          "pin spans the hubs of its two links, so it is at least this long (its length is in "
+                          "linkage.json's design.pins)."),
+        click.option("--clearance", type=float,
+                     help=f"Required gap in {unit} between bodies that share no joint (default: a quarter of the "
+                          "bar radius)."),
+        click.option("--hole-clearance", type=float,
+                     help=f"Radial clearance in {unit} of each bore around its pin (default 0.2 mm, at most a tenth "
+                          "of the pin radius)."),
+        click.option("--require-collision-free", is_flag=True,
+                     help="Exit 1 (nothing written) unless the design is collision-free."),
+    ]
+
+
 def mesh_sizes(kwargs, length_scale: float) -> dict:
-    """Mesh size options converted from the input's length unit to metres (validated positive)."""
+    """Mesh size and clearance options converted from the input's length unit to metres (sizes validated
+    positive, clearances non-negative)."""
     from synth.errors import InputError
 
     out = {}
-    for key in ("pin_radius", "link_radius", "pin_length"):
+    for key in ("pin_radius", "link_radius", "pin_length", "clearance", "hole_clearance"):
         v = kwargs.get(key)
         if v is not None:
-            if not (v > 0 and v < 1e9):
-                raise InputError(f"--{key.replace('_', '-')} must be a positive length, got {v}")
+            zero_ok = key in ("clearance", "hole_clearance")
+            if not ((v > 0 or (zero_ok and v == 0)) and v < 1e9):
+                raise InputError(f"--{key.replace('_', '-')} must be a {'non-negative' if zero_ok else 'positive'} "
+                                 f"length, got {v}")
             out[key] = v * length_scale
     return out
 
@@ -102,6 +123,11 @@ def check_mesh_sizes(sizes: dict, extent: float, scale: float, unit: str) -> Non
 
     lo, hi = MESH_SIZE_RANGE
     for key, v in sizes.items():
+        if key in ("clearance", "hole_clearance"):
+            if v > hi * extent:
+                raise InputError(f"--{key.replace('_', '-')} {v / scale:.6g} {unit} is out of range for a linkage "
+                                 f"of size {extent / scale:.3g} {unit}")
+            continue
         if not (lo * extent <= v <= hi * extent):
             raise InputError(
                 f"--{key.replace('_', '-')} {v / scale:.6g} {unit} is out of range for a linkage of size "
@@ -143,27 +169,71 @@ def print_linkage_summary(linkage, scale: float, unit: str) -> None:
         echo(f"  warning: {w}")
 
 
+def collision_sentence(report, scale: float, unit: str) -> str:
+    """What the design achieves, in words (lengths in the input unit, driver angles in degrees)."""
+    import math
+
+    def length(x):
+        return f"{x / scale:.3g} {unit}"
+
+    lo, hi = (math.degrees(v) for v in report.driver_range)
+    if report.free:
+        where = ("over the full cycle" if report.range == "full" else
+                 f"over the task range ({report.driver} from {lo:.1f} to {hi:.1f} deg)")
+        return f"collision-free {where}, clearance {length(report.clearance)}, min gap {length(report.min_distance)}"
+    if report.pairs:
+        p = report.pairs[0]
+        a, b = p["bodies"]
+        d = float(p["min_distance"])
+        what = "collide" if d < 0 else f"come within {length(d)} (clearance {length(report.clearance)})"
+        at = ""
+        if p.get("driver_angles"):
+            at = (f" at {report.driver} from {math.degrees(p['driver_angles'][0]):.1f} to "
+                  f"{math.degrees(p['driver_angles'][1]):.1f} deg")
+        more = f" (and {len(report.pairs) - 1} more pair(s))" if len(report.pairs) > 1 else ""
+        return f"NOT collision-free: {a} and {b} {what}{at}{more}" + (f"; {report.message}" if report.message else "")
+    return f"NOT collision-free: {report.message or 'no collision-free design was found'}"
+
+
+def design_result(linkage, sizes: dict, *, scale: float, unit: str, source: str, require_free: bool):
+    """The physical design of ``linkage`` (`synth.io.meshes.design_for`) with the sizes in metres;
+    SynthesisError (exit 1) with the sentence when ``require_free`` and it is not collision-free."""
+    from synth.errors import SynthesisError
+    from synth.io.meshes import design_for
+
+    check_mesh_sizes(sizes, linkage.extent(), scale, unit)
+    result = design_for(linkage, **sizes)
+    if require_free and not result.collision.free:
+        raise SynthesisError(f"{source}: {collision_sentence(result.collision, scale, unit)}")
+    return result
+
+
 def emit_linkage(linkage, *, source, scale, unit, out, name, force, package, sizes, quiet, as_json,
-                 details=None):
-    """The common ending of a synthesis command: write OUT (when given) first, so that a failure to
-    write is the only line on stderr; then the summary on stderr (plus ``details()``, a callable that
-    echoes command-specific lines), then linkage.json on stdout with --json."""
+                 details=None, require_free=False):
+    """The common ending of a synthesis command: design the physical linkage (when files are written,
+    JSON printed or a collision-free design required) and write OUT (when given) first, so that a
+    failure is the only line on stderr; then the summary on stderr (plus ``details()``, a callable that
+    echoes command-specific lines, and the collision sentence), then linkage.json on stdout with --json."""
     from synth.io.jsonout import linkage_document
     from synth.io.writer import write_output
 
-    files = None
+    files = result = None
+    if out or as_json or require_free:
+        result = design_result(linkage, sizes, scale=scale, unit=unit, source=source, require_free=require_free)
     if out:
-        check_mesh_sizes(sizes, linkage.extent(), scale, unit)
         files = write_output(linkage, out, robot_name=name or default_robot_name(source), force=force,
-                             package=package, **sizes)
+                             package=package, result=result)
     if not quiet:
         print_linkage_summary(linkage, scale, unit)
         if details is not None:
             details()
+        if result is not None:
+            echo(f"  design: {collision_sentence(result.collision, scale, unit)}")
         if files is not None:
-            n_mesh = sum(1 for f in files if str(f).endswith(".stl"))
-            echo(f"  wrote {out}/: linkage.urdf, linkage.json, {n_mesh} meshes in meshes/")
+            n_pin = sum(1 for f in files if f.name.startswith("pin_") and str(f).endswith(".stl"))
+            n_mesh = sum(1 for f in files if str(f).endswith(".stl")) - n_pin
+            echo(f"  wrote {out}/: linkage.urdf, linkage.json, {n_mesh} link meshes and {n_pin} pins in meshes/")
         elif not as_json:
             echo("  no files written (give -o OUT to write URDF, STL and JSON)")
     if as_json:
-        print_json(linkage_document(linkage))
+        print_json(linkage_document(linkage, *((result.design, result.collision) if result else ())))

@@ -9,7 +9,13 @@ from synth.io.posespec import LENGTH_UNITS
 from synth.io.writer import check_output_target
 from synth.synthesis.curve import CurveSpec, spec_linkage
 
-from .common import debug_option, echo, emit_linkage, json_option, mesh_sizes, run_guarded
+from .common import debug_option, design_option_list, echo, emit_linkage, json_option, mesh_sizes, run_guarded
+
+
+def design_options(func):
+    for opt in reversed(design_option_list("--units")):
+        func = opt(func)
+    return func
 
 UNITS = LENGTH_UNITS
 
@@ -50,16 +56,14 @@ sliding joint"; no factorization), 2 bad input."""
                    "times a rotation about the tracer point (fewer joints for planar curves); 'auto' = fewer joints.")
 @click.option("--name", help="Robot name in the URDF (default: the spec file's stem).")
 @click.option("--force", is_flag=True, help="Replace OUT even if it holds files not written by mpsynth.")
-@click.option("--pin-radius", type=float, help="Pin (joint) radius in --units.")
-@click.option("--link-radius", type=float, help="Bar (link) radius in --units.")
-@click.option("--pin-length", type=float, help="Pin length in --units.")
+@design_options
 @click.option("--package", help="Write mesh paths as package://PACKAGE/meshes/... (ROS).")
 @click.option("-q", "--quiet", is_flag=True, help="No summary on stderr.")
 @json_option
 @debug_option
 @run_guarded
-def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_length, package, quiet,
-          as_json, debug):
+def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
+          require_collision_free, package, quiet, as_json, debug):
     """Synthesize a linkage of revolute joints only (several Bennett loops) whose link `coupler`
     performs the rational motion of SPEC, or whose link `tracer` draws the rational curve of SPEC.
 
@@ -69,17 +73,18 @@ def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_le
     stderr and, with --json, linkage.json on stdout."""
     scale = UNITS[units]
     parsed = load_spec(spec)
-    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length), scale)
+    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
+                            clearance=clearance, hole_clearance=hole_clearance), scale)
     if out:
         check_output_target(out, force)
     if method != "auto" and not isinstance(parsed, CurveSpec):
         echo("  note: --method applies to curves only; ignored for a motion")
     linkage = spec_linkage(parsed, scale=scale, method=method)
     emit(linkage, source=spec, scale=scale, unit=units, out=out, name=name, force=force, package=package,
-         sizes=sizes, quiet=quiet, as_json=as_json)
+         sizes=sizes, quiet=quiet, as_json=as_json, require_free=require_collision_free)
 
 
-def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quiet, as_json):
+def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quiet, as_json, require_free=False):
     """Write (when OUT is given) first, then summarize on stderr and print JSON as asked."""
 
     def details():
@@ -101,4 +106,5 @@ def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quie
             echo(f"  mobility: dof {mob['dof']} at all sampled t, worst conditioning {mob['conditioning']:.1e}")
 
     emit_linkage(linkage, source=source, scale=scale, unit=unit, out=out, name=name, force=force,
-                 package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details)
+                 package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,
+                 require_free=require_free)

@@ -26,28 +26,39 @@ Example:
               help="Exit 1 when a joint deviates from the exact motion by more than TOL radians.")
 @click.option("--export-mjcf", "export_mjcf", type=click.Path(dir_okay=False),
               help="Also write the MuJoCo model (MJCF; mesh paths relative to it) to this file.")
+@click.option("--contacts", is_flag=True,
+              help="Contacts between bodies that share no joint (convex hulls of the meshes); reports the steps "
+                   "with a contact and the largest contact force.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary on stderr.")
 @json_option
 @debug_option
 @run_guarded
-def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, quiet, as_json, debug):
+def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, contacts, quiet, as_json, debug):
     """Load OUT/linkage.urdf into PyBullet or MuJoCo, close each loop the engine's way (PyBullet: a
     JOINT_FIXED constraint between coupler and coupler_k; MuJoCo: an equality weld), drive the first
-    joint through one full turn with a position motor (all other joints free, no self-contacts) and
+    joint through one full turn (a driver with URDF limits, from its design's task range: from the lower to
+    the upper limit) with a position motor (all other joints free, no self-contacts unless --contacts) and
     report the worst deviation of every other joint from the exact motion of linkage.json's angle laws,
     and the worst gap of the welds.
 
     Exit 0 when every joint stays within --tol of the exact motion, 1 when not or when the engine fails,
     2 for unreadable input or an engine that is not installed (pip install 'mpsynth[sim]')."""
-    res = run_sim(out, engine, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf)
+    res = run_sim(out, engine, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf,
+                  contacts=contacts)
     ok = res["max_joint_deviation"] <= tol
     res["ok"] = ok
     if not quiet:
-        echo(f"simulate {out} with {engine}: {res['steps']} steps of {res['timestep']:.3g} s, driver {res['driver']}, "
-             f"gravity {'on' if gravity else 'off'}")
+        lo, hi = res["drive_range"]
+        sweep = "" if (lo, hi) == (0.0, 6.283185307179586) else (
+            f" over its limits {lo * 57.29577951308232:.1f} to {hi * 57.29577951308232:.1f} deg (the task range)")
+        echo(f"simulate {out} with {engine}: {res['steps']} steps of {res['timestep']:.3g} s, driver {res['driver']}"
+             f"{sweep}, gravity {'on' if gravity else 'off'}")
         echo(f"  worst joint deviation from the exact motion {res['max_joint_deviation']:.3e} rad "
              f"({res['worst_joint']}), worst closure gap {res['max_closure_gap']:.3e} m / "
              f"{res['max_closure_angle']:.3e} rad, {res['wall_time']:.2f} s wall time")
+        if contacts:
+            echo(f"  contacts between bodies that share no joint: {res['contact_steps']} of {res['steps']} steps, "
+                 f"largest contact force {res['max_contact_force']:.3g} N")
         if export_mjcf:
             echo(f"  wrote {export_mjcf}")
         if not ok:

@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import click
 
-from .common import (default_robot_name, echo, mesh_sizes, print_json, run_guarded, synthesis_options)
+from .common import (collision_sentence, default_robot_name, design_result, echo, mesh_sizes, print_json, run_guarded,
+                     synthesis_options)
 
 INDEX_FORMAT = "mpsynth.sixbar-index/1"
 
@@ -26,8 +27,8 @@ Examples:
               help="Write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
 @synthesis_options
 @run_guarded
-def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_radius, pin_length, package,
-           normalize, quiet, as_json, debug):
+def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_radius, pin_length, clearance,
+           hole_clearance, require_collision_free, package, normalize, quiet, as_json, debug):
     """Synthesize a spatial 6R linkage whose coupler passes through the four poses in POSES (YAML or
     JSON, '-' for stdin; see README for the format).
 
@@ -38,14 +39,14 @@ def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_
     from synth.io.poses import load_poses
 
     ps = load_poses(poses, count=(4, "mpsynth sixbar"), normalize=normalize)
-    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length),
-                       ps.length_scale)
+    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
+                            clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
     if top is None:
         _single(ps, family, member, pair, out=out, name=name, force=force, package=package, sizes=sizes,
-                quiet=quiet, as_json=as_json)
+                quiet=quiet, as_json=as_json, require_free=require_collision_free)
     else:
         _ranked(ps, family, member, pair, top, out=out, name=name, force=force, package=package, sizes=sizes,
-                quiet=quiet, as_json=as_json)
+                quiet=quiet, as_json=as_json, require_free=require_collision_free)
 
 
 def _design_line(info) -> str:
@@ -56,7 +57,7 @@ def _design_line(info) -> str:
             f"min offset {p['min_offset']:.3g} x spread)")
 
 
-def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json):
+def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json, require_free):
     from synth.synthesis.sixbar import sixbar as synth_sixbar
 
     from .bennett import emit
@@ -65,7 +66,7 @@ def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet
     if not quiet:
         echo(_design_line(linkage.info))
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-         as_json=as_json)
+         as_json=as_json, require_free=require_free)
 
 
 def solution_id(rank: int, linkage) -> str:
@@ -105,7 +106,7 @@ def ranking_table(doc) -> list[str]:
     return rows
 
 
-def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, quiet, as_json):
+def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, quiet, as_json, require_free):
     from pathlib import Path
 
     from synth.io.writer import atomic_directory, write_linkage_files
@@ -116,20 +117,38 @@ def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, 
     linkages = sixbar_candidates(ps.matrices, ps.names, family=family, member=member, pair=pair, top=top,
                                  build=True)
     ids = [solution_id(r, lk) for r, lk in enumerate(linkages, start=1)]
+    results = None
+    if out or as_json or require_free:  # the physical design of every solution
+        results = [design_result(lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source,
+                                 require_free=False) for lk in linkages]
+        if require_free:  # keep the collision-free ones (with their ranks in the scan)
+            keep = [i for i, r in enumerate(results) if r.collision.free]
+            if not keep:
+                from synth.errors import SynthesisError
+
+                raise SynthesisError(f"{ps.source}: none of the {len(linkages)} best 6R designs is collision-free; "
+                                     f"the best: {collision_sentence(results[0].collision, ps.length_scale, ps.length_unit)}")
+            linkages, ids, results = ([x[i] for i in keep] for x in (linkages, ids, results))
     doc = index_document(linkages, ids, ps.source, ps.length_scale, ps.length_unit)
+    if results is not None:
+        for sol, r in zip(doc["solutions"], results):
+            sol["collision"] = r.collision.to_dict()
+            sol["design_summary"] = collision_sentence(r.collision, ps.length_scale, ps.length_unit)
     if not quiet:
         echo(f"6r designs through {len(ps)} poses: the {len(linkages)} best of the scan"
              + (f" (asked for {top})" if len(linkages) < top else "")
              + " (extent and offset in pose spreads, twist in degrees, errors in m + rad)")
         for row in ranking_table(doc):
             echo(row)
+        for sol in doc["solutions"] if results is not None else ():
+            echo(f"  {sol['id']}: {sol['design_summary']}")
     if out:
         base = name or default_robot_name(ps.source)
         with atomic_directory(Path(out), force=force) as tmp:
-            for lk, sid in zip(linkages, ids):
+            for lk, sid, r in zip(linkages, ids, results):
                 d = tmp / sid
                 d.mkdir()
-                write_linkage_files(lk, d, robot_name=f"{base}_{sid.replace('-', '_')}", package=package, **sizes)
+                write_linkage_files(lk, d, robot_name=f"{base}_{sid.replace('-', '_')}", package=package, result=r)
             write_json(doc, tmp / "index.json")
         if not quiet:
             echo(f"  wrote {out}/: index.json and {len(ids)} solution directories ({', '.join(ids)})")

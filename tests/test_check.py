@@ -70,7 +70,7 @@ def test_bennett_passes(bennett_out):
     c = f["continuation"]
     assert c["followed"] == 1.0 and c["driver"] == "h1"
     assert c["max_deviation_from_laws"] < 1e-8
-    assert f["meshes"] == {"referenced": 8, "good": 8}
+    assert f["meshes"] == {"referenced": 16, "good": 16}  # visual + collision of 4 links and 4 pins
 
 
 def test_sixbar_passes(sixbar_out):

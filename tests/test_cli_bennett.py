@@ -53,7 +53,8 @@ def test_fixture_end_to_end(fixture, tmp_path, verifier):
     r = run("bennett", fixture, "-o", out)
     assert r.exit_code == 0, r.output
     assert (out / "linkage.urdf").exists() and (out / "linkage.json").exists()
-    assert len(list((out / "meshes").glob("*.stl"))) == 4
+    assert len(list((out / "meshes").glob("*.stl"))) == 8  # 4 links, 4 pins
+    assert "design: NOT collision-free" in r.output or "design: collision-free" in r.output
     fk_check(out, fixture)
     verify(verifier, fixture, out)
 

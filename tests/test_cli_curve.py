@@ -42,7 +42,7 @@ def test_curve_ellipse_writes_output(tmp_path):
     doc = json.loads((out / "linkage.json").read_text())
     assert doc["kind"] == "curve" and len(doc["joints"]) == 10 and len(doc["closures"]) == 3
     assert doc["poses"] == [] and doc["info"]["counts"]["links"] == 8
-    assert len(list((out / "meshes").glob("*.stl"))) == 8
+    assert len(list((out / "meshes").glob("*.stl"))) == 18  # 8 links, 10 pins
     assert "tracer" in (out / "linkage.urdf").read_text()
 
 

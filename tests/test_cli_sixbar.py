@@ -63,7 +63,7 @@ def test_default_output(example, tmp_path):
     assert "6R design: family" in r.output and "self-check" in r.output
     doc = json.loads((out / "linkage.json").read_text())
     assert doc["kind"] == "6r" and doc["branches"] == [["h1", "h2", "h3"], ["k1", "k2", "k3"]]
-    assert len(doc["poses"]) == 4 and len(list((out / "meshes").glob("*.stl"))) == 6
+    assert len(doc["poses"]) == 4 and len(list((out / "meshes").glob("*.stl"))) == 12  # 6 links, 6 pins
     for key in ("family", "member", "pair", "t3", "score", "score_parts"):
         assert key in doc["info"]
     assert doc["checks"]["max_pose_error"] < 1e-12 and doc["checks"]["max_closure_error"] < 1e-12
@@ -87,7 +87,8 @@ def test_top3_layout(example, tmp_path):
         doc = json.loads((out / s["id"] / "linkage.json").read_text())
         assert (doc["info"]["family"], doc["info"]["member"], doc["info"]["pair"]) == (
             s["family"], s["member"], s["pair"])
-        assert len(list((out / s["id"] / "meshes").glob("*.stl"))) == 6
+        assert len(list((out / s["id"] / "meshes").glob("*.stl"))) == 12
+        assert s["collision"] == doc["collision"] and "collision-free" in s["design_summary"]
     # the default output is the first of the ranking
     single = tmp_path / "single"
     assert run("sixbar", example, "-o", single, "-q").exit_code == 0

@@ -33,6 +33,7 @@ from synth.linkage import Joint, Linkage  # noqa: E402
 REPO = Path(__file__).resolve().parents[1]
 VERIFIER = Path(__file__).resolve().parents[2] / "shared/tools/verify_output.py"
 GEOMETRIC = {"base", "link_h1", "link_k1", "coupler"}
+PINS = {"pin_h1", "pin_h2", "pin_k1", "pin_k2"}
 
 
 # ------------------------------------------------------------------ fixtures
@@ -124,25 +125,27 @@ def test_tool_mount_reproduces_tool_ref_through_urdf(bennett, masses):
 
 # ------------------------------------------------------------------ meshes
 def test_meshes_watertight_single_solid(bennett, meshes):
-    assert set(meshes) == GEOMETRIC  # coupler_k has no joints, so no mesh
+    assert set(meshes) == GEOMETRIC | PINS  # coupler_k has no joints, so no mesh; one pin per joint
     for name, mesh in meshes.items():
         assert mesh.is_watertight, name
         assert mesh.is_volume, name
         assert mesh.volume > 0
-        assert mesh.body_count == 1, name  # the manifold union joins pins and bar
+        assert mesh.body_count == 1, name  # one solid: bar and hubs united, bores cut
 
 
 def test_meshes_in_link_frame_cover_joint_feet(bennett, meshes):
-    """Both feet of the common normal of a link's two axes lie inside its mesh (in link frame)."""
+    """The middle of the common normal of a link's two axes lies inside its mesh (in link frame); its
+    feet (on the axes, where the straight design mounts the link) lie in the bores, outside."""
     from synth.algebra.dq import common_normal_feet
     from synth.io.frames import link_origins
 
     origins = link_origins(bennett)
-    for name, mesh in meshes.items():
+    for name in GEOMETRIC:
+        mesh = meshes[name]
         j1, j2 = (bennett.joint(n) for n in bennett.links[name])
         f1, f2 = common_normal_feet(j1.direction, j1.moment, j2.direction, j2.moment)
-        pts = np.array([f1, f2, (f1 + f2) / 2]) - origins[name]
-        assert mesh.contains(pts).all(), name
+        assert mesh.contains(np.array([(f1 + f2) / 2]) - origins[name]).all(), name
+        assert not mesh.contains(np.array([f1, f2]) - origins[name]).any(), name
         # and the mesh sits in the link frame, not in world coordinates (unless the frame is the world's)
         if name != "base":
             assert np.linalg.norm(mesh.bounds.mean(axis=0) - ((f1 + f2) / 2 - origins[name])) < 0.2
@@ -150,7 +153,7 @@ def test_meshes_in_link_frame_cover_joint_feet(bennett, meshes):
 
 def test_mesh_sizes_default_and_override(bennett):
     e = bennett.extent()
-    assert default_sizes(bennett) == pytest.approx((0.02 * e, 0.015 * e, 0.15 * e))
+    assert default_sizes(bennett) == pytest.approx((0.02 * e, 0.015 * e, 0.06 * e))
     assert default_sizes(bennett, 0.01, 0.005, 0.05) == (0.01, 0.005, 0.05)
     thin = link_meshes(bennett, pin_radius=0.01, link_radius=0.005, pin_length=0.05)
     thick = link_meshes(bennett)
@@ -185,11 +188,11 @@ def test_meshes_degenerate_axis_pairs(monkeypatch, manifold):
         monkeypatch.setattr(meshes_mod, "have_manifold", lambda: False)
     lk = _odd_linkage()
     out = link_meshes(lk)
-    assert set(out) == {"base", "a", "c", "d"}
+    assert set(out) == {"base", "a", "c", "d", "pin_j1", "pin_j2", "pin_j3", "pin_j4"}
     for name, mesh in out.items():
         assert mesh.is_watertight and mesh.volume > 0, name
     if manifold:
-        assert out["a"].body_count == 1
+        assert out["c"].body_count == 1  # (in "a" the bar along the j3-j4 line lies inside their bores)
 
 
 # ------------------------------------------------------------------ URDF
@@ -197,10 +200,11 @@ def test_urdf_structure(bennett, masses):
     root = ET.fromstring(urdf_text(bennett, 'name <&"> x', masses=masses))
     assert root.get("name") == 'name <&"> x'
     links = {l.get("name"): l for l in root.findall("link")}
-    assert set(links) == GEOMETRIC | {"coupler_k", "tool"}
+    assert set(links) == GEOMETRIC | PINS | {"coupler_k", "tool"}
     joints = {j.get("name"): j for j in root.findall("joint")}
     assert {n: j.get("type") for n, j in joints.items()} == {
-        "h1": "continuous", "h2": "continuous", "k1": "continuous", "k2": "continuous", "tool_mount": "fixed"}
+        "h1": "continuous", "h2": "continuous", "k1": "continuous", "k2": "continuous", "tool_mount": "fixed",
+        **{f"{p}_mount": "fixed" for p in PINS}}
     assert joints["tool_mount"].find("parent").get("link") == "coupler"
     assert joints["tool_mount"].find("child").get("link") == "tool"
     for n in ("h1", "h2", "k1", "k2"):
@@ -216,7 +220,11 @@ def test_urdf_structure(bennett, masses):
         inertial = link.find("inertial")
         assert inertial is not None
         mass = float(inertial.find("mass").get("value"))
-        if name in GEOMETRIC:
+        if name in PINS:
+            assert mass == pytest.approx(masses[name][0], rel=1e-15)
+            for tag in ("visual", "collision"):
+                assert link.find(f"{tag}/geometry/mesh").get("filename") == f"meshes/{name}.stl"
+        elif name in GEOMETRIC:
             # the coupler shares its mass equally with its welded duplicate coupler_k
             expect = masses[name][0] / (2 if name == "coupler" else 1)
             assert mass == pytest.approx(expect, rel=1e-15) and mass > 0.01
@@ -233,7 +241,7 @@ def test_urdf_structure(bennett, masses):
 def test_urdf_package_paths(bennett, masses):
     root = ET.fromstring(urdf_text(bennett, "b", package="my_robot", masses=masses))
     names = {m.get("filename") for m in root.iter("mesh")}
-    assert names == {f"package://my_robot/meshes/{n}.stl" for n in GEOMETRIC}
+    assert names == {f"package://my_robot/meshes/{n}.stl" for n in GEOMETRIC | PINS}
 
 
 def test_urdf_several_closures_are_numbered(bennett, masses):
@@ -302,9 +310,18 @@ def test_write_output_files(bennett, written):
 
     out, paths = written
     assert paths[:2] == [out / "linkage.urdf", out / "linkage.json"]
-    assert sorted(p.name for p in paths[2:]) == sorted(f"{n}.stl" for n in GEOMETRIC)
+    assert sorted(p.name for p in paths[2:]) == sorted(f"{n}.stl" for n in GEOMETRIC | PINS)
     assert all(p.is_file() for p in paths)
-    assert json.loads((out / "linkage.json").read_text()) == linkage_document(bennett)
+    from synth.io.meshes import design_for
+
+    result = design_for(bennett)
+    doc = json.loads((out / "linkage.json").read_text())
+    assert doc == linkage_document(bennett, result.design, result.collision)
+    assert set(doc["design"]) >= {"pin_radius", "bar_radius", "hub_radius", "hub_length", "hole_clearance",
+                                  "clearance", "mounts", "bars", "pins"}
+    assert {p["link"] for p in doc["design"]["pins"]} == PINS
+    assert all(p["length"] > 0 and p["mesh"] == f"meshes/{p['link']}.stl" for p in doc["design"]["pins"])
+    assert set(doc["collision"]) >= {"free", "range", "clearance", "min_distance", "driver_range"}
     for p in paths[2:]:
         data = p.read_bytes()
         n = int.from_bytes(data[80:84], "little")

@@ -1,4 +1,4 @@
-"""The trimesh-free mesh path (synth/export/solid.py, meshes.link_solids / stl_file) against trimesh:
+"""The trimesh-free mesh path (synth/io/solid.py, meshes.design_solids / stl_file) against trimesh:
 the same cylinders, the same union, the same mass properties, STL files trimesh reads as the same
 closed solids; the closed-surface check; and writing an output without importing trimesh."""
 from __future__ import annotations
@@ -134,25 +134,66 @@ def test_mass_properties_equal_trimeshs(seed, far):
     assert_same_mass((m, c - shift, I), ours, 1e-9, length)
 
 
+def _segment_distance(points, p0, p1):
+    """Distance of each point (n, 3) from the segment p0-p1."""
+    d = p1 - p0
+    L2 = float(d @ d)
+    s = np.clip((points - p0) @ d / L2, 0.0, 1.0) if L2 > 0 else np.zeros(len(points))
+    return np.linalg.norm(points - (p0 + s[:, None] * d), axis=1)
+
+
 @pytest.mark.parametrize("name", list(LINKAGES))
-def test_link_solids_equal_the_trimesh_path(name):
-    """Every link: the parts united by trimesh's manifold union (the previous exporter) and by ours give
-    the same solid. The union is computed in float32 at unit size, so the two triangulations agree to
-    float32 rounding (~6e-8 of the size), not to the last bit; the mass properties of one mesh agree
-    with trimesh's to 1e-9."""
+def test_design_solids_lie_inside_their_capsules(name):
+    """Every vertex of a link's mesh lies within its capsules (bars, hubs) and every vertex of a pin's
+    mesh within the pin's capsule: the collision search's capsules bound the written solids from
+    outside. Each mesh is one closed solid whose mass properties agree with trimesh's."""
+    from synth.design.model import capsules
+    from synth.io.urdf import pin_link_name
+
     lk = LINKAGES[name]
-    sizes = meshes_mod.default_sizes(lk)
+    result = meshes_mod.design_for(lk)
+    solids = meshes_mod.design_solids(lk, result.design)
     origins = link_origins(lk)
-    solids = meshes_mod.link_solids(lk)
+    assert set(solids) == ({n for n in lk.link_names if lk.links.get(n)}
+                           | {pin_link_name(p.joint) for p in result.design.pins})
+    caps = capsules(lk, result.design)
     ours = meshes_mod.mesh_inertials(solids)
-    assert set(solids) == {n for n in lk.link_names if lk.links.get(n)}
     for link, solid in solids.items():
         length = float(np.max(np.ptp(solid.vertices, axis=0)))
         assert_same_mass(ours[link], trimesh_mass(solid.triangles), 1e-9, length)
-        parts = meshes_mod.link_parts(lk, link, *sizes)  # trimesh's cylinders: see the test above
-        old = (parts[0] if len(parts) == 1 else trimesh_union(parts)).translated(-origins[link])
-        assert_same_mass(ours[link], trimesh_mass(old.triangles), 1e-6, length)
-        assert np.allclose(solid.bounds, old.bounds, rtol=0, atol=1e-6 * length)
+        if link in origins:
+            world = solid.vertices + origins[link]
+            mine = [c for c in caps if c.link == link and c.part != "pin"]
+        else:
+            joint = link[len("pin_"):]
+            world = solid.vertices + meshes_mod.pin_origin(lk, result.design, joint)
+            mine = [c for c in caps if c.part == "pin" and c.joint == joint]
+        excess = np.min([_segment_distance(world, c.p0, c.p1) - c.radius for c in mine], axis=0)
+        assert excess.max() <= 1e-6 * length, (link, excess.max())
+
+
+@pytest.mark.parametrize("name", ["bennett_fixture", "sixbar"])
+def test_bores_run_through_the_hubs(name):
+    """A point on a joint's axis inside a hub is outside the link's solid (the bore), a point in the hub's
+    wall (between bore and hub radius) is inside; the bore of the link that turns on the pin is wider
+    than the pin by the hole clearance, the carrier's bore fits it."""
+    lk = LINKAGES[name]
+    design = meshes_mod.design_for(lk).design
+    solids = meshes_mod.design_solids(lk, design)
+    origins = link_origins(lk)
+    carriers = {p.joint: p.carrier for p in design.pins}
+    for m in design.mounts:
+        mesh = solids[m.link].to_trimesh()
+        j = lk.joint(m.joint)
+        centre = lk.joint_sites()[m.joint] + m.offset * j.direction - origins[m.link]
+        side = np.cross(j.direction, [1.0, 0, 0] if abs(j.direction[0]) < 0.9 else [0, 1.0, 0])
+        side /= np.linalg.norm(side)
+        wall = design.pin_radius + design.hole_clearance + 0.5 * (design.hub_radius - design.pin_radius
+                                                                    - design.hole_clearance)
+        assert not mesh.contains([centre, centre + 0.3 * design.hub_length * j.direction]).any(), m
+        assert mesh.contains([centre + wall * side]).all(), m
+        gap = design.pin_radius + 0.5 * design.hole_clearance
+        assert mesh.contains([centre + gap * side]).all() == (carriers[m.joint] == m.link), m
 
 
 # ------------------------------------------------------------------ closed-surface check
@@ -250,7 +291,7 @@ def test_written_output_matches_its_stl_files(tmp_path):
             assert urdf_mass == pytest.approx(masses[name][0] / (2 if name in dict(lk.closures) else 1))
         assert mass == pytest.approx(masses[name][0], rel=1e-5)
         assert np.max(np.abs(com - urdf_com)) < 1e-5 * np.ptp(mesh.vertices).max() * MESH_UNIT_SCALE
-    assert seen == 4
+    assert seen == 8  # 4 links and 4 pins
 
 
 # ------------------------------------------------------------------ no trimesh on the write path
@@ -291,3 +332,37 @@ def test_signal_during_manifold3d_import_arrives_after_it(tmp_path, sig):
     r = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60, env=env)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == [{"SIGINT": "KeyboardInterrupt", "SIGTERM": "SystemExit"}[sig], "True", "True", "True"]
+
+
+@pytest.mark.parametrize("name", ["bennett_fixture", "sixbar"])
+def test_cranked_bars_and_shifted_mounts(name):
+    """A design as the search makes them: mounts moved along the axes and bars cranked through via points.
+    Every part stays one closed solid inside its capsules, and the written STL reads back closed."""
+    from synth.design.model import axis_point, capsules, pins_for
+
+    lk = LINKAGES[name]
+    design = meshes_mod.design_for(lk).design
+    e = lk.extent()
+    rng = np.random.default_rng(3)
+    for m in design.mounts:
+        m.offset += float(rng.uniform(-0.1, 0.1)) * e
+    design.pins = pins_for(lk, design)
+    for b in design.bars:
+        p0 = axis_point(lk, b.joints[0], design.mount(b.link, b.joints[0]).offset)
+        p1 = axis_point(lk, b.joints[1], design.mount(b.link, b.joints[1]).offset)
+        b.via = [p0 + (p1 - p0) / 3 + rng.normal(size=3) * 0.1 * e, p0 + 2 * (p1 - p0) / 3]
+    solids = meshes_mod.design_solids(lk, design)
+    caps = capsules(lk, design)
+    origins = link_origins(lk)
+    for link, solid in solids.items():
+        length = float(np.max(np.ptp(solid.vertices, axis=0)))
+        if link in origins:
+            world = solid.vertices + origins[link]
+            mine = [c for c in caps if c.link == link and c.part != "pin"]
+        else:
+            joint = link[len("pin_"):]
+            world = solid.vertices + meshes_mod.pin_origin(lk, design, joint)
+            mine = [c for c in caps if c.part == "pin" and c.joint == joint]
+        excess = np.min([_segment_distance(world, c.p0, c.p1) - c.radius for c in mine], axis=0)
+        assert excess.max() <= 1e-6 * length, (link, excess.max())
+        meshes_mod.stl_file(solid, link)  # raises unless the STL reads back as a closed solid

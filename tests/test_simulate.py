@@ -75,7 +75,7 @@ def test_export_mjcf_loads_anywhere(outputs, tmp_path, monkeypatch):
     root = ET.parse(dest).getroot()
     weld = root.find("equality/weld")
     assert (weld.get("body1"), weld.get("body2"), weld.get("name")) == ("coupler", "coupler_k", "loop_closure")
-    assert len(root.findall("contact/exclude")) == 15  # 6 bodies (base, 2 links, coupler, tool, coupler_k)
+    assert len(root.findall("contact/exclude")) == 45  # 10 bodies (base, 2 links, coupler, tool, coupler_k, 4 pins)
     assert {m.get("scale") for m in root.iter("mesh")} == {"0.001 0.001 0.001"}
     assert all(not os.path.isabs(m.get("file")) for m in root.iter("mesh"))
     assert root.find("actuator/position").get("joint") == "h1"

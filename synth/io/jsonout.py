@@ -3,7 +3,10 @@
 Beyond the contract's required keys we add (the contract allows new keys): ``poses[].t`` (the motion
 parameter of the pose, null for t = infinity), ``joints[].parent/child/angle_law`` (theta(t) =
 2 atan2(b, t - a)), ``links`` (link -> joints it carries), ``tool_link``, ``tool_ref`` and ``info``
-(the linkage's kind-specific extras). Only plain JSON types are written; non-finite numbers become null.
+(the linkage's kind-specific extras), ``design`` (the physical design: `PhysicalDesign.to_dict`, with
+every pin's length and mesh file: the bill of materials) and ``collision`` (what the design achieves:
+`CollisionReport.to_dict`). Lengths in metres, angles in radians. Only plain JSON types are written;
+non-finite numbers become null.
 """
 from __future__ import annotations
 
@@ -38,8 +41,20 @@ def plain(obj, where: str = "document"):
     raise TypeError(f"{where}: {type(obj).__name__} is not JSON-serializable")
 
 
-def linkage_document(linkage) -> dict:
-    """The linkage.json document (a dict of plain JSON types)."""
+def design_section(design) -> dict:
+    """The ``design`` section: `PhysicalDesign.to_dict` plus each pin's ``link`` and ``mesh`` file."""
+    from synth.io.urdf import mesh_filename, pin_link_name
+
+    d = design.to_dict()
+    for p in d["pins"]:
+        p["link"] = pin_link_name(p["joint"])
+        p["mesh"] = mesh_filename(p["link"])
+    return d
+
+
+def linkage_document(linkage, design=None, collision=None) -> dict:
+    """The linkage.json document (a dict of plain JSON types); ``design`` (`PhysicalDesign`) and
+    ``collision`` (`CollisionReport`) add their sections when given."""
     doc = {
         "format": FORMAT,
         "kind": linkage.kind,
@@ -65,6 +80,10 @@ def linkage_document(linkage) -> dict:
         "tool_ref": np.asarray(linkage.tool_ref, float),
         "info": dict(linkage.info),
     }
+    if design is not None:
+        doc["design"] = design_section(design)
+    if collision is not None:
+        doc["collision"] = collision if isinstance(collision, dict) else collision.to_dict()
     return plain(doc)
 
 

@@ -1,20 +1,27 @@
-"""Solid, watertight link meshes for a `Linkage`, each in its link's own frame (metres).
+"""Solid, watertight meshes of a linkage's physical design (`synth.design.model.PhysicalDesign`), each
+in its own frame (metres).
 
-A link that carries joints gets
-- one cylindrical *pin* per joint axis, along the axis, long enough to cover every foot of a common
-  normal that this link uses on that axis plus ``pin_length / 2`` on each side, and
-- one round *bar* per pair of consecutive joints of the link (``linkage.links[name]``), along the
-  common normal of the two axes, from foot to foot (skipped when the axes meet).
-For parallel axes the common normal is not unique; we take the one through the midpoint of the
-two joints' foot points (``Joint.point``). Links with no joints (the loop duplicate ``coupler_k``)
-get no mesh.
+A link with joints is ONE closed solid made of exactly the design's geometry (docs/design.md):
+- its **bars**: a round bar with round ends (a capsule of the bar radius) along each segment of the
+  bar's polyline, mount -> via points -> mount;
+- its **hubs**: a cylinder of the hub radius and hub length around the joint axis at each mount;
+- minus a **bore** through every hub along the axis: radius pin radius + hole clearance where the link
+  turns on the pin, pin radius where it carries the pin (glued or pressed in).
+Each joint's **pin** is a separate solid (a cylinder of the pin radius from the pin's start to its end
+along the axis), written as ``meshes/pin_<joint>.stl`` and, in the URDF, a link ``pin_<joint>`` fixed
+to its carrier link. Links with no joints (the loop duplicate ``coupler_k``) get no mesh.
+
+Every vertex of a capsule lies on the true capsule and every cylinder lies inside the capsule of its
+segment and radius (`synth.design.model.capsules`), so the capsules the collision search uses bound the
+written solids from outside.
 
 Default sizes scale with ``linkage.extent()`` (E, the RMS spread of the joints' feet and tool
-positions): pin radius 0.02 E, bar radius 0.015 E, pin length 0.15 E. Explicit values (metres)
-override them.
+positions): pin radius 0.02 E, bar radius 0.015 E, hub length 0.06 E (``--pin-length`` sets the hub
+length: a joint's pin spans the hubs of its two links, so it is at least that long). The hole clearance
+defaults to 0.2 mm (a common 3D-printing fit), but at most a tenth of the pin radius for tiny linkages.
 
-The parts are united with manifold3d into one closed 2-manifold, a valid solid for slicers and
-physics engines; without manifold3d they are concatenated (still closed, but overlapping shells).
+The parts are combined with manifold3d into one closed 2-manifold, a valid solid for slicers and
+physics engines; without manifold3d they are concatenated without bores (still closed shells).
 
 Meshes are `solid.Solid` (numpy arrays): building, checking and writing them never imports trimesh
 (whose import costs more than the whole rest of a run); ``link_meshes`` hands out trimesh objects
@@ -26,38 +33,63 @@ import math
 
 import numpy as np
 
-from synth.linkage import pair_feet
+from synth.design.model import PhysicalDesign, axis_point, capsules
+from synth.design.search import DesignResult, design_linkage
 from synth.io.frames import link_origins
-from synth.io.solid import (Solid, concatenate, cylinder, import_manifold3d, mass_properties, read_stl_triangles,
-                    signed_volume, stl_bytes, surface_defect, union, weld)
-from synth.io.urdf import MESH_UNIT_SCALE
+from synth.io.solid import (Solid, boolean, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
+                            mass_properties, read_stl_triangles, signed_volume, stl_bytes, surface_defect, weld)
+from synth.io.urdf import MESH_UNIT_SCALE, pin_link_name
 
 PIN_RADIUS = 0.02  # times linkage.extent()
 LINK_RADIUS = 0.015
-PIN_LENGTH = 0.15
-PIN_SECTIONS = 48
+HUB_LENGTH = 0.06
+HOLE_CLEARANCE = 2e-4  # metres (0.2 mm) ...
+HOLE_CLEARANCE_MAX_FRACTION = 0.1  # ... but at most this fraction of the pin radius
+PIN_SECTIONS = 48  # pins, hubs and bores (same count: a pin's facets face its bore's)
 BAR_SECTIONS = 32
 DENSITY = 2700.0  # kg/m^3, aluminium
 
 
+def _positive(name, v, allow_zero=False):
+    try:
+        ok = math.isfinite(float(v)) and (float(v) > 0 or (allow_zero and float(v) == 0))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        from synth.errors import InputError
+
+        raise InputError(f"{name} must be a {'non-negative' if allow_zero else 'positive'} length in metres, got {v!r}")
+    return float(v)
+
+
 def default_sizes(linkage, pin_radius=None, link_radius=None, pin_length=None) -> tuple[float, float, float]:
-    """(pin_radius, link_radius, pin_length) in metres: explicit values, or fractions of the extent."""
+    """(pin_radius, bar radius, hub length) in metres: explicit values, or fractions of the extent.
+    ``pin_length`` is the hub length (see the module docstring)."""
     e = linkage.extent()
     sizes = (
         PIN_RADIUS * e if pin_radius is None else pin_radius,
         LINK_RADIUS * e if link_radius is None else link_radius,
-        PIN_LENGTH * e if pin_length is None else pin_length,
+        HUB_LENGTH * e if pin_length is None else pin_length,
     )
-    for name, v in zip(("pin radius", "link radius", "pin length"), sizes):
-        try:
-            ok = math.isfinite(float(v)) and float(v) > 0
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
-            from synth.errors import InputError
+    return tuple(_positive(name, v) for name, v in zip(("pin radius", "link radius", "pin length"), sizes))
 
-            raise InputError(f"{name} must be a positive length in metres, got {v!r}")
-    return tuple(float(v) for v in sizes)
+
+def default_hole_clearance(pin_radius: float) -> float:
+    """Radial clearance of a bore around its pin (metres): 0.2 mm, at most a tenth of the pin radius."""
+    return min(HOLE_CLEARANCE, HOLE_CLEARANCE_MAX_FRACTION * pin_radius)
+
+
+def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None,
+               clearance=None) -> DesignResult:
+    """The physical design of ``linkage`` (`synth.design.search.design_linkage`) with the given or default
+    sizes (metres; see `default_sizes`, `default_hole_clearance`; clearance None: the search's default)."""
+    pin_radius, link_radius, hub_length = default_sizes(linkage, pin_radius, link_radius, pin_length)
+    hole = default_hole_clearance(pin_radius) if hole_clearance is None else _positive(
+        "hole clearance", hole_clearance, allow_zero=True)
+    if clearance is not None:
+        clearance = _positive("clearance", clearance, allow_zero=True)
+    return design_linkage(linkage, pin_radius=pin_radius, bar_radius=link_radius, hub_length=hub_length,
+                          hole_clearance=hole, clearance=clearance)
 
 
 def have_manifold() -> bool:
@@ -69,36 +101,46 @@ def have_manifold() -> bool:
     return True
 
 
-def link_parts(linkage, name, pin_radius, link_radius, pin_length) -> list[Solid]:
-    """Closed primitive meshes (pins, bars) of one link, in world coordinates at the reference
-    configuration. Empty for a link without joints."""
-    names = list(linkage.links.get(name, []))
-    joints = [linkage.joint(n) for n in names]
-    if not joints:
-        return []
-    scale = max(linkage.extent(), pin_radius)
-    feet: dict[str, list[np.ndarray]] = {n: [] for n in names}
-    bars = []
-    for j1, j2 in zip(joints, joints[1:]):
-        f1, f2 = pair_feet(j1, j2)
-        feet[j1.name].append(f1)
-        feet[j2.name].append(f2)
-        if np.linalg.norm(f2 - f1) > 1e-9 * scale:
-            bars.append(cylinder(f1, f2, link_radius, BAR_SECTIONS))
-    pins = []
-    for j in joints:
-        pts = feet[j.name] or [linkage.joint_sites()[j.name]]
-        s = [float(np.dot(p - j.point, j.direction)) for p in pts]
-        lo = j.point + (min(s) - pin_length / 2) * j.direction
-        hi = j.point + (max(s) + pin_length / 2) * j.direction
-        pins.append(cylinder(lo, hi, pin_radius, PIN_SECTIONS))
-    return pins + bars
+def link_parts(linkage, design: PhysicalDesign, name: str) -> tuple[list[Solid], list[Solid]]:
+    """(parts, bores) of link ``name``: closed meshes in world coordinates at the reference configuration.
+    Parts: a capsule per bar segment, a cylinder per hub; bores: a cylinder per mount, along the axis,
+    through the hub and the bar's round end. Both empty for a link without joints."""
+    parts, bores = [], []
+    carriers = {p.joint: p.carrier for p in design.pins}
+    for c in capsules(linkage, design):
+        if c.link != name or c.part == "pin":
+            continue
+        if c.part == "bar":
+            parts.append(capsule(c.p0, c.p1, c.radius, BAR_SECTIONS))
+        else:  # hub: the cylinder inside its capsule, and the bore through it
+            # half a section turned against the bore: its cap spokes never run through the bore's corners
+            parts.append(cylinder(c.p0, c.p1, c.radius, PIN_SECTIONS, phase=0.5))
+            u = linkage.joint(c.joint).direction
+            centre = (c.p0 + c.p1) / 2
+            half = 1.01 * max(design.hub_length / 2, design.bar_radius) + 0.01 * design.hub_radius
+            r = design.pin_radius + (0.0 if carriers.get(c.joint) == name else design.hole_clearance)
+            bores.append(cylinder(centre - half * u, centre + half * u, r, PIN_SECTIONS))
+    return parts, bores
 
 
-def _solid(parts) -> Solid:
-    if len(parts) == 1:
-        return parts[0]
-    return union(parts) if have_manifold() else concatenate(parts)
+def pin_origin(linkage, design: PhysicalDesign, joint: str) -> np.ndarray:
+    """World position (3,) of the frame of link ``pin_<joint>`` at the reference configuration: the pin's
+    midpoint (axes parallel to the world's, like every link frame)."""
+    p = design.pin(joint)
+    return axis_point(linkage, joint, (p.start + p.end) / 2)
+
+
+def pin_solid(linkage, design: PhysicalDesign, joint: str) -> Solid:
+    """The pin of ``joint`` in its own frame (`pin_origin`)."""
+    p = design.pin(joint)
+    a, b = axis_point(linkage, joint, p.start), axis_point(linkage, joint, p.end)
+    return cylinder(a, b, design.pin_radius, PIN_SECTIONS).translated(-pin_origin(linkage, design, joint))
+
+
+def _solid(parts, bores=()) -> Solid:
+    if have_manifold():
+        return boolean(parts, bores)
+    return parts[0] if len(parts) == 1 else concatenate(parts)
 
 
 def check_closed(mesh: Solid, what: str) -> None:
@@ -110,24 +152,35 @@ def check_closed(mesh: Solid, what: str) -> None:
         raise RuntimeError(f"{what} is not a closed solid ({defect})")
 
 
-def link_solids(linkage, pin_radius=None, link_radius=None, pin_length=None) -> dict[str, Solid]:
-    """{link name: Solid} for every link with joints, each in its own link frame (metres)."""
-    pin_radius, link_radius, pin_length = default_sizes(linkage, pin_radius, link_radius, pin_length)
+def design_solids(linkage, design: PhysicalDesign) -> dict[str, Solid]:
+    """{URDF link name: Solid}: every link with joints (in its link frame) and every pin as link
+    ``pin_<joint>`` (in its pin frame, `pin_origin`), metres. RuntimeError if one is not a closed solid."""
     origins = link_origins(linkage)
     out = {}
     for name in linkage.link_names:
-        parts = link_parts(linkage, name, pin_radius, link_radius, pin_length)
+        parts, bores = link_parts(linkage, design, name)
         if not parts:
             continue
-        mesh = _solid(parts).translated(-origins[name])
+        mesh = _solid(parts, bores).translated(-origins[name])
         check_closed(mesh, f"mesh of link {name}")
         out[name] = mesh
+    for p in design.pins:
+        mesh = pin_solid(linkage, design, p.joint)
+        check_closed(mesh, f"mesh of pin {p.joint}")
+        out[pin_link_name(p.joint)] = mesh
     return out
 
 
-def link_meshes(linkage, pin_radius=None, link_radius=None, pin_length=None) -> dict:
+def link_solids(linkage, pin_radius=None, link_radius=None, pin_length=None, design=None) -> dict[str, Solid]:
+    """`design_solids` of ``design`` (default: `design_for` with these sizes)."""
+    if design is None:
+        design = design_for(linkage, pin_radius, link_radius, pin_length).design
+    return design_solids(linkage, design)
+
+
+def link_meshes(linkage, pin_radius=None, link_radius=None, pin_length=None, design=None) -> dict:
     """{link name: trimesh.Trimesh}: `link_solids` as trimesh objects (imports trimesh)."""
-    return {n: m.to_trimesh() for n, m in link_solids(linkage, pin_radius, link_radius, pin_length).items()}
+    return {n: m.to_trimesh() for n, m in link_solids(linkage, pin_radius, link_radius, pin_length, design).items()}
 
 
 def mesh_inertials(meshes: dict, density: float = DENSITY) -> dict:
@@ -144,10 +197,14 @@ def mesh_inertials(meshes: dict, density: float = DENSITY) -> dict:
 def stl_file(mesh: Solid, what: str = "mesh") -> tuple[bytes, np.ndarray]:
     """(binary STL, offset): the mesh stored about its own centre ``offset`` (bounding-box centre,
     metres, link frame; STL is single precision and the base link's frame is the world frame, which
-    may be far away) in millimetres (``urdf.MESH_UNIT_SCALE``, the unit slicers assume). The bytes are
+    may be far away) in millimetres (``urdf.MESH_UNIT_SCALE``, the unit slicers assume); an edge shorter
+    than a float32 step there is collapsed (`solid.degenerate_free`). The bytes are
     read back and checked to be a closed solid as a reader of the file sees it (float32 corners
     welded where bit-equal); RuntimeError otherwise."""
     offset = mesh.bounds.mean(axis=0)
-    data = stl_bytes((mesh.triangles - offset) * (1.0 / MESH_UNIT_SCALE))
+    triangles = (mesh.triangles - offset) * (1.0 / MESH_UNIT_SCALE)
+    stored = weld(triangles.astype(np.float32))  # as a reader sees the file
+    keep = np.isin(np.arange(len(triangles)), degenerate_free(stored.faces))
+    data = stl_bytes(triangles[keep])  # edges shorter than a float32 step collapsed
     check_closed(weld(read_stl_triangles(data)), f"{what} as written to STL")
     return data, offset

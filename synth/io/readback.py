@@ -310,6 +310,7 @@ def read_output(out) -> Readback:
             visuals.setdefault(m.link, []).append(Visual(path=_mesh_file(m.filename, urdf), scale=m.scale,
                                                          origin=m.origin, rgba=m.rgba))
     _cross_check(linkage, frame_ref, model, urdf)
+    _fold_fixed_parts(visuals, model, linkage)
     return Readback(root=root, document=doc, linkage=linkage, robot_name=model.name or "linkage",
                     frame_ref=frame_ref, visuals=visuals, urdf=model)
 
@@ -402,6 +403,17 @@ def _mesh_file(filename: str, urdf: Path) -> Path:
     if not p.is_file():
         raise InputError(f"{urdf}: mesh {filename!r} not found (looked for {p})")
     return p
+
+
+def _fold_fixed_parts(visuals: dict, model: UrdfModel, linkage: Linkage) -> None:
+    """Give each link of the linkage the visuals of the parts fixed to it that are not links of the
+    linkage themselves (the pins ``pin_<joint>``), placed by their fixed joint's origin: one rigid body."""
+    names = set(linkage.link_names)
+    for d in model.joints.values():
+        if d.kind == "fixed" and d.parent in names and d.child not in names and d.child in visuals:
+            for v in visuals[d.child]:
+                visuals.setdefault(d.parent, []).append(
+                    Visual(path=v.path, scale=v.scale, origin=d.origin @ v.origin, rgba=v.rgba))
 
 
 def _cross_check(linkage: Linkage, frame: dict, model: UrdfModel, urdf: Path) -> None:

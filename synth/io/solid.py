@@ -67,14 +67,15 @@ def axis_rotation(w) -> np.ndarray:
     return _proper_completion(w) @ _Z_COMPLETION.T
 
 
-def cylinder(a, b, radius: float, sections: int) -> Solid:
+def cylinder(a, b, radius: float, sections: int, phase: float = 0.0) -> Solid:
     """Closed cylinder of ``radius`` from point ``a`` to point ``b``: a regular ``sections``-gon prism
-    (corners at angles 2 pi k / sections in the frame of `axis_rotation`) with fan-triangulated caps."""
+    (corners at angles 2 pi (k + phase) / sections in the frame of `axis_rotation`) with fan-triangulated
+    caps."""
     a, b = np.asarray(a, float), np.asarray(b, float)
     axis = b - a
     height = float(np.linalg.norm(axis))
     n = int(sections)
-    theta = np.linspace(0.0, 2.0 * np.pi, n + 1)[:-1]
+    theta = 2.0 * np.pi * (np.arange(n) + phase) / n
     ring = np.column_stack([radius * np.cos(theta), radius * np.sin(theta)])
     half = height / 2
     local = np.concatenate([
@@ -92,6 +93,43 @@ def cylinder(a, b, radius: float, sections: int) -> Solid:
     ])
     vertices = local @ axis_rotation(axis / height).T + (a + b) / 2
     return Solid(vertices, faces.astype(np.int64))
+
+
+def capsule(a, b, radius: float, sections: int, rings: int | None = None) -> Solid:
+    """Closed capsule (round bar with round ends) of ``radius`` around the segment a-b: a cylinder of
+    ``sections``-gons capped by two hemispheres of ``rings`` latitude rings each (default sections / 4).
+    Every vertex lies at distance exactly ``radius`` from the segment, so the faceted solid lies inside
+    the true capsule. A segment shorter than 1e-9 ``radius`` gives a sphere."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    axis = b - a
+    height = float(np.linalg.norm(axis))
+    n = int(sections)
+    m = max(int(rings if rings is not None else n // 4), 2)
+    theta = np.linspace(0.0, 2.0 * np.pi, n + 1)[:-1]
+    lat = np.linspace(-np.pi / 2, np.pi / 2, 2 * m + 1)[1:-1]  # 2m - 1 rings, the equator in the middle
+    sphere = height <= 1e-9 * radius
+    half = 0.0 if sphere else height / 2
+    rows = []
+    for k, phi in enumerate(lat):
+        zs = [radius * np.sin(phi) + (half if k >= m else -half)]
+        if k == m - 1 and not sphere:  # the equator twice: bottom end and top end of the cylinder
+            zs = [-half, half]
+        for z in zs:
+            rows.append(np.column_stack([radius * np.cos(phi) * np.cos(theta), radius * np.cos(phi) * np.sin(theta),
+                                         np.full(n, z)]))
+    r = len(rows)
+    local = np.concatenate(rows + [[[0.0, 0.0, -half - radius], [0.0, 0.0, half + radius]]])
+    i = np.arange(n)
+    j = (i + 1) % n
+    south, north = r * n, r * n + 1
+    faces = [np.column_stack([np.full(n, south), j, i]), np.column_stack([np.full(n, north), (r - 1) * n + i,
+                                                                          (r - 1) * n + j])]
+    for q in range(r - 1):
+        lo, hi = q * n, (q + 1) * n
+        faces += [np.column_stack([lo + i, lo + j, hi + j]), np.column_stack([lo + i, hi + j, hi + i])]
+    rot = axis_rotation(axis / height) if height > 0 else np.eye(3)
+    vertices = local @ rot.T + (a + b) / 2
+    return Solid(vertices, np.concatenate(faces).astype(np.int64))
 
 
 def concatenate(parts) -> Solid:
@@ -123,19 +161,32 @@ def import_manifold3d():
 
 
 def union(parts) -> Solid:
-    """Boolean union of closed parts with manifold3d: one closed 2-manifold.
+    """Boolean union of closed parts with manifold3d: one closed 2-manifold (see `boolean`)."""
+    return boolean(parts)
+
+
+def boolean(parts, cut=()) -> Solid:
+    """The union of the closed ``parts`` minus the union of the closed ``cut`` solids, with manifold3d:
+    one closed 2-manifold.
 
     Computed at unit size around the origin in single precision (manifold3d's ``Mesh``): its tolerances
-    are then relative, so micrometre-sized parts and parts far from the world origin work alike, and
-    the result keeps no slivers finer than the float32 STL it is written to."""
+    are then relative, so micrometre-sized parts and parts far from the world origin work alike. Edges
+    shorter than a float32 step of the STL can remain (where a bore cuts a bar's round end): the STL writer
+    drops the triangles they make degenerate (`degenerate_free`)."""
     manifold3d = import_manifold3d()
     lo = np.min([p.vertices.min(axis=0) for p in parts], axis=0)
     hi = np.max([p.vertices.max(axis=0) for p in parts], axis=0)
     centre, size = (lo + hi) / 2, float(np.max(hi - lo))
-    solids = [manifold3d.Manifold(manifold3d.Mesh(
-        vert_properties=np.ascontiguousarray((p.vertices - centre) / size, dtype=np.float32),
-        tri_verts=np.ascontiguousarray(p.faces, dtype=np.uint32))) for p in parts]
-    mesh = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add).to_mesh()
+
+    def solids(ps):
+        return [manifold3d.Manifold(manifold3d.Mesh(
+            vert_properties=np.ascontiguousarray((p.vertices - centre) / size, dtype=np.float32),
+            tri_verts=np.ascontiguousarray(p.faces, dtype=np.uint32))) for p in ps]
+
+    body = manifold3d.Manifold.batch_boolean(solids(parts), manifold3d.OpType.Add)
+    if len(cut):
+        body = body - manifold3d.Manifold.batch_boolean(solids(cut), manifold3d.OpType.Add)
+    mesh = body.to_mesh()
     vertices = np.asarray(mesh.vert_properties, np.float64)[:, :3] * size + centre
     return Solid(vertices, np.asarray(mesh.tri_verts, np.int64).reshape(-1, 3))
 
@@ -148,6 +199,14 @@ def weld(triangles) -> Solid:
     corners = np.ascontiguousarray(tri.reshape(-1, 3) + tri.dtype.type(0.0))
     vertices, index = np.unique(corners, axis=0, return_inverse=True)
     return Solid(vertices.astype(np.float64), index.reshape(-1, 3).astype(np.int64))
+
+
+def degenerate_free(faces) -> np.ndarray:
+    """Indices of the faces (m, 3) that repeat no vertex. After `weld` has merged the two ends of an edge
+    shorter than the float32 step, the two triangles on that edge degenerate and the others are the edge
+    collapse of the mesh (closed again unless the collapse pinches it, which `surface_defect` tells)."""
+    f = np.asarray(faces)
+    return np.flatnonzero((f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0]))
 
 
 def surface_defect(faces) -> str | None:

@@ -2,7 +2,11 @@
 
 - root link ``base`` (the world frame of the poses); every tree joint is ``continuous``: each joint of
   a motion-polynomial linkage makes exactly one full turn over the motion (docs/conventions.md), so no
-  joint limit exists and a ``revolute`` joint would need invented limits (which planners enforce);
+  joint limit exists kinematically. The one exception: when the design is collision-free only over the
+  task range (``collision["range"] == "task"``), the driving joint is ``revolute`` with the limits of
+  that range (shifted by whole turns to hold 0, the first pose), so that simulators stay inside it;
+- each pin of the physical design is a link ``pin_<joint>`` (frame at the pin's midpoint) fixed to its
+  carrier link by the joint ``pin_<joint>_mount``, with visual and collision mesh ``meshes/pin_<joint>.stl``;
 - link frames are translated copies of the world frame (see frames.py), so a joint's origin is the
   difference of the child's and parent's frame origins with rpy "0 0 0", and its axis is the joint's
   world direction at the reference configuration;
@@ -19,6 +23,7 @@ All floats are written with ``repr`` (shortest round-trip form), so the file is 
 """
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 
 MESH_UNIT_SCALE = 0.001  # metres per STL unit (STL files are written in millimetres)
@@ -32,9 +37,13 @@ TINY_MASS = 1e-6
 TINY_INERTIA = 1e-9
 TOOL_LINK = "tool"
 TOOL_JOINT = "tool_mount"
+PIN_PREFIX = "pin_"
+LIMIT_EFFORT = 1000.0  # N m: a bound for planners and simulators, not a property of the linkage
+LIMIT_VELOCITY = 10.0  # rad/s
 
 _COLORS = {"base": "0.35 0.35 0.38 1", "coupler": "0.95 0.55 0.1 1"}
 _DEFAULT_COLOR = "0.45 0.6 0.8 1"
+_PIN_COLOR = "0.75 0.75 0.78 1"
 
 
 def _f(x) -> str:
@@ -46,6 +55,24 @@ def _f(x) -> str:
 
 def _vec(v) -> str:
     return " ".join(_f(x) for x in v)
+
+
+def pin_link_name(joint: str) -> str:
+    """The URDF link of the pin of ``joint``."""
+    return f"{PIN_PREFIX}{joint}"
+
+
+def driver_limits(collision) -> tuple[str, float, float] | None:
+    """(driver joint, lower, upper) radians for a task-range collision claim (a `CollisionReport` or its
+    dict), shifted by whole turns so that 0 (the first pose) lies inside; None for a full-cycle claim."""
+    if collision is None:
+        return None
+    c = collision if isinstance(collision, dict) else collision.to_dict()
+    if c.get("range") != "task":
+        return None
+    lo, hi = (float(v) for v in c["driver_range"])
+    k = math.floor((hi + 1e-9) / (2 * math.pi))  # lo - 2 pi k <= 0 <= hi - 2 pi k when the range visits 0 mod 2 pi
+    return str(c["driver"]), lo - 2 * math.pi * k, hi - 2 * math.pi * k
 
 
 def closure_names(n: int) -> list[str]:
@@ -100,8 +127,32 @@ def _share_welded_masses(linkage, masses, origins, geometric) -> dict:
     return out
 
 
+def _mesh_geometry(link, n, fn, offset):
+    for tag in ("visual", "collision"):
+        el = ET.SubElement(link, tag)
+        ET.SubElement(el, "origin", xyz=_vec(offset), rpy="0.0 0.0 0.0")
+        geom = ET.SubElement(el, "geometry")
+        ET.SubElement(geom, "mesh", filename=fn, scale=_MESH_SCALE)
+        if tag == "visual":
+            mat = ET.SubElement(el, "material", name=f"mpsynth_{n}")
+            ET.SubElement(mat, "color", rgba=_COLORS.get(n, _PIN_COLOR if n.startswith(PIN_PREFIX) else _DEFAULT_COLOR))
+
+
+def _pin_frames(linkage, design, origins) -> dict:
+    """{pin link: (carrier link, (3,) origin of the pin frame in the carrier's frame)}."""
+    from synth.design.model import axis_point
+
+    out = {}
+    for p in design.pins:
+        if p.carrier not in origins:
+            raise ValueError(f"pin {p.joint} is carried by unknown link {p.carrier!r}")
+        mid = axis_point(linkage, p.joint, (p.start + p.end) / 2)
+        out[pin_link_name(p.joint)] = (p.carrier, mid - origins[p.carrier])
+    return out
+
+
 def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str | None = None,
-              masses: dict | None = None, mesh_offsets: dict | None = None) -> str:
+              masses: dict | None = None, mesh_offsets: dict | None = None, design=None, collision=None) -> str:
     """The URDF document (str, with XML declaration) of ``linkage``.
 
     ``masses``: {link: (mass kg, centre of mass (3,) in the link frame, 3x3 inertia about the centre
@@ -109,7 +160,9 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
     computed from ``meshes.link_solids(linkage)`` with default sizes and aluminium density. Links
     with geometry are those with a non-empty joint list in ``linkage.links``. ``mesh_offsets``:
     {link: (3,) position (metres, link frame) of the STL file's origin}; the writer stores each STL
-    about its own centre so that single-precision STL coordinates stay accurate far from the origin."""
+    about its own centre so that single-precision STL coordinates stay accurate far from the origin.
+    ``design``: the `PhysicalDesign` whose pins become links ``pin_<joint>`` (None: `meshes.design_for`'s);
+    ``collision``: its collision claim (`CollisionReport` or dict), for the driver's limits."""
     origins = link_origins(linkage)
     names = list(origins)
     if TOOL_LINK in origins:
@@ -119,11 +172,19 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
             if link not in origins:
                 raise ValueError(f"closure ({a}, {b}) names unknown link {link!r}")
     geometric = [n for n in names if linkage.links.get(n)]
-    if masses is None:
-        from synth.io.meshes import link_solids, mesh_inertials
+    if design is None or masses is None:
+        from synth.io.meshes import design_for, design_solids, mesh_inertials
 
-        masses = mesh_inertials(link_solids(linkage))
-    for n in geometric:
+        if design is None:
+            result = design_for(linkage)
+            design, collision = result.design, (result.collision if collision is None else collision)
+        if masses is None:
+            masses = mesh_inertials(design_solids(linkage, design))
+    pins = _pin_frames(linkage, design, origins)
+    for n in pins:
+        if n in origins or n == TOOL_LINK:
+            raise ValueError(f"pin link {n!r} clashes with a link name")
+    for n in geometric + list(pins):
         if n not in masses:
             raise ValueError(f"no mass properties for link {n!r}")
 
@@ -138,27 +199,33 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
         if n in masses:
             _inertial(link, *masses[n])
         if n in geometric:
-            fn = mesh_filename(n, mesh_dir, package)
-            for tag in ("visual", "collision"):
-                el = ET.SubElement(link, tag)
-                offset = (mesh_offsets or {}).get(n, np.zeros(3))
-                ET.SubElement(el, "origin", xyz=_vec(offset), rpy="0.0 0.0 0.0")
-                geom = ET.SubElement(el, "geometry")
-                ET.SubElement(geom, "mesh", filename=fn, scale=_MESH_SCALE)
-                if tag == "visual":
-                    mat = ET.SubElement(el, "material", name=f"mpsynth_{n}")
-                    ET.SubElement(mat, "color", rgba=_COLORS.get(n, _DEFAULT_COLOR))
+            _mesh_geometry(link, n, mesh_filename(n, mesh_dir, package), (mesh_offsets or {}).get(n, np.zeros(3)))
         elif n not in masses:
             _inertial(link, TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
+    for n in pins:
+        link = ET.SubElement(robot, "link", name=n)
+        _inertial(link, *masses[n])
+        _mesh_geometry(link, n, mesh_filename(n, mesh_dir, package), (mesh_offsets or {}).get(n, np.zeros(3)))
     tool = ET.SubElement(robot, "link", name=TOOL_LINK)
     _inertial(tool, TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
 
+    limits = driver_limits(collision)
     for j in linkage.joints:
-        el = ET.SubElement(robot, "joint", name=j.name, type="continuous")
+        limited = limits is not None and limits[0] == j.name
+        el = ET.SubElement(robot, "joint", name=j.name, type="revolute" if limited else "continuous")
         ET.SubElement(el, "parent", link=j.parent)
         ET.SubElement(el, "child", link=j.child)
         ET.SubElement(el, "origin", xyz=_vec(origins[j.child] - origins[j.parent]), rpy="0.0 0.0 0.0")
         ET.SubElement(el, "axis", xyz=_vec(j.direction))
+        if limited:
+            ET.SubElement(el, "limit", lower=_f(limits[1]), upper=_f(limits[2]), effort=_f(LIMIT_EFFORT),
+                          velocity=_f(LIMIT_VELOCITY))
+
+    for n, (carrier, xyz) in pins.items():
+        el = ET.SubElement(robot, "joint", name=f"{n}_mount", type="fixed")
+        ET.SubElement(el, "parent", link=carrier)
+        ET.SubElement(el, "child", link=n)
+        ET.SubElement(el, "origin", xyz=_vec(xyz), rpy="0.0 0.0 0.0")
 
     T = tool_mount_origin(linkage)
     el = ET.SubElement(robot, "joint", name=TOOL_JOINT, type="fixed")

@@ -38,6 +38,7 @@ from synth.algebra.polynomial import pose_at
 from synth.io.continuation import continue_loop, law_angles
 from synth.io.frames import TWO_PI, invert_transform, pose_diff, wrap_angle
 from synth.io.readback import OutputFiles, angle_laws, mesh_path, read_files, solution_dirs
+from synth.io.urdf import driver_limits
 
 
 # ----------------------------------------------------------------------------- checker
@@ -128,8 +129,13 @@ class _Checker:
             if uj.kind not in ("continuous", "revolute"):
                 self.fail(f"URDF: joint {uj.name} is {uj.kind}, expected continuous")
             elif uj.limit is not None and uj.limit[1] - uj.limit[0] < TWO_PI - 1e-9:
-                self.fail(f"URDF: joint {uj.name} is limited to [{uj.limit[0]:.4g}, {uj.limit[1]:.4g}] "
-                          "but turns through a full cycle")
+                claim = _task_limits(doc)  # a task-range collision claim limits its driver to that range
+                if claim is None or claim[0] != uj.name:
+                    self.fail(f"URDF: joint {uj.name} is limited to [{uj.limit[0]:.4g}, {uj.limit[1]:.4g}] "
+                              "but turns through a full cycle")
+                elif max(abs(uj.limit[0] - claim[1]), abs(uj.limit[1] - claim[2])) > 1e-9:
+                    self.fail(f"URDF: joint {uj.name} is limited to [{uj.limit[0]:.4g}, {uj.limit[1]:.4g}], "
+                              f"linkage.json's task-range collision claim to [{claim[1]:.4g}, {claim[2]:.4g}]")
             for key in ("parent", "child"):
                 if key in j and j[key] != getattr(uj, key):
                     self.fail(f"joint {uj.name}: {key} is {getattr(uj, key)} in the URDF, {j[key]} in linkage.json")
@@ -464,4 +470,13 @@ def _vector(v):
         return None
     return x if x.shape == (3,) and np.all(np.isfinite(x)) else None
 
+
+def _task_limits(doc: dict):
+    """(driver, lower, upper) that a task-range collision claim in linkage.json puts on its driver
+    (`synth.io.urdf.driver_limits`), or None."""
+    c = doc.get("collision")
+    try:
+        return driver_limits(c) if isinstance(c, dict) else None
+    except (KeyError, TypeError, ValueError):
+        return None
 

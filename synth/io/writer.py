@@ -29,7 +29,7 @@ from pathlib import Path
 
 from synth.errors import InputError
 from synth.io.jsonout import linkage_document, write_json
-from synth.io.meshes import default_sizes, link_solids, mesh_inertials, stl_file
+from synth.io.meshes import default_sizes, design_for, design_solids, mesh_inertials, stl_file
 from synth.io import urdf
 
 MARKER = ".mpsynth-output"
@@ -213,12 +213,17 @@ def atomic_directory(out_dir, force: bool = False):
 
 
 def write_linkage_files(linkage, directory, *, robot_name: str, package: str | None = None,
-                        pin_radius=None, link_radius=None, pin_length=None) -> list[Path]:
-    """Write linkage.urdf, linkage.json and meshes/<link>.stl into the existing ``directory`` (not
-    atomic: use inside ``atomic_directory``, e.g. for ``OUT/<id>/`` layouts). Returns the paths
-    written, relative to ``directory``."""
+                        pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None, clearance=None,
+                        result=None) -> list[Path]:
+    """Write linkage.urdf, linkage.json, meshes/<link>.stl and meshes/pin_<joint>.stl into the existing
+    ``directory`` (not atomic: use inside ``atomic_directory``, e.g. for ``OUT/<id>/`` layouts).
+    ``result``: the `DesignResult` to write (default: `meshes.design_for` with the given sizes and
+    clearances, metres).
+    Returns the paths written, relative to ``directory``."""
     directory = Path(directory)
-    meshes = link_solids(linkage, pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length)
+    if result is None:
+        result = design_for(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance)
+    meshes = design_solids(linkage, result.design)
     written = []
     if meshes:
         (directory / "meshes").mkdir()
@@ -226,25 +231,27 @@ def write_linkage_files(linkage, directory, *, robot_name: str, package: str | N
     for name, mesh in meshes.items():
         rel = Path("meshes") / f"{name}.stl"
         # stored about its own centre, in millimetres, placed by the URDF visual/collision origin
-        data, offsets[name] = stl_file(mesh, f"mesh of link {name}")
+        data, offsets[name] = stl_file(mesh, f"mesh of {name}")
         (directory / rel).write_bytes(data)
         written.append(rel)
     text = urdf.urdf_text(linkage, robot_name, mesh_dir="meshes", package=package, masses=mesh_inertials(meshes),
-                     mesh_offsets=offsets)
+                     mesh_offsets=offsets, design=result.design, collision=result.collision)
     (directory / "linkage.urdf").write_text(text, encoding="utf-8")
-    write_json(linkage_document(linkage), directory / "linkage.json")
+    write_json(linkage_document(linkage, result.design, result.collision), directory / "linkage.json")
     return [Path("linkage.urdf"), Path("linkage.json")] + written
 
 
 def write_output(linkage, out_dir, *, robot_name: str, force: bool = False, package: str | None = None,
-                 pin_radius=None, link_radius=None, pin_length=None) -> list[Path]:
-    """Write OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/<link>.stl atomically; returns the
-    final paths. Raises InputError for an unusable OUT (see the module docstring) or bad sizes."""
+                 pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None, clearance=None,
+                 result=None) -> list[Path]:
+    """Write OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/*.stl atomically; returns the final
+    paths. Raises InputError for an unusable OUT (see the module docstring) or bad sizes."""
     default_sizes(linkage, pin_radius, link_radius, pin_length)  # fail on bad sizes before touching disk
     out = Path(os.path.abspath(os.fspath(out_dir)))
     with atomic_directory(out, force=force) as tmp:
         rel = write_linkage_files(linkage, tmp, robot_name=robot_name, package=package,
-                                  pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length)
+                                  pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
+                                  hole_clearance=hole_clearance, clearance=clearance, result=result)
     return [out / r for r in rel]
 
 

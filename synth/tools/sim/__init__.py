@@ -14,6 +14,10 @@ What every engine does (the closed-loop convention of docs/conventions.md):
   simulation the coupler's mass and inertia are therefore shared half and half between ``coupler`` and
   its welded copy (same centre of mass, same inertia tensor), which leaves the dynamics of the welded
   pair unchanged (`sim_inertials`);
+- with ``contacts`` (``mpsynth simulate --contacts``): contacts between the meshes of every two rigid
+  bodies that share no revolute joint (links merged across fixed joints, e.g. the pins, and loop welds;
+  `contact_exclusions`) with the design's capsules as collision geometry (`synth.tools.sim.contact`);
+  the result counts the steps with such a contact and the largest contact force;
 - start at all-zero angles at rest (a valid configuration: the first pose), release every joint's
   default motor and drive the first joint of the first branch through one full turn in ``seconds``
   with a position motor, paced for an even joint-space speed of the whole linkage (`DriveProfile`);
@@ -76,6 +80,15 @@ class SimSetup:
     inertials: dict  # link -> (mass, 4x4 inertial frame in the link frame, 3x3 inertia), after the split
     split: list = field(default_factory=list)  # links whose inertial was shared with their welded copy
     size: float = 1.0  # RMS spread of the joint frames (m): the scale for the closure gap
+    drive_range: tuple = (0.0, TWO_PI)  # the driver's sweep: its URDF limits when it has them, else a turn
+
+    def start_angles(self) -> dict:
+        """Joint angles at the start of the sweep: all zero, or the exact motion at the lower limit."""
+        lo = self.drive_range[0]
+        if lo == 0.0:
+            return {jn: 0.0 for jn in self.joints}
+        ex = self.exact(lo)
+        return {jn: (lo if jn == self.driver else float(np.asarray(ex[jn]))) for jn in self.joints}
 
     def exact(self, phi):
         """Exact angles of every joint when the driver is at angle(s) phi (radians, any turn)."""
@@ -116,8 +129,36 @@ def load_setup(out) -> SimSetup:
     inertials, split = sim_inertials(u, closures, refs)
     pts = np.array([F0[u.joints[jn].child][:3, 3] for jn in joints])
     size = float(np.sqrt(np.mean(np.sum((pts - pts.mean(0)) ** 2, 1))))
+    drive = (0.0, TWO_PI)
+    lim = u.joints[driver].limit if u.joints[driver].kind == "revolute" else None
+    if lim is not None and 0 < lim[1] - lim[0] < TWO_PI - 1e-9:  # a task-range design: stay inside
+        drive = (float(lim[0]), float(lim[1]))
     return SimSetup(Path(out).resolve(), u, u.name or "linkage", laws, driver, joints, closures, names, refs,
-                    inertials, split, size)
+                    inertials, split, size, drive)
+
+
+def contact_exclusions(setup) -> set:
+    """Pairs of URDF links (frozensets) that never get contacts: links of one rigid body (fixed joints,
+    loop welds) and links of two bodies joined by a revolute joint (they touch at the pin by design)."""
+    u = setup.urdf
+    body = {lk: lk for lk in u.links}
+
+    def find(x):
+        while body[x] != x:
+            x = body[x]
+        return x
+
+    for jn in u.order:
+        j = u.joints[jn]
+        if j.kind not in ("revolute", "continuous"):
+            body[find(j.child)] = find(j.parent)
+    for a, b in setup.closures:
+        body[find(b)] = find(a)
+    adjacent = {frozenset((find(u.joints[jn].parent), find(u.joints[jn].child))) for jn in u.order
+                if u.joints[jn].kind in ("revolute", "continuous")}
+    links = list(u.links)
+    return {frozenset((a, b)) for i, a in enumerate(links) for b in links[i + 1:]
+            if find(a) == find(b) or frozenset((find(a), find(b))) in adjacent}
 
 
 def sim_inertials(u, closures, refs):
@@ -160,7 +201,7 @@ class DriveProfile:
 
     def __init__(self, setup, seconds: float, grid: int = 8192):
         self.seconds = seconds
-        phi = np.linspace(0.0, TWO_PI, grid + 1)
+        phi = np.linspace(*setup.drive_range, grid + 1)
         ex = setup.exact(phi)
         dq = np.array([np.gradient(np.unwrap(ex[j]), phi) for j in setup.joints])
         w = np.sqrt(np.sum(dq * dq, axis=0))
@@ -224,7 +265,8 @@ class Tracker:
         return {"engine": engine, "max_joint_deviation": self.max_dev, "max_closure_gap": self.max_gap,
                 "steps": steps, "max_closure_angle": self.max_gap_angle, "linkage_size": self.setup.size,
                 "worst_joint": self.worst_joint,
-                "driver": self.setup.driver, "max_driver_error": self.max_driver_error, **extra}
+                "driver": self.setup.driver, "max_driver_error": self.max_driver_error,
+                "drive_range": [float(v) for v in self.setup.drive_range], **extra}
 
 
 def quat_wxyz(R) -> np.ndarray:

@@ -48,13 +48,20 @@ def _v(v) -> str:
 
 
 def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, mesh_base: Path | None = None,
-              kp: float | None = None, kv: float | None = None) -> str:
+              kp: float | None = None, kv: float | None = None, contacts: bool = False) -> str:
     """The MJCF document. Mesh files are written relative to ``mesh_base`` (the directory of the MJCF
-    file) when given, else as absolute paths."""
+    file) when given, else as absolute paths. ``contacts``: exclude only the pairs of
+    `synth.tools.sim.contact_exclusions` (else every pair), and collide the design's capsules
+    (`synth.tools.sim.contact.contact_capsules`) instead of the meshes when linkage.json has a design."""
     u = setup.urdf
     dt = timestep or DEFAULT_TIMESTEP
     if kp is None or kv is None:
         kp, kv = servo_gains(setup, dt)
+    caps = None
+    if contacts:  # collide the design's capsules (linkage.json) where there is one, else the meshes
+        from synth.tools.sim.contact import contact_capsules
+
+        caps = contact_capsules(setup)
     root = ET.Element("mujoco", model=setup.name)
     root.append(ET.Comment(" written by mpsynth simulate from linkage.urdf; loop welds in <equality>, the "
                            "coupler's mass shared with its welded copy, contacts between linkage links excluded "))
@@ -89,7 +96,10 @@ def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, me
         else:
             ET.SubElement(b, "inertial", pos="0 0 0", mass="1e-06", diaginertia="1e-09 1e-09 1e-09")
         if joint is not None:
-            ET.SubElement(b, "joint", name=joint.name, type="hinge", pos="0 0 0", axis=_v(joint.axis))
+            extra = {}
+            if joint.name == setup.driver and tuple(setup.drive_range) != (0.0, 2 * math.pi):
+                extra["range"] = _v(setup.drive_range)  # the task range of a task-range design
+            ET.SubElement(b, "joint", name=joint.name, type="hinge", pos="0 0 0", axis=_v(joint.axis), **extra)
         seen = set()
         for m in u.meshes:
             if m.link != link:
@@ -99,7 +109,14 @@ def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, me
                 continue
             seen.add((key, m.origin.tobytes()))
             ET.SubElement(b, "geom", type="mesh", mesh=mesh_names[key], pos=_v(m.origin[:3, 3]),
-                          quat=_v(quat_wxyz(m.origin[:3, :3])), rgba=_rgba(link))
+                          quat=_v(quat_wxyz(m.origin[:3, :3])), rgba=_rgba(link),
+                          **({"contype": "0", "conaffinity": "0"} if caps is not None else {}))
+        for p0, p1, r in (caps or {}).get(link, []):  # --contacts: the design's capsules collide
+            if np.linalg.norm(p1 - p0) > 1e-9 * r:
+                ET.SubElement(b, "geom", type="capsule", fromto=_v(list(p0) + list(p1)), size=_f(r), group="3",
+                              rgba="0 0 0 0", mass="0")
+            else:
+                ET.SubElement(b, "geom", type="sphere", pos=_v(p0), size=_f(r), group="3", rgba="0 0 0 0", mass="0")
         bodies[link] = b
         return b
 
@@ -111,9 +128,14 @@ def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, me
 
     contact = ET.SubElement(root, "contact")
     names = list(bodies)
+    if contacts:
+        from synth.tools.sim import contact_exclusions
+
+        excluded = contact_exclusions(setup)
     for i, a in enumerate(names):
         for b in names[i + 1:]:
-            ET.SubElement(contact, "exclude", body1=a, body2=b)
+            if not contacts or frozenset((a, b)) in excluded:
+                ET.SubElement(contact, "exclude", body1=a, body2=b)
 
     eq = ET.SubElement(root, "equality")
     for name, (a, b), R in zip(setup.closure_names, setup.closures, setup.refs):
@@ -221,11 +243,11 @@ def _subtree(u, joint: str) -> list[str]:
     return out
 
 
-def write_mjcf(setup, path, *, timestep: float | None = None, gravity: bool = False) -> Path:
+def write_mjcf(setup, path, *, timestep: float | None = None, gravity: bool = False, contacts: bool = False) -> Path:
     """Write the MJCF to ``path`` (mesh paths relative to its directory)."""
     path = Path(path)
     if not path.parent.exists():
         raise InputError(f"{path.parent}: directory does not exist (for --export-mjcf)")
-    text = mjcf_text(setup, timestep=timestep, gravity=gravity, mesh_base=path.parent.resolve())
+    text = mjcf_text(setup, timestep=timestep, gravity=gravity, mesh_base=path.parent.resolve(), contacts=contacts)
     atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
     return path

@@ -15,27 +15,27 @@ from synth.tools.sim import DriveProfile, SimulationError, Tracker
 from synth.tools.sim.mjcf import DriveModel, mjcf_text, write_mjcf
 
 
-def build_model(setup, *, timestep=None, gravity=False):
+def build_model(setup, *, timestep=None, gravity=False, contacts=False):
     import mujoco
 
-    text = mjcf_text(setup, timestep=timestep, gravity=gravity)
+    text = mjcf_text(setup, timestep=timestep, gravity=gravity, contacts=contacts)
     try:
         return mujoco.MjModel.from_xml_string(text)
     except Exception as e:  # noqa: BLE001 - MuJoCo raises ValueError with its compiler message
         raise SimulationError(f"MuJoCo rejected the model of {setup.out}: {e}") from None
 
 
-def run(setup, *, seconds: float, timestep=None, gravity: bool = False, export_mjcf=None) -> dict:
+def run(setup, *, seconds: float, timestep=None, gravity: bool = False, export_mjcf=None, contacts=False) -> dict:
     import mujoco
 
     t_wall = time.perf_counter()
     if export_mjcf:
-        path = write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity)
+        path = write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity, contacts=contacts)
         try:
             mujoco.MjModel.from_xml_path(str(path))
         except Exception as e:  # noqa: BLE001
             raise SimulationError(f"MuJoCo cannot load the exported {path}: {e}") from None
-    model = build_model(setup, timestep=timestep, gravity=gravity)
+    model = build_model(setup, timestep=timestep, gravity=gravity, contacts=contacts)
     data = mujoco.MjData(model)
     dt = float(model.opt.timestep)
     qadr = {jn: int(model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, jn)]) for jn in setup.joints}
@@ -43,6 +43,8 @@ def run(setup, *, seconds: float, timestep=None, gravity: bool = False, export_m
     act = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"drive_{setup.driver}")
     kp, kv = float(model.actuator_gainprm[act, 0]), -float(model.actuator_biasprm[act, 2])
     mujoco.mj_resetData(model, data)
+    for jn, q in setup.start_angles().items():
+        data.qpos[qadr[jn]] = q
     mujoco.mj_forward(model, data)
     n = max(int(round(seconds / dt)), 10)
     tracker = Tracker(setup)
@@ -55,9 +57,15 @@ def run(setup, *, seconds: float, timestep=None, gravity: bool = False, export_m
     qs = np.empty((n, len(adr)))
     pos = {lk: np.empty((n, 3)) for lk in bid}
     rot = {lk: np.empty((n, 3, 3)) for lk in bid}
+    contact_steps, max_force, force = 0, 0.0, np.zeros(6)
     for k in range(n):
         data.ctrl[act] = ctrl[k]
         mujoco.mj_step(model, data)
+        if data.ncon:  # only the pairs left in by --contacts can touch
+            contact_steps += 1
+            for c in range(data.ncon):
+                mujoco.mj_contactForce(model, data, c, force)
+                max_force = max(max_force, float(np.linalg.norm(force[:3])))
         qs[k] = data.qpos[adr]
         for lk, b in bid.items():
             pos[lk][k] = data.xpos[b]
@@ -72,5 +80,6 @@ def run(setup, *, seconds: float, timestep=None, gravity: bool = False, export_m
         frames[lk] = T
     tracker.frames(frames)
     return tracker.result("mujoco", n, seconds=seconds, timestep=dt, gravity=gravity,
-                          iterations=int(model.opt.iterations), shared_inertial=setup.split,
+                          iterations=int(model.opt.iterations), shared_inertial=setup.split, contacts=contacts,
+                          contact_steps=contact_steps, max_contact_force=max_force,
                           wall_time=time.perf_counter() - t_wall)

@@ -3,7 +3,8 @@ crash the engine, which must not take the CLI down with it.
 
 The child (``python -m synth.tools.sim.pybullet_sim REQUEST.json``) loads a simulation copy of linkage.urdf
 (absolute mesh paths, the coupler's inertial shared with its welded copy, see `synth.tools.sim`) with a fixed
-base and ``URDF_USE_INERTIA_FROM_FILE`` (self-collision is off: PyBullet only enables it on request),
+base and ``URDF_USE_INERTIA_FROM_FILE`` (self-collision is off unless ``contacts``: then
+``URDF_USE_SELF_COLLISION`` with the pairs of `synth.tools.sim.contact_exclusions` filtered out),
 adds one ``JOINT_FIXED`` user constraint per loop between ``coupler`` and ``coupler_k`` (frames relative
 to the links' centre-of-mass frames, as PyBullet wants, computed so that the weld holds the all-zero
 relative pose), releases the default velocity motors (``VELOCITY_CONTROL`` with force 0) and drives the
@@ -36,15 +37,24 @@ ERP = 0.8  # error reduction per step; PyBullet's default 0.2 lets the weld drif
 MOTOR_FORCE = 1e4  # N m: a bound, not a gain (POSITION_CONTROL is a velocity-level constraint)
 
 
-def sim_urdf_text(setup) -> str:
-    """linkage.urdf for PyBullet: absolute mesh paths, simulation inertials, no <gazebo> tags."""
+def sim_urdf_text(setup, contacts: bool = False) -> str:
+    """linkage.urdf for PyBullet: absolute mesh paths, simulation inertials, no <gazebo> tags; with
+    ``contacts`` the collision meshes are replaced by the design's capsules when linkage.json has them
+    (`synth.tools.sim.contact`)."""
     root = ET.parse(setup.out / "linkage.urdf").getroot()
     for g in root.findall("gazebo"):
         root.remove(g)
+    caps = None
+    if contacts:
+        from synth.tools.sim.contact import contact_capsules
+
+        caps = contact_capsules(setup)
     for link in root.findall("link"):
         name = link.get("name")
         for m in link.iter("mesh"):
             m.set("filename", str(setup.mesh_path(m.get("filename", ""))))
+        if caps is not None:
+            _capsule_collisions(link, caps.get(name, []))
         if name in setup.inertials:
             mass, T, I = setup.inertials[name]
             for old in link.findall("inertial"):
@@ -59,14 +69,36 @@ def sim_urdf_text(setup) -> str:
     return ET.tostring(root, encoding="unicode")
 
 
-def run_in_subprocess(setup, *, seconds: float, timestep: float | None, gravity: bool, timeout: float = 600.0) -> dict:
+def _capsule_collisions(link, caps) -> None:
+    """Replace the <collision> elements of URDF ``link`` by PyBullet capsules (z along the segment)."""
+    from synth.io.solid import axis_rotation
+
+    for old in link.findall("collision"):
+        link.remove(old)
+    for p0, p1, r in caps:
+        el = ET.SubElement(link, "collision")
+        d = p1 - p0
+        length = float(np.linalg.norm(d))
+        R = axis_rotation(d / length) if length > 1e-9 * r else np.eye(3)
+        ET.SubElement(el, "origin", xyz=" ".join(repr(float(v)) for v in (p0 + p1) / 2),
+                      rpy=" ".join(repr(float(v)) for v in rpy_from_matrix(R)))
+        geom = ET.SubElement(el, "geometry")
+        if length > 1e-9 * r:
+            ET.SubElement(geom, "capsule", radius=repr(r), length=repr(length))
+        else:
+            ET.SubElement(geom, "sphere", radius=repr(r))
+
+
+def run_in_subprocess(setup, *, seconds: float, timestep: float | None, gravity: bool, timeout: float = 600.0,
+                      contacts: bool = False) -> dict:
     """Run `child_main` in a fresh Python; returns its result or raises SimulationError."""
     with tempfile.TemporaryDirectory(prefix="mpsynth-pybullet-") as tmp:
         tmp = Path(tmp)
         urdf = tmp / "sim.urdf"
-        urdf.write_text(sim_urdf_text(setup), encoding="utf-8")
+        urdf.write_text(sim_urdf_text(setup, contacts), encoding="utf-8")
         request = {"out": str(setup.out), "urdf": str(urdf), "result": str(tmp / "result.json"),
-                   "seconds": seconds, "timestep": timestep or DEFAULT_TIMESTEP, "gravity": gravity}
+                   "seconds": seconds, "timestep": timestep or DEFAULT_TIMESTEP, "gravity": gravity,
+                   "contacts": contacts}
         (tmp / "request.json").write_text(json.dumps(request), encoding="utf-8")
         try:
             r = subprocess.run([sys.executable, "-m", "synth.tools.sim.pybullet_sim", str(tmp / "request.json")],
@@ -101,7 +133,8 @@ def _pos_quat_xyzw(T):
     return [float(v) for v in T[:3, 3]], [float(x), float(y), float(z), float(w)]
 
 
-def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gravity: bool) -> dict:
+def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gravity: bool,
+                        contacts: bool = False) -> dict:
     """The PyBullet run itself (call it in a child process only)."""
     import pybullet as p
 
@@ -109,8 +142,8 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
     cid = p.connect(p.DIRECT)
     try:
         p.setGravity(0, 0, -9.81 if gravity else 0.0, physicsClientId=cid)
-        robot = p.loadURDF(str(urdf_path), useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE,
-                           physicsClientId=cid)
+        flags = p.URDF_USE_INERTIA_FROM_FILE | (p.URDF_USE_SELF_COLLISION if contacts else 0)
+        robot = p.loadURDF(str(urdf_path), useFixedBase=True, flags=flags, physicsClientId=cid)
         index, link_index = {}, {"base": -1}
         for i in range(p.getNumJoints(robot, physicsClientId=cid)):
             info = p.getJointInfo(robot, i, physicsClientId=cid)
@@ -119,6 +152,13 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
         missing = [jn for jn in setup.joints if jn not in index]
         if missing:
             raise RuntimeError(f"PyBullet did not load joint(s) {', '.join(missing)}")
+        if contacts:  # self-collision on, except between links of one body or of two bodies on a joint
+            from synth.tools.sim import contact_exclusions
+
+            for pair in contact_exclusions(setup):
+                a, b = tuple(pair)
+                if a in link_index and b in link_index:
+                    p.setCollisionFilterPair(robot, robot, link_index[a], link_index[b], 0, physicsClientId=cid)
         # loop closures: frames relative to each link's centre-of-mass frame
         F0 = setup.urdf.fk({})
         constraints = []
@@ -135,8 +175,9 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
             constraints.append(c)
         p.setPhysicsEngineParameter(fixedTimeStep=timestep, numSolverIterations=ITERATIONS, numSubSteps=0, erp=ERP,
                                     physicsClientId=cid)
+        start = setup.start_angles()
         for jn in setup.joints:
-            p.resetJointState(robot, index[jn], 0.0, 0.0, physicsClientId=cid)
+            p.resetJointState(robot, index[jn], start[jn], 0.0, physicsClientId=cid)
             p.setJointMotorControl2(robot, index[jn], p.VELOCITY_CONTROL, force=0, physicsClientId=cid)
         n = max(int(round(seconds / timestep)), 10)
         tracker = Tracker(setup)
@@ -146,10 +187,16 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
         targets = DriveProfile(setup, seconds).angle(np.arange(1, n + 1) / n)
         qs = np.empty((n, len(ids)))
         frames = {lk: np.zeros((n, 4, 4)) for lk in welded}
+        contact_steps, max_force = 0, 0.0
         for k in range(n):
             p.setJointMotorControl2(robot, driver, p.POSITION_CONTROL, targetPosition=float(targets[k]),
                                     force=MOTOR_FORCE, positionGain=1.0, velocityGain=1.0, physicsClientId=cid)
             p.stepSimulation(physicsClientId=cid)
+            if contacts:
+                touching = p.getContactPoints(robot, robot, physicsClientId=cid)
+                if touching:
+                    contact_steps += 1
+                    max_force = max(max_force, max(float(c[9]) for c in touching))
             qs[k] = [st[0] for st in p.getJointStates(robot, ids, physicsClientId=cid)]
             if not np.all(np.isfinite(qs[k])):
                 raise RuntimeError(f"the simulation diverged at step {k + 1}")
@@ -159,7 +206,8 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
         tracker.joints({jn: qs[:, i] for i, jn in enumerate(setup.joints)}, targets)
         tracker.frames(frames)
         return tracker.result("pybullet", n, seconds=seconds, timestep=timestep, gravity=gravity,
-                              iterations=ITERATIONS, shared_inertial=setup.split,
+                              iterations=ITERATIONS, shared_inertial=setup.split, contacts=contacts,
+                              contact_steps=contact_steps, max_contact_force=max_force,
                               wall_time=time.perf_counter() - t_wall)
     finally:
         p.disconnect(physicsClientId=cid)
@@ -174,7 +222,7 @@ def child_main(argv=None) -> int:
         setup = load_setup(req["out"])
         with contextlib.redirect_stdout(io.StringIO()):  # PyBullet prints its build time on stdout
             res = simulate_in_process(setup, req["urdf"], seconds=req["seconds"], timestep=req["timestep"],
-                                      gravity=req["gravity"])
+                                      gravity=req["gravity"], contacts=req.get("contacts", False))
     except Exception as e:  # noqa: BLE001 - reported to the parent as one line
         res = {"error": f"{type(e).__name__}: {e}"}
     result_path.write_text(json.dumps(res), encoding="utf-8")

@@ -11,7 +11,7 @@ from synth.tools.sim.pybullet_sim import run_in_subprocess
 
 
 def simulate(out, engine: str, *, seconds: float = 2.0, timestep: float | None = None, gravity: bool = False,
-             export_mjcf=None, timeout: float = 600.0) -> dict:
+             export_mjcf=None, timeout: float = 600.0, contacts: bool = False) -> dict:
     """Run ``engine`` on OUT; returns the result dict (see `Tracker.result`). Raises EngineNotInstalled
     (exit 2), InputError (exit 2) or SimulationError (exit 1)."""
     if not (seconds > 0 and math.isfinite(seconds) and seconds <= 3600):
@@ -20,8 +20,10 @@ def simulate(out, engine: str, *, seconds: float = 2.0, timestep: float | None =
         raise InputError(f"--timestep must be positive and at most a tenth of --seconds, got {timestep}")
     setup = load_setup(out)  # input errors before engine errors
     if export_mjcf and engine != "mujoco":  # the MuJoCo run writes (and loads) it itself
-        write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity)
+        write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity, contacts=contacts)
     require_engine(engine)
     if engine == "pybullet":
-        return run_in_subprocess(setup, seconds=seconds, timestep=timestep, gravity=gravity, timeout=timeout)
-    return run_mujoco(setup, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf)
+        return run_in_subprocess(setup, seconds=seconds, timestep=timestep, gravity=gravity, timeout=timeout,
+                                 contacts=contacts)
+    return run_mujoco(setup, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf,
+                      contacts=contacts)
