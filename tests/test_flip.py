@@ -1,4 +1,4 @@
-"""Bennett flip (MATH-EXCEPTIONAL.md section 6, worked example E5; MATH.md section 9)."""
+"""Bennett flip (docs/exceptional.md, worked example E5)."""
 from fractions import Fraction as F
 
 import numpy as np
@@ -6,12 +6,14 @@ import pytest
 
 from synth.algebra.dq import line_distance_angle, plucker
 from synth.errors import SynthesisError
-from synth.algebra.flip import FlipError, bennett_flip, dq_mul_any, flip_residual, is_rotation
+from synth.algebra.dq import exact_array
+from synth.algebra.flip import FlipError, bennett_flip, flip_residual, is_rotation
+from synth.algebra.polynomial import product_of_linear
 
 
 def _product(a, b):
-    """(t - a)(t - b) as [constant, linear] coefficient lists."""
-    return dq_mul_any(list(a), list(b)), [-(x + y) for x, y in zip(a, b)]
+    """(t - a)(t - b) exactly, as nested lists of Fractions."""
+    return product_of_linear(exact_array([a, b])).tolist()
 
 
 def _norm(h):
