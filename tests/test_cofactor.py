@@ -143,7 +143,7 @@ def test_e4_unique_circular_member(a, b):
 
 
 def test_doc_e7_axis_of_h3_is_at_minus_a_plus_b_over_2():
-    """MATH-EXCEPTIONAL E4/E7 say h3 = k - eps((a+b)/2) j is 'a rotation about the vertical line
+    """docs/exceptional.md (E4/E7) says h3 = k - eps((a+b)/2) j is 'a rotation about the vertical line
     through ((a+b)/2, 0)'. With section 1's conventions (u = -v/|v|, m = w/|v|, point u x m) the line
     passes through (-(a+b)/2, 0): the sign in the text is wrong (the E6 table uses the right sign:
     h1 = k - 3/4 eps j at (-0.75, 0))."""

@@ -34,7 +34,7 @@ def test_e5_exact():
 
 
 def test_math_section_9_example():
-    """MATH.md section 9: m = 2k + eps i, h = j + eps k."""
+    """docs/exceptional.md: m = 2k + eps i, h = j + eps k."""
     k, n = bennett_flip([0, 0, 0, 2, 0, 1, 0, 0], [0, 0, 1, 0, 0, 0, 0, 1])
     assert k == [0, 0, F(-3, 5), F(4, 5), 0, F(2, 5), F(12, 25), F(9, 25)]
     assert n == [0, 0, F(8, 5), F(6, 5), 0, F(3, 5), F(-12, 25), F(16, 25)]

@@ -70,6 +70,13 @@ def _dual_tensor(T):
 
 
 _QT = _quat_tensor()
+
+
+def structure_constants() -> np.ndarray:
+    """The integer structure constants D (8, 8, 8) of the dual quaternions in this layout:
+    (a b)_k = sum_ij a_i b_j D[i, j, k]; entries 0 or +-1 (Hamilton, ij = k; eps^2 = 0)."""
+    return _dual_tensor(_QT).astype(int)
+
 _QT_FLAT = _QT.reshape(4, 16)
 _DT_FLAT = _dual_tensor(_QT).reshape(8, 64)
 _DT_RIGHT = _dual_tensor(_QT).transpose(1, 0, 2).reshape(8, 64)
@@ -95,23 +102,25 @@ _Q_SPARSE = _sparse(_QT)
 _DQ_SPARSE = _sparse(_dual_tensor(_QT))
 
 
-def _exact_product(a, b, sparse):
-    """(a b)_k = sum_ij a_i b_j T[i, j, k] for object arrays, with only the nonzero T[i, j, k] = +-1
-    (48 products for dual quaternions instead of 512)."""
-    i, j, neg, starts = sparse
-    terms = a[..., i] * b[..., j]
-    terms[..., neg] = -terms[..., neg]
-    return np.add.reduceat(terms, starts, axis=-1)
+def _product(a, b, flat, sparse):
+    """The bilinear product (a b)_k = sum_ij a_i b_j T[i, j, k] of the algebra with structure constants
+    T (``flat`` = T reshaped (n, n*n), ``sparse`` = `_sparse` (T)): floats by the dense left-multiplication
+    matrix, object arrays (exact) with only the nonzero T[i, j, k] = +-1."""
+    a = as_array(a)
+    b = as_array(b)
+    if a.dtype == object or b.dtype == object:
+        i, j, neg, starts = sparse
+        terms = a[..., i] * b[..., j]
+        terms[..., neg] = -terms[..., neg]
+        return np.add.reduceat(terms, starts, axis=-1)
+    n = a.shape[-1]
+    L = (a @ flat).reshape(a.shape[:-1] + (n, n))
+    return np.matmul(b[..., None, :], L)[..., 0, :]
 
 
 def qmul(a, b):
     """Hamilton product of quaternions (..., 4)."""
-    a = as_array(a)
-    b = as_array(b)
-    if a.dtype == object or b.dtype == object:
-        return _exact_product(a, b, _Q_SPARSE)
-    L = (a @ _QT_FLAT).reshape(a.shape[:-1] + (4, 4))
-    return np.matmul(b[..., None, :], L)[..., 0, :]
+    return _product(a, b, _QT_FLAT, _Q_SPARSE)
 
 
 def qconj(a):
@@ -190,11 +199,7 @@ def dq_right_matrix(a):
 
 def dq_mul(a, b):
     """Dual quaternion product (..., 8) x (..., 8): (p1 + eps q1)(p2 + eps q2)."""
-    a = as_array(a)
-    b = as_array(b)
-    if a.dtype == object or b.dtype == object:
-        return _exact_product(a, b, _DQ_SPARSE)
-    return np.matmul(b[..., None, :], dq_left_matrix(a))[..., 0, :]
+    return _product(a, b, _DT_FLAT, _DQ_SPARSE)
 
 
 def dq_conj(h):

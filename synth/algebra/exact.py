@@ -101,56 +101,34 @@ def as_exact_polynomial(rows) -> list[tuple[Fraction, ...]]:
 # object arrays of Fractions; these adapters take rows of numbers and give tuples (polynomials: lists of
 # tuples), the data layout of this module.
 def _plain(x):
-    """An exact array as tuples: (8,) -> tuple, (n+1, 8) -> list of tuples, (m,) real -> list."""
+    """Exact arrays as tuples: (8,) -> tuple, (n+1, 8) -> list of tuples; tuples of arrays elementwise."""
+    if isinstance(x, tuple):
+        return tuple(_plain(v) for v in x)
     x = np.asarray(x, dtype=object)
-    if x.ndim == 1:
-        return tuple(x.tolist())
-    return [tuple(r) for r in x.tolist()]
+    return tuple(x.tolist()) if x.ndim == 1 else [tuple(r) for r in x.tolist()]
 
 
-def dq_mul(a, b):
-    """(p1 + eps q1)(p2 + eps q2), exactly."""
-    return _plain(dqa.dq_mul(exact_array(a), exact_array(b)))
+def _exactly(func, convert=_plain):
+    """``func`` applied to exact arrays of its arguments, the result converted back."""
+    def exact_func(*args):
+        return convert(func(*(exact_array(a) for a in args)))
+
+    exact_func.__name__ = func.__name__
+    exact_func.__doc__ = f"`{func.__module__}.{func.__name__}` in Fractions (tuples in, tuples out)."
+    return exact_func
 
 
-def dq_conj(h):
-    return _plain(dqa.dq_conj(exact_array(h)))
-
-
-def dq_inv(h):
-    """h^-1 = h~ / N(h) (the primal part must be nonzero)."""
-    h = exact_array(h)
-    if not np.any(h[:4]):
-        raise ZeroDivisionError("dual quaternion with zero primal part is not invertible")
-    return _plain(dqa.dq_inv(h))
+dq_mul = _exactly(dqa.dq_mul)
+dq_conj = _exactly(dqa.dq_conj)
+dq_inv = _exactly(dqa.dq_inv)  # ZeroDivisionError when the primal part is zero
+poly_mul = _exactly(poly.poly_mul)
+product_of_linear = _exactly(poly.product_of_linear)
+divide_real_quadratic = _exactly(poly.divide_real_quadratic)  # C = Q M + (r1 t + r0): (Q, r1, r0)
+norm_poly = _exactly(poly.norm_poly, list)  # N(C), ascending
 
 
 def dq_neg(a):
     return tuple(-x for x in a)
-
-
-def is_zero(h) -> bool:
-    return all(x == 0 for x in h)
-
-
-def poly_mul(A, B):
-    return _plain(poly.poly_mul(exact_array(A), exact_array(B)))
-
-
-def product_of_linear(hs):
-    """(t - h_1)...(t - h_n), exactly."""
-    return _plain(poly.product_of_linear(exact_array(hs)))
-
-
-def norm_poly(C) -> list[Fraction]:
-    """The real norm polynomial N(C), ascending (the primal scalar part of C C~)."""
-    return list(poly.norm_poly(exact_array(C)))
-
-
-def divide_real_quadratic(C, M):
-    """C = Q M + (r1 t + r0) for M = t^2 + M[1] t + M[0]; returns (Q, r1, r0)."""
-    Q, r1, r0 = poly.divide_real_quadratic(exact_array(C), exact_array(M))
-    return _plain(Q), _plain(r1), _plain(r0)
 
 
 # ============================================================== validation
