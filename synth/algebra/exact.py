@@ -224,28 +224,36 @@ def distinct_orders(mult) -> list[tuple]:
     return sorted(set(map(tuple, labels[permutations(len(labels))].tolist())))
 
 
-def algorithm1_exact(C, M):
-    """Algorithm 1 for a batch of orders: C (n+1, 8) exact, M (P, n, 2) the rational norm quadratics
-    of the factors, left to right. Returns (H (P, n, 8) exact, ok (P,)): ok where every remainder had
-    a nonzero primal leading coefficient (an exact test), and then C = (t - H[p, 0])...(t - H[p, n-1])
-    exactly (asserted)."""
-    P, n = M.shape[:2]
-    D = np.broadcast_to(C, (P,) + C.shape)
-    H = dqa.zeros((P, n, 8), object)
-    ok = np.ones(P, bool)
+def algorithm1_exact(C, quads, orders):
+    """Algorithm 1 for the given orders (tuples of indices into the rational norm quadratics ``quads``
+    (m, 2), left to right) of the exact C (n+1, 8). Orders that end alike share their right-hand steps:
+    level L works on the distinct suffixes of length L as one batch. Returns (H (P, n, 8) exact, ok (P,)):
+    ok where every remainder had a nonzero primal leading coefficient (an exact test), and then
+    C = (t - H[p, 0])...(t - H[p, n-1]) exactly (asserted)."""
+    n = C.shape[-2] - 1
     one = exact_array(_ID)
-    for pos in range(n - 1, -1, -1):
-        _, r1, r0 = poly.divide_real_quadratic(D, M[:, pos, :])
+    index = {(): 0}  # suffix -> row in the current level's batch
+    D, ok_prev = C[None], np.ones(1, bool)
+    h_of, ok_of = {}, {}
+    for L in range(1, n + 1):
+        suffixes = sorted({tuple(o[n - L:]) for o in orders})
+        D = D[[index[s[1:]] for s in suffixes]]
+        ok = ok_prev[[index[s[1:]] for s in suffixes]]
+        _, r1, r0 = poly.divide_real_quadratic(D, quads[[s[0] for s in suffixes]])
         good = np.any(r1[:, :4] != 0, axis=-1)
         ok &= good
-        r1 = np.where(good[:, None], r1, one)
-        H[:, pos, :] = -dqa.dq_mul(dqa.dq_inv(r1), r0)
-        D, rem = poly.divide_linear_right(D, H[:, pos, :])
+        h = -dqa.dq_mul(dqa.dq_inv(np.where(good[:, None], r1, one)), r0)
+        D, rem = poly.divide_linear_right(D, h)
         if np.any(rem[ok] != 0):  # pragma: no cover - impossible in exact arithmetic
             raise AssertionError("exact division by t - h left a remainder")
-    if np.any(D[ok] != one):  # pragma: no cover - impossible
+        index = {s: k for k, s in enumerate(suffixes)}
+        h_of.update(zip(suffixes, h))
+        ok_of.update(zip(suffixes, ok))
+        ok_prev = ok
+    if np.any(D[ok_prev] != one):  # pragma: no cover - impossible
         raise AssertionError("exact Algorithm 1 did not end with the constant 1")
-    return H, ok
+    H = np.array([[h_of[tuple(o[pos:])] for pos in range(n)] for o in orders], dtype=object).reshape(-1, n, 8)
+    return H, np.array([ok_of[tuple(o)] for o in orders], bool)
 
 
 def factorize_exact(C, *, validate: bool = True) -> ExactFactorResult:
@@ -266,7 +274,7 @@ def factorize_exact(C, *, validate: bool = True) -> ExactFactorResult:
     g = real_gcd(primal)
     generic = len(g) <= 1
     orders = distinct_orders(mult)
-    H, ok = algorithm1_exact(exact_array(C), exact_array(quads)[np.array(orders)])
+    H, ok = algorithm1_exact(exact_array(C), exact_array(quads), orders)
     facts = [ExactFactorization(factors=_plain(h), order=order, kinds=[classify_exact(x) for x in h])
              for order, h, good in zip(orders, H, ok) if good]
     failed = [order for order, good in zip(orders, ok) if not good]
