@@ -6,9 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from synth.algebra.realpoly import (compose_affine, conv_matrix, divide_real, mod_real, poly_text, quad,
-                                    quadratic_roots, real_divmod, real_gcd, real_mul, real_pow, real_root_count,
-                                    trim)
+from synth.algebra.realpoly import (compose_affine, conv_matrix, divide_real, mod_real, quad, quadratic_roots,
+                                    real_divmod, real_gcd, real_mul, real_pow, real_root_count, trim)
+from synth.algebra.text import poly_text
 
 fractions = st.builds(Fr, st.integers(-6, 6), st.integers(1, 4))
 polys = st.lists(fractions, min_size=1, max_size=5).filter(lambda p: p[-1] != 0)

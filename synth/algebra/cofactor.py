@@ -38,8 +38,8 @@ from synth.algebra.dualsystem import qp_mul, rot_item, rotation_from, solve_item
 from synth.algebra.factorize import check_motion_polynomial, factorize, norm_quadratics
 from synth.algebra.polynomial import norm_poly, product_of_linear, relative_error
 from synth.algebra.realfactor import RealFactor, mrpf, require_bounded
-from synth.algebra.realpoly import (compose_affine, divide_real, mod_real, poly_text, quad, quadratic_roots,
-                                    real_mul, real_pow)
+from synth.algebra.realpoly import compose_affine, divide_real, mod_real, quad, quadratic_roots, real_mul, real_pow
+from synth.algebra.text import poly_text
 from synth.algebra.translation import (CIRCULAR_TOL, TEMPLATE_TOL, FactorizationError, circular_kernel_search,
                                        circular_residual, factor_block, factor_circular, factor_real)
 
@@ -291,7 +291,9 @@ def factorize_with_cofactor(C, *, seed: int = 0, max_templates: int = MAX_TEMPLA
         result = finish(hs_s, R_s, labels, report, family)
         if result.residual > FINAL_TOL:
             continue
-        if best is None or result.deg_R < best.deg_R or (result.deg_R == best.deg_R and result.residual < best.residual * 1e-3):
+        better = best is None or result.deg_R < best.deg_R or (
+            result.deg_R == best.deg_R and result.residual < best.residual * 1e-3)
+        if better:
             best = result
         if best.deg_R == 0 or K.shape[1] == 0 and _coprime(blocks, orders[oi]):
             break

@@ -28,7 +28,8 @@ from synth.algebra import dq as dqa
 from synth.algebra import polynomial as poly
 from synth.algebra.algorithm1 import orders as permutations
 from synth.algebra.dq import exact_array
-from synth.algebra.realpoly import poly_text, real_divmod, real_gcd, real_root_count
+from synth.algebra.realpoly import real_divmod, real_gcd, real_root_count
+from synth.algebra.text import poly_text
 from synth.errors import InputError, NoFactorizationError, NotGenericError, SynthesisError
 
 __all__ = [

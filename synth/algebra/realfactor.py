@@ -22,7 +22,8 @@ from fractions import Fraction
 import numpy as np
 
 from synth.algebra.factorize import norm_quadratics
-from synth.algebra.realpoly import conv_matrix, poly_text, real_gcd, real_root_count
+from synth.algebra.realpoly import conv_matrix, real_gcd, real_root_count
+from synth.algebra.text import poly_text
 from synth.errors import InputError, SynthesisError
 
 __all__ = ["RealFactor", "UnboundedMotionError", "mrpf", "mrpf_exact", "mrpf_numeric", "real_gcd_exact",

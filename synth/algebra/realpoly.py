@@ -9,7 +9,7 @@ Two kinds of input, the same conventions (index = power of t):
   also applied column-wise to (n+1, c) arrays of real polynomials (e.g. the components of a
   quaternion polynomial).
 
-`poly_text` prints either kind.
+`synth.algebra.text.poly_text` prints either kind.
 """
 from __future__ import annotations
 
@@ -138,36 +138,3 @@ def compose_affine(C, sigma, tau) -> np.ndarray:
         new[0] += C[k]
         out = new
     return out / sigma**n
-
-
-# ------------------------------------------------------------------ text
-def poly_text(c, var: str = "t", digits: int = 6) -> str:
-    """Human text of a real polynomial (ascending Fractions or floats), highest power first:
-    't^2 + 1', '3/4*t - 2', '0.5 t'. Float coefficients below 1e-12 of the largest are left out."""
-    terms = []
-    big = max((abs(float(a)) for a in c), default=0.0)
-    for k in range(len(c) - 1, -1, -1):
-        a = c[k]
-        if a == 0 or (not isinstance(a, Fraction) and abs(float(a)) <= 1e-12 * big):
-            continue
-        if isinstance(a, Fraction):
-            mag = abs(a)
-            s = str(mag)
-        else:
-            mag = abs(float(a))
-            s = f"{mag:.{digits}g}"
-        sign = "-" if a < 0 else "+"
-        mon = "" if k == 0 else (var if k == 1 else f"{var}^{k}")
-        if k > 0 and mag == 1:
-            body = mon
-        elif k > 0:
-            body = f"{s}*{mon}" if "/" in s else f"{s} {mon}"
-        else:
-            body = s
-        terms.append((sign, body))
-    if not terms:
-        return "0"
-    out = ("-" if terms[0][0] == "-" else "") + terms[0][1]
-    for sign, body in terms[1:]:
-        out += f" {sign} {body}"
-    return out

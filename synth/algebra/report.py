@@ -17,8 +17,7 @@ from synth.algebra.exact import check_exact_motion_polynomial, factorize_exact
 from synth.algebra.factorize import check_motion_polynomial, classify, factorize
 from synth.algebra.polyinput import PolynomialInput, exact_rows, float_rows, prefixed
 from synth.algebra.polynomial import norm_poly, poly_mul
-from synth.algebra.realpoly import poly_text
-from synth.algebra.text import fmt_dq, fmt_num, fmt_quadratic, fmt_t_minus, fmt_vec
+from synth.algebra.text import fmt_dq, fmt_num, fmt_quadratic, fmt_t_minus, fmt_vec, poly_text
 from synth.errors import InputError
 
 FORMAT = "mpsynth.factorization/1"
@@ -232,7 +231,8 @@ def format_table(rep: Report) -> str:
     lines = []
     kind = "exact" if rep.exact else "numeric"
     nf = "".join(f"({fmt_quadratic(q)})" for q in rep.norm_factors)
-    lines.append(f"motion polynomial of degree {rep.degree}, {'generic' if rep.generic else 'NOT generic (the primal part has a real factor)'}")
+    generic = "generic" if rep.generic else "NOT generic (the primal part has a real factor)"
+    lines.append(f"motion polynomial of degree {rep.degree}, {generic}")
     lines.append(f"N(C) = {nf}")
     n_f = len(rep.factorizations)
     hs = "".join(f"(t - h{i + 1})" for i in range(rep.degree))

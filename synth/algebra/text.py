@@ -1,4 +1,4 @@
-"""Text of numbers, dual quaternions and real quadratics as the CLI prints them, in the expression
+"""Text of numbers, dual quaternions, real quadratics and real polynomials as the CLI prints them, in the expression
 language of `synth.algebra.expr` (``1 + 2j + eps(3i + k)``, ``t^2 - 2 t + 5``). Fractions print exactly
 ("-4/3"); floats with ``digits`` significant digits, values below 1e-12 of the scale as 0. Conventions
 of the dual quaternion layout: docs/conventions.md."""
@@ -89,3 +89,35 @@ def fmt_t_minus(a) -> str:
     if s == "0":
         return "t"
     return f"t + {s[1:]}" if s.startswith("-") else f"t - {s}"
+
+
+def poly_text(c, var: str = "t", digits: int = 6) -> str:
+    """Human text of a real polynomial (ascending Fractions or floats), highest power first:
+    't^2 + 1', '3/4*t - 2', '0.5 t'. Float coefficients below 1e-12 of the largest are left out."""
+    terms = []
+    big = max((abs(float(a)) for a in c), default=0.0)
+    for k in range(len(c) - 1, -1, -1):
+        a = c[k]
+        if a == 0 or (not isinstance(a, Fraction) and abs(float(a)) <= 1e-12 * big):
+            continue
+        if isinstance(a, Fraction):
+            mag = abs(a)
+            s = str(mag)
+        else:
+            mag = abs(float(a))
+            s = f"{mag:.{digits}g}"
+        sign = "-" if a < 0 else "+"
+        mon = "" if k == 0 else (var if k == 1 else f"{var}^{k}")
+        if k > 0 and mag == 1:
+            body = mon
+        elif k > 0:
+            body = f"{s}*{mon}" if "/" in s else f"{s} {mon}"
+        else:
+            body = s
+        terms.append((sign, body))
+    if not terms:
+        return "0"
+    out = ("-" if terms[0][0] == "-" else "") + terms[0][1]
+    for sign, body in terms[1:]:
+        out += f" {sign} {body}"
+    return out
