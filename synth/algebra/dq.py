@@ -17,13 +17,14 @@ from fractions import Fraction
 import numpy as np
 
 _CONJ = np.array([1, -1, -1, -1, 1, -1, -1, -1])
+_FLOAT = np.dtype(np.float64)
 
 
 # ----------------------------------------------------------------- element types
 def as_array(x) -> np.ndarray:
     """``x`` as a float64 array, or unchanged when it is an object array (exact Fractions)."""
     a = np.asarray(x)
-    return a if a.dtype == object else a.astype(float, copy=False)
+    return a if a.dtype is _FLOAT or a.dtype.kind == "O" else a.astype(float)
 
 
 def exact_array(x) -> np.ndarray:
@@ -108,7 +109,7 @@ def _product(a, b, flat, sparse):
     matrix, object arrays (exact) with only the nonzero T[i, j, k] = +-1."""
     a = as_array(a)
     b = as_array(b)
-    if a.dtype == object or b.dtype == object:
+    if a.dtype is not _FLOAT or b.dtype is not _FLOAT:  # (as_array: float64 or object)
         i, j, neg, starts = sparse
         terms = a[..., i] * b[..., j]
         terms[..., neg] = -terms[..., neg]
