@@ -218,7 +218,7 @@ def test_exit_1_no_factorization():
 def test_exit_1_exact_unavailable():
     r = run("--expr", "(t - i - eps j)(t - 1 - 2j - eps(3i + k)) + 0", "--exact")
     assert r.exit_code == 0
-    # N(C) irreducible over Q (MATH.md 11 D)
+    # N(C) irreducible over Q (docs/algorithm1.md, example D)
     rows = [["15/53", 0, 0, "20/53", "5/53", "-15/106", "10/53", "-15/212"],
             ["-38/53", "40/53", 0, "-20/53", 0, "15/212", "-29/53", "83/212"],
             [1, 0, 0, 0, 0, 0, 0, 0]]

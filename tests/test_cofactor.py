@@ -1,12 +1,13 @@
-"""Theorem 2: C R = product of rotations (MATH-EXCEPTIONAL.md sections 3-5, worked examples E2-E4)."""
+"""Theorem 2: C R = product of rotations (docs/exceptional.md, worked examples E2-E4)."""
 from fractions import Fraction as F
 
 import numpy as np
 import pytest
 
-from synth.algebra import cofactor as cf
-from synth.algebra.cofactor import (circular_residual, exact_check, exact_product, factor_circular,
-                            factorize_with_cofactor, rationalize_factors)
+from synth.algebra.certify import exact_check, exact_product, rationalize, rationalize_factors
+from synth.algebra.cofactor import build_items, factorize_with_cofactor
+from synth.algebra.dualsystem import qp_mul, solve_items
+from synth.algebra.translation import circular_residual, ellipse_split, factor_circular
 from synth.errors import NotGenericError
 from synth.algebra.expr import parse_polynomial
 from synth.algebra.factorize import factorize
@@ -25,7 +26,7 @@ def _rational_result(text):
     C = _exact(text)
     res = factorize_with_cofactor(C)
     hs = rationalize_factors(res.factors)
-    R = [cf.rationalize(x) for x in res.R]
+    R = [rationalize(x) for x in res.R]
     return C, res, R, hs
 
 
@@ -38,7 +39,7 @@ def test_algorithm_1_fails_on_the_elliptic_translation():
 @pytest.mark.parametrize("a,b", [(1, 2), (2, 1), (3, -1), (F(1, 2), 5)])
 def test_elliptic_right_zero_is_off_the_sphere(a, b):
     """F = a i + b j t has the unique right zero y = -(a/b) k, |y| != 1 for a != b: no factorization."""
-    y = cf.qp_mul(np.array([[0, 0, float(b), 0]]), np.array([[0, float(a), 0, 0]]))[0] / float(b) ** 2
+    y = qp_mul(np.array([[0, 0, float(b), 0]]), np.array([[0, float(a), 0, 0]]))[0] / float(b) ** 2
     assert np.allclose(y, [0, 0, 0, -float(a) / float(b)])
     assert abs(np.linalg.norm(y) - 1) > 0.1
     E = np.array([[float(a), 0, 0], [0, float(b), 0]])
@@ -57,7 +58,7 @@ def test_e2_elliptic_translation_exact():
 
 
 def test_e2_split_into_circles():
-    F1, F2 = cf.ellipse_split([1.0, 0.0], np.array([[1.0, 0, 0], [0, 2.0, 0]]))
+    F1, F2 = ellipse_split([1.0, 0.0], np.array([[1.0, 0, 0], [0, 2.0, 0]]))
     assert np.allclose(F1, [[1.5, 0, 0], [0, 1.5, 0]])  # F+ = (3/2)(i + j t)
     assert np.allclose(F2, [[-0.5, 0, 0], [0, 0.5, 0]])  # F- = (1/2)(-i + j t)
 
@@ -122,8 +123,8 @@ def test_e4_quaternion_cofactor_exact():
 
 def test_e4_template_kernel_is_two_dimensional():
     C = parse_polynomial(f"({ELLIPTIC})*(t - k)")
-    items = cf._build_items([np.array([0, 0, 0, 1.0])], [(np.array([1.0, 0.0]), 1)], (0,))
-    z0, K, res = cf._solve_items(items, C[:3, 4:], 3)
+    items = build_items([np.array([0, 0, 0, 1.0])], [(np.array([1.0, 0.0]), 1)], (0,))
+    z0, K, res = solve_items(items, C[:3, 4:], 3)
     assert res < 1e-14 and K.shape[1] == 2
     # the kernel moves h3 = k + eps(s1 i + s2 j) freely
     assert np.linalg.matrix_rank(K[6:8]) == 2
@@ -142,7 +143,7 @@ def test_e4_unique_circular_member(a, b):
 
 
 def test_doc_e7_axis_of_h3_is_at_minus_a_plus_b_over_2():
-    """MATH-EXCEPTIONAL E4/E7 say h3 = k - eps((a+b)/2) j is 'a rotation about the vertical line
+    """docs/exceptional.md (E4/E7) says h3 = k - eps((a+b)/2) j is 'a rotation about the vertical line
     through ((a+b)/2, 0)'. With section 1's conventions (u = -v/|v|, m = w/|v|, point u x m) the line
     passes through (-(a+b)/2, 0): the sign in the text is wrong (the E6 table uses the right sign:
     h1 = k - 3/4 eps j at (-0.75, 0))."""

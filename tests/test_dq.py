@@ -1,4 +1,4 @@
-"""Dual quaternion algebra and poses (synth/dq.py) against MATH.md sections 1, 2 and 5."""
+"""Dual quaternion algebra and poses (synth.algebra.dq) against docs/conventions.md."""
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -157,7 +157,7 @@ def test_norm_formula():
 
 # ------------------------------------------------------------------ poses (section 2)
 def test_pose_example_B():
-    """MATH.md 11 B: position (1, 2, 3), quaternion (1/2, 1/2, 1/2, 1/2)."""
+    """docs/conventions.md, example B: position (1, 2, 3), quaternion (1/2, 1/2, 1/2, 1/2)."""
     T = pose(quat_to_matrix([0.5, 0.5, 0.5, 0.5]), [1, 2, 3])
     h = pose_to_dq(T)
     assert np.allclose(h, [0.5, 0.5, 0.5, 0.5, 1.5, 0, -1, -0.5], atol=1e-15)
@@ -190,7 +190,7 @@ def test_translation_sign_convention():
 
 
 def test_survey_translation_t_minus_eps_i():
-    """t - eps i moves every point by 2i/t (MATH.md section 2)."""
+    """t - eps i moves every point by 2i/t (docs/conventions.md)."""
     for t in (0.5, 2.0, -3.0):
         h = np.array([t, 0, 0, 0, 0, -1, 0, 0])
         x = np.array([0.3, -1.0, 2.0])

@@ -48,7 +48,7 @@ def test_brief_example_two():
 
 
 def test_math_example_a_exact():
-    # MATH.md 11 A: h1 = i + eps j, h2 = 1 + 2j + eps(3i + k); C = (t - h1)(t - h2)
+    # docs/algorithm1.md, example A: h1 = i + eps j, h2 = 1 + 2j + eps(3i + k); C = (t - h1)(t - h2)
     got = parse_polynomial("(t - (i + eps*j)) * (t - (1 + 2*j + eps*(3*i + k)))", exact=True)
     want = [
         [F(0), F(1), F(0), F(2), F(-5), F(0), F(0), F(0)],  # i + 2k - 5 eps
@@ -60,7 +60,7 @@ def test_math_example_a_exact():
 
 
 def test_math_example_d_motion_polynomial_exact():
-    # MATH.md 11 D: C = t^2 + c1 t + c0 with rational coefficients, written as an expression
+    # docs/algorithm1.md, example D: C = t^2 + c1 t + c0 with rational coefficients, written as an expression
     c1 = "-38/53 + 40/53*i - 20/53*k + eps*(15/212*i - 29/53*j + 83/212*k)"
     c0 = "15/53 + 20/53*k + eps*(5/53 - 15/106*i + 10/53*j - 15/212*k)"
     got = parse_polynomial(f"t^2 + ({c1})*t + {c0}", exact=True)

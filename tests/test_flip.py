@@ -1,4 +1,4 @@
-"""Bennett flip (MATH-EXCEPTIONAL.md section 6, worked example E5; MATH.md section 9)."""
+"""Bennett flip (docs/exceptional.md, worked example E5)."""
 from fractions import Fraction as F
 
 import numpy as np
@@ -6,12 +6,14 @@ import pytest
 
 from synth.algebra.dq import line_distance_angle, plucker
 from synth.errors import SynthesisError
-from synth.algebra.flip import FlipError, bennett_flip, dq_mul_any, flip_residual, is_rotation
+from synth.algebra.dq import exact_array
+from synth.algebra.flip import FlipError, bennett_flip, flip_residual, is_rotation
+from synth.algebra.polynomial import product_of_linear
 
 
 def _product(a, b):
-    """(t - a)(t - b) as [constant, linear] coefficient lists."""
-    return dq_mul_any(list(a), list(b)), [-(x + y) for x, y in zip(a, b)]
+    """(t - a)(t - b) exactly, as nested lists of Fractions."""
+    return product_of_linear(exact_array([a, b])).tolist()
 
 
 def _norm(h):
@@ -32,7 +34,7 @@ def test_e5_exact():
 
 
 def test_math_section_9_example():
-    """MATH.md section 9: m = 2k + eps i, h = j + eps k."""
+    """docs/exceptional.md: m = 2k + eps i, h = j + eps k."""
     k, n = bennett_flip([0, 0, 0, 2, 0, 1, 0, 0], [0, 0, 1, 0, 0, 0, 0, 1])
     assert k == [0, 0, F(-3, 5), F(4, 5), 0, F(2, 5), F(12, 25), F(9, 25)]
     assert n == [0, 0, F(8, 5), F(6, 5), 0, F(3, 5), F(-12, 25), F(16, 25)]

@@ -1,4 +1,4 @@
-"""Motion polynomials (synth/motion.py) against MATH.md sections 3, 5 and the numbers of 11 A."""
+"""Motion polynomials (synth.algebra.polynomial) against docs/algorithm1.md and the numbers of its example A."""
 import numpy as np
 import pytest
 

@@ -1,4 +1,4 @@
-"""mrpf(P): exact (sympy over QQ) and numeric detection (MATH-EXCEPTIONAL.md section 2, example E1)."""
+"""mrpf(P): exact (Euclid over Q) and numeric detection (docs/exceptional.md, example E1)."""
 from fractions import Fraction as F
 
 import numpy as np
@@ -140,5 +140,5 @@ def test_real_gcd_exact_agrees_with_sympy(seed):
                                      ([F(1), F(-2), F(1)], 1), ([F(0), F(0), F(0), F(1)], 1),
                                      ([F(-6), F(11), F(-6), F(1)], 3), ([F(2), F(0), F(-3), F(0), F(1)], 4)])
 def test_real_root_count(g, count):
-    from synth.algebra.exact import real_root_count
+    from synth.algebra.realpoly import real_root_count
     assert real_root_count(g) == count

@@ -4,12 +4,46 @@ Conventions (docs/conventions.md): Hamilton product (ij = k); a point x is moved
 ``x -> (p x p~ + p q~ - q p~) / N(p)``; the pose with rotation R (unit quaternion r) and translation d
 is ``r - (eps/2) d r``; ``h1 h2`` acts as "first h2, then h1" like ``T1 @ T2``. Every function
 broadcasts over leading batch axes. Lengths are in whatever unit the caller uses.
+
+The algebra (qmul, qconj, qinv, dq_mul, dq_conj, dq_inv, dq_norm, the multiplication matrices,
+study_condition, study_form) is dtype-generic: float input gives float64 arrays, numpy object arrays
+of ``fractions.Fraction`` stay exact (the structure constants are integers). Geometry (poses, lines)
+is float only.
 """
 from __future__ import annotations
 
+from fractions import Fraction
+
 import numpy as np
 
-_CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
+_CONJ = np.array([1, -1, -1, -1, 1, -1, -1, -1])
+_FLOAT = np.dtype(np.float64)
+
+
+# ----------------------------------------------------------------- element types
+def as_array(x) -> np.ndarray:
+    """``x`` as a float64 array, or unchanged when it is an object array (exact Fractions)."""
+    a = np.asarray(x)
+    return a if a.dtype is _FLOAT or a.dtype.kind == "O" else a.astype(float)
+
+
+def exact_array(x) -> np.ndarray:
+    """``x`` (numbers, nested sequences) as an object array of Fractions (floats by their exact
+    binary value)."""
+    a = np.asarray(x, dtype=object)
+    return np.vectorize(Fraction, otypes=[object])(a) if a.size else a
+
+
+def zeros(shape, dtype) -> np.ndarray:
+    """Zeros of ``dtype`` (float, or object filled with Fraction(0))."""
+    if np.dtype(dtype) == object:
+        return np.full(shape, Fraction(0), dtype=object)
+    return np.zeros(shape, dtype)
+
+
+def result_dtype(*arrays):
+    """object when any input is an object array, else float64."""
+    return object if any(np.asarray(a).dtype == object for a in arrays) else np.float64
 
 
 # ----------------------------------------------------------------- quaternions
@@ -37,26 +71,66 @@ def _dual_tensor(T):
 
 
 _QT = _quat_tensor()
+
+
+def structure_constants() -> np.ndarray:
+    """The integer structure constants D (8, 8, 8) of the dual quaternions in this layout:
+    (a b)_k = sum_ij a_i b_j D[i, j, k]; entries 0 or +-1 (Hamilton, ij = k; eps^2 = 0)."""
+    return _dual_tensor(_QT).astype(int)
+
 _QT_FLAT = _QT.reshape(4, 16)
 _DT_FLAT = _dual_tensor(_QT).reshape(8, 64)
 _DT_RIGHT = _dual_tensor(_QT).transpose(1, 0, 2).reshape(8, 64)
+# the same structure constants as Python ints, for exact (object) arrays
+_EXACT = {id(T): T.astype(int).astype(object) for T in (_QT_FLAT, _DT_FLAT, _DT_RIGHT)}
+
+
+def _constants(T, a):
+    """The structure-constant matrix T for the element type of ``a``."""
+    return _EXACT[id(T)] if a.dtype == object else T
+
+
+def _sparse(T):
+    """The nonzero structure constants of T (n, n, n) grouped by output component: (i, j, sign < 0,
+    start of each component's run)."""
+    i, j, k = np.nonzero(T)
+    order = np.argsort(k, kind="stable")
+    i, j, k = i[order], j[order], k[order]
+    return i, j, T[i, j, k] < 0, np.searchsorted(k, np.arange(T.shape[2]))
+
+
+_Q_SPARSE = _sparse(_QT)
+_DQ_SPARSE = _sparse(_dual_tensor(_QT))
+
+
+def _product(a, b, flat, sparse):
+    """The bilinear product (a b)_k = sum_ij a_i b_j T[i, j, k] of the algebra with structure constants
+    T (``flat`` = T reshaped (n, n*n), ``sparse`` = `_sparse` (T)): floats by the dense left-multiplication
+    matrix, object arrays (exact) with only the nonzero T[i, j, k] = +-1."""
+    a = as_array(a)
+    b = as_array(b)
+    if a.dtype is not _FLOAT or b.dtype is not _FLOAT:  # (as_array: float64 or object)
+        i, j, neg, starts = sparse
+        terms = a[..., i] * b[..., j]
+        terms[..., neg] = -terms[..., neg]
+        return np.add.reduceat(terms, starts, axis=-1)
+    n = a.shape[-1]
+    L = (a @ flat).reshape(a.shape[:-1] + (n, n))
+    return np.matmul(b[..., None, :], L)[..., 0, :]
 
 
 def qmul(a, b):
     """Hamilton product of quaternions (..., 4)."""
-    a = np.asarray(a, float)
-    b = np.asarray(b, float)
-    L = (a @ _QT_FLAT).reshape(a.shape[:-1] + (4, 4))
-    return np.matmul(b[..., None, :], L)[..., 0, :]
+    return _product(a, b, _QT_FLAT, _Q_SPARSE)
 
 
 def qconj(a):
-    a = np.asarray(a, float)
+    a = as_array(a)
     return a * _CONJ[:4]
 
 
 def qinv(a):
-    a = np.asarray(a, float)
+    a = as_array(a)
     return qconj(a) / np.sum(a * a, axis=-1, keepdims=True)
 
 
@@ -114,51 +188,49 @@ def matrix_to_quat(R):
 # ----------------------------------------------------------------- dual quaternions
 def dq_left_matrix(a):
     """The 8x8 matrix L with (a b) = b @ L (row-vector convention), shape (..., 8, 8)."""
-    a = np.asarray(a, float)
-    return (a @ _DT_FLAT).reshape(a.shape[:-1] + (8, 8))
+    a = as_array(a)
+    return (a @ _constants(_DT_FLAT, a)).reshape(a.shape[:-1] + (8, 8))
 
 
 def dq_right_matrix(a):
     """The 8x8 matrix R with (b a) = b @ R (row-vector convention), shape (..., 8, 8)."""
-    a = np.asarray(a, float)
-    return (a @ _DT_RIGHT).reshape(a.shape[:-1] + (8, 8))
+    a = as_array(a)
+    return (a @ _constants(_DT_RIGHT, a)).reshape(a.shape[:-1] + (8, 8))
 
 
 def dq_mul(a, b):
     """Dual quaternion product (..., 8) x (..., 8): (p1 + eps q1)(p2 + eps q2)."""
-    a = np.asarray(a, float)
-    b = np.asarray(b, float)
-    return np.matmul(b[..., None, :], dq_left_matrix(a))[..., 0, :]
+    return _product(a, b, _DT_FLAT, _DQ_SPARSE)
 
 
 def dq_conj(h):
     """Quaternion conjugate of both parts: p~ + eps q~."""
-    return np.asarray(h, float) * _CONJ
+    return as_array(h) * _CONJ
 
 
 def dq_norm(h):
     """Dual-number norm h h~ = |p|^2 + eps 2 p.q, returned as (..., 2) = [primal, dual]."""
-    h = np.asarray(h, float)
+    h = as_array(h)
     p, q = h[..., :4], h[..., 4:]
     return np.stack([np.sum(p * p, -1), 2 * np.sum(p * q, -1)], axis=-1)
 
 
 def study_condition(h):
     """The Study form p . q (zero exactly on the Study quadric)."""
-    h = np.asarray(h, float)
+    h = as_array(h)
     return np.sum(h[..., :4] * h[..., 4:], axis=-1)
 
 
 def study_form(g, h):
     """Symmetric bilinear form B(g, h) = (p_g . q_h + p_h . q_g) / 2."""
-    g = np.asarray(g, float)
-    h = np.asarray(h, float)
-    return 0.5 * (np.sum(g[..., :4] * h[..., 4:], -1) + np.sum(h[..., :4] * g[..., 4:], -1))
+    g = as_array(g)
+    h = as_array(h)
+    return (np.sum(g[..., :4] * h[..., 4:], -1) + np.sum(h[..., :4] * g[..., 4:], -1)) / 2
 
 
 def dq_inv(h):
     """Inverse (p must be nonzero): h~ / N(h) with 1/(a + eps b) = 1/a - eps b/a^2."""
-    h = np.asarray(h, float)
+    h = as_array(h)
     n = dq_norm(h)
     a, b = n[..., :1], n[..., 1:]
     c = dq_conj(h)

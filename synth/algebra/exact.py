@@ -5,13 +5,15 @@ Applies to monic motion polynomials with rational coefficients whose norm polyno
 Q into monic quadratics (irreducible ones, and squares (t - r)^2 of rational real roots, which always
 come with even multiplicity because N(C) >= 0 on R). Then every step of Algorithm 1 stays in Q, and
 the factorizations come out exactly. The quadratics are ordered, and the orders enumerated, exactly as
-in the numeric engine (`synth.algebra.factorize`), so factorization number k means the same in both; factors are
-classified the same way (revolute when the vector part of the primal part is nonzero, else a
-translation), with exact zero tests instead of tolerances.
+in the numeric engine (`synth.algebra.factorize`), so factorization number k means the same in both;
+factors are classified the same way (revolute when the vector part of the primal part is nonzero,
+else a translation), with exact zero tests instead of tolerances.
 
-Dual quaternions here are tuples of 8 Fractions [p0..p3, q0..q3]; polynomials are lists of them,
-index = power of t (ascending), like the numpy layout. sympy is imported lazily, only to factor N(C)
-over QQ.
+Only the rational norm factorization and the exact zero tests are particular to this module: the
+arithmetic is the dtype-generic `synth.algebra.dq` / `synth.algebra.polynomial` code on numpy object
+arrays of Fractions, batched over the orders. Results are given as tuples of 8 Fractions [p0..p3,
+q0..q3]; polynomials as lists of them, index = power of t (ascending). sympy is imported lazily, only
+to factor N(C) over QQ.
 """
 from __future__ import annotations
 
@@ -20,7 +22,14 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from numbers import Rational
 
-from synth.algebra.scalar import qmul as q_mul  # generic over the element type: Fractions here
+import numpy as np
+
+from synth.algebra import dq as dqa
+from synth.algebra import polynomial as poly
+from synth.algebra.algorithm1 import orders as permutations
+from synth.algebra.dq import exact_array
+from synth.algebra.realpoly import real_divmod, real_gcd, real_root_count
+from synth.algebra.text import poly_text
 from synth.errors import InputError, NoFactorizationError, NotGenericError, SynthesisError
 
 __all__ = [
@@ -36,6 +45,9 @@ __all__ = [
     "poly_mul",
     "product_of_linear",
     "norm_poly",
+    "real_divmod",
+    "real_gcd",
+    "real_root_count",
 ]
 
 ZERO = Fraction(0)
@@ -85,189 +97,39 @@ def as_exact_polynomial(rows) -> list[tuple[Fraction, ...]]:
     return out
 
 
-# ============================================================== dual quaternions
-def _add4(a, b):
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3])
+# ============================================================== the algebra, exactly
+# The dual-quaternion and polynomial routines of synth.algebra.dq / synth.algebra.polynomial applied to
+# object arrays of Fractions; these adapters take rows of numbers and give tuples (polynomials: lists of
+# tuples), the data layout of this module.
+def _plain(x):
+    """Exact arrays as tuples: (8,) -> tuple, (n+1, 8) -> list of tuples; tuples of arrays elementwise."""
+    if isinstance(x, tuple):
+        return tuple(_plain(v) for v in x)
+    x = np.asarray(x, dtype=object)
+    return tuple(x.tolist()) if x.ndim == 1 else [tuple(r) for r in x.tolist()]
 
 
-def dq_mul(a, b):
-    """(p1 + eps q1)(p2 + eps q2) = p1 p2 + eps (p1 q2 + q1 p2)."""
-    p1, q1, p2, q2 = a[:4], a[4:], b[:4], b[4:]
-    return q_mul(p1, p2) + _add4(q_mul(p1, q2), q_mul(q1, p2))
+def _exactly(func, convert=_plain):
+    """``func`` applied to exact arrays of its arguments, the result converted back."""
+    def exact_func(*args):
+        return convert(func(*(exact_array(a) for a in args)))
+
+    exact_func.__name__ = func.__name__
+    exact_func.__doc__ = f"`{func.__module__}.{func.__name__}` in Fractions (tuples in, tuples out)."
+    return exact_func
 
 
-def dq_add(a, b):
-    return tuple(x + y for x, y in zip(a, b))
-
-
-def dq_sub(a, b):
-    return tuple(x - y for x, y in zip(a, b))
+dq_mul = _exactly(dqa.dq_mul)
+dq_conj = _exactly(dqa.dq_conj)
+dq_inv = _exactly(dqa.dq_inv)  # ZeroDivisionError when the primal part is zero
+poly_mul = _exactly(poly.poly_mul)
+product_of_linear = _exactly(poly.product_of_linear)
+divide_real_quadratic = _exactly(poly.divide_real_quadratic)  # C = Q M + (r1 t + r0): (Q, r1, r0)
+norm_poly = _exactly(poly.norm_poly, list)  # N(C), ascending
 
 
 def dq_neg(a):
     return tuple(-x for x in a)
-
-
-def dq_scale(a, s):
-    return tuple(x * s for x in a)
-
-
-def dq_conj(h):
-    return (h[0], -h[1], -h[2], -h[3], h[4], -h[5], -h[6], -h[7])
-
-
-def dq_inv(h):
-    """h^-1 = h~ / N(h) with 1/(a + eps b) = 1/a - eps b/a^2 (the primal part must be nonzero)."""
-    a = h[0] * h[0] + h[1] * h[1] + h[2] * h[2] + h[3] * h[3]
-    if a == 0:
-        raise ZeroDivisionError("dual quaternion with zero primal part is not invertible")
-    b = 2 * (h[0] * h[4] + h[1] * h[5] + h[2] * h[6] + h[3] * h[7])
-    c = dq_conj(h)
-    return tuple(x / a for x in c[:4]) + tuple(c[4 + i] / a - c[i] * b / (a * a) for i in range(4))
-
-
-def is_zero(h) -> bool:
-    return all(x == 0 for x in h)
-
-
-# ============================================================== polynomials
-def poly_mul(A, B):
-    out = [(ZERO,) * 8 for _ in range(len(A) + len(B) - 1)]
-    for i, a in enumerate(A):
-        for j, b in enumerate(B):
-            out[i + j] = dq_add(out[i + j], dq_mul(a, b))
-    return out
-
-
-def linear(h):
-    """t - h."""
-    return [dq_neg(h), _ID]
-
-
-def product_of_linear(hs):
-    C = linear(hs[0])
-    for h in hs[1:]:
-        C = poly_mul(C, linear(h))
-    return C
-
-
-def norm_poly_full(C):
-    return poly_mul(C, [dq_conj(c) for c in C])
-
-
-def norm_poly(C) -> list[Fraction]:
-    """The real norm polynomial N(C), ascending (the primal scalar part of C C~)."""
-    return [row[0] for row in norm_poly_full(C)]
-
-
-def divide_real_quadratic(C, M):
-    """C = Q M + (r1 t + r0) for M = t^2 + M[1] t + M[0]; returns (Q, r1, r0)."""
-    c0, c1 = M
-    R = [list(row) for row in C]
-    n = len(C) - 1
-    Q = [(ZERO,) * 8 for _ in range(max(n - 1, 1))]
-    for k in range(n, 1, -1):
-        q = tuple(R[k])
-        Q[k - 2] = q
-        R[k - 1] = [x - c1 * y for x, y in zip(R[k - 1], q)]
-        R[k - 2] = [x - c0 * y for x, y in zip(R[k - 2], q)]
-    return Q, tuple(R[1]), tuple(R[0])
-
-
-def divide_linear_right(C, h):
-    """C = D (t - h) + C(h): returns (D, remainder)."""
-    n = len(C) - 1
-    D = [None] * n
-    d = tuple(C[n])
-    D[n - 1] = d
-    for k in range(n - 1, 0, -1):
-        d = dq_add(C[k], dq_mul(d, h))
-        D[k - 1] = d
-    return D, dq_add(C[0], dq_mul(d, h))
-
-
-def evaluate(C, t):
-    """C(t) for a rational t."""
-    t = Fraction(t)
-    out = C[-1]
-    for c in reversed(C[:-1]):
-        out = dq_add(dq_scale(out, t), c)
-    return out
-
-
-# ---------------------------------------------------------------- real polynomials (ascending)
-def _rtrim(p):
-    p = list(p)
-    while p and p[-1] == 0:
-        p.pop()
-    return p
-
-
-def real_divmod(a, b) -> tuple[list, list]:
-    """(quotient, remainder) of real polynomials over Q (ascending; b nonzero), both trimmed."""
-    a = _rtrim(a)
-    b = _rtrim(b)
-    q = [0] * max(len(a) - len(b) + 1, 0)
-    while len(a) >= len(b) and a:
-        f = a[-1] / b[-1]
-        s = len(a) - len(b)
-        q[s] = f
-        for i, c in enumerate(b):
-            a[s + i] -= f * c
-        a = _rtrim(a)
-    return _rtrim(q), a
-
-
-def _rmod(a, b):
-    return real_divmod(a, b)[1]
-
-
-def real_gcd(polys) -> list[Fraction]:
-    """Monic gcd over Q of real polynomials (ascending); [1] when coprime, [] when all are zero."""
-    g: list[Fraction] = []
-    for p in polys:
-        p = _rtrim(p)
-        while p:
-            g, p = p, _rmod(g, p)
-    if not g:
-        return []
-    return [c / g[-1] for c in g]
-
-
-def real_root_count(p) -> int:
-    """Number of distinct real zeros of a nonzero real polynomial over Q (ascending), by Sturm's theorem."""
-    p = _rtrim(p)
-    seq = [p, _rtrim([k * c for k, c in enumerate(p)][1:])]
-    while seq[-1]:
-        seq.append([-c for c in _rmod(seq[-2], seq[-1])])
-    seq.pop()
-
-    def changes(signs):
-        signs = [s for s in signs if s]
-        return sum(a != b for a, b in zip(signs, signs[1:]))
-
-    at_plus = [(q[-1] > 0) - (q[-1] < 0) for q in seq]
-    at_minus = [s if (len(q) - 1) % 2 == 0 else -s for s, q in zip(at_plus, seq)]
-    return changes(at_minus) - changes(at_plus)
-
-
-def real_poly_text(p) -> str:
-    """Readable text of a monic real polynomial, descending powers: 't^2 + 1'."""
-    terms = []
-    for k in range(len(p) - 1, -1, -1):
-        c = p[k]
-        if c == 0:
-            continue
-        mono = "" if k == 0 else ("t" if k == 1 else f"t^{k}")
-        mag = abs(c)
-        body = (str(mag) if (mag != 1 or not mono) else "") + ((" " if mag != 1 else "") + mono if mono else "")
-        body = body.strip()
-        sign = "-" if c < 0 else "+"
-        terms.append((sign, body))
-    if not terms:
-        return "0"
-    first = ("-" if terms[0][0] == "-" else "") + terms[0][1]
-    return " ".join([first] + [f"{s} {b}" for s, b in terms[1:]])
 
 
 # ============================================================== validation
@@ -277,8 +139,8 @@ def check_exact_motion_polynomial(C) -> None:
         raise InputError("a motion polynomial needs degree >= 1")
     if tuple(C[-1]) != _ID:
         raise InputError("the polynomial is not monic (leading coefficient must be 1)")
-    F = norm_poly_full(C)
-    if any(x != 0 for row in F for x in row[1:]):
+    F = poly.norm_poly_full(exact_array(C))
+    if np.any(F[:, 1:] != 0):
         raise InputError("not a motion polynomial: its norm is not real (Study condition violated)")
 
 
@@ -356,14 +218,51 @@ def classify_exact(h) -> str:
     return "revolute" if any(x != 0 for x in h[1:4]) else "translation"
 
 
+def distinct_orders(mult) -> list[tuple]:
+    """The distinct orders (left to right) of quadratics 0, 1, ... repeated ``mult`` times, sorted
+    lexicographically: the numbering of the factorizations in both engines."""
+    labels = np.repeat(np.arange(len(mult)), mult)
+    return sorted(set(map(tuple, labels[permutations(len(labels))].tolist())))
+
+
+def algorithm1_exact(C, quads, orders):
+    """Algorithm 1 for the given orders (tuples of indices into the rational norm quadratics ``quads``
+    (m, 2), left to right) of the exact C (n+1, 8). Orders that end alike share their right-hand steps:
+    level L works on the distinct suffixes of length L as one batch. Returns (H (P, n, 8) exact, ok (P,)):
+    ok where every remainder had a nonzero primal leading coefficient (an exact test), and then
+    C = (t - H[p, 0])...(t - H[p, n-1]) exactly (asserted)."""
+    n = C.shape[-2] - 1
+    one = exact_array(_ID)
+    index = {(): 0}  # suffix -> row in the current level's batch
+    D, ok_prev = C[None], np.ones(1, bool)
+    h_of, ok_of = {}, {}
+    for L in range(1, n + 1):
+        suffixes = sorted({tuple(o[n - L:]) for o in orders})
+        D = D[[index[s[1:]] for s in suffixes]]
+        ok = ok_prev[[index[s[1:]] for s in suffixes]]
+        _, r1, r0 = poly.divide_real_quadratic(D, quads[[s[0] for s in suffixes]])
+        good = np.any(r1[:, :4] != 0, axis=-1)
+        ok &= good
+        h = -dqa.dq_mul(dqa.dq_inv(np.where(good[:, None], r1, one)), r0)
+        D, rem = poly.divide_linear_right(D, h)
+        if np.any(rem[ok] != 0):  # pragma: no cover - impossible in exact arithmetic
+            raise AssertionError("exact division by t - h left a remainder")
+        index = {s: k for k, s in enumerate(suffixes)}
+        h_of.update(zip(suffixes, h))
+        ok_of.update(zip(suffixes, ok))
+        ok_prev = ok
+    if np.any(D[ok_prev] != one):  # pragma: no cover - impossible
+        raise AssertionError("exact Algorithm 1 did not end with the constant 1")
+    H = np.array([[h_of[tuple(o[pos:])] for pos in range(n)] for o in orders], dtype=object).reshape(-1, n, 8)
+    return H, np.array([ok_of[tuple(o)] for o in orders], bool)
+
+
 def factorize_exact(C, *, validate: bool = True) -> ExactFactorResult:
     """All factorizations of a monic rational motion polynomial C (rows of 8 numbers, constant term
     first) from Algorithm 1 in exact arithmetic. Orders whose remainder has a zero primal leading
     coefficient are skipped (``failed_orders``); when none succeeds, raises NotGenericError (primal part
     with a real factor) or NoFactorizationError. Raises SynthesisError when N(C) does not split into
     rational quadratics, InputError for invalid input."""
-    from synth.algebra.factorize import _distinct_orders
-
     C = as_exact_polynomial(C)
     if validate:
         check_exact_motion_polynomial(C)
@@ -375,45 +274,17 @@ def factorize_exact(C, *, validate: bool = True) -> ExactFactorResult:
     primal = [[row[d] for row in C] for d in range(4)]
     g = real_gcd(primal)
     generic = len(g) <= 1
-    orders = _distinct_orders(mult)
-
-    cache: dict[tuple, tuple | None] = {(): (C, ())}
-
-    def run(suffix):
-        """(D, hs) after processing the quadratics of suffix (rightmost last), or None on failure."""
-        if suffix in cache:
-            return cache[suffix]
-        prev = run(suffix[1:])
-        out = None
-        if prev is not None:
-            D, hs = prev
-            _, r1, r0 = divide_real_quadratic(D, quads[suffix[0]])
-            if any(x != 0 for x in r1[:4]):
-                h = dq_neg(dq_mul(dq_inv(r1), r0))
-                Dn, rem = divide_linear_right(D, h)
-                if not is_zero(rem):  # pragma: no cover - impossible in exact arithmetic
-                    raise AssertionError("exact division by t - h left a remainder")
-                out = (Dn, (h,) + hs)
-        cache[suffix] = out
-        return out
-
-    facts, failed = [], []
-    for order in orders:
-        r = run(tuple(order))
-        if r is None:
-            failed.append(tuple(order))
-            continue
-        D, hs = r
-        if len(D) != 1 or tuple(D[0]) != _ID:  # pragma: no cover - impossible
-            raise AssertionError("exact Algorithm 1 did not end with the constant 1")
-        facts.append(ExactFactorization(factors=list(hs), order=tuple(order),
-                                        kinds=[classify_exact(h) for h in hs]))
+    orders = distinct_orders(mult)
+    H, ok = algorithm1_exact(exact_array(C), exact_array(quads), orders)
+    facts = [ExactFactorization(factors=_plain(h), order=order, kinds=[classify_exact(x) for x in h])
+             for order, h, good in zip(orders, H, ok) if good]
+    failed = [order for order, good in zip(orders, ok) if not good]
     result = ExactFactorResult(C=C, norm=N, quadratics=quads, multiplicity=mult, factorizations=facts,
                                generic=generic, real_factor=g if not generic else [], failed_orders=failed)
     if not facts:
         if not generic:
             raise NotGenericError(
-                f"not generic: the primal part has the real factor ({real_poly_text(g)}); Algorithm 1 "
+                f"not generic: the primal part has the real factor ({poly_text(g)}); Algorithm 1 "
                 "finds no factorization into linear factors (try --cofactor)")
         raise NoFactorizationError("no factorization into linear factors was found")
     return result

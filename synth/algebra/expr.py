@@ -40,6 +40,7 @@ from math import gcd
 
 import numpy as np
 
+from synth.algebra.dq import structure_constants
 from synth.errors import InputError
 
 __all__ = ["parse_polynomial", "MAX_TEXT"]
@@ -54,20 +55,12 @@ MAX_WORK = 100_000  # total coefficient-pair products while expanding (a degree-
 _NAMES = {"t": None, "i": 1, "j": 2, "k": 3, "eps": 4, "ε": 4}
 _ALLOWED_NAMES = "t, i, j, k, eps (or ε)"
 
-# Basis 0..7 = 1, i, j, k, eps, eps i, eps j, eps k. _MUL[a][b] = (sign, c) or None (eps^2 = 0).
-_QTAB = {
-    (0, 0): (1, 0), (0, 1): (1, 1), (0, 2): (1, 2), (0, 3): (1, 3),
-    (1, 0): (1, 1), (1, 1): (-1, 0), (1, 2): (1, 3), (1, 3): (-1, 2),
-    (2, 0): (1, 2), (2, 1): (-1, 3), (2, 2): (-1, 0), (2, 3): (1, 1),
-    (3, 0): (1, 3), (3, 1): (1, 2), (3, 2): (-1, 1), (3, 3): (-1, 0),
-}
+# Basis 0..7 = 1, i, j, k, eps, eps i, eps j, eps k. _MUL[a][b] = (sign, c): e_a e_b = sign e_c, or None
+# (eps^2 = 0); read off the structure constants of synth.algebra.dq.
 _MUL = [[None] * 8 for _ in range(8)]
-for _a in range(8):
-    for _b in range(8):
-        if _a >= 4 and _b >= 4:
-            continue
-        _s, _c = _QTAB[(_a % 4, _b % 4)]
-        _MUL[_a][_b] = (_s, _c + 4 if (_a >= 4 or _b >= 4) else _c)
+_D = structure_constants()
+for _a, _b, _c in zip(*np.nonzero(_D)):
+    _MUL[_a][_b] = (int(_D[_a, _b, _c]), int(_c))
 
 # ============================================================== polynomials (exact)
 class _Poly:

@@ -1,4 +1,4 @@
-"""Bennett flip (docs/exceptional.md, section 4): (t - m)(t - h) = (t - k)(t - n).
+"""Bennett flip (docs/exceptional.md): (t - m)(t - h) = (t - k)(t - n).
 
 With w = ~m - h (the remainder of (t-m)(t-h) by N(t-m) is w t + m(h - ~m)):
 
@@ -8,8 +8,8 @@ so that N(t - n) = N(t - m) and N(t - k) = N(t - h). The flip exists iff primal(
 exactly when primal(h) = conj(primal(m)) (equal angle laws about opposite parallel directions: the
 product is a translation). Coaxial (commuting) m, h give the trivial flip k = h, n = m.
 
-Arithmetic is generic: Fractions (or ints) in give exact Fractions out; floats give numpy arrays.
-The small helpers below (``dq_mul_any``, ...) work on any sequence of 8 numbers.
+Arithmetic is the dtype-generic `synth.algebra.dq` code: Fractions (or ints) in give exact Fractions
+out; floats give numpy arrays.
 """
 from __future__ import annotations
 
@@ -17,6 +17,8 @@ from fractions import Fraction
 
 import numpy as np
 
+from synth.algebra.dq import dq_conj, dq_inv, dq_mul, exact_array
+from synth.algebra.polynomial import product_of_linear, relative_error
 from synth.errors import SynthesisError
 
 FLIP_TOL = 1e-10  # |primal(w)| <= tol * (|m| + |h|): no flip (floats)
@@ -24,37 +26,6 @@ FLIP_TOL = 1e-10  # |primal(w)| <= tol * (|m| + |h|): no flip (floats)
 
 class FlipError(SynthesisError):
     """The Bennett flip of (t - m)(t - h) does not exist (the product is a translation)."""
-
-
-# ------------------------------------------------------------------ generic dual quaternions
-def q_mul_any(a, b):
-    """Hamilton product of two 4-sequences of any number type (ij = k)."""
-    a0, a1, a2, a3 = a
-    b0, b1, b2, b3 = b
-    return [a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0]
-
-
-def dq_mul_any(a, b):
-    """(p1 + eps q1)(p2 + eps q2) = p1 p2 + eps (p1 q2 + q1 p2), any number type."""
-    p = q_mul_any(a[:4], b[:4])
-    q1 = q_mul_any(a[:4], b[4:])
-    q2 = q_mul_any(a[4:], b[:4])
-    return p + [x + y for x, y in zip(q1, q2)]
-
-
-def dq_conj_any(a):
-    return [a[0], -a[1], -a[2], -a[3], a[4], -a[5], -a[6], -a[7]]
-
-
-def dq_inv_any(a):
-    """Inverse of a dual quaternion with nonzero primal part: ~a / N(a), 1/(x + eps y) = 1/x - eps y/x^2."""
-    c = dq_conj_any(a)
-    x = sum(v * v for v in a[:4])
-    y = 2 * sum(u * v for u, v in zip(a[:4], a[4:]))
-    return [v / x for v in c[:4]] + [c[4 + i] / x - c[i] * y / (x * x) for i in range(4)]
 
 
 def is_exact(*values) -> bool:
@@ -92,14 +63,9 @@ def bennett_flip(m, h, *, tol: float = FLIP_TOL):
     ``m``, ``h``: 8 numbers each. All ints/Fractions -> exact lists of Fractions; otherwise float numpy
     arrays. Raises FlipError when primal(~m - h) = 0 (exactly, or within ``tol`` for floats)."""
     exact = is_exact(m, h)
-    if exact:
-        M = [Fraction(x) for x in m]
-        H = [Fraction(x) for x in h]
-    else:
-        M = [float(x) for x in m]
-        H = [float(x) for x in h]
-    w = [a - b for a, b in zip(dq_conj_any(M), H)]
-    pw = sum(x * x for x in w[:4])
+    M, H = (exact_array(m), exact_array(h)) if exact else (np.asarray(m, float), np.asarray(h, float))
+    w = dq_conj(M) - H
+    pw = np.sum(w[:4] * w[:4])
     if exact:
         bad = pw == 0
     else:
@@ -108,19 +74,15 @@ def bennett_flip(m, h, *, tol: float = FLIP_TOL):
     if bad:
         raise FlipError("no Bennett flip: the primal part of h is the conjugate of that of m (equal angle "
                         "laws about opposite parallel axes), so (t - m)(t - h) is a translation")
-    n = dq_mul_any(dq_mul_any(dq_inv_any(w), M), w)
-    k = [a + b - c for a, b, c in zip(M, H, n)]
+    n = dq_mul(dq_mul(dq_inv(w), M), w)
+    k = M + H - n
     if exact:
-        return k, n
-    return np.array(k, float), np.array(n, float)
+        return k.tolist(), n.tolist()
+    return k, n
 
 
 def flip_residual(m, h, k, n) -> float:
     """max |(t-m)(t-h) - (t-k)(t-n)| over the coefficients, relative to max(1, |coefficients|)."""
-    m, h, k, n = ([float(x) for x in v] for v in (m, h, k, n))
-    lhs1 = [-(a + b) for a, b in zip(m, h)]
-    rhs1 = [-(a + b) for a, b in zip(k, n)]
-    lhs0 = dq_mul_any(m, h)
-    rhs0 = dq_mul_any(k, n)
-    err = max(abs(a - b) for a, b in zip(lhs1 + lhs0, rhs1 + rhs0))
-    return err / max(1.0, max(abs(x) for x in lhs1 + lhs0))
+    lhs = product_of_linear(np.array([m, h], float))
+    rhs = product_of_linear(np.array([k, n], float))
+    return float(relative_error(rhs, lhs))

@@ -2,14 +2,20 @@
 
 ``t`` is real and central. A motion polynomial C = P + eps Q has a real norm polynomial C C~ and an
 invertible (here: unit, monic) leading coefficient; C(t) is then a pose for every real t with
-N(C)(t) != 0, and C(inf) = 1 for monic C (docs/conventions.md). All functions broadcast over leading
+N(C)(t) != 0, and C(inf) = 1 for monic C (docs/algorithm1.md). All functions broadcast over leading
 batch axes; real polynomials are arrays (..., m+1) in ascending powers.
+
+The algebra (products, norms, divisions, evaluation) is dtype-generic like `synth.algebra.dq`: float
+arrays in, float64 out; object arrays of Fractions in, exact Fractions out (the exact Algorithm 1 of
+`synth.algebra.exact` runs on these same routines).
 """
 from __future__ import annotations
 
+from fractions import Fraction
+
 import numpy as np
 
-from synth.algebra.dq import dq_conj, dq_mul, dq_to_pose
+from synth.algebra.dq import as_array, dq_conj, dq_inv, dq_mul, dq_to_pose, result_dtype, zeros
 
 
 def degree(C) -> int:
@@ -19,11 +25,11 @@ def degree(C) -> int:
 def poly_mul(A, B, mul=dq_mul):
     """Product A B of polynomials with (dual) quaternion coefficients (order matters): ``mul`` is the
     coefficient product, `dq_mul` (rows of 8) by default, `synth.algebra.dq.qmul` for quaternion rows of 4."""
-    A = np.asarray(A, float)
-    B = np.asarray(B, float)
+    A = as_array(A)
+    B = as_array(B)
     na, nb = A.shape[-2], B.shape[-2]
     batch = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
-    out = np.zeros(batch + (na + nb - 1, A.shape[-1]))
+    out = zeros(batch + (na + nb - 1, A.shape[-1]), result_dtype(A, B))
     for i in range(na):
         out[..., i : i + nb, :] += mul(A[..., i : i + 1, :], B)
     return out
@@ -36,15 +42,15 @@ def poly_conj(C):
 
 def linear(h):
     """The monic linear polynomial t - h, shape (..., 2, 8)."""
-    h = np.asarray(h, float)
-    one = np.zeros_like(h)
-    one[..., 0] = 1.0
+    h = as_array(h)
+    one = zeros(h.shape, h.dtype)
+    one[..., 0] = Fraction(1) if h.dtype == object else 1.0
     return np.stack([-h, one], axis=-2)
 
 
 def product_of_linear(hs):
     """(t - h_1)(t - h_2)...(t - h_n) for hs of shape (..., n, 8)."""
-    hs = np.asarray(hs, float)
+    hs = as_array(hs)
     C = linear(hs[..., 0, :])
     for i in range(1, hs.shape[-2]):
         C = poly_mul(C, linear(hs[..., i, :]))
@@ -59,9 +65,9 @@ def norm_poly_full(C):
 def norm_poly(C):
     """The real norm polynomial N(C) = |P(t)|^2, shape (..., 2n+1), ascending. (Its dual part, 2 P.Q,
     is the Study condition; see `study_residual`.)"""
-    P = np.asarray(C, float)[..., :4]
+    P = as_array(C)[..., :4]
     n1 = P.shape[-2]
-    out = np.zeros(P.shape[:-2] + (2 * n1 - 1,))
+    out = zeros(P.shape[:-2] + (2 * n1 - 1,), P.dtype)
     for i in range(n1):
         out[..., i : i + n1] += np.einsum("...d,...jd->...j", P[..., i, :], P)
     return out
@@ -104,9 +110,9 @@ def pose_at(C, t):
 
 def right_value(C, h):
     """Right value C(h) = sum c_k h^k (coefficients on the left): t - h right-divides C iff it is 0."""
-    C = np.asarray(C, float)
-    h = np.asarray(h, float)
-    out = C[..., -1, :] * np.ones(h.shape)
+    C = as_array(C)
+    h = as_array(h)
+    out = C[..., -1, :] * np.ones(h.shape, int)
     for k in range(C.shape[-2] - 2, -1, -1):
         out = dq_mul(out, h) + C[..., k, :]
     return out
@@ -115,12 +121,12 @@ def right_value(C, h):
 def divide_real_quadratic(C, M):
     """C = Q M + (r1 t + r0) for a real monic quadratic M = t^2 + M[1] t + M[0] (M shape (..., 2) =
     [c0, c1]). Returns Q (..., n-1, 8), r1, r0 (..., 8). Real M divides left and right alike."""
-    C = np.array(C, float)
-    M = np.asarray(M, float)
+    C = as_array(C).copy()
+    M = as_array(M)
     n = C.shape[-2] - 1
     c0 = M[..., 0:1]
     c1 = M[..., 1:2]
-    Q = np.zeros(C.shape[:-2] + (max(n - 1, 1), 8))
+    Q = zeros(C.shape[:-2] + (max(n - 1, 1), 8), result_dtype(C, M))
     for k in range(n, 1, -1):
         q = C[..., k, :]
         Q[..., k - 2, :] = q
@@ -131,11 +137,11 @@ def divide_real_quadratic(C, M):
 
 def divide_linear_right(C, h):
     """C = D (t - h) + C(h): returns D (..., n, 8) and the remainder C(h) (..., 8)."""
-    C = np.asarray(C, float)
-    h = np.asarray(h, float)
+    C = as_array(C)
+    h = as_array(h)
     n = C.shape[-2] - 1
-    D = np.zeros(C.shape[:-2] + (n, 8))
-    d = C[..., n, :] * np.ones(h.shape)
+    D = zeros(np.broadcast_shapes(C.shape[:-2], h.shape[:-1]) + (n, 8), result_dtype(C, h))
+    d = C[..., n, :] * np.ones(h.shape, int)
     D[..., n - 1, :] = d
     for k in range(n - 1, 0, -1):
         d = C[..., k, :] + dq_mul(d, h)
@@ -145,16 +151,14 @@ def divide_linear_right(C, h):
 
 
 def divide_right(C, D):
-    """Right division C = Q D + R by D with invertible leading coefficient (docs/conventions.md)."""
-    from synth.algebra.dq import dq_inv
-
-    R = np.array(C, float)
-    D = np.asarray(D, float)
+    """Right division C = Q D + R by D with invertible leading coefficient (docs/algorithm1.md)."""
+    R = as_array(C).copy()
+    D = as_array(D)
     n, m = R.shape[-2] - 1, D.shape[-2] - 1
     if n < m:
-        return np.zeros(R.shape[:-2] + (1, 8)), R
+        return zeros(R.shape[:-2] + (1, 8), R.dtype), R
     lead_inv = dq_inv(D[..., m, :])
-    Q = np.zeros(R.shape[:-2] + (n - m + 1, 8))
+    Q = zeros(R.shape[:-2] + (n - m + 1, 8), result_dtype(R, D))
     for k in range(n, m - 1, -1):
         q = dq_mul(R[..., k, :], lead_inv)
         Q[..., k - m, :] = q
@@ -164,9 +168,7 @@ def divide_right(C, D):
 
 def make_monic(C):
     """Divide (on the left) by the leading coefficient, which must be invertible."""
-    from synth.algebra.dq import dq_inv
-
-    C = np.asarray(C, float)
+    C = as_array(C)
     return dq_mul(dq_inv(C[..., -1:, :]), C)
 
 

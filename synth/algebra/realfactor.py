@@ -1,5 +1,5 @@
 """The maximal real polynomial factor mrpf(P) of a motion polynomial's primal part
-(docs/exceptional.md, section 1).
+(docs/exceptional.md).
 
 mrpf(P) = g = the monic gcd of the four real component polynomials p0..p3 of P. Algorithm 1 is
 guaranteed to work when deg g = 0 (generic). C is **bounded** iff g has no real zero (a real zero of
@@ -21,8 +21,13 @@ from fractions import Fraction
 
 import numpy as np
 
+from synth.algebra.factorize import norm_quadratics
+from synth.algebra.realpoly import conv_matrix, real_gcd, real_root_count
+from synth.algebra.text import poly_text
 from synth.errors import InputError, SynthesisError
-from synth.algebra.exact import real_gcd, real_root_count
+
+__all__ = ["RealFactor", "UnboundedMotionError", "mrpf", "mrpf_exact", "mrpf_numeric", "real_gcd_exact",
+           "real_gcd_numeric", "require_bounded", "poly_text", "NUMERIC_TOL"]
 
 NUMERIC_TOL = 1e-9
 
@@ -66,37 +71,6 @@ def _rows(C):
     return [[float(x) for x in r] for r in rows], False
 
 
-def poly_text(c, var: str = "t", digits: int = 6) -> str:
-    """Human text of a real polynomial (ascending coefficients), highest power first."""
-    terms = []
-    big = max((abs(float(a)) for a in c), default=0.0)
-    for k in range(len(c) - 1, -1, -1):
-        a = c[k]
-        if a == 0 or (not isinstance(a, Fraction) and abs(float(a)) <= 1e-12 * big):
-            continue
-        if isinstance(a, Fraction):
-            mag = abs(a)
-            s = str(mag)
-        else:
-            mag = abs(float(a))
-            s = f"{mag:.{digits}g}"
-        sign = "-" if a < 0 else "+"
-        mon = "" if k == 0 else (var if k == 1 else f"{var}^{k}")
-        if k > 0 and mag == 1:
-            body = mon
-        elif k > 0:
-            body = f"{s}*{mon}" if "/" in s else f"{s} {mon}"
-        else:
-            body = s
-        terms.append((sign, body))
-    if not terms:
-        return "0"
-    out = ("-" if terms[0][0] == "-" else "") + terms[0][1]
-    for sign, body in terms[1:]:
-        out += f" {sign} {body}"
-    return out
-
-
 # ------------------------------------------------------------------ exact
 def mrpf_exact(C) -> tuple[list, bool]:
     """(g as ascending Fractions, monic; bounded) for a polynomial with rational coefficients
@@ -118,15 +92,6 @@ def real_gcd_exact(C, columns=None) -> tuple[list, bool]:
 
 
 # ------------------------------------------------------------------ numeric
-def _conv_matrix(a, n_cols):
-    """Matrix A with A @ x = coefficients of a * x (x of length n_cols)."""
-    a = np.asarray(a, float)
-    A = np.zeros((len(a) + n_cols - 1, n_cols))
-    for j in range(n_cols):
-        A[j:j + len(a), j] = a
-    return A
-
-
 def _polish(P, g, iterations=6):
     """Gauss-Newton on sum_i |p_i - g q_i|^2 over the lower coefficients of the monic g and the q_i."""
     n = P.shape[0] - 1
@@ -138,13 +103,13 @@ def _polish(P, g, iterations=6):
     g = np.array(g, float)
 
     def quotients(g):
-        G = _conv_matrix(g, m)
+        G = conv_matrix(g, m)
         return np.linalg.lstsq(G, P, rcond=None)[0]  # (m, 4)
 
     Qs = quotients(g)
-    res = P - _conv_matrix(g, m) @ Qs
+    res = P - conv_matrix(g, m) @ Qs
     for _ in range(iterations):
-        G = _conv_matrix(g, m)
+        G = conv_matrix(g, m)
         # unknowns: g_0..g_{d-1}, then Q (m x 4) column-major by component
         J = np.zeros(((n + 1) * nc, d + nc * m))
         for i in range(nc):
@@ -159,7 +124,7 @@ def _polish(P, g, iterations=6):
         g_new = g.copy()
         g_new[:d] += step[:d]
         Q_new = Qs + step[d:].reshape(nc, m).T
-        res_new = P - _conv_matrix(g_new, m) @ Q_new
+        res_new = P - conv_matrix(g_new, m) @ Q_new
         if np.linalg.norm(res_new) >= np.linalg.norm(res):
             break
         g, Qs, res = g_new, Q_new, res_new
@@ -202,8 +167,6 @@ def real_gcd_numeric(P, tol: float = NUMERIC_TOL) -> np.ndarray:
 
 # ------------------------------------------------------------------ dispatch
 def _quadratic_split(g):
-    from synth.algebra.factorize import norm_quadratics
-
     if len(g) <= 1:
         return np.zeros((0, 2)), []
     quads, mult, _roots = norm_quadratics(np.asarray(g, float))

@@ -110,9 +110,9 @@ def normalize_motion(C, scale: float = 1.0):
     else:
         g = real_gcd_numeric(Cn)
         if len(g) > 1:
-            from synth.algebra.cofactor import _divide_real
+            from synth.algebra.realpoly import divide_real
 
-            Cn = _divide_real(Cn, np.asarray(g, float))
+            Cn = divide_real(Cn, np.asarray(g, float))
             Cn[-1] = np.eye(8)[0]
     if Cn.shape[0] < 2:
         raise InputError("the motion polynomial is a real multiple of a constant: it does not move")
