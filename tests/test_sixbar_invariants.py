@@ -9,6 +9,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from synth.algebra.algorithm1 import algorithm1, multiply_back, norm_roots, quadratics, remainder_error
 from synth.algebra.dq import dq_to_pose
 from synth.algebra.polynomial import evaluate, norm_poly, product_of_linear
 from synth.errors import SynthesisError
@@ -66,6 +67,21 @@ def test_every_factorization_multiplies_back_and_satisfies_study(seed):
     assert np.all(vals <= 1e-8 * np.abs(N).sum(-1)[:, None] * (1 + np.abs(mf.roots)) ** 6)
     # pairs: both branches of a loop multiply back to the same C
     assert np.all(PERMS[PAIRS[:, 0], 0] != PERMS[PAIRS[:, 1], 0])
+
+
+@settings(**SETTINGS)
+@given(seeds)
+def test_remainder_error_is_the_multiply_back_error(seed):
+    """The scan's residual from the division remainders (algorithm1(..., remainders=True)) agrees with
+    multiplying the factors back."""
+    got = ruled_problem(seed)
+    if got is None:
+        return
+    C = grid_members(got[1].families)[0]
+    z = norm_roots(norm_poly(C), newton=1)
+    H, ok, R = algorithm1(C[:, None], quadratics(z)[:, PERMS], remainders=True)
+    fast, full = remainder_error(C[:, None], H, R)[ok], multiply_back(C[:, None], H)[ok]
+    assert np.all(np.abs(fast - full) <= 4e-15 + 1e-3 * np.maximum(fast, full))  # (rounding of either product)
 
 
 @settings(**SETTINGS)

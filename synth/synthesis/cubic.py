@@ -1,4 +1,4 @@
-"""Cubic motion polynomials through four poses (MATH.md section 8).
+"""Cubic motion polynomials through four poses (docs/cubic.md).
 
 The relative displacements ``D_0 = 1, D_1, D_2, D_3`` (conditioned frame, unit dual quaternions) span
 a 3-space ``V`` of P^7. ``V`` meets the Study quadric in a quadric surface; when it is *ruled*
@@ -9,7 +9,7 @@ points, each a *pencil* of monic cubic motion polynomials ``C`` with ``C(inf) = 
 Conventions of this module (documented for the CLI):
 
 * **Family numbering.** Family 1 is the family with the *larger* value of ``t3``, family 2 the other
-  one (the set of the two ``t3`` values is well defined, MATH.md section 8; which ruling is "u" is not).
+  one (the set of the two ``t3`` values is well defined, docs/cubic.md; which ruling is "u" is not).
 * **Member label.** A member is named by ``lambda1``, its weight at ``t = 0``: ``C(0) = lambda1 D_1``
   (``D_1`` with unit primal part, ``p0 >= 0``). The label does not depend on the coordinate frame
   (conditioning maps ``C`` and ``D_1`` by the same linear map). ``lambda1 = inf`` is the member that
@@ -335,7 +335,7 @@ def families(q: Quadric) -> tuple[list[CubicFamily], dict[int, str]]:
 
 
 def parameter_separation(t3: float) -> float:
-    """Chordal distance of t3 from the other pose parameters inf, 0, 1 (MATH.md section 8: t3 near 0 or 1
+    """Chordal distance of t3 from the other pose parameters inf, 0, 1 (docs/cubic.md: t3 near 0 or 1
     means two poses nearly on a common ruling line, poor conditioning)."""
     w = np.sqrt(1 + t3 * t3)
     return float(min(abs(t3) / w, abs(t3 - 1) / (w * np.sqrt(2)), 1 / w))

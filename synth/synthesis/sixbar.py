@@ -39,7 +39,7 @@ GRID = 24  # members per family in the scan
 REFINE = 0  # scan candidates refined locally by default (library option; the CLI uses the plain scan)
 CHECK_TOL = 1e-9  # relative self-check tolerance for accepting a linkage
 MAX_ATTEMPTS = 8  # candidates built and checked before giving up
-POLISH_TOL = 1e-13  # predicted relative pose error (residual / smallest weight) above this: polish
+POLISH_TOL = 1e-12  # predicted relative pose error (residual / smallest weight) above this: polish (1000x inside CHECK_TOL)
 LOOP = ["h1", "h2", "h3", "k3", "k2", "k1"]
 
 

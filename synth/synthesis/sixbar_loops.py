@@ -75,17 +75,21 @@ class MemberFactors:
 
 def factor_members(C, *, polish: bool = False) -> MemberFactors:
     """All 6 factorizations of every monic cubic in C (G, 4, 8): one call of the batched Algorithm 1
-    over G x 6 (member, order). With ``polish`` the successful ones get Newton's method on the product
-    equations (`synth.algebra.algorithm1.polish`), which brings the residual to rounding level even
-    for nearly real or nearly equal norm roots; the scan runs without it."""
+    over G x 6 (member, order). With ``polish`` the norm roots get two Newton steps (else one) and the
+    successful factorizations Newton's method on the product equations (`synth.algebra.algorithm1.polish`),
+    which brings the residual to rounding level even for nearly real or nearly equal norm roots; the
+    scan runs without it. ``residual``: the multiply-back error (from the division remainders,
+    `synth.algebra.algorithm1.remainder_error`, or from the polish) and the Study violation."""
     C = np.asarray(C, float)
     with np.errstate(all="ignore"):
-        z = a1.norm_roots(norm_poly(C))
-        H, ok = a1.algorithm1(C[:, None], a1.quadratics(z)[:, PERMS])
+        z = a1.norm_roots(norm_poly(C), newton=2 if polish else 1)
+        H, ok, R = a1.algorithm1(C[:, None], a1.quadratics(z)[:, PERMS], remainders=True)
+        res = a1.remainder_error(C[:, None], H, R)
         if polish and ok.any():
             g, p = np.nonzero(ok)
-            H[g, p], _ = a1.polish(C[g], H[g, p])
-        res = np.maximum(a1.multiply_back(C[:, None], H), a1.study_violation(H))
+            H[g, p], rm = a1.polish(C[g], H[g, p])
+            res[g, p] = rm / np.maximum(1.0, np.abs(C[g]).max((-2, -1)))
+        res = np.maximum(res, a1.study_violation(H))
         trans = a1.is_translation(H).any(-1) & ok
     res = np.where(ok & np.isfinite(res), res, np.inf)
     H = np.where(ok[..., None, None], H, np.nan)
@@ -132,20 +136,19 @@ JOINTS, EDGES, LOOP_EDGES = _edge_tables()
 
 
 def _cross(a, b):
-    """Cross products over the last axis (numpy.cross without its axis handling)."""
-    a0, a1_, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1_ * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1_ * b0], -1)
+    """Cross products of component-first vectors a, b (3, ...)."""
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def _dot(a, b):
-    return (a * b).sum(-1)
+    """Dot products of component-first vectors (3, ...)."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 def pair_geometry(u1, p1, u2, p2):
-    """Common normals of line pairs given by unit directions u and points p (..., 3): distance, line
-    angle in [0, pi/2], the feet f1, f2 (..., 3) and the cross product u1 x u2. Parallel pairs
-    (|u1 x u2|^2 < 1e-24): feet at p1 and its projection onto the second line."""
+    """Common normals of line pairs given by unit directions u and points p, component-first (3, ...):
+    distance, line angle in [0, pi/2], the feet f1, f2 (3, ...) and the cross product u1 x u2. Parallel
+    pairs (|u1 x u2|^2 < 1e-24): feet at p1 and its projection onto the second line."""
     c = _cross(u1, u2)
     s2 = _dot(c, c)
     ang = np.arctan2(np.sqrt(s2), np.abs(_dot(u1, u2)))
@@ -154,9 +157,10 @@ def pair_geometry(u1, p1, u2, p2):
     s2s = np.where(par, 1.0, s2)
     a1_ = np.where(par, 0.0, _dot(_cross(d, u2), c) / s2s)
     a2_ = np.where(par, -_dot(d, u2), _dot(_cross(d, u1), c) / s2s)
-    f1 = p1 + a1_[..., None] * u1
-    f2 = p2 + a2_[..., None] * u2
-    return np.sqrt(_dot(f2 - f1, f2 - f1)), ang, f1, f2, c
+    f1 = p1 + a1_ * u1
+    f2 = p2 + a2_ * u2
+    e = f2 - f1
+    return np.sqrt(_dot(e, e)), ang, f1, f2, c
 
 
 def loop_geometry(mf: MemberFactors) -> dict[str, np.ndarray]:
@@ -164,14 +168,16 @@ def loop_geometry(mf: MemberFactors) -> dict[str, np.ndarray]:
     ``min_offset`` (smallest distance of consecutive axes), ``min_twist`` (smallest angle between
     consecutive axes, in [0, pi/2]) and ``extent`` (largest distance of a common-normal foot of
     consecutive axes from the origin), each (G, 9); lengths in the units of the factors."""
-    u, m = lines(mf.H[:, JOINTS[:, 0], JOINTS[:, 1]])  # (G, 12, 3)
+    J = np.moveaxis(mf.H[:, JOINTS[:, 0], JOINTS[:, 1]], -1, 0)  # (8, G, 12)
+    s = 1.0 / np.sqrt(_dot(J[1:4], J[1:4]))
+    u, m = -J[1:4] * s, J[5:8] * s  # lines(): (3, G, 12)
     p = _cross(u, m)  # each joint's point nearest the origin
     e0, e1 = EDGES[:, 0], EDGES[:, 1]
-    dist, ang, f1, f2, _ = pair_geometry(u[:, e0], p[:, e0], u[:, e1], p[:, e1])  # (G, 18)
+    dist, ang, f1, f2, _ = pair_geometry(u[..., e0], p[..., e0], u[..., e1], p[..., e1])  # (G, 18)
     foot = np.maximum(_dot(f1, f1), _dot(f2, f2))
-    return {"min_offset": np.min(dist[:, LOOP_EDGES], -1),
-            "min_twist": np.min(ang[:, LOOP_EDGES], -1),
-            "extent": np.sqrt(np.max(foot[:, LOOP_EDGES], -1))}
+    return {"min_offset": dist[:, LOOP_EDGES].min(-1),
+            "min_twist": ang[:, LOOP_EDGES].min(-1),
+            "extent": np.sqrt(foot[:, LOOP_EDGES].max(-1))}
 
 
 def dh_parameters(u, m):
@@ -180,18 +186,19 @@ def dh_parameters(u, m):
     (distance; twist signed about the common normal from i to i+1), ``d`` the offset along axis i
     between the incoming and outgoing common normals' feet and ``theta`` the angle between those
     normals about axis i. Returns a dict of (..., n) arrays."""
-    u, m = np.asarray(u, float), np.asarray(m, float)
+    u, m = np.moveaxis(np.asarray(u, float), -1, 0), np.moveaxis(np.asarray(m, float), -1, 0)
+    n = u.shape[-1]
+    nxt, prv = (np.arange(n) + 1) % n, (np.arange(n) - 1) % n
     p = _cross(u, m)
-    u2, p2 = np.roll(u, -1, -2), np.roll(p, -1, -2)
-    a, _, f1, f2, c = pair_geometry(u, p, u2, p2)
+    u2 = u[..., nxt]
+    a, _, f1, f2, c = pair_geometry(u, p, u2, p[..., nxt])
     cn = np.sqrt(_dot(c, c))
-    e = f2 - f1
-    n = np.where((a > 1e-12)[..., None], e / np.where(a > 1e-12, a, 1.0)[..., None],
-                 np.where((cn > 1e-12)[..., None], c / np.where(cn > 1e-12, cn, 1.0)[..., None], 0.0))
-    alpha = np.arctan2(np.sum(c * n, -1), np.sum(u * u2, -1))
-    n_in, f_in = np.roll(n, 1, -2), np.roll(f2, 1, -2)
-    d = np.sum((f1 - f_in) * u, -1)
-    theta = np.arctan2(np.sum(_cross(n_in, n) * u, -1), np.sum(n_in * n, -1))
+    big_a, big_c = a > 1e-12, cn > 1e-12
+    nrm = np.where(big_a, (f2 - f1) / np.where(big_a, a, 1.0), np.where(big_c, c / np.where(big_c, cn, 1.0), 0.0))
+    alpha = np.arctan2(_dot(c, nrm), _dot(u, u2))
+    n_in = nrm[..., prv]
+    d = _dot(f1 - f2[..., prv], u)
+    theta = np.arctan2(_dot(_cross(n_in, nrm), u), _dot(n_in, nrm))
     return {"a": a, "alpha": alpha, "d": d, "theta": theta}
 
 
