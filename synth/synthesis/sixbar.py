@@ -30,7 +30,7 @@ from synth.synthesis.bennett import EPS, FLOOR_ULPS, check_distinct
 from synth.synthesis.conic import condition, relative_displacements, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, CubicFamily, families, quadric
 from synth.synthesis.sixbar_loops import (COND_WEIGHT, PART_KEYS, SCORE_RULE, MemberEval, dh_parameters,
-                                          evaluate_members, lines)
+                                          evaluate_members, factor_members, lines)
 
 __all__ = ["COND_WEIGHT", "PART_KEYS", "SCORE_RULE", "Problem", "prepare", "scan", "sixbar", "sixbar_candidates",
            "one_member_loops", "build_linkage", "MemberLoops", "Candidate", "Ranking", "LOOP"]
@@ -434,11 +434,11 @@ def one_member_loops(poses, family: int, member: float, names=None, problem: Pro
     repeated calls on the same poses."""
     problem = problem or prepare(poses, names)
     fam = problem.family(int(family))
-    ev = evaluate_member([fam], float(member))
-    mf = ev.factors
     if score:
-        valid, sc, parts = ev.valid[0], ev.score[0], {k: v[0] for k, v in ev.parts.items()}
-    else:
+        ev = evaluate_member([fam], float(member))
+        mf, valid, sc, parts = ev.factors, ev.valid[0], ev.score[0], {k: v[0] for k, v in ev.parts.items()}
+    else:  # the same factorizations, without the loop geometry and scores
+        mf = factor_members(fam.member(float(member))[None], polish=True)
         valid, sc, parts = mf.ok[0, PAIRS[:, 0]] & mf.ok[0, PAIRS[:, 1]], None, None
     W = to_world(np.concatenate([mf.H[0].reshape(18, 8), mf.C[0]]), problem.cond)  # one call for all
     F = W[:18].reshape(6, 3, 8)

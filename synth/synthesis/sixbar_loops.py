@@ -255,6 +255,7 @@ def evaluate_members(C, lam, phi, fams, *, polish: bool = False) -> MemberEval:
                 + parts["penalty_intersect"])
         valid = (mf.ok[:, PAIRS[:, 0]] & mf.ok[:, PAIRS[:, 1]] & (residual <= RESIDUAL_TOL) & np.isfinite(cost)
                  & (finite & (kappa > 0))[:, None])
-        score = np.nan_to_num(np.where(valid, 10.0 ** -cost, 0.0))
+        score = 10.0 ** -cost
+        score = np.where(valid & np.isfinite(score), score, 0.0)
     return MemberEval(fams=list(fams), phi=np.asarray(phi, float).reshape(G), lam=np.asarray(lam, float).reshape(G, 3),
                       factors=mf, parts=parts, valid=valid, score=score)

@@ -106,8 +106,9 @@ def _check_job(job: dict) -> None:
 
 
 def _synthesize(kind: str, ps):
+    from synth.checks import VERIFY_SAMPLES
+
     if kind == "bennett":
-        from synth.checks import VERIFY_SAMPLES
         from synth.synthesis.bennett import bennett
 
         return bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
@@ -115,7 +116,7 @@ def _synthesize(kind: str, ps):
         from synth.synthesis.sixbar import sixbar
     except ImportError as e:
         raise _JobError(f"kind 'sixbar' is not available in this installation ({e})") from None
-    return sixbar(ps.matrices, ps.names)
+    return sixbar(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
 
 
 def run_job(item: tuple[int, str], full: bool = False) -> dict:
