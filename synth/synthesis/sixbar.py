@@ -26,7 +26,7 @@ from synth.algebra import algorithm1 as a1
 from synth.checks import DEFAULT_CHECK_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
-from synth.synthesis.bennett import EPS, FLOOR_ULPS, check_distinct
+from synth.synthesis.bennett import check_distinct
 from synth.synthesis.conic import condition, relative_displacements, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, CubicFamily, families, quadric
 from synth.synthesis.sixbar_loops import (COND_WEIGHT, PART_KEYS, SCORE_RULE, MemberEval, dh_parameters,
@@ -39,6 +39,8 @@ GRID = 24  # members per family in the scan
 REFINE = 0  # scan candidates refined locally by default (library option; the CLI uses the plain scan)
 CHECK_TOL = 1e-9  # relative self-check tolerance for accepting a linkage
 MAX_ATTEMPTS = 8  # candidates built and checked before giving up
+EPS = float(np.finfo(float).eps)
+FLOOR_ULPS = 2**17  # rounding floor of world-frame checks, in ulps of the pose coordinates (as for Bennett)
 POLISH_TOL = 1e-12  # predicted relative pose error (residual / smallest weight) above this: polish (1000x inside CHECK_TOL)
 LOOP = ["h1", "h2", "h3", "k3", "k2", "k1"]
 
