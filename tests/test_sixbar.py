@@ -54,7 +54,7 @@ def relative_errors(linkage, T, tol=TOL):
 
 
 def assert_good(linkage, T, tol=TOL):
-    errs = relative_errors(linkage, T)
+    errs = relative_errors(linkage, T, tol)
     assert max(errs) <= tol, errs
     assert linkage.kind == "6r" and len(linkage.joints) == 6
     assert [j.name for j in linkage.joints] == ["h1", "h2", "h3", "k1", "k2", "k3"]
