@@ -326,7 +326,7 @@ def main(argv=None):
         from synth.synthesis.sixbar import one_member_loops
 
         six = sixbar_sets(rng, 5 if q else 10)
-        rows.append(("sixbar", "synth.sixbar(poses) (default)", *per_call(synth.sixbar, [s[0] for s in six], 2 if q else 5)))
+        rows.append(("sixbar", "synth.sixbar(poses) (default: scan, best candidate built and self-checked)", *per_call(synth.sixbar, [s[0] for s in six], 2 if q else 5)))
         from synth.synthesis.sixbar import prepare
 
         prepared = [(prepare(s[0]),) + s for s in six]

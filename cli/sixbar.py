@@ -58,11 +58,13 @@ def _design_line(info) -> str:
 
 
 def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json, require_free):
+    from synth.checks import VERIFY_SAMPLES
     from synth.synthesis.sixbar import sixbar as synth_sixbar
 
     from .bennett import emit
 
-    linkage = synth_sixbar(ps.matrices, ps.names, family=family, member=member, pair=pair)
+    linkage = synth_sixbar(ps.matrices, ps.names, family=family, member=member, pair=pair,
+                           check_samples=VERIFY_SAMPLES)
     if not quiet:
         echo(_design_line(linkage.info))
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
@@ -109,13 +111,13 @@ def ranking_table(doc) -> list[str]:
 def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, quiet, as_json, require_free):
     from pathlib import Path
 
-    from synth.io.writer import atomic_directory, write_linkage_files
-
+    from synth.checks import VERIFY_SAMPLES
     from synth.io.jsonout import write_json
+    from synth.io.writer import atomic_directory, write_linkage_files
     from synth.synthesis.sixbar import sixbar_candidates
 
     linkages = sixbar_candidates(ps.matrices, ps.names, family=family, member=member, pair=pair, top=top,
-                                 build=True)
+                                 build=True, check_samples=VERIFY_SAMPLES)
     ids = [solution_id(r, lk) for r, lk in enumerate(linkages, start=1)]
     results = None
     if out or as_json or require_free:  # the physical design of every solution

@@ -1,4 +1,5 @@
-"""The 4-pose quadric and its two families of cubic motions (synth/cubic.py, MATH.md section 8)."""
+"""The 4-pose quadric and its two families of cubic motions (synth/synthesis/cubic.py), and the factorizations
+and loop geometry of their members (synth/synthesis/sixbar_loops.py)."""
 from __future__ import annotations
 
 import itertools
@@ -7,9 +8,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from synth.synthesis.cubic import (PAIRS, PERMS, factor_members, families, loop_geometry, norm_roots, parameter_separation,
-                         quadric, root_conditioning, ruling_coordinates, ruling_inverse, ruling_matrix)
-from synth.algebra.dq import dq_mul, quat_to_matrix
+from synth.algebra.algorithm1 import multiply_back, norm_roots, polish, root_conditioning
+from synth.algebra.dq import quat_to_matrix
+from synth.synthesis.cubic import (PAIRS, PERMS, families, parameter_separation, quadric, ruling_coordinates,
+                                   ruling_inverse, ruling_matrix)
+from synth.synthesis.sixbar_loops import factor_members, loop_geometry
 from synth.errors import SynthesisError
 from synth.algebra.factorize import factorize
 from synth.synthesis.conic import condition, relative_displacements, to_world
@@ -82,7 +85,7 @@ def test_example_e_member_half(conditioned):
     assert np.allclose(C[2], E_C2, atol=2e-9)
     assert np.allclose(C[3], np.eye(8)[0], atol=0)
     assert np.allclose(norm_poly(C), E_N, atol=2e-9)
-    z = norm_roots(C[None])[0]
+    z = norm_roots(norm_poly(C))
     assert np.allclose(np.c_[z.real, z.imag], E_AB, atol=2e-9)
     assert study_residual(C) < 1e-15
 
@@ -91,7 +94,7 @@ def test_example_e_six_factorizations_multiply_back():
     D, cond = setup(e_poses())
     fam = family_with_t3(families(quadric(D))[0], E_T3[1])
     C = to_world(fam.member(0.5), cond)
-    mf = factor_members(C[None])
+    mf = factor_members(C[None], polish=True)
     assert mf.ok.all()
     assert mf.residual.max() < 2e-15
     P = product_of_linear(mf.H[0])
@@ -183,7 +186,7 @@ def test_bad_members_have_a_real_factor():
         C1 = fam.member(0.0)
         assert np.abs(C1[0]).max() < 1e-14
         for C in (C1, C2, C3):
-            im, _ = root_conditioning(norm_roots(C[None]))
+            im, _ = root_conditioning(norm_roots(norm_poly(C))[None])
             assert im[0] < 1e-6
 
 
@@ -290,46 +293,17 @@ def test_complex_t3_for_oval_sets():
     assert t3s[0] == pytest.approx(np.conj(t3s[1]), abs=1e-9)
 
 
-def test_dq_mul_table_used_by_factor_members():
-    rng = np.random.default_rng(9)
-    from synth.synthesis.cubic import _inv, _mul
-
-    a, b = rng.normal(size=(5, 8)), rng.normal(size=(5, 8))
-    assert np.allclose(_mul(a, b), dq_mul(a, b))
-    assert np.allclose(_mul(_inv(a), a), np.eye(8)[0], atol=1e-12)
-
-
-def test_remainder_residual_estimate_matches_multiply_back():
-    """The scan's residual (from the division remainders) agrees with the multiplied-back one."""
-    rng = np.random.default_rng(11)
-    while True:
-        D, _ = setup(random_poses(rng))
-        q = quadric(D)
-        if q.ruled:
-            break
-    fam = families(q)[0][0]
-    C, _ = fam.members(np.linspace(0.05, 3.1, 40))
-    fast = factor_members(C, refine=False, exact_residual=False)
-    full = factor_members(C, refine=False)
-    assert np.array_equal(fast.ok, full.ok)
-    r1, r2 = fast.residual[fast.ok], full.residual[full.ok]
-    assert np.all(r1 < 1e-11) and np.all(r2 < 1e-11)
-    assert np.all(np.abs(r1 - r2) <= 1e-14 + 10 * np.minimum(r1, r2))
-
-
 def test_polish_restores_accuracy_for_nearly_real_roots():
     """Seeded set whose best member has nearly real norm roots near t = 1 (t3 ~ 1.0099): the plain
     factorization multiplies back to ~5e-12, Newton polishing to rounding level."""
-    from synth.synthesis.cubic import multiply_back, polish
-
     rng = np.random.default_rng(198)
     D, _ = setup(random_poses(rng))
     fam = family_with_t3(families(quadric(D))[0], 1.0099)
     assert fam.t3 == pytest.approx(1.0099, abs=1e-3)
     C = fam.member(-0.41519)
-    plain = factor_members(C[None], refine=False)
-    assert plain.residual.max() > 1e-13
-    H = polish(C[None, None], plain.H)
-    assert multiply_back(C[None], H).max() < 1e-14
-    refined = factor_members(C[None])
+    plain = factor_members(C[None])
+    assert plain.ok.all() and plain.residual.max() > 1e-13
+    H, _ = polish(C[None, None], plain.H)
+    assert multiply_back(C[None, None], H).max() < 1e-14
+    refined = factor_members(C[None], polish=True)
     assert refined.residual.max() < 1e-14

@@ -43,7 +43,7 @@ def relative_errors(linkage, T, tol=TOL):
     """Errors relative to the pose spread (closure: to the linkage size); translations get the absolute
     rounding floor of world coordinates a distance D from the origin that the library's acceptance uses
     (2^17 ulps of D, ~2.9e-11 D: a 6R of 1 m at 1000 m closes to ~7e-9 m, 7e-12 of its coordinates)."""
-    from synth.synthesis.bennett import EPS, FLOOR_ULPS
+    from synth.synthesis.sixbar import EPS, FLOOR_ULPS
 
     c = linkage.checks
     L = spread(T)
@@ -54,7 +54,7 @@ def relative_errors(linkage, T, tol=TOL):
 
 
 def assert_good(linkage, T, tol=TOL):
-    errs = relative_errors(linkage, T)
+    errs = relative_errors(linkage, T, tol)
     assert max(errs) <= tol, errs
     assert linkage.kind == "6r" and len(linkage.joints) == 6
     assert [j.name for j in linkage.joints] == ["h1", "h2", "h3", "k1", "k2", "k3"]

@@ -84,12 +84,14 @@ def quadratics(z) -> np.ndarray:
     return np.stack([np.abs(z) ** 2, -2 * z.real], axis=-1)
 
 
-def algorithm1(C, M):
+def algorithm1(C, M, *, remainders: bool = False):
     """Algorithm 1 on monic motion polynomials C (..., n+1, 8) for the norm quadratics M (..., n, 2)
     of the factors, left to right (broadcast against C's batch). Returns the factors H (..., n, 8)
     (``C = (t - H[0]) ... (t - H[n-1])`` when all goes well) and ``ok`` (...,): every remainder had an
     invertible leading coefficient (GENERIC_TOL relative to C's primal part). Failed items hold
-    finite garbage, not NaN."""
+    finite garbage, not NaN. With ``remainders`` also R (..., n-1, 8), the remainders of the exact
+    right divisions: dividing by t - H[p] (p >= 1) leaves R[p-1], and
+    ``C - (t - H[0]) ... (t - H[n-1]) = sum_p R[p-1] (t - H[p+1]) ... (t - H[n-1])`` (`remainder_error`)."""
     C = np.asarray(C, float)
     M = np.asarray(M, float)
     n = C.shape[-2] - 1
@@ -98,6 +100,7 @@ def algorithm1(C, M):
     M = np.broadcast_to(M, batch + (n, 2))
     prim = np.max(np.sum(C[..., :4] ** 2, axis=-1), axis=-1)  # (|primal| of the largest coefficient)^2
     H = np.empty(batch + (n, 8))
+    R = np.empty(batch + (max(n - 1, 0), 8))
     ok = np.ones(batch, bool)
     for pos in range(n - 1, -1, -1):
         _, r1, r0 = divide_real_quadratic(D, M[..., pos, :])
@@ -107,8 +110,24 @@ def algorithm1(C, M):
         h = -dq_mul(dq_inv(r1), r0)
         H[..., pos, :] = h
         if pos:
-            D, _ = divide_linear_right(D, h)
-    return H, ok
+            D, R[..., pos - 1, :] = divide_linear_right(D, h)
+    return (H, ok, R) if remainders else (H, ok)
+
+
+def remainder_error(C, H, R) -> np.ndarray:
+    """Relative multiply-back error of the factorizations H (..., n, 8) of C (..., n+1, 8) from the
+    remainders R of `algorithm1` (``remainders=True``): max |C - (t - h_1)...(t - h_n)| / max(1, max |C|)
+    without forming the product (for n = 3, one quaternion product instead of five); inf where not
+    finite. Equals `multiply_back` up to rounding."""
+    n = H.shape[-2]
+    with np.errstate(all="ignore"):
+        E = np.zeros(np.broadcast_shapes(np.shape(C)[:-2], H.shape[:-2]) + (n, 8))
+        for p in range(1, n):
+            E[..., : n - p, :] += poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :])
+                                           if p + 1 < n else np.eye(8)[:1])
+        scale = np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
+        r = np.max(np.abs(E), axis=(-2, -1)) / scale
+    return np.where(np.isfinite(r), r, np.inf)
 
 
 def multiply_back(C, H) -> np.ndarray:

@@ -121,7 +121,7 @@ def _synthesize(kind: str, ps):
         from synth.synthesis.sixbar import sixbar
     except ImportError as e:
         raise _JobError(f"kind 'sixbar' is not available in this installation ({e})") from None
-    return sixbar(ps.matrices, ps.names)
+    return sixbar(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
 
 
 def run_job(item: tuple[int, str], full: bool = False) -> dict:
