@@ -174,12 +174,8 @@ def read_urdf(path) -> UrdfModel:
             if rgba is not None:
                 materials[m.get("name")] = tuple(rgba)
     for el in root.findall("link"):
-        name = el.get("name")
-        if not name:
-            problems.append("URDF: a <link> has no name")
-            continue
-        if name in links:
-            problems.append(f"URDF: link {name} is defined twice")
+        name = _unique_name(el, "link", links, problems)
+        if name is None:
             continue
         links.append(name)
         for tag in ("visual", "collision"):
@@ -206,12 +202,8 @@ def read_urdf(path) -> UrdfModel:
     joints: dict[str, UJoint] = {}
     parent_joint: dict[str, str] = {}
     for el in root.findall("joint"):
-        name, kind = el.get("name"), el.get("type")
-        if not name:
-            problems.append("URDF: a <joint> has no name")
-            continue
-        if name in joints:
-            problems.append(f"URDF: joint {name} is defined twice")
+        name, kind = _unique_name(el, "joint", joints, problems), el.get("type")
+        if name is None:
             continue
         p, c = el.find("parent"), el.find("child")
         parent = p.get("link") if p is not None else None
@@ -278,3 +270,14 @@ def read_urdf(path) -> UrdfModel:
     return UrdfModel(root.get("name", ""), links, joints, closures, meshes, problems, order, inertials,
                      parent_joint)
 
+
+def _unique_name(el, what: str, seen, problems: list) -> str | None:
+    """The name of a <link> or <joint> element, or None (a problem noted) when missing or repeated."""
+    name = el.get("name")
+    if not name:
+        problems.append(f"URDF: a <{what}> has no name")
+        return None
+    if name in seen:
+        problems.append(f"URDF: {what} {name} is defined twice")
+        return None
+    return name
