@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from synth.algebra.algorithm1 import cross3
-from synth.algebra.dq import dq_mul, pose_to_dq, qconj, qmul
+from synth.algebra.dq import dq_mul, dq_right_matrix, pose_to_dq, qconj, qmul
 from synth.linkage import Linkage
 
 DEFAULT_CHECK_SAMPLES = 4  # synthesis functions check closure and motion at this many parameters
@@ -39,14 +39,16 @@ def pose_difference(A, B):
 def dq_pose_difference(A, B):
     """(translation error, rotation angle) between the poses of dual quaternions A, B (..., 8) (Study
     condition assumed, any nonzero scale): |d_A - d_B| with d = 2 vec(p q~)/|p|^2, and the angle of
-    p_A~ p_B, 2 atan2(|vec|, |scalar|) in [0, pi]."""
+    p_A~ p_B in [0, pi], as 4 asin(|p_A - s p_B| / 2) for the unit primal parts (s = sign(p_A . p_B)),
+    accurate for small and large angles."""
     A, B = np.broadcast_arrays(np.asarray(A, float), np.asarray(B, float))
     P = np.stack([A[..., :4], B[..., :4]])
     n = np.sum(P * P, axis=-1)
     d = qmul(P, qconj(np.stack([A[..., 4:], B[..., 4:]])))[..., 1:] * (2.0 / n)[..., None]
     dt = np.linalg.norm(d[0] - d[1], axis=-1)
-    E = qmul(qconj(P[0]), P[1])
-    dr = 2.0 * np.arctan2(np.linalg.norm(E[..., 1:], axis=-1), np.abs(E[..., 0]))
+    u = P / np.sqrt(n)[..., None]
+    s = np.where(np.sum(u[0] * u[1], axis=-1) < 0, -1.0, 1.0)[..., None]
+    dr = 4.0 * np.arcsin(np.minimum(0.5 * np.linalg.norm(u[0] - s * u[1], axis=-1), 1.0))
     return dt, dr
 
 
@@ -83,11 +85,18 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
     with np.errstate(invalid="ignore"):
         th_s = np.where(np.isinf(t)[..., None], 0.0, 2.0 * np.arctan2(b[:, None, :], t[..., None] - a[:, None, :]))
     half = 0.5 * np.concatenate([pose_angles, th_s], axis=1)  # (N, P + S, J)
-    s = np.sin(half)[..., None]
-    G = np.concatenate([np.cos(half)[..., None], s * U[:, None], np.zeros(s.shape), -s * M[:, None]], axis=-1)
+    cos, sin = np.cos(half)[..., None], np.sin(half)[..., None]
+    # the joint displacement G = cos + sin (u - eps m) multiplies on the right: x G = cos x + sin x R(line),
+    # with R the right-multiplication matrix of the line (one 8x8 matrix per set and joint)
+    lines = np.concatenate([np.zeros(U.shape[:-1] + (1,)), U, np.zeros(U.shape[:-1] + (1,)), -M], axis=-1)
+    R = dq_right_matrix(lines)  # (N, J, 8, 8)
     disp = {}
     for j, (parent, child) in enumerate(joints):
-        disp[child] = G[..., j, :] if parent == "base" else dq_mul(disp[parent], G[..., j, :])
+        if parent == "base":
+            disp[child] = cos[..., j, :] * np.eye(8)[0] + sin[..., j, :] * lines[:, None, j]
+        else:
+            x = disp[parent]
+            disp[child] = cos[..., j, :] * x + sin[..., j, :] * (x @ R[:, j])
     tool = disp[tool_link]
     # C(t) by Horner; t = inf gives the leading coefficient
     finite = np.where(np.isinf(t), 0.0, t)[..., None]
@@ -95,7 +104,7 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
     for k in range(motion.shape[-2] - 2, -1, -1):
         Ct = Ct * finite + motion[:, k : k + 1, :]
     Ct = np.where(np.isinf(t)[..., None], motion[:, -1:, :], Ct)
-    lhs = [dq_mul(tool[:, :P], tool_ref_dq[:, None]), tool[:, P:]]
+    lhs = [tool[:, :P] @ dq_right_matrix(tool_ref_dq), tool[:, P:]]
     rhs = [pose_dq, Ct]
     for x, y in closures:
         lhs.append(disp[x][:, P:])

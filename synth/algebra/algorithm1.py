@@ -22,20 +22,21 @@ from synth.algebra.polynomial import divide_linear_right, divide_real_quadratic,
 
 GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D_k)|: the remainder is not invertible
 PRISMATIC_TOL = 1e-7  # |vec(primal h)| <= tol * (1 + |h0|): a translation factor, not a revolute one
+FERRARI_MIN_BATCH = 32  # quartics from this batch size on start from Ferrari's formula (eigvals below)
 _ONE = np.eye(8)[0]
 
 
+_NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
+
+
 def cross3(a, b) -> np.ndarray:
-    """Cross product of 3-vectors (..., 3), broadcast. Small arrays by slices of the doubled vectors:
-    ``numpy.cross`` costs ~20 us of overhead per call, which dominates a single synthesis."""
+    """Cross product of 3-vectors (..., 3), broadcast (``numpy.cross`` costs ~20 us of overhead per
+    call, which dominates a single synthesis)."""
     a = np.asarray(a, float)
     b = np.asarray(b, float)
     if a.size + b.size > 3000:
         return np.cross(a, b)
-    a, b = np.broadcast_arrays(a, b)
-    aa = np.concatenate([a, a], axis=-1)
-    bb = np.concatenate([b, b], axis=-1)
-    return aa[..., 1:4] * bb[..., 2:5] - aa[..., 2:5] * bb[..., 1:4]
+    return np.take(a, _NEXT, -1) * np.take(b, _PREV, -1) - np.take(a, _PREV, -1) * np.take(b, _NEXT, -1)
 
 
 def orders(n: int) -> np.ndarray:
@@ -52,17 +53,14 @@ def norm_roots(N, newton: int = 2) -> np.ndarray:
     N = np.asarray(N, float)
     batch, m = N.shape[:-1], N.shape[-1] - 1
     flat = N.reshape(-1, m + 1)
-    if m == 4:
+    if m == 4 and flat.shape[0] >= FERRARI_MIN_BATCH:
         with np.errstate(all="ignore"):
-            z = _newton(flat, _ferrari_upper(flat), max(newton, 1) + 1)
-            f = _horner(flat, z)
-            df = _horner(flat[:, 1:] * np.arange(1, m + 1), z)
-            settled = np.all(np.abs(f) <= 1e-10 * np.abs(df) * np.maximum(1.0, np.abs(z)), axis=-1)
-        redo = ~settled & np.all(np.isfinite(flat), axis=-1)
+            z, step = _newton(flat, _ferrari_upper(flat), max(newton, 1) + 1)
+        redo = ~np.all(np.abs(step) <= 1e-10 * np.maximum(1.0, np.abs(z)), axis=-1) & np.all(np.isfinite(flat), axis=-1)
         if np.any(redo):
-            z[redo] = _newton(flat[redo], _eig_upper(flat[redo]), newton)
+            z[redo] = _newton(flat[redo], _eig_upper(flat[redo]), newton)[0]
     else:
-        z = _newton(flat, _eig_upper(flat), newton)
+        z = _newton(flat, _eig_upper(flat), newton)[0]
     z = np.where(z.imag < 0, z.conj(), z)
     z = np.take_along_axis(z, np.argsort(z.real + 1e-12 * z.imag, axis=-1, kind="stable"), -1)
     return z.reshape(batch + (m // 2,))
@@ -73,20 +71,27 @@ def _eig_upper(flat):
     m = flat.shape[-1] - 1
     comp = np.zeros((flat.shape[0], m, m))
     comp[:, 1:, :-1] = np.eye(m - 1)
-    comp[:, :, -1] = -flat[:, :m] / flat[:, m:]
+    with np.errstate(all="ignore"):
+        comp[:, :, -1] = -flat[:, :m] / flat[:, m:]
+    bad = ~np.all(np.isfinite(comp[:, :, -1]), axis=-1)
+    comp[bad, :, -1] = 0.0
     z = np.linalg.eigvals(comp)
+    z[bad] = np.nan
     z = np.take_along_axis(z, np.argsort(-z.imag, axis=-1)[:, : m // 2], -1)
     return np.where(z.imag < 0, z.conj(), z)
 
 
 def _newton(flat, z, steps):
-    """``steps`` Newton steps on the real polynomials flat (B, m+1) at the complex points z (B, r)."""
+    """``steps`` Newton steps on the real polynomials flat (B, m+1) at the complex points z (B, r).
+    Returns (z, the last step)."""
     d = flat[:, 1:] * np.arange(1, flat.shape[-1])
+    step = np.zeros_like(z)
     with np.errstate(all="ignore"):
         for _ in range(steps):
             step = _horner(flat, z) / _horner(d, z)
-            z = z - np.where(np.isfinite(step), step, 0)
-    return z
+            step = np.where(np.isfinite(step), step, 0)
+            z = z - step
+    return z, step
 
 
 def _ferrari_upper(flat):

@@ -81,13 +81,13 @@ def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
               "pose_rotation": checks["max_pose_rotation_error"],
               "closure_translation": checks["max_closure_translation_error"],
               "closure_rotation": checks["max_closure_rotation_error"]}
-    rel = float(relative_error(T[None], U, M, cond.centre[None], np.array([cond.scale]),
-                               {k: np.array([v]) for k, v in errors.items()})[0])
+    far = axis_distance(U, M, cond.centre[None])
+    rel = float(relative_error(T[None], np.array([cond.scale]), far, {k: np.array([v]) for k, v in errors.items()})[0])
     info = dict(linkage.info)
     info["relative_error"] = _accept(linkage, cond, max(rel, info.get("relative_error", 0.0)))
     B = [info["study_form"][k] / float(cond.scale) for k in ("B01", "B02", "B12")]
     info.pop("condition_estimate", None)
-    info["warnings"] = _warnings(linkage, B, cond, info)
+    info["warnings"] = _warnings(linkage, B, cond, info, float(far[0]))
     linkage.checks, linkage.info = checks, info
     return checks
 
@@ -106,7 +106,7 @@ def linkage_from_solution(out: dict, i: int, T, names, check_samples: int):
     linkage.checks = as_checks(figures, check_samples, extent(linkage))
     geo = {k: v[i : i + 1] for k, v in out["geometry"].items()}
     linkage.info = _complete_info(linkage, info, out["study_form"][i] / scale, cond, geo,
-                                  float(out["relative_error"][i]))
+                                  float(out["relative_error"][i]), float(out["axis_distance"][i]))
     return linkage
 
 
@@ -121,9 +121,9 @@ def _bennett_general(T, names, check_samples):
     errors = {"pose_translation": c["max_pose_translation_error"], "pose_rotation": c["max_pose_rotation_error"],
               "closure_translation": c["max_closure_translation_error"],
               "closure_rotation": c["max_closure_rotation_error"]}
-    rel = float(relative_error(T[None], U, M, cond.centre[None], np.array([cond.scale]),
-                               {k: np.array([v]) for k, v in errors.items()})[0])
-    linkage.info = _complete_info(linkage, info, con.B, cond, loop_geometry(U, M), rel)
+    far = axis_distance(U, M, cond.centre[None])
+    rel = float(relative_error(T[None], np.array([cond.scale]), far, {k: np.array([v]) for k, v in errors.items()})[0])
+    linkage.info = _complete_info(linkage, info, con.B, cond, loop_geometry(U, M), rel, float(far[0]))
     return linkage
 
 
@@ -133,7 +133,7 @@ def _loop_lines(linkage, loop=LOOP_NAMES):
     return lines[None, :, 0], lines[None, :, 1]
 
 
-def _complete_info(linkage, info, B, cond, geo, rel) -> dict:
+def _complete_info(linkage, info, B, cond, geo, rel, far) -> dict:
     """``info`` plus the Bennett parameters, DH table, relative self-check error and warnings; raises
     SynthesisError when the self-check error ``rel`` exceeds ACCEPT_TOL (`_accept`)."""
     info = dict(info)
@@ -143,7 +143,7 @@ def _complete_info(linkage, info, B, cond, geo, rel) -> dict:
     info["bennett"] = bp
     info["dh"] = _dh_list(LOOP_NAMES, dh_rows(_loop_lines(linkage)[0], geo))
     info["relative_error"] = _accept(linkage, cond, rel)
-    info["warnings"] = _warnings(linkage, [float(x) for x in B], cond, info)
+    info["warnings"] = _warnings(linkage, [float(x) for x in B], cond, info, far)
     return info
 
 
@@ -184,12 +184,6 @@ def _accept(linkage, cond, rel) -> float:
             f"linkage computed in double precision misses them by {rel:.1e} (relative; at most {ACCEPT_TOL:g} "
             "is accepted), so no reliable linkage can be given; move the poses further apart")
     return rel
-
-
-def _axis_distance(linkage, c) -> float:
-    """Largest distance of a joint axis from the point c: |moment about c| = |m - c x u|."""
-    U, M = _loop_lines(linkage, [j.name for j in linkage.joints])
-    return float(axis_distance(U, M, np.asarray(c, float)[None])[0])
 
 
 def _near_degenerate(T, names, spread) -> str:
@@ -330,7 +324,7 @@ def _general_factors(T, names):
     return H, K, C, con, cond, info
 
 
-def _warnings(linkage, B, cond, info) -> list[str]:
+def _warnings(linkage, B, cond, info, far) -> list[str]:
     """Warnings for a valid result: axes far from the poses, and sensitivity to the poses. The condition
     estimate (`sensitivity`, two extra syntheses) runs only when a cheap indicator suggests trouble:
     axes more than 3 pose spreads away, a Study form value |B| < 1e-2 (nearly zero pitch), or norm
@@ -341,7 +335,7 @@ def _warnings(linkage, B, cond, info) -> list[str]:
         out.append(f"the linkage reproduces the poses less accurately than usual (relative error between "
                    f"{ACCURATE:g} and {ACCEPT_TOL:g}): the poses are close to a degenerate configuration")
     # distance of each axis from the poses' centroid: |moment about the centroid| = |m - c x u|
-    far = _axis_distance(linkage, cond.centre.tolist()) / cond.scale
+    far = far / cond.scale
     if far > 1e3:
         out.append(f"joint axes lie {far:.3g} pose spreads away from the poses: the poses are nearly "
                    "related by pure translations, the linkage is valid but impractically large")

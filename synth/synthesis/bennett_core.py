@@ -68,12 +68,13 @@ def solve(T, check_samples: int) -> dict:
         pose_angles = np.concatenate([np.zeros((N, 1, 4)), th], axis=1)  # (N, 3, 4)
         geo = loop_geometry(U[:, LOOP], M[:, LOOP])
         errors = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
-        rel = relative_error(Tf, U, M, cond.centre, cond.scale, errors)
+        far = axis_distance(U, M, cond.centre)
+        rel = relative_error(Tf, cond.scale, far, errors)
         good &= rel <= 0.1 * ACCEPT_TOL
     return dict(good=good, finite=finite, lines=np.stack([U, M], axis=2), laws=np.stack([a, b], -1),
                 pose_angles=pose_angles, factors=factors, motion=motion, study_form=B * cond.scale[:, None],
                 centre=cond.centre, scale=cond.scale, residual=residual, roots=z, geometry=geo,
-                bennett=bennett_parameters(geo), errors=errors, relative_error=rel)
+                bennett=bennett_parameters(geo), errors=errors, relative_error=rel, axis_distance=far)
 
 
 def axis_distance(U, M, c) -> np.ndarray:
@@ -81,11 +82,12 @@ def axis_distance(U, M, c) -> np.ndarray:
     return np.max(np.linalg.norm(M - cross3(c[:, None, :], U), axis=-1), axis=-1)
 
 
-def relative_error(T, U, M, centre, spread, errors) -> np.ndarray:
+def relative_error(T, spread, far, errors) -> np.ndarray:
     """The acceptance figure (N,): the largest self-check error, translations relative to the pose
-    spread (closure: to the axes' largest distance from the centroid), plus a floor of FLOOR_ULPS ulps of
-    the coordinates' magnitude (a pose 1e6 m from the origin is only known to ~1e-10 m)."""
-    size = np.maximum(spread, axis_distance(U, M, centre))
+    spread (closure: to the axes' largest distance ``far`` from the centroid, `axis_distance`), plus a
+    floor of FLOOR_ULPS ulps of the coordinates' magnitude (a pose 1e6 m from the origin is only known
+    to ~1e-10 m)."""
+    size = np.maximum(spread, far)
     floor = FLOOR_ULPS * EPS * np.max(np.abs(T[:, :, :3, 3]), axis=(1, 2)) / ACCEPT_TOL
     return np.maximum.reduce([errors["pose_translation"] / (spread + floor), errors["pose_rotation"],
                               errors["closure_translation"] / (size + floor), errors["closure_rotation"]])
