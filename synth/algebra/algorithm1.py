@@ -13,6 +13,7 @@ the unique right zero of ``D`` with ``N(t - h) = M``; divide ``D = D' (t - h)`` 
 """
 from __future__ import annotations
 
+import functools
 import itertools
 
 import numpy as np
@@ -152,9 +153,15 @@ def root_conditioning(z) -> tuple[np.ndarray, np.ndarray]:
     n = z.shape[-1]
     if n < 2:
         return im, np.ones(im.shape)
-    i, j = np.triu_indices(n, 1)
+    i, j = _pairs(n)
     sep = np.min(np.abs(z[..., i] - z[..., j]) / np.maximum(w[..., i], w[..., j]), axis=-1)
     return im, sep
+
+
+@functools.lru_cache(maxsize=None)
+def _pairs(n: int):
+    """Index pairs i < j of n items (``numpy.triu_indices(n, 1)``, cached)."""
+    return np.triu_indices(n, 1)
 
 
 def quadratics(z) -> np.ndarray:

@@ -223,17 +223,17 @@ def real_factor_roots(C, roots, tol=1e-6):
     """The roots (Im >= 0) of the maximal real polynomial factor of the primal part P: the roots z
     of N(C) with P(z) = 0 (all four component polynomials vanish there)."""
     P = np.asarray(C, float)[:, :4]
+    cand = np.array([w for r in roots for w in ((r,) if not isinstance(r, tuple) else r)], complex)
+    if len(cand) == 0:
+        return []
+    val = np.zeros((len(cand), 4), complex)
+    for k in range(P.shape[0] - 1, -1, -1):
+        val = val * cand[:, None] + P[k]
+    ref = np.abs(P).max() * np.sum(np.abs(cand)[:, None] ** np.arange(P.shape[0]), axis=1)
     out = []
-    pows_scale = np.abs(P).max()
-    for r in roots:
-        cand = [complex(r)] if not isinstance(r, tuple) else [complex(r[0]), complex(r[1])]
-        for z in cand:
-            val = np.zeros(4, complex)
-            for k in range(P.shape[0] - 1, -1, -1):
-                val = val * z + P[k]
-            ref = pows_scale * sum(abs(z) ** k for k in range(P.shape[0]))
-            if np.linalg.norm(val) <= tol * ref and all(abs(z - w) > 1e-9 for w in out):
-                out.append(z)
+    for z in cand[np.linalg.norm(val, axis=1) <= tol * ref].tolist():
+        if all(abs(z - w) > 1e-9 for w in out):
+            out.append(z)
     return out
 
 
@@ -348,11 +348,14 @@ def factorize(C, *, validate=True) -> FactorResult:
     return result
 
 
+_SMALL_PAIRS = {n: np.triu_indices(n, 1) for n in (2, 3)}
+
+
 def _isolated(z) -> bool:
     """No two roots z (n,) within the clustering's reach (`_cluster_roots`): all are simple roots."""
     if len(z) < 2:
         return True
-    i, j = np.triu_indices(len(z), 1)
+    i, j = np.triu_indices(len(z), 1) if len(z) > 3 else _SMALL_PAIRS[len(z)]
     reach = 2.05 * _merge_radius(2 * len(z)) * np.maximum(1.0, np.maximum(np.abs(z[i]), np.abs(z[j])))
     return bool(np.all(np.abs(z[i] - z[j]) > reach))
 

@@ -103,9 +103,10 @@ def linkage_from_solution(out: dict, i: int, T, names, check_samples: int):
             "conditioning": {"centre": out["centre"][i].tolist(), "scale": scale}}
     linkage = two_branch_linkage("bennett", F[:2], F[2:], out["motion"][i], T, names, TS, info)
     figures = {k: float(v[i]) for k, v in out["errors"].items()}
-    linkage.checks = as_checks(figures, check_samples, extent(linkage))
-    geo = {k: v[i : i + 1] for k, v in out["geometry"].items()}
-    linkage.info = _complete_info(linkage, info, out["study_form"][i] / scale, cond, geo,
+    linkage.checks = as_checks(figures, check_samples, float(out["length_scale"][i]))
+    bp = {k: v[i : i + 1] for k, v in out["bennett"].items()}
+    dh = {k: v[i : i + 1] for k, v in out["dh"].items()}
+    linkage.info = _complete_info(linkage, info, out["study_form"][i] / scale, cond, bp, dh,
                                   float(out["relative_error"][i]), float(out["axis_distance"][i]))
     return linkage
 
@@ -123,7 +124,9 @@ def _bennett_general(T, names, check_samples):
               "closure_rotation": c["max_closure_rotation_error"]}
     far = axis_distance(U, M, cond.centre[None])
     rel = float(relative_error(T[None], np.array([cond.scale]), far, {k: np.array([v]) for k, v in errors.items()})[0])
-    linkage.info = _complete_info(linkage, info, con.B, cond, loop_geometry(U, M), rel, float(far[0]))
+    geo = loop_geometry(U, M)
+    linkage.info = _complete_info(linkage, info, con.B, cond, bennett_parameters(geo), dh_rows(U, geo), rel,
+                                  float(far[0]))
     return linkage
 
 
@@ -133,15 +136,15 @@ def _loop_lines(linkage, loop=LOOP_NAMES):
     return lines[None, :, 0], lines[None, :, 1]
 
 
-def _complete_info(linkage, info, B, cond, geo, rel, far) -> dict:
+def _complete_info(linkage, info, B, cond, bp, dh, rel, far) -> dict:
     """``info`` plus the Bennett parameters, DH table, relative self-check error and warnings; raises
     SynthesisError when the self-check error ``rel`` exceeds ACCEPT_TOL (`_accept`)."""
     info = dict(info)
-    bp = {k: float(v[0]) for k, v in bennett_parameters(geo).items()}
+    bp = {k: float(v[0]) for k, v in bp.items()}
     if not math.isfinite(bp["bennett_condition_residual"]):
         bp["bennett_condition_residual"] = None
     info["bennett"] = bp
-    info["dh"] = _dh_list(LOOP_NAMES, dh_rows(_loop_lines(linkage)[0], geo))
+    info["dh"] = _dh_list(LOOP_NAMES, dh)
     info["relative_error"] = _accept(linkage, cond, rel)
     info["warnings"] = _warnings(linkage, [float(x) for x in B], cond, info, far)
     return info

@@ -39,6 +39,7 @@ MIN_IMAG = 1e-5  # min Im z / (1 + |z|^2) at or below this: nearly real norm roo
 MIN_SEPARATION = 1e-5  # min |z1 - z2| / (1 + |z|^2) at or below this: nearly repeated root -> per-set path
 MAX_RESIDUAL = 5e-13  # multiply-back error above this: per-set path (factorize refines)
 _ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
+_PREV = [3, 0, 1, 2]  # the previous joint around the loop
 
 
 def solve(T, check_samples: int) -> dict:
@@ -60,13 +61,19 @@ def solve(T, check_samples: int) -> dict:
         residual = np.max(multiply_back(C[:, None], H), axis=1)
         good = (finite & ok.all(axis=1) & (np.min(np.abs(B), axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
                 & (residual <= MAX_RESIDUAL) & ~np.any(is_translation(H), axis=(1, 2)))
-        factors = to_world(H.reshape(N, 4, 8), cond)  # h1 h2 k1 k2, world frame
-        motion = to_world(C, cond)
+        world = to_world(np.concatenate([H.reshape(N, 4, 8), C], axis=1), cond)
+        factors, motion = world[:, :4], world[:, 4:]  # h1 h2 k1 k2; C (world frame)
         a, b = factors[..., 0], np.linalg.norm(factors[..., 1:4], axis=-1)
         U, M = -factors[..., 1:4] / b[..., None], factors[..., 5:8] / b[..., None]
         th = np.mod(2.0 * np.arctan2(b[:, None, :], TS[1:, None] - a[:, None, :]), 2 * np.pi)
         pose_angles = np.concatenate([np.zeros((N, 1, 4)), th], axis=1)  # (N, 3, 4)
         geo = loop_geometry(U[:, LOOP], M[:, LOOP])
+        good &= ~np.any(geo["parallel"], axis=1)
+        # the linkage's length scale (`synth.checks.extent`): the joint sites are the means of the feet of
+        # the common normals around the loop (each link carries two joints of the loop)
+        sites = 0.5 * (geo["foot_out"] + geo["foot_in"][:, _PREV])
+        pts = np.concatenate([Tf[:, :, :3, 3], sites, Tf[:, :1, :3, 3]], axis=1)
+        length_scale = np.maximum(np.sqrt(np.mean(np.sum((pts - pts.mean(axis=1, keepdims=True)) ** 2, -1), -1)), 1e-9)
         errors = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
         far = axis_distance(U, M, cond.centre)
         rel = relative_error(Tf, cond.scale, far, errors)
@@ -74,7 +81,8 @@ def solve(T, check_samples: int) -> dict:
     return dict(good=good, finite=finite, lines=np.stack([U, M], axis=2), laws=np.stack([a, b], -1),
                 pose_angles=pose_angles, factors=factors, motion=motion, study_form=B * cond.scale[:, None],
                 centre=cond.centre, scale=cond.scale, residual=residual, roots=z, geometry=geo,
-                bennett=bennett_parameters(geo), errors=errors, relative_error=rel, axis_distance=far)
+                bennett=bennett_parameters(geo), dh=dh_rows(U[:, LOOP], geo), errors=errors, relative_error=rel,
+                axis_distance=far, length_scale=length_scale)
 
 
 def axis_distance(U, M, c) -> np.ndarray:
@@ -97,8 +105,10 @@ def loop_geometry(U, M) -> dict:
     """Geometry of consecutive axes around closed loops, lines U, M (N, J, 3) in loop order: for the pair
     (i, i+1 mod J) ``distance`` and signed ``twist`` (the angle from u_i to u_{i+1} about the common
     normal from i to i+1) (N, J), the feet ``foot_out`` (on i) and ``foot_in`` (on i+1) and the unit
-    ``normal`` (N, J, 3). Parallel axes: the foot on i is its point nearest the origin."""
-    U2, M2 = np.roll(U, -1, axis=1), np.roll(M, -1, axis=1)
+    ``normal`` (N, J, 3), ``parallel`` (N, J). Parallel axes: the foot on i is its point nearest the origin."""
+    J = U.shape[-2]
+    nxt = (np.arange(J) + 1) % J
+    U2, M2 = U[..., nxt, :], M[..., nxt, :]
     p1, p2 = cross3(U, M), cross3(U2, M2)
     cr = cross3(U, U2)
     s2 = np.sum(cr * cr, axis=-1, keepdims=True)
@@ -113,7 +123,7 @@ def loop_geometry(U, M) -> dict:
     nc = np.sqrt(s2)
     n = np.where(dist > 1e-12, dv / np.where(dist > 1e-12, dist, 1.0), np.where(nc > 1e-12, cr / np.where(nc > 1e-12, nc, 1.0), 0.0))
     twist = np.arctan2(np.sum(cr * n, -1), np.sum(U * U2, -1))
-    return {"distance": dist[..., 0], "twist": twist, "foot_out": f1, "foot_in": f2, "normal": n}
+    return {"distance": dist[..., 0], "twist": twist, "foot_out": f1, "foot_in": f2, "normal": n, "parallel": par[..., 0]}
 
 
 def bennett_parameters(geo) -> dict:
@@ -138,7 +148,9 @@ def dh_rows(U, geo) -> dict:
     """Denavit-Hartenberg parameters around closed loops (lines U (N, J, 3) in loop order, geometry from
     `loop_geometry`): for joint i ``a``/``alpha`` to the next joint, ``d`` the offset along axis i
     between the incoming and outgoing common normals, ``theta`` the angle between them about axis i."""
-    f_in, n_in = np.roll(geo["foot_in"], 1, axis=1), np.roll(geo["normal"], 1, axis=1)
+    J = U.shape[-2]
+    prv = (np.arange(J) - 1) % J
+    f_in, n_in = geo["foot_in"][..., prv, :], geo["normal"][..., prv, :]
     d = np.sum((geo["foot_out"] - f_in) * U, -1)
     theta = np.arctan2(np.sum(cross3(n_in, geo["normal"]) * U, -1), np.sum(n_in * geo["normal"], -1))
     return {"a": geo["distance"], "alpha": geo["twist"], "d": d, "theta": theta}
