@@ -8,6 +8,8 @@ one batched product per joint for all poses and samples at once.
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from synth.algebra.algorithm1 import cross3
@@ -55,11 +57,18 @@ def dq_pose_difference(A, B):
 def sample_parameters_batch(a, b, samples: int) -> np.ndarray:
     """Parameters (N, samples) covering the real line, ``centre + scale tan(phi)`` with centre and scale
     the mean a and b of each linkage's angle laws (a, b of shape (N, J)), the last one t = infinity."""
-    centre = np.mean(a, axis=-1)
-    scale = np.maximum(np.mean(b, axis=-1), 1e-12)
+    centre = np.mean(a, axis=-1, keepdims=True)
+    scale = np.maximum(np.mean(b, axis=-1, keepdims=True), 1e-12)
+    return centre + scale * _tangents(samples)
+
+
+@functools.lru_cache(maxsize=16)
+def _tangents(samples: int) -> np.ndarray:
+    """tan(phi) at samples - 1 equally spaced phi in (-pi/2, pi/2), then inf (read-only, cached)."""
     phi = np.linspace(-np.pi / 2, np.pi / 2, samples + 1)[1:-1]
-    t = centre[:, None] + scale[:, None] * np.tan(phi)
-    return np.concatenate([t, np.full((len(t), 1), np.inf)], axis=1)
+    out = np.concatenate([np.tan(phi), [np.inf]])
+    out.flags.writeable = False
+    return out
 
 
 def sample_parameters(linkage: Linkage, samples: int = 200) -> np.ndarray:

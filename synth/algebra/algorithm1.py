@@ -185,15 +185,17 @@ def algorithm1(C, M):
     prim = np.max(np.sum(C[..., :4] ** 2, axis=-1), axis=-1)  # (|primal| of the largest coefficient)^2
     H = np.empty(batch + (n, 8))
     ok = np.ones(batch, bool)
-    for pos in range(n - 1, -1, -1):
+    for pos in range(n - 1, 0, -1):
         _, r1, r0 = divide_real_quadratic(D, M[..., pos, :])
         good = np.sum(r1[..., :4] ** 2, axis=-1) > GENERIC_TOL**2 * prim
         ok &= good
         r1 = np.where(good[..., None], r1, _ONE)
         h = -dq_mul(dq_inv(r1), r0)
         H[..., pos, :] = h
-        if pos:
-            D, _ = divide_linear_right(D, h)
+        D, _ = divide_linear_right(D, h)
+    # the last remainder D = D1 t + D0 is linear with the leading coefficient of C: h_1 = -D1^{-1} D0
+    # (the remainder of D mod M_1, whatever M_1)
+    H[..., 0, :] = -dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])
     return H, ok
 
 
