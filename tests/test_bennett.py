@@ -1,4 +1,4 @@
-"""Bennett synthesis: MATH.md section 11 D, random pose sets, degenerate inputs."""
+"""Bennett synthesis: the worked example D of docs/conic.md, random pose sets, degenerate inputs."""
 from __future__ import annotations
 
 from fractions import Fraction as F

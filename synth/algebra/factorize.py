@@ -1,4 +1,4 @@
-"""Factorization of monic motion polynomials into linear factors (MATH.md section 4, Algorithm 1).
+"""Factorization of monic motion polynomials into linear factors (Algorithm 1, docs/algorithm1.md).
 
 ``factorize(C)`` returns every factorization ``C = (t - h_1)...(t - h_n)`` obtainable from the
 orders of the norm polynomial's monic real quadratic factors: n! for distinct quadratics, fewer

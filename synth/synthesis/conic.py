@@ -1,4 +1,4 @@
-"""Motion polynomials through given poses (MATH.md sections 6-7).
+"""Motion polynomials through given poses (docs/conic.md).
 
 Poses are 4x4 arrays in metres. Synthesis works on *conditioned* poses: world origin moved to the
 centroid ``c`` of the positions, lengths divided by their RMS spread ``L``; ``to_world`` maps dual
@@ -71,7 +71,7 @@ class ConicData:
 
 
 def conic(D, tol=1e-9) -> ConicData:
-    """The monic quadratic C with C(inf) = 1, C(0) ~ D_1, C(1) ~ D_2 (MATH.md section 7).
+    """The monic quadratic C with C(inf) = 1, C(0) ~ D_1, C(1) ~ D_2 (docs/conic.md).
 
     D: (..., 3, 8) with D_0 = 1 (conditioned frame, unit dual quaternions). Raises SynthesisError
     for a single input whose Study-form values vanish (pure rotations or translations between poses)."""
@@ -95,7 +95,7 @@ def conic(D, tol=1e-9) -> ConicData:
 
 
 def check_conic_degeneracy(D, B01, B02, B12, tol):
-    """Plain-language refusal of inputs whose conic degenerates (MATH.md section 7)."""
+    """Plain-language refusal of inputs whose conic degenerates (docs/conic.md)."""
     pairs = {(0, 1): B01, (0, 2): B02, (1, 2): B12}
     zero = [p for p, b in pairs.items() if abs(b) <= tol]
     if len(zero) == 3:
