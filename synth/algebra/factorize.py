@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from synth.algebra.algorithm1 import (GENERIC_TOL, PRISMATIC_TOL, algorithm1, multiply_back, norm_roots, polish,
+from synth.algebra.algorithm1 import (PRISMATIC_TOL, algorithm1, multiply_back, norm_roots, polish,
                                       root_conditioning)
 from synth.algebra.dq import dq_inv, dq_mul, plucker
 from synth.algebra.polynomial import divide_real_quadratic, norm_poly, right_value, study_residual

@@ -18,7 +18,7 @@ import numpy as np
 
 from synth.algebra.algorithm1 import cross3
 from synth.algebra.factorize import factorize
-from synth.checks import DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, extent, pose_difference, self_check
+from synth.checks import DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, pose_difference, self_check
 from synth.errors import InputError, NotGenericError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, LOOP, TS, axis_distance, bennett_parameters,
