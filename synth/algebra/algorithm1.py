@@ -83,13 +83,17 @@ def _eig_upper(flat):
 
 
 def _newton(flat, z, steps):
-    """``steps`` Newton steps on the real polynomials flat (B, m+1) at the complex points z (B, r).
+    """``steps`` Newton steps on the real polynomials flat (B, m+1) at the complex points z (B, r),
+    values and derivatives from the powers of z (two small matrix products per step).
     Returns (z, the last step)."""
-    d = flat[:, 1:] * np.arange(1, flat.shape[-1])
+    m = flat.shape[-1] - 1
+    c = flat[:, :, None]  # (B, m+1, 1)
+    d = (flat[:, 1:] * np.arange(1, m + 1))[:, :, None]  # (B, m, 1)
     step = np.zeros_like(z)
     with np.errstate(all="ignore"):
         for _ in range(steps):
-            step = _horner(flat, z) / _horner(d, z)
+            P = np.cumprod(np.broadcast_to(z[..., None], z.shape + (m,)), axis=-1)  # z^1 .. z^m
+            step = ((P @ c[:, 1:])[..., 0] + flat[:, :1]) / ((P[..., :-1] @ d[:, 1:])[..., 0] + d[:, 0])
             step = np.where(np.isfinite(step), step, 0)
             z = z - step
     return z, step
@@ -133,14 +137,6 @@ def _largest_cubic_root(b, c, d):
         df = (3.0 * x + 2.0 * b) * x + c
         x = x - np.where(df != 0, f / np.where(df != 0, df, 1.0), 0.0)
     return x
-
-
-def _horner(c, z):
-    """Values of the real polynomials c (B, k+1) (ascending) at z (B, r)."""
-    out = c[:, -1:] * np.ones(z.shape)
-    for k in range(c.shape[1] - 2, -1, -1):
-        out = out * z + c[:, k : k + 1]
-    return out
 
 
 def root_conditioning(z) -> tuple[np.ndarray, np.ndarray]:
