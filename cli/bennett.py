@@ -23,7 +23,7 @@ def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, cleara
     achieves (collision-free over the full cycle or the task range, or not); prints a summary on stderr
     and, with --json, linkage.json on stdout."""
     from synth.synthesis.bennett import bennett as synth_bennett
-    from synth.checks import VERIFY_SAMPLES
+    from synth.synthesis.bennett import verify
     from synth.errors import SynthesisError
     from synth.io.poses import load_poses
 
@@ -35,7 +35,8 @@ def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, cleara
 
         check_output_target(out, force)  # refuse an unusable OUT before doing the work
     try:
-        linkage = synth_bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
+        linkage = synth_bennett(ps.matrices, ps.names)
+        verify(linkage)  # the self-check at VERIFY_SAMPLES parameters; refuses a failing linkage
     except SynthesisError as e:  # name the file, like every input error
         raise SynthesisError(f"{ps.source}: {e}") from e
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,

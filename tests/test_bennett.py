@@ -1,4 +1,4 @@
-"""Bennett synthesis: MATH.md section 11 D, random pose sets, degenerate inputs."""
+"""Bennett synthesis: the worked example D of docs/conic.md, random pose sets, degenerate inputs."""
 from __future__ import annotations
 
 from fractions import Fraction as F
@@ -184,3 +184,64 @@ def _factor(j):
 
 def test_pose_to_dq_consistency():
     np.testing.assert_allclose(pose_to_dq(EXAMPLE_D[1]), [0.6, 0, 0, 0.8, 0.2, -0.3, 0.4, -0.15], atol=1e-15)
+
+
+# ------------------------------------------------------------------ a plain, fully computed linkage
+def test_the_linkage_is_fully_computed(example_d):
+    """No deferred attributes: checks, motion and info are plain values in the instance."""
+    L = bennett(EXAMPLE_D)
+    d = vars(L)
+    assert "_deferred" not in d
+    assert set(("checks", "motion", "info")) <= set(d)
+    assert d["checks"]["samples"] == 4 and d["motion"].shape == (3, 8)
+    assert {"bennett", "dh", "relative_error", "warnings", "conditioning", "study_form"} <= set(d["info"])
+
+
+def test_verify_recomputes_the_checks_and_refuses_failures(monkeypatch):
+    from synth.synthesis import bennett as sb
+    from synth.checks import VERIFY_SAMPLES
+
+    rng = np.random.default_rng(5)
+    L = bennett(random_poses(rng, 3))
+    checks = sb.verify(L)
+    assert checks is L.checks and checks["samples"] == VERIFY_SAMPLES
+    assert checks["max_closure_error"] <= 1e-9 * checks["length_scale"]
+    monkeypatch.setattr(sb, "ACCEPT_TOL", 1e-30)
+    with pytest.raises(SynthesisError, match="misses them"):
+        sb.verify(L)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_invariants_pose_reproduction_study_and_closure_along_the_motion(seed):
+    """The factors satisfy the Study condition, both branches multiply back to C, every pose is C at
+    its parameter, and both branches give the same coupler all along the motion."""
+    from synth.algebra.algorithm1 import study_violation
+    from synth.checks import link_displacements
+    from synth.algebra.polynomial import evaluate
+    from synth.checks import dq_pose_difference
+
+    rng = np.random.default_rng(100 + seed)
+    T = random_poses(rng, 3, scale=10 ** rng.uniform(-2, 2), offset=rng.normal(size=3) * 10)
+    L = bennett(T)
+    size = max(L.extent(), 1.0)
+    H = np.array([[_factor(L.joint(n)) for n in ("h1", "h2")], [_factor(L.joint(n)) for n in ("k1", "k2")]])
+    assert np.all(study_violation(H) <= 1e-12)
+    assert np.all(relative_error(product_of_linear(H), L.motion) <= 1e-12)
+    for rec in L.poses:
+        dt, dr = dq_pose_difference(evaluate(L.motion, rec.t), pose_to_dq(rec.matrix @ np.linalg.inv(T[0])))
+        assert dt <= 1e-9 * size and dr <= 1e-9
+    t = np.concatenate([np.linspace(-50, 50, 101), [np.inf]])
+    disp = link_displacements(L, [j.angle(t) for j in L.joints])
+    dt, dr = dq_pose_difference(disp["coupler"], disp["coupler_k"])
+    assert dt.max() <= 1e-9 * size and dr.max() <= 1e-9
+
+
+def test_check_distinct_accepts_lists_and_nan():
+    from synth.synthesis.bennett import check_distinct
+
+    check_distinct([np.eye(4).tolist(), np.diag([1.0, -1, -1, 1]).tolist()], ["a", "b"])
+    T = np.array([np.eye(4), np.eye(4)])
+    T[1, 0, 3] = np.nan
+    check_distinct(T, ["a", "b"])  # NaN compares false: not 'coincident'
+    with pytest.raises(SynthesisError, match=r"poses 0 \('a'\) and 1 \('b'\) coincide"):
+        check_distinct(np.array([np.eye(4), np.eye(4), EXAMPLE_D[1]]), ["a", "b", "c"])

@@ -21,7 +21,7 @@ from synth.algebra.polynomial import (divide_real_quadratic, evaluate, linear, n
                                       product_of_linear, study_residual)
 from synth.algebra.realfactor import mrpf_exact
 from synth.errors import SynthesisError
-from synth.synthesis.bennett import bennett, bennett_parameters
+from synth.synthesis.bennett import bennett, bennett_parameters_of
 from synth.synthesis.conic import relative_displacements
 from synth.synthesis.multiloop import ladder_factors, ladder_linkage, loop_sides
 
@@ -194,7 +194,7 @@ def test_bennett_example():
     assert all(abs(x) < 1e-15 for x in ang[0].values())
     for a, (x, y) in zip(ang[1:], ((4.1628830873, 4.1098453272), (0.8993459891, 2.1869341004))):
         assert (a["h1"], a["k2"], a["h2"], a["k1"]) == pytest.approx((x, x, y, y), abs=1e-9)
-    par = bennett_parameters(lk)
+    par = bennett_parameters_of(lk)
     assert par["a"] == pytest.approx(0.2956964860, abs=1e-10)
     assert par["alpha"] == pytest.approx(-2.0742295787, abs=1e-10)
     assert par["b"] == pytest.approx(0.3293871988, abs=1e-10)

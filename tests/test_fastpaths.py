@@ -1,17 +1,17 @@
-"""The plain-float fast paths (synth/scalar.py) agree with the general numpy engine up to rounding."""
+"""One engine: factorize and synth.bennett agree with their own invariants and with the per-set path
+(the same conic, `factorize` with refinement) within tolerances relative to the scale."""
 from __future__ import annotations
-
-import importlib
 
 import numpy as np
 import pytest
 
-from synth.algebra.polynomial import product_of_linear, relative_error
+from synth.algebra.algorithm1 import multiply_back, study_violation
+from synth.algebra.factorize import factorize
+from synth.algebra.polynomial import product_of_linear
+from synth.synthesis import bennett as bennett_mod
+from synth.synthesis import bennett_core
 
 from conftest import random_poses
-
-factor_mod = importlib.import_module("synth.algebra.factorize")
-bennett_mod = importlib.import_module("synth.synthesis.bennett")
 
 
 def rotation_factors(rng, n, scale=1.0):
@@ -23,64 +23,41 @@ def rotation_factors(rng, n, scale=1.0):
     return h
 
 
-def general_factorize(C, monkeypatch):
-    with monkeypatch.context() as m:
-        m.setattr(factor_mod, "_factorize_fast", lambda C, validate: None)
-        return factor_mod.factorize(C)
-
-
 @pytest.mark.parametrize("n", [1, 2, 3])
 @pytest.mark.parametrize("seed", range(30))
-def test_factorize_fast_equals_general(n, seed, monkeypatch):
+def test_factorize_multiplies_back_and_satisfies_study(n, seed):
     rng = np.random.default_rng(seed)
-    C = product_of_linear(rotation_factors(rng, n, scale=10 ** rng.uniform(-1, 1)))
-    fast = factor_mod._factorize_fast(np.asarray(C, float), True)
-    gen = general_factorize(C, monkeypatch)
-    if fast is None:  # not clearly generic: the general engine decides (rare for random factors)
-        return
-    assert factor_mod.factorize(C) is not gen
-    np.testing.assert_allclose(fast.quadratics, gen.quadratics, rtol=1e-12, atol=1e-13)
-    np.testing.assert_allclose(fast.norm, gen.norm, rtol=1e-13, atol=1e-13)
-    assert fast.multiplicity == gen.multiplicity and fast.generic == gen.generic
-    assert [f.order for f in fast.factorizations] == [f.order for f in gen.factorizations]
-    scale = max(1.0, float(np.abs(C).max()))
-    for a, b in zip(fast.factorizations, gen.factorizations):
-        np.testing.assert_allclose(a.factors, b.factors, atol=1e-11 * scale)
-        assert a.residual <= 5e-13 and relative_error(product_of_linear(a.factors), C) <= 5e-13
+    h = rotation_factors(rng, n, scale=10 ** rng.uniform(-1, 1))
+    C = product_of_linear(h)
+    res = factorize(C)
+    assert len(res.factorizations) == np.prod(range(1, n + 1))  # n! for distinct norm quadratics
+    H = np.array([f.factors for f in res.factorizations])
+    assert np.all(multiply_back(C, H) <= 5e-12)
+    assert np.all(study_violation(H) <= 1e-10)
+    # each factor's norm is the quadratic its order names
+    for f in res.factorizations:
+        for h_i, q in zip(f.factors, f.order):
+            c0, c1 = res.quadratics[q]
+            assert h_i[0] == pytest.approx(-c1 / 2, abs=1e-9 * max(1, abs(c1)))
+            assert h_i[0] ** 2 + h_i[1:4] @ h_i[1:4] == pytest.approx(c0, rel=1e-9, abs=1e-12)
+    # the original factorization is among them
+    assert min(np.max(np.abs(F - h)) for F in H) <= 1e-8 * max(1.0, np.abs(h).max())
 
 
-def test_factorize_fast_path_is_taken_for_generic_cubics():
-    rng = np.random.default_rng(5)
-    taken = sum(factor_mod._factorize_fast(product_of_linear(rotation_factors(rng, 3)), True) is not None
-                for _ in range(50))
-    assert taken >= 45
-
-
-def test_worked_example_a_takes_the_fast_path():
-    """MATH.md 11 A: C = (t - h1)(t - h2), h1 = i + eps j, h2 = 1 + 2j + eps(3i + k)."""
+def test_worked_example_a():
+    """docs/algorithm1.md, example A: C = (t - h1)(t - h2), h1 = i + eps j, h2 = 1 + 2j + eps(3i + k)."""
     C = np.array([[0, 1, 0, 2, -5, 0, 0, 0], [-1, -1, -2, 0, 0, -3, -1, -1], [1, 0, 0, 0, 0, 0, 0, 0]], float)
-    res = factor_mod._factorize_fast(C, True)
-    assert res is not None
+    res = factorize(C)
     np.testing.assert_allclose(res.quadratics, [[1, 0], [5, -2]], atol=1e-14)
     f = {r.order: r.factors for r in res.factorizations}[(0, 1)]  # t^2 + 1 left, t^2 - 2t + 5 right
     np.testing.assert_allclose(f, [[0, 1, 0, 0, 0, 0, 1, 0], [1, 0, 2, 0, 0, 3, 0, 1]], atol=1e-14)
 
 
-def test_factorize_fast_path_declines_what_it_cannot_judge():
-    # repeated quadratic: (t - i - eps j)(t - j - eps k), norm (t^2 + 1)^2
-    C = product_of_linear(np.array([[0, 1, 0, 0, 0, 0, 1, 0], [0, 0, 1, 0, 0, 0, 0, 1]], float))
-    assert factor_mod._factorize_fast(C, True) is None
-    assert factor_mod._factorize_fast(C[:, :7], True) is None  # wrong shape
-    bad = C.copy()
-    bad[0, 4] += 1  # Study condition violated
-    assert factor_mod._factorize_fast(bad, True) is None
-
-
 @pytest.mark.parametrize("seed", range(40))
-def test_bennett_fast_equals_general(seed):
+def test_bennett_equals_the_per_set_path(seed):
     rng = np.random.default_rng(seed)
     T = random_poses(rng, 3, scale=10 ** rng.uniform(-3, 3), offset=rng.normal(size=3) * 100)
-    if bennett_mod.bennett_core(T) is None:
+    if not bennett_core.solve(T[None], 8)["good"][0]:
         return
     fast = bennett_mod.bennett(T, check_samples=8)
     gen = bennett_mod._bennett_general(T, [p.name for p in fast.poses], 8)
@@ -96,14 +73,14 @@ def test_bennett_fast_equals_general(seed):
             assert min(d, 2 * np.pi - d) <= 1e-9
     assert fast.info["warnings"] == gen.info["warnings"]
     assert set(fast.info) == set(gen.info) and set(fast.checks) == set(gen.checks)
+    for k in ("max_pose_translation_error", "max_closure_translation_error"):
+        assert fast.checks[k] <= 1e-9 * fast.checks["length_scale"]
 
 
-def test_thresholds_agree_with_the_general_engine():
-    from synth.algebra import scalar
-    from synth.synthesis import bennett_batch as batch
-
-    assert scalar.FAST_MAX_RESIDUAL == factor_mod.REFINE_TRIGGER
-    assert batch.ACCEPT_TOL == bennett_mod.ACCEPT_TOL
+def test_the_generic_path_is_taken_for_random_poses():
+    rng = np.random.default_rng(5)
+    T = np.array([random_poses(rng, 3) for _ in range(200)])
+    assert bennett_core.solve(T, 4)["good"].mean() >= 0.97
 
 
 @pytest.mark.parametrize("seed", range(10))

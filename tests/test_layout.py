@@ -21,14 +21,12 @@ LAYERS = {"synth.errors": 0, "synth": 0, "synth.algebra": 1, "synth.linkage": 2,
 
 # still to be removed by their owners (each entry is one known exception; the tests fail on any other)
 KNOWN_CYCLES = [
-    {"synth.synthesis.sixbar", "synth.synthesis.sixbar_member"},  # sixbar_member is to be deleted
     {"synth.io.meshes", "synth.io.urdf"},  # MESH_UNIT_SCALE one way, link_solids/mesh_inertials the other
 ]
 KNOWN_PRIVATE = {
     ("synth.algebra.exact", "synth.algebra.factorize", "_distinct_orders"),
     ("synth.synthesis.bennett_batch", "synth.synthesis.bennett", "_finish"),
     ("synth.synthesis.curve", "synth.algebra.cofactor", "_divide_real"),
-    ("synth.synthesis.sixbar_member", "synth.algebra.dq", "_DT_FLAT"),
 }
 FILE_METHODS = ("read_text", "write_text", "read_bytes", "write_bytes", "mkdir", "unlink", "rmdir", "touch")
 FILE_FUNCTIONS = {"os": ("open", "replace", "rename", "remove", "unlink", "makedirs", "mkdir"),

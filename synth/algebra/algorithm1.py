@@ -13,6 +13,7 @@ the unique right zero of ``D`` with ``N(t - h) = M``; divide ``D = D' (t - h)`` 
 """
 from __future__ import annotations
 
+import functools
 import itertools
 
 import numpy as np
@@ -22,7 +23,21 @@ from synth.algebra.polynomial import divide_linear_right, divide_real_quadratic,
 
 GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D_k)|: the remainder is not invertible
 PRISMATIC_TOL = 1e-7  # |vec(primal h)| <= tol * (1 + |h0|): a translation factor, not a revolute one
+FERRARI_MIN_BATCH = 32  # quartics from this batch size on start from Ferrari's formula (eigvals below)
 _ONE = np.eye(8)[0]
+
+
+_NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
+
+
+def cross3(a, b) -> np.ndarray:
+    """Cross product of 3-vectors (..., 3), broadcast (``numpy.cross`` costs ~20 us of overhead per
+    call, which dominates a single synthesis)."""
+    a = np.asarray(a, float)
+    b = np.asarray(b, float)
+    if a.size + b.size > 3000:
+        return np.cross(a, b)
+    return np.take(a, _NEXT, -1) * np.take(b, _PREV, -1) - np.take(a, _PREV, -1) * np.take(b, _NEXT, -1)
 
 
 def orders(n: int) -> np.ndarray:
@@ -32,35 +47,96 @@ def orders(n: int) -> np.ndarray:
 
 def norm_roots(N, newton: int = 2) -> np.ndarray:
     """One root of each conjugate pair of a real monic polynomial N (..., 2n+1) (ascending) without
-    real roots: shape (..., n), Im z >= 0, sorted by (Re z, Im z). Companion-matrix eigenvalues (batched
-    ``numpy.linalg.eigvals``), then ``newton`` Newton steps on N. Real or repeated roots are not
-    detected here (see `root_conditioning`)."""
+    real roots: shape (..., n), Im z >= 0, sorted by (Re z, Im z). Quartics (n = 2, the Bennett case)
+    start from Ferrari's closed form, other degrees (and quartics where Newton does not settle) from
+    companion-matrix eigenvalues (batched ``numpy.linalg.eigvals``); then ``newton`` Newton steps on N.
+    Real or repeated roots are not detected here (see `root_conditioning`)."""
     N = np.asarray(N, float)
     batch, m = N.shape[:-1], N.shape[-1] - 1
     flat = N.reshape(-1, m + 1)
-    comp = np.zeros((flat.shape[0], m, m))
-    comp[:, 1:, :-1] = np.eye(m - 1)
-    comp[:, :, -1] = -flat[:, :m] / flat[:, m:]
-    z = np.linalg.eigvals(comp)
-    z = np.take_along_axis(z, np.argsort(-z.imag, axis=-1)[:, : m // 2], -1)
-    z = np.where(z.imag < 0, z.conj(), z)
-    d = flat[:, 1:] * np.arange(1, m + 1)
-    for _ in range(newton):
-        f = _horner(flat, z)
-        df = _horner(d, z)
-        step = f / np.where(df != 0, df, 1)
-        z = z - np.where(np.isfinite(step), step, 0)
+    if m == 4 and flat.shape[0] >= FERRARI_MIN_BATCH:
+        with np.errstate(all="ignore"):
+            z, step = _newton(flat, _ferrari_upper(flat), max(newton, 1) + 1)
+        redo = ~np.all(np.abs(step) <= 1e-10 * np.maximum(1.0, np.abs(z)), axis=-1) & np.all(np.isfinite(flat), axis=-1)
+        if np.any(redo):
+            z[redo] = _newton(flat[redo], _eig_upper(flat[redo]), newton)[0]
+    else:
+        z = _newton(flat, _eig_upper(flat), newton)[0]
     z = np.where(z.imag < 0, z.conj(), z)
     z = np.take_along_axis(z, np.argsort(z.real + 1e-12 * z.imag, axis=-1, kind="stable"), -1)
     return z.reshape(batch + (m // 2,))
 
 
-def _horner(c, z):
-    """Values of the real polynomials c (B, k+1) (ascending) at z (B, r)."""
-    out = c[:, -1:] * np.ones(z.shape)
-    for k in range(c.shape[1] - 2, -1, -1):
-        out = out * z + c[:, k : k + 1]
-    return out
+def _eig_upper(flat):
+    """The m/2 eigenvalues with the largest imaginary parts of the companion matrices of flat (B, m+1)."""
+    m = flat.shape[-1] - 1
+    comp = np.zeros((flat.shape[0], m, m))
+    comp[:, 1:, :-1] = np.eye(m - 1)
+    with np.errstate(all="ignore"):
+        comp[:, :, -1] = -flat[:, :m] / flat[:, m:]
+    bad = ~np.all(np.isfinite(comp[:, :, -1]), axis=-1)
+    comp[bad, :, -1] = 0.0
+    z = np.linalg.eigvals(comp)
+    z[bad] = np.nan
+    z = np.take_along_axis(z, np.argsort(-z.imag, axis=-1)[:, : m // 2], -1)
+    return np.where(z.imag < 0, z.conj(), z)
+
+
+def _newton(flat, z, steps):
+    """``steps`` Newton steps on the real polynomials flat (B, m+1) at the complex points z (B, r),
+    values and derivatives from the powers of z (two small matrix products per step).
+    Returns (z, the last step)."""
+    m = flat.shape[-1] - 1
+    c = flat[:, :, None]  # (B, m+1, 1)
+    d = (flat[:, 1:] * np.arange(1, m + 1))[:, :, None]  # (B, m, 1)
+    step = np.zeros_like(z)
+    with np.errstate(all="ignore"):
+        for _ in range(steps):
+            P = np.cumprod(np.broadcast_to(z[..., None], z.shape + (m,)), axis=-1)  # z^1 .. z^m
+            step = ((P @ c[:, 1:])[..., 0] + flat[:, :1]) / ((P[..., :-1] @ d[:, 1:])[..., 0] + d[:, 0])
+            step = np.where(np.isfinite(step), step, 0)
+            z = z - step
+    return z, step
+
+
+def _ferrari_upper(flat):
+    """Ferrari's closed form for the quartics flat (B, 5) (monic, ascending): the two roots with the
+    largest imaginary parts, (B, 2). Depressed quartic y^4 + p y^2 + q y + r (t = y - n3/4), the
+    largest real root m of the resolvent cubic, then two quadratics."""
+    n0, n1, n2, n3 = (flat[:, k] / flat[:, 4] for k in range(4))
+    s = n3 / 4.0
+    p = n2 - 6.0 * s * s
+    q = n1 - 2.0 * n2 * s + 8.0 * s**3
+    r = n0 - n1 * s + n2 * s * s - 3.0 * s**4
+    mres = _largest_cubic_root(p, p * p / 4.0 - r, -q * q / 8.0)
+    pos = mres > 0
+    w = np.sqrt(np.where(pos, 2.0 * mres, 1.0))
+    sgn = np.array([1.0, 1.0, -1.0, -1.0])
+    half = 0.5 * sgn * w[:, None]  # -B/2 for the two quadratics y^2 + B y + Cq, B = -sgn w
+    Cq = (p / 2.0 + mres)[:, None] + sgn * (q / (2.0 * w))[:, None]
+    root = np.sqrt((half * half - Cq).astype(complex)) * np.array([1.0, -1.0, 1.0, -1.0])
+    Z = half + root
+    # q = 0 (m = 0): a biquadratic, y^2 = -p/2 +- sqrt(p^2/4 - r)
+    y = np.sqrt(-p[:, None] / 2.0 + np.sqrt((p * p / 4.0 - r).astype(complex))[:, None] * np.array([1, 1, -1, -1]))
+    Z = np.where(pos[:, None], Z, y * np.array([1.0, -1.0, 1.0, -1.0])) - s[:, None]
+    return np.take_along_axis(Z, np.argsort(-Z.imag, axis=1)[:, :2], axis=1)
+
+
+def _largest_cubic_root(b, c, d):
+    """Largest real root of x^3 + b x^2 + c x + d (arrays): trigonometric form or Cardano, then Newton."""
+    p = c - b * b / 3.0
+    q = 2.0 * b**3 / 27.0 - b * c / 3.0 + d
+    disc = (q / 2.0) ** 2 + (p / 3.0) ** 3
+    three = disc < 0
+    r = np.sqrt(np.where(three, -p / 3.0, 0.0))
+    arg = np.clip(-q / np.where(three, 2.0 * r**3, 1.0), -1.0, 1.0)
+    sq = np.sqrt(np.where(three, 0.0, disc))
+    x = np.where(three, 2.0 * r * np.cos(np.arccos(arg) / 3.0), np.cbrt(-q / 2.0 + sq) + np.cbrt(-q / 2.0 - sq)) - b / 3.0
+    for _ in range(2):
+        f = ((x + b) * x + c) * x + d
+        df = (3.0 * x + 2.0 * b) * x + c
+        x = x - np.where(df != 0, f / np.where(df != 0, df, 1.0), 0.0)
+    return x
 
 
 def root_conditioning(z) -> tuple[np.ndarray, np.ndarray]:
@@ -73,9 +149,15 @@ def root_conditioning(z) -> tuple[np.ndarray, np.ndarray]:
     n = z.shape[-1]
     if n < 2:
         return im, np.ones(im.shape)
-    i, j = np.triu_indices(n, 1)
+    i, j = _pairs(n)
     sep = np.min(np.abs(z[..., i] - z[..., j]) / np.maximum(w[..., i], w[..., j]), axis=-1)
     return im, sep
+
+
+@functools.lru_cache(maxsize=None)
+def _pairs(n: int):
+    """Index pairs i < j of n items (``numpy.triu_indices(n, 1)``, cached)."""
+    return np.triu_indices(n, 1)
 
 
 def quadratics(z) -> np.ndarray:
@@ -102,15 +184,17 @@ def algorithm1(C, M, *, remainders: bool = False):
     H = np.empty(batch + (n, 8))
     R = np.empty(batch + (max(n - 1, 0), 8))
     ok = np.ones(batch, bool)
-    for pos in range(n - 1, -1, -1):
+    for pos in range(n - 1, 0, -1):
         _, r1, r0 = divide_real_quadratic(D, M[..., pos, :])
         good = np.sum(r1[..., :4] ** 2, axis=-1) > GENERIC_TOL**2 * prim
         ok &= good
         r1 = np.where(good[..., None], r1, _ONE)
         h = -dq_mul(dq_inv(r1), r0)
         H[..., pos, :] = h
-        if pos:
-            D, R[..., pos - 1, :] = divide_linear_right(D, h)
+        D, R[..., pos - 1, :] = divide_linear_right(D, h)
+    # the last remainder D = D1 t + D0 is linear with the leading coefficient of C: h_1 = -D1^{-1} D0
+    # (the remainder of D mod M_1, whatever M_1)
+    H[..., 0, :] = -dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])
     return (H, ok, R) if remainders else (H, ok)
 
 

@@ -1,4 +1,4 @@
-"""Factorization of monic motion polynomials into linear factors (MATH.md section 4, Algorithm 1).
+"""Factorization of monic motion polynomials into linear factors (Algorithm 1, docs/algorithm1.md).
 
 ``factorize(C)`` returns every factorization ``C = (t - h_1)...(t - h_n)`` obtainable from the
 orders of the norm polynomial's monic real quadratic factors: n! for distinct quadratics, fewer
@@ -9,27 +9,18 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field
-from itertools import chain
 
 import numpy as np
 
+from synth.algebra.algorithm1 import (PRISMATIC_TOL, algorithm1, multiply_back, norm_roots, polish,
+                                      root_conditioning)
 from synth.algebra.dq import dq_inv, dq_mul, plucker
+from synth.algebra.polynomial import divide_real_quadratic, norm_poly, right_value, study_residual
 from synth.errors import InputError, NoFactorizationError, NotGenericError
-from synth.algebra.polynomial import (
-    divide_linear_right,
-    divide_real_quadratic,
-    norm_poly,
-    product_of_linear,
-    relative_error,
-    right_value,
-    study_residual,
-)
-from synth.algebra.scalar import factorize_generic
 
 REAL_ROOT_TOL = 1e-7  # |Im z| <= tol * max(1, |z|): the root is taken as real
 MERGE_TOL = 1e-6  # roots closer than tol * max(1, |z|) are one repeated root
-GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D)|: remainder not invertible
-PRISMATIC_TOL = 1e-7  # |vec(primal h)| <= tol * (1 + |h0|): a translation factor
+CLEAR_ROOTS = 1e-5  # root_conditioning above this: simple, non-real norm roots (no clustering needed)
 REFINE_TRIGGER = 5e-13  # multiply-back error above which the norm quadratics are refined on C (target 1e-12)
 
 
@@ -232,47 +223,21 @@ def real_factor_roots(C, roots, tol=1e-6):
     """The roots (Im >= 0) of the maximal real polynomial factor of the primal part P: the roots z
     of N(C) with P(z) = 0 (all four component polynomials vanish there)."""
     P = np.asarray(C, float)[:, :4]
+    cand = np.array([w for r in roots for w in ((r,) if not isinstance(r, tuple) else r)], complex)
+    if len(cand) == 0:
+        return []
+    val = np.zeros((len(cand), 4), complex)
+    for k in range(P.shape[0] - 1, -1, -1):
+        val = val * cand[:, None] + P[k]
+    ref = np.abs(P).max() * np.sum(np.abs(cand)[:, None] ** np.arange(P.shape[0]), axis=1)
     out = []
-    pows_scale = np.abs(P).max()
-    for r in roots:
-        cand = [complex(r)] if not isinstance(r, tuple) else [complex(r[0]), complex(r[1])]
-        for z in cand:
-            val = np.zeros(4, complex)
-            for k in range(P.shape[0] - 1, -1, -1):
-                val = val * z + P[k]
-            ref = pows_scale * sum(abs(z) ** k for k in range(P.shape[0]))
-            if np.linalg.norm(val) <= tol * ref and all(abs(z - w) > 1e-9 for w in out):
-                out.append(z)
+    for z in cand[np.linalg.norm(val, axis=1) <= tol * ref].tolist():
+        if all(abs(z - w) > 1e-9 for w in out):
+            out.append(z)
     return out
 
 
 # ----------------------------------------------------------------------------- Algorithm 1
-def _refine_quadratic(D, M):
-    """Gauss-Newton on M = [c0, c1] so that the zero h(M) of D mod M right-divides D exactly
-    (MATH.md section 4, numerical note ii). Returns the refined M."""
-
-    def resid(Mv):
-        _, r1, r0 = divide_real_quadratic(D, Mv)
-        h = -dq_mul(dq_inv(r1), r0)
-        return right_value(D, h)
-
-    M = np.array(M, float)
-    r = resid(M)
-    for _ in range(8):
-        J = np.empty((8, 2))
-        for j in range(2):
-            dM = np.zeros(2)
-            dM[j] = 1e-7 * max(1.0, abs(M[j]))
-            J[:, j] = (resid(M + dM) - r) / dM[j]
-        step = np.linalg.lstsq(J, -r, rcond=None)[0]
-        Mn = M + step
-        rn = resid(Mn)
-        if np.linalg.norm(rn) >= np.linalg.norm(r):
-            break
-        M, r = Mn, rn
-    return M
-
-
 def _refine_quadratics(C, quads, mult, roots, iterations=4):
     """Gauss-Newton on every simple, non-real norm quadratic at once so that the zero h(M) of
     C mod M right-divides C exactly. The roots of N(C) are worse conditioned than this condition
@@ -316,38 +281,6 @@ def _distinct_orders(mult):
     return sorted(set(itertools.permutations(labels)))
 
 
-def _factor_orders(C, quads, orders):
-    """Algorithm 1 for every order at once. Returns (H (P, n, 8) with NaN rows for failed orders,
-    ok mask (P,))."""
-    orders = np.array(orders, int)
-    P, n = orders.shape
-    D = np.broadcast_to(C, (P,) + C.shape).copy()
-    H = np.full((P, n, 8), np.nan)
-    ok = np.ones(P, bool)
-    for s in range(n):
-        pos = n - 1 - s
-        M = quads[orders[:, pos]]
-        _, r1, r0 = divide_real_quadratic(D, M)
-        prim_scale = np.max(np.linalg.norm(D[..., :4], axis=-1), axis=-1)
-        bad = np.linalg.norm(r1[:, :4], axis=-1) <= GENERIC_TOL * prim_scale
-        ok &= ~bad
-        r1 = np.where(bad[:, None], np.eye(8)[0], r1)
-        h = -dq_mul(dq_inv(r1), r0)
-        Dn, rem = divide_linear_right(D, h)
-        dscale = np.maximum(1.0, np.max(np.abs(D), axis=(-2, -1)))
-        loose = ok & (np.max(np.abs(rem), axis=-1) > 1e-11 * dscale)
-        for p in np.flatnonzero(loose):  # rare: nearly real / nearly equal roots
-            Mr = _refine_quadratic(D[p], M[p])
-            _, a1, a0 = divide_real_quadratic(D[p], Mr)
-            hp = -dq_mul(dq_inv(a1), a0)
-            Dp, remp = divide_linear_right(D[p], hp)
-            if np.max(np.abs(remp)) < np.max(np.abs(rem[p])):
-                h[p], Dn[p] = hp, Dp
-        H[:, pos] = h
-        D = Dn
-    return H, ok
-
-
 def check_motion_polynomial(C, tol=1e-9):
     """Validate a monic motion polynomial; raise InputError otherwise."""
     C = np.asarray(C, float)
@@ -364,74 +297,39 @@ def check_motion_polynomial(C, tol=1e-9):
         raise InputError(f"not a motion polynomial: its norm is not real (Study condition violated by {res:.2g})")
 
 
-def _real_parts_apart(z) -> bool:
-    """Consecutive roots (sorted by real part) differ in real part by more than 1e-8 relative: then
-    rounding the real parts to 9 decimals (the numbering of `norm_quadratics`) keeps their order."""
-    return all(b.real - a.real > 1e-8 * max(1.0, abs(a.real), abs(b.real)) for a, b in zip(z, z[1:]))
-
-
-def _renumber(z, quads, orders, factors, residuals):
-    """Number the quadratics like norm_quadratics: by (Re z rounded, Im z), so that equal real parts tie
-    exactly and the numbering of the factorizations matches the general code and exact mode (z comes
-    sorted by (Re z, Im z)). Returns (quads, orders, factors, residuals), reordered if need be."""
-    if _real_parts_apart(z):
-        return quads, orders, factors, residuals
-    keys = [(round(w.real, 9), w.imag) for w in z]
-    if keys == sorted(keys):
-        return quads, orders, factors, residuals
-    perm = sorted(range(len(z)), key=keys.__getitem__)
-    new_of_old = {old: new for new, old in enumerate(perm)}
-    entries = sorted(((tuple(new_of_old[q] for q in o), H, r) for o, H, r in zip(orders, factors, residuals)),
-                     key=lambda e: e[0])
-    return ([quads[i] for i in perm], *(list(x) for x in zip(*entries)))
-
-
-def _factorize_fast(C, validate) -> FactorResult | None:
-    """`factorize` for generic input in plain floats (`synth.algebra.scalar.factorize_generic`: the same
-    steps, no numpy call per step); None when C is not clearly generic (then the code below decides)."""
-    if C.ndim != 2 or C.shape[0] > 4:  # degree <= 3: plain floats beat numpy's batching over orders
-        return None
-    out = factorize_generic(C, validate)
-    if out is None:
-        return None
-    N, z, quads, orders, factors, residuals = out
-    quads, orders, factors, residuals = _renumber(z, quads, orders, factors, residuals)
-    n = C.shape[0] - 1
-    # (n!, n, 8); each factorization gets a view, as in the general code
-    H = np.fromiter(chain.from_iterable(chain.from_iterable(factors)), float, 8 * n * len(factors))
-    facts = list(map(Factorization, H.reshape(len(factors), n, 8), orders, residuals))  # factors, order, residual
-    return FactorResult(C=C, norm=np.array(N), quadratics=np.array(quads), multiplicity=[1] * len(quads),
-                        factorizations=facts, generic=True, real_factor_roots=[], failed_orders=[])
-
-
 def factorize(C, *, validate=True) -> FactorResult:
-    """All factorizations of a monic motion polynomial C (shape (n+1, 8)) from Algorithm 1.
+    """All factorizations of a monic motion polynomial C (shape (n+1, 8)) from Algorithm 1
+    (`synth.algebra.algorithm1.algorithm1`, all orders as one batch; docs/algorithm1.md).
 
-    Orders whose remainder has a non-invertible leading coefficient are skipped (recorded in
-    ``failed_orders``); when none succeeds, raises NotGenericError (primal part with a real factor)
-    or NoFactorizationError."""
+    The norm quadratics are numbered by (Re z rounded to 9 decimals, Im z) of their roots (Im z > 0),
+    real-root pairs last; ``order`` gives the quadratic of each factor, left to right. Repeated roots are
+    merged (fewer distinct orders), multiply-back errors above REFINE_TRIGGER trigger a refinement of the
+    quadratics on C and a Newton polish of the factors. Orders whose remainder has a non-invertible
+    leading coefficient are skipped (recorded in ``failed_orders``); when none succeeds, raises
+    NotGenericError (primal part with a real factor) or NoFactorizationError."""
     C = np.asarray(C, float)
-    fast = _factorize_fast(C, validate)
-    if fast is not None:
-        return fast
     if validate:
         check_motion_polynomial(C)
     N = norm_poly(C)
-    quads, mult, roots = norm_quadratics(N)
+    quads = None
+    if C.shape[0] >= 2 and np.all(np.isfinite(N)):
+        z = norm_roots(N)  # the simple, clearly non-real case: no clustering, no real pairs
+        im, _ = root_conditioning(z)
+        if im > CLEAR_ROOTS and _isolated(z):
+            key = sorted(range(len(z)), key=lambda i: (round(float(z[i].real), 9), float(z[i].imag)))
+            z = z[key]
+            quads = np.stack([np.abs(z) ** 2, -2 * z.real], -1)
+            mult, roots = [1] * len(z), [complex(w) for w in z]
+    if quads is None:
+        quads, mult, roots = norm_quadratics(N)
     rf = real_factor_roots(C, roots)
     orders = _distinct_orders(mult)
-    H, ok = _factor_orders(C, quads, orders)
-    res = np.full(len(orders), np.inf)
-    if np.any(ok):
-        res[ok] = relative_error(product_of_linear(H[ok]), C)
-        if np.max(res[ok]) > REFINE_TRIGGER:  # close roots: sharpen the quadratics on C and redo
-            quads2 = _refine_quadratics(C, quads, mult, roots)
-            H2, ok2 = _factor_orders(C, quads2, orders)
-            res2 = np.full(len(orders), np.inf)
-            if np.any(ok2):
-                res2[ok2] = relative_error(product_of_linear(H2[ok2]), C)
-            if np.sum(ok2) >= np.sum(ok) and np.max(res2[ok2], initial=0.0) < np.max(res[ok]):
-                quads, H, ok, res = quads2, H2, ok2, res2
+    H, ok, res = _run(C, quads, orders)
+    if np.any(ok) and np.max(res[ok]) > REFINE_TRIGGER:  # close roots: sharpen the quadratics on C and redo
+        quads2 = _refine_quadratics(C, quads, mult, roots)
+        H2, ok2, res2 = _run(C, quads2, orders)
+        if np.sum(ok2) >= np.sum(ok) and np.max(res2[ok2], initial=0.0) < np.max(res[ok]):
+            quads, H, ok, res = quads2, H2, ok2, res2
     facts, failed = [], []
     for idx, order in enumerate(orders):
         if ok[idx]:
@@ -448,6 +346,33 @@ def factorize(C, *, validate=True) -> FactorResult:
                 "factorization into linear factors (try --cofactor)")
         raise NoFactorizationError("no factorization into linear factors was found")
     return result
+
+
+_SMALL_PAIRS = {n: np.triu_indices(n, 1) for n in (2, 3)}
+
+
+def _isolated(z) -> bool:
+    """No two roots z (n,) within the clustering's reach (`_cluster_roots`): all are simple roots."""
+    if len(z) < 2:
+        return True
+    i, j = np.triu_indices(len(z), 1) if len(z) > 3 else _SMALL_PAIRS[len(z)]
+    reach = 2.05 * _merge_radius(2 * len(z)) * np.maximum(1.0, np.maximum(np.abs(z[i]), np.abs(z[j])))
+    return bool(np.all(np.abs(z[i] - z[j]) > reach))
+
+
+def _run(C, quads, orders):
+    """Algorithm 1 for every order (P, n) at once, factors polished where the multiply-back error
+    exceeds REFINE_TRIGGER. Returns (H (P, n, 8), ok (P,), residuals (P,), inf where not ok)."""
+    H, ok = algorithm1(C, np.asarray(quads)[np.asarray(orders, int)])
+    res = np.where(ok, multiply_back(C, H), np.inf)
+    loose = ok & (res > REFINE_TRIGGER)
+    if np.any(loose):
+        Hp, _ = polish(C, H[loose], iterations=3)
+        rp = multiply_back(C, Hp)
+        better = rp < res[loose]
+        H[np.flatnonzero(loose)[better]] = Hp[better]
+        res[np.flatnonzero(loose)[better]] = rp[better]
+    return H, ok, res
 
 
 def _real_factor_text(z: complex) -> str:

@@ -32,7 +32,7 @@ def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> 
     """Linkage with branch h: base -h1-> link_h1 ... -hn-> coupler and branch k likewise ending in
     coupler_k. H, K: (n, 8) factors in the world frame (metres) with C = (t-h1)...(t-hn) =
     (t-k1)...(t-kn); poses (m, 4, 4) with parameters ts (first = inf). ``motion=None`` leaves
-    ``linkage.motion`` None (for a caller that defers it)."""
+    ``linkage.motion`` None (for a caller that sets it later)."""
     specs, links, branches = _layout(len(H))
     laws, lines = [], []
     for h in (*H, *K):  # joint_from_factor, with all Plücker coordinates in one array
@@ -77,33 +77,3 @@ def _layout(n: int):
     links["coupler_k"] = ()
     branches = (tuple(f"h{i + 1}" for i in range(n)), tuple(f"k{i + 1}" for i in range(n)))
     return tuple(specs), links, branches
-
-
-def bennett_linkage(H, K, poses, names) -> Linkage:
-    """`two_branch_linkage("bennett", H, K, None, poses, names, (inf, 0, 1))` for factors given as
-    8-tuples of floats (`synth.algebra.scalar.bennett_core`), unrolled: the single-call fast path of
-    `synth.synthesis.bennett` (``motion`` is left None for the caller to set or defer)."""
-    laws, lines = [], []
-    for h0, v1, v2, v3, _, w1, w2, w3 in (H[0], H[1], K[0], K[1]):
-        b = math.sqrt(v1 * v1 + v2 * v2 + v3 * v3)
-        laws.append((h0, b))
-        lines += (-v1 / b, -v2 / b, -v3 / b, w1 / b, w2 / b, w3 / b)
-    U = np.array(lines, float).reshape(8, 3)
-    (a1, b1), (a2, b2), (a3, b3), (a4, b4) = laws
-    atan2 = math.atan2
-    at0 = {"h1": (2.0 * atan2(b1, 0.0 - a1)) % TWO_PI, "h2": (2.0 * atan2(b2, 0.0 - a2)) % TWO_PI,  # t = 0
-           "k1": (2.0 * atan2(b3, 0.0 - a3)) % TWO_PI, "k2": (2.0 * atan2(b4, 0.0 - a4)) % TWO_PI}
-    at1 = {"h1": (2.0 * atan2(b1, 1.0 - a1)) % TWO_PI, "h2": (2.0 * atan2(b2, 1.0 - a2)) % TWO_PI,  # t = 1
-           "k1": (2.0 * atan2(b3, 1.0 - a3)) % TWO_PI, "k2": (2.0 * atan2(b4, 1.0 - a4)) % TWO_PI}
-    n0, n1, n2 = names
-    P0, P1, P2 = poses
-    return Linkage("bennett",
-                   [Joint("h1", "base", "link_h1", U[0], U[1], a1, b1),
-                    Joint("h2", "link_h1", "coupler", U[2], U[3], a2, b2),
-                    Joint("k1", "base", "link_k1", U[4], U[5], a3, b3),
-                    Joint("k2", "link_k1", "coupler_k", U[6], U[7], a4, b4)],
-                   {"base": ["h1", "k1"], "link_h1": ["h1", "h2"], "link_k1": ["k1", "k2"], "coupler": ["h2", "k2"],
-                    "coupler_k": []},
-                   [["h1", "h2"], ["k1", "k2"]], [("coupler", "coupler_k")], P0, None,
-                   [PoseRecord(n0, P0, INF, {"h1": 0.0, "h2": 0.0, "k1": 0.0, "k2": 0.0}), PoseRecord(n1, P1, 0.0, at0),
-                    PoseRecord(n2, P2, 1.0, at1)], info={})

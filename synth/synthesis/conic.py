@@ -1,4 +1,4 @@
-"""Motion polynomials through given poses (MATH.md sections 6-7).
+"""Motion polynomials through given poses (docs/conic.md).
 
 Poses are 4x4 arrays in metres. Synthesis works on *conditioned* poses: world origin moved to the
 centroid ``c`` of the positions, lengths divided by their RMS spread ``L``; ``to_world`` maps dual
@@ -7,11 +7,11 @@ quaternions (factors, polynomials) back. Relative displacements are taken in the
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from synth.algebra.algorithm1 import cross3
 from synth.algebra.dq import dq_mul, normalize_dq, pose_to_dq, study_form
 from synth.errors import SynthesisError
 
@@ -24,78 +24,42 @@ class Conditioning:
 
 def condition(T) -> tuple[np.ndarray, Conditioning]:
     """Move the origin to the centroid of the positions and divide lengths by their RMS spread.
-    Works on (..., k, 4, 4)."""
+    Works on (..., k, 4, 4); the centre is (..., 3), the scale (...)."""
     T = np.asarray(T, float)
     pos = T[..., :3, 3]
-    if T.ndim == 3 and len(T) < 8:  # one set of a few poses: plain floats, numpy's order of summation
-        c, L = _centroid_spread(pos.tolist())
-        c = np.array(c)
-    else:
-        c = pos.mean(axis=-2)
-        L = np.sqrt(np.mean(np.sum((pos - c[..., None, :]) ** 2, axis=-1), axis=-1))
+    c = pos.mean(axis=-2)
+    L = np.sqrt(np.mean(np.sum((pos - c[..., None, :]) ** 2, axis=-1), axis=-1))
     L = np.where(L > 0, L, 1.0)
     Tc = T.copy()
     Tc[..., :3, 3] = (pos - c[..., None, :]) / L[..., None, None]
     return Tc, Conditioning(centre=c, scale=L)
 
 
-def _centroid_spread(P):
-    """Centroid and RMS distance from it of k < 8 points P (lists of 3 floats), summed as numpy's
-    reductions of fewer than 8 terms do (from +0.0, in order; 8 or more are summed pairwise): bitwise
-    `condition`'s vectorized figures."""
-    k = len(P)
-    c = []
-    for j in range(3):
-        acc = 0.0
-        for p in P:
-            acc += p[j]
-        c.append(acc / k)
-    acc = 0.0
-    for x, y, z in P:
-        dx, dy, dz = x - c[0], y - c[1], z - c[2]
-        acc += 0.0 + dx * dx + dy * dy + dz * dz
-    return c, math.sqrt(acc / k)
-
-
 def to_world(h, cond: Conditioning):
-    """Map dual quaternions from conditioned to world coordinates: scale the dual part by L, then
-    conjugate by the translation to the centroid (h -> tau h tau^-1 with tau = 1 - eps c / 2)."""
+    """Map dual quaternions h (..., 8) from conditioned to world coordinates: scale the dual part by L,
+    then conjugate by the translation to the centroid (h -> tau h tau^-1 with tau = 1 - eps c / 2, which
+    adds vec(p) x c to the dual vector part). A batched ``cond`` (scale (B,), centre (B, 3)) applies to
+    the leading axis of h."""
     h = np.array(h, float)
     L = np.asarray(cond.scale, float)
     c = np.asarray(cond.centre, float)
-    h[..., 4:] *= L[..., None] if L.ndim else L
-    # tau h tau^-1 = h + eps/2 (p c - c p) for tau = 1 - eps c/2 (c pure): dual part += (p c - c p)/2
-    # with (p c - c p) = 2 vec(p) x c.
-    if c.shape != (3,):
-        p = h[..., :4]
-        h[..., 5:8] += np.cross(p[..., 1:], np.broadcast_to(c, p[..., 1:].shape))
-        return h
-    p1, p2, p3 = h[..., 1], h[..., 2], h[..., 3]
-    c1, c2, c3 = c.tolist()
-    h[..., 5] += p2 * c3 - p3 * c2  # np.cross's arithmetic, without its overhead (bitwise)
-    h[..., 6] += p3 * c1 - p1 * c3
-    h[..., 7] += p1 * c2 - p2 * c1
+    extra = h.ndim - 1 - L.ndim
+    h[..., 4:] *= L.reshape(L.shape + (1,) * (extra + 1))
+    h[..., 5:8] += cross3(h[..., 1:4], c.reshape(c.shape[:-1] + (1,) * extra + (3,)))
     return h
 
 
 def relative_displacements(T):
     """D_i = T_i T_0^{-1} as unit dual quaternions with p0 >= 0, shape (..., k, 8); D_0 = 1."""
-    T = np.asarray(T, float)
-    H = pose_to_dq(T) if T.ndim != 3 or len(T) > 8 else _pose_to_dq_few(T)
+    return relative_displacements_dq(pose_to_dq(np.asarray(T, float)))
+
+
+def relative_displacements_dq(H):
+    """`relative_displacements` of poses given as unit dual quaternions H (..., k, 8)."""
     H0inv = H[..., :1, :] * np.array([1.0, -1, -1, -1, 1, -1, -1, -1])  # unit: inverse = conjugate
     return normalize_dq(dq_mul(H, H0inv))
 
 
-def _pose_to_dq_few(T):
-    """`synth.algebra.dq.pose_to_dq` of a few poses (k, 4, 4), bitwise: the rotation quaternions in plain floats
-    (`synth.algebra.scalar.matrix_to_quat`, the same formulas; numpy's per-case masks cost more for a few
-    poses), the rest as there."""
-    from synth.algebra.dq import qmul
-    from synth.algebra.scalar import matrix_to_quat
-
-    r = np.array([matrix_to_quat(R) for R in T.tolist()])
-    d = np.concatenate([np.zeros(T.shape[:-2] + (1,)), T[..., :3, 3]], axis=-1)
-    return np.concatenate([r, -0.5 * qmul(d, r)], axis=-1)
 
 
 @dataclass
@@ -106,7 +70,7 @@ class ConicData:
 
 
 def conic(D, tol=1e-9) -> ConicData:
-    """The monic quadratic C with C(inf) = 1, C(0) ~ D_1, C(1) ~ D_2 (MATH.md section 7).
+    """The monic quadratic C with C(inf) = 1, C(0) ~ D_1, C(1) ~ D_2 (docs/conic.md).
 
     D: (..., 3, 8) with D_0 = 1 (conditioned frame, unit dual quaternions). Raises SynthesisError
     for a single input whose Study-form values vanish (pure rotations or translations between poses)."""
@@ -130,7 +94,7 @@ def conic(D, tol=1e-9) -> ConicData:
 
 
 def check_conic_degeneracy(D, B01, B02, B12, tol):
-    """Plain-language refusal of inputs whose conic degenerates (MATH.md section 7)."""
+    """Plain-language refusal of inputs whose conic degenerates (docs/conic.md)."""
     pairs = {(0, 1): B01, (0, 2): B02, (1, 2): B12}
     zero = [p for p, b in pairs.items() if abs(b) <= tol]
     if len(zero) == 3:

@@ -1,0 +1,156 @@
+"""The Bennett synthesis, vectorized over pose sets: poses (N, 3, 4, 4) in metres -> arrays.
+
+`solve` runs the whole pipeline on a batch (docs/conic.md, docs/algorithm1.md): conditioning, relative
+displacements, the conic C through the poses, the roots of its norm polynomial, Algorithm 1 for both
+orders (branch h = (h1, h2), branch k = (k1, k2), C = (t-h1)(t-h2) = (t-k1)(t-k2)), the world frame,
+Plücker lines and angle laws, the angles at the poses, the loop geometry (Bennett parameters, DH table)
+and the self-checks at ``check_samples`` parameters (`synth.checks.check_figures`). ``synth.bennett`` is
+a batch of one, ``synth.bennett_batch`` a batch of many. Sets the generic pipeline cannot judge
+(``good`` False: degenerate or nearly degenerate poses, nearly real or repeated norm roots, a translation
+factor, a multiply-back error above MAX_RESIDUAL, a self-check near the acceptance limit) are left to
+the per-set path of `synth.synthesis.bennett`, which gives each refusal its message.
+
+Conventions: joints ``h1, h2, k1, k2``; h1 and k2 carry the norm factor whose root a + ib has the smaller
+real part; pose 0 at t = inf (all angles 0), pose 1 at t = 0, pose 2 at t = 1; lengths in metres,
+angles in radians; lines (direction, moment = point x direction) at the first pose; angle laws
+theta(t) = 2 atan2(b, t - a).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multiply_back, norm_roots, quadratics,
+                                      root_conditioning)
+from synth.algebra.polynomial import norm_poly
+from synth.checks import check_figures
+from synth.algebra.dq import pose_to_dq
+from synth.synthesis.conic import condition, conic, relative_displacements_dq, to_world
+
+JOINTS = ("h1", "h2", "k1", "k2")
+LOOP = (0, 1, 3, 2)  # h1 -> h2 -> k2 -> k1 -> h1
+TS = np.array([np.inf, 0.0, 1.0])
+STRUCTURE = ((("base", "link_h1"), ("link_h1", "coupler"), ("base", "link_k1"), ("link_k1", "coupler_k")),
+             "coupler", (("coupler", "coupler_k"),))
+ACCEPT_TOL = 1e-8  # largest relative self-check error accepted (see `relative_error`)
+FLOOR_ULPS = 2**17  # rounding floor of the world-frame checks, in ulps of the pose coordinates
+EPS = float(np.finfo(float).eps)
+MIN_B = 1e-6  # |B_ij| (conditioned) at or below this: (nearly) degenerate conic -> per-set path
+MIN_IMAG = 1e-5  # min Im z / (1 + |z|^2) at or below this: nearly real norm root -> per-set path
+MIN_SEPARATION = 1e-5  # min |z1 - z2| / (1 + |z|^2) at or below this: nearly repeated root -> per-set path
+MAX_RESIDUAL = 5e-13  # multiply-back error above this: per-set path (factorize refines)
+_ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
+_PREV = [3, 0, 1, 2]  # the previous joint around the loop
+
+
+def solve(T, check_samples: int) -> dict:
+    """The Bennett pipeline on poses T (N, 3, 4, 4), metres; returns a dict of arrays over N (see
+    `synth.synthesis.bennett_batch.BennettBatch` for the fields) plus ``good`` (N,): the set was solved
+    here and its self-check is well inside ACCEPT_TOL. Rows of sets that are not good hold garbage."""
+    T = np.asarray(T, float)
+    N = T.shape[0]
+    finite = np.all(np.isfinite(T), axis=(1, 2, 3))
+    with np.errstate(all="ignore"):
+        Tf = np.where(finite[:, None, None, None], T, np.eye(4))
+        Tc, cond = condition(Tf)
+        Q = pose_to_dq(np.concatenate([Tf, Tc], axis=1))  # world (checks) and conditioned (conic) poses
+        con = conic(relative_displacements_dq(Q[:, 3:]))
+        C, B = con.C, con.B  # (N, 3, 8), (N, 3)
+        z = norm_roots(norm_poly(C))  # (N, 2), Re z[0] <= Re z[1]
+        im, sep = root_conditioning(z)
+        H, ok = algorithm1(C[:, None], quadratics(z)[:, _ORDERS])  # (N, 2 branches, 2, 8)
+        residual = np.max(multiply_back(C[:, None], H), axis=1)
+        good = (finite & ok.all(axis=1) & (np.min(np.abs(B), axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
+                & (residual <= MAX_RESIDUAL) & ~np.any(is_translation(H), axis=(1, 2)))
+        world = to_world(np.concatenate([H.reshape(N, 4, 8), C], axis=1), cond)
+        factors, motion = world[:, :4], world[:, 4:]  # h1 h2 k1 k2; C (world frame)
+        a, b = factors[..., 0], np.linalg.norm(factors[..., 1:4], axis=-1)
+        U, M = -factors[..., 1:4] / b[..., None], factors[..., 5:8] / b[..., None]
+        th = np.mod(2.0 * np.arctan2(b[:, None, :], TS[1:, None] - a[:, None, :]), 2 * np.pi)
+        pose_angles = np.concatenate([np.zeros((N, 1, 4)), th], axis=1)  # (N, 3, 4)
+        geo = loop_geometry(U[:, LOOP], M[:, LOOP])
+        good &= ~np.any(geo["parallel"], axis=1)
+        # the linkage's length scale (`synth.checks.extent`): the joint sites are the means of the feet of
+        # the common normals around the loop (each link carries two joints of the loop)
+        sites = 0.5 * (geo["foot_out"] + geo["foot_in"][:, _PREV])
+        pts = np.concatenate([Tf[:, :, :3, 3], sites, Tf[:, :1, :3, 3]], axis=1)
+        length_scale = np.maximum(np.sqrt(np.mean(np.sum((pts - pts.mean(axis=1, keepdims=True)) ** 2, -1), -1)), 1e-9)
+        errors = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
+        far = axis_distance(U, M, cond.centre)
+        rel = relative_error(Tf, cond.scale, far, errors)
+        good &= rel <= 0.1 * ACCEPT_TOL
+    return dict(good=good, finite=finite, lines=np.stack([U, M], axis=2), laws=np.stack([a, b], -1),
+                pose_angles=pose_angles, factors=factors, motion=motion, study_form=B * cond.scale[:, None],
+                centre=cond.centre, scale=cond.scale, residual=residual, roots=z, geometry=geo,
+                bennett=bennett_parameters(geo), dh=dh_rows(U[:, LOOP], geo), errors=errors, relative_error=rel,
+                axis_distance=far, length_scale=length_scale)
+
+
+def axis_distance(U, M, c) -> np.ndarray:
+    """Largest distance of the axes (U, M) (N, J, 3) from the points c (N, 3): |m - c x u|."""
+    return np.max(np.linalg.norm(M - cross3(c[:, None, :], U), axis=-1), axis=-1)
+
+
+def relative_error(T, spread, far, errors) -> np.ndarray:
+    """The acceptance figure (N,): the largest self-check error, translations relative to the pose
+    spread (closure: to the axes' largest distance ``far`` from the centroid, `axis_distance`), plus a
+    floor of FLOOR_ULPS ulps of the coordinates' magnitude (a pose 1e6 m from the origin is only known
+    to ~1e-10 m)."""
+    size = np.maximum(spread, far)
+    floor = FLOOR_ULPS * EPS * np.max(np.abs(T[:, :, :3, 3]), axis=(1, 2)) / ACCEPT_TOL
+    return np.maximum.reduce([errors["pose_translation"] / (spread + floor), errors["pose_rotation"],
+                              errors["closure_translation"] / (size + floor), errors["closure_rotation"]])
+
+
+def loop_geometry(U, M) -> dict:
+    """Geometry of consecutive axes around closed loops, lines U, M (N, J, 3) in loop order: for the pair
+    (i, i+1 mod J) ``distance`` and signed ``twist`` (the angle from u_i to u_{i+1} about the common
+    normal from i to i+1) (N, J), the feet ``foot_out`` (on i) and ``foot_in`` (on i+1) and the unit
+    ``normal`` (N, J, 3), ``parallel`` (N, J). Parallel axes: the foot on i is its point nearest the origin."""
+    J = U.shape[-2]
+    nxt = (np.arange(J) + 1) % J
+    U2, M2 = U[..., nxt, :], M[..., nxt, :]
+    p1, p2 = cross3(U, M), cross3(U2, M2)
+    cr = cross3(U, U2)
+    s2 = np.sum(cr * cr, axis=-1, keepdims=True)
+    par = s2 < 1e-24
+    s2s = np.where(par, 1.0, s2)
+    d = p2 - p1
+    f1 = np.where(par, p1, p1 + np.sum(cross3(d, U2) * cr, -1, keepdims=True) / s2s * U)
+    f2 = np.where(par, p2 - np.sum(d * U2, -1, keepdims=True) * U2,
+                  p2 + np.sum(cross3(d, U) * cr, -1, keepdims=True) / s2s * U2)
+    dv = f2 - f1
+    dist = np.linalg.norm(dv, axis=-1, keepdims=True)
+    nc = np.sqrt(s2)
+    n = np.where(dist > 1e-12, dv / np.where(dist > 1e-12, dist, 1.0), np.where(nc > 1e-12, cr / np.where(nc > 1e-12, nc, 1.0), 0.0))
+    twist = np.arctan2(np.sum(cr * n, -1), np.sum(U * U2, -1))
+    return {"distance": dist[..., 0], "twist": twist, "foot_out": f1, "foot_in": f2, "normal": n, "parallel": par[..., 0]}
+
+
+def bennett_parameters(geo) -> dict:
+    """Link lengths and twists of the loop h1-h2-k2-k1 (geometry from `loop_geometry`), each (N,): a,
+    alpha (links h1h2 and k2k1), b, beta (coupler h2k2 and base k1h1), the mismatches of opposite links,
+    a/sin(alpha), b/sin(beta) and the Bennett condition residual |a/sin(alpha)| - |b/sin(beta)| (relative;
+    NaN when a twist vanishes)."""
+    (a1, b1, a2, b2), (al1, be1, al2, be2) = geo["distance"].T, geo["twist"].T
+    with np.errstate(all="ignore"):
+        sa, sb = np.abs(np.sin(al1)), np.abs(np.sin(be1))
+        ra = np.where(sa > 1e-15, a1 / sa, np.inf)
+        rb = np.where(sb > 1e-15, b1 / sb, np.inf)
+        scale = np.maximum(np.maximum(a1, b1), 1e-300)
+        res = np.where(np.isfinite(ra + rb), np.abs(ra - rb) / np.maximum(np.maximum(ra, rb), 1e-300), np.nan)
+    return {"a": a1, "alpha": al1, "b": b1, "beta": be1,
+            "opposite_length_mismatch": np.maximum(np.abs(a1 - a2), np.abs(b1 - b2)) / scale,
+            "opposite_twist_mismatch": np.maximum(np.abs(np.abs(al1) - np.abs(al2)), np.abs(np.abs(be1) - np.abs(be2))),
+            "a_over_sin_alpha": ra, "b_over_sin_beta": rb, "bennett_condition_residual": res}
+
+
+def dh_rows(U, geo) -> dict:
+    """Denavit-Hartenberg parameters around closed loops (lines U (N, J, 3) in loop order, geometry from
+    `loop_geometry`): for joint i ``a``/``alpha`` to the next joint, ``d`` the offset along axis i
+    between the incoming and outgoing common normals, ``theta`` the angle between them about axis i."""
+    J = U.shape[-2]
+    prv = (np.arange(J) - 1) % J
+    f_in, n_in = geo["foot_in"][..., prv, :], geo["normal"][..., prv, :]
+    d = np.sum((geo["foot_out"] - f_in) * U, -1)
+    theta = np.arctan2(np.sum(cross3(n_in, geo["normal"]) * U, -1), np.sum(n_in * geo["normal"], -1))
+    return {"a": geo["distance"], "alpha": geo["twist"], "d": d, "theta": theta}
