@@ -1,6 +1,7 @@
 """Helpers shared by the CLI commands: error reporting with exit codes, options, summaries."""
 from __future__ import annotations
 
+import errno
 import functools
 import json
 import sys
@@ -60,6 +61,8 @@ json_option = click.option("--json", "as_json", is_flag=True,
 
 
 def print_json(doc) -> None:
+    if sys.stdout is None:  # closed (>&-): --json asked for output that cannot go anywhere
+        raise OSError(errno.EBADF, "standard output is closed")
     click.echo(json.dumps(doc, indent=None, separators=(",", ":"), allow_nan=False))
 
 

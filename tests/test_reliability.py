@@ -235,6 +235,23 @@ def test_stdout_on_a_full_device(tmp_path, args):
     assert "No space left" in err
 
 
+@pytest.mark.parametrize("args", [["bennett", FIXTURE, "--json", "-q"], ["batch", "j.jsonl", "-q"]])
+@pytest.mark.parametrize("how", ["os.close(1)", "sys.stdout = None"])
+def test_closed_stdout(tmp_path, args, how):
+    (tmp_path / "j.jsonl").write_text(job(id=1) + "\n")
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    p = subprocess.run([sys.executable, "-c", f"import os, sys; {how}; from cli.main import main; main()",
+                        *map(str, args)], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=60)
+    one_line_error(p.returncode, p.stderr)
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/null"), reason="needs /dev/null")
+def test_force_never_replaces_a_device(tmp_path):
+    code, _, err = cli(["bennett", FIXTURE, "-q", "-o", "/dev/null", "--force"], tmp_path)
+    one_line_error(code, err)
+    assert "special file" in err and Path("/dev/null").is_char_device()
+
+
 def test_disk_full_while_writing_leaves_nothing(tmp_path, bennett, monkeypatch):
     import synth.io.urdf as urdf_mod
 

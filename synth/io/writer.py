@@ -144,6 +144,9 @@ def _check_target(out: Path, force: bool, new: tuple[list[str], list[str]] | Non
     if not os.path.lexists(out):
         return
     if out.is_symlink() or not out.is_dir():
+        if not (out.is_symlink() or stat.S_ISREG(os.lstat(out).st_mode)):
+            raise InputError(f"{out}: exists and is a special file (a device, a socket, a pipe); "
+                             "refusing to replace it")
         if force:
             return
         raise InputError(f"{out}: exists and is not a directory written by mpsynth; "
@@ -168,8 +171,15 @@ def _write_manifest(directory: Path, files) -> None:
                    "and keeps every other file",
            "files": sorted(set(files) - {MARKER})}
     tmp = directory / (MARKER + ".tmp")
-    tmp.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
-    os.replace(tmp, directory / MARKER)
+    try:
+        tmp.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+        os.replace(tmp, directory / MARKER)
+    except OSError:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
 
 
 def _commit(tmp: Path, out: Path) -> None:

@@ -155,8 +155,6 @@ def _echo_id(jid):
         return str(jid)
     if isinstance(jid, bool) or not isinstance(jid, (str, int, float)):
         return None
-    if isinstance(jid, int) and len(str(abs(jid))) > 1000:
-        return None
     return jid
 
 
