@@ -201,10 +201,31 @@ def test_an_overlong_line_is_read_without_holding_it():
     assert res == {"id": None, "line": 1, "ok": False, "exit_code": 2, "error": "line is longer than 10 MB"}
 
 
-def test_device_files_are_not_counted(tmp_path):
-    stream, total = open_lines("/dev/zero")
-    with stream:
-        assert total is None and stream.read(4) == b"\0" * 4
+@pytest.mark.parametrize("device", ["/dev/zero", "/dev/urandom", "/dev/full"])
+def test_endless_devices_are_refused_and_dev_null_is_empty(tmp_path, device):
+    if not os.path.exists(device):
+        pytest.skip(f"no {device}")
+    with pytest.raises(InputError, match="is a device"):
+        open_lines(device)
+    code, _, err = cli(["batch", device], tmp_path, timeout=30)
+    one_line_error(code, err)
+    code, out, err = cli(["batch", os.devnull, "-q"], tmp_path, timeout=30)
+    assert code == 0 and out == "" and err == ""
+
+
+def test_a_pipe_is_read_lazily_and_never_counted(tmp_path):
+    r, w = os.pipe()
+    os.write(w, job(id=1).encode() + b"\n")
+    os.close(w)
+    if not os.path.exists(f"/proc/self/fd/{r}"):
+        os.close(r)
+        pytest.skip("no /proc/self/fd")
+    try:
+        stream, total = open_lines(f"/proc/self/fd/{r}")
+        with stream:
+            assert total is None and [n for n, _ in read_lines(stream)] == [1]
+    finally:
+        os.close(r)
 
 
 def test_an_11_mb_line_is_a_failed_result_and_the_batch_goes_on(tmp_path):

@@ -233,9 +233,13 @@ def open_lines(source) -> tuple[IO[bytes], int | None]:
         raise InputError(f"{name}: cannot read file: it is a directory") from None
     except OSError as e:
         raise InputError(f"{name}: cannot read file: {clean_text(e.strerror or str(e))}") from None
+    mode = os.fstat(stream.fileno()).st_mode
+    if (stat.S_ISCHR(mode) or stat.S_ISBLK(mode)) and not stream.isatty() and not _is_devnull(source):
+        stream.close()  # /dev/zero, /dev/urandom, a disk: endless or binary, never job lines
+        raise InputError(f"{name}: is a device, not a file of job lines")
     total = None
     try:
-        if stat.S_ISREG(os.fstat(stream.fileno()).st_mode):  # never count /dev/zero or a pipe
+        if stat.S_ISREG(mode):  # never count a pipe
             with open(source, "rb") as fh:
                 n = last = 0
                 for block in iter(lambda: fh.read(_CHUNK), b""):
@@ -245,6 +249,13 @@ def open_lines(source) -> tuple[IO[bytes], int | None]:
     except OSError:
         total = None
     return stream, total
+
+
+def _is_devnull(source) -> bool:
+    try:
+        return os.path.samefile(source, os.devnull)
+    except OSError:
+        return False
 
 
 def read_lines(stream, limit: int = MAX_LINE_BYTES):
