@@ -447,3 +447,48 @@ def test_hostile_sweep_sample(tmp_path):
 @pytest.mark.parametrize("seed", range(5))
 def test_hostile_sweep(tmp_path, seed):
     sweep(tmp_path, seed=seed, n=400, workers=2)
+
+
+def _kill_during_write(cwd: Path, delay: float, sig=signal.SIGKILL) -> int:
+    """Start `bennett -o out`, wait until its temporary directory appears (or it ends), then ``delay``
+    seconds, then send ``sig``. Returns the exit status."""
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    p = subprocess.Popen([sys.executable, "-m", "cli.main", "bennett", str(FIXTURE), "-o", "out", "-q"], cwd=cwd,
+                         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL)
+    while p.poll() is None and not any("mpsynth-tmp" in n for n in os.listdir(cwd)):
+        time.sleep(0.002)
+    time.sleep(delay)
+    if p.poll() is None:
+        p.send_signal(sig)
+    _, err = p.communicate(timeout=120)
+    assert b"Traceback" not in err, err
+    return p.returncode
+
+
+def _killed_then_rerun(tmp_path: Path, delays) -> None:
+    """SIGKILL writers at the given delays into their write phase, beside a user's file in OUT; a clean
+    run afterwards leaves a complete OUT, the user's file, and no temporary directory."""
+    code, _, err = cli(["bennett", FIXTURE, "-o", "out", "-q"], tmp_path)
+    assert code == 0, err
+    (tmp_path / "out" / "notes.txt").write_text("mine")
+    for d in delays:
+        _kill_during_write(tmp_path, d)
+        assert (tmp_path / "out" / "notes.txt").read_text() == "mine"
+    code, _, err = cli(["bennett", FIXTURE, "-o", "out", "-q"], tmp_path)
+    assert code == 0, err
+    assert os.listdir(tmp_path) == ["out"]  # the killed writers' temporary directories are gone
+    out = tmp_path / "out"
+    files = json.loads((out / writer_mod.MARKER).read_text())["files"]
+    assert all((out / f).is_file() for f in files) and "notes.txt" not in files
+    assert (out / "notes.txt").read_text() == "mine"
+
+
+def test_sigkilled_writer_leftovers_are_cleaned_by_the_next_run(tmp_path):
+    _killed_then_rerun(tmp_path, [0.0, 0.05])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(3))
+def test_sigkill_sweep(tmp_path, seed):
+    rng = random.Random(seed)
+    _killed_then_rerun(tmp_path, [rng.uniform(0.0, 0.4) for _ in range(6)])
