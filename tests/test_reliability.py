@@ -111,14 +111,14 @@ def test_a_users_file_where_mpsynth_would_write_is_refused_without_force(tmp_pat
 
 
 def test_batch_out_dot_with_force_keeps_the_working_directory(tmp_path):
-    lines = [job(id="a", out=".", force=True), job(id="b", out="..", force=True), job(id="c", out="x/../..")]
+    lines = [job(id="a", out=".", force=True), job(id="b", out="..", force=True), job(id="c", out="x/../.."),
+             job(id="d", out="jobs.jsonl", force=True), job(id="e", out="results.jsonl", force=True)]
     (tmp_path / "jobs.jsonl").write_text("\n".join(lines) + "\n")
     with open(tmp_path / "results.jsonl", "wb") as fh:
         code, _, err = cli(["batch", "jobs.jsonl", "-q"], tmp_path, stdout=fh)
     assert code == 1, err  # the jobs failed, the batch did not lie about it
     results = [json.loads(s) for s in (tmp_path / "results.jsonl").read_text().splitlines()]
-    assert [(r["id"], r["ok"], r["exit_code"]) for r in results] == [("a", False, 2), ("b", False, 2),
-                                                                    ("c", False, 2)]
+    assert [(r["id"], r["ok"], r["exit_code"]) for r in results] == [(k, False, 2) for k in "abcde"]
     assert sorted(os.listdir(tmp_path)) == ["jobs.jsonl", "results.jsonl"]
 
 

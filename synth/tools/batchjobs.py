@@ -214,7 +214,10 @@ def _out_path(out: str, out_dir) -> str:
 
 
 def _prepare_out(out: str, force: bool) -> None:
-    """Create OUT's missing parent directories and refuse an unusable OUT before any work."""
+    """Create OUT's missing parent directories and refuse an unusable OUT before any work. A job never
+    replaces a file (the jobs or the results file, say), not even with "force"."""
+    if os.path.lexists(out) and (os.path.islink(out) or not os.path.isdir(out)):
+        raise _JobError(f"'out' {out}: exists and is not a directory; a batch job never replaces a file")
     parent = Path(os.path.abspath(out)).parent
     try:
         os.makedirs(parent, exist_ok=True)
