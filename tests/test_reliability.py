@@ -158,6 +158,8 @@ def test_out_may_not_escape_the_base_directory(tmp_path):
         assert res["ok"] is False and res["exit_code"] == 2 and "'out'" in res["error"], (out, res)
     assert sorted(os.listdir(tmp_path)) == ["base", "outside"] and os.listdir(tmp_path / "outside") == []
     assert sorted(os.listdir(base)) == ["link"]
+    res = run_job((1, job(out="deep/er/x", poses=POSES3[:2])), out_dir=base)  # a failed job: no parents left
+    assert not res["ok"] and sorted(os.listdir(base)) == ["link"]
     res = run_job((1, job(out="deep/er/x")), out_dir=base)
     assert res["ok"] and (base / "deep" / "er" / "x" / "linkage.urdf").is_file()
 

@@ -163,6 +163,7 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
     resolved under ``out_dir`` (default: the working directory). Never raises (but KeyboardInterrupt)."""
     lineno, text = item
     result: dict[str, Any] = {"id": None, "line": lineno}
+    created: list[str] = []  # parent directories made for "out": removed again when the job fails
     if text is not None and not text.strip(" \t\r"):
         result.update({"ok": True, "skipped": "blank line"})
         return result
@@ -177,7 +178,7 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
         try:
             out_path = _out_path(job["out"], out_dir) if "out" in job else None
             if out_path is not None:
-                _prepare_out(out_path, bool(job.get("force", False)))
+                _prepare_out(out_path, bool(job.get("force", False)), created)
             ps = parse_pose_document(doc, source="poses", count=(KINDS[kind], f"kind {kind!r}"),
                                      normalize=bool(job.get("normalize", False)))
             linkage = _synthesize(kind, ps)
@@ -197,6 +198,13 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
         raise
     except Exception as e:  # an internal error: still one result line
         result.update({"ok": False, "exit_code": 3, "error": _one_line(f"internal error: {type(e).__name__}: {e}")})
+    finally:
+        if not result.get("ok"):
+            for d in reversed(created):  # nothing partial: not even an empty parent directory
+                try:
+                    os.rmdir(d)
+                except OSError:
+                    break
     return result
 
 
@@ -213,14 +221,21 @@ def _out_path(out: str, out_dir) -> str:
     return path
 
 
-def _prepare_out(out: str, force: bool) -> None:
+def _prepare_out(out: str, force: bool, created: list) -> None:
     """Create OUT's missing parent directories and refuse an unusable OUT before any work. A job never
     replaces a file (the jobs or the results file, say), not even with "force"."""
     if os.path.lexists(out) and (os.path.islink(out) or not os.path.isdir(out)):
         raise _JobError(f"'out' {out}: exists and is not a directory; a batch job never replaces a file")
     parent = Path(os.path.abspath(out)).parent
+    missing = []
+    p = parent
+    while not os.path.lexists(p) and p != p.parent:
+        missing.append(str(p))
+        p = p.parent
     try:
-        os.makedirs(parent, exist_ok=True)
+        for d in reversed(missing):
+            os.mkdir(d)
+            created.append(d)
     except OSError as e:
         raise _JobError(f"{parent}: cannot create the output's parent directory ({e.strerror or e})") from None
     check_output_target(out, force=force)
