@@ -304,6 +304,11 @@ def test_disk_full_on_a_real_small_file_system(tmp_path):
         code, _, err = cli(["bennett", FIXTURE, "-o", disk / "out", "-q"], tmp_path)
         one_line_error(code, err)
         assert os.listdir(disk) == ["keep.txt"]  # nothing partial, no temporary directory
+        (tmp_path / "j.jsonl").write_text(job(id=1, out="a/b") + "\n" + job(id=2) + "\n")
+        code, out, err = cli(["batch", "j.jsonl", "-q", "--out-dir", disk], tmp_path)
+        res = [json.loads(s) for s in out.splitlines()]
+        assert code == 1 and [(r["ok"], r.get("exit_code")) for r in res] == [(False, 2), (True, None)], out
+        assert "No space left" in res[0]["error"] and os.listdir(disk) == ["keep.txt"]
     finally:
         subprocess.run(["umount", str(disk)], capture_output=True)
 
