@@ -7,11 +7,12 @@ import time
 
 import click
 
-from synth.errors import InputError
-from synth.io.docload import open_lines
-from synth.tools.batchjobs import dumps, run_jobs
+from synth.errors import InputError, OutputError
+from synth.io.docload import open_lines, read_lines
+from synth.tools.batchjobs import dumps, run_jobs, worker_count
 
 from .common import debug_option, echo, run_guarded
+from synth.io.streams import silence_stdout, terminate_as_exit
 
 
 class Progress:
@@ -50,6 +51,28 @@ class Progress:
         self.stream.flush()
 
 
+def _read(lines, source):
+    """``lines``, with a read error (EIO, a vanished device) as a one-line InputError."""
+    try:
+        yield from lines
+    except OSError as e:
+        name = "<stdin>" if source == "-" else source
+        raise InputError(f"{name}: cannot read: {e.strerror or e}") from None
+
+
+def _write(text: str) -> None:
+    """One result line on stdout, flushed; a full disk or closed stdout is an OutputError."""
+    try:
+        sys.stdout.write(text)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except (OSError, ValueError, AttributeError) as e:  # ValueError/AttributeError: stdout closed
+        silence_stdout()
+        raise OutputError(f"cannot write the results to standard output "
+                          f"({getattr(e, 'strerror', None) or 'it is closed'})") from None
+
+
 @click.command(epilog="""\b
 Example:
   mpsynth batch jobs.jsonl -j 4 > results.jsonl
@@ -59,52 +82,56 @@ Example:
 A job line: {"id": "a1", "kind": "bennett", "poses": [...], "units": {...}, "out": "dir"}
   kind: bennett (3 poses) | sixbar (4 poses); poses and units exactly as in a pose file;
   optional: out (write the linkage there), name, normalize, force, pin_radius, link_radius, pin_length.
-A result line: {"id", "line", "ok": true, "kind", "joints", "extent", "checks", "out"}
-            or {"id", "line", "ok": false, "exit_code": 1|2|3, "error": "..."}
+Every input line (split on \\n only) gets one result line, in order:
+  {"id", "line", "ok": true, "kind", "joints", "extent", "checks", "out"}
+  or {"id", "line", "ok": false, "exit_code": 1|2|3, "error": "..."}
+  or {"id": null, "line", "ok": true, "skipped": "blank line"}.
+'out' paths are relative, below --out-dir (default: the working directory).
 
 \b
 Exit codes: 0 every job succeeded, 1 some job failed (its result line says why), 2 JOBS unreadable.""")
 @click.argument("jobs_file", metavar="JOBS", type=click.Path(dir_okay=False, allow_dash=True))
 @click.option("-j", "--jobs", "workers", type=int, default=1, show_default=True,
-              help="Worker processes (0: one per CPU).")
+              help="Worker processes (0: one per CPU; never more than the CPUs or the jobs).")
+@click.option("--out-dir", type=click.Path(file_okay=False),
+              help="Base directory of the jobs' relative 'out' paths (default: the working directory).")
 @click.option("--chunksize", type=int, help="Jobs handed to a worker at a time (default: from the job count).")
 @click.option("--full", is_flag=True, help="Add the whole linkage.json document to every successful result.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or summary on stderr.")
 @debug_option
 @run_guarded
-def batch(jobs_file, workers, chunksize, full, quiet, debug):
-    """Run the synthesis jobs in JOBS (JSON lines; '-' reads standard input), one result line per job
+def batch(jobs_file, workers, out_dir, chunksize, full, quiet, debug):
+    """Run the synthesis jobs in JOBS (JSON lines; '-' reads standard input), one result line per line
     on stdout, in input order, streamed as the jobs finish. A failing job (malformed line, bad poses,
     no real linkage) gives a result line with its error and never stops the batch."""
-    if workers == 0:
-        workers = os.cpu_count() or 1
-    if workers < 0 or workers > 1024:
-        raise InputError(f"-j {workers}: must be between 0 and 1024")
+    if workers < 0:
+        raise InputError(f"-j {workers}: must be 0 (one per CPU) or more")
     if chunksize is not None and chunksize < 1:
         raise InputError(f"--chunksize {chunksize}: must be at least 1")
+    if out_dir is not None and not os.path.isdir(out_dir):
+        raise InputError(f"--out-dir {out_dir}: not an existing directory")
     stream, total = open_lines(jobs_file)
+    workers = worker_count(workers, total)
 
     progress = Progress(total) if (not quiet and sys.stderr.isatty()) else None
     start = time.monotonic()
     n = failed = 0
     codes: dict[int, int] = {}
     try:
-        with stream:
-            for res in run_jobs(stream, jobs=workers, chunksize=chunksize, full=full, total=total):
-                sys.stdout.write(dumps(res) + "\n")
-                sys.stdout.flush()
+        with stream, terminate_as_exit():
+            for res in run_jobs(_read(read_lines(stream), jobs_file), jobs=workers, chunksize=chunksize,
+                                full=full, total=total, out_dir=out_dir):
+                _write(dumps(res) + "\n")
+                if progress:
+                    progress.update(res["ok"])
+                if res.get("skipped"):
+                    continue
                 n += 1
                 if not res["ok"]:
                     failed += 1
                     codes[res["exit_code"]] = codes.get(res["exit_code"], 0) + 1
-                if progress:
-                    progress.update(res["ok"])
     except BrokenPipeError:  # the reader went away (e.g. `| head`): stop quietly
-        try:
-            devnull = os.open(os.devnull, os.O_WRONLY)
-            os.dup2(devnull, sys.stdout.fileno())
-        except (OSError, ValueError):
-            pass
+        silence_stdout()
         sys.exit(1 if failed else 0)
     finally:
         if progress:

@@ -1,12 +1,16 @@
 """Helpers shared by the CLI commands: error reporting with exit codes, options, summaries."""
 from __future__ import annotations
 
+import errno
 import functools
 import json
 import sys
 import traceback
 
 import click
+
+from synth.io.names import check_package, check_robot_name, safe_robot_name
+from synth.io.streams import environment_error, silence_stdout
 
 
 def echo(msg: str = "") -> None:
@@ -38,6 +42,10 @@ def run_guarded(func):
             click.echo("mpsynth: interrupted", err=True)
             sys.exit(130)
         except Exception as e:  # an internal error: still one line unless --debug
+            if environment_error(e) is not None:  # a full disk, a closed stdout...: not a bug
+                silence_stdout()
+                click.echo(f"mpsynth: cannot write: {environment_error(e)}", err=True)
+                sys.exit(2)
             if debug:
                 traceback.print_exc()
             click.echo(f"mpsynth: internal error: {type(e).__name__}: {e} (rerun with --debug for a traceback)",
@@ -53,7 +61,21 @@ json_option = click.option("--json", "as_json", is_flag=True,
 
 
 def print_json(doc) -> None:
+    if sys.stdout is None:  # closed (>&-): --json asked for output that cannot go anywhere
+        raise OSError(errno.EBADF, "standard output is closed")
     click.echo(json.dumps(doc, indent=None, separators=(",", ":"), allow_nan=False))
+
+
+def _checked(check):
+    """A click callback running ``check`` (synth.io.names) on a given value: a usage error, exit 2."""
+    def callback(ctx, param, value):
+        if value is None:
+            return None
+        try:
+            return check(value, f"--{param.name}")
+        except ValueError as e:
+            raise click.BadParameter(str(e).split(": ", 1)[-1]) from None
+    return callback
 
 
 def synthesis_options(func):
@@ -61,10 +83,12 @@ def synthesis_options(func):
     opts = [
         click.option("-o", "--out", "out", type=click.Path(file_okay=False),
                      help="Output directory (linkage.urdf, linkage.json, meshes/). Without it nothing is written."),
-        click.option("--name", help="Robot name in the URDF (default: the pose file's stem)."),
+        click.option("--name", callback=_checked(check_robot_name),
+                     help="Robot name in the URDF (default: the pose file's stem)."),
         click.option("--force", is_flag=True, help="Replace OUT even if it holds files not written by mpsynth."),
         *design_option_list("the input's length unit"),
-        click.option("--package", help="Write mesh paths as package://PACKAGE/meshes/... (ROS)."),
+        click.option("--package", callback=_checked(check_package),
+                     help="Write mesh paths as package://PACKAGE/meshes/... (ROS package name: a-z, 0-9, _)."),
         click.option("--normalize", is_flag=True,
                      help="Accept slightly non-unit quaternions / non-orthonormal rotations and normalize them."),
         click.option("-q", "--quiet", is_flag=True, help="No summary on stderr."),
@@ -139,7 +163,7 @@ def default_robot_name(source: str) -> str:
     from pathlib import Path
 
     stem = Path(source).stem if source not in ("-", "<stdin>") else "linkage"
-    return stem or "linkage"
+    return safe_robot_name(stem)
 
 
 def fmt_len(x: float, scale: float, unit: str) -> str:

@@ -1,11 +1,33 @@
 """The `mpsynth` command: a click group whose subcommands are imported only when run (fast --help)."""
 from __future__ import annotations
 
-import importlib
-import importlib.util
+import os
 import sys
 
-import click
+
+def _interrupted_hook(kind, value, tb, _previous=sys.excepthook):
+    """^C while Python is still importing (before `main` can catch it): one line, exit 130."""
+    if issubclass(kind, KeyboardInterrupt):
+        try:
+            sys.stderr.write("mpsynth: interrupted\n")
+            sys.stderr.flush()
+        finally:
+            os._exit(130)
+    _previous(kind, value, tb)
+
+
+def _unraisable_hook(info, _previous=sys.unraisablehook):
+    if not isinstance(info.exc_value, KeyboardInterrupt):  # ^C inside an import-lock callback
+        _previous(info)
+
+
+sys.excepthook = _interrupted_hook  # set before the imports below, which take most of the start-up
+sys.unraisablehook = _unraisable_hook
+
+import importlib  # noqa: E402
+import importlib.util  # noqa: E402
+
+import click  # noqa: E402
 
 # name -> (module:function, one-line help). Keep the help here so `mpsynth --help` imports nothing.
 COMMANDS = {

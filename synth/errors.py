@@ -30,3 +30,10 @@ class NotGenericError(SynthesisError):
 
 class NoFactorizationError(SynthesisError):
     """The motion polynomial admits no factorization into linear factors."""
+
+
+class OutputError(MpsynthError):
+    """The output could not be written (disk full, I/O error, an unwritable standard output). Exit
+    code 2, like an unusable output directory; nothing partial is left behind."""
+
+    exit_code = 2

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 
 from cli.main import mpsynth
 from synth.errors import InputError
-from synth.io.docload import open_lines
+from synth.io.docload import open_lines, read_lines
 from synth.tools.batchjobs import run_job, run_jobs
 
 from conftest import REPO, random_poses
@@ -65,14 +65,17 @@ def make_jobs(n=200, seed=7):
 def jobs(tmp_path_factory):
     lines, expect = make_jobs()
     path = tmp_path_factory.mktemp("batch") / "jobs.jsonl"
-    # blank lines are not jobs: they give no result but count for the line numbers
+    # a blank line is not a job: its result line says "skipped", so results and lines stay 1:1
     path.write_text("\n".join(lines[:100]) + "\n\n" + "\n".join(lines[100:]) + "\n")
     return path, lines, expect
 
 
 def check_results(stdout, lines, expect):
     results = [json.loads(s) for s in stdout.splitlines()]
-    assert len(results) == len(lines) == 200
+    assert len(results) == len(lines) + 1 == 201
+    assert results[100] == {"id": None, "line": 101, "ok": True, "skipped": "blank line"}
+    results = results[:100] + results[101:]
+    assert [r["line"] for r in results] == list(range(1, 101)) + list(range(102, 202))
     for k, (res, (ok, code)) in enumerate(zip(results, expect)):
         assert res["line"] == k + 1 + (k >= 100), res
         if ok is None:  # either a linkage or "no real linkage"
@@ -117,23 +120,22 @@ def test_parallel_gives_the_same_results(jobs):
 def test_stdin_pipeline_and_outputs(tmp_path):
     """End to end through a pipe, writing two linkages; exit 0 when every job succeeds."""
     rng = np.random.default_rng(3)
-    jobs = [{"id": "a", "kind": "bennett", "poses": matrix_specs(random_poses(rng, 3)), "out": str(tmp_path / "a")},
+    jobs = [{"id": "a", "kind": "bennett", "poses": matrix_specs(random_poses(rng, 3)), "out": "a"},
             {"id": "b", "kind": "sixbar",
              "poses": [{"position": [0, 0, 0], "quaternion": [1, 0, 0, 0]},
                        {"position": [1, 0, 0.5], "quaternion": [0.6, 0, 0, 0.8]},
                        {"position": [0.25, 1, 0.2], "quaternion": [0.6, 0.8, 0, 0]},
                        {"position": [-1, 0.5, 0], "quaternion": [0.2, 0.4, 0.4, 0.8]}],
-             "out": str(tmp_path / "b"), "name": "six"}]
+             "out": "sub/b", "name": "six"}]
     text = "".join(json.dumps(j) + "\n" for j in jobs)
     exe = REPO / ".venv" / "bin" / "mpsynth"
     cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "cli.main"]
-    p = subprocess.run(cmd + ["batch", "-", "-j", "2"], input=text, capture_output=True, text=True, timeout=120,
+    p = subprocess.run(cmd + ["batch", "-", "-j", "2", "--out-dir", str(tmp_path)], input=text, capture_output=True, text=True, timeout=120,
                        cwd=REPO)
     assert p.returncode == 0, p.stderr
     res = [json.loads(s) for s in p.stdout.splitlines()]
-    assert [(r["id"], r["ok"], r["out"]) for r in res] == [("a", True, str(tmp_path / "a")),
-                                                          ("b", True, str(tmp_path / "b"))]
-    for d, name in (("a", "a"), ("b", "six")):
+    assert [(r["id"], r["ok"], r["out"]) for r in res] == [("a", True, "a"), ("b", True, "sub/b")]
+    for d, name in (("a", "a"), ("sub/b", "six")):
         doc = json.loads((tmp_path / d / "linkage.json").read_text())
         assert doc["format"] == "mpsynth.linkage/1"
         assert f'<robot name="{name}">' in (tmp_path / d / "linkage.urdf").read_text()
@@ -141,9 +143,9 @@ def test_stdin_pipeline_and_outputs(tmp_path):
 
 
 def test_failed_job_writes_nothing(tmp_path):
-    job = {"id": 1, "kind": "bennett", "out": str(tmp_path / "x"),
+    job = {"id": 1, "kind": "bennett", "out": "x",
            "poses": [{"matrix": np.eye(4).tolist()}] * 3}
-    res = run_job((1, json.dumps(job)))
+    res = run_job((1, json.dumps(job)), out_dir=tmp_path)
     assert res["ok"] is False and res["exit_code"] == 1
     assert not list(tmp_path.iterdir())
 
@@ -151,8 +153,8 @@ def test_failed_job_writes_nothing(tmp_path):
 def test_full_result_and_mesh_sizes(tmp_path):
     rng = np.random.default_rng(5)
     job = {"id": 1, "kind": "bennett", "units": {"length": "mm"},
-           "poses": matrix_specs(random_poses(rng, 3, scale=200.0)), "pin_radius": 5, "out": str(tmp_path / "o")}
-    (res,) = list(run_jobs([json.dumps(job)], full=True))
+           "poses": matrix_specs(random_poses(rng, 3, scale=200.0)), "pin_radius": 5, "out": "o"}
+    (res,) = list(run_jobs([json.dumps(job)], full=True, out_dir=tmp_path))
     assert res["ok"], res
     assert res["linkage"]["format"] == "mpsynth.linkage/1" and len(res["linkage"]["joints"]) == 4
     assert res["bennett"]["a"] > 0
@@ -182,8 +184,8 @@ def test_open_lines_counts_jobs_and_names_unreadable_files(tmp_path):
     f.write_bytes(b'{"a": 1}\n\n   \n{"b": \xff}\n')
     stream, total = open_lines(str(f))
     with stream:
-        lines = list(stream)
-    assert total == 2 and len(lines) == 4 and "\ufffd" in lines[3]  # undecodable bytes replaced
+        lines = list(read_lines(stream))
+    assert total == 4 and len(lines) == 4 and "\ufffd" in lines[3][1]  # undecodable bytes replaced
     with pytest.raises(InputError, match="it is a directory"):
         open_lines(str(tmp_path))
     with pytest.raises(InputError, match="no such file"):

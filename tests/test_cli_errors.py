@@ -302,13 +302,13 @@ def test_malformed_input(row, tmp_path):
         assert elapsed < 15, f"{row} took {elapsed:.1f} s: it must be refused early"
 
 
-def test_foreign_out_is_untouched_then_replaced_with_force(tmp_path):
+def test_foreign_out_is_untouched_then_written_beside_with_force(tmp_path):
     args = _foreign_out(tmp_path)
     code, _, err = invoke(args, tmp_path)
     assert code == 2 and (tmp_path / "out" / "thesis.tex").read_text() == "precious"
     code, out, err = invoke(args + ["--force", "-q"], tmp_path)
     assert code == 0, err
-    assert not (tmp_path / "out" / "thesis.tex").exists()
+    assert (tmp_path / "out" / "thesis.tex").read_text() == "precious"  # --force never deletes the user's files
     assert json.loads((tmp_path / "out" / "linkage.json").read_text())["format"] == "mpsynth.linkage/1"
     assert sorted(os.listdir(tmp_path)) == ["good.yaml", "out"] and leftovers(tmp_path) == []
 

@@ -359,15 +359,25 @@ def test_exception_mid_write_keeps_previous_output(bennett, tmp_path, monkeypatc
 def test_replace_mpsynth_output(bennett, tmp_path):
     out = tmp_path / "OUT"
     write_output(bennett, out, robot_name="first")
-    (out / "stale.txt").write_text("from the old run")
+    (out / "notes.txt").write_text("the user's")
+    (out / "meshes" / "link_h1.stl").write_text("stale mesh of the old run")
+    (out / "meshes" / "link_gone.stl").write_text("")  # pretend the old run wrote a link this one does not
+    doc = json.loads((out / writer_mod.MARKER).read_text())
+    doc["files"].append("meshes/link_gone.stl")
+    (out / writer_mod.MARKER).write_text(json.dumps(doc))
     write_output(bennett, out, robot_name="second")
     assert 'name="second"' in (out / "linkage.urdf").read_text()
-    assert not (out / "stale.txt").exists()
+    assert (out / "notes.txt").read_text() == "the user's"  # not mpsynth's: kept
+    assert (out / "meshes" / "link_h1.stl").read_bytes().startswith(b"solid") or \
+        len((out / "meshes" / "link_h1.stl").read_bytes()) > 100  # replaced
+    assert not (out / "meshes" / "link_gone.stl").exists()  # listed by the old manifest, not rewritten
+    assert "notes.txt" not in json.loads((out / writer_mod.MARKER).read_text())["files"]
     assert entries(tmp_path) == {"OUT"}
-    # recognised by linkage.json's format as well, without the marker
+    # an output of an earlier version is recognised by linkage.json's format, without the manifest
     (out / writer_mod.MARKER).unlink()
     write_output(bennett, out, robot_name="third")
     assert 'name="third"' in (out / "linkage.urdf").read_text()
+    assert (out / "notes.txt").read_text() == "the user's"
 
 
 def test_foreign_directory_refused_unless_forced(bennett, tmp_path):
@@ -379,8 +389,8 @@ def test_foreign_directory_refused_unless_forced(bennett, tmp_path):
     assert str(out) in str(e.value) and "\n" not in str(e.value)
     assert (out / "thesis.tex").read_text() == "precious"
     assert entries(tmp_path) == {"OUT"}
-    write_output(bennett, out, robot_name="b", force=True)
-    assert not (out / "thesis.tex").exists() and (out / "linkage.urdf").is_file()
+    write_output(bennett, out, robot_name="b", force=True)  # --force writes beside, never deletes
+    assert (out / "thesis.tex").read_text() == "precious" and (out / "linkage.urdf").is_file()
     assert entries(tmp_path) == {"OUT"}
 
 

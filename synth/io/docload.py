@@ -15,6 +15,7 @@ import io
 import json
 import os
 import re
+import stat
 import sys
 from typing import IO, Any
 
@@ -195,28 +196,96 @@ def load_document(text: str, name: str, force_json: bool) -> Any:
         raise InputError(f"{name}: YAML error: {clean_text(' '.join(str(e).split()))}") from None
 
 
-def open_lines(source) -> tuple[IO[str], int | None]:
-    """A text stream over the lines of ``source`` (a file, or ``-`` for standard input; undecodable
-    bytes replaced) and the number of its non-blank lines (None for standard input or when they
-    cannot be counted). InputError (one line) when the file cannot be opened."""
+MAX_LINE_BYTES = 10 * 1024 * 1024  # one line of a JSON-lines file
+_CHUNK = 1 << 16
+
+
+def _stdin_buffer():
+    """The binary standard input; InputError when it is closed."""
+    stdin = sys.stdin
+    if stdin is None:
+        raise InputError("<stdin>: standard input is closed")
+    stream = getattr(stdin, "buffer", stdin)
+    try:
+        if getattr(stream, "closed", False):
+            raise ValueError
+        if hasattr(stream, "fileno"):
+            os.fstat(stream.fileno())
+    except io.UnsupportedOperation:  # an in-memory stream (tests)
+        pass
+    except (OSError, ValueError):
+        raise InputError("<stdin>: standard input is closed") from None
+    return stream
+
+
+def open_lines(source) -> tuple[IO[bytes], int | None]:
+    """A binary stream over ``source`` (a file, or ``-`` for standard input) for `read_lines`, and the
+    number of its lines (None for standard input or anything but a regular file). InputError (one
+    line) when it cannot be opened."""
     if source == "-":
-        stream = (io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8", errors="replace")
-                  if hasattr(sys.stdin, "buffer") else sys.stdin)
-        return stream, None
+        return _stdin_buffer(), None
+    name = clean_text(os.fspath(source))
     try:
-        stream = open(source, encoding="utf-8", errors="replace")
+        stream = open(source, "rb")
     except FileNotFoundError:
-        raise InputError(f"{source}: cannot read file: no such file") from None
+        raise InputError(f"{name}: cannot read file: no such file") from None
     except IsADirectoryError:
-        raise InputError(f"{source}: cannot read file: it is a directory") from None
+        raise InputError(f"{name}: cannot read file: it is a directory") from None
     except OSError as e:
-        raise InputError(f"{source}: cannot read file: {e.strerror or e}") from None
+        raise InputError(f"{name}: cannot read file: {clean_text(e.strerror or str(e))}") from None
+    mode = os.fstat(stream.fileno()).st_mode
+    if (stat.S_ISCHR(mode) or stat.S_ISBLK(mode)) and not stream.isatty() and not _is_devnull(source):
+        stream.close()  # /dev/zero, /dev/urandom, a disk: endless or binary, never job lines
+        raise InputError(f"{name}: is a device, not a file of job lines")
+    total = None
     try:
-        with open(source, "rb") as fh:
-            total = sum(1 for line in fh if line.strip())
+        if stat.S_ISREG(mode):  # never count a pipe
+            with open(source, "rb") as fh:
+                n = last = 0
+                for block in iter(lambda: fh.read(_CHUNK), b""):
+                    n += block.count(b"\n")
+                    last = block[-1]
+                total = n + (1 if last not in (0, 10) else 0)
     except OSError:
         total = None
     return stream, total
+
+
+def _is_devnull(source) -> bool:
+    try:
+        return os.path.samefile(source, os.devnull)
+    except OSError:
+        return False
+
+
+def read_lines(stream, limit: int = MAX_LINE_BYTES):
+    """(1-based line number, text) of every line of the binary ``stream``, split on \\n only (a CR is
+    an ordinary character; a final line without \\n counts), decoded as UTF-8 with undecodable bytes
+    replaced. A line longer than ``limit`` bytes gives ``(number, None)`` and is skipped while it is
+    read, never held in memory."""
+    read = getattr(stream, "read1", None) or stream.read
+    buf = bytearray()
+    lineno = 0
+    over = False
+    while True:
+        chunk = read(_CHUNK)
+        if not chunk:
+            break
+        start = 0
+        while True:
+            i = chunk.find(b"\n", start)
+            piece = chunk[start:] if i < 0 else chunk[start:i]
+            if not over:
+                buf += piece
+                if len(buf) > limit:
+                    over, buf = True, bytearray()
+            if i < 0:
+                break
+            lineno += 1
+            yield lineno, (None if over else buf.decode("utf-8", "replace"))
+            buf, over, start = bytearray(), False, i + 1
+    if buf or over:
+        yield lineno + 1, (None if over else buf.decode("utf-8", "replace"))
 
 
 def read_source(source, text: str | None) -> tuple[str, str]:
@@ -233,12 +302,13 @@ def read_source(source, text: str | None) -> tuple[str, str]:
                 raise InputError(f"{name}: file is larger than 10 MB; refusing to read it")
             data = text.encode("utf-8", "surrogatepass")
     elif raw_name == "-":
-        stream = getattr(sys.stdin, "buffer", None)
-        if stream is None:
-            s = sys.stdin.read(MAX_FILE_BYTES + 1)
-            data = s.encode("utf-8", "surrogatepass")
-        else:
+        stream = _stdin_buffer()
+        try:
             data = stream.read(MAX_FILE_BYTES + 1)
+        except OSError as e:
+            raise InputError(f"{name}: cannot read standard input: {clean_text(e.strerror or str(e))}") from None
+        if isinstance(data, str):
+            data = data.encode("utf-8", "surrogatepass")
     else:
         try:
             st = os.stat(raw_name)

@@ -9,8 +9,10 @@ A job is one JSON object on one line::
 ``kind`` is ``"bennett"`` (3 poses) or ``"sixbar"`` (4 poses); ``poses`` is a list of pose specs
 exactly as in a pose file's ``poses`` list, ``units`` as in a pose file (both validated by
 ``synth.io.poses.parse_pose_document``); everything but ``kind`` and ``poses`` is optional. With ``out``
-the linkage is written there (atomically, ``synth.io.writer.write_output``; robot name ``name``, else
-the id; missing parent directories are created, an unusable OUT is refused before the synthesis);
+(a relative path, resolved under the base directory ``out_dir``, which it may not leave or be) the
+linkage is written there (``synth.io.writer.write_output``: files of others in OUT are kept; robot name
+``name``, else the id; missing parent directories are created, an unusable OUT is refused before the
+synthesis);
 mesh sizes are in the job's length unit. Unknown keys are an error (a typo must not be
 ignored silently).
 
@@ -20,16 +22,22 @@ The result of a job is one JSON object::
      "checks": {...}, "out": "runs/a7" | null, ["linkage": {...linkage.json...}]}
     {"id": .., "line": n, "ok": false, "exit_code": 2, "error": "one line"}
 
-``exit_code`` follows the CLI contract: 2 bad input (malformed JSON, bad poses, unknown kind), 1 no
-real linkage for valid input, 3 an internal error. ``line`` is the 1-based line number in the input
-(blank lines are skipped and produce no result). A job never raises: every failure is a result.
+    {"id": null, "line": n, "ok": true, "skipped": "blank line"}
 
-``run_jobs(lines, jobs=N)`` runs them in N worker processes (``multiprocessing``, in chunks) and
-yields the results in input order as soon as each is ready (a result waits only for the jobs
-before it).
+``exit_code`` follows the CLI contract: 2 bad input (malformed JSON, bad poses, unknown kind, a line
+over 10 MB), 1 no real linkage for valid input, 3 an internal error. ``line`` is the 1-based line
+number in the input; lines are split on \\n only, and every line gets exactly one result, in order
+(a blank line, holding only spaces, tabs or CR, the "skipped" one). ``id`` is echoed as given when
+it is a string or a finite number, as a string when it is a number JSON cannot carry (``1e400``),
+else null. A job never raises: every failure is a result.
+
+``run_jobs(lines, jobs=N)`` runs them in N worker processes (``multiprocessing``, in chunks, at most
+a few chunks ahead of the output, so memory stays bounded) and yields the results in input order as
+soon as each is ready (a result waits only for the jobs before it).
 """
 from __future__ import annotations
 
+import collections
 import difflib
 import importlib
 import json
@@ -44,6 +52,7 @@ from synth.checks import VERIFY_SAMPLES
 from synth.errors import MpsynthError
 from synth.io.docload import json_object_pairs
 from synth.io.jsonout import linkage_document, plain
+from synth.io.names import check_robot_name, safe_robot_name
 from synth.io.poses import parse_pose_document
 from synth.io.writer import check_output_target, write_output
 from synth.synthesis.bennett import bennett
@@ -70,12 +79,23 @@ def _reject_constant(name):
     raise ValueError(f"{name} is not a valid JSON number")
 
 
-def parse_job(text: str) -> dict:
-    """The job object of one line; _JobError (exit code 2) when it is not a valid job."""
-    if len(text) > MAX_LINE:
+class RawNumber(str):
+    """A JSON number too large for a float (``1e400``), kept as its text."""
+
+
+def _parse_float(text: str):
+    x = float(text)
+    return x if math.isfinite(x) else RawNumber(text)
+
+
+def parse_job(text: str | None) -> dict:
+    """The job object of one line (None: a line over the limit); _JobError (exit code 2) when it is
+    not a valid job."""
+    if text is None or len(text) > MAX_LINE:
         raise _JobError("line is longer than 10 MB")
     try:
-        job = json.loads(text, object_pairs_hook=json_object_pairs, parse_constant=_reject_constant)
+        job = json.loads(text, object_pairs_hook=json_object_pairs, parse_constant=_reject_constant,
+                         parse_float=_parse_float)
     except json.JSONDecodeError as e:
         raise _JobError(f"invalid JSON at column {e.colno}: {e.msg}") from None
     except (ValueError, RecursionError) as e:
@@ -102,15 +122,20 @@ def _check_job(job: dict) -> None:
     if jid is not None and not isinstance(jid, (str, int, float)) or isinstance(jid, bool):
         raise _JobError("'id' must be a string or a number")
     for key in ("out", "name"):
-        if key in job and not (isinstance(job[key], str) and job[key].strip()):
+        if key in job and not (isinstance(job[key], str) and job[key].strip()) or isinstance(job.get(key), RawNumber):
             raise _JobError(f"{key!r} must be a non-empty string")
+    if "name" in job:
+        try:
+            check_robot_name(job["name"], "'name'")
+        except MpsynthError as e:
+            raise _JobError(str(e)) from None
     for key in ("normalize", "force"):
         if key in job and not isinstance(job[key], bool):
             raise _JobError(f"{key!r} must be true or false")
     for key in ("pin_radius", "link_radius", "pin_length"):
         if key in job:
             v = job[key]
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
+            if isinstance(v, (bool, RawNumber)) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
                 raise _JobError(f"{key!r} must be a positive length in the job's unit")
 
 
@@ -124,22 +149,36 @@ def _synthesize(kind: str, ps):
     return sixbar(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
 
 
-def run_job(item: tuple[int, str], full: bool = False) -> dict:
-    """Run one job given as (line number, text). Never raises (but KeyboardInterrupt)."""
+def _echo_id(jid):
+    """The job id as it can go into a result line (see the module docstring)."""
+    if isinstance(jid, RawNumber):
+        return str(jid)
+    if isinstance(jid, bool) or not isinstance(jid, (str, int, float)):
+        return None
+    return jid
+
+
+def run_job(item, full: bool = False, out_dir=None) -> dict:
+    """Run one job given as (line number, text) (text None: a line over the limit); ``out`` paths are
+    resolved under ``out_dir`` (default: the working directory). Never raises (but KeyboardInterrupt)."""
     lineno, text = item
     result: dict[str, Any] = {"id": None, "line": lineno}
+    created: list[str] = []  # parent directories made for "out": removed again when the job fails
+    if text is not None and not text.strip(" \t\r"):
+        result.update({"ok": True, "skipped": "blank line"})
+        return result
     try:
         job = parse_job(text)
-        if isinstance(job.get("id"), (str, int, float)) and not isinstance(job.get("id"), bool):
-            result["id"] = job["id"]
+        result["id"] = _echo_id(job.get("id"))
         _check_job(job)
         doc = {"poses": job["poses"]}
         if "units" in job:
             doc["units"] = job["units"]
         kind = job["kind"]
         try:
-            if "out" in job:
-                _prepare_out(job["out"], bool(job.get("force", False)))
+            out_path = _out_path(job["out"], out_dir) if "out" in job else None
+            if out_path is not None:
+                _prepare_out(out_path, bool(job.get("force", False)), created)
             ps = parse_pose_document(doc, source="poses", count=(KINDS[kind], f"kind {kind!r}"),
                                      normalize=bool(job.get("normalize", False)))
             linkage = _synthesize(kind, ps)
@@ -147,8 +186,8 @@ def run_job(item: tuple[int, str], full: bool = False) -> dict:
             if "out" in job:
                 sizes = {k: float(job[k]) * ps.length_scale for k in ("pin_radius", "link_radius", "pin_length")
                          if k in job}
-                name = job.get("name") or (str(result["id"]) if result["id"] is not None else "linkage")
-                write_output(linkage, job["out"], robot_name=name, force=bool(job.get("force", False)), **sizes)
+                name = job.get("name") or safe_robot_name(str(result["id"]) if result["id"] is not None else "")
+                write_output(linkage, out_path, robot_name=name, force=bool(job.get("force", False)), **sizes)
                 out = job["out"]
         except MpsynthError as e:
             raise _JobError(str(e), e.exit_code) from None
@@ -159,14 +198,44 @@ def run_job(item: tuple[int, str], full: bool = False) -> dict:
         raise
     except Exception as e:  # an internal error: still one result line
         result.update({"ok": False, "exit_code": 3, "error": _one_line(f"internal error: {type(e).__name__}: {e}")})
+    finally:
+        if not result.get("ok"):
+            for d in reversed(created):  # nothing partial: not even an empty parent directory
+                try:
+                    os.rmdir(d)
+                except OSError:
+                    break
     return result
 
 
-def _prepare_out(out: str, force: bool) -> None:
-    """Create OUT's missing parent directories and refuse an unusable OUT before any work."""
+def _out_path(out: str, out_dir) -> str:
+    """``out`` resolved under the base directory; _JobError when it is absolute or leaves it."""
+    base = os.path.abspath(os.fspath(out_dir) if out_dir is not None else os.curdir)
+    if "\x00" in out or os.path.isabs(out) or out.startswith("~"):
+        raise _JobError(f"'out' {out!r}: must be a relative path under the output base directory {base}")
+    path = os.path.normpath(os.path.join(base, out))
+    real_base, real = os.path.realpath(base), os.path.realpath(path)
+    if not real.startswith(real_base.rstrip(os.sep) + os.sep):
+        raise _JobError(f"'out' {out!r}: leaves the output base directory {base} (or is it); "
+                        "name a directory below it")
+    return path
+
+
+def _prepare_out(out: str, force: bool, created: list) -> None:
+    """Create OUT's missing parent directories and refuse an unusable OUT before any work. A job never
+    replaces a file (the jobs or the results file, say), not even with "force"."""
+    if os.path.lexists(out) and (os.path.islink(out) or not os.path.isdir(out)):
+        raise _JobError(f"'out' {out}: exists and is not a directory; a batch job never replaces a file")
     parent = Path(os.path.abspath(out)).parent
+    missing = []
+    p = parent
+    while not os.path.lexists(p) and p != p.parent:
+        missing.append(str(p))
+        p = p.parent
     try:
-        os.makedirs(parent, exist_ok=True)
+        for d in reversed(missing):
+            os.mkdir(d)
+            created.append(d)
     except OSError as e:
         raise _JobError(f"{parent}: cannot create the output's parent directory ({e.strerror or e})") from None
     check_output_target(out, force=force)
@@ -184,32 +253,63 @@ def _success(kind: str, linkage, out, full: bool) -> dict:
 
 
 def numbered_lines(lines: Iterable[str]) -> Iterator[tuple[int, str]]:
-    """(1-based line number, text) of the non-blank lines."""
-    for i, line in enumerate(lines, 1):
-        if line.strip():
-            yield i, line
+    """(1-based line number, text) of every line of an iterable of text lines."""
+    return enumerate(lines, 1)
 
 
-def _run_full(item):
-    return run_job(item, full=True)
+def _run_chunk(chunk, full: bool, out_dir):
+    return [run_job(item, full=full, out_dir=out_dir) for item in chunk]
 
 
-def run_jobs(lines: Iterable[str], jobs: int = 1, chunksize: int | None = None, full: bool = False,
-             total: int | None = None) -> Iterator[dict]:
-    """Results of the jobs in ``lines`` (an iterable of text lines), in input order."""
-    items = numbered_lines(lines)
-    func = _run_full if full else run_job
+def _chunks(items, size: int, max_bytes: int = 1 << 20):
+    chunk, nbytes = [], 0
+    for item in items:
+        chunk.append(item)
+        nbytes += len(item[1] or "")
+        if len(chunk) >= size or nbytes >= max_bytes:
+            yield chunk
+            chunk, nbytes = [], 0
+    if chunk:
+        yield chunk
+
+
+def worker_count(requested: int, total: int | None) -> int:
+    """Worker processes actually used for ``requested`` (0: one per CPU): at most the CPUs this
+    process may run on and the number of jobs (when known), at least 1."""
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cpus = os.cpu_count() or 1
+    n = cpus if requested == 0 else min(requested, cpus)
+    if total is not None:
+        n = min(n, total)
+    return max(1, n)
+
+
+def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = False,
+             total: int | None = None, out_dir=None) -> Iterator[dict]:
+    """Results of the jobs in ``lines``, in input order. ``lines``: an iterable of (line number, text)
+    pairs (`synth.io.docload.read_lines`) or of text lines. ``jobs`` worker processes (the caller caps
+    it, `worker_count`)."""
+    items = (it if isinstance(it, tuple) else (n, it) for n, it in enumerate(lines, 1))
     if jobs <= 1:
         for item in items:
-            yield func(item)
+            yield run_job(item, full=full, out_dir=out_dir)
         return
     if chunksize is None:
         chunksize = max(1, min(16, (total or 64) // (jobs * 8)))
     ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
     pool = ctx.Pool(processes=jobs, initializer=_worker_init)
+    pending: collections.deque = collections.deque()
     try:
-        for res in pool.imap(func, items, chunksize=chunksize):
-            yield res
+        for chunk in _chunks(items, chunksize):
+            pending.append(pool.apply_async(_run_chunk, (chunk, full, out_dir)))
+            while len(pending) > 2 * jobs:
+                yield from pending.popleft().get()
+            while pending and pending[0].ready():
+                yield from pending.popleft().get()
+        while pending:
+            yield from pending.popleft().get()
         pool.close()
     except BaseException:
         pool.terminate()
@@ -222,11 +322,22 @@ def _worker_init():
     """Workers ignore SIGINT (the parent handles ^C and terminates the pool) and pre-import the optional
     sixbar synthesis once (bennett and the pose reader come with this module)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _worker_term)
     try:
         importlib.import_module("synth.synthesis.sixbar")
     except ImportError:
         pass
 
 
+def _worker_term(signum, frame):
+    os._exit(128 + signum)  # quietly: the parent reports the interruption
+
+
 def dumps(result: dict) -> str:
-    return json.dumps(result, separators=(",", ":"), allow_nan=False)
+    """One result line (never raises: a result JSON cannot carry becomes an internal-error line)."""
+    try:
+        return json.dumps(result, separators=(",", ":"), allow_nan=False)
+    except (TypeError, ValueError) as e:
+        return json.dumps({"id": None, "line": result.get("line"), "ok": False, "exit_code": 3,
+                           "error": _one_line(f"internal error: result not serializable: {e}")},
+                          separators=(",", ":"))

@@ -1,0 +1,51 @@
+"""Standard streams and signals for the CLI: an unwritable stdout, SIGTERM as a clean exit (nothing here prints)."""
+from __future__ import annotations
+
+import errno
+import os
+import signal
+import sys
+import threading
+from contextlib import contextmanager
+
+# OSError numbers the user's environment causes (a full disk, a closed pipe or stream, a read-only or
+# failing device): a one-line error, never an internal one
+ENVIRONMENT_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EPIPE, errno.EBADF, errno.EIO, errno.EROFS,
+                      errno.EFBIG, errno.EACCES, errno.EPERM, errno.ENXIO}
+
+
+def silence_stdout() -> None:
+    """Point stdout at /dev/null so that the interpreter's final flush cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
+def environment_error(e: BaseException) -> str | None:
+    """A one-line message when ``e`` is an OSError of the user's environment, else None."""
+    if isinstance(e, OSError) and e.errno in ENVIRONMENT_ERRNOS:
+        where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+        return f"{where}{e.strerror or e}"
+    return None
+
+
+@contextmanager
+def terminate_as_exit():
+    """Inside: SIGTERM raises SystemExit(143), so that `finally` clauses (worker pools) run and no
+    traceback is printed. Main thread only; the previous handler is restored."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # one clean-up is enough
+        raise SystemExit(128 + signum)
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
