@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from synth.algebra.dq import common_normal_feet, rotation_about_line
+
 
 @dataclass
 class Joint:
@@ -74,38 +76,6 @@ class Linkage:
     checks: dict[str, float] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)  # kind-specific extras, JSON-serializable
 
-    # ------------------------------------------------------------------ deferred attributes
-    def defer(self, **compute) -> None:
-        """Compute the attributes ``compute`` (name -> function of the linkage returning the value) on
-        first access instead of now; the value is then stored as an ordinary attribute. Reading a
-        deferred attribute is indistinguishable from reading an eager one (``repr``, ``asdict`` and
-        ``replace`` go through attribute access); copying or pickling the linkage computes every
-        deferred attribute first, so copies carry the values of the linkage as it was built.
-        An assignment before the first access replaces the deferred value."""
-        d = self.__dict__
-        for name in compute:
-            d.pop(name, None)
-        pending = d.get("_deferred")
-        d["_deferred"] = {**pending, **compute} if pending else compute
-
-    def __getattr__(self, name):
-        # only reached when the ordinary lookup fails, i.e. for a deferred attribute not yet computed
-        pending = self.__dict__.get("_deferred")
-        if not pending or name not in pending:
-            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-        value = pending[name](self)
-        if name not in self.__dict__:  # (unless assigned meanwhile)
-            self.__dict__[name] = value
-        self.__dict__["_deferred"] = {k: f for k, f in self.__dict__["_deferred"].items() if k != name}
-        return self.__dict__[name]
-
-    def __reduce_ex__(self, protocol):
-        # copy, deepcopy and pickle: compute the deferred attributes from this linkage first
-        for name in list(self.__dict__.get("_deferred") or ()):
-            getattr(self, name)
-        self.__dict__.pop("_deferred", None)
-        return super().__reduce_ex__(protocol)
-
     # ------------------------------------------------------------------ queries
     def joint(self, name: str) -> Joint:
         for j in self.joints:
@@ -128,8 +98,6 @@ class Linkage:
     def displacements(self, angles: dict[str, Any]) -> dict[str, np.ndarray]:
         """World displacement (4x4, or (...,4,4) for array angles) of every link from the reference
         configuration, for the given joint angles."""
-        from synth.algebra.dq import rotation_about_line  # local: keeps this module import-light
-
         out: dict[str, np.ndarray] = {"base": np.eye(4)}
         for j in self.joints:
             R = rotation_about_line(j.direction, j.moment, np.asarray(angles[j.name], float))
@@ -179,8 +147,6 @@ class Linkage:
 def pair_feet(j1: Joint, j2: Joint) -> tuple[np.ndarray, np.ndarray]:
     """Feet of the common normal of two joint axes (on j1, on j2). Parallel axes have no unique common
     normal: take the one through the midpoint of the two axis points nearest the origin."""
-    from synth.algebra.dq import common_normal_feet
-
     u1, u2 = j1.direction, j2.direction
     if np.linalg.norm(np.cross(u1, u2)) < 1e-9:
         mid = (j1.point + j2.point) / 2
