@@ -148,8 +148,9 @@ def segment_distance(p0, p1, q0, q1) -> np.ndarray:
     t = (b * s + f) * ie
     s = np.where(t < 0, np.clip(-c * ia, 0.0, 1.0), np.where(t > 1, np.clip((b - c) * ia, 0.0, 1.0), s))
     np.clip(t, 0.0, 1.0, out=t)
-    s = np.where(a <= tiny, 0.0, s)
-    t = np.where(e <= tiny, 0.0, np.where(a <= tiny, np.clip(f * ie, 0.0, 1.0), t))
+    pa, pe = a <= tiny, e <= tiny  # p or q a single point
+    s = np.where(pe, np.where(pa, 0.0, np.clip(-c * ia, 0.0, 1.0)), np.where(pa, 0.0, s))
+    t = np.where(pe, 0.0, np.where(pa, np.clip(f * ie, 0.0, 1.0), t))
     w = r + s * d1 - t * d2
     return np.sqrt(dot(w, w))
 
