@@ -67,11 +67,11 @@ def solvable_sets(kind: str, count: int, seed: int):
     return out
 
 
-def run_ours(kind: str, sets) -> list[dict]:
+def run_ours(kind: str, sets, effort: float = 1.0) -> list[dict]:
     rows = []
     for s, lk in sets:
         t = time.process_time()
-        r = design_linkage(lk, **default_sizes(lk)).collision
+        r = design_linkage(lk, **default_sizes(lk), effort=effort).collision
         rows.append({"seed": s, "seconds": time.process_time() - t,
                      "result": ("full" if r.range == "full" else "task") if r.free else "none",
                      "min_distance": r.min_distance})
@@ -118,12 +118,13 @@ def main(argv=None) -> int:
     ap.add_argument("--rl-python", default=RL_PYTHON)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", help="write every row to this file")
+    ap.add_argument("--effort", type=float, default=1.0, help="design_linkage effort")
     args = ap.parse_args(argv)
     report = {}
     for kind, count in (("bennett", args.bennett), ("sixbar", args.sixbar)):
         if count:
             sets = solvable_sets(kind, count, args.seed)
-            rows = run_ours(kind, sets)
+            rows = run_ours(kind, sets, args.effort)
             report[kind] = rows
             print(summary(kind, rows), flush=True)
             if kind == "bennett" and args.rl:

@@ -257,9 +257,21 @@ def _size(c, g, gmin, scale):
     return (np.abs(c).mean(axis=1) + (g - gmin).mean(axis=1)) / scale
 
 
-def _score(margin, size, target):
-    """Feasible (margin >= target) first, then compact (small ``size``); else the margin."""
-    return np.where(margin >= target, 1e6 - size, margin / target)
+def _violation(d, target, mask=None) -> np.ndarray:
+    """(N,) sum over the (masked) entries of d (N, ..., K) of (target - d)^2 where d < target, over
+    target^2: zero exactly for the designs whose sampled gaps all reach the target."""
+    v = np.maximum(target - d, 0.0) / target
+    v = v * v
+    if mask is not None:
+        v = v * mask
+    return v.reshape(len(d), -1).sum(axis=1)
+
+
+def _score(violation, size):
+    """Feasible (no violation) first, then compact (small ``size``); else the smaller violation (a
+    sum over every sample and pair: a move that relieves one contact counts even when another is
+    deeper)."""
+    return np.where(violation <= 0, 1e6 - size, -violation)
 
 
 class _Critical:
@@ -275,7 +287,8 @@ class _Critical:
         for row in k:
             self.keys.update(zip(range(len(row)), row.tolist()))
         # and the overall closest entries
-        flat = dm.reshape(len(d), -1).argsort(axis=1)[:, :8]
+        flat = dm.reshape(len(d), -1)
+        flat = np.argpartition(flat, min(32, flat.shape[1] - 1), axis=1)[:, :32]
         for row in flat:
             self.keys.update(divmod(int(x), d.shape[2]) for x in row)
 
@@ -284,18 +297,18 @@ class _Critical:
         return pk[:, 0], pk[:, 1]
 
 
-def _improve(scorer: _Scorer, mask, target, scale, c, sigma, g, *, step0, step_min, iterations, tries=5):
+def _improve(scorer: _Scorer, mask, target, scale, c, sigma, g, *, step0, step_min, iterations, tries=2):
     """Coordinate moves from each start (rows of c, sigma, g): shift a centre, widen/narrow a gap, flip an
-    order. Moves are screened on the critical entries; the best ``tries`` per start are evaluated fully
-    and the best improving one is taken, else that start's step halves."""
+    order. Moves are screened on the critical entries; the best per start is evaluated fully and taken
+    when it improves; after ``tries`` failures (or when no move passes the screen) the step halves."""
     gmin = scorer.layout.gap_min
     n, J = c.shape
     crit = _Critical(mask)
     d = scorer.full(c, sigma, g)
     crit.add(d)
-    margin = np.where(mask, d.min(axis=1), np.inf).min(axis=1)
-    best = _score(margin, _size(c, g, gmin, scale), target)
+    best = _score(_violation(d, target, mask), _size(c, g, gmin, scale))
     step = np.full(n, step0)
+    stall = np.zeros(n, int)
     moves = ((1, 1, 0), (-1, 1, 0), (0, 1, 1), (0, 1, -1), (0, -1, 0))
     for _ in range(iterations):
         if (step < step_min).all():
@@ -312,25 +325,25 @@ def _improve(scorer: _Scorer, mask, target, scale, c, sigma, g, *, step0, step_m
         K = C.shape[0]
         C, Sg, G = C.reshape(K * n, J), Sg.reshape(K * n, J), G.reshape(K * n, J)
         pidx, kidx = crit.arrays()
-        upper = scorer.at(C, Sg, G, pidx, kidx).min(axis=1)
-        ub = _score(upper, _size(C, G, gmin, scale), target).reshape(K, n)
-        order = np.argsort(-ub, axis=0, kind="stable")[:tries]  # (tries, n)
-        pick = (order * n + np.arange(n)[None]).ravel()
-        hopeful = (ub[order, np.arange(n)[None]] > best[None] + 1e-12).ravel()
-        pick = pick[hopeful]
+        ub = _score(_violation(scorer.at(C, Sg, G, pidx, kidx), target), _size(C, G, gmin, scale)).reshape(K, n)
+        kbest = np.argmax(ub, axis=0)  # (n,)
+        hopeful = ub[kbest, np.arange(n)] > best + 1e-12
+        rows = np.flatnonzero(hopeful)
+        pick = kbest[rows] * n + rows
+        accepted = np.zeros(n, bool)
         if len(pick):
             d = scorer.full(C[pick], Sg[pick], G[pick])
             crit.add(d)
-            m = np.where(mask, d.min(axis=1), np.inf).min(axis=1)
-            sc = _score(m, _size(C[pick], G[pick], gmin, scale), target)
-        rows = pick % n
-        for i in range(n):
-            mine = np.flatnonzero(rows == i)
-            if len(mine) and sc[mine].max() > best[i] + 1e-12:
-                w = pick[mine[np.argmax(sc[mine])]]
-                c[i], sigma[i], g[i], best[i] = C[w], Sg[w], G[w], sc[mine].max()
-            else:
-                step[i] /= 2
+            sc = _score(_violation(d, target, mask), _size(C[pick], G[pick], gmin, scale))
+            for i, w, v in zip(rows, pick, sc):
+                if v > best[i] + 1e-12:
+                    c[i], sigma[i], g[i], best[i] = C[w], Sg[w], G[w], v
+                    accepted[i] = True
+        # a hopeful move that failed its full evaluation taught the screen something: retry once
+        stall = np.where(accepted, 0, stall + np.where(hopeful, 1, tries))
+        halve = stall >= tries
+        step = np.where(halve, step / 2, step)
+        stall = np.where(halve, 0, stall)
     return c, sigma, g, best
 
 
@@ -376,8 +389,7 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     result, last = None, None
     for rname, rng_phi in (("full", FULL), ("task", task)):
         mask0 = np.ones(coarse.sum(), bool) if rname == "full" else coarse_task
-        margins = np.where(mask0, d0.min(axis=1), np.inf).min(axis=1)
-        starts = np.argsort(-_score(margins, size0, target), kind="stable")[:max(2, int(4 * effort))]
+        starts = np.argsort(-_score(_violation(d0, target, mask0), size0), kind="stable")[:max(2, int(4 * effort))]
         c, s, g = c0[starts].copy(), sigma0[starts].copy(), g0[starts].copy()
         step0 = 0.25 * scale
         for _ in range(ROUNDS):
