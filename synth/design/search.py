@@ -275,25 +275,28 @@ def _score(violation, size):
 
 
 class _Critical:
-    """The (pair, sample) entries where candidates came closest: their minimum is an upper bound of a
-    candidate's margin, so moves are screened there before a full evaluation."""
+    """The (pair, sample) entries where candidates came closest: a candidate's violation there bounds its
+    violation from below, so moves are screened there before a full evaluation. Keeps the ``cap`` most
+    recently seen entries."""
 
-    def __init__(self, mask):
-        self.mask, self.keys = mask, set()
+    def __init__(self, mask, cap):
+        self.mask, self.cap, self.keys = mask, cap, {}
 
     def add(self, d):  # d (N, P, K)
         dm = np.where(self.mask[None, None, :], d, np.inf)
         k = dm.argmin(axis=2)  # (N, P): each pair's closest sample
-        for row in k:
-            self.keys.update(zip(range(len(row)), row.tolist()))
-        # and the overall closest entries
         flat = dm.reshape(len(d), -1)
-        flat = np.argpartition(flat, min(32, flat.shape[1] - 1), axis=1)[:, :32]
-        for row in flat:
-            self.keys.update(divmod(int(x), d.shape[2]) for x in row)
+        top = np.argpartition(flat, min(16, flat.shape[1] - 1), axis=1)[:, :16]
+        new = [(p, int(x)) for row in k for p, x in enumerate(row)]
+        new += [divmod(int(x), d.shape[2]) for row in top for x in row]
+        for key in new:
+            self.keys.pop(key, None)
+            self.keys[key] = None
+        while len(self.keys) > self.cap:
+            self.keys.pop(next(iter(self.keys)))
 
     def arrays(self):
-        pk = np.array(sorted(self.keys), int)
+        pk = np.array(list(self.keys), int)
         return pk[:, 0], pk[:, 1]
 
 
@@ -303,7 +306,7 @@ def _improve(scorer: _Scorer, mask, target, scale, c, sigma, g, *, step0, step_m
     when it improves; after ``tries`` failures (or when no move passes the screen) the step halves."""
     gmin = scorer.layout.gap_min
     n, J = c.shape
-    crit = _Critical(mask)
+    crit = _Critical(mask, cap=4 * scorer.Q.shape[2] + 64)
     d = scorer.full(c, sigma, g)
     crit.add(d)
     best = _score(_violation(d, target, mask), _size(c, g, gmin, scale))
