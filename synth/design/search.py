@@ -10,7 +10,8 @@ is on top) and the distance ``g_j >= hub_length + clearance`` of their centres; 
 ``c_j -+ sigma_j g_j / 2`` and the pin spans both hubs. Bars are straight. Candidates: the natural
 stacks (every order, centred on the sites) and seeded random ones, scored on samples of the motion
 (evenly spaced in joint rotation) for the full cycle and the task range at once; the best are improved
-by coordinate moves (shift, flip, widen) and the winner is certified (`collision.certify`).
+by coordinate moves (shift, flip, widen) and the winner is certified (`collision.certify`); where the
+certificate fails, those samples join the search's and it goes on.
 Deterministic for a given ``seed``.
 """
 from __future__ import annotations
@@ -29,6 +30,7 @@ CLEARANCE_FRACTION = 0.25  # default clearance: this fraction of the bar radius
 SAFETY = 0.5  # the search asks for a sampled gap of clearance * (1 + SAFETY) so that certification holds
 FULL = (-math.pi / 2, math.pi / 2)
 FULL_SAMPLES, TASK_SAMPLES = 24, 12  # search samples per joint, full cycle and task range
+ATTEMPTS = 2  # independent sets of starts per range
 ROUNDS = 4  # search rounds, each adding the samples where the last certificate failed
 
 
@@ -365,12 +367,23 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
                  clearance=clearance)
     search = Layout(linkage, merged=True, **sizes)
     exact = Layout(linkage, merged=False, **sizes)
+    if not len(exact.cs.pairs):  # every two bodies share a joint: nothing can collide
+        J = len(exact.joints)
+        S = exact.mount_offsets(np.zeros((1, J)), np.ones((1, J)), np.full((1, J), exact.gap_min))[0]
+        driver = driver_joint(linkage)
+        design = exact.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
+                              hole_clearance=hole_clearance, clearance=clearance)
+        report = CollisionReport(free=True, range="full", clearance=clearance, min_distance=math.inf,
+                                 driver=driver, driver_range=(0.0, TWO_PI), certified=True,
+                                 sampled_min_distance=math.inf, seconds=time.process_time() - t0)
+        return DesignResult(design, report)
     scale = linkage.extent()
     task = task_phi_range(linkage)
     J = len(search.joints)
     gmin = search.gap_min
     target = clearance * (1 + SAFETY)
     rng = np.random.default_rng(seed)
+    effort = effort * min(1.0, (6 / J) ** 2)  # many joints: many more pairs per candidate
     scorer = _Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task)
 
     # initial population: every order of the natural stack, then random stacks
@@ -390,9 +403,12 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     coarse_task = scorer.is_task[coarse]
 
     result, last = None, None
-    for rname, rng_phi in (("full", FULL), ("task", task)):
+    n_starts = max(2, int(4 * effort))
+    ranges = (("full", FULL),) if task == FULL else (("full", FULL), ("task", task))
+    for rname, rng_phi, attempt in [(r, p, a) for r, p in ranges for a in range(ATTEMPTS)]:
         mask0 = np.ones(coarse.sum(), bool) if rname == "full" else coarse_task
-        starts = np.argsort(-_score(_violation(d0, target, mask0), size0), kind="stable")[:max(2, int(4 * effort))]
+        ranked = np.argsort(-_score(_violation(d0, target, mask0), size0), kind="stable")
+        starts = ranked[attempt * n_starts:(attempt + 1) * n_starts]
         c, s, g = c0[starts].copy(), sigma0[starts].copy(), g0[starts].copy()
         step0 = 0.25 * scale
         for _ in range(ROUNDS):
@@ -417,7 +433,7 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
         c, s, g, best = last
         i = int(np.argmax(best))
         S = search.mount_offsets(c[i:i + 1], s[i:i + 1], g[i:i + 1])[0]
-        result = ("task", S, _certify(exact, S, task, clearance))
+        result = (ranges[-1][0], S, _certify(exact, S, ranges[-1][1], clearance))
     rname, S, cert = result
     design = exact.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
                           hole_clearance=hole_clearance, clearance=clearance)
