@@ -31,6 +31,7 @@ SAFETY = 0.5  # the search asks for a sampled gap of clearance * (1 + SAFETY) so
 FULL = (-math.pi / 2, math.pi / 2)
 FULL_SAMPLES, TASK_SAMPLES = 24, 12  # search samples per joint, full cycle and task range
 ATTEMPTS = 2  # independent sets of starts per range
+SEARCH_MERGED = True  # the search scores merged hub+pin capsules (fewer pairs), the certificate the exact ones
 ROUNDS = 4  # search rounds, each adding the samples where the last certificate failed
 
 
@@ -365,7 +366,7 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     hub_radius = max(bar_radius, pin_radius + hole_clearance + 0.5 * pin_radius)
     sizes = dict(pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius, hub_length=hub_length,
                  clearance=clearance)
-    search = Layout(linkage, merged=True, **sizes)
+    search = Layout(linkage, merged=SEARCH_MERGED, **sizes)
     exact = Layout(linkage, merged=False, **sizes)
     if not len(exact.cs.pairs):  # every two bodies share a joint: nothing can collide
         J = len(exact.joints)
@@ -484,7 +485,9 @@ def collision_rank(linkage, *, pin_radius: float, bar_radius: float, hub_length:
                    hole_clearance: float = 0.0, clearance: float | None = None, effort: float = 0.5) -> int:
     """0: a design free over the full cycle exists, 1: over the task range only, 2: neither (found by
     `design_linkage` with the given ``effort``). For ranking candidate linkages: sort by
-    ``(collision_rank(...), existing score)``."""
+    ``(collision_rank(...), existing score)``. Cost: a design search per call (6R, effort 0.5: about
+    1-3 s CPU), so rank a handful of top candidates, not the whole scan; the exporter then designs the
+    winner again (same arguments and seed: the same design)."""
     r = design_linkage(linkage, pin_radius=pin_radius, bar_radius=bar_radius, hub_length=hub_length,
                        hole_clearance=hole_clearance, clearance=clearance, effort=effort).collision
     return 0 if r.free and r.range == "full" else (1 if r.free else 2)
