@@ -31,6 +31,7 @@ SAFETY = 0.5  # the search asks for a sampled gap of clearance * (1 + SAFETY) so
 FULL = (-math.pi / 2, math.pi / 2)
 FULL_SAMPLES, TASK_SAMPLES = 24, 12  # search samples per joint, full cycle and task range
 ATTEMPTS = 2  # independent sets of starts per range
+SPREADS = (0.25, 0.5, 1.0, 2.0)  # scales (times the extent) of the random stack centres
 SEARCH_MERGED = True  # the search scores merged hub+pin capsules (fewer pairs), the certificate the exact ones
 ROUNDS = 4  # search rounds, each adding the samples where the last certificate failed
 
@@ -392,7 +393,7 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     orders = np.array([[1 - 2 * ((k >> i) & 1) for i in range(J)] for k in range(n_orders)], float)
     n_rand = int(effort * 32 * J)
     sigma0 = np.concatenate([orders, rng.choice([-1.0, 1.0], size=(n_rand, J))])
-    spread = rng.choice([0.25, 0.5, 1.0], size=(n_rand, 1)) * scale
+    spread = rng.choice(SPREADS, size=(n_rand, 1)) * scale
     c0 = np.concatenate([np.zeros((n_orders, J)), rng.uniform(-1, 1, size=(n_rand, J)) * spread])
     g0 = np.concatenate([np.full((n_orders, J), gmin),
                          gmin * (1 + rng.exponential(0.5, size=(n_rand, J)) * (rng.random((n_rand, J)) < 0.3))])
