@@ -1,0 +1,164 @@
+"""Collision-free design (synth.design.search.design_linkage) on seeded random solvable pose sets, and the
+same Bennett linkages through rational-linkages' collision-free optimization, in one run.
+
+    .venv/bin/python bench/bench_design.py [--bennett N] [--sixbar N] [--rl N] [--rl-python PATH] [--seed S]
+
+For every set: the synthesis (bennett: 3 random poses; sixbar: 4), then the default design (sizes as
+the mesh writer's defaults: pin radius 0.02 E, bar radius 0.015 E, hub length 0.06 E, hole clearance
+0.2 mm capped at 0.1 pin radius; clearance 0.25 bar radius). Reported: how many designs are certified
+free over the full cycle / over the task range only / neither, and CPU seconds per design (median, max).
+
+--rl N: the first N Bennett linkages are handed (their four joint axes as Plücker lines, the motion
+polynomial's factors) to rational-linkages in a subprocess of ``--rl-python`` (default
+/tmp/rlvenv/bin/python); its collision-free search is timed there (CPU seconds of that process) and
+its success (a design returned) counted. Both columns are printed side by side for those sets.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from synth.algebra.dq import quat_to_matrix  # noqa: E402
+from synth.design.search import design_linkage  # noqa: E402
+from synth.errors import SynthesisError  # noqa: E402
+
+RL_PYTHON = "/tmp/rlvenv/bin/python"
+
+
+def random_poses(rng, n: int) -> np.ndarray:
+    T = np.tile(np.eye(4), (n, 1, 1))
+    for i in range(n):
+        q = rng.normal(size=4)
+        T[i, :3, :3] = quat_to_matrix(q / np.linalg.norm(q))
+        T[i, :3, 3] = rng.normal(size=3)
+    return T
+
+
+def default_sizes(linkage) -> dict:
+    e = linkage.extent()
+    pin = 0.02 * e
+    return dict(pin_radius=pin, bar_radius=0.015 * e, hub_length=0.06 * e, hole_clearance=min(2e-4, 0.1 * pin))
+
+
+def solvable_sets(kind: str, count: int, seed: int):
+    """(seed, linkage) for the first ``count`` seeds from ``seed`` on whose random poses synthesize."""
+    if kind == "bennett":
+        from synth.synthesis.bennett import bennett as synth
+        n = 3
+    else:
+        from synth.synthesis.sixbar import sixbar as synth
+        n = 4
+    out, s = [], seed
+    while len(out) < count:
+        try:
+            out.append((s, synth(random_poses(np.random.default_rng(s), n))))
+        except SynthesisError:
+            pass
+        s += 1
+    return out
+
+
+def run_ours(kind: str, sets, effort: float = 1.0) -> list[dict]:
+    rows = []
+    for s, lk in sets:
+        t = time.process_time()
+        r = design_linkage(lk, **default_sizes(lk), effort=effort).collision
+        rows.append({"seed": s, "seconds": time.process_time() - t,
+                     "result": ("full" if r.range == "full" else "task") if r.free else "none",
+                     "min_distance": r.min_distance})
+    return rows
+
+
+def summary(kind: str, rows: list[dict]) -> str:
+    n = len(rows)
+    count = {k: sum(r["result"] == k for r in rows) for k in ("full", "task", "none")}
+    secs = [r["seconds"] for r in rows]
+    return (f"{kind:8s} sets={n:3d}  full={count['full']} ({100 * count['full'] / max(n, 1):.0f}%)  "
+            f"task-only={count['task']}  none={count['none']}  "
+            f"time median={statistics.median(secs):.3f}s max={max(secs):.3f}s (CPU)")
+
+
+RL_SCRIPT = r"""
+import json, sys, time, io, contextlib
+import numpy as np
+from rational_linkages import RationalMechanism, MotionFactorization, DualQuaternion
+data = json.loads(sys.stdin.read())
+out = []
+for item in data:
+    h = [DualQuaternion(np.array(v)) for v in item["h"]]
+    k = [DualQuaternion(np.array(v)) for v in item["k"]]
+    m = RationalMechanism([MotionFactorization(h), MotionFactorization(k)])
+    t = time.process_time()
+    ok, err = False, ""
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            res = m.collision_free_optimization(max_iters=item.get("max_iters", 10))
+        ok = res is not None and res is not False
+    except Exception as e:  # noqa: BLE001
+        err = f"{type(e).__name__}: {e}"[:200]
+    out.append({"seed": item["seed"], "seconds": time.process_time() - t, "ok": ok, "error": err})
+print(json.dumps(out))
+"""
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--bennett", type=int, default=24)
+    ap.add_argument("--sixbar", type=int, default=12)
+    ap.add_argument("--rl", type=int, default=0, help="Bennett sets also run through rational-linkages")
+    ap.add_argument("--rl-python", default=RL_PYTHON)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", help="write every row to this file")
+    ap.add_argument("--effort", type=float, default=1.0, help="design_linkage effort")
+    args = ap.parse_args(argv)
+    report = {}
+    for kind, count in (("bennett", args.bennett), ("sixbar", args.sixbar)):
+        if count:
+            sets = solvable_sets(kind, count, args.seed)
+            rows = run_ours(kind, sets, args.effort)
+            report[kind] = rows
+            print(summary(kind, rows), flush=True)
+            if kind == "bennett" and args.rl:
+                compare_rl(sets[:args.rl], rows[:args.rl], args.rl_python, report)
+    if args.json:
+        Path(args.json).write_text(json.dumps(report, indent=1))
+    return 0
+
+
+def factor(joint) -> list[float]:
+    """The rotation factor h of ``joint`` (the motion is prod (t - h_i)): h = a - b u + eps b m in this
+    project's dual-quaternion convention (docs/conventions.md); the 8 numbers are the same algebraic
+    object for rational-linkages (same dual-quaternion product)."""
+    return [joint.a, *(-joint.b * joint.direction), 0.0, *(joint.b * joint.moment)]
+
+
+def compare_rl(sets, ours, python, report) -> None:
+    items = [{"seed": s, "h": [factor(lk.joint(n)) for n in lk.branches[0]],
+              "k": [factor(lk.joint(n)) for n in lk.branches[1]]} for s, lk in sets]
+    t = time.perf_counter()
+    proc = subprocess.run([python, "-c", RL_SCRIPT], input=json.dumps(items), capture_output=True, text=True)
+    if proc.returncode:
+        print("rational-linkages failed:", proc.stderr.strip().splitlines()[-1:])
+        return
+    rl = json.loads(proc.stdout.strip().splitlines()[-1])
+    report["rational_linkages"] = rl
+    ok_rl = sum(r["ok"] for r in rl)
+    ok_us = sum(r["result"] != "none" for r in ours)
+    t_rl = statistics.median(r["seconds"] for r in rl)
+    t_us = statistics.median(r["seconds"] for r in ours)
+    print(f"same {len(rl)} Bennett sets: rational-linkages success={ok_rl}/{len(rl)} median {t_rl:.2f}s; "
+          f"ours success={ok_us}/{len(ours)} (full {sum(r['result'] == 'full' for r in ours)}) median {t_us:.3f}s; "
+          f"speed-up {t_rl / max(t_us, 1e-9):.0f}x (wall {time.perf_counter() - t:.0f}s)")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

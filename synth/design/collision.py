@@ -1,0 +1,266 @@
+"""Distances between the bodies of a linkage along its exact rational motion, for many designs at once,
+and a certificate that covers the gaps between samples (docs/design.md).
+
+Conventions:
+- the motion is sampled by ``phi`` with ``t = tan(phi)``: phi in [-pi/2, pi/2] is the whole cycle
+  (phi = +-pi/2 is t = infinity, the reference configuration);
+- a *body* is a link that holds joints (``linkage.links``; a loop's duplicate link holds none and is the
+  same rigid body as its partner); two bodies that share a joint are *adjacent* and never tested;
+- the geometry is a set of capsules whose end points lie on joint axes: an end point is
+  ``site_j + offset * u_j`` (reference configuration) with an offset that is affine in the design's
+  mount offsets, so one pass evaluates a batch of designs (leading axis N) at every sample;
+- the certificate: along a path of joints j_1..j_m from body A to body B, a point x of B moves
+  relative to A at speed at most ``sum_i |dtheta_i/dphi| * |x - q_i|``, q_i the site of j_i, and
+  ``|x - q_i|`` is bounded by constant site-to-site lengths along the path; ``|dtheta/dphi| =
+  2|b| / Q(phi)`` with ``Q = (sin phi - a cos phi)^2 + b^2 cos^2 phi`` whose minimum on an interval is
+  closed-form. A distance d that is V-Lipschitz on [phi_0, phi_1] stays above
+  ``(d_0 + d_1 - V (phi_1 - phi_0)) / 2``.
+Lengths in metres, angles in radians.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.design.model import joint_links
+
+
+# ----------------------------------------------------------------------------------------- topology
+def bodies(linkage) -> list[str]:
+    """Links that hold joints (the rigid bodies with geometry), in ``linkage.links`` order."""
+    return [name for name, js in linkage.links.items() if js]
+
+
+def adjacent_pairs(linkage) -> set[frozenset]:
+    """Pairs of bodies that share a joint."""
+    return {frozenset(ls) for ls in joint_links(linkage).values() if len(ls) == 2}
+
+
+def body_paths(linkage, a: str, b: str, limit: int = 8) -> list[list[str]]:
+    """Simple paths of joints from body ``a`` to body ``b`` in the body graph (at most ``limit``, shortest
+    first)."""
+    edges: dict[str, list[tuple[str, str]]] = {n: [] for n in bodies(linkage)}
+    for j, ls in joint_links(linkage).items():
+        if len(ls) == 2:
+            edges[ls[0]].append((j, ls[1]))
+            edges[ls[1]].append((j, ls[0]))
+    out: list[list[str]] = []
+
+    def walk(node, seen, path):
+        if len(out) >= 64:
+            return
+        if node == b:
+            out.append(list(path))
+            return
+        for j, nxt in edges[node]:
+            if nxt not in seen:
+                walk(nxt, seen | {nxt}, path + [j])
+
+    walk(a, {a}, [])
+    return sorted(out, key=len)[:limit]
+
+
+# ----------------------------------------------------------------------------------------- sampling
+def t_of_phi(phi) -> np.ndarray:
+    """t = tan(phi); infinity at phi = +-pi/2 (to rounding)."""
+    phi = np.asarray(phi, float)
+    c = np.cos(phi)
+    return np.where(np.abs(c) < 1e-15, np.inf, np.sin(phi) / np.where(c == 0, 1.0, c))
+
+
+def phi_of_t(t) -> np.ndarray:
+    """phi in (-pi/2, pi/2] with tan(phi) = t (infinity: pi/2)."""
+    t = np.asarray(t, float)
+    return np.where(np.isinf(t), np.pi / 2, np.arctan(np.where(np.isinf(t), 0.0, t)))
+
+
+def rate_bound(linkage, phi0, phi1) -> np.ndarray:
+    """(J, n) upper bounds of |dtheta_j/dphi| over each interval [phi0[i], phi1[i]] (phi0 <= phi1)."""
+    phi0, phi1 = np.asarray(phi0, float), np.asarray(phi1, float)
+    out = []
+    for j in linkage.joints:
+        a, b = j.a, j.b
+        A0 = (1 + a * a + b * b) / 2
+        C, S = (a * a + b * b - 1) / 2, -a
+        rho, psi = np.hypot(C, S), np.arctan2(S, C)
+
+        def Q(p):
+            return A0 + rho * np.cos(2 * p - psi)
+
+        star = (psi + np.pi) / 2  # minimisers: star + k pi
+        inside = np.ceil((phi0 - star) / np.pi) <= np.floor((phi1 - star) / np.pi)
+        qmin = np.where(inside, A0 - rho, np.minimum(Q(phi0), Q(phi1)))
+        out.append(2 * abs(b) / np.maximum(qmin, 1e-300))
+    return np.array(out)
+
+
+def even_samples(linkage, lo: float, hi: float, n: int, fine: int = 4096) -> np.ndarray:
+    """n + 1 values of phi from lo to hi, spaced evenly in the total joint rotation sum_j |theta_j| (so no
+    joint turns much between two samples, however unevenly the parameter drives it)."""
+    grid = np.linspace(lo, hi, fine + 1)
+    rates = rate_bound(linkage, grid[:-1], grid[1:]).sum(axis=0)
+    cum = np.concatenate([[0.0], np.cumsum(rates * np.diff(grid))])
+    return np.interp(np.linspace(0, cum[-1], n + 1), cum, grid)
+
+
+def body_motion(linkage, phis) -> dict[str, np.ndarray]:
+    """{body: (K, 4, 4)} world displacements from the reference configuration at the samples."""
+    phis = np.asarray(phis, float)
+    disp = linkage.displacements(linkage.angles_at(t_of_phi(phis)))
+    return {name: np.broadcast_to(disp[name], phis.shape + (4, 4)) for name in bodies(linkage)}
+
+
+# ----------------------------------------------------------------------------------------- geometry
+@dataclass
+class CapsuleSet:
+    """Capsules whose end points lie on joint axes (reference configuration).
+
+    ``ends``: (E,) joint index of each end point; ``pairs``: (P, 4) end indices (a0, a1, b0, b1) of the
+    tested capsule pairs; ``radii``: (P,) sum of the two radii; ``body_pair``: (P,) index into
+    ``body_pairs`` (list of (body A, body B)); ``cap``: (P, 2) capsule indices (of ``labels``)."""
+
+    joints: list[str]
+    ends_joint: np.ndarray
+    ends_body: list[str]
+    pairs: np.ndarray
+    radii: np.ndarray
+    body_pair: np.ndarray
+    body_pairs: list[tuple[str, str]]
+    labels: list[str]
+
+
+def segment_distance(p0, p1, q0, q1) -> np.ndarray:
+    """Distance between segments p0-p1 and q0-q1, component-first arrays (3, ...) (broadcast); handles
+    degenerate segments (clamped closest points, as in Ericson, Real-Time Collision Detection 5.1.9)."""
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+
+    def dot(x, y):
+        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
+
+    a, e, b = dot(d1, d1), dot(d2, d2), dot(d1, d2)
+    c, f = dot(d1, r), dot(d2, r)
+    tiny = 1e-30
+    ia, ie = 1.0 / np.maximum(a, tiny), 1.0 / np.maximum(e, tiny)
+    denom = a * e - b * b
+    ok = denom > 1e-12 * a * e
+    s = np.where(ok, np.clip((b * f - c * e) / np.where(ok, denom, 1.0), 0.0, 1.0), 0.0)
+    t = (b * s + f) * ie
+    s = np.where(t < 0, np.clip(-c * ia, 0.0, 1.0), np.where(t > 1, np.clip((b - c) * ia, 0.0, 1.0), s))
+    np.clip(t, 0.0, 1.0, out=t)
+    pa, pe = a <= tiny, e <= tiny  # p or q a single point
+    s = np.where(pe, np.where(pa, 0.0, np.clip(-c * ia, 0.0, 1.0)), np.where(pa, 0.0, s))
+    t = np.where(pe, 0.0, np.where(pa, np.clip(f * ie, 0.0, 1.0), t))
+    w = r + s * d1 - t * d2
+    return np.sqrt(dot(w, w))
+
+
+def world_ends(linkage, cs: CapsuleSet, motion: dict[str, np.ndarray], sites: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(Q, U), each (4, 3, P, K): for the four end points (a0, a1, b0, b1) of every tested capsule pair,
+    the moved site and direction of the end point's axis at the samples (component-first); the end
+    point itself is ``Q + offset * U``."""
+    Q, U = [], []
+    for ji, body in zip(cs.ends_joint, cs.ends_body):
+        j = linkage.joint(cs.joints[ji])
+        D = motion[body]
+        Q.append(D[:, :3, :3] @ sites[j.name] + D[:, :3, 3])
+        U.append(D[:, :3, :3] @ j.direction)
+    Q, U = np.array(Q).transpose(2, 0, 1), np.array(U).transpose(2, 0, 1)  # (3, E, K)
+    idx = cs.pairs.T  # (4, P)
+    return np.ascontiguousarray(Q[:, idx].transpose(1, 0, 2, 3)), np.ascontiguousarray(U[:, idx].transpose(1, 0, 2, 3))
+
+
+def pair_distances(cs: CapsuleSet, Q, U, offsets, chunk: int = 1 << 18) -> np.ndarray:
+    """(N, P, K) capsule-capsule distances (segment distance minus both radii) for N designs given by
+    ``offsets`` (N, E) (the offset of every end point along its axis); Q, U from `world_ends`."""
+    offsets = np.atleast_2d(offsets)
+    N, P, K = offsets.shape[0], len(cs.pairs), Q.shape[-1]
+    out = np.empty((N, P, K))
+    step = max(1, chunk // max(P * K, 1))
+    idx = cs.pairs.T
+    for n0 in range(0, N, step):
+        o = offsets[n0:n0 + step][:, idx]  # (n, 4, P)
+        pts = [Q[c][:, None] + o[None, :, c, :, None] * U[c][:, None] for c in range(4)]  # (3, n, P, K)
+        out[n0:n0 + step] = segment_distance(*pts) - cs.radii[None, :, None]
+    return out
+
+
+def pair_distances_at(cs: CapsuleSet, Q, U, offsets, pidx, kidx) -> np.ndarray:
+    """(N, L) capsule-capsule distances at L chosen (pair, sample) entries ``pidx``, ``kidx``."""
+    offsets = np.atleast_2d(offsets)
+    o = offsets[:, cs.pairs[pidx].T]  # (N, 4, L)
+    Qs, Us = Q[:, :, pidx, kidx], U[:, :, pidx, kidx]  # (4, 3, L)
+    pts = [Qs[c][:, None] + o[None, :, c] * Us[c][:, None] for c in range(4)]
+    return segment_distance(*pts) - cs.radii[pidx][None]
+
+
+# ----------------------------------------------------------------------------------------- certificate
+def speed_coefficients(linkage, cs: CapsuleSet, offsets: np.ndarray, sites: dict) -> list[np.ndarray]:
+    """For one design (``offsets`` (E,)): a list of (P, J) arrays, one per way of bounding the relative
+    speed of each capsule pair: ``V <= coef @ rate_bound`` (see the module docstring)."""
+    jindex = {j.name: i for i, j in enumerate(linkage.joints)}
+    pts = np.array([sites[cs.joints[ji]] + o * linkage.joint(cs.joints[ji]).direction
+                    for ji, o in zip(cs.ends_joint, offsets)])
+    options: dict[tuple, list] = {}
+    out = []
+    P, J = len(cs.pairs), len(linkage.joints)
+    per_pair: list[list[np.ndarray]] = [[] for _ in range(P)]
+    for p, (a0, a1, b0, b1) in enumerate(cs.pairs):
+        A, B = cs.body_pairs[cs.body_pair[p]]
+        for src, (e0, e1), dst in ((A, (b0, b1), B), (B, (a0, a1), A)):
+            key = (src, dst)
+            if key not in options:
+                options[key] = body_paths(linkage, src, dst)
+            for path in options[key]:
+                coef = np.zeros(J)
+                last = path[-1]
+                reach = max(np.linalg.norm(pts[e0] - sites[last]), np.linalg.norm(pts[e1] - sites[last]))
+                acc = reach
+                coef[jindex[last]] = acc
+                for i in range(len(path) - 2, -1, -1):
+                    acc += np.linalg.norm(sites[path[i + 1]] - sites[path[i]])
+                    coef[jindex[path[i]]] = acc
+                per_pair[p].append(coef)
+    width = max(len(c) for c in per_pair) if per_pair else 0
+    for k in range(width):
+        out.append(np.array([c[min(k, len(c) - 1)] for c in per_pair]))
+    return out
+
+
+def certify(linkage, cs: CapsuleSet, offsets: np.ndarray, lo: float, hi: float, clearance: float, *,
+            samples: int = 256, max_samples: int = 20000) -> dict:
+    """Certified smallest capsule gap of one design over phi in [lo, hi].
+
+    Samples evenly in joint rotation, then bisects every interval whose Lipschitz bound falls below
+    ``clearance`` while both its ends keep it. Returns {"certified": bool (every interval's bound is at
+    least ``clearance``), "lower": the certified lower bound of the gap (min over intervals),
+    "sampled": (P,) smallest sampled gap per capsule pair, "where": (P,) phi of it, "phis", "dist":
+    (P, K) final samples}."""
+    sites = linkage.joint_sites()
+    coefs = speed_coefficients(linkage, cs, offsets, sites)
+    phis = even_samples(linkage, lo, hi, samples)
+    dist = _dist_at(linkage, cs, offsets, phis, sites)
+    while True:
+        rates = rate_bound(linkage, phis[:-1], phis[1:])  # (J, K-1)
+        V = np.min([c @ rates for c in coefs], axis=0)  # (P, K-1)
+        dphi = np.diff(phis)
+        lower = (dist[:, :-1] + dist[:, 1:] - V * dphi) / 2
+        lower = np.minimum(lower, np.minimum(dist[:, :-1], dist[:, 1:]))
+        worst = lower.min(axis=0)
+        ends_ok = np.minimum(dist[:, :-1], dist[:, 1:]).min(axis=0) >= clearance
+        bad = (worst < clearance) & ends_ok & (dphi > 1e-12)
+        if not bad.any() or len(phis) + bad.sum() > max_samples:
+            break
+        mids = (phis[:-1][bad] + phis[1:][bad]) / 2
+        new = _dist_at(linkage, cs, offsets, mids, sites)
+        order = np.argsort(np.concatenate([phis, mids]), kind="stable")
+        phis = np.concatenate([phis, mids])[order]
+        dist = np.concatenate([dist, new], axis=1)[:, order]
+    k = np.argmin(dist, axis=1)
+    return {"certified": bool(worst.min() >= clearance), "lower": float(worst.min()),
+            "sampled": dist.min(axis=1), "where": phis[k], "phis": phis, "dist": dist}
+
+
+def _dist_at(linkage, cs, offsets, phis, sites) -> np.ndarray:
+    Q, U = world_ends(linkage, cs, body_motion(linkage, phis), sites)
+    return pair_distances(cs, Q, U, offsets[None])[0]
