@@ -193,7 +193,9 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
                                     force=MOTOR_FORCE, positionGain=1.0, velocityGain=1.0, physicsClientId=cid)
             p.stepSimulation(physicsClientId=cid)
             if contacts:
-                touching = p.getContactPoints(robot, robot, physicsClientId=cid)
+                # PyBullet also reports pairs closer than its contact-breaking threshold (2 cm by
+                # default) with a positive distance (c[8]); only a distance <= 0 is a contact
+                touching = [c for c in p.getContactPoints(robot, robot, physicsClientId=cid) if c[8] <= 0.0]
                 if touching:
                     contact_steps += 1
                     max_force = max(max_force, max(float(c[9]) for c in touching))
