@@ -134,16 +134,17 @@ def test_meshes_watertight_single_solid(bennett, meshes):
 
 
 def test_meshes_in_link_frame_cover_joint_feet(bennett, meshes):
-    """The middle of the common normal of a link's two axes lies inside its mesh (in link frame); its
-    feet (on the axes, where the straight design mounts the link) lie in the bores, outside."""
-    from synth.algebra.dq import common_normal_feet
+    """The middle between a link's two mounts (where the design attaches it to its axes) lies inside its
+    mesh (in link frame); the mounts themselves lie on the axes, in the bores, outside."""
+    from synth.design.model import axis_point
     from synth.io.frames import link_origins
+    from synth.io.meshes import design_for
 
+    design = design_for(bennett).design
     origins = link_origins(bennett)
     for name in GEOMETRIC:
         mesh = meshes[name]
-        j1, j2 = (bennett.joint(n) for n in bennett.links[name])
-        f1, f2 = common_normal_feet(j1.direction, j1.moment, j2.direction, j2.moment)
+        f1, f2 = (axis_point(bennett, n, design.mount(name, n).offset) for n in bennett.links[name])
         assert mesh.contains(np.array([(f1 + f2) / 2]) - origins[name]).all(), name
         assert not mesh.contains(np.array([f1, f2]) - origins[name]).any(), name
         # and the mesh sits in the link frame, not in world coordinates (unless the frame is the world's)
@@ -186,8 +187,14 @@ def test_meshes_degenerate_axis_pairs(monkeypatch, manifold):
 
     if not manifold:
         monkeypatch.setattr(meshes_mod, "have_manifold", lambda: False)
+    from synth.design.model import straight_design
+    from synth.io.meshes import default_hole_clearance, default_sizes
+
     lk = _odd_linkage()
-    out = link_meshes(lk)
+    pin_radius, bar_radius, hub_length = default_sizes(lk)
+    design = straight_design(lk, pin_radius=pin_radius, bar_radius=bar_radius, hub_length=hub_length,
+                             hole_clearance=default_hole_clearance(pin_radius))
+    out = link_meshes(lk, design=design)  # (not a mechanism: the straight design, no search)
     assert set(out) == {"base", "a", "c", "d", "pin_j1", "pin_j2", "pin_j3", "pin_j4"}
     for name, mesh in out.items():
         assert mesh.is_watertight and mesh.volume > 0, name

@@ -212,6 +212,8 @@ def speed_coefficients(linkage, cs: CapsuleSet, offsets: np.ndarray, sites: dict
             if key not in options:
                 options[key] = body_paths(linkage, src, dst)
             for path in options[key]:
+                if not path:  # one body (e.g. merged by a loop weld): nothing moves between them
+                    continue
                 coef = np.zeros(J)
                 last = path[-1]
                 reach = max(np.linalg.norm(pts[e0] - sites[last]), np.linalg.norm(pts[e1] - sites[last]))
@@ -221,6 +223,8 @@ def speed_coefficients(linkage, cs: CapsuleSet, offsets: np.ndarray, sites: dict
                     acc += np.linalg.norm(sites[path[i + 1]] - sites[path[i]])
                     coef[jindex[path[i]]] = acc
                 per_pair[p].append(coef)
+        if not per_pair[p]:  # no chain of joints between the two bodies: no bound on their relative speed
+            per_pair[p].append(np.full(J, 1e300))
     width = max(len(c) for c in per_pair) if per_pair else 0
     for k in range(width):
         out.append(np.array([c[min(k, len(c) - 1)] for c in per_pair]))

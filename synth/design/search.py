@@ -66,7 +66,7 @@ class CollisionReport:
                 "min_distance": self.min_distance, "driver": self.driver,
                 "driver_range": [float(self.driver_range[0]), float(self.driver_range[1])],
                 "certified": self.certified, "pairs": self.pairs, "message": self.message,
-                "sampled_min_distance": self.sampled_min_distance, "seconds": self.seconds}
+                "sampled_min_distance": self.sampled_min_distance}  # (not ``seconds``: outputs are reproducible)
 
 
 @dataclass
