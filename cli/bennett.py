@@ -43,7 +43,7 @@ def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, cleara
          as_json=as_json, require_free=require_collision_free)
 
 
-def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, require_free=False):
+def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, require_free=False, result=None):
     """Write, summarize and print a two-branch linkage (bennett, sixbar) read from the pose set ``ps``."""
 
     def details():
@@ -56,4 +56,4 @@ def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, requi
 
     emit_linkage(linkage, source=ps.source, scale=ps.length_scale, unit=ps.length_unit, out=out, name=name,
                  force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,
-                 require_free=require_free)
+                 require_free=require_free, result=result)

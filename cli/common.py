@@ -233,17 +233,22 @@ def design_result(linkage, sizes: dict, *, scale: float, unit: str, source: str,
 
 
 def emit_linkage(linkage, *, source, scale, unit, out, name, force, package, sizes, quiet, as_json,
-                 details=None, require_free=False):
+                 details=None, require_free=False, result=None):
     """The common ending of a synthesis command: design the physical linkage (when files are written,
     JSON printed or a collision-free design required) and write OUT (when given) first, so that a
     failure is the only line on stderr; then the summary on stderr (plus ``details()``, a callable that
-    echoes command-specific lines, and the collision sentence), then linkage.json on stdout with --json."""
+    echoes command-specific lines, and the collision sentence), then linkage.json on stdout with --json.
+    ``result``: a design already made (`synth.design.search.DesignResult`), else one is made here."""
     from synth.io.jsonout import linkage_document
     from synth.io.writer import write_output
 
-    files = result = None
-    if out or as_json or require_free:
+    files = None
+    if result is None and (out or as_json or require_free):
         result = design_result(linkage, sizes, scale=scale, unit=unit, source=source, require_free=require_free)
+    elif result is not None and require_free and not result.collision.free:
+        from synth.errors import SynthesisError
+
+        raise SynthesisError(f"{source}: {collision_sentence(result.collision, scale, unit)}")
     if out:
         files = write_output(linkage, out, robot_name=name or default_robot_name(source), force=force,
                              package=package, result=result)

@@ -57,18 +57,42 @@ def _design_line(info) -> str:
             f"min offset {p['min_offset']:.3g} x spread)")
 
 
+BUILDABLE_CANDIDATES = 4  # default design: the best-scored candidates designed, collision-free first
+BUILDABLE_SECONDS = 6.0  # CPU budget of those design searches (one 6R search: about 1-3 s)
+
+
 def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json, require_free):
+    """The default design: with a physical design to make (files, --json, --require-collision-free) and no
+    explicit --family/--member/--pair, the best-scored candidates are designed in turn and the first
+    collision-free one (full cycle, then task range) wins (`synth.design.search.rank_buildable`); else the
+    best-scored linkage."""
     from synth.checks import VERIFY_SAMPLES
+    from synth.design.search import rank_buildable
     from synth.synthesis.sixbar import sixbar as synth_sixbar
+    from synth.synthesis.sixbar import sixbar_candidates
 
     from .bennett import emit
 
-    linkage = synth_sixbar(ps.matrices, ps.names, family=family, member=member, pair=pair,
-                           check_samples=VERIFY_SAMPLES)
+    result = None
+    if (out or as_json or require_free) and family is None and member is None and pair is None:
+        candidates = sixbar_candidates(ps.matrices, ps.names, top=BUILDABLE_CANDIDATES, build=True,
+                                       check_samples=VERIFY_SAMPLES)
+        ranked = rank_buildable(candidates, lambda lk: design_result(lk, sizes, scale=ps.length_scale,
+                                                                     unit=ps.length_unit, source=ps.source,
+                                                                     require_free=False),
+                                limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS)
+        linkage, result = ranked[0]
+        k = next(i for i, c in enumerate(candidates) if c is linkage)
+        linkage.info["design_choice"] = (f"candidate {k + 1} of the {len(ranked)} best-scored "
+                                         "that were designed: collision-free first (full cycle, then task range), "
+                                         "then the score")
+    else:
+        linkage = synth_sixbar(ps.matrices, ps.names, family=family, member=member, pair=pair,
+                               check_samples=VERIFY_SAMPLES)
     if not quiet:
         echo(_design_line(linkage.info))
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-         as_json=as_json, require_free=require_free)
+         as_json=as_json, require_free=require_free, result=result)
 
 
 def solution_id(rank: int, linkage) -> str:
@@ -112,6 +136,7 @@ def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, 
     from pathlib import Path
 
     from synth.checks import VERIFY_SAMPLES
+    from synth.design.search import collision_rank
     from synth.io.jsonout import write_json
     from synth.io.writer import atomic_directory, write_linkage_files
     from synth.synthesis.sixbar import sixbar_candidates
@@ -123,6 +148,10 @@ def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, 
     if out or as_json or require_free:  # the physical design of every solution
         results = [design_result(lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source,
                                  require_free=False) for lk in linkages]
+        # collision-free first (full cycle, then task range), then the scan's order
+        order = sorted(range(len(linkages)), key=lambda i: (collision_rank(results[i].collision), i))
+        linkages, results = [linkages[i] for i in order], [results[i] for i in order]
+        ids = [solution_id(r, lk) for r, lk in enumerate(linkages, start=1)]
         if require_free:  # keep the collision-free ones (with their ranks in the scan)
             keep = [i for i, r in enumerate(results) if r.collision.free]
             if not keep:

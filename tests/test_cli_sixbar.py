@@ -156,3 +156,18 @@ def test_coincident_poses_exit_1(tmp_path):
     poses = write_pose_yaml(tmp_path / "dup.yaml", T)
     r = run("sixbar", poses)
     assert r.exit_code == 1 and "coincide" in r.output
+
+
+def test_default_design_is_collision_free_first(tmp_path):
+    """The default output is chosen collision-free first: the fixture's written design claims the full
+    cycle and linkage.json says how it was chosen; --top lists collision-free designs before the others."""
+    out = tmp_path / "o"
+    r = run("sixbar", REPO / "fixtures/sixbar_example.yaml", "-o", out, "-q")
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "linkage.json").read_text())
+    assert doc["collision"]["free"] and doc["collision"]["range"] == "full"
+    assert "collision-free first" in doc["info"]["design_choice"]
+    r = run("sixbar", REPO / "fixtures/sixbar_example.yaml", "--top", "3", "--json", "-q")
+    ranks = [0 if s["collision"]["free"] and s["collision"]["range"] == "full" else 1 if s["collision"]["free"] else 2
+             for s in json.loads(r.stdout)["solutions"]]
+    assert ranks == sorted(ranks)

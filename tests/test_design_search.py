@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 from conftest import REPO, random_poses
 from synth.design.collision import (body_motion, even_samples, pair_distances, rate_bound, segment_distance,
                                     t_of_phi, world_ends)
-from synth.design.search import (Layout, collision_rank, design_linkage, task_phi_range, task_range)
+from synth.design.search import (Layout, collision_rank, design_linkage, rank_buildable, task_phi_range,
+                                  task_range)
 from synth.errors import SynthesisError
 from synth.io.poses import load_poses
 from synth.synthesis.bennett import bennett
@@ -165,8 +166,25 @@ def test_impossible_clearance_is_reported_with_pairs(fixture_bennett):
 
 
 def test_collision_rank(fixture_bennett):
-    assert collision_rank(fixture_bennett, **sizes(fixture_bennett)) == 0
-    assert collision_rank(fixture_bennett, **sizes(fixture_bennett), clearance=10 * fixture_bennett.extent()) == 2
+    free = design_linkage(fixture_bennett, **sizes(fixture_bennett)).collision
+    assert collision_rank(free) == 0
+    tight = design_linkage(fixture_bennett, **sizes(fixture_bennett), clearance=10 * fixture_bennett.extent())
+    assert collision_rank(tight.collision) == 2
+
+
+def test_rank_buildable_puts_collision_free_first(fixture_bennett):
+    """A candidate that cannot be made collision-free (an absurd clearance) ranks after one that can,
+    whatever their kinematic order; the search stops at the first design free over the full cycle."""
+    calls = []
+
+    def design(lk):
+        calls.append(lk)
+        clearance = 10 * lk.extent() if len(calls) == 1 else None
+        return design_linkage(lk, **sizes(lk), clearance=clearance)
+
+    ranked = rank_buildable([fixture_bennett, fixture_bennett, fixture_bennett], design)
+    assert len(calls) == 2  # the second is free over the full cycle: the third is not designed
+    assert [collision_rank(r.collision) for _, r in ranked] == [0, 2]
 
 
 def test_sixbar_fixture_design_holds_between_samples():

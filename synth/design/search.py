@@ -17,6 +17,7 @@ Deterministic for a given ``seed``.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -482,13 +483,23 @@ def _report(linkage, layout: Layout, rname: str, cert: dict, clearance: float, t
                            sampled_min_distance=sampled)
 
 
-def collision_rank(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
-                   hole_clearance: float = 0.0, clearance: float | None = None, effort: float = 0.5) -> int:
-    """0: a design free over the full cycle exists, 1: over the task range only, 2: neither (found by
-    `design_linkage` with the given ``effort``). For ranking candidate linkages: sort by
-    ``(collision_rank(...), existing score)``. Cost: a design search per call (6R, effort 0.5: about
-    1-3 s CPU), so rank a handful of top candidates, not the whole scan; the exporter then designs the
-    winner again (same arguments and seed: the same design)."""
-    r = design_linkage(linkage, pin_radius=pin_radius, bar_radius=bar_radius, hub_length=hub_length,
-                       hole_clearance=hole_clearance, clearance=clearance, effort=effort).collision
-    return 0 if r.free and r.range == "full" else (1 if r.free else 2)
+def collision_rank(report: CollisionReport) -> int:
+    """0: collision-free over the full cycle, 1: over the task range only, 2: neither."""
+    return 0 if report.free and report.range == "full" else (1 if report.free else 2)
+
+
+def rank_buildable(candidates, design, *, limit: int = 4, seconds: float = 6.0) -> list[tuple]:
+    """Rank candidate linkages (given best first by their kinematic score) collision-freedom first:
+    ``design(linkage) -> DesignResult`` is called on the candidates in order until one is free over
+    the full cycle, ``limit`` were designed, or ``seconds`` of CPU time were spent (a design search is
+    the expensive step). Returns [(linkage, DesignResult)] of the designed ones sorted by
+    (`collision_rank`, kinematic order)."""
+    t0 = time.process_time()
+    done = []
+    for k, linkage in enumerate(candidates):
+        result = design(linkage)
+        done.append((collision_rank(result.collision), k, linkage, result))
+        if done[-1][0] == 0 or len(done) >= limit or time.process_time() - t0 > seconds:
+            break
+    done.sort(key=lambda x: x[:2])
+    return [(lk, r) for _, _, lk, r in done]
