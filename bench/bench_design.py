@@ -78,6 +78,26 @@ def run_ours(kind: str, sets, effort: float = 1.0) -> list[dict]:
     return rows
 
 
+def run_sixbar_default(sets, effort: float = 1.0) -> list[dict]:
+    """What `mpsynth sixbar -o OUT` writes: the best-scored candidates designed in turn, collision-free
+    first (`synth.design.search.rank_buildable`, the CLI's limit and CPU budget)."""
+    from cli.sixbar import BUILDABLE_CANDIDATES, BUILDABLE_SECONDS
+    from synth.design.search import rank_buildable
+    from synth.synthesis.sixbar import sixbar_candidates
+
+    rows = []
+    for s, _ in sets:
+        t = time.process_time()
+        cands = sixbar_candidates(random_poses(np.random.default_rng(s), 4), top=BUILDABLE_CANDIDATES, build=True)
+        ranked = rank_buildable(cands, lambda lk: design_linkage(lk, **default_sizes(lk), effort=effort),
+                                limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS)
+        r = ranked[0][1].collision
+        rows.append({"seed": s, "seconds": time.process_time() - t, "designed": len(ranked),
+                     "result": ("full" if r.range == "full" else "task") if r.free else "none",
+                     "min_distance": r.min_distance})
+    return rows
+
+
 def summary(kind: str, rows: list[dict]) -> str:
     n = len(rows)
     count = {k: sum(r["result"] == k for r in rows) for k in ("full", "task", "none")}
@@ -127,6 +147,10 @@ def main(argv=None) -> int:
             rows = run_ours(kind, sets, args.effort)
             report[kind] = rows
             print(summary(kind, rows), flush=True)
+            if kind == "sixbar":  # the CLI's default: candidates designed in turn, collision-free first
+                rows = run_sixbar_default(sets, args.effort)
+                report["sixbar_default"] = rows
+                print(summary("sixbar (CLI default, collision-free first)", rows), flush=True)
             if kind == "bennett" and args.rl:
                 compare_rl(sets[:args.rl], rows[:args.rl], args.rl_python, report)
     if args.json:
