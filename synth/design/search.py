@@ -491,15 +491,18 @@ def collision_rank(report: CollisionReport) -> int:
 def rank_buildable(candidates, design, *, limit: int = 4, seconds: float = 6.0) -> list[tuple]:
     """Rank candidate linkages (given best first by their kinematic score) collision-freedom first:
     ``design(linkage) -> DesignResult`` is called on the candidates in order until one is free over
-    the full cycle, ``limit`` were designed, or ``seconds`` of CPU time were spent (a design search is
-    the expensive step). Returns [(linkage, DesignResult)] of the designed ones sorted by
+    the full cycle, ``limit`` were designed, or another search as long as the longest so far would
+    exceed ``seconds`` of CPU time (a design search is the expensive step). Returns [(linkage, DesignResult)] of the designed ones sorted by
     (`collision_rank`, kinematic order)."""
     t0 = time.process_time()
-    done = []
+    done, longest = [], 0.0
     for k, linkage in enumerate(candidates):
+        t = time.process_time()
         result = design(linkage)
+        longest = max(longest, time.process_time() - t)
         done.append((collision_rank(result.collision), k, linkage, result))
-        if done[-1][0] == 0 or len(done) >= limit or time.process_time() - t0 > seconds:
+        # stop unless another search as long as the longest so far still fits the budget
+        if done[-1][0] == 0 or len(done) >= limit or time.process_time() - t0 + longest > seconds:
             break
     done.sort(key=lambda x: x[:2])
     return [(lk, r) for _, _, lk, r in done]
