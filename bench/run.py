@@ -36,7 +36,7 @@ import numpy as np  # noqa: E402
 
 TARGETS = {  # name: (target, unit, kind) -- kind "max": measured <= target; "min": measured >= target
     "bennett": (400e-6, "s", "max"),  # ~ rational-linkages' Bennett (~170 ms here) / 300: see RL_SPEEDUP
-    "sixbar": (5e-3, "s", "max"),
+    "sixbar": (4e-3, "s", "max"),  # ~ rational-linkages' 6R (~480 ms here) / 100: see RL_SPEEDUP
     "sixbar_member_prepared": (1e-3, "s", "max"),
     "factor_cubic": (200e-6, "s", "max"),
     "batch": (100_000, "1/s", "min"),
@@ -220,8 +220,8 @@ print(json.dumps(out))
 
 
 RL_EXAMPLE_6R = [[1, 0, 0, 0, 0, 0, 0, 0], [0, 0, 0, 1, 1, 0, 1, 0], [1, 2, 0, 0, -2, 1, 0, 0], [3, 0, 1, 0, 1, 0, -3, 0]]
-RL_LIMIT = {"bennett": 120, "sixbar": 30}
-RL_SPEEDUP = {"bennett": 300}  # target: synth.bennett at least this many times faster than rational-linkages  # seconds per set before rational-linkages is given up on
+RL_LIMIT = {"bennett": 120, "sixbar": 30}  # seconds per set before rational-linkages is given up on
+RL_SPEEDUP = {"bennett": 300, "sixbar": 100}  # targets: this many times faster than rational-linkages
 
 
 def integer_dq(rng, k=3):
@@ -445,7 +445,9 @@ def report(info, rows, heavy, rl) -> str:
             rs, os_, om = (statistics.median(r["sixbar"]), statistics.median(ours["sixbar"]),
                            statistics.median(ours["member"]))
             k = f"{len(ours['sixbar'])} set{'s' if len(ours['sixbar']) != 1 else ''}"
-            L.append(f"| 6R from 4 poses, default ({k}) | {fmt_time(rs)} | {fmt_time(os_)} | {rs / os_:,.0f}x | - |")
+            met6 = "met" if rs / os_ >= RL_SPEEDUP["sixbar"] else "NOT met"
+            L.append(f"| 6R from 4 poses, default ({k}) | {fmt_time(rs)} | {fmt_time(os_)} | {rs / os_:,.0f}x "
+                     f"| ≥ {RL_SPEEDUP['sixbar']}x ({met6}) |")
             L.append(f"| 6R, one member's loops ({k}) | {fmt_time(rs)} | {fmt_time(om)} | {rs / om:,.0f}x | - |")
         L.append(_rl_note(r))
         if ours["sixbar_skipped"]:
