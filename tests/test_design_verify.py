@@ -28,18 +28,13 @@ def check_claim(verifier, poses, out):
     assert r.returncode == 0, r.stdout + r.stderr
 
 
-def test_bennett_fixture_claim_holds(tmp_path, verifier):
-    poses = REPO / "fixtures" / "bennett_mm_deg.yaml"
+@pytest.mark.parametrize("command, fixture", [
+    ("bennett", "bennett_mm_deg.yaml"),
+    pytest.param("sixbar", "sixbar_example.yaml", marks=pytest.mark.slow),
+])
+def test_fixture_claim_holds(tmp_path, verifier, command, fixture):
+    poses = REPO / "fixtures" / fixture
     out = tmp_path / "out"
-    r = run("-m", "cli.main", "bennett", poses, "-o", out, "-q")
-    assert r.returncode == 0, r.stderr
-    check_claim(verifier, poses, out)
-
-
-@pytest.mark.slow
-def test_sixbar_fixture_claim_holds(tmp_path, verifier):
-    poses = REPO / "fixtures" / "sixbar_example.yaml"
-    out = tmp_path / "out"
-    r = run("-m", "cli.main", "sixbar", poses, "-o", out, "-q")
+    r = run("-m", "cli.main", command, poses, "-o", out, "-q")
     assert r.returncode == 0, r.stderr
     check_claim(verifier, poses, out)
