@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import os
 import sys
+import warnings
 
 
 def _interrupted_hook(kind, value, tb, _previous=sys.excepthook):
@@ -140,6 +141,9 @@ def mpsynth():
 
 
 def main(argv=None):
+    # numpy's floating-point warnings (overflow in an intermediate of extreme input) are not messages for
+    # a user: every result is checked, and a failure is reported as one line with its reason
+    warnings.simplefilter("ignore", RuntimeWarning)
     try:
         return mpsynth.main(args=argv, prog_name="mpsynth", standalone_mode=True)
     except KeyboardInterrupt:  # pragma: no cover

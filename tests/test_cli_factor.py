@@ -323,3 +323,15 @@ def test_angle_law_in_json_reproduces_poses():
             for j in fz["joints"]:
                 T = T @ rotation_about_line(j["direction"], j["moment"], 2 * math.atan2(j["b"], t - j["a"]))
             assert np.allclose(T, pose_at(C, t), atol=1e-12)
+
+
+def test_huge_coefficients_are_a_clean_input_error():
+    """(t + 10^100)^3: the norm polynomial overflows double precision: exit 2 with one line saying so
+    (was an internal error); (t + 10^50)^3 is refused as non-generic without numpy warning lines."""
+    for expr, code, needle in (("(t+10^100)^3", 2, "too large for double precision"),
+                               ("(t+10^50)^3", 1, "not generic")):
+        r = subprocess.run([sys.executable, "-m", "cli.main", "factor", "--expr", expr], capture_output=True,
+                           text=True, timeout=120)
+        assert r.returncode == code, r.stderr
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and needle in lines[0] and "Warning" not in r.stderr, r.stderr

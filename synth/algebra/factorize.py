@@ -292,7 +292,12 @@ def check_motion_polynomial(C, tol=1e-9):
         raise InputError("the coefficients contain NaN or infinity")
     if np.max(np.abs(C[-1] - np.eye(8)[0])) > tol:
         raise InputError("the polynomial is not monic (leading coefficient must be 1)")
-    res = float(study_residual(C))
+    with np.errstate(all="ignore"):
+        res = float(study_residual(C))
+        overflow = not (np.isfinite(res) and np.all(np.isfinite(norm_poly(C))))
+    if overflow:
+        raise InputError("the coefficients are too large for double precision (the norm polynomial C C~ "
+                         f"overflows; largest |coefficient| {np.max(np.abs(C)):.3g}): rescale t, e.g. t = 10^k s")
     if res > tol:
         raise InputError(f"not a motion polynomial: its norm is not real (Study condition violated by {res:.2g})")
 
