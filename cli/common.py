@@ -137,7 +137,8 @@ def mesh_sizes(kwargs, length_scale: float) -> dict:
     return out
 
 
-MESH_SIZE_RANGE = (1e-6, 1e4)  # explicit mesh sizes, relative to the linkage's size (extent)
+MESH_SIZE_RANGE = (1e-6, 10.0)  # explicit mesh sizes, relative to the linkage's size (extent): a part
+# ten times the mechanism's size is a typo, not a design (e.g. --pin-length 100000 gave a 132 m mesh)
 
 
 def check_mesh_sizes(sizes: dict, extent: float, scale: float, unit: str) -> None:

@@ -255,6 +255,8 @@ ROWS = {
                                 ["--pin-radius", "'abc' is not a valid float", "mpsynth bennett --help"]),
     "link-radius-absurd": (_file("good.yaml", GOOD, "--link-radius", "1e8"), 2,
                            ["--link-radius", "out of range for a linkage of size"]),
+    "pin-length-absurd": (_file("good.yaml", GOOD, "--pin-length", "100000"), 2,
+                          ["--pin-length", "out of range for a linkage of size"]),
     "pin-radius-absurdly-small": (_file("good.yaml", GOOD, "--pin-radius", "1e-12"), 2,
                                   ["--pin-radius", "out of range"]),
     "unknown-option": (_file("good.yaml", GOOD, "--bogus"), 2, ["No such option '--bogus'"]),
