@@ -23,11 +23,7 @@ LAYERS = {"synth.errors": 0, "synth": 0, "synth.algebra": 1, "synth.linkage": 2,
 KNOWN_CYCLES = [
     {"synth.io.meshes", "synth.io.urdf"},  # MESH_UNIT_SCALE one way, link_solids/mesh_inertials the other
 ]
-KNOWN_PRIVATE = {
-    ("synth.algebra.exact", "synth.algebra.factorize", "_distinct_orders"),
-    ("synth.synthesis.bennett_batch", "synth.synthesis.bennett", "_finish"),
-    ("synth.synthesis.curve", "synth.algebra.cofactor", "_divide_real"),
-}
+KNOWN_PRIVATE: set[tuple[str, str, str]] = set()
 FILE_METHODS = ("read_text", "write_text", "read_bytes", "write_bytes", "mkdir", "unlink", "rmdir", "touch")
 FILE_FUNCTIONS = {"os": ("open", "replace", "rename", "remove", "unlink", "makedirs", "mkdir"),
                   "shutil": ("rmtree", "copytree", "copyfile", "move"), "tempfile": ("mkstemp", "mkdtemp"),

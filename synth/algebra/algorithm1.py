@@ -45,6 +45,13 @@ def orders(n: int) -> np.ndarray:
     return np.array(list(itertools.permutations(range(n))), int).reshape(-1, n)
 
 
+def distinct_orders(mult) -> list[tuple]:
+    """The distinct orders (left to right) of quadratics 0, 1, ... repeated ``mult`` times, sorted
+    lexicographically: the numbering of the factorizations in the float and the exact engine."""
+    labels = np.repeat(np.arange(len(mult)), mult)
+    return sorted(set(map(tuple, labels[orders(len(labels))].tolist())))
+
+
 def norm_roots(N, newton: int = 2) -> np.ndarray:
     """One root of each conjugate pair of a real monic polynomial N (..., 2n+1) (ascending) without
     real roots: shape (..., n), Im z >= 0, sorted by (Re z, Im z). Quartics (n = 2, the Bennett case)

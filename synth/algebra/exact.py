@@ -26,7 +26,7 @@ import numpy as np
 
 from synth.algebra import dq as dqa
 from synth.algebra import polynomial as poly
-from synth.algebra.algorithm1 import orders as permutations
+from synth.algebra.algorithm1 import distinct_orders
 from synth.algebra.dq import exact_array
 from synth.algebra.realpoly import real_divmod, real_gcd, real_root_count
 from synth.algebra.text import poly_text
@@ -216,13 +216,6 @@ class ExactFactorResult:
 
 def classify_exact(h) -> str:
     return "revolute" if any(x != 0 for x in h[1:4]) else "translation"
-
-
-def distinct_orders(mult) -> list[tuple]:
-    """The distinct orders (left to right) of quadratics 0, 1, ... repeated ``mult`` times, sorted
-    lexicographically: the numbering of the factorizations in both engines."""
-    labels = np.repeat(np.arange(len(mult)), mult)
-    return sorted(set(map(tuple, labels[permutations(len(labels))].tolist())))
 
 
 def algorithm1_exact(C, quads, orders):

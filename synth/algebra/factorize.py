@@ -7,13 +7,12 @@ whole enumeration is a few dozen array operations.
 """
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from synth.algebra.algorithm1 import (PRISMATIC_TOL, algorithm1, multiply_back, norm_roots, polish,
-                                      root_conditioning)
+from synth.algebra.algorithm1 import (PRISMATIC_TOL, algorithm1, distinct_orders, multiply_back, norm_roots,
+                                      polish, root_conditioning)
 from synth.algebra.dq import dq_inv, dq_mul, plucker
 from synth.algebra.polynomial import divide_real_quadratic, norm_poly, right_value, study_residual
 from synth.errors import InputError, NoFactorizationError, NotGenericError
@@ -276,11 +275,6 @@ def _refine_quadratics(C, quads, mult, roots, iterations=4):
     return quads
 
 
-def _distinct_orders(mult):
-    labels = [i for i, m in enumerate(mult) for _ in range(m)]
-    return sorted(set(itertools.permutations(labels)))
-
-
 def check_motion_polynomial(C, tol=1e-9):
     """Validate a monic motion polynomial; raise InputError otherwise."""
     C = np.asarray(C, float)
@@ -328,7 +322,7 @@ def factorize(C, *, validate=True) -> FactorResult:
     if quads is None:
         quads, mult, roots = norm_quadratics(N)
     rf = real_factor_roots(C, roots)
-    orders = _distinct_orders(mult)
+    orders = distinct_orders(mult)
     H, ok, res = _run(C, quads, orders)
     if np.any(ok) and np.max(res[ok]) > REFINE_TRIGGER:  # close roots: sharpen the quadratics on C and redo
         quads2 = _refine_quadratics(C, quads, mult, roots)
