@@ -19,6 +19,7 @@ maxima of each pair's score along each family's pencil and ranks them by score.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from itertools import islice
 
 import numpy as np
 
@@ -346,22 +347,34 @@ def checks_pass(linkage, scale: float, tol: float = CHECK_TOL) -> bool:
     return all(np.isfinite(v) and v <= tol for v in vals)
 
 
+def _ranked(poses, names, family, member, pair, grid, refine):
+    """(Problem, candidates best first) of a pose set; SynthesisError when the choice leaves none."""
+    problem = prepare(poses, names)
+    cands = scan(problem, family=family, member=member, pair=pair, grid=grid, refine=refine)
+    if not len(cands):
+        raise _explicit_failure(problem, family, member, pair)
+    return problem, cands
+
+
+def _built(problem: Problem, cands, check_samples: int):
+    """Yield (checked Linkage, whether it passes `checks_pass`) for the candidates in order, lazily."""
+    for cand in cands:
+        linkage = build_linkage(problem, cand, check_samples=check_samples)
+        yield linkage, checks_pass(linkage, problem.cond.scale)
+
+
 def sixbar_candidates(poses, names=None, *, family=None, member=None, pair=None, top=None,
                       grid: int = GRID, refine: int = REFINE, build: bool = False,
                       check_samples: int = DEFAULT_CHECK_SAMPLES):
     """Ranked candidate designs (best first; at most ``top``). With ``build`` each is returned as a
     checked Linkage (`build_linkage`; candidates failing the self-check are skipped), else as
     `Candidate`. ``grid`` and ``refine``: see `scan`."""
-    problem = prepare(poses, names)
-    cands = scan(problem, family=family, member=member, pair=pair, grid=grid, refine=refine)
-    if not len(cands):
-        raise _explicit_failure(problem, family, member, pair)
+    problem, cands = _ranked(poses, names, family, member, pair, grid, refine)
     if not build:
         return cands[:top] if top else list(cands)
     out = []
-    for cand in cands:  # lazily, until ``top`` pass
-        linkage = build_linkage(problem, cand, check_samples=check_samples)
-        if checks_pass(linkage, problem.cond.scale):
+    for linkage, passed in _built(problem, cands, check_samples):  # lazily, until ``top`` pass
+        if passed:
             out.append(linkage)
             if top and len(out) >= top:
                 break
@@ -380,15 +393,11 @@ def sixbar(poses, names=None, *, family=None, member=None, pair=None, grid: int 
     choice; ``grid`` members per family are scanned and the best ``refine`` candidates refined locally.
     Raises SynthesisError (oval section, degenerate poses, no valid candidate) with a plain-language
     reason, InputError for bad arguments."""
-    problem = prepare(poses, names)
-    cands = scan(problem, family=family, member=member, pair=pair, grid=grid, refine=refine)
-    if not len(cands):
-        raise _explicit_failure(problem, family, member, pair)
+    problem, cands = _ranked(poses, names, family, member, pair, grid, refine)
     first = None
-    for i in range(min(len(cands), MAX_ATTEMPTS)):  # candidates are made lazily, one at a time
-        linkage = build_linkage(problem, cands[i], check_samples=check_samples)
+    for linkage, passed in _built(problem, islice(cands, MAX_ATTEMPTS), check_samples):  # lazily
         first = first or linkage
-        if checks_pass(linkage, problem.cond.scale):
+        if passed:
             return linkage
     c = first.checks
     explicit = family is not None or member is not None or pair is not None
