@@ -43,10 +43,14 @@ def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, cleara
          as_json=as_json, require_free=require_collision_free)
 
 
-def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, require_free=False, result=None):
-    """Write, summarize and print a two-branch linkage (bennett, sixbar) read from the pose set ``ps``."""
+def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, require_free=False, result=None,
+         summary_line: str | None = None):
+    """Write, summarize and print a two-branch linkage (bennett, sixbar) read from the pose set ``ps``;
+    ``summary_line``: one more line of the summary (printed only when everything succeeded)."""
 
     def details():
+        if summary_line:
+            echo(summary_line)
         bp = linkage.info.get("bennett")
         if bp:
             scale, unit = ps.length_scale, ps.length_unit

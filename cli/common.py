@@ -223,14 +223,21 @@ def collision_sentence(report, scale: float, unit: str) -> str:
 def design_result(linkage, sizes: dict, *, scale: float, unit: str, source: str, require_free: bool):
     """The physical design of ``linkage`` (`synth.io.meshes.design_for`) with the sizes in metres;
     SynthesisError (exit 1) with the sentence when ``require_free`` and it is not collision-free."""
-    from synth.errors import SynthesisError
     from synth.io.meshes import design_for
 
     check_mesh_sizes(sizes, linkage.extent(), scale, unit)
     result = design_for(linkage, **sizes)
-    if require_free and not result.collision.free:
-        raise SynthesisError(f"{source}: {collision_sentence(result.collision, scale, unit)}")
+    if require_free:
+        require_collision_free(result, source=source, scale=scale, unit=unit)
     return result
+
+
+def require_collision_free(result, *, source: str, scale: float, unit: str) -> None:
+    """SynthesisError (exit 1) with the collision sentence unless the design is collision-free."""
+    from synth.errors import SynthesisError
+
+    if not result.collision.free:
+        raise SynthesisError(f"{source}: {collision_sentence(result.collision, scale, unit)}")
 
 
 def emit_linkage(linkage, *, source, scale, unit, out, name, force, package, sizes, quiet, as_json,
@@ -246,10 +253,8 @@ def emit_linkage(linkage, *, source, scale, unit, out, name, force, package, siz
     files = None
     if result is None and (out or as_json or require_free):
         result = design_result(linkage, sizes, scale=scale, unit=unit, source=source, require_free=require_free)
-    elif result is not None and require_free and not result.collision.free:
-        from synth.errors import SynthesisError
-
-        raise SynthesisError(f"{source}: {collision_sentence(result.collision, scale, unit)}")
+    elif result is not None and require_free:
+        require_collision_free(result, source=source, scale=scale, unit=unit)
     if out:
         files = write_output(linkage, out, robot_name=name or default_robot_name(source), force=force,
                              package=package, result=result)

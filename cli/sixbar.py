@@ -89,10 +89,8 @@ def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet
     else:
         linkage = synth_sixbar(ps.matrices, ps.names, family=family, member=member, pair=pair,
                                check_samples=VERIFY_SAMPLES)
-    if not quiet:
-        echo(_design_line(linkage.info))
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-         as_json=as_json, require_free=require_free, result=result)
+         as_json=as_json, require_free=require_free, result=result, summary_line=_design_line(linkage.info))
 
 
 def solution_id(rank: int, linkage) -> str:

@@ -265,3 +265,18 @@ def test_contact_exclusions_merge_pins_and_welds(tmp_path, linkage):
     assert frozenset(("coupler", "coupler_k")) in ex and frozenset(("base", "pin_h1")) in ex
     assert frozenset(("pin_h2", "coupler")) in ex or frozenset(("pin_h2", "link_h1")) in ex
     assert frozenset(("base", "coupler")) not in ex and frozenset(("link_h1", "link_k1")) not in ex
+
+
+@pytest.mark.parametrize("command, fixture, clearance", [
+    ("bennett", FIXTURE, "2000"),  # mm; the linkage's size is ~200 mm
+    ("sixbar", REPO / "fixtures" / "sixbar_example.yaml", "1"),  # m
+])
+def test_require_collision_free_refuses_an_impossible_clearance(tmp_path, command, fixture, clearance):
+    """A clearance no design can keep (several times the linkage's size): exit 1, one line with the collision
+    sentence, nothing written (sixbar: the design made while ranking is the one refused)."""
+    out = tmp_path / "o"
+    r = run(command, fixture, "-o", out, "--require-collision-free", "--clearance", clearance)
+    assert r.exit_code == 1, r.output
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("mpsynth: ") and "NOT collision-free" in lines[0]
+    assert not out.exists()
