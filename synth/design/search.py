@@ -47,7 +47,7 @@ class CollisionReport:
     ``min_distance``: the certified smallest gap over that range (a lower bound; negative: the solids
     may overlap) when ``certified``, else the smallest sampled gap; ``sampled_min_distance``: the
     smallest gap seen at the samples; ``pairs``: the offending body pairs when not free ({"bodies":
-    [a, b], "min_distance": d, "driver_angles": [lo, hi]}); ``message``: a sentence on what to change
+    [a, b], "min_distance": d, "driver_angles": [lo, hi]}, the closest first); ``message``: a sentence on what to change
     when not free; ``seconds``: time of the search."""
 
     free: bool
@@ -470,11 +470,9 @@ def _report(linkage, layout: Layout, rname: str, cert: dict, clearance: float, t
                           "driver_angles": [float(ang[0]), float(ang[-1])]})
     free = bool(cert["certified"])
     message = ""
-    if not free:
-        worst = min(pairs, key=lambda p: p["min_distance"]) if pairs else None
-        where = (f": {worst['bodies'][0]} and {worst['bodies'][1]} come within {worst['min_distance']:.3g} m"
-                 if worst else "")
-        message = (f"no collision-free design with straight bars found even over the task range{where}; "
+    if not free:  # (the offending pairs and their gaps are data: ``pairs``, worst first)
+        pairs.sort(key=lambda p: p["min_distance"])
+        message = ("no collision-free design with straight bars found even over the task range; "
                    "use thinner bars and pins (--link-radius, --pin-radius), a smaller clearance, "
                    "or another solution of the synthesis")
     lower = cert["lower"] if free else sampled
