@@ -42,6 +42,7 @@ COMMANDS = {
     "render": ("cli.render:render", "Headless PNG / animated GIF of a linkage."),
     "view": ("cli.view:view", "Self-contained offline HTML viewer of a linkage."),
     "collide": ("cli.collide:collide", "Self-collision check of the links along the motion."),
+    "trajectory": ("cli.trajectory:trajectory", "Joint angles, velocities and tool pose over time (CSV/JSON) for a controller."),
     "batch": ("cli.batch:batch", "Run many synthesis jobs from JSON lines."),
 }
 

@@ -182,10 +182,10 @@ def driver_joint(linkage) -> str:
     return path[-1] if path else linkage.joints[0].name
 
 
-def task_range(linkage) -> tuple[str, float, float]:
-    """(driver, start, end) radians: the shortest arc of the driver's angle that visits every pose (start
-    in [0, 2 pi), end = start + span)."""
-    driver = driver_joint(linkage)
+def task_range(linkage, driver: str | None = None) -> tuple[str, float, float]:
+    """(driver, start, end) radians: the shortest arc of the driver's angle (``driver``, default
+    `driver_joint`) that visits every pose (start in [0, 2 pi), end = start + span)."""
+    driver = driver or driver_joint(linkage)
     angles = sorted(float(p.joint_angles[driver]) % TWO_PI for p in linkage.poses)
     if len(angles) < 2:
         return driver, 0.0, TWO_PI
