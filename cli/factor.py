@@ -12,7 +12,8 @@ from synth.io.polyfile import load_input
 from .common import debug_option, json_option, print_json, run_guarded
 
 EPILOG = """\b
-Input file (YAML or JSON; constant term first, monic):
+Input file (YAML or JSON; constant term first; a non-monic C is divided by its leading
+coefficient when that is invertible, with a note):
   coefficients:            # rows [p0, p1, p2, p3, q0, q1, q2, q3] = p + eps q
     - [0, 1, 0, 2, -5, 0, 0, 0]
     - [-1, -1, -2, 0, 0, -3, -1, -1]
@@ -32,7 +33,7 @@ Examples:
 Output: C = (t - h1)(t - h2)...(t - hn) for each factorization. A revolute factor
 rotates by theta(t) = 2 atan2(b, t - a) about its axis (theta = 0 at t = inf).
 Exit codes: 0 factorizations found, 1 none exists (e.g. t^2 + 1 + eps(i + 2j t)),
-2 bad input (not monic, not a motion polynomial, unparsable, ...)."""
+2 bad input (leading coefficient not invertible, not a motion polynomial, unparsable, ...)."""
 
 
 

@@ -40,7 +40,7 @@ ROWS = {
                         {"c.yaml": 'curve: {x: "1", y: "t", z: "0", w: "1 + t^2"}\nmotion: {expression: "t - i"}\n'},
                         2, ["c.yaml"]),
     "factor-unfinished": (["factor", "--expr", "t^2+"], {}, 2, ["--expr", "column 5"]),
-    "factor-not-monic": (["factor", "--expr", "2*t^2 + 1"], {}, 2, ["not monic"]),
+    "factor-not-monic": (["factor", "--expr", "eps*t^2 + 1"], {}, 2, ["not invertible"]),
     "factor-not-motion": (["factor", "--expr", "t^2 + eps"], {}, 2, ["not a motion polynomial"]),
     "factor-not-generic": (["factor", "--expr", "t^2+1+eps*(i+2*j*t)"], {}, 1, ["not generic", "--cofactor"]),
     "factor-row-length": (["factor", "c.yaml"], {"c.yaml": "coefficients: [[1, 2, 3], [1, 0, 0, 0, 0, 0, 0, 0]]\n"},

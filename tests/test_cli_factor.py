@@ -230,7 +230,7 @@ def test_exit_1_exact_unavailable():
 
 
 @pytest.mark.parametrize("args,input,message", [
-    (["--expr", "2t - i"], None, "not monic"),
+    (["--expr", "eps t - i"], None, "not invertible"),
     (["--expr", "(t - i)(t - j) + eps k"], None, "not a motion polynomial"),
     (["--expr", "t - i + $"], None, "unexpected character"),
     (["--expr", "t - q"], None, "unknown name"),
@@ -242,7 +242,7 @@ def test_exit_1_exact_unavailable():
     (["-"], "coefficients: [[0,1,0,0,0,0,0,true],[1,0,0,0,0,0,0,0]]", "expected a number"),
     (["-"], "coefficients: [[1,0,0,0,0,0,0,0]]", "at least 2 rows"),
     (["-"], "coefficients: 5", "must be a list"),
-    (["-"], "coefficients: [[0,1,0,0,0,0,0,0],[2,0,0,0,0,0,0,0]]", "not monic"),
+    (["-"], "coefficients: [[0,1,0,0,0,0,0,0],[0,0,0,0,2,0,0,0]]", "not invertible"),
     (["-"], "expression: t - i\ncoefficients: [[0,1,0,0,0,0,0,0],[1,0,0,0,0,0,0,0]]", "both"),
     (["-"], "{}", "neither"),
     (["-"], "coeficients: []", "did you mean 'coefficients'"),
@@ -252,7 +252,7 @@ def test_exit_1_exact_unavailable():
     (["-"], "expression: [1]", "must be text"),
     (["-"], "coefficients: [[0,1,0,0", "invalid YAML"),
     (["-"], "expression: 't - i +'", "unexpected end"),
-    (["--exact", "--expr", "2t"], None, "not monic"),
+    (["--exact", "--expr", "eps t + i"], None, "not invertible"),
     (["--exact", "-"], "coefficients: [[0,1,0,0,0,0,0,'1/0'],[1,0,0,0,0,0,0,0]]", "not a number"),
     ([], None, "give a FILE"),
     (["x.yaml", "--expr", "t"], None, "not both"),
@@ -306,7 +306,7 @@ def test_subprocess_stdin_and_exit_codes():
     p = subprocess.run([*exe, "--expr", "t^2 + 1 + eps(i + 2j t)"], capture_output=True, text=True, cwd=REPO,
                        timeout=60)
     assert p.returncode == 1 and p.stdout == "" and p.stderr.startswith("mpsynth: not generic")
-    p = subprocess.run([*exe, "--expr", "2t"], capture_output=True, text=True, cwd=REPO, timeout=60)
+    p = subprocess.run([*exe, "--expr", "eps t"], capture_output=True, text=True, cwd=REPO, timeout=60)
     assert p.returncode == 2
 
 

@@ -57,8 +57,8 @@ def test_cofactor_report_multiplies_back():
 
 
 def test_input_errors_name_the_source():
-    with pytest.raises(InputError, match="^--expr: .*not monic"):
-        compute(_inp("2t - i"))
+    with pytest.raises(InputError, match="^--expr: .*not invertible"):
+        compute(_inp("eps t - i"))
     bad = PolynomialInput(source="p.yaml", rows=[[0, 1, 0, 0, 0, 0, 0, "x"], [1, 0, 0, 0, 0, 0, 0, 0]])
     with pytest.raises(InputError, match="^p.yaml: coefficients row 0, entry 7"):
         compute(bad)
@@ -83,6 +83,6 @@ def test_flip_report_exact_and_document():
     lhs = product_of_linear(np.array([rep.m, rep.h], float))
     rhs = product_of_linear(np.array([rep.k, rep.n], float))
     assert float(relative_error(rhs, lhs)) <= 1e-14
-    assert "k = 2/3 i - 2/3 j - 1/3 k + eps(14/9 i + 10/9 j + 8/9 k)" in flip_text(rep)
+    assert "h' = 2/3 i - 2/3 j - 1/3 k + eps(14/9 i + 10/9 j + 8/9 k)" in flip_text(rep)
     with pytest.raises(InputError, match="^H: t - m is not a rotation"):
         flip_report("1 + 2i", "1 + eps i")

@@ -3,6 +3,7 @@ flip (t - m)(t - h) = (t - k)(t - n) of two rotation factors given as text (docs
 ``--json`` document (format ``mpsynth.flip/1``) and its text."""
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from fractions import Fraction
@@ -89,11 +90,27 @@ class FlipReport:
     residual: float  # multiply-back relative error (0 when exact)
 
 
+def _floats(v) -> list | None:
+    """``v`` as finite floats, or None when an entry overflows."""
+    try:
+        out = [float(x) for x in v]
+    except OverflowError:
+        return None
+    return out if all(math.isfinite(x) for x in out) else None
+
+
 def flip_report(m_text: str, h_text: str) -> FlipReport:
     """Parse M and H, check that both are rotations (InputError), flip (FlipError when the flip does not
     exist) and check the product."""
     M = parse_factor(m_text, "M")
     H = parse_factor(h_text, "H")
+    # decimals are read as exact rationals; digits printed from floating point satisfy the rotation
+    # conditions only to rounding (v . w ~ 1e-17), so such input is taken as floats (tolerance 1e-9
+    # relative, `is_rotation`), like `mpsynth factor` without --exact
+    if not (is_rotation(M) and is_rotation(H)):
+        fm, fh = _floats(M), _floats(H)
+        if fm is not None and fh is not None and is_rotation(fm) and is_rotation(fh):
+            M, H = fm, fh
     check_rotation(M, "M")
     check_rotation(H, "H")
     K, N = bennett_flip(M, H)
@@ -109,18 +126,24 @@ def flip_document(rep: FlipReport) -> dict:
 
     return {"format": FORMAT, "exact": rep.exact, "m": vec(rep.m), "h": vec(rep.h), "k": vec(rep.k),
             "n": vec(rep.n), "k_float": [float(x) + 0.0 for x in rep.k], "n_float": [float(x) + 0.0 for x in rep.n],
+            "h_prime": vec(rep.k), "m_prime": vec(rep.n),  # the names of the text: h' = k, m' = n
             "residual": rep.residual,
             "axes": {"m": axis(rep.m), "h": axis(rep.h), "n": axis(rep.n), "k": axis(rep.k)},
             "loop": ["m", "h", "n", "k"]}
 
 
+TEXT_NAMES = (("m", "m"), ("h", "h"), ("h'", "k"), ("m'", "n"))  # printed name, FlipReport field
+
+
 def flip_text(rep: FlipReport) -> str:
-    """The default text: the identity, m, h, k, n as expressions and k, n as lists."""
-    lines = ["(t - m)(t - h) = (t - k)(t - n)" + (" (exact)" if rep.exact else "")]
-    for name in ("m", "h", "k", "n"):
-        lines.append(f"  {name} = {fmt_dq(getattr(rep, name), DIGITS)}")
-    for name in ("k", "n"):
-        lines.append(f"  {name} = [{', '.join(fmt_num(x, digits=DIGITS) for x in getattr(rep, name))}]")
+    """The default text: the identity, m, h, h', m' as expressions and h', m' as lists. The results are
+    printed as h' (= k of docs/exceptional.md: N(t - h') = N(t - h)) and m' (= n: N(t - m') = N(t - m)),
+    since k also names the quaternion unit."""
+    lines = ["(t - m)(t - h) = (t - h')(t - m')" + (" (exact)" if rep.exact else "")]
+    for name, field_ in TEXT_NAMES:
+        lines.append(f"  {name} = {fmt_dq(getattr(rep, field_), DIGITS)}")
+    for name, field_ in TEXT_NAMES[2:]:
+        lines.append(f"  {name} = [{', '.join(fmt_num(x, digits=DIGITS) for x in getattr(rep, field_))}]")
     if not rep.exact:
         lines.append(f"  multiply-back check: relative error {rep.residual:.1e}")
     return "\n".join(lines)

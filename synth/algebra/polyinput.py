@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 
+from synth.algebra.dq import exact_array
 from synth.algebra.exact import to_fraction
 from synth.algebra.expr import parse_polynomial
+from synth.algebra.polynomial import make_monic
 from synth.errors import InputError
 
 MAX_DEGREE = 200
@@ -66,6 +69,28 @@ def exact_rows(inp: PolynomialInput) -> list:
             out.append(to_fraction(x, what))
         rows.append(out)
     return rows
+
+
+def monic_input(C, exact: bool = False):
+    """(M, L): C = L M with M monic, for a polynomial C ((n+1, 8) floats, or rows of Fractions when
+    ``exact``) whose leading coefficient L is invertible (nonzero primal part): M = L^-1 C
+    (`synth.algebra.polynomial.make_monic`), the same motion seen from the base frame moved by L^-1 (a
+    real L changes nothing). L is None when C is monic already. InputError when L is not invertible."""
+    rows = exact_array(C) if exact else np.asarray(C, float)
+    L = rows[-1]
+    if all(x == y for x, y in zip(L, (1, 0, 0, 0, 0, 0, 0, 0))):
+        return C, None
+    if all(x == 0 for x in L[:4]) or (not exact and float(np.linalg.norm(L[:4].astype(float))) <=
+                                       1e-12 * float(np.abs(rows.astype(float)).max())):
+        raise InputError("not monic, and the leading coefficient has a zero primal part (not invertible): "
+                         "the polynomial cannot be made monic")
+    M = make_monic(rows)
+    if exact:
+        M = [list(r) for r in M]
+        M[-1] = [Fraction(1)] + [Fraction(0)] * 7
+        return M, list(L)
+    M[-1] = np.eye(8)[0]
+    return M, L
 
 
 def prefixed(source: str, func, *args):

@@ -15,7 +15,7 @@ import numpy as np
 from synth.algebra.cofactor import exact_result, factorize_with_cofactor
 from synth.algebra.exact import check_exact_motion_polynomial, factorize_exact
 from synth.algebra.factorize import check_motion_polynomial, classify, factorize
-from synth.algebra.polyinput import PolynomialInput, exact_rows, float_rows, prefixed
+from synth.algebra.polyinput import PolynomialInput, exact_rows, float_rows, monic_input, prefixed
 from synth.algebra.polynomial import norm_poly, poly_mul
 from synth.algebra.text import fmt_dq, fmt_num, fmt_quadratic, fmt_t_minus, fmt_vec, poly_text
 from synth.errors import InputError
@@ -53,6 +53,7 @@ class Report:
     coefficients: list  # C, rows of 8
     failed_orders: int = 0
     notes: list = field(default_factory=list)
+    leading: list | None = None  # the leading coefficient C was divided by (None: C was monic)
 
 
 def _clean(v) -> list:
@@ -108,12 +109,26 @@ def compute(inp: PolynomialInput, *, exact: bool = False) -> Report:
     for invalid polynomials, NotGenericError / NoFactorizationError / SynthesisError (exit 1) when
     no factorization is found."""
     if exact:
-        C = exact_rows(inp)
+        C, L = prefixed(inp.source, monic_input, exact_rows(inp), True)
         prefixed(inp.source, check_exact_motion_polynomial, C)
-        return _exact_report(C)
-    C = float_rows(inp)
-    prefixed(inp.source, check_motion_polynomial, C)
-    return _numeric_report(C)
+        rep = _exact_report(C)
+    else:
+        C, L = prefixed(inp.source, monic_input, float_rows(inp))
+        prefixed(inp.source, check_motion_polynomial, C)
+        rep = _numeric_report(C)
+    if L is not None:
+        rep.leading = list(L)
+        rep.notes.append(monic_note(L))
+    return rep
+
+
+def monic_note(L) -> str:
+    """The sentence that says C was divided by its leading coefficient L."""
+    if all(x == 0 for x in L[1:]):
+        return (f"C was not monic: divided by its leading coefficient {fmt_num(L[0], digits=12)} "
+                "(a real number: the same motion)")
+    return (f"C was not monic: C = L (t - h1)...(t - hn) with L = {fmt_dq(L, 12)}; the factors are those of "
+            "L^-1 C (the same motion seen from the base frame moved by L^-1)")
 
 
 @dataclass
@@ -129,14 +144,16 @@ def compute_cofactor(inp: PolynomialInput, *, exact: bool = False) -> tuple[Repo
     """--cofactor: one factorization of C R (`synth.algebra.cofactor`). The report's polynomial is C R. Exact mode
     prints fractions when the rationalized answer passes an exact multiply-back check (otherwise
     floats, with a note). Unbounded motions raise UnboundedMotionError (exit 1, "needs a sliding joint")."""
-    C = float_rows(inp)
+    C, L = prefixed(inp.source, monic_input, float_rows(inp))
     prefixed(inp.source, check_motion_polynomial, C)
     try:
         Cx = exact_rows(inp)  # exact mrpf detection for rational input
+        Cx = monic_input(Cx, True)[0]
     except InputError:  # e.g. a float that is not a finite rational: numeric detection
         Cx = None
     res = factorize_with_cofactor(Cx if Cx is not None else C)
-    factors, R, notes = np.asarray(res.factors).tolist(), [float(x) for x in res.R], []
+    factors, R = np.asarray(res.factors).tolist(), [float(x) for x in res.R]
+    notes = [] if L is None else [monic_note(L)]
     is_exact = False
     if exact:
         got = exact_result(Cx, res) if Cx is not None else None
@@ -157,7 +174,7 @@ def compute_cofactor(inp: PolynomialInput, *, exact: bool = False) -> tuple[Repo
     norm = [float(x) for x in norm_poly(CR)]
     rep = Report(exact=is_exact, degree=len(factors), generic=res.generic, norm=norm,
                  norm_factors=[j.quadratic for j in joints], factorizations=[row],
-                 coefficients=CR.tolist(), notes=notes)
+                 coefficients=CR.tolist(), notes=notes, leading=None if L is None else list(L))
     info = CofactorInfo(R=R, mrpf=[float(x) for x in res.g], bound_met=res.bound_met,
                         components=[{k: v for k, v in c.items() if k != "family"} for c in res.report])
     return rep, info
@@ -183,7 +200,7 @@ def format_cofactor(rep: Report, info: CofactorInfo) -> str:
             + (", ".join(c.get("kind", "?") for c in info.components) or "none (generic)")]
     body = format_table(rep).splitlines()[1:]  # its first line would describe C R, not C
     body = [line.replace("N(C) =", "N(C R) =", 1).replace("C = (t", "C R = (t", 1) for line in body]
-    return "\n".join(head + body + rep.notes)
+    return "\n".join(head + body + [n for n in rep.notes if n not in body])
 
 
 def _num_json(x, exact: bool):
@@ -223,6 +240,7 @@ def report_document(rep: Report) -> dict:
             for fz in rep.factorizations
         ],
         "failed_orders": rep.failed_orders,
+        **({"leading_coefficient": dq(rep.leading), "notes": list(rep.notes)} if rep.leading is not None else {}),
     }
 
 
@@ -262,4 +280,6 @@ def format_table(rep: Report) -> str:
         lines.append(f"multiply-back check: max relative error {worst:.1e}")
     if any(j.kind == "translation" for fz in rep.factorizations for j in fz.joints):
         lines.append("translation factors are prismatic joints: the point moves by shift(t) along the direction")
+    if rep.leading is not None:
+        lines.extend(rep.notes)
     return "\n".join(lines)
