@@ -192,6 +192,10 @@ def test_wrong_pose_is_caught(copy, tmp_path):
     write_pose_yaml(poses, T, names=good.names)
     msg = _problems(copy, "--poses", poses, "--no-meshes")
     assert msg.count("tool frame misses pose") == 1 and "pose 2 (T2)" in msg
+    # the pose is named as the POSES file names it, and linkage.json's name is given when it differs
+    write_pose_yaml(poses, T, names=["a", "b", "c"])
+    msg = _problems(copy, "--poses", poses, "--no-meshes")
+    assert "pose 2 (c) of" in msg and "linkage.json calls pose 2 T2" in msg
 
 
 def test_wrong_pose_in_linkage_json_is_caught(copy):

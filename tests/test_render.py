@@ -162,12 +162,22 @@ def test_render_at_a_pose_name_and_a_parameter(out_quat, tmp_path):
     ([], "nothing to do"),
     (["--png", "x.png", "--size", "big"], "WIDTHxHEIGHT"),
     (["--gif", "x.gif", "--frames", "1"], "--frames"),
+    (["--png", "x.bmp"], "use .png, .jpg or .jpeg"),
+    (["--png", "x.png", "--gif", "x.mp4"], "give a .gif file name"),
 ])
 def test_render_usage_errors(out_quat, args, message, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     r = run("render", out_quat, *args)
     assert r.exit_code == 2 and message in r.stderr
     assert not list(tmp_path.iterdir())
+
+
+def test_png_suffix_names_the_format(out_quat, tmp_path):
+    """--png x.jpg writes JPEG bytes, x.png PNG bytes."""
+    for name, magic in (("x.jpg", b"\xff\xd8\xff"), ("x.JPEG", b"\xff\xd8\xff"), ("x.png", b"\x89PNG")):
+        r = run("render", out_quat, "--png", tmp_path / name, "--size", "160x120", "-q")
+        assert r.exit_code == 0, r.output
+        assert (tmp_path / name).read_bytes()[:len(magic)] == magic
 
 
 def test_render_missing_output_directory(tmp_path):

@@ -292,8 +292,11 @@ class _Checker:
                     dt, dr = pose_diff(F["tool"], file_T[i])
                     ft, fr = max(ft, dt), max(fr, dr)
                     if dt > self.tol_len or dr > self.tol_ang:
-                        self.fail(f"tool frame misses pose {i} ({name}) of {self.poses_file.source} "
-                                  f"by {dt:.3g} m, {dr:.3g} rad")
+                        names = getattr(self.poses_file, "names", None) or []
+                        fname = names[i] if i < len(names) else f"p{i}"
+                        self.fail(f"tool frame misses pose {i} ({fname}) of {self.poses_file.source} "
+                                  f"by {dt:.3g} m, {dr:.3g} rad"
+                                  + (f" (linkage.json calls pose {i} {name})" if fname != name else ""))
             for (a, b), R in zip(self.closures, ref):
                 dt, dr = pose_diff(F[a] @ R, F[b])
                 ct, cr = max(ct, dt), max(cr, dr)

@@ -20,6 +20,8 @@ from __future__ import annotations
 import math
 import time
 
+from pathlib import Path
+
 import numpy as np
 
 from synth.errors import InputError
@@ -256,10 +258,25 @@ class Scene:
         return np.asarray(self.canvas.buffer_rgba())[..., :3].copy()
 
     def save_png(self, path) -> None:
+        """Write the picture in the format its suffix names (`image_format`)."""
         from PIL import Image
 
+        fmt = image_format(path)
         img = Image.fromarray(self.rgb())
-        atomic_write(path, lambda tmp: img.save(tmp, format="PNG", optimize=True))
+        opts = {"optimize": True} if fmt == "PNG" else {"quality": 92}
+        atomic_write(path, lambda tmp: img.save(tmp, format=fmt, **opts))
+
+
+IMAGE_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG"}
+
+
+def image_format(path, option: str = "--png") -> str:
+    """The Pillow format named by the suffix of ``path`` (.png, .jpg, .jpeg); InputError otherwise."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in IMAGE_FORMATS:
+        raise InputError(f"{option} {path}: unknown picture format {suffix or '(no suffix)'!r}; "
+                         "use .png, .jpg or .jpeg")
+    return IMAGE_FORMATS[suffix]
 
 
 def _apply(T, p):
@@ -344,6 +361,10 @@ def render(rb: Readback, *, png=None, gif=None, frames: int = 60, size=DEFAULT_S
     default at the task pose where the mechanism looks most spread out (least folded)."""
     if frames < 2:
         raise InputError("--frames must be at least 2")
+    if png is not None:
+        image_format(png)  # before any work: nothing is written for an unknown suffix
+    if gif is not None and Path(gif).suffix.lower() != ".gif":
+        raise InputError(f"--gif {gif}: an animation is written as GIF; give a .gif file name")
     stats = {}
     t0 = time.perf_counter()
     scene = Scene(rb, size=size, elev=elev, azim=azim)
@@ -352,7 +373,9 @@ def render(rb: Readback, *, png=None, gif=None, frames: int = 60, size=DEFAULT_S
         t1 = time.perf_counter()
         t_png = _resolve_at(rb, scene, at)
         name = next((p.name for p in rb.linkage.poses if p.t == t_png), None)
-        scene.pose_at(t_png, f"at task pose {name}" if name else f"t = {_fmt_t(t_png)}")
+        first = rb.linkage.joints[0]
+        deg = f"{first.name} = {math.degrees(float(first.angle(t_png))):.1f}\N{DEGREE SIGN}"
+        scene.pose_at(t_png, f"task pose {name}, {deg}" if name else f"{deg} (motion parameter t = {_fmt_t(t_png)})")
         stats["png_t"] = None if math.isinf(t_png) else float(t_png)
         scene.save_png(png)
         stats["png_s"] = time.perf_counter() - t1
@@ -366,8 +389,9 @@ def render(rb: Readback, *, png=None, gif=None, frames: int = 60, size=DEFAULT_S
         angles = rb.linkage.angles_at(ts)
         first = rb.linkage.joints[0].name
         for k, t in enumerate(ts):
-            scene.pose_at(t, f"frame {k + 1}/{len(ts)}   t = {_fmt_t(t)}   "
-                             f"{first} = {math.degrees(float(angles[first][k])):6.1f} deg")
+            at_pose = next((p.name for p in rb.linkage.poses if p.t == t), None)
+            scene.pose_at(t, f"frame {k + 1}/{len(ts)}   {first} = {math.degrees(float(angles[first][k])):6.1f}"
+                             f"\N{DEGREE SIGN}" + (f"   task pose {at_pose}" if at_pose else ""))
             images.append(Image.fromarray(scene.rgb()))
         ms = max(20, int(round(GIF_CYCLE_SECONDS * 1000 / len(images))))
         atomic_write(gif, lambda tmp: images[0].save(tmp, format="GIF", save_all=True,

@@ -40,6 +40,7 @@ from synth.algebra.dq import matrix_to_quat
 from synth.design.search import task_range
 from synth.errors import InputError
 from synth.io.readback import Readback
+from synth.io.writer import atomic_write
 from synth.linkage import Linkage
 
 TWO_PI = 2.0 * math.pi
@@ -355,13 +356,7 @@ def write(traj: Trajectory, path) -> Path:
     if suffix not in (".csv", ".json"):
         raise InputError(f"{path}: unknown format {suffix or '(no suffix)'!r}; use .csv or .json")
     text = traj.csv_text() if suffix == ".csv" else json.dumps(traj.to_dict()) + "\n"
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(path)
-    except OSError as e:
-        tmp.unlink(missing_ok=True)
-        raise InputError(f"{path}: cannot write ({e.strerror or e})") from None
+    atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
     return path
 
 
