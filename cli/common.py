@@ -55,6 +55,21 @@ def run_guarded(func):
     return wrapper
 
 
+def progress(items, label: str, quiet: bool = False):
+    """Yield ``items``, showing "label i/n" on stderr while they are worked on, only when stderr is a
+    terminal (never in pipes, logs or tests); the line is erased at the end."""
+    items = list(items)
+    show = not quiet and len(items) > 1 and getattr(sys.stderr, "isatty", lambda: False)()
+    for i, x in enumerate(items):
+        if show:
+            sys.stderr.write(f"\r{label} {i + 1}/{len(items)}...")
+            sys.stderr.flush()
+        yield x
+    if show:
+        sys.stderr.write("\r\033[K")
+        sys.stderr.flush()
+
+
 debug_option = click.option("--debug", is_flag=True, help="Show a Python traceback on errors.")
 json_option = click.option("--json", "as_json", is_flag=True,
                            help="Print the result as one JSON document on stdout.")

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import click
 
-from .common import (collision_sentence, default_robot_name, design_result, echo, mesh_sizes, print_json, run_guarded,
-                     synthesis_options)
+from .common import (collision_sentence, default_robot_name, design_result, echo, mesh_sizes, print_json, progress,
+                     run_guarded, synthesis_options)
 
 INDEX_FORMAT = "mpsynth.sixbar-index/1"
 
@@ -145,7 +145,8 @@ def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, 
     results = None
     if out or as_json or require_free:  # the physical design of every solution
         results = [design_result(lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source,
-                                 require_free=False) for lk in linkages]
+                                 require_free=False)
+                   for lk in progress(linkages, "collision-free design search: design", quiet)]
         # collision-free first (full cycle, then task range), then the scan's order
         order = sorted(range(len(linkages)), key=lambda i: (collision_rank(results[i].collision), i))
         linkages, results = [linkages[i] for i in order], [results[i] for i in order]

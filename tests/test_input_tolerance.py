@@ -82,3 +82,27 @@ def test_non_monic_polynomials_factor(lead, exact):
 def test_non_invertible_leading_coefficient():
     r = run("factor", "--expr", "eps*t^2 + t*i + 1")
     assert r.exit_code == 2 and "not invertible" in r.stderr
+
+
+def test_progress_only_on_a_terminal(capsys, monkeypatch):
+    """cli.common.progress writes "label i/n" to stderr only when stderr is a terminal."""
+    import io
+    import sys
+
+    from cli.common import progress
+
+    assert list(progress([1, 2, 3], "x")) == [1, 2, 3]
+    assert capsys.readouterr().err == ""
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    fake = Tty()
+    monkeypatch.setattr(sys, "stderr", fake)
+    assert list(progress([1, 2, 3], "design")) == [1, 2, 3]
+    assert "design 1/3" in fake.getvalue() and "design 3/3" in fake.getvalue()
+    fake2 = Tty()
+    monkeypatch.setattr(sys, "stderr", fake2)
+    list(progress([1, 2, 3], "design", quiet=True))
+    assert fake2.getvalue() == ""
