@@ -1,6 +1,8 @@
 """`mpsynth bennett POSES -o OUT`: three poses in, a verified Bennett 4R linkage out."""
 from __future__ import annotations
 
+import math
+
 import click
 
 from .common import echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options
@@ -54,8 +56,8 @@ def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, requi
         bp = linkage.info.get("bennett")
         if bp:
             scale, unit = ps.length_scale, ps.length_unit
-            echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {bp['alpha']:.6f} rad, "
-                 f"b = {fmt_len(bp['b'], scale, unit)}, beta = {bp['beta']:.6f} rad, "
+            echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {math.degrees(bp['alpha']):.4f} deg, "
+                 f"b = {fmt_len(bp['b'], scale, unit)}, beta = {math.degrees(bp['beta']):.4f} deg, "
                  f"a/sin(alpha) - b/sin(beta) relative {bp['bennett_condition_residual']:.1e}")
 
     emit_linkage(linkage, source=ps.source, scale=ps.length_scale, unit=ps.length_unit, out=out, name=name,

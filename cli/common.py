@@ -196,6 +196,8 @@ def print_linkage_summary(linkage, scale: float, unit: str) -> None:
         p = j.point / scale
         echo(f"  {j.name:6} ({p[0]:11.5g} {p[1]:11.5g} {p[2]:11.5g}) {unit:>3}  "
              f"({j.direction[0]:8.5f} {j.direction[1]:8.5f} {j.direction[2]:8.5f})  {j.a:.6g}, {j.b:.6g}")
+    echo("  (angle law a, b: the joint angle is theta(t) = 2 atan2(b, t - a) along the motion parameter t;"
+         " theta = 0 at the first pose, t = inf)")
     for rec in linkage.poses:
         t = "inf" if np.isinf(rec.t) else f"{rec.t:.6g}"
         angles = " ".join(f"{k}={np.degrees(v):.3f}" for k, v in rec.joint_angles.items())
@@ -203,8 +205,9 @@ def print_linkage_summary(linkage, scale: float, unit: str) -> None:
     c = linkage.checks
     if c:
         echo(f"  self-check: pose error {c['max_pose_translation_error'] / scale:.2e} {unit} + "
-             f"{c['max_pose_rotation_error']:.2e} rad, closure error {c['max_closure_translation_error'] / scale:.2e} "
-             f"{unit} + {c['max_closure_rotation_error']:.2e} rad over {c.get('samples', 0)} samples")
+             f"{np.degrees(c['max_pose_rotation_error']):.2e} deg, closure error "
+             f"{c['max_closure_translation_error'] / scale:.2e} {unit} + "
+             f"{np.degrees(c['max_closure_rotation_error']):.2e} deg over {c.get('samples', 0)} samples")
     for w in linkage.info.get("warnings", []):
         echo(f"  warning: {w}")
 

@@ -5,7 +5,8 @@ parameter of the pose, null for t = infinity), ``joints[].parent/child/angle_law
 2 atan2(b, t - a)), ``links`` (link -> joints it carries), ``tool_link``, ``tool_ref`` and ``info``
 (the linkage's kind-specific extras), ``design`` (the physical design: `PhysicalDesign.to_dict`, with
 every pin's length and mesh file: the bill of materials) and ``collision`` (what the design achieves:
-`CollisionReport.to_dict`). Lengths in metres, angles in radians. Only plain JSON types are written;
+`CollisionReport.to_dict`) and ``stl`` (the STL files' unit, millimetres, with the URDF mesh scale 0.001,
+and the density behind the URDF's inertias). Lengths in metres, angles in radians. Only plain JSON types are written;
 non-finite numbers become null.
 """
 from __future__ import annotations
@@ -52,6 +53,16 @@ def design_section(design) -> dict:
     return d
 
 
+def stl_section() -> dict:
+    """The ``stl`` section: the STL files' length unit and URDF scale, and the density the URDF's masses
+    and inertias assume (uniform solid parts)."""
+    from synth.io.meshes import DENSITY
+    from synth.io.urdf import MESH_UNIT_SCALE
+
+    return {"length_unit": "mm", "urdf_scale": MESH_UNIT_SCALE, "density": DENSITY, "density_unit": "kg/m^3",
+            "material": "aluminium", "masses": "URDF <inertial>: kg, kg m^2, solid parts of this density"}
+
+
 def linkage_document(linkage, design=None, collision=None) -> dict:
     """The linkage.json document (a dict of plain JSON types); ``design`` (`PhysicalDesign`) and
     ``collision`` (`CollisionReport`) add their sections when given."""
@@ -80,6 +91,7 @@ def linkage_document(linkage, design=None, collision=None) -> dict:
         "tool_ref": np.asarray(linkage.tool_ref, float),
         "info": dict(linkage.info),
     }
+    doc["stl"] = stl_section()
     if design is not None:
         doc["design"] = design_section(design)
     if collision is not None:

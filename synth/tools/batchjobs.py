@@ -18,7 +18,7 @@ ignored silently).
 
 The result of a job is one JSON object::
 
-    {"id": .., "line": n, "ok": true, "kind": "bennett", "joints": 4, "extent": 0.41,
+    {"id": .., "line": n, "ok": true, "kind": "bennett", "joints": 4, "extent": 0.41, "extent_unit": "m",
      "checks": {...}, "out": "runs/a7" | null, ["linkage": {...linkage.json...}]}
     {"id": .., "line": n, "ok": false, "exit_code": 2, "error": "one line"}
 
@@ -242,7 +242,7 @@ def _prepare_out(out: str, force: bool, created: list) -> None:
 
 
 def _success(kind: str, linkage, out, full: bool) -> dict:
-    res = {"ok": True, "kind": kind, "joints": len(linkage.joints), "extent": float(linkage.extent()),
+    res = {"ok": True, "kind": kind, "joints": len(linkage.joints), "extent": float(linkage.extent()), "extent_unit": "m",
            "checks": plain(dict(linkage.checks)), "out": out}
     b = linkage.info.get("bennett")
     if b:
