@@ -5,6 +5,7 @@ import sys
 
 import click
 
+from synth.tools.sim.run import advice
 from synth.tools.sim.run import simulate as run_sim
 
 from .common import debug_option, echo, json_option, print_json, run_guarded
@@ -16,9 +17,11 @@ Example:
   mpsynth simulate out_b --engine mujoco --export-mjcf out_b/linkage.mjcf.xml
   mpsynth simulate out_b --engine pybullet --json | jq .max_joint_deviation""")
 @click.argument("out", metavar="OUT")
-@click.option("--engine", type=click.Choice(["pybullet", "mujoco"]), required=True, help="Physics engine.")
-@click.option("--seconds", type=float, default=2.0, show_default=True,
-              help="Simulated time for the driver's full turn.")
+@click.option("--engine", type=click.Choice(["pybullet", "mujoco"]), default="mujoco", show_default=True,
+              help="Physics engine.")
+@click.option("--seconds", type=float, default=None,
+              help="Simulated time for the driver's full turn (default: 2 s for one loop, 4 s per loop "
+                   "for several: welds in series give way with speed).")
 @click.option("--timestep", type=float, default=None,
               help="Engine time step in seconds (default: pybullet 1 ms, mujoco 0.5 ms).")
 @click.option("--gravity", is_flag=True, help="Gravity -9.81 m/s^2 along the base's -z (default: off).")
@@ -51,7 +54,8 @@ def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, contacts
         lo, hi = res["drive_range"]
         sweep = "" if (lo, hi) == (0.0, 6.283185307179586) else (
             f" over its limits {lo * 57.29577951308232:.1f} to {hi * 57.29577951308232:.1f} deg (the task range)")
-        echo(f"simulate {out} with {engine}: {res['steps']} steps of {res['timestep']:.3g} s, driver {res['driver']}"
+        echo(f"simulate {out} with {engine}: {res['steps']} steps of {res['timestep']:.3g} s ({res['seconds']:g} s), "
+             f"driver {res['driver']}"
              f"{sweep}, gravity {'on' if gravity else 'off'}")
         echo(f"  worst joint deviation from the exact motion {res['max_joint_deviation']:.3e} rad "
              f"({res['worst_joint']}), worst closure gap {res['max_closure_gap']:.3e} m / "
@@ -62,7 +66,8 @@ def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, contacts
         if export_mjcf:
             echo(f"  wrote {export_mjcf}")
         if not ok:
-            echo(f"  FAIL: deviation above --tol {tol:g} rad")
+            echo(f"  FAIL: deviation above --tol {tol:g} rad: "
+                 + advice(res, engine, tol, res["seconds"], res["loops"]))
     if as_json:
         print_json(res)
     sys.exit(0 if ok else 1)

@@ -10,15 +10,53 @@ from synth.tools.sim.mujoco_sim import run as run_mujoco
 from synth.tools.sim.pybullet_sim import run_in_subprocess
 
 
-def simulate(out, engine: str, *, seconds: float = 2.0, timestep: float | None = None, gravity: bool = False,
-             export_mjcf=None, timeout: float = 600.0, contacts: bool = False) -> dict:
-    """Run ``engine`` on OUT; returns the result dict (see `Tracker.result`). Raises EngineNotInstalled
-    (exit 2), InputError (exit 2) or SimulationError (exit 1)."""
+SINGLE_LOOP_SECONDS = 2.0  # default time of the turn for one loop
+SECONDS_PER_LOOP = 4.0  # ... and per loop of a multi-loop linkage
+
+
+def default_seconds(loops: int) -> float:
+    """The default time of the driver's turn: 2 s for one loop, 4 s per loop for several.
+
+    The engines hold a loop closed with a stiff but soft weld whose give grows with the speed of the
+    links (and, in MuJoCo, with the time step); welds in series (the ladders of `mpsynth curve`) add
+    up: at 2 s the curve fixtures deviate by 3e-3 to 8e-3 rad, at 4 s per loop MuJoCo stays within
+    about 5e-4 rad (measured on fixtures/curve_ellipse.yaml and motion_elliptic.yaml)."""
+    return SINGLE_LOOP_SECONDS if loops <= 1 else SECONDS_PER_LOOP * loops
+
+
+def advice(result: dict, engine: str, tol: float, seconds: float, loops: int) -> str:
+    """What to change when the deviation exceeds ``tol``: a slower turn (the weld's give is about
+    proportional to the speed), a finer MuJoCo step, or MuJoCo instead of PyBullet for several loops."""
+    if engine == "pybullet" and loops > 1:  # measured: a 6x slower turn barely helps PyBullet here
+        return (f"PyBullet's constraint solver does not hold {loops} welds in series to this tolerance; "
+                "use --engine mujoco (or a larger --tol)")
+    factor = max(2.0, 2.0 * result["max_joint_deviation"] / tol)
+    tips = [f"a slower turn (--seconds {min(3600.0, seconds * factor):.3g})"]
+    if engine == "mujoco":
+        tips.append(f"a smaller --timestep (e.g. {result['timestep'] / 4:.2g})")
+    return f"the loops' welds give way with the speed of the links ({loops} loop(s)); try " + " or ".join(tips)
+
+
+def simulate(out, engine: str, *, seconds: float | None = None, timestep: float | None = None,
+             gravity: bool = False, export_mjcf=None, timeout: float = 600.0, contacts: bool = False) -> dict:
+    """Run ``engine`` on OUT; returns the result dict (see `Tracker.result`, plus ``seconds``). ``seconds``
+    None: `default_seconds` for the linkage's loops. Raises EngineNotInstalled (exit 2), InputError
+    (exit 2) or SimulationError (exit 1)."""
+    setup = load_setup(out)  # input errors before engine errors
+    if seconds is None:
+        seconds = default_seconds(len(setup.closures))
     if not (seconds > 0 and math.isfinite(seconds) and seconds <= 3600):
         raise InputError(f"--seconds must be in (0, 3600], got {seconds}")
     if timestep is not None and not (0 < timestep <= seconds / 10):
         raise InputError(f"--timestep must be positive and at most a tenth of --seconds, got {timestep}")
-    setup = load_setup(out)  # input errors before engine errors
+    res = _run(setup, engine, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf,
+               timeout=timeout, contacts=contacts)
+    res["seconds"] = seconds
+    res["loops"] = len(setup.closures)
+    return res
+
+
+def _run(setup, engine, *, seconds, timestep, gravity, export_mjcf, timeout, contacts) -> dict:
     if export_mjcf and engine != "mujoco":  # the MuJoCo run writes (and loads) it itself
         write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity, contacts=contacts)
     require_engine(engine)

@@ -1,0 +1,52 @@
+"""`mpsynth simulate` defaults per linkage: a slower turn for several loops (welds in series), MuJoCo by
+default, and a failure message that says what to change."""
+from __future__ import annotations
+
+import importlib.util
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from cli.main import mpsynth
+from synth.tools.sim.run import advice, default_seconds
+
+from conftest import REPO
+
+
+def run(*args):
+    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
+
+
+def test_default_seconds_grow_with_the_loops():
+    assert default_seconds(1) == 2.0 and default_seconds(3) == 12.0 and default_seconds(4) == 16.0
+
+
+def test_advice_names_the_option_to_change():
+    res = {"max_joint_deviation": 4e-3, "timestep": 5e-4}
+    msg = advice(res, "mujoco", 1e-3, 2.0, 3)
+    assert "--seconds 16" in msg and "--timestep" in msg
+    assert "--engine mujoco" in advice(res, "pybullet", 1e-3, 12.0, 3)
+    assert "--seconds" in advice(res, "pybullet", 1e-3, 2.0, 1)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fixture", ["curve_ellipse.yaml", "motion_elliptic.yaml"])
+def test_curve_fixtures_pass_simulate_with_the_defaults(tmp_path, fixture):
+    """The shipped curve fixtures pass `mpsynth simulate OUT` with no option (MuJoCo, 4 s per loop)."""
+    if importlib.util.find_spec("mujoco") is None:
+        pytest.skip("mujoco is not installed")
+    out = tmp_path / "o"
+    assert run("curve", REPO / "fixtures" / fixture, "-o", out, "-q").exit_code in (0,)
+    r = run("simulate", out, "--json", "-q")
+    res = json.loads(r.stdout)
+    assert r.exit_code == 0 and res["engine"] == "mujoco" and res["max_joint_deviation"] < 1e-3, res
+
+
+def test_default_engine_is_mujoco(tmp_path):
+    if importlib.util.find_spec("mujoco") is None:
+        pytest.skip("mujoco is not installed")
+    out = tmp_path / "o"
+    assert run("bennett", REPO / "fixtures" / "bennett_quat.yaml", "-o", out, "-q").exit_code == 0
+    r = run("simulate", out, "--json", "-q", "--seconds", "0.2", "--tol", "1")
+    assert r.exit_code == 0 and json.loads(r.stdout)["engine"] == "mujoco"
