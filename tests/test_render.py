@@ -184,3 +184,18 @@ def test_render_missing_output_directory(tmp_path):
     r = run("render", tmp_path / "nope", "--png", tmp_path / "x.png")
     assert r.exit_code == 2 and "no such output directory" in r.stderr
     assert not (tmp_path / "x.png").exists()
+
+
+def test_planar_linkages_are_seen_face_on():
+    """All joint axes along z: the camera looks down z (x right, y up); a spatial linkage: no planar view."""
+    from types import SimpleNamespace
+
+    from synth.tools.render import planar_view
+
+    def lk(*dirs):
+        return SimpleNamespace(joints=[SimpleNamespace(direction=np.array(d, float)) for d in dirs])
+
+    assert planar_view(lk([0, 0, 1], [0, 0, -1], [0, 0, 1])) == (90.0, -90.0)
+    el, az = planar_view(lk([1, 0, 0], [-1, 0, 0]))
+    assert el == pytest.approx(0) and az == pytest.approx(0)
+    assert planar_view(lk([0, 0, 1], [0, 1, 0])) is None

@@ -115,7 +115,7 @@ class Scene:
 
         # camera: orthographic, from the side that shows the whole motion spread widest
         if elev is None or azim is None:
-            e0, a0 = default_view(allp)
+            e0, a0 = planar_view(lk) or default_view(allp)
             elev = e0 if elev is None else elev
             azim = a0 if azim is None else azim
         ax.view_init(elev=elev, azim=azim)
@@ -124,15 +124,21 @@ class Scene:
         self.eye = _eye(elev, azim)
         self.light = _light_direction(elev, azim)
 
-        c, hf = self.centre, self.half
-        ax.set_xlim(c[0] - hf, c[0] + hf)
-        ax.set_ylim(c[1] - hf, c[1] + hf)
-        ax.set_zlim(c[2] - hf, c[2] + hf)
-        ax.set_box_aspect((1, 1, 1), zoom=1.2)
+        # the box of the whole motion at one scale on every axis (not a cube: a flat or long mechanism
+        # then fills the frame), with a small margin
+        c = self.centre
+        ext = np.maximum((hi - lo) / 2, 0.08 * self.half) * 1.04
+        ax.set_xlim(c[0] - ext[0], c[0] + ext[0])
+        ax.set_ylim(c[1] - ext[1], c[1] + ext[1])
+        ax.set_zlim(c[2] - ext[2], c[2] + ext[2])
+        ax.set_box_aspect(tuple(ext / ext.max()), zoom=1.25)
         ax.set_xlabel("x [m]", labelpad=-6, fontsize=8)
         ax.set_ylabel("y [m]", labelpad=-6, fontsize=8)
         ax.set_zlabel("z [m]", labelpad=-6, fontsize=8)
         ax.tick_params(labelsize=7, pad=-2)
+        if abs(elev) >= 90 - 1e-9:  # seen along z: its ticks would pile up in one spot
+            ax.set_zticks([])
+            ax.set_zlabel("")
         for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
             axis.pane.set_facecolor((0.96, 0.96, 0.97, 1.0))
             axis.pane.set_edgecolor((0.85, 0.85, 0.88, 1.0))
@@ -175,8 +181,8 @@ class Scene:
         from matplotlib.patches import Patch
 
         handles = [Patch(facecolor=colors[n], edgecolor="none", label=n) for n in self.links]
-        self.fig.legend(handles=handles, loc="lower right", fontsize=7.5, frameon=False, ncol=1,
-                        handlelength=1.2, borderaxespad=0.6)
+        self.fig.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.01, 0.89), fontsize=7.5,
+                        frameon=False, ncol=1, handlelength=1.2, title="links", title_fontsize=7.5)
         self.title = title or (f"{rb.robot_name} - {_kind_label(lk)}")
         self.suptitle = self.fig.suptitle(self.title, y=0.975, fontsize=12)
         self.caption = self.fig.text(0.5, 0.905, "", ha="center", fontsize=9, color="0.3")
@@ -288,6 +294,18 @@ def _kind_label(lk) -> str:
     k = {"bennett": "Bennett 4R", "6r": "spatial 6R"}.get(lk.kind, lk.kind)
     loops = len(lk.closures)
     return f"{k} linkage ({n} revolute joints, {loops} loop{'s' if loops != 1 else ''})"
+
+
+def planar_view(lk) -> tuple[float, float] | None:
+    """(elev, azim) looking along the common direction of the joint axes of a planar linkage (all axes
+    parallel within 1e-9: the mechanism moves in planes normal to them), seen face-on; None otherwise."""
+    u = np.array([j.direction for j in lk.joints], float)
+    if len(u) == 0 or np.abs(np.cross(u, u[0])).max() > 1e-9:
+        return None
+    n = u[0] if u[0][2] >= 0 else -u[0]
+    if n[2] > 1 - 1e-9:  # the xy plane: x to the right, y up
+        return 90.0, -90.0
+    return float(math.degrees(math.asin(min(1.0, n[2])))), float(math.degrees(math.atan2(n[1], n[0])))
 
 
 def default_view(points) -> tuple[float, float]:
