@@ -98,3 +98,22 @@ def test_view_errors(tmp_path, out_quat):
     r = run("view", out_quat, "-o", tmp_path / "nodir" / "v.html")
     assert r.exit_code == 2 and "does not exist" in r.stderr
     assert not (tmp_path / "v.html").exists()
+
+
+def test_joint_labels_and_scale_bar_in_node(page):
+    """The page's script, run in node with a stub DOM and WebGL, places a label for every joint and task
+    pose on the canvas and draws a scale bar of a round length in m or mm."""
+    import shutil
+    import subprocess
+
+    node = shutil.which("node")
+    if not node:
+        pytest.skip("node is not installed")
+    r = subprocess.run([node, str(REPO / "tests" / "data" / "viewer_stub.js"), str(page)], capture_output=True,
+                       text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    labels = dict(re.findall(r"(\w+)@([-\d.]+)px", r.stdout.splitlines()[0]))
+    assert {"h1", "h2", "k1", "k2", "T0", "T1", "T2"} <= set(labels)
+    assert all(0 <= float(x) <= 800 for x in labels.values())
+    m = re.search(r"scale (\d+)px (\d+) (m|mm)", r.stdout)
+    assert m and 20 <= int(m.group(1)) <= 400 and m.group(2)[0] in "125", r.stdout

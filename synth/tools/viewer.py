@@ -84,6 +84,13 @@ def scene_data(rb: Readback, frames: int = DEFAULT_FRAMES, spacing: str = "angle
         mount = _b64(np.concatenate([a, tool[:, :3, 3]], axis=1) - np.tile(centre, 2))
     elev, azim = default_view(allp)
     angles = lk.angles_at(ts)
+    # joint names at their sites (`Linkage.joint_sites`), moving with each joint's child link
+    disp = lk.displacements(angles)
+    sites = lk.joint_sites()
+    joints = [{"name": j.name,
+               "pos": _b64(np.einsum("sij,j->si", disp[j.child][:, :3, :3], sites[j.name])
+                           + disp[j.child][:, :3, 3] - centre)}
+              for j in lk.joints]
     first_pose_t = {p.name: p.t for p in lk.poses}
     return {
         "format": "mpsynth.viewer/1",
@@ -103,6 +110,8 @@ def scene_data(rb: Readback, frames: int = DEFAULT_FRAMES, spacing: str = "angle
         "world_label": not any(np.linalg.norm(T[:3, 3]) <= 1e-9 * radius for T in poses),
         "path": _b64((path - centre).reshape(-1)),
         "radius": radius,
+        "joints": joints,
+        "length_unit": "m",
         "floor": float(lo[2] - centre[2]),
         "frame_length": 0.09 * radius,
     }
@@ -135,6 +144,7 @@ def viewer_html(rb: Readback, frames: int = DEFAULT_FRAMES, spacing: str = "angl
 <div id="info"><div id="title"></div><div id="subtitle"></div><div id="state"></div></div>
 <div id="help">drag: rotate &middot; shift-drag or right-drag: pan &middot; wheel or pinch: zoom &middot; double-click: reset view</div>
 <div id="labels"></div>
+<div id="scale"><div id="scale-bar"></div><span id="scale-text"></span></div>
 <div id="bar">
   <button id="play" type="button" title="play / pause (space)">&#9654;</button>
   <input id="slider" type="range" min="0" max="0" value="0" step="1" aria-label="frame">
@@ -171,6 +181,9 @@ VIEWER_CSS = r"""html, body { margin: 0; height: 100%; overflow: hidden; font: 1
 #help { position: absolute; right: 12px; top: 10px; color: #777; font-size: 12px; pointer-events: none; }
 #labels .label { position: absolute; font-size: 12px; color: #222; background: rgba(255,255,255,0.75); padding: 0 3px; border-radius: 3px; pointer-events: none; }
 #labels .label.world { color: #666; font-style: italic; }
+#labels .label.joint { font-style: italic; font-size: 11px; color: #114; background: rgba(255,255,255,0.55); }
+#scale { position: absolute; right: 16px; bottom: 56px; pointer-events: none; color: #333; font-size: 12px; text-align: center; }
+#scale-bar { height: 6px; border: 2px solid #333; border-top: none; margin: 0 auto 2px auto; }
 #bar { position: absolute; left: 0; right: 0; bottom: 0; display: flex; gap: 10px; align-items: center; padding: 8px 12px; background: rgba(255,255,255,0.85); border-top: 1px solid #ddd; }
 #bar button { width: 34px; height: 28px; font-size: 14px; cursor: pointer; }
 #slider { flex: 1; }
@@ -363,6 +376,11 @@ VIEWER_JS = r""""use strict";
   var labelsDiv = document.getElementById("labels");
   var labelled = D.poses.map(function (p) { return { name: p.name, m: p.matrix, pose: true }; });
   if (D.world_label) labelled.push({ name: "world", m: D.world, pose: false });
+  var jointPos = (D.joints || []).map(function (j) { return f32(j.pos); });
+  var jointEls = (D.joints || []).map(function (j) {
+    var el = document.createElement("div"); el.className = "label joint"; el.textContent = j.name;
+    labelsDiv.appendChild(el); return el;
+  });
   var labels = labelled.map(function (p) {
     var el = document.createElement("div"); el.className = "label" + (p.pose ? "" : " world"); el.textContent = p.name;
     labelsDiv.appendChild(el); return el;
@@ -400,7 +418,33 @@ VIEWER_JS = r""""use strict";
       el.style.left = ((cx / cw + 1) / 2 * canvas.clientWidth + 6) + "px";
       el.style.top = ((1 - cy / cw) / 2 * canvas.clientHeight - 18) + "px";
     });
+    jointEls.forEach(function (el, i) {
+      var q = jointPos[i], x = q[3 * frame], y = q[3 * frame + 1], z = q[3 * frame + 2];
+      var cx = PV[0] * x + PV[4] * y + PV[8] * z + PV[12], cy = PV[1] * x + PV[5] * y + PV[9] * z + PV[13];
+      var cw = PV[3] * x + PV[7] * y + PV[11] * z + PV[15];
+      if (cw <= 0) { el.style.display = "none"; return; }
+      el.style.display = "block";
+      el.style.left = ((cx / cw + 1) / 2 * canvas.clientWidth + 4) + "px";
+      el.style.top = ((1 - cy / cw) / 2 * canvas.clientHeight - 8) + "px";
+    });
+    drawScale(PV);
     updateState();
+  }
+
+  // scale bar: a round length (1, 2 or 5 x 10^k m) about a fifth of the view wide, at the view's centre
+  function screenX(PV, p) {
+    var cx = PV[0] * p[0] + PV[4] * p[1] + PV[8] * p[2] + PV[12], cw = PV[3] * p[0] + PV[7] * p[1] + PV[11] * p[2] + PV[15];
+    return (cx / cw + 1) / 2 * canvas.clientWidth;
+  }
+  function drawScale(PV) {
+    var scaleBar = document.getElementById("scale-bar"), scaleText = document.getElementById("scale-text");
+    var t = cam.target, r = [Vm[0], Vm[4], Vm[8]];
+    var px = Math.abs(screenX(PV, [t[0] + r[0], t[1] + r[1], t[2] + r[2]]) - screenX(PV, t));  // pixels per metre
+    if (!(px > 0) || !isFinite(px)) return;
+    var want = canvas.clientWidth / 5 / px, k = Math.pow(10, Math.floor(Math.log10(want))), L = k;
+    [1, 2, 5, 10].forEach(function (m) { if (m * k <= want) L = m * k; });
+    scaleBar.style.width = Math.round(L * px) + "px";
+    scaleText.textContent = L >= 1 ? L + " m" : (L >= 0.001 ? +(L * 1000).toPrecision(3) + " mm" : L.toExponential(0) + " m");
   }
 
   // ---------------------------------------------------------------- UI
