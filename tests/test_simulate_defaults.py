@@ -23,7 +23,7 @@ def test_default_seconds_grow_with_the_loops():
 
 
 def test_advice_names_the_option_to_change():
-    res = {"max_joint_deviation": 4e-3, "timestep": 5e-4}
+    res = {"max_joint_deviation": 4e-3, "timestep": 5e-4, "max_closure_gap": 9e-5}
     msg = advice(res, "mujoco", 1e-3, 2.0, 3)
     assert "--seconds 16" in msg and "--timestep" in msg
     assert "--engine mujoco" in advice(res, "pybullet", 1e-3, 12.0, 3)
