@@ -25,6 +25,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
+import signal
 import statistics
 import subprocess
 import sys
@@ -199,7 +201,7 @@ def main(argv=None) -> int:
     ap.add_argument("--rl", type=int, default=0, help="Bennett sets also run through rational-linkages")
     ap.add_argument("--rl-python", default=RL_PYTHON)
     ap.add_argument("--rl-timeout", type=float, default=600.0,
-                    help="wall seconds allowed to rational-linkages per set (a timeout counts as a failure)")
+                    help="CPU seconds allowed to rational-linkages per set (a timeout counts as a failure)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", help="write every row to this file")
     ap.add_argument("--effort", type=float, default=1.0, help="design_linkage effort")
@@ -246,7 +248,11 @@ def factor(joint) -> list[float]:
 
 def compare_rl(kind, sets, ours, python, report, timeout) -> None:
     """The same linkages through rational-linkages' collision_free_optimization, one subprocess per set
-    (so that a set that runs past ``timeout`` wall seconds is stopped and counted as a failure)."""
+    (so that a set that runs past ``timeout`` CPU seconds is stopped and counted as a failure)."""
+
+    def limit_cpu():
+        resource.setrlimit(resource.RLIMIT_CPU, (int(timeout), int(timeout) + 5))
+
     rl = []
     t = time.perf_counter()
     for s, lk in sets:
@@ -254,9 +260,12 @@ def compare_rl(kind, sets, ours, python, report, timeout) -> None:
                 "k": [factor(lk.joint(n)) for n in lk.branches[1]]}
         try:
             proc = subprocess.run([python, "-c", RL_SCRIPT], input=json.dumps([item]), capture_output=True,
-                                  text=True, timeout=timeout)
+                                  text=True, preexec_fn=limit_cpu, timeout=50 * timeout)
         except subprocess.TimeoutExpired:
-            rl.append({"seed": s, "seconds": float("nan"), "ok": False, "error": f"timeout ({timeout:.0f} s wall)"})
+            rl.append({"seed": s, "seconds": float("nan"), "ok": False, "error": f"timeout ({50 * timeout:.0f} s wall)"})
+            continue
+        if proc.returncode in (-signal.SIGXCPU, -signal.SIGKILL):
+            rl.append({"seed": s, "seconds": float("nan"), "ok": False, "error": f"timeout ({timeout:.0f} s CPU)"})
             continue
         if proc.returncode:
             rl.append({"seed": s, "seconds": float("nan"), "ok": False,
