@@ -132,8 +132,8 @@ def run_cli(kind: str, sets, verify: bool, workdir: Path) -> list[dict]:
         poses = write_pose_file(workdir / f"{kind}_{s}.yaml", random_poses(np.random.default_rng(s), n))
         out = workdir / f"{kind}_{s}"
         with open(workdir / "stderr.txt", "w+") as err:
-            proc = subprocess.Popen([sys.executable, "-m", "cli.main", kind, str(poses), "-o", str(out), "-q", "--force"],
-                                    stdout=subprocess.DEVNULL, stderr=err, cwd=REPO,
+            cmd = [sys.executable, "-m", "cli.main", kind, str(poses), "-o", str(out), "-q", "--force"]
+            proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err, cwd=REPO,
                                     env={**os.environ, "PYTHONPATH": str(REPO)})
             _, status, usage = os.wait4(proc.pid, 0)  # this child's own CPU time and peak RSS
             proc.returncode = os.waitstatus_to_exitcode(status)
@@ -262,7 +262,8 @@ def compare_rl(kind, sets, ours, python, report, timeout) -> None:
             proc = subprocess.run([python, "-c", RL_SCRIPT], input=json.dumps([item]), capture_output=True,
                                   text=True, preexec_fn=limit_cpu, timeout=50 * timeout)
         except subprocess.TimeoutExpired:
-            rl.append({"seed": s, "seconds": float("nan"), "ok": False, "error": f"timeout ({50 * timeout:.0f} s wall)"})
+            rl.append({"seed": s, "seconds": float("nan"), "ok": False,
+                       "error": f"timeout ({50 * timeout:.0f} s wall)"})
             continue
         if proc.returncode in (-signal.SIGXCPU, -signal.SIGKILL):
             rl.append({"seed": s, "seconds": float("nan"), "ok": False, "error": f"timeout ({timeout:.0f} s CPU)"})

@@ -524,10 +524,11 @@ def rank_buildable(candidates, design, *, limit: int = 8, seconds: float = 6.0, 
     ``design(linkage, ranges, full_seconds) -> DesignResult`` (`design_linkage`'s arguments). Phase 1: a
     full-cycle-only search of at most ``first`` CPU seconds on the best-scored candidate and
     ``per_candidate`` on each next one, in order, until one is free, ``limit`` were tried, or ``seconds -
-    reserve`` are spent (a free design is usually found within a second; the failures are what costs). Phase 2, when none is free over the full
-    cycle: the task-range search on the candidates in order until one is free over it or ``seconds``
-    are spent (at least the first). Returns [(linkage, DesignResult)] of the final designs sorted by
-    (`collision_rank`, kinematic order): a phase-1 success alone, else the phase-2 designs."""
+    reserve`` are spent (a free design is usually found within a second; the failures are what costs).
+    Phase 2, when none is free over the full cycle: the task-range search on the candidates in order
+    until one is free over it or ``seconds`` are spent (at least the first). Returns [(linkage,
+    DesignResult)] of the final designs sorted by (`collision_rank`, kinematic order): a phase-1 success
+    alone, else the phase-2 designs."""
     t0 = time.process_time()
     candidates = list(candidates)
     for k, linkage in enumerate(candidates[:limit]):
