@@ -238,13 +238,14 @@ def collision_sentence(report, scale: float, unit: str) -> str:
     return f"NOT collision-free: {report.message or 'no collision-free design was found'}"
 
 
-def design_result(linkage, sizes: dict, *, scale: float, unit: str, source: str, require_free: bool):
+def design_result(linkage, sizes: dict, *, scale: float, unit: str, source: str, require_free: bool, **search):
     """The physical design of ``linkage`` (`synth.io.meshes.design_for`) with the sizes in metres;
-    SynthesisError (exit 1) with the sentence when ``require_free`` and it is not collision-free."""
+    SynthesisError (exit 1) with the sentence when ``require_free`` and it is not collision-free;
+    ``search``: further arguments of the design search (ranges, full_seconds)."""
     from synth.io.meshes import design_for
 
     check_mesh_sizes(sizes, linkage.extent(), scale, unit)
-    result = design_for(linkage, **sizes)
+    result = design_for(linkage, **sizes, **search)
     if require_free:
         require_collision_free(result, source=source, scale=scale, unit=unit)
     return result

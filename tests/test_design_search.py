@@ -173,18 +173,38 @@ def test_collision_rank(fixture_bennett):
 
 
 def test_rank_buildable_puts_collision_free_first(fixture_bennett):
-    """A candidate that cannot be made collision-free (an absurd clearance) ranks after one that can,
-    whatever their kinematic order; the search stops at the first design free over the full cycle."""
+    """A candidate that cannot be made collision-free (an absurd clearance) is passed over for the next
+    one that is free over the full cycle; the search stops there (the third is not designed)."""
     calls = []
 
-    def design(lk):
-        calls.append(lk)
+    def design(lk, ranges, full_seconds):
+        calls.append(ranges)
         clearance = 10 * lk.extent() if len(calls) == 1 else None
-        return design_linkage(lk, **sizes(lk), clearance=clearance)
+        return design_linkage(lk, **sizes(lk), clearance=clearance, ranges=ranges, full_seconds=full_seconds)
 
     ranked = rank_buildable([fixture_bennett, fixture_bennett, fixture_bennett], design)
-    assert len(calls) == 2  # the second is free over the full cycle: the third is not designed
-    assert [collision_rank(r.collision) for _, r in ranked] == [0, 2]
+    assert calls == [("full",), ("full",)]
+    assert [collision_rank(r.collision) for _, r in ranked] == [0]
+
+
+def test_rank_buildable_falls_back_to_the_task_range_in_kinematic_order():
+    """No candidate free over the full cycle: every candidate is tried over the full cycle (within the
+    limit), then over the task range in kinematic order until one is free there; the free one ranks
+    first, the closest-but-colliding after it."""
+    from types import SimpleNamespace
+
+    free_over = {"A": set(), "B": {"task"}, "C": {"task"}}
+    calls = []
+
+    def design(lk, ranges, full_seconds):
+        calls.append((lk, ranges))
+        rng = ranges[0]
+        return SimpleNamespace(collision=SimpleNamespace(free=rng in free_over[lk], range=rng))
+
+    ranked = rank_buildable(["A", "B", "C"], design, limit=8, seconds=60.0)
+    assert calls == [("A", ("full",)), ("B", ("full",)), ("C", ("full",)), ("A", ("task",)), ("B", ("task",))]
+    assert [lk for lk, _ in ranked] == ["B", "A"]
+    assert [collision_rank(r.collision) for _, r in ranked] == [1, 2]
 
 
 def test_sixbar_fixture_design_holds_between_samples():

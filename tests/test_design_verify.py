@@ -7,9 +7,10 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
-from conftest import REPO
+from conftest import REPO, random_poses, write_pose_yaml
 
 meshes = pytest.importorskip("synth.io.meshes")
 pytestmark = pytest.mark.skipif(not hasattr(meshes, "design_for"), reason="the exporter does not write designs yet")
@@ -38,3 +39,43 @@ def test_fixture_claim_holds(tmp_path, verifier, command, fixture):
     r = run("-m", "cli.main", command, poses, "-o", out, "-q")
     assert r.returncode == 0, r.stderr
     check_claim(verifier, poses, out)
+
+
+def claim_on_random_set(tmp_path, verifier, command, seed):
+    """The default command on a seeded random pose set (`conftest.random_poses`); the written claim must
+    hold for the independent verifier. Returns the claim's range ("full", "task") or None (not free)."""
+    n = 3 if command == "bennett" else 4
+    poses = write_pose_yaml(tmp_path / "poses.yaml", random_poses(np.random.default_rng(seed), n))
+    out = tmp_path / "out"
+    r = run("-m", "cli.main", command, poses, "-o", out, "-q")
+    if r.returncode == 1:
+        pytest.skip(f"seed {seed}: no real linkage ({r.stderr.strip()})")
+    assert r.returncode == 0, r.stderr
+    c = json.loads((out / "linkage.json").read_text())["collision"]
+    if not c["free"]:
+        return None
+    check_claim(verifier, poses, out)
+    return c["range"]
+
+
+@pytest.mark.parametrize("seed", [0, 7])
+def test_random_bennett_claim_holds(tmp_path, verifier, seed):
+    """Seeded sample (default run) of the sweep below."""
+    assert claim_on_random_set(tmp_path, verifier, "bennett", seed) == "full"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command, seeds", [("bennett", range(24)), ("sixbar", range(16))])
+def test_random_sets_claims_hold_and_full_cycle_rate(tmp_path, verifier, command, seeds):
+    """bench/bench_design.py --cli --verify as a test: every claim of the default output holds for the
+    independent verifier, and at least 75% of the solvable sets are free over the full cycle."""
+    ranges = []
+    for seed in seeds:
+        d = tmp_path / str(seed)
+        d.mkdir()
+        try:
+            ranges.append(claim_on_random_set(d, verifier, command, seed))
+        except pytest.skip.Exception:
+            continue
+    assert ranges
+    assert sum(r == "full" for r in ranges) >= 0.75 * len(ranges), ranges

@@ -140,10 +140,10 @@ def segment_distance(p0, p1, q0, q1) -> np.ndarray:
 
     a, e, b = dot(d1, d1), dot(d2, d2), dot(d1, d2)
     c, f = dot(d1, r), dot(d2, r)
-    tiny = 1e-30
+    tiny = 1e-30 if p0.dtype == np.float64 else 1e-20
     ia, ie = 1.0 / np.maximum(a, tiny), 1.0 / np.maximum(e, tiny)
     denom = a * e - b * b
-    ok = denom > 1e-12 * a * e
+    ok = denom > (1e-12 if denom.dtype == np.float64 else 1e-5) * a * e
     s = np.where(ok, np.clip((b * f - c * e) / np.where(ok, denom, 1.0), 0.0, 1.0), 0.0)
     t = (b * s + f) * ie
     s = np.where(t < 0, np.clip(-c * ia, 0.0, 1.0), np.where(t > 1, np.clip((b - c) * ia, 0.0, 1.0), s))
@@ -170,7 +170,7 @@ def world_ends(linkage, cs: CapsuleSet, motion: dict[str, np.ndarray], sites: di
     return np.ascontiguousarray(Q[:, idx].transpose(1, 0, 2, 3)), np.ascontiguousarray(U[:, idx].transpose(1, 0, 2, 3))
 
 
-def pair_distances(cs: CapsuleSet, Q, U, offsets, chunk: int = 1 << 18) -> np.ndarray:
+def pair_distances(cs: CapsuleSet, Q, U, offsets, chunk: int = 1 << 16) -> np.ndarray:
     """(N, P, K) capsule-capsule distances (segment distance minus both radii) for N designs given by
     ``offsets`` (N, E) (the offset of every end point along its axis); Q, U from `world_ends`."""
     offsets = np.atleast_2d(offsets)
@@ -185,13 +185,21 @@ def pair_distances(cs: CapsuleSet, Q, U, offsets, chunk: int = 1 << 18) -> np.nd
     return out
 
 
-def pair_distances_at(cs: CapsuleSet, Q, U, offsets, pidx, kidx) -> np.ndarray:
-    """(N, L) capsule-capsule distances at L chosen (pair, sample) entries ``pidx``, ``kidx``."""
+def pair_distances_at(cs: CapsuleSet, Q, U, offsets, pidx, kidx, chunk: int = 1 << 16) -> np.ndarray:
+    """(N, L) capsule-capsule distances at L chosen (pair, sample) entries ``pidx``, ``kidx``; evaluated
+    in chunks of about ``chunk`` distances (bounded temporaries)."""
     offsets = np.atleast_2d(offsets)
-    o = offsets[:, cs.pairs[pidx].T]  # (N, 4, L)
+    N, L = offsets.shape[0], len(pidx)
     Qs, Us = Q[:, :, pidx, kidx], U[:, :, pidx, kidx]  # (4, 3, L)
-    pts = [Qs[c][:, None] + o[None, :, c] * Us[c][:, None] for c in range(4)]
-    return segment_distance(*pts) - cs.radii[pidx][None]
+    radii = cs.radii[pidx][None]
+    out = np.empty((N, L))
+    step = max(1, chunk // max(L, 1))
+    cols = cs.pairs[pidx].T  # (4, L)
+    for n0 in range(0, N, step):
+        o = offsets[n0:n0 + step][:, cols]  # (n, 4, L)
+        pts = [Qs[c][:, None] + o[None, :, c] * Us[c][:, None] for c in range(4)]
+        out[n0:n0 + step] = segment_distance(*pts) - radii
+    return out
 
 
 # ----------------------------------------------------------------------------------------- certificate

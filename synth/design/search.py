@@ -34,6 +34,7 @@ FULL_SAMPLES, TASK_SAMPLES = 24, 12  # search samples per joint, full cycle and 
 ATTEMPTS = 2  # independent sets of starts per range
 SPREADS = (0.25, 0.5, 1.0, 2.0)  # scales (times the extent) of the random stack centres
 SEARCH_MERGED = True  # the search scores merged hub+pin capsules (fewer pairs), the certificate the exact ones
+SEARCH_DTYPE = np.float32  # the search's sampled gaps (the certificate: float64)
 ROUNDS = 4  # search rounds, each adding the samples where the last certificate failed
 
 
@@ -228,7 +229,8 @@ class _Scorer:
         self.is_task = np.concatenate([_inside(pf, task), np.ones(len(pt), bool)])
         self.layout = layout
         self.task = task
-        self.Q, self.U = world_ends(lk, layout.cs, body_motion(lk, self.phis), lk.joint_sites())
+        Q, U = world_ends(lk, layout.cs, body_motion(lk, self.phis), lk.joint_sites())
+        self.Q, self.U = Q.astype(SEARCH_DTYPE), U.astype(SEARCH_DTYPE)
         self.evaluations = 0
 
     def add_samples(self, phis) -> None:
@@ -238,10 +240,11 @@ class _Scorer:
         Q, U = world_ends(lk, self.layout.cs, body_motion(lk, phis), lk.joint_sites())
         self.phis = np.concatenate([self.phis, phis])
         self.is_task = np.concatenate([self.is_task, _inside(phis, self.task)])
-        self.Q, self.U = np.concatenate([self.Q, Q], axis=3), np.concatenate([self.U, U], axis=3)
+        self.Q = np.concatenate([self.Q, Q.astype(SEARCH_DTYPE)], axis=3)
+        self.U = np.concatenate([self.U, U.astype(SEARCH_DTYPE)], axis=3)
 
     def offsets(self, c, sigma, g):
-        return self.layout.end_offsets(self.layout.mount_offsets(c, sigma, g))
+        return self.layout.end_offsets(self.layout.mount_offsets(c, sigma, g)).astype(SEARCH_DTYPE)
 
     def full(self, c, sigma, g) -> np.ndarray:
         """(N, P, K) gaps at every sample."""
@@ -357,11 +360,14 @@ def _improve(scorer: _Scorer, mask, target, scale, c, sigma, g, *, step0, step_m
 
 def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
                    hole_clearance: float = 0.0, clearance: float | None = None, seed: int = 0,
-                   effort: float = 1.0) -> DesignResult:
+                   effort: float = 1.0, ranges: tuple[str, ...] = ("full", "task"),
+                   full_seconds: float | None = None) -> DesignResult:
     """A collision-free physical design for ``linkage`` (full cycle if found, else task range) and its
     certified `CollisionReport`; the most compact one found. Lengths in metres. ``clearance`` defaults
-    to ``CLEARANCE_FRACTION`` times the bar radius; ``effort`` scales the number of candidates."""
-    import time
+    to ``CLEARANCE_FRACTION`` times the bar radius; ``effort`` scales the number of candidates.
+    ``ranges``: the ranges tried, in order (("full",): a quick full-cycle-only search, whose failure is
+    reported as not free over the full cycle; ("task",): the task range only). ``full_seconds``: a CPU
+    budget of the full-cycle search (checked between its rounds; None: no limit)."""
 
     t0 = time.process_time()
     clearance = CLEARANCE_FRACTION * bar_radius if clearance is None else float(clearance)
@@ -384,7 +390,7 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     task = task_phi_range(linkage)
     J = len(search.joints)
     gmin = search.gap_min
-    target = clearance * (1 + SAFETY)
+    target = max(clearance, 0.25 * CLEARANCE_FRACTION * bar_radius) * (1 + SAFETY)  # > 0 even for clearance 0
     rng = np.random.default_rng(seed)
     effort = effort * min(1.0, (6 / J) ** 2)  # many joints: many more pairs per candidate
     scorer = _Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task)
@@ -407,20 +413,28 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
 
     result, last = None, None
     n_starts = max(2, int(4 * effort))
-    ranges = (("full", FULL),) if task == FULL else (("full", FULL), ("task", task))
+    ranges = _ranges(ranges, task)
     for rname, rng_phi, attempt in [(r, p, a) for r, p in ranges for a in range(ATTEMPTS)]:
+        if rname == "full" and full_seconds is not None and time.process_time() - t0 > full_seconds:
+            continue
         mask0 = np.ones(coarse.sum(), bool) if rname == "full" else coarse_task
         ranked = np.argsort(-_score(_violation(d0, target, mask0), size0), kind="stable")
         starts = ranked[attempt * n_starts:(attempt + 1) * n_starts]
         c, s, g = c0[starts].copy(), sigma0[starts].copy(), g0[starts].copy()
         step0 = 0.25 * scale
+        previous = -math.inf
         for _ in range(ROUNDS):
+            if rname == "full" and full_seconds is not None and time.process_time() - t0 > full_seconds:
+                break
             mask = np.ones(len(scorer.phis), bool) if rname == "full" else scorer.is_task
             c, s, g, best = _improve(scorer, mask, target, scale, c, s, g, step0=step0, step_min=0.01 * scale,
                                      iterations=int(40 * effort))
             last = (c, s, g, best)
             i = int(np.argmax(best))
-            if best[i] < 1e5:
+            if best[i] < 1e5:  # nothing feasible: another round only while it still gains (a fifth)
+                if best[i] <= 0.8 * previous:
+                    break
+                previous = best[i]
                 continue
             S = search.mount_offsets(c[i:i + 1], s[i:i + 1], g[i:i + 1])[0]
             cert = _certify(exact, S, rng_phi, clearance)
@@ -432,6 +446,8 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
             step0 = 0.1 * scale
         if result is not None:
             break
+    if result is None and last is None:  # the budget was spent before any search: the natural stack
+        last = (c0[:1], sigma0[:1], g0[:1], np.zeros(1))
     if result is None:  # not even the task range: report the design that came closest over it
         c, s, g, best = last
         i = int(np.argmax(best))
@@ -443,6 +459,21 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     report = _report(linkage, exact, rname, cert, clearance, task)
     report.seconds = time.process_time() - t0
     return DesignResult(design, report)
+
+
+def _ranges(names, task) -> tuple:
+    """((name, (lo, hi)), ...) of the ranges to search, in order; a task range that is the whole cycle is
+    the full cycle."""
+    out = []
+    for name in names:
+        if name not in ("full", "task"):
+            raise ValueError(f"unknown range {name!r}")
+        if name == "full" or task == FULL:
+            if ("full", FULL) not in out:
+                out.append(("full", FULL))
+        else:
+            out.append(("task", task))
+    return tuple(out)
 
 
 def _certify(layout: Layout, S, rng, clearance) -> dict:
@@ -486,21 +517,32 @@ def collision_rank(report: CollisionReport) -> int:
     return 0 if report.free and report.range == "full" else (1 if report.free else 2)
 
 
-def rank_buildable(candidates, design, *, limit: int = 4, seconds: float = 6.0) -> list[tuple]:
-    """Rank candidate linkages (given best first by their kinematic score) collision-freedom first:
-    ``design(linkage) -> DesignResult`` is called on the candidates in order until one is free over
-    the full cycle, ``limit`` were designed, or another search as long as the longest so far would
-    exceed ``seconds`` of CPU time (a design search is the expensive step). Returns [(linkage, DesignResult)] of the designed ones sorted by
-    (`collision_rank`, kinematic order)."""
+def rank_buildable(candidates, design, *, limit: int = 8, seconds: float = 6.0, first: float = 2.5,
+                   per_candidate: float = 1.2, reserve: float = 1.0) -> list[tuple]:
+    """Choose among candidate linkages (given best first by their kinematic score) collision-freedom first.
+
+    ``design(linkage, ranges, full_seconds) -> DesignResult`` (`design_linkage`'s arguments). Phase 1: a
+    full-cycle-only search of at most ``first`` CPU seconds on the best-scored candidate and
+    ``per_candidate`` on each next one, in order, until one is free, ``limit`` were tried, or ``seconds -
+    reserve`` are spent (a free design is usually found within a second; the failures are what costs).
+    Phase 2, when none is free over the full cycle: the task-range search on the candidates in order
+    until one is free over it or ``seconds`` are spent (at least the first). Returns [(linkage,
+    DesignResult)] of the final designs sorted by (`collision_rank`, kinematic order): a phase-1 success
+    alone, else the phase-2 designs."""
     t0 = time.process_time()
-    done, longest = [], 0.0
-    for k, linkage in enumerate(candidates):
-        t = time.process_time()
-        result = design(linkage)
-        longest = max(longest, time.process_time() - t)
+    candidates = list(candidates)
+    for k, linkage in enumerate(candidates[:limit]):
+        cap = first if k == 0 else per_candidate
+        if k and time.process_time() - t0 + cap > seconds - reserve:
+            break
+        result = design(linkage, ("full",), cap)
+        if collision_rank(result.collision) == 0:
+            return [(linkage, result)]
+    done = []
+    for k, linkage in enumerate(candidates[:limit]):
+        result = design(linkage, ("task",), None)
         done.append((collision_rank(result.collision), k, linkage, result))
-        # stop unless another search as long as the longest so far still fits the budget
-        if done[-1][0] == 0 or len(done) >= limit or time.process_time() - t0 + longest > seconds:
+        if done[-1][0] <= 1 or time.process_time() - t0 > seconds:
             break
     done.sort(key=lambda x: x[:2])
     return [(lk, r) for _, _, lk, r in done]

@@ -80,16 +80,17 @@ def default_hole_clearance(pin_radius: float) -> float:
 
 
 def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None,
-               clearance=None) -> DesignResult:
+               clearance=None, **search) -> DesignResult:
     """The physical design of ``linkage`` (`synth.design.search.design_linkage`) with the given or default
-    sizes (metres; see `default_sizes`, `default_hole_clearance`; clearance None: the search's default)."""
+    sizes (metres; see `default_sizes`, `default_hole_clearance`; clearance None: the search's default);
+    ``search``: further arguments of `design_linkage` (ranges, full_seconds)."""
     pin_radius, link_radius, hub_length = default_sizes(linkage, pin_radius, link_radius, pin_length)
     hole = default_hole_clearance(pin_radius) if hole_clearance is None else _positive(
         "hole clearance", hole_clearance, allow_zero=True)
     if clearance is not None:
         clearance = _positive("clearance", clearance, allow_zero=True)
     return design_linkage(linkage, pin_radius=pin_radius, bar_radius=link_radius, hub_length=hub_length,
-                          hole_clearance=hole, clearance=clearance)
+                          hole_clearance=hole, clearance=clearance, **search)
 
 
 def have_manifold() -> bool:
