@@ -97,7 +97,7 @@ def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, requi
             echo(summary_line)
         bp = linkage.info.get("bennett")
         fam = linkage.info.get("family")
-        if isinstance(fam, dict):  # a member of a planar or spherical family (docs/planar.md)
+        if isinstance(fam, dict) and bp:  # a planar or spherical four-bar (docs/planar.md)
             scale, unit = ps.length_scale, ps.length_unit
             m = linkage.info["member"]
             where = (f"axes parallel to ({', '.join(f'{x:.4f}' for x in fam['normal'])})" if fam["kind"] == "planar" else

@@ -25,6 +25,7 @@ import numpy as np
 from synth.algebra.dq import dq_to_pose, study_form
 from synth.errors import SynthesisError
 from synth.synthesis.conic import Conditioning, condition, relative_displacements
+from synth.synthesis.multiloop import constraint_jacobian
 
 ZERO_PITCH_TOL = 1e-9  # every |B(D_i, D_j)| (conditioned) at most this: the span lies in the Study quadric
 ROTATION_TOL = 1e-9  # |vec p| of a unit D_i at most this: a pure translation
@@ -106,3 +107,71 @@ def axis_penalties(zp: ZeroPitch, min_twist, min_offset) -> dict:
             return {"penalty_parallel": zero, "penalty_intersect": np.maximum(0.0, np.log10(0.05 / min_offset))}
         return {"penalty_parallel": np.maximum(0.0, np.log10(np.sin(np.radians(10.0)) / np.sin(min_twist))),
                 "penalty_intersect": zero}
+
+
+def tracks_motion(linkage, driver: str = "h1", steps: int = 180, tol: float = 1e-6) -> bool:
+    """Whether driving ``driver`` through a full turn in ``steps`` equal steps, solving the loops by
+    Gauss-Newton from a secant prediction (as an independent verifier does), stays on the motion (every
+    joint within ``tol`` rad of its angle law). Planar and spherical loops are change-point mechanisms
+    (an anti-parallelogram passes flat configurations where a second branch crosses, docs/planar.md,
+    section 5); where two branches cross at a shallow angle the continuation can switch, and such a
+    design is avoided."""
+    names = [j.name for j in linkage.joints]
+    d = names.index(driver)
+    others = [i for i in range(len(names)) if i != d]
+    jd = linkage.joints[d]
+    theta = np.linspace(0.0, 2 * np.pi, steps + 1)[1:-1]
+    with np.errstate(all="ignore"):
+        t = jd.a + jd.b / np.tan(theta / 2)  # the driver's angle law inverted
+    laws = np.array([j.angle(t) for j in linkage.joints]).T  # (steps - 1, joints)
+    q_prev = q = np.zeros(len(names))
+    for k, th in enumerate(theta):
+        guess = q + (q - q_prev) if k else q.copy()
+        guess[d] = th
+        x = guess
+        for _ in range(8):
+            e = _closure_error(linkage, names, x)
+            if np.max(np.abs(e)) < 1e-13:
+                break
+            J = constraint_jacobian(linkage, dict(zip(names, x)))
+            x = x.copy()
+            x[others] -= np.linalg.lstsq(J[:, others], e, rcond=None)[0]
+        diff = np.angle(np.exp(1j * (x - laws[k])))
+        if not np.max(np.abs(diff)) <= tol:
+            return False
+        q_prev, q = q, x
+    return True
+
+
+def _closure_error(linkage, names, x) -> np.ndarray:
+    """Stacked twists (omega, v) of disp(Y) disp(Y')^-1 over the welds (Y, Y'), small-displacement form."""
+    disp = linkage.displacements(dict(zip(names, x)))
+    out = []
+    for y, y2 in linkage.closures:
+        E = disp[y] @ np.linalg.inv(disp[y2])
+        R = E[:3, :3]
+        out += [0.5 * (R[2, 1] - R[1, 2]), 0.5 * (R[0, 2] - R[2, 0]), 0.5 * (R[1, 0] - R[0, 1]), *E[:3, 3]]
+    return np.array(out)
+
+
+ISOGRAM_GOOD = 0.2  # relative difference of a loop's two side lengths (or angles) above which it is not penalized
+
+
+def isogram_margin(kind: str, dist, twist) -> np.ndarray:
+    """How far a loop with opposite sides equal is from the equilateral case, from two adjacent sides
+    (distances ``dist`` (..., 2) for a planar loop, signed twists ``twist`` (..., 2) for a spherical one):
+    ``|a - b| / max(a, b)``, or ``min(|alpha - beta|, |pi - alpha - beta|) / (pi / 2)`` for side angles
+    alpha, beta in [0, pi]. An equilateral loop (a rhombus) has extra modes and its branches cross at
+    shallow angles (docs/planar.md, section 5)."""
+    with np.errstate(all="ignore"):
+        if kind == "planar":
+            d = np.asarray(dist, float)
+            return np.abs(d[..., 0] - d[..., 1]) / np.maximum(d[..., 0], d[..., 1])
+        a = np.abs(np.asarray(twist, float))
+        return np.minimum(np.abs(a[..., 0] - a[..., 1]), np.abs(np.pi - a[..., 0] - a[..., 1])) / (np.pi / 2)
+
+
+def isogram_penalty(margin) -> np.ndarray:
+    """Decades of penalty for a loop closer than ISOGRAM_GOOD to equilateral (`isogram_margin`)."""
+    with np.errstate(all="ignore"):
+        return np.maximum(0.0, np.log10(ISOGRAM_GOOD / np.asarray(margin, float)))

@@ -29,17 +29,20 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, LOOP, axis_distance, bennett_parameters, dh_rows, loop_geometry,
                                           relative_error)
 from synth.synthesis.conic import conic_member, to_world
-from synth.synthesis.planar import ZeroPitch, axis_penalties, study_forms
+from synth.synthesis.planar import (ZeroPitch, axis_penalties, isogram_margin, isogram_penalty, study_forms,
+                                    tracks_motion)
 
 GRID = 2.0 ** np.linspace(-3, 3, 13)  # |lambda| values of the default scan, each with both signs
 ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
 RESIDUAL_TOL = 1e-10  # multiply-back error above this: the member is invalid
+MAX_BUILT = 12  # members built and checked (and followed by continuation, `tracks_motion`) at most
 KAPPA_GOOD, COND_WEIGHT = 0.05, 3.0  # as the 6R score (docs/cubic.md, section 6)
 TS = (math.inf, 0.0, 1.0)
 LOOP_NAMES = ["h1", "h2", "k2", "k1"]
 MOTION = "C(t) = t (t - 1) - lambda1 (t - 1) D1 + lambda2 t D2 (D_i = T_i T_0^-1; C(0) = lambda1 D1, C(1) = lambda2 D2)"
-PART_KEYS = ("conditioning", "root_imag", "root_separation", "extent", "min_twist", "min_offset", "residual",
-             "penalty_conditioning", "penalty_size", "penalty_parallel", "penalty_intersect")
+PART_KEYS = ("conditioning", "root_imag", "root_separation", "extent", "min_twist", "min_offset", "isogram",
+             "residual", "penalty_conditioning", "penalty_size", "penalty_parallel", "penalty_intersect",
+             "penalty_isogram")
 
 
 @dataclass
@@ -81,12 +84,14 @@ def scan(zp: ZeroPitch, lam) -> Scan:
         min_twist = np.min(np.minimum(tw, np.pi - tw), axis=-1)
         min_offset = np.min(geo["distance"], axis=-1)
         kappa = np.minimum(im, sep)
+        iso = isogram_margin(zp.kind, geo["distance"][:, :2], geo["twist"][:, :2])
         parts = {"conditioning": kappa, "root_imag": im, "root_separation": sep, "extent": extent,
-                 "min_twist": min_twist, "min_offset": min_offset, "residual": residual,
+                 "min_twist": min_twist, "min_offset": min_offset, "isogram": iso, "residual": residual,
+                 "penalty_isogram": isogram_penalty(iso),
                  "penalty_conditioning": np.maximum(0.0, np.log10(KAPPA_GOOD / kappa)),
                  "penalty_size": np.log10(extent), **axis_penalties(zp, min_twist, min_offset)}
         cost = (COND_WEIGHT * parts["penalty_conditioning"] + parts["penalty_size"] + parts["penalty_parallel"]
-                + parts["penalty_intersect"])
+                + parts["penalty_intersect"] + parts["penalty_isogram"])
         valid = (ok.all(axis=1) & ~np.any(is_translation(H), axis=(1, 2)) & (residual <= RESIDUAL_TOL)
                  & np.isfinite(cost) & (kappa > 0) & np.all(lam != 0, axis=1))
         score = np.where(valid, 10.0 ** -cost, 0.0)
@@ -178,19 +183,39 @@ def candidates(zp: ZeroPitch, member=None, *, top: int = 1, check_samples: int =
                   "; score as the 6R scan (conditioning, extent, link lengths or angles)")
     else:
         choice = ""
-    out = []
-    for g in rows:
+    out, switching = [], []
+    for g in rows[:MAX_BUILT]:
         linkage = build(zp, sc, g, check_samples=check_samples, choice=choice)
         if linkage.info["relative_error"] <= ACCEPT_TOL:
-            out.append(linkage)
+            tracked = tracks_motion(linkage)
+            if not tracked and member is not None:
+                linkage.info["warnings"].append(SWITCH_WARNING)
+            (out if tracked or member is not None else switching).append(linkage)
             if len(out) >= top:
                 break
+    out = with_fallback(out, switching, top)
     if not out:
-        if member is not None:
-            raise SynthesisError(
-                f"member lambda1 = {member[0]:g}, lambda2 = {member[1]:g} of the {zp.kind} family gives no valid "
-                "four-bar (its norm polynomial has a real or repeated root, or the factorization is inaccurate); "
-                "choose another member or omit --member")
-        raise SynthesisError(f"no member of the {zp.kind} family of quadratic motions through the poses gives an "
-                             "accurate four-bar: the pose set is numerically degenerate")
+        raise _refusal(zp, member)
     return out
+
+
+def with_fallback(out: list, switching: list, top: int) -> list:
+    """The accepted linkages that track their motion, then (up to ``top``) those that do not, with a warning."""
+    for linkage in switching[: max(0, top - len(out))]:
+        linkage.info["warnings"].append(SWITCH_WARNING)
+        out.append(linkage)
+    return out
+
+
+SWITCH_WARNING = ("driven by h1 in 2-degree steps, a continuation can switch to the other branch at a flat "
+                  "(change-point) configuration of a loop: pass those positions slowly or guide the mechanism there")
+
+
+def _refusal(zp, member) -> SynthesisError:
+    if member is not None:
+        return SynthesisError(
+            f"member lambda1 = {member[0]:g}, lambda2 = {member[1]:g} of the {zp.kind} family gives no valid "
+            "four-bar (its norm polynomial has a real or repeated root, or the factorization is inaccurate); "
+            "choose another member or omit --member")
+    return SynthesisError(f"no member of the {zp.kind} family of quadratic motions through the poses gives an "
+                          "accurate four-bar: the pose set is numerically degenerate")
