@@ -83,7 +83,7 @@ def parse_numbers(text: str, count: int, option: str) -> list[float]:
     except ValueError:
         vals = []
     if len(vals) != count or not all(math.isfinite(v) for v in vals):
-        raise InputError(f"{option} needs {count} comma-separated numbers, got {text!r}")
+        raise InputError(f"{option} needs {count} comma-separated finite numbers, got {text!r}")
     return vals
 
 

@@ -67,7 +67,7 @@ def parse_member(text: str):
     except ValueError:
         vals = []
     if len(vals) not in (1, 4) or not all(math.isfinite(v) for v in vals):
-        raise InputError(f"--member needs one number (lambda1) or four (T3,L1,L2,L3), got {text!r}")
+        raise InputError(f"--member needs one finite number (lambda1) or four (T3,L1,L2,L3), got {text!r}")
     return vals[0] if len(vals) == 1 else vals
 
 

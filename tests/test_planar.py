@@ -184,7 +184,7 @@ def test_cli_planar_fixture(tmp_path):
     r = CliRunner().invoke(mpsynth, ["bennett", str(FIX / "bennett_planar.yaml"), "--member=-0.5,2"])
     assert r.exit_code == 0 and "member lambda1 = -0.5, lambda2 = 2 " in r.output
     r = CliRunner().invoke(mpsynth, ["bennett", str(FIX / "bennett_planar.yaml"), "--member", "1"])
-    assert r.exit_code == 2 and "--member needs 2 comma-separated numbers" in r.output
+    assert r.exit_code == 2 and "--member needs 2 comma-separated finite numbers" in r.output
 
 
 @pytest.mark.slow

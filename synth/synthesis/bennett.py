@@ -28,8 +28,8 @@ from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_bennett import accepted_error
 from synth.synthesis.planar_bennett import candidates as planar_candidates
 
-__all__ = ["bennett", "bennett_candidates", "verify", "check_distinct", "sensitivity", "dh_table", "bennett_parameters_of", "EPS", "FLOOR_ULPS",
-           "ACCEPT_TOL"]
+__all__ = ["bennett", "bennett_candidates", "verify", "check_distinct", "sensitivity", "dh_table",
+           "bennett_parameters_of", "EPS", "FLOOR_ULPS", "ACCEPT_TOL"]
 
 COINCIDENT_TOL = 1e-9  # relative to the pose spread (translation) and radians (rotation)
 ACCURATE = 1e-9  # a self-check error above this (relative) gets a warning

@@ -109,9 +109,9 @@ def check_conic_degeneracy(D, B01, B02, B12, tol):
     zero = [p for p, b in pairs.items() if abs(b) <= tol]
     if len(zero) == 3:
         raise SynthesisError(
-            "the three poses are related by planar motions (every relative displacement has zero pitch): "
-            "a planar 4-bar, not a spatial Bennett linkage, moves through them and the conic is not unique; "
-            "change a pose out of the plane of motion")
+            "the three poses are related by planar or spherical motions (every relative displacement has zero "
+            "pitch): the conic through them is not unique but a family (docs/planar.md), which "
+            "synth.synthesis.planar_bennett handles")
     if zero:
         i, j = zero[0]
         rel = dq_mul(D[j], D[i] * np.array([1.0, -1, -1, -1, 1, -1, -1, -1]))

@@ -106,7 +106,8 @@ def scan(zp: ZeroPitch, members, *, polish: bool = False) -> Scan:
         extent = np.sqrt(np.maximum(np.sum(f1 * f1, 0), np.sum(f2 * f2, 0)).max(-1))
         min_twist, min_offset = ang.min(-1), dist.min(-1)
         iso = isogram_margin(zp.kind, dist[..., SIDES], ang[..., SIDES]).min(-1)
-        parts = {"isogram": iso, "penalty_isogram": isogram_penalty(iso), "conditioning": kappa, "extent": extent, "min_twist": min_twist, "min_offset": min_offset,
+        parts = {"isogram": iso, "penalty_isogram": isogram_penalty(iso), "conditioning": kappa, "extent": extent,
+                 "min_twist": min_twist, "min_offset": min_offset,
                  "residual": residual, "penalty_conditioning": np.maximum(0.0, np.log10(KAPPA_GOOD / kappa)),
                  "penalty_size": np.log10(extent), **axis_penalties(zp, min_twist, min_offset)}
         cost = (COND_WEIGHT * parts["penalty_conditioning"] + parts["penalty_size"] + parts["penalty_parallel"]
