@@ -109,9 +109,10 @@ def check_conic_degeneracy(D, B01, B02, B12, tol):
     zero = [p for p, b in pairs.items() if abs(b) <= tol]
     if len(zero) == 3:
         raise SynthesisError(
-            "the three poses are related by planar or spherical motions (every relative displacement has zero "
-            "pitch): the conic through them is not unique but a family (docs/planar.md), which "
-            "synth.synthesis.planar_bennett handles")
+            "the three poses are nearly, but not exactly, related by planar or spherical motions (every relative "
+            "screw has a pitch below 1e-9 of the pose spread): the spatial conic through them is numerically "
+            "degenerate; make the poses exactly planar (or spherical) for a four-bar, or move a pose out of "
+            "the plane of motion")
     if zero:
         i, j = zero[0]
         rel = dq_mul(D[j], D[i] * np.array([1.0, -1, -1, -1, 1, -1, -1, -1]))

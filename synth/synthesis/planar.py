@@ -27,7 +27,9 @@ from synth.errors import SynthesisError
 from synth.synthesis.conic import Conditioning, condition, relative_displacements
 from synth.synthesis.multiloop import constraint_jacobian
 
-ZERO_PITCH_TOL = 1e-9  # every |B(D_i, D_j)| (conditioned) at most this: the span lies in the Study quadric
+ZERO_PITCH_TOL = 1e-12  # every |B(D_i, D_j)| (conditioned) at most this: the span lies in the Study quadric
+# (exactly planar or spherical input has |B| at rounding level; between this and the spatial synthesis' 1e-9
+# the set is refused as nearly but not exactly planar, `synth.synthesis.conic.check_conic_degeneracy`)
 ROTATION_TOL = 1e-9  # |vec p| of a unit D_i at most this: a pure translation
 PARALLEL_TOL = 1e-7  # second singular value of the stacked rotation axes at most this: parallel axes
 RANK_TOL = 1e-9  # singular value of [D_0 .. D_k] below this times the largest: the poses do not span a k-space
