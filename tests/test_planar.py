@@ -2,7 +2,6 @@
 six-bar, the CLI and the shared verifier."""
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 
@@ -171,16 +170,9 @@ def test_member_options_and_refusals():
 
 
 # ------------------------------------------------------------------ CLI + the shared verifier
-def test_cli_planar_fixture(tmp_path):
-    out = tmp_path / "o"
-    r = CliRunner().invoke(mpsynth, ["bennett", str(FIX / "bennett_planar.yaml"), "-o", str(out), "-q"])
-    assert r.exit_code == 0, r.output
-    doc = json.loads((out / "linkage.json").read_text())
-    assert doc["kind"] == "planar_4r" and doc["info"]["family"]["kind"] == "planar"
-    assert doc["collision"]["free"]
-    import yourdfpy
-
-    yourdfpy.URDF.load(str(out / "linkage.urdf"), build_scene_graph=False, load_meshes=False)
+def test_cli_member_option():
+    """(The fixtures' end-to-end runs with the shared verifier: tests/test_cli_bennett.py, which takes every
+    fixtures/bennett_*.yaml, and the slow test below.)"""
     r = CliRunner().invoke(mpsynth, ["bennett", str(FIX / "bennett_planar.yaml"), "--member=-0.5,2"])
     assert r.exit_code == 0 and "member lambda1 = -0.5, lambda2 = 2 " in r.output
     r = CliRunner().invoke(mpsynth, ["bennett", str(FIX / "bennett_planar.yaml"), "--member", "1"])
