@@ -5,27 +5,36 @@ import math
 
 import click
 
-from .common import echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options
+from .common import design_result, echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options
 
 
 @click.command(epilog="""\b
 Example:
   mpsynth bennett fixtures/bennett_mm_deg.yaml -o out_bennett
-  cat poses.yaml | mpsynth bennett - --json | jq .checks""")
+  cat poses.yaml | mpsynth bennett - --json | jq .checks
+  mpsynth bennett fixtures/bennett_planar.yaml -o out_planar
+  mpsynth bennett fixtures/bennett_planar.yaml --member=-0.5,2 -o out_planar""")
 @click.argument("poses", metavar="POSES")
+@click.option("--member", metavar="L1,L2",
+              help="Planar or spherical poses only: the member C(t) = t(t-1) - L1 (t-1) D1 + L2 t D2 of the family "
+                   "of quadratic motions through them (L1, L2 nonzero; default: the best-scored, collision-free "
+                   "first). Write a negative first value as --member=-0.5,2.")
 @synthesis_options
 @run_guarded
-def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
+def bennett(poses, member, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
             require_collision_free, package, normalize, quiet, as_json, debug):
     """Synthesize the spatial Bennett 4R linkage whose coupler passes through the three poses in
     POSES (YAML or JSON, '-' for stdin; see README for the format).
+
+    Three planar poses (rotations about parallel axes) or spherical poses (rotations about one point)
+    have a two-parameter family of quadratic motions through them: the result is then a planar
+    four-bar (parallel axes, an anti-parallelogram) or a spherical four-bar (axes through one point).
 
     Writes OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/*.stl (lengths in metres) when -o is
     given: printable parts of a physical design (bars, hubs with bores, separate pins) and what it
     achieves (collision-free over the full cycle or the task range, or not); prints a summary on stderr
     and, with --json, linkage.json on stdout."""
-    from synth.synthesis.bennett import bennett as synth_bennett
-    from synth.synthesis.bennett import verify
+    from synth.synthesis.bennett import bennett_candidates, verify
     from synth.errors import SynthesisError
     from synth.io.poses import load_poses
 
@@ -36,13 +45,48 @@ def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, cleara
         from synth.io.writer import check_output_target
 
         check_output_target(out, force)  # refuse an unusable OUT before doing the work
+    lam = parse_numbers(member, 2, "--member") if member is not None else None
+    result = None
     try:
-        linkage = synth_bennett(ps.matrices, ps.names)
-        verify(linkage)  # the self-check at VERIFY_SAMPLES parameters; refuses a failing linkage
+        design = (out or as_json or require_collision_free) and lam is None
+        linkages = bennett_candidates(ps.matrices, ps.names, member=lam, top=BUILDABLE_CANDIDATES if design else 1)
+        for lk in linkages:
+            verify(lk)  # the self-check at VERIFY_SAMPLES parameters; refuses a failing linkage
     except SynthesisError as e:  # name the file, like every input error
         raise SynthesisError(f"{ps.source}: {e}") from e
+    linkage = linkages[0]
+    if len(linkages) > 1:  # members of a planar or spherical family: collision-free first
+        from synth.design.search import rank_buildable
+
+        ranked = rank_buildable(linkages, lambda lk: design_result(lk, sizes, scale=ps.length_scale,
+                                                                   unit=ps.length_unit, source=ps.source,
+                                                                   require_free=False),
+                                limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS)
+        linkage, result = ranked[0]
+        k = next(i for i, c in enumerate(linkages) if c is linkage)
+        linkage.info["design_choice"] = (f"candidate {k + 1} of the {len(ranked)} best-scored members that were "
+                                         "designed: collision-free first (full cycle, then task range), then the score")
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-         as_json=as_json, require_free=require_collision_free)
+         as_json=as_json, require_free=require_collision_free, result=result)
+
+
+BUILDABLE_CANDIDATES = 4  # planar/spherical default: the best-scored members designed, collision-free first
+BUILDABLE_SECONDS = 4.0  # CPU budget of those design searches (one four-bar search: well under a second)
+
+
+def parse_numbers(text: str, count: int, option: str) -> list[float]:
+    """``count`` comma-separated finite numbers of an option (InputError naming the option otherwise)."""
+    import math
+
+    from synth.errors import InputError
+
+    try:
+        vals = [float(x) for x in text.split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) != count or not all(math.isfinite(v) for v in vals):
+        raise InputError(f"{option} needs {count} comma-separated finite numbers, got {text!r}")
+    return vals
 
 
 def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, require_free=False, result=None,
@@ -54,7 +98,17 @@ def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, requi
         if summary_line:
             echo(summary_line)
         bp = linkage.info.get("bennett")
-        if bp:
+        fam = linkage.info.get("family")
+        if isinstance(fam, dict) and bp:  # a planar or spherical four-bar (docs/planar.md)
+            scale, unit = ps.length_scale, ps.length_unit
+            m = linkage.info["member"]
+            where = (f"axes parallel to ({', '.join(f'{x:.4f}' for x in fam['normal'])})" if fam["kind"] == "planar" else
+                     f"axes through ({', '.join(f'{x / scale:.6g}' for x in fam['centre'])}) {unit}")
+            echo(f"  {fam['kind']} four-bar: member lambda1 = {m['lambda1']:.6g}, lambda2 = {m['lambda2']:.6g} of "
+                 f"the family of quadratic motions through the poses; {where}; " + (
+                 f"links a = {fmt_len(bp['a'], scale, unit)}, b = {fmt_len(bp['b'], scale, unit)}" if fam["kind"] == "planar"
+                 else f"link angles alpha = {bp['alpha']:.6f} rad, beta = {bp['beta']:.6f} rad"))
+        elif bp:
             scale, unit = ps.length_scale, ps.length_unit
             echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {math.degrees(bp['alpha']):.4f} deg, "
                  f"b = {fmt_len(bp['b'], scale, unit)}, beta = {math.degrees(bp['beta']):.4f} deg, "

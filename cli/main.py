@@ -32,8 +32,8 @@ import click  # noqa: E402
 
 # name -> (module:function, one-line help). Keep the help here so `mpsynth --help` imports nothing.
 COMMANDS = {
-    "bennett": ("cli.bennett:bennett", "Three poses -> a spatial Bennett 4R linkage (URDF + STL + JSON)."),
-    "sixbar": ("cli.sixbar:sixbar", "Four poses -> ranked spatial 6R linkages."),
+    "bennett": ("cli.bennett:bennett", "Three poses -> a Bennett 4R (planar/spherical: a four-bar), URDF + STL + JSON."),
+    "sixbar": ("cli.sixbar:sixbar", "Four poses -> ranked spatial 6R linkages, or a planar/spherical Watt six-bar."),
     "factor": ("cli.factor:factor", "Factorize a motion polynomial into linear factors (joints)."),
     "flip": ("cli.flip:flip", "Bennett flip: (t-m)(t-h) = (t-k)(t-n)."),
     "curve": ("cli.curve:curve", "A multi-loop linkage that performs a rational motion or draws a rational curve."),

@@ -14,6 +14,9 @@ Numbering:
   --family 1|2   family 1 is the family of cubic motions with the larger t3 (parameter of pose 3)
   --member L     the member of the family with C(0) = L * D1 (its weight at pose 1)
   --pair K       1..9: the pairs of factorizations that close a 6R loop, in lexicographic order
+Planar or spherical poses (docs/planar.md): a Watt six-bar (7 joints) of a member of the cubic family:
+  --member T3,L1,L2,L3   pose 3 at t = T3, C(0) = L1 D1, C(1) = L2 D2, C(T3) = L3 D3
+  --pair K       1..6: the chain (the order of branch h)
 \b
 Examples:
   mpsynth sixbar fixtures/sixbar_example.yaml -o out_sixbar
@@ -21,7 +24,9 @@ Examples:
   mpsynth sixbar poses.yaml --family 2 --member 0.5 --pair 1 -o out_one""")
 @click.argument("poses", metavar="POSES")
 @click.option("--family", type=click.IntRange(1, 2), help="Only this family of cubic motions (1 or 2).")
-@click.option("--member", type=float, help="Only this member of the family, by its label lambda1 (C(0) = lambda1 D1).")
+@click.option("--member", metavar="L", help="Only this member of the family, by its label lambda1 (C(0) = lambda1 D1); "
+                                           "planar or spherical poses: T3,L1,L2,L3 (write --member=-1,... for a "
+                                           "negative first value).")
 @click.option("--pair", type=click.IntRange(1, 9), help="Only this loop pair (1..9) of the member's factorizations.")
 @click.option("--top", type=click.IntRange(1, 1000), default=None,
               help="Write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
@@ -39,6 +44,8 @@ def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_
     from synth.io.poses import load_poses
 
     ps = load_poses(poses, count=(4, "mpsynth sixbar"), normalize=normalize)
+    if member is not None:
+        member = parse_member(member)
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                             clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
     if top is None:
@@ -49,8 +56,28 @@ def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_
                 quiet=quiet, as_json=as_json, require_free=require_collision_free)
 
 
+def parse_member(text: str):
+    """--member: one number (lambda1 of a spatial family) or four (T3,L1,L2,L3 of a planar or spherical one)."""
+    import math
+
+    from synth.errors import InputError
+
+    try:
+        vals = [float(x) for x in text.split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) not in (1, 4) or not all(math.isfinite(v) for v in vals):
+        raise InputError(f"--member needs one finite number (lambda1) or four (T3,L1,L2,L3), got {text!r}")
+    return vals[0] if len(vals) == 1 else vals
+
+
 def _design_line(info) -> str:
     p = info["score_parts"]
+    if isinstance(info.get("family"), dict):  # a planar or spherical Watt six-bar (docs/planar.md)
+        m = info["member"]
+        return (f"  {info['family']['kind']} Watt six-bar (7 joints): member t3 = {m['t3']:.6g}, lambda = "
+                f"({m['lambda1']:.6g}, {m['lambda2']:.6g}, {m['lambda3']:.6g}), chain {info['chain']}; score "
+                f"{info['score']:.3g} (conditioning {p['conditioning']:.3g}, extent {p['extent']:.3g} x spread)")
     return (f"  6R design: family {info['family']} (t3 = {info['t3']:.6g}), member lambda1 = {info['member']:.6g}, "
             f"pair {info['pair']}; score {info['score']:.3g} (conditioning {p['conditioning']:.3g}, "
             f"extent {p['extent']:.3g} x spread, min twist {p['min_twist'] * 57.29577951308232:.1f} deg, "
@@ -93,6 +120,8 @@ def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet
 
 def solution_id(rank: int, linkage) -> str:
     """Directory name of a ranked solution: rank, family and pair (the member is in index.json)."""
+    if isinstance(linkage.info.get("family"), dict):  # planar or spherical: the chain
+        return f"{rank:02d}-{linkage.info['family']['kind']}-c{linkage.info['chain']}"
     return f"{rank:02d}-f{linkage.info['family']}-p{linkage.info['pair']}"
 
 
@@ -104,13 +133,13 @@ def index_document(linkages, ids, source: str, length_scale: float, length_unit:
         c = lk.checks
         sols.append({
             "id": sid, "rank": rank, "path": f"{sid}/", "family": lk.info["family"], "member": lk.info["member"],
-            "pair": lk.info["pair"], "t3": lk.info["t3"], "score": lk.info["score"],
+            "pair": lk.info.get("pair", lk.info.get("chain")), "t3": lk.info["t3"], "score": lk.info["score"],
             "score_parts": lk.info["score_parts"],
             "checks": {k: c[k] for k in ("max_pose_error", "max_pose_translation_error", "max_pose_rotation_error",
                                          "max_closure_error", "max_closure_translation_error",
                                          "max_closure_rotation_error", "max_motion_error")},
         })
-    return {"format": INDEX_FORMAT, "kind": "6r", "poses": source, "units": {"length": "m", "angle": "rad"},
+    return {"format": INDEX_FORMAT, "kind": linkages[0].kind if linkages else "6r", "poses": source, "units": {"length": "m", "angle": "rad"},
             "input_length_unit": length_unit, "input_length_scale": length_scale,
             "score_rule": SCORE_RULE, "solutions": sols}
 
@@ -121,7 +150,12 @@ def ranking_table(doc) -> list[str]:
     rows = [head]
     for s in doc["solutions"]:
         p = s["score_parts"]
-        rows.append(f"  {s['rank']:>4} {s['id']:12} {s['family']:>3} {s['member']:>12.6g} {s['pair']:>4} "
+        fam, mem = s["family"], s["member"]
+        if isinstance(fam, dict):  # planar or spherical: the kind's initial and the member's four numbers
+            fam, mem = fam["kind"][0], ",".join(f"{v:.3g}" for v in mem.values())
+        else:
+            mem = f"{mem:.6g}"
+        rows.append(f"  {s['rank']:>4} {s['id']:12} {fam:>3} {mem:>12} {s['pair']:>4} "
                     f"{s['score']:>9.3g} {p['conditioning']:>8.3g} {p['extent']:>7.3g} "
                     f"{p['min_twist'] * 57.29577951308232:>6.1f} {p['min_offset']:>7.3g} "
                     f"{s['checks']['max_pose_error']:>9.1e} {s['checks']['max_closure_error']:>9.1e}")

@@ -3,6 +3,7 @@
     import numpy as np, synth
     L = synth.bennett(poses)            # poses: (3, 4, 4) array, metres -> Linkage
     L = synth.sixbar(poses4)            # (4, 4, 4) -> the best 6R Linkage (options: family, member, pair)
+                                        # planar/spherical poses: a four-bar / Watt six-bar (docs/planar.md)
     R = synth.bennett_batch(many)       # (N, 3, 4, 4) -> BennettBatch: arrays over N, per-set status
     F = synth.factorize(C)              # (n+1, 8) monic motion polynomial -> every factorization
 

@@ -140,7 +140,9 @@ DEGENERATE = {
     "coincident": ([np.eye(4), np.eye(4), pose([1, 2, 3], [0.6, 0, 0, 0.8])], "coincide"),
     "pure rotation": ([np.eye(4), screw([0, 0, 1], [1, 0, 0], 0.7, 0), EXAMPLE_D[2]], "pure rotation"),
     "pure translation": ([np.eye(4), pose([1, 0, 0], [1, 0, 0, 0]), EXAMPLE_D[2]], "pure translation"),
-    "planar": ([np.eye(4), screw([0, 0, 1], [1, 0, 0], 0.7, 0), screw([0, 0, 1], [0, 2, 0], 1.1, 0)], "planar"),
+    # planar poses have a family of four-bars (docs/planar.md); pure translations and one fixed axis do not
+    "translations": ([np.eye(4), pose([1, 0, 0], [1, 0, 0, 0]), pose([0, 2, 0], [1, 0, 0, 0])], "pure translations"),
+    "one axis": ([np.eye(4), screw([0, 0, 1], [1, 0, 0], 0.7, 0), screw([0, 0, 1], [1, 0, 0], 1.1, 0)], "lower degree"),
     "parallel screws": ([np.eye(4), screw([0, 0, 1], [1, 0, 0], 0.7, 0.3), screw([0, 0, 1], [0, 2, 0], 1.1, 0.5)],
                         "prismatic"),
     "coaxial screws": ([np.eye(4), screw([0, 0, 1], [1, 0, 0], 0.7, 0.3), screw([0, 0, 1], [1, 0, 0], 1.1, 0.5)],

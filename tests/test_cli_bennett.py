@@ -112,16 +112,16 @@ def test_wrong_pose_count_exit_2(tmp_path):
 
 
 def test_degenerate_exit_1_and_no_output(tmp_path):
-    poses = tmp_path / "planar.yaml"
+    poses = tmp_path / "translations.yaml"
     poses.write_text("""poses:
   - {position: [0, 0, 0], rpy: [0, 0, 0]}
-  - {position: [1, 0, 0], rpy: [0, 0, 0.5]}
-  - {position: [0, 2, 0], rpy: [0, 0, 1.2]}
+  - {position: [1, 0, 0], rpy: [0, 0, 0]}
+  - {position: [0, 2, 0], rpy: [0, 0, 0]}
 """)
     out = tmp_path / "o"
     r = CliRunner().invoke(mpsynth, ["bennett", str(poses), "-o", str(out)])
     assert r.exit_code == 1
-    assert "planar" in r.output and r.output.startswith("mpsynth: ")
+    assert "pure translations" in r.output and r.output.startswith("mpsynth: ")
     assert not out.exists() and list(tmp_path.iterdir()) == [poses]
 
 

@@ -150,8 +150,8 @@ def _unreadable(tmp):
     return ["bennett", "secret.yaml", "-o", "out"]
 
 
-PLANAR = doc("{position: [0, 0, 0], rpy: [0, 0, 0]}", "{position: [1, 0, 0], rpy: [0, 0, 0.5]}",
-             "{position: [0, 2, 0], rpy: [0, 0, 1.2]}")
+TRANSLATIONS = doc("{position: [0, 0, 0], rpy: [0, 0, 0]}", "{position: [1, 0, 0], rpy: [0, 0, 0]}",
+                   "{position: [0, 2, 0], rpy: [0, 0, 0]}")
 COINCIDENT = doc(POSE_A, "{name: again, position: [0, 0, 0], rpy: [0, 0, 0]}", POSE_C)
 PARALLEL_SCREWS = doc("{position: [0, 0, 0], rpy: [0, 0, 0]}", "{position: [0, 0, 0.3], rpy: [0, 0, 0.7]}",
                       "{position: [1, 1, 0.5], rpy: [0, 0, 1.1]}")
@@ -274,7 +274,7 @@ ROWS = {
                                    files={"good.yaml": GOOD}), 2, ["/proc/sys", "not writable"]),
     # --- geometry (exit 1): the input is valid, no linkage exists
     "coincident-poses": (_file("p.yaml", COINCIDENT), 1, ["p.yaml: poses 0 ('a') and 1 ('again') coincide"]),
-    "planar-poses": (_file("p.yaml", PLANAR), 1, ["p.yaml: ", "planar"]),
+    "translation-poses": (_file("p.yaml", TRANSLATIONS), 1, ["p.yaml: ", "pure translations"]),
     "parallel-screws": (_file("p.yaml", PARALLEL_SCREWS), 1, ["p.yaml: ", "prismatic"]),
 }
 STDIN = {"stdin-garbage": "poses: [\n  - {a: 1\n"}
@@ -330,16 +330,16 @@ def test_normalize_accepts_non_unit_quaternion(tmp_path):
 
 
 def test_nothing_written_without_out_even_on_error(tmp_path):
-    (tmp_path / "p.yaml").write_text(PLANAR)
+    (tmp_path / "p.yaml").write_text(TRANSLATIONS)
     code, out, err = invoke(["bennett", "p.yaml", "--json"], tmp_path)
-    assert_one_line_error(code, out, err, 1, ["planar"])
+    assert_one_line_error(code, out, err, 1, ["pure translations"])
     assert os.listdir(tmp_path) == ["p.yaml"]
 
 
 # ------------------------------------------------------------------ real processes
 SUBPROCESS_ROWS = ["missing-file", "yaml-syntax", "non-unit-quaternion", "nan", "pin-radius-nan",
                    "pin-radius-not-a-number", "out-parent-missing", "out-foreign-directory", "coincident-poses",
-                   "planar-poses", "python-object-tag"]
+                   "translation-poses", "python-object-tag"]
 
 
 @pytest.mark.parametrize("row", SUBPROCESS_ROWS)

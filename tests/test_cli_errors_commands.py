@@ -13,14 +13,16 @@ from test_cli_errors import assert_one_line_error, doc, invoke, leftovers
 FIX = REPO / "fixtures"
 Q = "quaternion: {w: 1, x: 0, y: 0, z: 0}"
 TRANSLATIONS_4 = doc(*(f"{{position: {p}, {Q}}}" for p in ("[0, 0, 0]", "[1, 0, 0]", "[0, 1, 0]", "[0, 0, 1]")))
-PLANAR_4 = doc("{position: [0, 0, 0], rpy: [0, 0, 0]}", "{position: [1, 0, 0], rpy: [0, 0, 0.5]}",
-               "{position: [0, 2, 0], rpy: [0, 0, 1.2]}", "{position: [1, 2, 0], rpy: [0, 0, 2]}")
+# rotations about one fixed axis (the z axis): a single revolute joint, no six-bar (docs/planar.md)
+ONE_AXIS_4 = doc("{position: [1, 0, 0], rpy: [0, 0, 0]}", "{position: [0, 1, 0], rpy: [0, 0, 1.5707963267948966]}",
+                 "{position: [-1, 0, 0], rpy: [0, 0, 3.141592653589793]}",
+                 "{position: [0, -1, 0], rpy: [0, 0, -1.5707963267948966]}")
 
 # id -> (argument list, {file name: text}, exit code, substrings of the message)
 ROWS = {
     "sixbar-3-poses": (["sixbar", FIX / "bennett_quat.yaml", "-o", "out"], {}, 2, ["needs exactly 4 poses, got 3"]),
-    "sixbar-translations": (["sixbar", "p.yaml", "-o", "out"], {"p.yaml": TRANSLATIONS_4}, 1, ["zero pitch"]),
-    "sixbar-planar": (["sixbar", "p.yaml", "-o", "out"], {"p.yaml": PLANAR_4}, 1, ["planar"]),
+    "sixbar-translations": (["sixbar", "p.yaml", "-o", "out"], {"p.yaml": TRANSLATIONS_4}, 1, ["pure translations"]),
+    "sixbar-one-axis": (["sixbar", "p.yaml", "-o", "out"], {"p.yaml": ONE_AXIS_4}, 1, ["lower degree"]),
     "sixbar-family-3": (["sixbar", FIX / "sixbar_example.yaml", "--family", "3", "-o", "out"], {}, 2, ["--family"]),
     "sixbar-pair-0": (["sixbar", FIX / "sixbar_example.yaml", "--pair", "0", "-o", "out"], {}, 2, ["--pair"]),
     "sixbar-top-0": (["sixbar", FIX / "sixbar_example.yaml", "--top", "0", "-o", "out"], {}, 2, ["--top"]),

@@ -77,3 +77,26 @@ def _layout(n: int):
     links["coupler_k"] = ()
     branches = (tuple(f"h{i + 1}" for i in range(n)), tuple(f"k{i + 1}" for i in range(n)))
     return tuple(specs), links, branches
+
+
+WATT_JOINTS = (("h1", "base", "link_h1"), ("h2", "link_h1", "link_h2"), ("h3", "link_h2", "coupler"),
+               ("k2", "link_h1", "link_k2"), ("k3", "link_k2", "coupler_k"),
+               ("g1", "base", "link_g1"), ("g2", "link_g1", "link_h2_g"))
+WATT_LINKS = {"base": ["h1", "g1"], "link_h1": ["h1", "h2", "k2"], "link_h2": ["h2", "h3", "g2"],
+              "coupler": ["h3", "k3"], "link_k2": ["k2", "k3"], "link_g1": ["g1", "g2"],
+              "coupler_k": [], "link_h2_g": []}
+
+
+def watt_linkage(kind: str, F, motion, poses, names, ts, info=None) -> Linkage:
+    """The Watt six-bar of three factorizations of one cubic sharing factors (docs/planar.md, section 4):
+    ``C = (t-h1)(t-h2)(t-h3) = (t-h1)(t-k2)(t-k3) = (t-g1)(t-g2)(t-h3)``; F (7, 8) = h1 h2 h3 k2 k3 g1 g2 in
+    the world frame (metres). Links: base (h1, g1), link_h1 (h1, h2, k2), link_h2 (h2, h3, g2), coupler
+    (h3, k3), link_k2 (k2, k3), link_g1 (g1, g2); two loops, cut at the coupler (duplicate ``coupler_k``)
+    and at link_h2 (duplicate ``link_h2_g``), welded as in docs/conventions.md, section 6."""
+    joints = [joint_from_factor(n, p, c, h) for (n, p, c), h in zip(WATT_JOINTS, np.asarray(F, float))]
+    records = [PoseRecord(name, T, float(t), {j.name: _angle(j.a, j.b, float(t)) for j in joints})
+               for name, T, t in zip(names, np.asarray(poses, float), ts)]
+    return Linkage(kind, joints, {k: list(v) for k, v in WATT_LINKS.items()},
+                   [["h1", "h2", "h3"], ["h1", "k2", "k3"], ["g1", "g2"]],
+                   [("coupler", "coupler_k"), ("link_h2", "link_h2_g")], np.asarray(poses, float)[0],
+                   np.asarray(motion, float), records, info=dict(info) if info else {})

@@ -24,9 +24,12 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, LOOP, TS, axis_distance, bennett_parameters,
                                           dh_rows, loop_geometry, relative_error, solve)
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements, to_world
+from synth.synthesis.planar import zero_pitch
+from synth.synthesis.planar_bennett import accepted_error
+from synth.synthesis.planar_bennett import candidates as planar_candidates
 
-__all__ = ["bennett", "verify", "check_distinct", "sensitivity", "dh_table", "bennett_parameters_of", "EPS", "FLOOR_ULPS",
-           "ACCEPT_TOL"]
+__all__ = ["bennett", "bennett_candidates", "verify", "check_distinct", "sensitivity", "dh_table",
+           "bennett_parameters_of", "EPS", "FLOOR_ULPS", "ACCEPT_TOL"]
 
 COINCIDENT_TOL = 1e-9  # relative to the pose spread (translation) and radians (rotation)
 ACCURATE = 1e-9  # a self-check error above this (relative) gets a warning
@@ -49,23 +52,40 @@ def check_distinct(T, names, tol=COINCIDENT_TOL):
                              "three distinct poses are needed")
 
 
-def bennett(poses, names=None, *, check_samples: int = DEFAULT_CHECK_SAMPLES):
+def bennett(poses, names=None, *, check_samples: int = DEFAULT_CHECK_SAMPLES, member=None):
     """Synthesize the Bennett linkage whose coupler visits the three poses (shape (3, 4, 4), metres).
 
     ``check_samples``: number of parameters covering the real line at which the loop closure and the
     motion are verified (``linkage.checks``); the tool frame is always verified at every pose's reported
-    joint angles. Raises InputError (shape, NaN) or SynthesisError (degenerate or non-real cases, with a
-    plain-language reason)."""
+    joint angles. Planar or spherical poses (docs/planar.md) have a family of quadratic motions through
+    them and give a planar or spherical four-bar (kind ``planar_4r`` / ``spherical_4r``): the best-scored
+    member, or ``member`` = (lambda1, lambda2). Raises InputError (shape, NaN, a member for spatial poses)
+    or SynthesisError (degenerate or non-real cases, with a plain-language reason)."""
+    return bennett_candidates(poses, names, check_samples=check_samples, member=member)[0]
+
+
+def bennett_candidates(poses, names=None, *, check_samples: int = DEFAULT_CHECK_SAMPLES, member=None,
+                       top: int = 1) -> list:
+    """`bennett` as a list: the one Bennett linkage of spatial poses, or up to ``top`` members of the
+    family of planar or spherical poses, best score first (`synth.synthesis.planar_bennett.candidates`)."""
     T = np.asarray(poses, float)
     if T.shape != (3, 4, 4):
         raise InputError(f"a Bennett linkage needs exactly 3 poses (array of shape (3, 4, 4)), got {T.shape}")
     names = list(names) if names is not None else ["p0", "p1", "p2"]
-    out = solve(T[None], check_samples)
-    if out["good"][0]:
-        return linkage_from_solution(out, 0, T, names, check_samples)
-    if not out["finite"][0]:
+    if member is None:
+        out = solve(T[None], check_samples)
+        if out["good"][0]:
+            return [linkage_from_solution(out, 0, T, names, check_samples)]
+    if not np.all(np.isfinite(T)):
         raise InputError("the poses contain NaN or infinity")
-    return _bennett_general(T, names, check_samples)
+    check_distinct(T, names)
+    zp = zero_pitch(T, names)
+    if zp is not None:
+        return planar_candidates(zp, member, top=top, check_samples=check_samples)
+    if member is not None:
+        raise InputError("--member picks a member of the family of motions through planar or spherical poses; "
+                         "these poses are spatial, so the conic and the Bennett linkage through them are unique")
+    return [_bennett_general(T, names, check_samples)]
 
 
 def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
@@ -76,6 +96,11 @@ def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
     checks = self_check(linkage, samples)
     T = np.array([p.matrix for p in linkage.poses], float)
     Tc, cond = condition(T)
+    if linkage.kind in ("planar_4r", "spherical_4r"):  # a member of a family (docs/planar.md)
+        linkage.checks = checks
+        rel = accepted_error(linkage, T, cond)
+        linkage.info["relative_error"] = _accept(linkage, cond, rel)
+        return checks
     U, M = _loop_lines(linkage)
     errors = {"pose_translation": checks["max_pose_translation_error"],
               "pose_rotation": checks["max_pose_rotation_error"],

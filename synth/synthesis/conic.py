@@ -81,16 +81,26 @@ def conic(D, tol=1e-9) -> ConicData:
     B12 = study_form(D1, D2)
     if D.ndim == 2:
         check_conic_degeneracy(D, B01, B02, B12, tol)
-    t1, t2 = 0.0, 1.0
-    mu1 = -(t2 - t1) * B02 / B12
-    mu2 = (t2 - t1) * B01 / B12
-    C = np.zeros(D.shape[:-2] + (3, 8))
+    lam1, lam2 = B02 / B12, B01 / B12  # C(0) = lam1 D_1, C(1) = lam2 D_2 (docs/conic.md, section 2)
+    C = conic_member(D, np.stack(np.broadcast_arrays(lam1, lam2), -1))
+    return ConicData(C=C, ts=np.array([np.inf, 0.0, 1.0]), B=np.stack([B01, B02, B12], -1))
+
+
+def conic_member(D, lam) -> np.ndarray:
+    """The monic quadratic C(t) = t (t - 1) - lam1 (t - 1) D_1 + lam2 t D_2 of the plane of D (..., 3, 8)
+    (D_0 = 1): C(inf) = 1, C(0) = lam1 D_1, C(1) = lam2 D_2; lam (..., 2). It is a motion polynomial
+    when the weights solve the Study condition (`conic`), and for every lam when the plane lies in the
+    Study quadric (planar or spherical poses, docs/planar.md). Returns (..., 3, 8)."""
+    D = np.asarray(D, float)
+    lam = np.asarray(lam, float)
+    l1, l2 = lam[..., 0, None], lam[..., 1, None]
+    D1, D2 = D[..., 1, :], D[..., 2, :]
+    C = np.zeros(np.broadcast_shapes(D.shape[:-2], lam.shape[:-1]) + (3, 8))
     C[..., 2, 0] = 1.0
-    C[..., 1, :] = mu1[..., None] * D1 + mu2[..., None] * D2
-    C[..., 1, 0] += -(t1 + t2)
-    C[..., 0, :] = -t2 * mu1[..., None] * D1 - t1 * mu2[..., None] * D2
-    C[..., 0, 0] += t1 * t2
-    return ConicData(C=C, ts=np.array([np.inf, t1, t2]), B=np.stack([B01, B02, B12], -1))
+    C[..., 1, :] = -l1 * D1 + l2 * D2
+    C[..., 1, 0] -= 1.0
+    C[..., 0, :] = l1 * D1
+    return C
 
 
 def check_conic_degeneracy(D, B01, B02, B12, tol):
@@ -99,9 +109,10 @@ def check_conic_degeneracy(D, B01, B02, B12, tol):
     zero = [p for p, b in pairs.items() if abs(b) <= tol]
     if len(zero) == 3:
         raise SynthesisError(
-            "the three poses are related by planar motions (every relative displacement has zero pitch): "
-            "a planar 4-bar, not a spatial Bennett linkage, moves through them and the conic is not unique; "
-            "change a pose out of the plane of motion")
+            "the three poses are nearly, but not exactly, related by planar or spherical motions (every relative "
+            "screw has a pitch below 1e-9 of the pose spread): the spatial conic through them is numerically "
+            "degenerate; make the poses exactly planar (or spherical) for a four-bar, or move a pose out of "
+            "the plane of motion")
     if zero:
         i, j = zero[0]
         rel = dq_mul(D[j], D[i] * np.array([1.0, -1, -1, -1, 1, -1, -1, -1]))

@@ -136,6 +136,25 @@ def oval_message(q: Quadric) -> str:
         "again; about 85% of random pose sets admit a solution")
 
 
+def cubic_member(D, t3, lam) -> np.ndarray:
+    """The Lagrange cubic through four displacements D (..., 4, 8) (D_0 = 1) at t = inf, 0, 1, t3 (...):
+    ``C(t) = t (t - 1)(t - t3) + lam1 l1(t) D_1 + lam2 l2(t) D_2 + lam3 l3(t) D_3`` with the quadratic
+    Lagrange basis l_i of the nodes 0, 1, t3, so that C is monic and ``C(0) = lam1 D_1``, ``C(1) = lam2 D_2``,
+    ``C(t3) = lam3 D_3``; lam (..., 3). A motion polynomial for every member when the span of the D_i lies
+    in the Study quadric (planar or spherical poses, docs/planar.md). Returns (..., 4, 8), ascending."""
+    D = np.asarray(D, float)
+    t = np.asarray(t3, float)[..., None]
+    lam = np.asarray(lam, float)
+    one, zero = np.ones_like(t), np.zeros_like(t)
+    cubic = np.concatenate([zero, t, -(1 + t), one], -1)  # t (t - 1)(t - t3), ascending
+    basis = np.stack([np.concatenate([t, -(1 + t), one, zero], -1) / t,  # (t - 1)(t - t3) / t3
+                      np.concatenate([zero, -t, one, zero], -1) / (1 - t),  # t (t - t3) / (1 - t3)
+                      np.concatenate([zero, -one, one, zero], -1) / (t * (t - 1))], -2)  # t (t - 1) / (t3 (t3 - 1))
+    C = np.einsum("...i,...ik,...ij->...kj", lam, basis, D[..., 1:, :])
+    C[..., 0] += cubic
+    return C
+
+
 # ============================================================================ ruling coordinates
 def ruling_matrix(y) -> np.ndarray:
     """M(y) = [[y1 + y3, y2 + y4], [y4 - y2, y1 - y3]] for y (..., 4); det M = y1^2+y2^2-y3^2-y4^2."""

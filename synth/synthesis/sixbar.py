@@ -30,6 +30,8 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett import check_distinct
 from synth.synthesis.conic import condition, relative_displacements, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, CubicFamily, families, quadric
+from synth.synthesis.planar import zero_pitch
+from synth.synthesis.planar_sixbar import candidates as planar_candidates
 from synth.synthesis.sixbar_loops import (COND_WEIGHT, PART_KEYS, SCORE_RULE, MemberEval, dh_parameters,
                                           evaluate_members, factor_members, lines)
 
@@ -74,14 +76,7 @@ def prepare(poses, names=None) -> Problem:
     """Validate four poses, condition them and compute the quadric and both families.
 
     Raises InputError (wrong shape) or SynthesisError (coincident poses, degenerate or oval section)."""
-    T = np.asarray(poses, float)
-    if T.shape != (4, 4, 4):
-        raise InputError(f"a 6R linkage needs exactly 4 poses (array of shape (4, 4, 4)), got {T.shape}")
-    names = list(names) if names is not None else [f"p{i}" for i in range(4)]
-    try:
-        check_distinct(T, names)
-    except SynthesisError as e:
-        raise SynthesisError(str(e).replace("three distinct poses", "four distinct poses")) from None
+    T, names = _checked(poses, names)
     Tc, cond = condition(T)
     D = relative_displacements(Tc)
     q = quadric(D)
@@ -90,6 +85,40 @@ def prepare(poses, names=None) -> Problem:
         raise SynthesisError("both families of cubic motions through the poses are degenerate ("
                              + "; ".join(missing.values()) + "): no 6R linkage of this kind")
     return Problem(poses=T, names=names, Tc=Tc, cond=cond, D=D, quadric=q, families=fams, missing=missing)
+
+
+def _checked(poses, names):
+    """(poses (4, 4, 4), names) after the shape and coincidence checks."""
+    T = np.asarray(poses, float)
+    if T.shape != (4, 4, 4):
+        raise InputError(f"a 6R linkage needs exactly 4 poses (array of shape (4, 4, 4)), got {T.shape}")
+    names = list(names) if names is not None else [f"p{i}" for i in range(4)]
+    try:
+        check_distinct(T, names)
+    except SynthesisError as e:
+        raise SynthesisError(str(e).replace("three distinct poses", "four distinct poses")) from None
+    return T, names
+
+
+def _planar(poses, names, family, member, pair, top, check_samples):
+    """The Watt six-bars of a planar or spherical pose set (`synth.synthesis.planar_sixbar`, docs/planar.md),
+    or None for spatial poses. ``member``: (t3, lambda1, lambda2, lambda3); ``pair``: the chain 1..6."""
+    T, names = _checked(poses, names)
+    if not np.all(np.isfinite(T)):
+        return None
+    zp = zero_pitch(T, names)
+    if zp is None:
+        if member is not None and np.ndim(member) != 0:
+            raise InputError("--member of spatial poses is one number (lambda1); T3,L1,L2,L3 applies to planar or "
+                             "spherical poses")
+        return None
+    if family is not None:
+        raise InputError(f"--family does not apply to {zp.kind} poses: their cubic motions form one family with "
+                         "the member T3,L1,L2,L3 (--member)")
+    if member is not None and np.size(member) != 4:
+        raise InputError(f"--member of {zp.kind} poses is T3,L1,L2,L3 (the parameter of pose 3 and the weights at "
+                         "poses 1, 2, 3), e.g. --member 2,1,1,1")
+    return planar_candidates(zp, member, pair, top=top, check_samples=check_samples)
 
 
 # ============================================================================ members
@@ -368,7 +397,11 @@ def sixbar_candidates(poses, names=None, *, family=None, member=None, pair=None,
                       check_samples: int = DEFAULT_CHECK_SAMPLES):
     """Ranked candidate designs (best first; at most ``top``). With ``build`` each is returned as a
     checked Linkage (`build_linkage`; candidates failing the self-check are skipped), else as
-    `Candidate`. ``grid`` and ``refine``: see `scan`."""
+    `Candidate`. ``grid`` and ``refine``: see `scan`. Planar or spherical poses give Watt six-bars
+    (`synth.synthesis.planar_sixbar`), always built."""
+    planar = _planar(poses, names, family, member, pair, top or MAX_ATTEMPTS, check_samples)
+    if planar is not None:
+        return planar
     problem, cands = _ranked(poses, names, family, member, pair, grid, refine)
     if not build:
         return cands[:top] if top else list(cands)
@@ -391,8 +424,13 @@ def sixbar(poses, names=None, *, family=None, member=None, pair=None, grid: int 
     self-check (`synth.checks.self_check` at ``check_samples`` parameters, in ``linkage.checks``)
     passes `checks_pass`. ``family`` (1|2), ``member`` (lambda1) and ``pair`` (1..9) restrict the
     choice; ``grid`` members per family are scanned and the best ``refine`` candidates refined locally.
-    Raises SynthesisError (oval section, degenerate poses, no valid candidate) with a plain-language
-    reason, InputError for bad arguments."""
+    Planar or spherical poses (docs/planar.md) give a planar or spherical Watt six-bar of a member
+    (t3, lambda1, lambda2, lambda3) of their cubic family (`synth.synthesis.planar_sixbar`; ``pair``: the
+    chain 1..6). Raises SynthesisError (oval section, degenerate poses, no valid candidate) with a
+    plain-language reason, InputError for bad arguments."""
+    planar = _planar(poses, names, family, member, pair, 1, check_samples)
+    if planar is not None:
+        return planar[0]
     problem, cands = _ranked(poses, names, family, member, pair, grid, refine)
     first = None
     for linkage, passed in _built(problem, islice(cands, MAX_ATTEMPTS), check_samples):  # lazily

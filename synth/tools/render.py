@@ -291,7 +291,8 @@ def _apply(T, p):
 
 def _kind_label(lk) -> str:
     n = len(lk.joints)
-    k = {"bennett": "Bennett 4R", "6r": "spatial 6R"}.get(lk.kind, lk.kind)
+    k = {"bennett": "Bennett 4R", "6r": "spatial 6R", "planar_4r": "planar four-bar", "spherical_4r": "spherical four-bar",
+         "planar_sixbar": "planar Watt six-bar", "spherical_sixbar": "spherical Watt six-bar"}.get(lk.kind, lk.kind)
     loops = len(lk.closures)
     return f"{k} linkage ({n} revolute joints, {loops} loop{'s' if loops != 1 else ''})"
 

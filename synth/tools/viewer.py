@@ -118,7 +118,8 @@ def scene_data(rb: Readback, frames: int = DEFAULT_FRAMES, spacing: str = "angle
 
 
 def _subtitle(lk) -> str:
-    kind = {"bennett": "Bennett 4R", "6r": "spatial 6R"}.get(lk.kind, lk.kind)
+    kind = {"bennett": "Bennett 4R", "6r": "spatial 6R", "planar_4r": "planar four-bar", "spherical_4r": "spherical four-bar",
+            "planar_sixbar": "planar Watt six-bar", "spherical_sixbar": "spherical Watt six-bar"}.get(lk.kind, lk.kind)
     return f"{kind} linkage: {len(lk.joints)} revolute joints, {len(lk.closures)} loop(s), {len(lk.poses)} task poses"
 
 
