@@ -9,14 +9,19 @@ from .common import echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthe
 @click.command(epilog="""\b
 Example:
   mpsynth bennett fixtures/bennett_mm_deg.yaml -o out_bennett
-  cat poses.yaml | mpsynth bennett - --json | jq .checks""")
+  cat poses.yaml | mpsynth bennett - --json | jq .checks
+  mpsynth bennett fixtures/bennett_points.yaml --top 3 -o out_points""")
 @click.argument("poses", metavar="POSES")
+@click.option("--top", type=click.IntRange(1, 1000), default=None,
+              help="Point tasks: write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
 @synthesis_options
 @run_guarded
-def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
+def bennett(poses, top, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
             require_collision_free, package, normalize, quiet, as_json, debug):
     """Synthesize the spatial Bennett 4R linkage whose coupler passes through the three poses in
-    POSES (YAML or JSON, '-' for stdin; see README for the format).
+    POSES (YAML or JSON, '-' for stdin; see README for the format). With five points instead (a
+    `points:` list, or poses with a position only; 3 or 4: the rest is chosen) the tool point passes
+    through them (docs/points.md).
 
     Writes OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/*.stl (lengths in metres) when -o is
     given: printable parts of a physical design (bars, hubs with bores, separate pins) and what it
@@ -27,9 +32,18 @@ def bennett(poses, out, name, force, pin_radius, link_radius, pin_length, cleara
     from synth.errors import SynthesisError
     from synth.io.poses import load_poses
 
-    ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=normalize)
+    from .points import point_count, run_point_task
+
+    ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=normalize, points=point_count(2))
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                             clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
+    if ps.has_points:
+        return run_point_task(ps, 2, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
+                              as_json=as_json, require_free=require_collision_free)
+    if top is not None:
+        from synth.errors import InputError
+
+        raise InputError("--top applies to point tasks only: three poses give one Bennett linkage")
     if out:
         from synth.io.writer import check_output_target
 

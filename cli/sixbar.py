@@ -18,7 +18,8 @@ Numbering:
 Examples:
   mpsynth sixbar fixtures/sixbar_example.yaml -o out_sixbar
   mpsynth sixbar fixtures/sixbar_example.yaml --top 5 -o out_designs
-  mpsynth sixbar poses.yaml --family 2 --member 0.5 --pair 1 -o out_one""")
+  mpsynth sixbar poses.yaml --family 2 --member 0.5 --pair 1 -o out_one
+  mpsynth sixbar fixtures/sixbar_points.yaml -o out_points""")
 @click.argument("poses", metavar="POSES")
 @click.option("--family", type=click.IntRange(1, 2), help="Only this family of cubic motions (1 or 2).")
 @click.option("--member", type=float, help="Only this member of the family, by its label lambda1 (C(0) = lambda1 D1).")
@@ -30,7 +31,9 @@ Examples:
 def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_radius, pin_length, clearance,
            hole_clearance, require_collision_free, package, normalize, quiet, as_json, debug):
     """Synthesize a spatial 6R linkage whose coupler passes through the four poses in POSES (YAML or
-    JSON, '-' for stdin; see README for the format).
+    JSON, '-' for stdin; see README for the format). With seven points instead (a `points:` list, or
+    poses with a position only; 4 to 6: the rest is chosen) the tool point passes through them
+    (docs/points.md).
 
     By default the best design by the engineering score (well-conditioned factorization first, then a
     compact linkage without nearly parallel or nearly intersecting consecutive axes) over both families
@@ -38,9 +41,19 @@ def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_
     Exit status 1 when no real 6R linkage exists (e.g. the poses' quadric is oval)."""
     from synth.io.poses import load_poses
 
-    ps = load_poses(poses, count=(4, "mpsynth sixbar"), normalize=normalize)
+    from .points import point_count, run_point_task
+
+    ps = load_poses(poses, count=(4, "mpsynth sixbar"), normalize=normalize, points=point_count(3))
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                             clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
+    if ps.has_points:
+        if family is not None or member is not None or pair is not None:
+            from synth.errors import InputError
+
+            raise InputError("--family, --member and --pair select among the cubics through four poses; a point "
+                             "task has no families (use --top to see its ranked designs)")
+        return run_point_task(ps, 3, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
+                              as_json=as_json, require_free=require_collision_free)
     if top is None:
         _single(ps, family, member, pair, out=out, name=name, force=force, package=package, sizes=sizes,
                 quiet=quiet, as_json=as_json, require_free=require_collision_free)

@@ -45,7 +45,8 @@ DISTINCT = 0.05  # candidates closer than this in parameters (and chosen points,
 
 class PointTask:
     """Points prepared for synthesis: world points (k, 3) in metres, names, the degree (2: Bennett,
-    3: 6R), the conditioning (centroid, RMS spread) and the conditioned points Y (k, 3)."""
+    3: 6R), the conditioning (centroid, RMS spread) and the conditioned points Y (k, 3). With
+    ``tool_rotation`` (3, 3) point 0 is a full pose (the tool frame's orientation there; ``kinds``)."""
 
     def __init__(self, points, names, degree: int, tool_rotation=None):
         self.points = points
@@ -59,6 +60,7 @@ class PointTask:
         self.tool_ref[:3, 3] = points[0]
         if tool_rotation is not None:
             self.tool_ref[:3, :3] = tool_rotation
+        self.kinds = ["pose" if tool_rotation is not None else "point"] + ["point"] * (len(points) - 1)
 
     @property
     def missing(self) -> int:
@@ -139,8 +141,8 @@ def build_point_linkage(task: PointTask, sc: PointScan, member: int, loop: int, 
     if n == 3:
         info["pair"] = int(loop + 1)
     linkage = two_branch_linkage(KINDS[n], H, K, Cw, T, task.names, ts, info)
-    for rec in linkage.poses:
-        rec.kind = "point"
+    for rec, kind in zip(linkage.poses, task.kinds):
+        rec.kind = kind
     if n == 2:
         linkage.info["bennett"] = bennett_parameters_of(linkage)
         linkage.info["dh"] = dh_table(linkage, LOOP_NAMES)
