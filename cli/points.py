@@ -16,18 +16,7 @@ def point_count(degree: int):
     from synth.synthesis.points import MINIMUM, NEEDED
 
     need, least = NEEDED[degree], MINIMUM[degree]
-    return (least, need), f"{COMMAND[degree]} with points ({need}, or {least} to {need - 1} with the rest chosen)"
-
-
-def _tool_rotation(ps):
-    """The orientation of item 0 when it is a full pose; InputError when a later item has one."""
-    from synth.errors import InputError
-
-    for i, kind in enumerate(ps.kinds):
-        if kind == "pose" and i > 0:
-            raise InputError(f"{ps.source}: item {i} ({ps.names[i]!r}) has an orientation: in a point task only the "
-                             "first item may have one (the tool frame at the start); give the others as positions")
-    return ps.matrices[0, :3, :3] if ps.kinds[0] == "pose" else None
+    return (least, need), COMMAND[degree]
 
 
 def _design_line(lk) -> str:
@@ -43,9 +32,12 @@ def run_point_task(ps, degree: int, top, *, out, name, force, package, sizes, qu
     """Synthesize, design, write and summarize a point task (``top``: None = the best design only)."""
     from synth.checks import VERIFY_SAMPLES
     from synth.errors import InputError, SynthesisError
-    from synth.synthesis.points import point_candidates
+    from synth.synthesis.points import point_candidates, tool_rotation_of
 
-    rot = _tool_rotation(ps)
+    try:
+        rot = tool_rotation_of(ps.matrices, ps.kinds, ps.names)
+    except InputError as e:
+        raise InputError(f"{ps.source}: {e}") from e
     want = top or (BUILDABLE_CANDIDATES if (out or as_json or require_free) else 1)
     try:
         linkages = point_candidates(ps.positions, ps.names, degree=degree, top=want, tool_rotation=rot,

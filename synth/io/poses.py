@@ -265,7 +265,9 @@ def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize,
         raise InputError(f"{name}: {len(items)} points is more than the limit of {MAX_POSES}")
     problem = _count_problem(points, len(items), "point")
     if problem:
-        raise InputError(f"{name}: {problem}")
+        lo, hi, _ = _count_spec(points)
+        hint = f" (fewer than {hi}: the design search chooses the rest)" if hi is not None and lo < hi else ""
+        raise InputError(f"{name}: {problem} for a point task{hint}")
     names, named, kinds, first_with = [], [], [], {}
     mats = np.repeat(np.eye(4)[None], len(items), axis=0)
     for i, (key, spec) in enumerate(items):

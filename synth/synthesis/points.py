@@ -31,7 +31,7 @@ from synth.synthesis.pointfit import PointScan, scan
 from synth.synthesis.sixbar import CHECK_TOL, LOOP, checks_pass
 from synth.synthesis.sixbar_loops import SCORE_RULE
 
-__all__ = ["bennett_points", "sixbar_points", "point_candidates", "prepare_points", "PointTask", "NEEDED",
+__all__ = ["bennett_points", "sixbar_points", "point_candidates", "prepare_points", "tool_rotation_of", "PointTask", "NEEDED",
            "MINIMUM", "KINDS", "SCORE_RULE"]
 
 KINDS = {2: "bennett", 3: "6r"}
@@ -97,6 +97,17 @@ def prepare_points(points, names=None, *, degree: int, tool_rotation=None) -> Po
         raise SynthesisError(f"the {k} points are collinear: the tool point of {kind} meets a line in at most "
                              f"{2 * degree} points, so no linkage passes through them all")
     return PointTask(P, names, degree, tool_rotation)
+
+
+def tool_rotation_of(matrices, kinds, names) -> np.ndarray | None:
+    """The tool frame's orientation (3, 3) at point 0 when item 0 of a point task is a full pose
+    (``kinds[0] == "pose"``), else None; InputError when a later item has an orientation (only the
+    first may: the tool frame at the reference configuration)."""
+    for i, kind in enumerate(kinds):
+        if kind == "pose" and i > 0:
+            raise InputError(f"item {i} ({names[i]!r}) has an orientation: in a point task only the first item may "
+                             "have one (the tool frame at the start); give the others as positions")
+    return np.asarray(matrices, float)[0, :3, :3] if kinds and kinds[0] == "pose" else None
 
 
 def _ranked_entries(sc: PointScan, task: PointTask):
