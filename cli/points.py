@@ -3,7 +3,7 @@ through prescribed points (docs/points.md). Called by cli/bennett.py and cli/six
 holds points."""
 from __future__ import annotations
 
-from .common import collision_sentence, default_robot_name, design_result, echo, print_json
+from .common import collision_sentence, default_robot_name, design_result, echo, emit_linkage, fmt_len, print_json
 
 INDEX_FORMAT = "mpsynth.points-index/1"
 COMMAND = {2: "mpsynth bennett", 3: "mpsynth sixbar"}
@@ -55,8 +55,6 @@ def run_point_task(ps, degree: int, top, *, out, name, force, package, sizes, qu
 def _single(ps, linkages, *, out, name, force, package, sizes, quiet, as_json, require_free):
     from synth.design.search import rank_buildable
 
-    from .bennett import emit
-
     result = None
     linkage = linkages[0]
     if out or as_json or require_free:
@@ -67,8 +65,21 @@ def _single(ps, linkages, *, out, name, force, package, sizes, quiet, as_json, r
         k = next(i for i, c in enumerate(linkages) if c is linkage)
         linkage.info["design_choice"] = (f"candidate {k + 1} of the {len(ranked)} best-scored that were designed: "
                                          "collision-free first (full cycle, then task range), then the score")
-    emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json,
-         require_free=require_free, result=result, summary_line=_design_line(linkage))
+
+    def details():
+        echo(_design_line(linkage))
+        bp = linkage.info.get("bennett")
+        if bp:
+            scale, unit = ps.length_scale, ps.length_unit
+            echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {bp['alpha']:.6f} rad, "
+                 f"b = {fmt_len(bp['b'], scale, unit)}, beta = {bp['beta']:.6f} rad")
+        if linkage.info["chosen_points"]:
+            pts = "; ".join(" ".join(f"{x / ps.length_scale:.6g}" for x in p) for p in linkage.info["chosen_points"])
+            echo(f"  chosen points ({ps.length_unit}): {pts}")
+
+    emit_linkage(linkage, source=ps.source, scale=ps.length_scale, unit=ps.length_unit, out=out, name=name,
+                 force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,
+                 require_free=require_free, result=result)
 
 
 def solution_id(rank: int, linkage) -> str:
@@ -99,12 +110,10 @@ def index_document(ps, linkages, ids, results) -> dict:
 
 
 def _ranked(ps, linkages, top, *, out, name, force, package, sizes, quiet, as_json, require_free):
-    from pathlib import Path
-
     from synth.design.search import collision_rank
     from synth.errors import SynthesisError
-    from synth.io.jsonout import plain, write_json
-    from synth.io.writer import atomic_directory, write_linkage_files
+    from synth.io.jsonout import plain
+    from synth.io.writer import write_solutions
 
     results = None
     if out or as_json or require_free:
@@ -130,12 +139,8 @@ def _ranked(ps, linkages, top, *, out, name, force, package, sizes, quiet, as_js
                  + (f"  {s['design_summary']}" if "design_summary" in s else ""))
     if out:
         base = name or default_robot_name(ps.source)
-        with atomic_directory(Path(out), force=force) as tmp:
-            for lk, sid, r in zip(linkages, ids, results):
-                d = tmp / sid
-                d.mkdir()
-                write_linkage_files(lk, d, robot_name=f"{base}_{sid.replace('-', '_')}", package=package, result=r)
-            write_json(doc, tmp / "index.json")
+        write_solutions(out, [(sid, lk, f"{base}_{sid.replace('-', '_')}", r) for lk, sid, r in zip(linkages, ids, results)],
+                        doc, force=force, package=package)
         if not quiet:
             echo(f"  wrote {out}/: index.json and {len(ids)} solution directories")
     if as_json:
