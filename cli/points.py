@@ -32,16 +32,16 @@ def run_point_task(ps, degree: int, top, *, out, name, force, package, sizes, qu
     """Synthesize, design, write and summarize a point task (``top``: None = the best design only)."""
     from synth.checks import VERIFY_SAMPLES
     from synth.errors import InputError, SynthesisError
-    from synth.synthesis.points import point_candidates, tool_rotation_of
+    from synth.synthesis.points import oriented_item, point_candidates
 
     try:
-        rot = tool_rotation_of(ps.matrices, ps.kinds, ps.names)
+        oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
     except InputError as e:
         raise InputError(f"{ps.source}: {e}") from e
     want = top or (BUILDABLE_CANDIDATES if (out or as_json or require_free) else 1)
     try:
         linkages = point_candidates(ps.positions, ps.names, degree=degree, top=want, tool_rotation=rot,
-                                    check_samples=VERIFY_SAMPLES)
+                                    oriented=oriented, check_samples=VERIFY_SAMPLES)
     except (SynthesisError, InputError) as e:
         raise type(e)(f"{ps.source}: {e}") from e
     if top is None:

@@ -155,12 +155,40 @@ def test_fewer_points_are_completed():
     assert_visits(L, P)
 
 
-def test_first_item_may_carry_the_orientation():
+@pytest.mark.parametrize("oriented", [0, 3])
+def test_one_item_may_carry_the_orientation(oriented):
+    """One full pose among the points: the tool frame reaches it (item 0 stays the reference configuration,
+    the scan's order starts at the oriented item and the motion is re-referenced), every point is visited
+    and the parameters keep the given order."""
     P = known_bennett_points(2)
     R = np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
-    L = bennett_points(P, tool_rotation=R, check_samples=20)
-    assert L.poses[0].kind == "pose" and np.allclose(L.poses[0].matrix[:3, :3], R)
-    assert np.allclose(L.tool_pose(L.poses[0].joint_angles)[:3, :3], R)
+    L = point_candidates(P, degree=2, top=1, tool_rotation=R, oriented=oriented, check_samples=20)[0]
+    assert [r.kind for r in L.poses] == ["pose" if i == oriented else "point" for i in range(5)]
+    assert np.allclose(L.tool_pose(L.poses[oriented].joint_angles)[:3, :3], R, atol=1e-12)
+    assert np.allclose(L.poses[oriented].matrix[:3, :3], R)
+    spread = np.sqrt(np.mean(np.sum((P - P.mean(0)) ** 2, 1)))
+    for rec, p in zip(L.poses, P):
+        assert np.linalg.norm(L.tool_pose(rec.joint_angles)[:3, 3] - p) < 1e-9 * spread
+    ts = [r.t for r in L.poses[1:]]
+    assert np.isinf(L.poses[0].t) and ts == sorted(ts)
+
+
+def test_rereference_example():
+    """docs/points.md, section 3: D(s) = s^n C(t0 - 1/s) C(t0)^-1 for the worked quadratic."""
+    from synth.algebra.dq import dq_inv, dq_mul
+    from synth.algebra.polynomial import product_of_linear
+    from synth.synthesis.pointfit import rereference
+
+    C = point_motion(np.array([[[2, 0, 0], [2, 2, 0], [0, 2, 2], [0, 0, 2]]], float),
+                     np.array([[-1, -1 / 3, 1 / 3, 1]]), 2)[0]
+    z = a1.norm_roots(norm_poly(C)[None])
+    H, ok = a1.algorithm1(C[None], a1.quadratics(z))
+    assert ok[0]
+    D = product_of_linear(rereference(H[0], 1.0))
+    for s in (-2.0, 0.5, 3.0):
+        want = s ** 2 * dq_mul(evaluate(C, 1.0 - 1.0 / s), dq_inv(evaluate(C, 1.0)))
+        assert np.allclose(evaluate(D, s), want, atol=1e-12)
+    assert np.allclose(D[-1], np.eye(8)[0])
 
 
 @pytest.mark.parametrize("P, err, text", [
@@ -246,8 +274,8 @@ def test_cli_known_random_points_verify(tmp_path):
     ("points: [[0,0,0],[1,0,0]]", 2, "needs between 3 and 5 points, got 2"),
     ("points: [[0,0,0],[1,0,0],[2,0,0],[3,0,0],[4,0,0]]", 1, "collinear"),
     ("points: [[0,0,0],[1,0,.nan],[2,1,0],[3,0,1],[4,0,0]]", 2, "not finite"),
-    ("poses: [{position: [0,0,0]}, {position: [1,0,0], rpy: [0,0,1]}, {position: [1,1,0]}]", 2,
-     "only the first item may have one"),
+    ("poses: [{position: [0,0,0], rpy: [0,0,0]}, {position: [1,0,0], rpy: [0,0,1]}, {position: [1,1,0]}]", 2,
+     "both have an orientation: a point task takes at most one"),
 ])
 def test_cli_bad_points(tmp_path, text, code, msg):
     f = tmp_path / "p.yaml"

@@ -27,13 +27,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.algebra import algorithm1 as a1
-from synth.algebra.dq import qmul
+from synth.algebra.dq import dq_inv, dq_mul, qmul
 from synth.algebra.polynomial import norm_poly
 from synth.synthesis.conic import Conditioning, to_world
 from synth.synthesis.cubic import PAIRS, PERMS
 from synth.synthesis.sixbar_loops import COND_WEIGHT, RESIDUAL_TOL, factor_members, loop_geometry, pair_geometry, penalties
 
-__all__ = ["point_motion", "parameter_samples", "parameter_separation", "scan", "PointScan", "BENNETT_ORDERS",
+__all__ = ["point_motion", "rereference", "parameter_samples", "parameter_separation", "scan", "PointScan", "BENNETT_ORDERS",
            "BENNETT_PAIRS", "SAMPLES"]
 
 SAMPLES = {2: 136, 3: 400}  # parameter samples of the default scan, by degree
@@ -79,6 +79,24 @@ def point_motion(X, t, degree: int):
     C[:, n, 0] = 1.0
     C[~good] = np.nan
     return C
+
+
+def rereference(H, t0: float):
+    """Move the reference configuration of the factorized motion C = (t - h_1)...(t - h_n) (factors H
+    (..., n, 8)) to the parameter t0 (docs/points.md, section 3): the new parameter s with
+    t = t0 - 1/s (increasing with t, s = inf at t = t0, s = 0 at t = inf) and the monic motion
+    D(s) = s^n C(t0 - 1/s) C(t0)^-1 = (s - f_1)...(s - f_n) of the displacements relative to C(t0), with
+    f_i = P (t0 - h_i)^-1 P^-1, P = (t0 - h_1)...(t0 - h_{i-1}). Returns the factors f (..., n, 8)."""
+    H = np.asarray(H, float)
+    a = -H
+    a[..., 0] += t0  # t0 - h_i
+    P = np.zeros(H.shape[:-2] + (8,))
+    P[..., 0] = 1.0
+    out = np.empty_like(H)
+    for i in range(H.shape[-2]):
+        out[..., i, :] = dq_mul(dq_mul(P, dq_inv(a[..., i, :])), dq_inv(P))
+        P = dq_mul(P, a[..., i, :])
+    return out
 
 
 def parameter_samples(count: int, free: int, seed: int = 0) -> np.ndarray:

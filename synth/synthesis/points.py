@@ -21,17 +21,17 @@ from __future__ import annotations
 import numpy as np
 
 from synth.algebra import algorithm1 as a1
-from synth.algebra.polynomial import pose_at
+from synth.algebra.polynomial import pose_at, product_of_linear
 from synth.checks import DEFAULT_CHECK_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett import LOOP_NAMES, bennett_parameters_of, dh_table
 from synth.synthesis.conic import Conditioning, to_world
-from synth.synthesis.pointfit import PointScan, scan
+from synth.synthesis.pointfit import PointScan, rereference, scan
 from synth.synthesis.sixbar import CHECK_TOL, LOOP, checks_pass
 from synth.synthesis.sixbar_loops import SCORE_RULE
 
-__all__ = ["bennett_points", "sixbar_points", "point_candidates", "prepare_points", "tool_rotation_of", "PointTask", "NEEDED",
+__all__ = ["bennett_points", "sixbar_points", "point_candidates", "prepare_points", "oriented_item", "PointTask", "NEEDED",
            "MINIMUM", "KINDS", "SCORE_RULE"]
 
 KINDS = {2: "bennett", 3: "6r"}
@@ -46,9 +46,11 @@ DISTINCT = 0.05  # candidates closer than this in parameters (and chosen points,
 class PointTask:
     """Points prepared for synthesis: world points (k, 3) in metres, names, the degree (2: Bennett,
     3: 6R), the conditioning (centroid, RMS spread) and the conditioned points Y (k, 3). With
-    ``tool_rotation`` (3, 3) point 0 is a full pose (the tool frame's orientation there; ``kinds``)."""
+    ``rotation`` (3, 3) item ``oriented`` is a full pose (the tool frame's orientation there; ``kinds``):
+    the scan then runs on the items in the cyclic order ``order`` that starts with it (its parameter
+    is infinity), and the linkage is re-referenced to item 0 (`synth.synthesis.pointfit.rereference`)."""
 
-    def __init__(self, points, names, degree: int, tool_rotation=None):
+    def __init__(self, points, names, degree: int, rotation=None, oriented: int = 0):
         self.points = points
         self.names = names
         self.degree = degree
@@ -56,18 +58,22 @@ class PointTask:
         L = float(np.sqrt(np.mean(np.sum((points - c) ** 2, axis=-1))))
         self.cond = Conditioning(centre=c, scale=L)
         self.Y = (points - c) / L
-        self.tool_ref = np.eye(4)
-        self.tool_ref[:3, 3] = points[0]
-        if tool_rotation is not None:
-            self.tool_ref[:3, :3] = tool_rotation
-        self.kinds = ["pose" if tool_rotation is not None else "point"] + ["point"] * (len(points) - 1)
+        k = len(points)
+        self.oriented = int(oriented) if rotation is not None else 0
+        self.order = list(range(self.oriented, k)) + list(range(self.oriented))
+        self.ref_pose = np.eye(4)  # tool pose at the scan's first item (world)
+        self.ref_pose[:3, 3] = points[self.oriented]
+        self.kinds = ["point"] * k
+        if rotation is not None:
+            self.ref_pose[:3, :3] = rotation
+            self.kinds[self.oriented] = "pose"
 
     @property
     def missing(self) -> int:
         return NEEDED[self.degree] - len(self.points)
 
 
-def prepare_points(points, names=None, *, degree: int, tool_rotation=None) -> PointTask:
+def prepare_points(points, names=None, *, degree: int, tool_rotation=None, oriented: int = 0) -> PointTask:
     """Validate points (k, 3) (metres) for a point task of ``degree`` 2 (Bennett) or 3 (6R).
     InputError: wrong shape or count (the message says what is needed), NaN; SynthesisError:
     coincident points, or a full set of collinear points (no linkage moves a point along a line
@@ -96,18 +102,20 @@ def prepare_points(points, names=None, *, degree: int, tool_rotation=None) -> Po
     if k == need and sv[1] <= COLLINEAR_TOL * sv[0]:
         raise SynthesisError(f"the {k} points are collinear: the tool point of {kind} meets a line in at most "
                              f"{2 * degree} points, so no linkage passes through them all")
-    return PointTask(P, names, degree, tool_rotation)
+    return PointTask(P, names, degree, tool_rotation, oriented)
 
 
-def tool_rotation_of(matrices, kinds, names) -> np.ndarray | None:
-    """The tool frame's orientation (3, 3) at point 0 when item 0 of a point task is a full pose
-    (``kinds[0] == "pose"``), else None; InputError when a later item has an orientation (only the
-    first may: the tool frame at the reference configuration)."""
-    for i, kind in enumerate(kinds):
-        if kind == "pose" and i > 0:
-            raise InputError(f"item {i} ({names[i]!r}) has an orientation: in a point task only the first item may "
-                             "have one (the tool frame at the start); give the others as positions")
-    return np.asarray(matrices, float)[0, :3, :3] if kinds and kinds[0] == "pose" else None
+def oriented_item(matrices, kinds, names) -> tuple[int, np.ndarray | None]:
+    """(index, orientation (3, 3)) of the one item of a point task that is a full pose
+    (``kinds[i] == "pose"``: the tool frame's orientation there), or (0, None); InputError when more
+    than one item has an orientation (each costs three conditions that the point count leaves no room
+    for; docs/points.md)."""
+    posed = [i for i, kind in enumerate(kinds) if kind == "pose"]
+    if len(posed) > 1:
+        i = posed[1]
+        raise InputError(f"items {posed[0]} ({names[posed[0]]!r}) and {i} ({names[i]!r}) both have an orientation: a "
+                         "point task takes at most one (the tool frame there); give the others as positions")
+    return (posed[0], np.asarray(matrices, float)[posed[0], :3, :3]) if posed else (0, None)
 
 
 def _ranked_entries(sc: PointScan, task: PointTask):
@@ -135,18 +143,32 @@ def build_point_linkage(task: PointTask, sc: PointScan, member: int, loop: int, 
     W = to_world(np.concatenate([HK[0], HK[1], C]), task.cond)
     H, K, Cw = W[:n], W[n:2 * n], W[2 * n:]
     k = len(task.points)
-    ts = np.concatenate([[np.inf], sc.t[member, : k - 1]])
-    T = pose_at(Cw, ts) @ task.tool_ref
+    params = np.concatenate([[np.inf], sc.t[member]])  # of the scan's items (task.order, then the chosen)
+    where = np.argsort(task.order)  # scan position of each item
+    tool_ref = task.ref_pose
+    if task.oriented:  # the reference configuration back at item 0
+        t0 = float(params[where[0]])
+        tool_ref = pose_at(Cw, t0) @ task.ref_pose
+        tool_ref[:3, 3] = task.points[0]
+        H, K = rereference(H, t0), rereference(K, t0)
+        Cw = product_of_linear(H)
+        with np.errstate(divide="ignore"):
+            params = np.where(np.isinf(params), 0.0, 1.0 / (t0 - params))
+        params[where[0]] = np.inf
+    ts = params[where]
+    T = pose_at(Cw, ts) @ tool_ref
     T[:, :3, 3] = task.points
-    T[0] = task.tool_ref
+    T[0] = tool_ref
+    if task.kinds[task.oriented] == "pose":
+        T[task.oriented] = task.ref_pose
     parts = {key: float(v[member, loop]) for key, v in sc.parts.items()}
     chosen = (sc.Y[member, k:] * task.cond.scale + task.cond.centre).tolist()
-    info = {"task": "points", "points": k, "parameters": [None] + sc.t[member].tolist()[: k - 1],
+    info = {"task": "points", "points": k, "parameters": [None if np.isinf(x) else float(x) for x in ts],
             "score": float(sc.score[member, loop]), "score_parts": parts,
             "orders": {"h": sc.orders[oh].tolist(), "k": sc.orders[ok_].tolist()},
             "norm_roots": [[float(z.real), float(z.imag)] for z in sc.roots[member]],
             "factorization_residual": res, "chosen_points": chosen,
-            "chosen_parameters": sc.t[member].tolist()[k - 1:],
+            "chosen_parameters": params[k:].tolist(),
             "conditioning": {"centre": task.cond.centre.tolist(), "scale": float(task.cond.scale)},
             "freedom": freedom_text(task, len(sc.t))}
     if n == 3:
@@ -187,12 +209,13 @@ def _warnings(parts) -> list[str]:
 
 
 def point_candidates(points, names=None, *, degree: int, top: int | None = None, samples: int | None = None,
-                     seed: int = 0, tool_rotation=None, check_samples: int = DEFAULT_CHECK_SAMPLES):
+                     seed: int = 0, tool_rotation=None, oriented: int = 0,
+                     check_samples: int = DEFAULT_CHECK_SAMPLES):
     """The best distinct verified linkages through the points (k, 3) (metres), best score first, at
-    most ``top`` (default all that pass; the first MAX_ATTEMPTS failures stop the search). SynthesisError
-    when none passes."""
-    task = prepare_points(points, names, degree=degree, tool_rotation=tool_rotation)
-    sc = scan(task.Y, degree, samples=samples, seed=seed)
+    most ``top`` (default all that pass; the first MAX_ATTEMPTS failures stop the search). With
+    ``tool_rotation`` item ``oriented`` is a full pose (`PointTask`). SynthesisError when none passes."""
+    task = prepare_points(points, names, degree=degree, tool_rotation=tool_rotation, oriented=oriented)
+    sc = scan(task.Y[task.order], degree, samples=samples, seed=seed)
     entries = _ranked_entries(sc, task)
     if not sc.valid.any():
         raise SynthesisError(f"no member of the {len(sc.t)} scanned motions through the points gives a real "

@@ -58,7 +58,7 @@ from synth.io.names import check_robot_name, safe_robot_name
 from synth.io.poses import parse_pose_document
 from synth.io.writer import check_output_target, write_output
 from synth.synthesis.bennett import bennett
-from synth.synthesis.points import MINIMUM, NEEDED, point_candidates, tool_rotation_of
+from synth.synthesis.points import MINIMUM, NEEDED, oriented_item, point_candidates
 
 KINDS = {"bennett": 3, "sixbar": 4}
 DEGREES = {"bennett": 2, "sixbar": 3}  # degree of the motion of a point task
@@ -145,9 +145,9 @@ def _check_job(job: dict) -> None:
 
 def _synthesize(kind: str, ps):
     if ps.has_points:  # a point task (docs/points.md): the best-scored design
-        rot = tool_rotation_of(ps.matrices, ps.kinds, ps.names)
+        oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
         return point_candidates(ps.positions, ps.names, degree=DEGREES[kind], top=1, tool_rotation=rot,
-                                check_samples=VERIFY_SAMPLES)[0]
+                                oriented=oriented, check_samples=VERIFY_SAMPLES)[0]
     if kind == "bennett":
         return bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
     try:  # sixbar is optional in an installation
