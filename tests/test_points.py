@@ -196,6 +196,7 @@ def test_rereference_example():
     (np.r_[np.zeros((1, 3)), np.full((4, 3), np.nan)], InputError, "NaN"),
     (np.outer(np.arange(5.0), [1, 2, 3]), SynthesisError, "collinear"),
     (np.array([[0, 0, 0], [1, 0, 0], [1, 0, 0], [0, 1, 1], [2, 1, 0]], float), SynthesisError, "coincide"),
+    (np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 2, 0], [3, 1, 0]], float), SynthesisError, "coplanar"),
 ])
 def test_bad_point_sets(P, err, text):
     with pytest.raises(err, match=text):

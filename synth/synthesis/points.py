@@ -77,7 +77,7 @@ def prepare_points(points, names=None, *, degree: int, tool_rotation=None, orien
     """Validate points (k, 3) (metres) for a point task of ``degree`` 2 (Bennett) or 3 (6R).
     InputError: wrong shape or count (the message says what is needed), NaN; SynthesisError:
     coincident points, or a full set of collinear points (no linkage moves a point along a line
-    through that many points)."""
+    through that many points) or of coplanar points (docs/points.md, section 4)."""
     P = np.asarray(points, float)
     kind = "a Bennett linkage" if degree == 2 else "a 6R linkage"
     if P.ndim != 2 or P.shape[-1] != 3:
@@ -102,6 +102,10 @@ def prepare_points(points, names=None, *, degree: int, tool_rotation=None, orien
     if k == need and sv[1] <= COLLINEAR_TOL * sv[0]:
         raise SynthesisError(f"the {k} points are collinear: the tool point of {kind} meets a line in at most "
                              f"{2 * degree} points, so no linkage passes through them all")
+    if k == need and sv[2] <= COLLINEAR_TOL * sv[0]:
+        raise SynthesisError(f"the {k} points are coplanar: the motion through them is then planar (the reflection in "
+                             f"their plane maps it to another motion through the same points, and it is unique), so "
+                             f"{kind} of revolute joints does not follow it; move a point out of the plane")
     return PointTask(P, names, degree, tool_rotation, oriented)
 
 
