@@ -275,9 +275,11 @@ def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize,
         if pname is not None and (not isinstance(pname, str) or not pname.strip() or len(pname) > 200
                                   or any(not (c.isprintable() or c == " ") for c in pname)):
             raise InputError(f"{name}: point {i}: name must be a non-empty printable string of at most 200 characters")
-        label = f"point {i} ({quote_text(pname)})" if pname is not None else f"point {i}"
+        point = key == "points" or is_point_spec(spec)
+        noun = "point" if point else "pose"
+        label = f"{noun} {i} ({quote_text(pname)})" if pname is not None else f"{noun} {i}"
         try:
-            if key == "points" or is_point_spec(spec):
+            if point:
                 mats[i, :3, 3] = point_position(spec, scale)
                 kinds.append("point")
             else:
