@@ -276,7 +276,7 @@ def test_cli_known_random_points_verify(tmp_path):
     ("points: [[0,0,0],[1,0,0],[2,0,0],[3,0,0],[4,0,0]]", 1, "collinear"),
     ("points: [[0,0,0],[1,0,.nan],[2,1,0],[3,0,1],[4,0,0]]", 2, "not finite"),
     ("poses: [{position: [0,0,0], rpy: [0,0,0]}, {position: [1,0,0], rpy: [0,0,1]}, {position: [1,1,0]}]", 2,
-     "both have an orientation: a point task takes at most one"),
+     "both have one, a point task takes at most one"),
 ])
 def test_cli_bad_points(tmp_path, text, code, msg):
     f = tmp_path / "p.yaml"

@@ -260,7 +260,7 @@ def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize,
             raise InputError(f"{name}: {key!r} must be a list, got {describe_value(lst)}")
         items += [(key, spec) for spec in lst]
     if not items:
-        raise InputError(f"{name}: no points or poses given")
+        raise InputError(f"{name}: missing 'poses' (a list of poses) or 'points' (a list of positions)")
     if len(items) > MAX_POSES:
         raise InputError(f"{name}: {len(items)} points is more than the limit of {MAX_POSES}")
     problem = _count_problem(points, len(items), "point")

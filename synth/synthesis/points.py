@@ -116,9 +116,10 @@ def oriented_item(matrices, kinds, names) -> tuple[int, np.ndarray | None]:
     for; docs/points.md)."""
     posed = [i for i, kind in enumerate(kinds) if kind == "pose"]
     if len(posed) > 1:
-        i = posed[1]
-        raise InputError(f"items {posed[0]} ({names[posed[0]]!r}) and {i} ({names[i]!r}) both have an orientation: a "
-                         "point task takes at most one (the tool frame there); give the others as positions")
+        a, b = posed[:2]
+        p = kinds.index("point")
+        raise InputError(f"pose {p}: missing orientation (or, as a point task, too many orientations: items {a} "
+                         f"({names[a]!r}) and {b} ({names[b]!r}) both have one, a point task takes at most one)")
     return (posed[0], np.asarray(matrices, float)[posed[0], :3, :3]) if posed else (0, None)
 
 
