@@ -38,7 +38,8 @@ sets = json.load(sys.stdin)
 out = {"interp": [], "interp_cpu": [], "task": [], "task_cpu": []}
 for P in sets:
     pts = [PointHomogeneous([1.0, *p]) for p in P]
-    f = MotionInterpolation.interpolate_points_quadratic if len(P) == 5 else MotionInterpolation.interpolate_points_cubic
+    MI = MotionInterpolation
+    f = MI.interpolate_points_quadratic if len(P) == 5 else MI.interpolate_points_cubic
     f(pts, return_numeric=True)
     w, c = time.perf_counter(), time.process_time()
     for _ in range(20):

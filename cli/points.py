@@ -24,8 +24,8 @@ def _design_line(lk) -> str:
     pair = f", pair {i['pair']}" if "pair" in i else ""
     ts = ", ".join(f"{t:.4g}" for t in i["parameters"][1:] + i["chosen_parameters"])
     return (f"  point design: parameters t = {ts}{pair}; score {i['score']:.3g} (conditioning "
-            f"{p['conditioning']:.3g}, extent {p['extent']:.3g} x spread, min twist {p['min_twist'] * 57.29577951308232:.1f}"
-            f" deg, min offset {p['min_offset']:.3g} x spread)")
+            f"{p['conditioning']:.3g}, extent {p['extent']:.3g} x spread, min twist "
+            f"{p['min_twist'] * 57.29577951308232:.1f} deg, min offset {p['min_offset']:.3g} x spread)")
 
 
 def run_point_task(ps, degree: int, top, *, out, name, force, package, sizes, quiet, as_json, require_free):
@@ -58,9 +58,11 @@ def _single(ps, linkages, *, out, name, force, package, sizes, quiet, as_json, r
     result = None
     linkage = linkages[0]
     if out or as_json or require_free:
-        ranked = rank_buildable(linkages, lambda lk: design_result(lk, sizes, scale=ps.length_scale, unit=ps.length_unit,
-                                                                   source=ps.source, require_free=False),
-                                limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS)
+        def design(lk):
+            return design_result(lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source,
+                                 require_free=False)
+
+        ranked = rank_buildable(linkages, design, limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS)
         linkage, result = ranked[0]
         k = next(i for i, c in enumerate(linkages) if c is linkage)
         linkage.info["design_choice"] = (f"candidate {k + 1} of the {len(ranked)} best-scored that were designed: "
@@ -124,8 +126,9 @@ def _ranked(ps, linkages, top, *, out, name, force, package, sizes, quiet, as_js
         if require_free:
             keep = [i for i, r in enumerate(results) if r.collision.free]
             if not keep:
+                best = collision_sentence(results[0].collision, ps.length_scale, ps.length_unit)
                 raise SynthesisError(f"{ps.source}: none of the {len(linkages)} best designs is collision-free; the "
-                                     f"best: {collision_sentence(results[0].collision, ps.length_scale, ps.length_unit)}")
+                                     f"best: {best}")
             linkages, results = [linkages[i] for i in keep], [results[i] for i in keep]
     ids = [solution_id(r, lk) for r, lk in enumerate(linkages, start=1)]
     doc = index_document(ps, linkages, ids, results)
@@ -139,8 +142,8 @@ def _ranked(ps, linkages, top, *, out, name, force, package, sizes, quiet, as_js
                  + (f"  {s['design_summary']}" if "design_summary" in s else ""))
     if out:
         base = name or default_robot_name(ps.source)
-        write_solutions(out, [(sid, lk, f"{base}_{sid.replace('-', '_')}", r) for lk, sid, r in zip(linkages, ids, results)],
-                        doc, force=force, package=package)
+        sols = [(sid, lk, f"{base}_{sid.replace('-', '_')}", r) for lk, sid, r in zip(linkages, ids, results)]
+        write_solutions(out, sols, doc, force=force, package=package)
         if not quiet:
             echo(f"  wrote {out}/: index.json and {len(ids)} solution directories")
     if as_json:

@@ -302,8 +302,8 @@ def load_poses(source, *, count=None, normalize: bool = False, text: str | bytes
     """Read and validate a pose file (YAML or JSON; ``"-"`` = standard input).
 
     ``text`` gives the content directly (``source`` then only names it in messages and decides
-    JSON-vs-YAML by its ``.json`` suffix). ``points``: see `parse_pose_document`. ``count`` checks the number of poses: an int, or
-    ``(n, label)`` giving ``"<label> needs exactly n poses, got m"``; ``n`` may also be a pair
+    JSON-vs-YAML by its ``.json`` suffix). ``points``: see `parse_pose_document`. ``count`` checks the
+    number of poses: an int, or ``(n, label)`` giving ``"<label> needs exactly n poses, got m"``; ``n`` may also be a pair
     ``(lo, hi)`` (``hi`` None = no upper bound). ``normalize=True`` accepts non-unit quaternions
     (normalizing them) and projects rotations within 1e-3 of orthonormal onto the nearest rotation.
 

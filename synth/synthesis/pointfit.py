@@ -31,9 +31,11 @@ from synth.algebra.dq import dq_inv, dq_mul, qmul
 from synth.algebra.polynomial import norm_poly
 from synth.synthesis.conic import Conditioning, to_world
 from synth.synthesis.cubic import PAIRS, PERMS
-from synth.synthesis.sixbar_loops import COND_WEIGHT, RESIDUAL_TOL, factor_members, loop_geometry, pair_geometry, penalties
+from synth.synthesis.sixbar_loops import (COND_WEIGHT, RESIDUAL_TOL, factor_members, loop_geometry, pair_geometry,
+                                          penalties)
 
-__all__ = ["point_motion", "rereference", "parameter_samples", "parameter_separation", "scan", "PointScan", "BENNETT_ORDERS",
+__all__ = ["point_motion", "rereference", "parameter_samples", "parameter_separation", "scan", "PointScan",
+           "BENNETT_ORDERS",
            "BENNETT_PAIRS", "SAMPLES"]
 
 SAMPLES = {2: 136, 3: 400}  # parameter samples of the default scan, by degree

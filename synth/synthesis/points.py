@@ -31,7 +31,8 @@ from synth.synthesis.pointfit import PointScan, rereference, scan
 from synth.synthesis.sixbar import CHECK_TOL, LOOP, checks_pass
 from synth.synthesis.sixbar_loops import SCORE_RULE
 
-__all__ = ["bennett_points", "sixbar_points", "point_candidates", "prepare_points", "oriented_item", "PointTask", "NEEDED",
+__all__ = ["bennett_points", "sixbar_points", "point_candidates", "prepare_points", "oriented_item", "PointTask",
+           "NEEDED",
            "MINIMUM", "KINDS", "SCORE_RULE"]
 
 KINDS = {2: "bennett", 3: "6r"}
@@ -209,7 +210,8 @@ def _warnings(parts) -> list[str]:
         out.append(f"poorly conditioned motion (conditioning {parts['conditioning']:.2g}): the linkage is valid but "
                    "sensitive to small changes of the points")
     if parts["extent"] > 100:
-        out.append(f"joint axes reach {parts['extent']:.3g} point spreads from the points: valid but impractically large")
+        out.append(f"joint axes reach {parts['extent']:.3g} point spreads from the points: valid but impractically "
+                   "large")
     return out
 
 
