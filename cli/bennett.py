@@ -5,7 +5,7 @@ import math
 
 import click
 
-from .common import design_result, echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options
+from .common import choose_buildable, echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options
 
 
 @click.command(epilog="""\b
@@ -13,18 +13,23 @@ Example:
   mpsynth bennett fixtures/bennett_mm_deg.yaml -o out_bennett
   cat poses.yaml | mpsynth bennett - --json | jq .checks
   mpsynth bennett fixtures/bennett_planar.yaml -o out_planar
-  mpsynth bennett fixtures/bennett_planar.yaml --member=-0.5,2 -o out_planar""")
+  mpsynth bennett fixtures/bennett_planar.yaml --member=-0.5,2 -o out_planar
+  mpsynth bennett fixtures/bennett_points.yaml --top 3 -o out_points""")
 @click.argument("poses", metavar="POSES")
 @click.option("--member", metavar="L1,L2",
               help="Planar or spherical poses only: the member C(t) = t(t-1) - L1 (t-1) D1 + L2 t D2 of the family "
                    "of quadratic motions through them (L1, L2 nonzero; default: the best-scored, collision-free "
                    "first). Write a negative first value as --member=-0.5,2.")
+@click.option("--top", type=click.IntRange(1, 1000), default=None,
+              help="Point tasks: write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
 @synthesis_options
 @run_guarded
-def bennett(poses, member, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
+def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
             require_collision_free, package, normalize, quiet, as_json, debug):
     """Synthesize the spatial Bennett 4R linkage whose coupler passes through the three poses in
-    POSES (YAML or JSON, '-' for stdin; see README for the format).
+    POSES (YAML or JSON, '-' for stdin; see README for the format). With five points instead (a
+    `points:` list, or poses with a position only; 3 or 4: the rest is chosen) the tool point passes
+    through them (docs/points.md).
 
     Three planar poses (rotations about parallel axes) or spherical poses (rotations about one point)
     have a two-parameter family of quadratic motions through them: the result is then a planar
@@ -38,9 +43,23 @@ def bennett(poses, member, out, name, force, pin_radius, link_radius, pin_length
     from synth.errors import SynthesisError
     from synth.io.poses import load_poses
 
-    ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=normalize)
+    from .points import point_count, run_point_task
+
+    ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=normalize, points=point_count(2))
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                             clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
+    if ps.has_points:
+        if member is not None:
+            from synth.errors import InputError
+
+            raise InputError("--member selects among the quadratic motions through planar or spherical poses; a "
+                             "point task has no such family (use --top to see its ranked designs)")
+        return run_point_task(ps, 2, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
+                              as_json=as_json, require_free=require_collision_free)
+    if top is not None:
+        from synth.errors import InputError
+
+        raise InputError("--top applies to point tasks only: three poses give one Bennett linkage")
     if out:
         from synth.io.writer import check_output_target
 
@@ -56,16 +75,8 @@ def bennett(poses, member, out, name, force, pin_radius, link_radius, pin_length
         raise SynthesisError(f"{ps.source}: {e}") from e
     linkage = linkages[0]
     if len(linkages) > 1:  # members of a planar or spherical family: collision-free first
-        from synth.design.search import rank_buildable
-
-        ranked = rank_buildable(linkages, lambda lk: design_result(lk, sizes, scale=ps.length_scale,
-                                                                   unit=ps.length_unit, source=ps.source,
-                                                                   require_free=False),
-                                limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS)
-        linkage, result = ranked[0]
-        k = next(i for i, c in enumerate(linkages) if c is linkage)
-        linkage.info["design_choice"] = (f"candidate {k + 1} of the {len(ranked)} best-scored members that were "
-                                         "designed: collision-free first (full cycle, then task range), then the score")
+        linkage, result = choose_buildable(linkages, ps, sizes, limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS,
+                                           what="members")
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
          as_json=as_json, require_free=require_collision_free, result=result)
 

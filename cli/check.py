@@ -42,7 +42,7 @@ def check(out, poses, tol, steps, no_meshes, quiet, as_json, debug):
         raise InputError(f"--tol must be in (0, 1), got {tol}")
     ps = None
     if poses:
-        ps = load_poses(poses)
+        ps = load_poses(poses, points=(1, None))  # a point file: positions only are compared
     result = check_tree(out, ps, rtol=tol, steps=steps, meshes=not no_meshes)
     for p in result["problems"]:
         echo(f"FAIL {p}")

@@ -251,6 +251,23 @@ def design_result(linkage, sizes: dict, *, scale: float, unit: str, source: str,
     return result
 
 
+def choose_buildable(candidates, ps, sizes: dict, *, limit: int, seconds: float, what: str):
+    """Design the best-scored ``candidates`` (best first) and keep the collision-free one first (full cycle,
+    then task range; `synth.design.search.rank_buildable`), then the score. Returns (linkage, DesignResult);
+    ``linkage.info["design_choice"]`` says which candidate won; ``what``: the candidates' name in it."""
+    from synth.design.search import rank_buildable
+
+    candidates = list(candidates)
+    ranked = rank_buildable(candidates, lambda lk, ranges, full_seconds: design_result(
+        lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source, require_free=False,
+        ranges=ranges, full_seconds=full_seconds), limit=limit, seconds=seconds)
+    linkage, result = ranked[0]
+    k = next(i for i, c in enumerate(candidates) if c is linkage)
+    linkage.info["design_choice"] = (f"candidate {k + 1} of the {min(len(candidates), limit)} best-scored {what}: "
+                                     "collision-free first (full cycle, then task range), then the score")
+    return linkage, result
+
+
 def require_collision_free(result, *, source: str, scale: float, unit: str) -> None:
     """SynthesisError (exit 1) with the collision sentence unless the design is collision-free."""
     from synth.errors import SynthesisError

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import click
 
-from .common import (collision_sentence, default_robot_name, design_result, echo, mesh_sizes, print_json, progress,
-                     run_guarded, synthesis_options)
+from .common import (choose_buildable, collision_sentence, default_robot_name, design_result, echo, mesh_sizes,
+                     print_json, progress, run_guarded, synthesis_options)
 
 INDEX_FORMAT = "mpsynth.sixbar-index/1"
 
@@ -21,7 +21,8 @@ Planar or spherical poses (docs/planar.md): a Watt six-bar (7 joints) of a membe
 Examples:
   mpsynth sixbar fixtures/sixbar_example.yaml -o out_sixbar
   mpsynth sixbar fixtures/sixbar_example.yaml --top 5 -o out_designs
-  mpsynth sixbar poses.yaml --family 2 --member 0.5 --pair 1 -o out_one""")
+  mpsynth sixbar poses.yaml --family 2 --member 0.5 --pair 1 -o out_one
+  mpsynth sixbar fixtures/sixbar_points.yaml -o out_points""")
 @click.argument("poses", metavar="POSES")
 @click.option("--family", type=click.IntRange(1, 2), help="Only this family of cubic motions (1 or 2).")
 @click.option("--member", metavar="L", help="Only this member of the family, by its label lambda1 (C(0) = lambda1 D1); "
@@ -35,7 +36,9 @@ Examples:
 def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_radius, pin_length, clearance,
            hole_clearance, require_collision_free, package, normalize, quiet, as_json, debug):
     """Synthesize a spatial 6R linkage whose coupler passes through the four poses in POSES (YAML or
-    JSON, '-' for stdin; see README for the format).
+    JSON, '-' for stdin; see README for the format). With seven points instead (a `points:` list, or
+    poses with a position only; 4 to 6: the rest is chosen) the tool point passes through them
+    (docs/points.md).
 
     By default the best design by the engineering score (well-conditioned factorization first, then a
     compact linkage without nearly parallel or nearly intersecting consecutive axes) over both families
@@ -43,11 +46,21 @@ def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_
     Exit status 1 when no real 6R linkage exists (e.g. the poses' quadric is oval)."""
     from synth.io.poses import load_poses
 
-    ps = load_poses(poses, count=(4, "mpsynth sixbar"), normalize=normalize)
-    if member is not None:
+    from .points import point_count, run_point_task
+
+    ps = load_poses(poses, count=(4, "mpsynth sixbar"), normalize=normalize, points=point_count(3))
+    if member is not None and not ps.has_points:
         member = parse_member(member)
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                             clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
+    if ps.has_points:
+        if family is not None or member is not None or pair is not None:
+            from synth.errors import InputError
+
+            raise InputError("--family, --member and --pair select among the cubics through four poses; a point "
+                             "task has no families (use --top to see its ranked designs)")
+        return run_point_task(ps, 3, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
+                              as_json=as_json, require_free=require_collision_free)
     if top is None:
         _single(ps, family, member, pair, out=out, name=name, force=force, package=package, sizes=sizes,
                 quiet=quiet, as_json=as_json, require_free=require_collision_free)
@@ -94,7 +107,6 @@ def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet
     collision-free one (full cycle, then task range) wins (`synth.design.search.rank_buildable`); else the
     best-scored linkage."""
     from synth.checks import VERIFY_SAMPLES
-    from synth.design.search import rank_buildable
     from synth.synthesis.sixbar import sixbar as synth_sixbar
     from synth.synthesis.sixbar import sixbar_candidates
 
@@ -104,13 +116,8 @@ def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet
     if (out or as_json or require_free) and family is None and member is None and pair is None:
         candidates = sixbar_candidates(ps.matrices, ps.names, top=BUILDABLE_CANDIDATES, build=True,
                                        check_samples=VERIFY_SAMPLES)
-        ranked = rank_buildable(candidates, lambda lk, ranges, full_seconds: design_result(
-            lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source, require_free=False,
-            ranges=ranges, full_seconds=full_seconds), limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS)
-        linkage, result = ranked[0]
-        k = next(i for i, c in enumerate(candidates) if c is linkage)
-        linkage.info["design_choice"] = (f"candidate {k + 1} of the {len(candidates)} best-scored: "
-                                         "collision-free first (full cycle, then task range), then the score")
+        linkage, result = choose_buildable(candidates, ps, sizes, limit=BUILDABLE_CANDIDATES,
+                                           seconds=BUILDABLE_SECONDS, what="6R linkages")
     else:
         linkage = synth_sixbar(ps.matrices, ps.names, family=family, member=member, pair=pair,
                                check_samples=VERIFY_SAMPLES)

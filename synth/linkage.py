@@ -58,6 +58,7 @@ class PoseRecord:
     matrix: np.ndarray
     t: float
     joint_angles: dict[str, float]
+    kind: str = "pose"  # "point": only the tool frame's origin was prescribed (docs/points.md)
 
 
 @dataclass

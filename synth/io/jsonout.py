@@ -1,7 +1,8 @@
 """linkage.json: the machine-readable description of a `Linkage` (schema in docs/conventions.md).
 
 Beyond the contract's required keys we add (the contract allows new keys): ``poses[].t`` (the motion
-parameter of the pose, null for t = infinity), ``joints[].parent/child/angle_law`` (theta(t) =
+parameter of the pose, null for t = infinity), ``poses[].kind = "point"`` and ``poses[].position`` for the points
+of a point task (docs/points.md), ``joints[].parent/child/angle_law`` (theta(t) =
 2 atan2(b, t - a)), ``links`` (link -> joints it carries), ``tool_link``, ``tool_ref`` and ``info``
 (the linkage's kind-specific extras), ``design`` (the physical design: `PhysicalDesign.to_dict`, with
 every pin's length and mesh file: the bill of materials) and ``collision`` (what the design achieves:
@@ -72,7 +73,8 @@ def linkage_document(linkage, design=None, collision=None) -> dict:
         "units": {"length": "m", "angle": "rad"},
         "poses": [
             {"name": p.name, "matrix": np.asarray(p.matrix, float), "t": p.t,
-             "joint_angles": {k: float(v) for k, v in p.joint_angles.items()}}
+             "joint_angles": {k: float(v) for k, v in p.joint_angles.items()},
+             **({"kind": "point", "position": np.asarray(p.matrix, float)[:3, 3]} if p.kind == "point" else {})}
             for p in linkage.poses
         ],
         "joints": [

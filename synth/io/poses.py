@@ -47,7 +47,8 @@ from synth.algebra.dq import pose_to_dq
 from synth.errors import InputError
 from synth.io.docload import MAX_FILE_BYTES, MAX_POSES, json_object_pairs, load_document, quote_text, read_source
 from synth.io.posespec import (ANGLE_UNITS, LENGTH_UNITS, PoseProblem, axis_angle_matrix, check_keys,
-                               describe_value, pose_from_spec, pose_matrix, quaternion_matrix, rpy_matrix)
+                               describe_value, is_point_spec, point_position, pose_from_spec, pose_matrix,
+                               quaternion_matrix, rpy_matrix)
 
 __all__ = [
     "PoseSet",
@@ -64,7 +65,7 @@ __all__ = [
     "MAX_POSES",
 ]
 
-TOP_KEYS = ("units", "poses")
+TOP_KEYS = ("units", "poses", "points")
 UNIT_KEYS = ("length", "angle")
 
 
@@ -80,6 +81,17 @@ class PoseSet:
     length_scale: float = 1.0
     source: str = "<poses>"
     named: list[bool] = field(default_factory=list)  # which names were given in the file
+    kinds: list[str] = field(default_factory=list)  # "pose" or "point" (position only, docs/points.md); [] = poses
+
+    @property
+    def has_points(self) -> bool:
+        """Whether some item prescribes a position only (a point task)."""
+        return "point" in self.kinds
+
+    @property
+    def is_point(self) -> np.ndarray:
+        """(N,) bool: which items are points (their matrices carry the identity rotation)."""
+        return np.array([k == "point" for k in self.kinds] or [False] * len(self.names), bool)
 
     def __len__(self) -> int:
         return len(self.names)
@@ -111,7 +123,7 @@ def _count_spec(count) -> tuple[int, int | None, str | None]:
     return lo, hi, label
 
 
-def _count_problem(count, n: int) -> str | None:
+def _count_problem(count, n: int, noun: str = "pose") -> str | None:
     lo, hi, label = _count_spec(count)
     if lo <= n and (hi is None or n <= hi):
         return None
@@ -121,7 +133,7 @@ def _count_problem(count, n: int) -> str | None:
         need = f"at least {lo}"
     else:
         need = f"between {lo} and {hi}"
-    noun = "pose" if (hi == lo == 1) else "poses"
+    noun = noun if (hi == lo == 1) else noun + "s"
     got = f"got {n}"
     return f"{label} needs {need} {noun}, {got}" if label else f"expected {need} {noun}, {got}"
 
@@ -131,9 +143,14 @@ def _pose_label(i: int, name: str | None) -> str:
 
 
 def parse_pose_document(
-    doc: Any, *, source: str = "<poses>", count=None, normalize: bool = False
+    doc: Any, *, source: str = "<poses>", count=None, normalize: bool = False, points=None
 ) -> PoseSet:
-    """Validate an already-parsed document (the structure YAML/JSON gives) into a PoseSet."""
+    """Validate an already-parsed document (the structure YAML/JSON gives) into a PoseSet.
+
+    ``points``: None refuses point tasks; else a count spec (as ``count``) for a document holding
+    points (a ``points:`` list, or ``poses:`` entries with a position only; docs/points.md), which
+    then lists the ``poses:`` entries first and the ``points:`` after them, with ``kinds`` telling
+    which item is which; ``count`` applies to documents without points."""
     name = source
     if doc is None:
         raise InputError(f"{name}: the file is empty; expected a mapping with a 'poses' list")
@@ -168,8 +185,8 @@ def parse_pose_document(
                 raise InputError(f"{name}: unknown angle unit {shown} (allowed: {', '.join(ANGLE_UNITS)})")
     scale = LENGTH_UNITS[length_unit]
 
-    if "poses" not in doc:
-        raise InputError(f"{name}: missing 'poses' (a list of poses)")
+    if "points" in doc or "poses" not in doc:
+        return _point_document(doc, name, scale, length_unit, angle_unit, count, normalize, points)
     poses = doc["poses"]
     if not isinstance(poses, list):
         raise InputError(f"{name}: 'poses' must be a list, got {describe_value(poses)}")
@@ -177,6 +194,8 @@ def parse_pose_document(
         raise InputError(f"{name}: 'poses' is empty; give at least one pose")
     if len(poses) > MAX_POSES:
         raise InputError(f"{name}: {len(poses)} poses is more than the limit of {MAX_POSES}")
+    if points is not None and any(is_point_spec(p) for p in poses):
+        return _point_document(doc, name, scale, length_unit, angle_unit, count, normalize, points)
     if count is not None:
         problem = _count_problem(count, len(poses))
         if problem:
@@ -224,12 +243,67 @@ def parse_pose_document(
     )
 
 
-def load_poses(source, *, count=None, normalize: bool = False, text: str | bytes | None = None) -> PoseSet:
+def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize, points) -> PoseSet:
+    """A document with points (docs/points.md): ``poses:`` entries (those with a position only are
+    points), then the ``points:`` list ([x, y, z] or {name, position})."""
+    if points is None:
+        if "points" in doc:
+            raise InputError(f"{name}: 'points' (a point task) is accepted by mpsynth bennett and mpsynth sixbar "
+                             "only; this command needs poses with orientations")
+        raise InputError(f"{name}: missing 'poses' (a list of poses)")
+    items = []
+    for key in ("poses", "points"):
+        if key not in doc:
+            continue
+        lst = doc[key]
+        if not isinstance(lst, list):
+            raise InputError(f"{name}: {key!r} must be a list, got {describe_value(lst)}")
+        items += [(key, spec) for spec in lst]
+    if not items:
+        raise InputError(f"{name}: missing 'poses' (a list of poses) or 'points' (a list of positions)")
+    if len(items) > MAX_POSES:
+        raise InputError(f"{name}: {len(items)} points is more than the limit of {MAX_POSES}")
+    problem = _count_problem(points, len(items), "point")
+    if problem:
+        lo, hi, _ = _count_spec(points)
+        hint = f" (fewer than {hi}: the design search chooses the rest)" if hi is not None and lo < hi else ""
+        raise InputError(f"{name}: {problem} for a point task{hint}")
+    names, named, kinds, first_with = [], [], [], {}
+    mats = np.repeat(np.eye(4)[None], len(items), axis=0)
+    for i, (key, spec) in enumerate(items):
+        pname = spec.get("name") if isinstance(spec, dict) else None
+        if pname is not None and (not isinstance(pname, str) or not pname.strip() or len(pname) > 200
+                                  or any(not (c.isprintable() or c == " ") for c in pname)):
+            raise InputError(f"{name}: point {i}: name must be a non-empty printable string of at most 200 characters")
+        point = key == "points" or is_point_spec(spec)
+        noun = "point" if point else "pose"
+        label = f"{noun} {i} ({quote_text(pname)})" if pname is not None else f"{noun} {i}"
+        try:
+            if point:
+                mats[i, :3, 3] = point_position(spec, scale)
+                kinds.append("point")
+            else:
+                mats[i] = pose_matrix(spec, scale, angle_unit, normalize)
+                kinds.append("pose")
+        except PoseProblem as e:
+            raise InputError(f"{name}: {label}: {e}") from None
+        final = pname if pname is not None else f"p{i}"
+        if final in first_with:
+            raise InputError(f"{name}: {label}: duplicate name {quote_text(final)} (item {first_with[final]} has it)")
+        first_with[final] = i
+        names.append(final)
+        named.append(pname is not None)
+    return PoseSet(names=names, matrices=mats, length_unit=length_unit, angle_unit=angle_unit, length_scale=scale,
+                   source=name, named=named, kinds=kinds)
+
+
+def load_poses(source, *, count=None, normalize: bool = False, text: str | bytes | None = None,
+               points=None) -> PoseSet:
     """Read and validate a pose file (YAML or JSON; ``"-"`` = standard input).
 
     ``text`` gives the content directly (``source`` then only names it in messages and decides
-    JSON-vs-YAML by its ``.json`` suffix). ``count`` checks the number of poses: an int, or
-    ``(n, label)`` giving ``"<label> needs exactly n poses, got m"``; ``n`` may also be a pair
+    JSON-vs-YAML by its ``.json`` suffix). ``points``: see `parse_pose_document`. ``count`` checks the
+    number of poses: an int, or ``(n, label)`` giving ``"<label> needs exactly n poses, got m"``; ``n`` may also be a pair
     ``(lo, hi)`` (``hi`` None = no upper bound). ``normalize=True`` accepts non-unit quaternions
     (normalizing them) and projects rotations within 1e-3 of orthonormal onto the nearest rotation.
 
@@ -239,4 +313,4 @@ def load_poses(source, *, count=None, normalize: bool = False, text: str | bytes
     raw_name = os.fspath(source) if source is not None else "-"
     force_json = raw_name.lower().endswith(".json")
     doc = load_document(content, name, force_json)
-    return parse_pose_document(doc, source=name, count=count, normalize=normalize)
+    return parse_pose_document(doc, source=name, count=count, normalize=normalize, points=points)

@@ -283,6 +283,29 @@ def pose_matrix(spec: Any, length_scale: float, angle_unit: str, normalize: bool
     return T
 
 
+def point_position(spec: Any, length_scale: float) -> np.ndarray:
+    """The position (metres) of one point of a point task (docs/points.md): a list ``[x, y, z]`` or a
+    mapping with ``position`` (and optionally ``name``) and no orientation. Raises `PoseProblem`."""
+    if isinstance(spec, dict):
+        check_keys(spec, ("name", "position"), " of a point")
+        if "position" not in spec:
+            raise PoseProblem("missing 'position' (a list of 3 numbers)")
+        spec = spec["position"]
+        what = "position"
+    else:
+        what = "point"
+    p = _vector(spec, 3, what) * length_scale
+    dist = math.hypot(*p)
+    if dist > MAX_POSITION_M:
+        raise PoseProblem(f"{what} is too far from the origin ({_num(dist)} m; the limit is 1e9 m)")
+    return p
+
+
+def is_point_spec(spec: Any) -> bool:
+    """A ``poses:`` entry that prescribes a position only (a point of a point task)."""
+    return isinstance(spec, dict) and "position" in spec and not any(k in spec for k in ORIENTATION_KEYS + ("matrix",))
+
+
 def pose_from_spec(
     spec: Any, *, length_unit: str = "m", angle_unit: str = "rad", normalize: bool = False
 ) -> np.ndarray:

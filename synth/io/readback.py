@@ -348,7 +348,8 @@ def linkage_from_document(doc: dict, where: str = "linkage.json") -> Linkage:
             t = pd.get("t", None)
             poses.append(PoseRecord(str(pd.get("name", f"p{i}")), _arr(pd["matrix"], (4, 4), f"{where}: pose {i}"),
                                     float("inf") if t is None else float(t),
-                                    {k: float(v) for k, v in pd.get("joint_angles", {}).items()}))
+                                    {k: float(v) for k, v in pd.get("joint_angles", {}).items()},
+                                    "point" if pd.get("kind") == "point" else "pose"))
         links = {str(k): [str(x) for x in v] for k, v in doc.get("links", {}).items()}
         if not links:  # older documents: every link carries the joints it touches
             for j in joints:

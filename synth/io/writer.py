@@ -441,6 +441,17 @@ def write_output(linkage, out_dir, *, robot_name: str, force: bool = False, pack
     return [out / r for r in rel]
 
 
+def write_solutions(out_dir, solutions, index: dict, *, force: bool = False, package: str | None = None) -> None:
+    """Write several linkages atomically as OUT/<id>/ (each as `write_linkage_files`) plus OUT/index.json;
+    ``solutions``: (id, linkage, robot name, DesignResult) tuples."""
+    with atomic_directory(Path(out_dir), force=force) as tmp:
+        for sid, linkage, robot_name, result in solutions:
+            d = tmp / sid
+            d.mkdir()
+            write_linkage_files(linkage, d, robot_name=robot_name, package=package, result=result)
+        write_json(index, tmp / "index.json")
+
+
 def atomic_write(path, write) -> None:
     """Write one file atomically: ``write(tmp)`` fills a temporary sibling of ``path``, which then
     replaces ``path`` (mode 0644); on any failure the temporary file is removed and nothing is left.

@@ -8,7 +8,9 @@ A job is one JSON object on one line::
 
 ``kind`` is ``"bennett"`` (3 poses) or ``"sixbar"`` (4 poses); ``poses`` is a list of pose specs
 exactly as in a pose file's ``poses`` list, ``units`` as in a pose file (both validated by
-``synth.io.poses.parse_pose_document``); everything but ``kind`` and ``poses`` is optional. With ``out``
+``synth.io.poses.parse_pose_document``); everything but ``kind`` and ``poses`` is optional. A point task
+(docs/points.md) gives ``points`` (5 for bennett, 7 for sixbar, as a pose file's ``points`` list) instead
+of, or besides, ``poses``; its result is the best-scored design. With ``out``
 (a relative path, resolved under the base directory ``out_dir``, which it may not leave or be) the
 linkage is written there (``synth.io.writer.write_output``: files of others in OUT are kept; robot name
 ``name``, else the id; missing parent directories are created, an unusable OUT is refused before the
@@ -56,9 +58,11 @@ from synth.io.names import check_robot_name, safe_robot_name
 from synth.io.poses import parse_pose_document
 from synth.io.writer import check_output_target, write_output
 from synth.synthesis.bennett import bennett
+from synth.synthesis.points import MINIMUM, NEEDED, oriented_item, point_candidates
 
 KINDS = {"bennett": 3, "sixbar": 4}
-JOB_KEYS = ("id", "kind", "poses", "units", "out", "name", "normalize", "force",
+DEGREES = {"bennett": 2, "sixbar": 3}  # degree of the motion of a point task
+JOB_KEYS = ("id", "kind", "poses", "points", "units", "out", "name", "normalize", "force",
             "pin_radius", "link_radius", "pin_length")
 MAX_LINE = 10 * 1024 * 1024
 
@@ -116,8 +120,8 @@ def _check_job(job: dict) -> None:
         raise _JobError(f"missing 'kind' ({' or '.join(repr(k) for k in KINDS)})")
     if job["kind"] not in KINDS:
         raise _JobError(f"unknown kind {job['kind']!r} (allowed: {', '.join(KINDS)})")
-    if "poses" not in job:
-        raise _JobError("missing 'poses' (a list of pose specs as in a pose file)")
+    if "poses" not in job and "points" not in job:
+        raise _JobError("missing 'poses' (a list of pose specs as in a pose file) or 'points'")
     jid = job.get("id")
     if jid is not None and not isinstance(jid, (str, int, float)) or isinstance(jid, bool):
         raise _JobError("'id' must be a string or a number")
@@ -140,6 +144,10 @@ def _check_job(job: dict) -> None:
 
 
 def _synthesize(kind: str, ps):
+    if ps.has_points:  # a point task (docs/points.md): the best-scored design
+        oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
+        return point_candidates(ps.positions, ps.names, degree=DEGREES[kind], top=1, tool_rotation=rot,
+                                oriented=oriented, check_samples=VERIFY_SAMPLES)[0]
     if kind == "bennett":
         return bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
     try:  # sixbar is optional in an installation
@@ -171,7 +179,7 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
         job = parse_job(text)
         result["id"] = _echo_id(job.get("id"))
         _check_job(job)
-        doc = {"poses": job["poses"]}
+        doc = {k: job[k] for k in ("poses", "points") if k in job}
         if "units" in job:
             doc["units"] = job["units"]
         kind = job["kind"]
@@ -180,7 +188,8 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
             if out_path is not None:
                 _prepare_out(out_path, bool(job.get("force", False)), created)
             ps = parse_pose_document(doc, source="poses", count=(KINDS[kind], f"kind {kind!r}"),
-                                     normalize=bool(job.get("normalize", False)))
+                                     normalize=bool(job.get("normalize", False)),
+                                     points=((MINIMUM[DEGREES[kind]], NEEDED[DEGREES[kind]]), f"kind {kind!r}"))
             linkage = _synthesize(kind, ps)
             out = None
             if "out" in job:
