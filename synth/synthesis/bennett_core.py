@@ -23,7 +23,7 @@ from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multip
                                       root_conditioning)
 from synth.algebra.polynomial import norm_poly
 from synth.checks import check_figures
-from synth.algebra.dq import pose_to_dq
+from synth.algebra.dq import dot, pose_to_dq
 from synth.synthesis.conic import condition, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
@@ -63,7 +63,7 @@ def solve(T, check_samples: int) -> dict:
                 & (residual <= MAX_RESIDUAL) & ~np.any(is_translation(H), axis=(1, 2)))
         world = to_world(np.concatenate([H.reshape(N, 4, 8), C], axis=1), cond)
         factors, motion = world[:, :4], world[:, 4:]  # h1 h2 k1 k2; C (world frame)
-        a, b = factors[..., 0], np.linalg.norm(factors[..., 1:4], axis=-1)
+        a, b = factors[..., 0], np.sqrt(dot(factors[..., 1:4], factors[..., 1:4]))
         U, M = -factors[..., 1:4] / b[..., None], factors[..., 5:8] / b[..., None]
         th = np.mod(2.0 * np.arctan2(b[:, None, :], TS[1:, None] - a[:, None, :]), 2 * np.pi)
         pose_angles = np.concatenate([np.zeros((N, 1, 4)), th], axis=1)  # (N, 3, 4)
@@ -73,7 +73,8 @@ def solve(T, check_samples: int) -> dict:
         # the common normals around the loop (each link carries two joints of the loop)
         sites = 0.5 * (geo["foot_out"] + geo["foot_in"][:, _PREV])
         pts = np.concatenate([Tf[:, :, :3, 3], sites, Tf[:, :1, :3, 3]], axis=1)
-        length_scale = np.maximum(np.sqrt(np.mean(np.sum((pts - pts.mean(axis=1, keepdims=True)) ** 2, -1), -1)), 1e-9)
+        rel = pts - pts.mean(axis=1, keepdims=True)
+        length_scale = np.maximum(np.sqrt(dot(rel, rel).mean(axis=-1)), 1e-9)
         errors = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
         far = axis_distance(U, M, cond.centre)
         rel = relative_error(Tf, cond.scale, far, errors)
@@ -87,7 +88,8 @@ def solve(T, check_samples: int) -> dict:
 
 def axis_distance(U, M, c) -> np.ndarray:
     """Largest distance of the axes (U, M) (N, J, 3) from the points c (N, 3): |m - c x u|."""
-    return np.max(np.linalg.norm(M - cross3(c[:, None, :], U), axis=-1), axis=-1)
+    m = M - cross3(c[:, None, :], U)
+    return np.sqrt(dot(m, m).max(axis=-1))
 
 
 def relative_error(T, spread, far, errors) -> np.ndarray:
@@ -108,21 +110,21 @@ def loop_geometry(U, M) -> dict:
     ``normal`` (N, J, 3), ``parallel`` (N, J). Parallel axes: the foot on i is its point nearest the origin."""
     J = U.shape[-2]
     nxt = (np.arange(J) + 1) % J
-    U2, M2 = U[..., nxt, :], M[..., nxt, :]
-    p1, p2 = cross3(U, M), cross3(U2, M2)
+    U2 = U[..., nxt, :]
+    p1 = cross3(U, M)  # the axis points nearest the origin
+    p2 = p1[..., nxt, :]
     cr = cross3(U, U2)
-    s2 = np.sum(cr * cr, axis=-1, keepdims=True)
+    s2 = dot(cr, cr)[..., None]
     par = s2 < 1e-24
     s2s = np.where(par, 1.0, s2)
     d = p2 - p1
-    f1 = np.where(par, p1, p1 + np.sum(cross3(d, U2) * cr, -1, keepdims=True) / s2s * U)
-    f2 = np.where(par, p2 - np.sum(d * U2, -1, keepdims=True) * U2,
-                  p2 + np.sum(cross3(d, U) * cr, -1, keepdims=True) / s2s * U2)
+    f1 = np.where(par, p1, p1 + (dot(cross3(d, U2), cr) / s2s[..., 0])[..., None] * U)
+    f2 = np.where(par, p2 - dot(d, U2)[..., None] * U2, p2 + (dot(cross3(d, U), cr) / s2s[..., 0])[..., None] * U2)
     dv = f2 - f1
-    dist = np.linalg.norm(dv, axis=-1, keepdims=True)
+    dist = np.sqrt(dot(dv, dv))[..., None]
     nc = np.sqrt(s2)
     n = np.where(dist > 1e-12, dv / np.where(dist > 1e-12, dist, 1.0), np.where(nc > 1e-12, cr / np.where(nc > 1e-12, nc, 1.0), 0.0))
-    twist = np.arctan2(np.sum(cr * n, -1), np.sum(U * U2, -1))
+    twist = np.arctan2(dot(cr, n), dot(U, U2))
     return {"distance": dist[..., 0], "twist": twist, "foot_out": f1, "foot_in": f2, "normal": n, "parallel": par[..., 0]}
 
 
@@ -151,6 +153,6 @@ def dh_rows(U, geo) -> dict:
     J = U.shape[-2]
     prv = (np.arange(J) - 1) % J
     f_in, n_in = geo["foot_in"][..., prv, :], geo["normal"][..., prv, :]
-    d = np.sum((geo["foot_out"] - f_in) * U, -1)
-    theta = np.arctan2(np.sum(cross3(n_in, geo["normal"]) * U, -1), np.sum(n_in * geo["normal"], -1))
+    d = dot(geo["foot_out"] - f_in, U)
+    theta = np.arctan2(dot(cross3(n_in, geo["normal"]), U), dot(n_in, geo["normal"]))
     return {"a": geo["distance"], "alpha": geo["twist"], "d": d, "theta": theta}
