@@ -66,9 +66,9 @@ def _pose_difference(X):
 def sample_parameters_batch(a, b, samples: int) -> np.ndarray:
     """Parameters (N, samples) covering the real line, ``centre + scale tan(phi)`` with centre and scale
     the mean a and b of each linkage's angle laws (a, b of shape (N, J)), the last one t = infinity."""
-    w = 1.0 / a.shape[-1]
-    centre = a.sum(axis=-1, keepdims=True) * w
-    scale = np.maximum(b.sum(axis=-1, keepdims=True) * w, 1e-12)
+    J = a.shape[-1]
+    centre = a.sum(axis=-1, keepdims=True) / J
+    scale = np.maximum(b.sum(axis=-1, keepdims=True) / J, 1e-12)
     return centre + scale * _tangents(samples)
 
 

@@ -200,8 +200,7 @@ def algorithm1(C, M, *, remainders: bool = False):
     M = np.asarray(M, float)
     n = C.shape[-2] - 1
     batch = np.broadcast_shapes(C.shape[:-2], M.shape[:-2])
-    D = np.broadcast_to(C, batch + C.shape[-2:])
-    M = np.broadcast_to(M, batch + (n, 2))
+    D = C if C.shape[:-2] == batch else np.broadcast_to(C, batch + C.shape[-2:])
     prim = dot(C[..., :4], C[..., :4]).max(axis=-1)  # (|primal| of the largest coefficient)^2
     H = np.empty(batch + (n, 8))
     R = np.empty(batch + (max(n - 1, 0), 8))
@@ -228,9 +227,9 @@ def remainder_error(C, H, R) -> np.ndarray:
     n = H.shape[-2]
     with np.errstate(all="ignore"):
         E = np.zeros(np.broadcast_shapes(np.shape(C)[:-2], H.shape[:-2]) + (n, 8))
-        for p in range(1, n):
-            E[..., : n - p, :] += poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :])
-                                           if p + 1 < n else np.eye(8)[:1])
+        for p in range(1, n):  # (the last remainder is multiplied by the empty product 1)
+            E[..., : n - p, :] += (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
+                                   if p + 1 < n else R[..., p - 1 : p, :])
         scale = np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
         r = np.max(np.abs(E), axis=(-2, -1)) / scale
     return np.where(np.isfinite(r), r, np.inf)

@@ -48,11 +48,18 @@ def result_dtype(*arrays):
 
 def dot(a, b) -> np.ndarray:
     """Dot products along the last axis, (..., k) x (..., k) -> (...), broadcast; float arrays by one
-    einsum (summing a product over a short last axis with ``.sum(-1)`` is several times slower on large
-    batches), object arrays (exact) by a sum."""
+    call of ``numpy.vecdot`` (numpy >= 2; else einsum): summing a product over a short last axis with
+    ``.sum(-1)`` is several times slower on large batches; object arrays (exact) by a sum."""
     if a.dtype.kind == "O" or b.dtype.kind == "O":
-        return np.sum(a * b, axis=-1)
+        return np.asarray(np.sum(a * b, axis=-1))
+    return _VECDOT(a, b)
+
+
+def _einsum_dot(a, b):
     return np.einsum("...i,...i->...", a, b)
+
+
+_VECDOT = getattr(np, "vecdot", _einsum_dot)
 
 
 # ----------------------------------------------------------------- quaternions
@@ -242,10 +249,11 @@ def study_form(g, h):
 def dq_inv(h):
     """Inverse (p must be nonzero): h~ / N(h) with 1/(a + eps b) = 1/a - eps b/a^2."""
     h = as_array(h)
-    n = dq_norm(h)
-    a, b = n[..., :1], n[..., 1:]
-    c = dq_conj(h)
-    return np.concatenate([c[..., :4] / a, c[..., 4:] / a - c[..., :4] * b / a**2], axis=-1)
+    p = h[..., :4]
+    a = dot(p, p)[..., None]
+    out = h * _CONJ / a
+    out[..., 4:] -= out[..., :4] * (2 * dot(p, h[..., 4:])[..., None] / a)
+    return out
 
 
 def pose_to_dq(T):

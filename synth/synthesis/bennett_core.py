@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multiply_back, norm_roots, quadratics,
+from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, norm_roots, quadratics, remainder_error,
                                       root_conditioning)
 from synth.algebra.polynomial import norm_poly
 from synth.checks import check_figures
@@ -57,8 +57,8 @@ def solve(T, check_samples: int) -> dict:
         C, B = con.C, con.B  # (N, 3, 8), (N, 3)
         z = norm_roots(norm_poly(C))  # (N, 2), Re z[0] <= Re z[1]
         im, sep = root_conditioning(z)
-        H, ok = algorithm1(C[:, None], quadratics(z)[:, _ORDERS])  # (N, 2 branches, 2, 8)
-        residual = np.max(multiply_back(C[:, None], H), axis=1)
+        H, ok, R = algorithm1(C[:, None], quadratics(z)[:, _ORDERS], remainders=True)  # (N, 2 branches, 2, 8)
+        residual = remainder_error(C[:, None], H, R).max(axis=1)  # the multiply-back error, up to rounding
         good = (finite & ok.all(axis=1) & (np.min(np.abs(B), axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
                 & (residual <= MAX_RESIDUAL) & ~np.any(is_translation(H), axis=(1, 2)))
         world = to_world(np.concatenate([H.reshape(N, 4, 8), C], axis=1), cond)
@@ -73,8 +73,8 @@ def solve(T, check_samples: int) -> dict:
         # the common normals around the loop (each link carries two joints of the loop)
         sites = 0.5 * (geo["foot_out"] + geo["foot_in"][:, _PREV])
         pts = np.concatenate([Tf[:, :, :3, 3], sites, Tf[:, :1, :3, 3]], axis=1)
-        rel = pts - pts.mean(axis=1, keepdims=True)
-        length_scale = np.maximum(np.sqrt(dot(rel, rel).mean(axis=-1)), 1e-9)
+        rel = pts - pts.sum(axis=1, keepdims=True) / pts.shape[1]
+        length_scale = np.maximum(np.sqrt(dot(rel, rel).sum(axis=-1) / pts.shape[1]), 1e-9)
         errors = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
         far = axis_distance(U, M, cond.centre)
         rel = relative_error(Tf, cond.scale, far, errors)

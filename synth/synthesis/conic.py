@@ -27,9 +27,10 @@ def condition(T) -> tuple[np.ndarray, Conditioning]:
     Works on (..., k, 4, 4); the centre is (..., 3), the scale (...)."""
     T = np.asarray(T, float)
     pos = T[..., :3, 3]
-    c = pos.mean(axis=-2)
+    k = pos.shape[-2]
+    c = pos.sum(axis=-2) / k
     rel = pos - c[..., None, :]
-    L = np.sqrt(dot(rel, rel).mean(axis=-1))
+    L = np.sqrt(dot(rel, rel).sum(axis=-1) / k)
     L = np.where(L > 0, L, 1.0)
     Tc = T.copy()
     Tc[..., :3, 3] = (pos - c[..., None, :]) / L[..., None, None]
