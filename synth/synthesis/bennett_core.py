@@ -40,6 +40,7 @@ MIN_SEPARATION = 1e-5  # min |z1 - z2| / (1 + |z|^2) at or below this: nearly re
 MAX_RESIDUAL = 5e-13  # multiply-back error above this: per-set path (factorize refines)
 _ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
 _PREV = [3, 0, 1, 2]  # the previous joint around the loop
+_EYE4 = np.eye(4)
 
 
 def solve(T, check_samples: int) -> dict:
@@ -50,7 +51,7 @@ def solve(T, check_samples: int) -> dict:
     N = T.shape[0]
     finite = np.all(np.isfinite(T), axis=(1, 2, 3))
     with np.errstate(all="ignore"):
-        Tf = np.where(finite[:, None, None, None], T, np.eye(4))
+        Tf = np.where(finite[:, None, None, None], T, _EYE4)
         Tc, cond = condition(Tf)
         Q = pose_to_dq(np.concatenate([Tf, Tc], axis=1))  # world (checks) and conditioned (conic) poses
         con = conic(relative_displacements_dq(Q[:, 3:]))
@@ -59,8 +60,8 @@ def solve(T, check_samples: int) -> dict:
         im, sep = root_conditioning(z)
         H, ok, R = algorithm1(C[:, None], quadratics(z)[:, _ORDERS], remainders=True)  # (N, 2 branches, 2, 8)
         residual = remainder_error(C[:, None], H, R).max(axis=1)  # the multiply-back error, up to rounding
-        good = (finite & ok.all(axis=1) & (np.min(np.abs(B), axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
-                & (residual <= MAX_RESIDUAL) & ~np.any(is_translation(H), axis=(1, 2)))
+        good = (finite & ok.all(axis=1) & (np.abs(B).min(axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
+                & (residual <= MAX_RESIDUAL) & ~is_translation(H).any(axis=(1, 2)))
         world = to_world(np.concatenate([H.reshape(N, 4, 8), C], axis=1), cond)
         factors, motion = world[:, :4], world[:, 4:]  # h1 h2 k1 k2; C (world frame)
         a, b = factors[..., 0], np.sqrt(dot(factors[..., 1:4], factors[..., 1:4]))
@@ -68,7 +69,7 @@ def solve(T, check_samples: int) -> dict:
         th = np.mod(2.0 * np.arctan2(b[:, None, :], TS[1:, None] - a[:, None, :]), 2 * np.pi)
         pose_angles = np.concatenate([np.zeros((N, 1, 4)), th], axis=1)  # (N, 3, 4)
         geo = loop_geometry(U[:, LOOP], M[:, LOOP])
-        good &= ~np.any(geo["parallel"], axis=1)
+        good &= ~geo["parallel"].any(axis=1)
         # the linkage's length scale (`synth.checks.extent`): the joint sites are the means of the feet of
         # the common normals around the loop (each link carries two joints of the loop)
         sites = 0.5 * (geo["foot_out"] + geo["foot_in"][:, _PREV])
@@ -79,7 +80,8 @@ def solve(T, check_samples: int) -> dict:
         far = axis_distance(U, M, cond.centre)
         rel = relative_error(Tf, cond.scale, far, errors)
         good &= rel <= 0.1 * ACCEPT_TOL
-    return dict(good=good, finite=finite, lines=np.stack([U, M], axis=2), laws=np.stack([a, b], -1),
+    return dict(good=good, finite=finite, lines=np.concatenate([U[:, :, None], M[:, :, None]], axis=2),
+                laws=np.concatenate([a[..., None], b[..., None]], axis=-1),
                 pose_angles=pose_angles, factors=factors, motion=motion, study_form=B * cond.scale[:, None],
                 centre=cond.centre, scale=cond.scale, residual=residual, roots=z, geometry=geo,
                 bennett=bennett_parameters(geo), dh=dh_rows(U[:, LOOP], geo), errors=errors, relative_error=rel,
