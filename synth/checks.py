@@ -13,9 +13,11 @@ import functools
 import numpy as np
 
 from synth.algebra.algorithm1 import cross3
-from synth.algebra.dq import dq_mul, dq_right_matrix, pose_to_dq, qconj, qmul
+from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq, qmul
 from synth.linkage import Linkage
 
+_CONJ4 = np.array([1.0, -1.0, -1.0, -1.0])
+_E0 = np.eye(8)[0]
 DEFAULT_CHECK_SAMPLES = 4  # synthesis functions check closure and motion at this many parameters
 VERIFY_SAMPLES = 200  # the CLI verifies this many before writing anything
 
@@ -44,21 +46,29 @@ def dq_pose_difference(A, B):
     p_A~ p_B in [0, pi], as 4 asin(|p_A - s p_B| / 2) for the unit primal parts (s = sign(p_A . p_B)),
     accurate for small and large angles."""
     A, B = np.broadcast_arrays(np.asarray(A, float), np.asarray(B, float))
-    P = np.stack([A[..., :4], B[..., :4]])
-    n = np.sum(P * P, axis=-1)
-    d = qmul(P, qconj(np.stack([A[..., 4:], B[..., 4:]])))[..., 1:] * (2.0 / n)[..., None]
-    dt = np.linalg.norm(d[0] - d[1], axis=-1)
-    u = P / np.sqrt(n)[..., None]
-    s = np.where(np.sum(u[0] * u[1], axis=-1) < 0, -1.0, 1.0)[..., None]
-    dr = 4.0 * np.arcsin(np.minimum(0.5 * np.linalg.norm(u[0] - s * u[1], axis=-1), 1.0))
+    return _pose_difference(np.stack([A, B]))
+
+
+def _pose_difference(X):
+    """`dq_pose_difference` of X[0] and X[1], X of shape (2, ..., 8)."""
+    P = X[..., :4]
+    n = dot(P, P)
+    d = qmul(P, X[..., 4:] * _CONJ4)[..., 1:] * (2.0 / n)[..., None]
+    d = d[0] - d[1]
+    dt = np.sqrt(dot(d, d))
+    u = P * (1.0 / np.sqrt(n))[..., None]
+    s = np.where(dot(u[0], u[1]) < 0, -1.0, 1.0)
+    w = u[0] - s[..., None] * u[1]
+    dr = 4.0 * np.arcsin(np.minimum(0.5 * np.sqrt(dot(w, w)), 1.0))
     return dt, dr
 
 
 def sample_parameters_batch(a, b, samples: int) -> np.ndarray:
     """Parameters (N, samples) covering the real line, ``centre + scale tan(phi)`` with centre and scale
     the mean a and b of each linkage's angle laws (a, b of shape (N, J)), the last one t = infinity."""
-    centre = np.mean(a, axis=-1, keepdims=True)
-    scale = np.maximum(np.mean(b, axis=-1, keepdims=True), 1e-12)
+    J = a.shape[-1]
+    centre = a.sum(axis=-1, keepdims=True) / J
+    scale = np.maximum(b.sum(axis=-1, keepdims=True) / J, 1e-12)
     return centre + scale * _tangents(samples)
 
 
@@ -89,43 +99,53 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
     ``closure_rotation`` (every welded pair at ``samples`` parameters covering R, t = inf included) and
     ``motion`` (tool link vs C(t), translation + rotation)."""
     joints, tool_link, closures = structure
-    N, P = pose_angles.shape[:2]
-    t = sample_parameters_batch(a, b, samples)  # (N, S)
+    N, P, J = pose_angles.shape
+    t = sample_parameters_batch(a, b, samples)  # (N, S), the last t = inf
+    S = t.shape[1]
+    inf = np.isinf(t)
     with np.errstate(invalid="ignore"):
-        th_s = np.where(np.isinf(t)[..., None], 0.0, 2.0 * np.arctan2(b[:, None, :], t[..., None] - a[:, None, :]))
-    half = 0.5 * np.concatenate([pose_angles, th_s], axis=1)  # (N, P + S, J)
+        half_s = np.where(inf[..., None], 0.0, np.arctan2(b[:, None, :], t[..., None] - a[:, None, :]))
+    half = np.concatenate([0.5 * pose_angles, half_s], axis=1)  # (N, P + S, J)
     cos, sin = np.cos(half)[..., None], np.sin(half)[..., None]
     # the joint displacement G = cos + sin (u - eps m) multiplies on the right: x G = cos x + sin x R(line),
     # with R the right-multiplication matrix of the line (one 8x8 matrix per set and joint)
-    lines = np.concatenate([np.zeros(U.shape[:-1] + (1,)), U, np.zeros(U.shape[:-1] + (1,)), -M], axis=-1)
+    lines = np.zeros(U.shape[:-1] + (8,))
+    lines[..., 1:4] = U
+    lines[..., 5:8] = M
+    lines[..., 5:8] *= -1.0
     R = dq_right_matrix(lines)  # (N, J, 8, 8)
     disp = {}
     for j, (parent, child) in enumerate(joints):
         if parent == "base":
-            disp[child] = cos[..., j, :] * np.eye(8)[0] + sin[..., j, :] * lines[:, None, j]
+            disp[child] = cos[..., j, :] * _E0 + sin[..., j, :] * lines[:, None, j]
         else:
             x = disp[parent]
             disp[child] = cos[..., j, :] * x + sin[..., j, :] * (x @ R[:, j])
     tool = disp[tool_link]
+    # the pairs compared, stacked: X[0] (tool at the poses, tool link along the motion, closure links)
+    # against X[1] (the poses, C(t), the duplicate links)
+    X = np.empty((2, N, P + S * (1 + len(closures)), 8))
+    np.matmul(tool[:, :P], dq_right_matrix(tool_ref_dq), out=X[0, :, :P])
+    X[1, :, :P] = pose_dq
+    X[0, :, P : P + S] = tool[:, P:]
     # C(t) by Horner; t = inf gives the leading coefficient
-    finite = np.where(np.isinf(t), 0.0, t)[..., None]
-    Ct = motion[:, -1:, :] * np.ones(finite.shape)
+    tf = np.where(inf, 0.0, t)[..., None]
+    Ct = X[1, :, P : P + S]
+    Ct[...] = motion[:, -1:, :]
     for k in range(motion.shape[-2] - 2, -1, -1):
-        Ct = Ct * finite + motion[:, k : k + 1, :]
-    Ct = np.where(np.isinf(t)[..., None], motion[:, -1:, :], Ct)
-    lhs = [tool[:, :P] @ dq_right_matrix(tool_ref_dq), tool[:, P:]]
-    rhs = [pose_dq, Ct]
-    for x, y in closures:
-        lhs.append(disp[x][:, P:])
-        rhs.append(disp[y][:, P:])
-    dt, dr = dq_pose_difference(np.concatenate(lhs, axis=1), np.concatenate(rhs, axis=1))
-    S = t.shape[1]
+        Ct *= tf
+        Ct += motion[:, k : k + 1, :]
+    np.copyto(Ct, motion[:, -1:, :], where=inf[..., None])
+    for i, (x, y) in enumerate(closures):
+        X[0, :, P + S * (i + 1) : P + S * (i + 2)] = disp[x][:, P:]
+        X[1, :, P + S * (i + 1) : P + S * (i + 2)] = disp[y][:, P:]
+    dt, dr = _pose_difference(X)
     clo_t, clo_r = dt[:, P + S :], dr[:, P + S :]
-    return {"pose_translation": np.max(dt[:, :P], axis=1, initial=0.0),
-            "pose_rotation": np.max(dr[:, :P], axis=1, initial=0.0),
-            "closure_translation": np.max(clo_t, axis=1, initial=0.0),
-            "closure_rotation": np.max(clo_r, axis=1, initial=0.0),
-            "motion": np.max(dt[:, P : P + S] + dr[:, P : P + S], axis=1, initial=0.0)}
+    return {"pose_translation": dt[:, :P].max(axis=1, initial=0.0),
+            "pose_rotation": dr[:, :P].max(axis=1, initial=0.0),
+            "closure_translation": clo_t.max(axis=1, initial=0.0),
+            "closure_rotation": clo_r.max(axis=1, initial=0.0),
+            "motion": (dt[:, P : P + S] + dr[:, P : P + S]).max(axis=1, initial=0.0)}
 
 
 def structure(linkage: Linkage) -> tuple:

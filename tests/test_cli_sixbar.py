@@ -20,13 +20,29 @@ REPO = Path(__file__).resolve().parents[1]
 VERIFY = Path(__file__).resolve().parents[2] / "shared/tools/verify_output.py"
 
 
-@pytest.fixture
-def example(tmp_path):
+@pytest.fixture(scope="module")
+def example(tmp_path_factory):
     """fixtures/sixbar_example.yaml (MATH.md 11 E), or the same poses written here if it is missing."""
     path = REPO / "fixtures" / "sixbar_example.yaml"
     if path.exists():
         return path
-    return write_pose_yaml(tmp_path / "sixbar_example.yaml", e_poses(), ["T0", "T1", "T2", "T3"])
+    path = tmp_path_factory.mktemp("example") / "sixbar_example.yaml"
+    return write_pose_yaml(path, e_poses(), ["T0", "T1", "T2", "T3"])
+
+
+@pytest.fixture(scope="module")
+def default_run(example, tmp_path_factory):
+    """(result, OUT) of `mpsynth sixbar EXAMPLE -o OUT` with its summary, built once for the tests that
+    read it (the scan, design search and export take most of this module's time)."""
+    out = tmp_path_factory.mktemp("sixbar") / "single"
+    return run("sixbar", example, "-o", out), out
+
+
+@pytest.fixture(scope="module")
+def top3_run(example, tmp_path_factory):
+    """(result, OUT) of `mpsynth sixbar EXAMPLE --top 3 -o OUT` with its ranking table, built once."""
+    out = tmp_path_factory.mktemp("sixbar") / "top"
+    return run("sixbar", example, "--top", "3", "-o", out), out
 
 
 def run(*args, input=None):
@@ -45,20 +61,17 @@ def verify(poses, *outs):
         assert text.strip().splitlines()[-1].startswith("verify OK"), f"{out}: {text}"
 
 
-def test_default_and_top3_outputs_verify(example, tmp_path):
+def test_default_and_top3_outputs_verify(example, default_run, top3_run):
     """The shared verifier accepts the default output and every --top 3 solution (run together)."""
-    single = tmp_path / "single"
-    top = tmp_path / "top"
-    assert run("sixbar", example, "-o", single, "-q").exit_code == 0
-    assert run("sixbar", example, "--top", "3", "-o", top, "-q").exit_code == 0
+    (r1, single), (r3, top) = default_run, top3_run
+    assert r1.exit_code == 0 and r3.exit_code == 0
     ids = [s["id"] for s in json.loads((top / "index.json").read_text())["solutions"]]
     assert len(ids) == 3
     verify(example, single, *(top / i for i in ids))
 
 
-def test_default_output(example, tmp_path):
-    out = tmp_path / "out"
-    r = run("sixbar", example, "-o", out)
+def test_default_output(default_run):
+    r, out = default_run
     assert r.exit_code == 0, r.output
     assert "6R design: family" in r.output and "self-check" in r.output
     doc = json.loads((out / "linkage.json").read_text())
@@ -69,9 +82,8 @@ def test_default_output(example, tmp_path):
     assert doc["checks"]["max_pose_error"] < 1e-12 and doc["checks"]["max_closure_error"] < 1e-12
 
 
-def test_top3_layout(example, tmp_path):
-    out = tmp_path / "top"
-    r = run("sixbar", example, "--top", "3", "-o", out)
+def test_top3_layout(default_run, top3_run):
+    r, out = top3_run
     assert r.exit_code == 0, r.output
     assert "rank" in r.output and "score" in r.output  # the ranking table on stderr
     index = json.loads((out / "index.json").read_text())
@@ -90,8 +102,8 @@ def test_top3_layout(example, tmp_path):
         assert len(list((out / s["id"] / "meshes").glob("*.stl"))) == 12
         assert s["collision"] == doc["collision"] and "collision-free" in s["design_summary"]
     # the default output is the first of the ranking
-    single = tmp_path / "single"
-    assert run("sixbar", example, "-o", single, "-q").exit_code == 0
+    r, single = default_run
+    assert r.exit_code == 0
     doc = json.loads((single / "linkage.json").read_text())
     assert (doc["info"]["family"], doc["info"]["pair"]) == (sols[0]["family"], sols[0]["pair"])
     assert doc["info"]["member"] == pytest.approx(sols[0]["member"], rel=1e-12)
@@ -158,16 +170,16 @@ def test_coincident_poses_exit_1(tmp_path):
     assert r.exit_code == 1 and "coincide" in r.output
 
 
-def test_default_design_is_collision_free_first(tmp_path):
+def test_default_design_is_collision_free_first(default_run, top3_run):
     """The default output is chosen collision-free first: the fixture's written design claims the full
     cycle and linkage.json says how it was chosen; --top lists collision-free designs before the others."""
-    out = tmp_path / "o"
-    r = run("sixbar", REPO / "fixtures/sixbar_example.yaml", "-o", out, "-q")
+    r, out = default_run
     assert r.exit_code == 0, r.output
     doc = json.loads((out / "linkage.json").read_text())
     assert doc["collision"]["free"] and doc["collision"]["range"] == "full"
     assert "collision-free first" in doc["info"]["design_choice"]
-    r = run("sixbar", REPO / "fixtures/sixbar_example.yaml", "--top", "3", "--json", "-q")
+    r, top = top3_run
+    assert r.exit_code == 0, r.output
     ranks = [0 if s["collision"]["free"] and s["collision"]["range"] == "full" else 1 if s["collision"]["free"] else 2
-             for s in json.loads(r.stdout)["solutions"]]
+             for s in json.loads((top / "index.json").read_text())["solutions"]]
     assert ranks == sorted(ranks)

@@ -7,6 +7,7 @@ import errno
 import json
 import os
 import random
+import select
 import shutil
 import signal
 import subprocess
@@ -383,11 +384,14 @@ def test_signal_to_a_parallel_batch_is_quiet(tmp_path, sig, code):
     sixbar = {"kind": "sixbar", "poses": POSES3 + [{"position": [-1, 0.5, 0], "quaternion": [0.2, 0.4, 0.4, 0.8]}]}
     (tmp_path / "j.jsonl").write_text("".join(json.dumps({"id": i, **sixbar}) + "\n" for i in range(400)))
     p = _launch(["batch", "j.jsonl", "-j", "2"], tmp_path)
-    time.sleep(3.0)
+    # signal the batch once its workers deliver results (a fixed sleep raced the start of the worker pool on a
+    # loaded machine, e.g. with pytest-xdist: the forkserver then reports a missing semaphore of the dead parent)
+    started = select.select([p.stdout], [], [], 300)[0]  # (waits without reading)
+    time.sleep(0.5)
     p.send_signal(sig)
     out, err = p.communicate(timeout=60)
     err = err.decode()
-    assert p.returncode == code and "Traceback" not in err and "Error" not in err, err
+    assert started and p.returncode == code and "Traceback" not in err and "Error" not in err, err
     for line in out.decode().splitlines():
         json.loads(line)  # whole result lines only
 

@@ -18,7 +18,7 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dq_inv, dq_left_matrix, dq_mul, dq_right_matrix
+from synth.algebra.dq import dot, dq_inv, dq_left_matrix, dq_mul, dq_right_matrix
 from synth.algebra.polynomial import divide_linear_right, divide_real_quadratic, poly_mul, product_of_linear
 
 GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D_k)|: the remainder is not invertible
@@ -28,14 +28,21 @@ _ONE = np.eye(8)[0]
 
 
 _NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
+_LEVI_CIVITA = np.zeros((3, 3, 3))
+_LEVI_CIVITA[np.arange(3), _NEXT, _PREV] = 1.0
+_LEVI_CIVITA[np.arange(3), _PREV, _NEXT] = -1.0
 
 
 def cross3(a, b) -> np.ndarray:
-    """Cross product of 3-vectors (..., 3), broadcast (``numpy.cross`` costs ~20 us of overhead per
-    call, which dominates a single synthesis)."""
+    """Cross product of 3-vectors (..., 3), broadcast (``numpy.cross`` costs ~15 us of overhead per
+    call, which dominates a single synthesis): a few vectors by one einsum with the Levi-Civita symbol,
+    more by index permutations, many by ``numpy.cross``."""
     a = np.asarray(a, float)
     b = np.asarray(b, float)
-    if a.size + b.size > 3000:
+    n = a.size + b.size
+    if n <= 96:
+        return np.einsum("ijk,...j,...k->...i", _LEVI_CIVITA, a, b)
+    if n > 3000:
         return np.cross(a, b)
     return np.take(a, _NEXT, -1) * np.take(b, _PREV, -1) - np.take(a, _PREV, -1) * np.take(b, _NEXT, -1)
 
@@ -70,23 +77,31 @@ def norm_roots(N, newton: int = 2) -> np.ndarray:
     else:
         z = _newton(flat, _eig_upper(flat), newton)[0]
     z = np.where(z.imag < 0, z.conj(), z)
-    z = np.take_along_axis(z, np.argsort(z.real + 1e-12 * z.imag, axis=-1, kind="stable"), -1)
+    z = z[np.arange(z.shape[0])[:, None], np.argsort(z.real + 1e-12 * z.imag, axis=-1, kind="stable")]
     return z.reshape(batch + (m // 2,))
 
 
 def _eig_upper(flat):
-    """The m/2 eigenvalues with the largest imaginary parts of the companion matrices of flat (B, m+1)."""
-    m = flat.shape[-1] - 1
-    comp = np.zeros((flat.shape[0], m, m))
-    comp[:, 1:, :-1] = np.eye(m - 1)
+    """The m/2 eigenvalues with the largest imaginary parts of the companion matrices of flat (B, m+1)
+    (NaN for a polynomial with a non-finite or zero leading coefficient), reflected into Im z >= 0."""
+    B, m = flat.shape[0], flat.shape[-1] - 1
+    comp = np.zeros((B, m, m))
+    comp[:, 1:, :-1] = _shift(m)
     with np.errstate(all="ignore"):
-        comp[:, :, -1] = -flat[:, :m] / flat[:, m:]
-    bad = ~np.all(np.isfinite(comp[:, :, -1]), axis=-1)
-    comp[bad, :, -1] = 0.0
-    z = np.linalg.eigvals(comp)
-    z[bad] = np.nan
-    z = np.take_along_axis(z, np.argsort(-z.imag, axis=-1)[:, : m // 2], -1)
+        last = -flat[:, :m] / flat[:, m:]
+    fin = np.isfinite(last).all(axis=-1)[:, None]
+    comp[:, :, -1] = np.where(fin, last, 0.0)
+    z = np.where(fin, np.linalg.eigvals(comp), np.nan)
+    z = z[np.arange(B)[:, None], np.argsort(-z.imag, axis=-1)[:, : m // 2]]
     return np.where(z.imag < 0, z.conj(), z)
+
+
+@functools.lru_cache(maxsize=None)
+def _shift(m: int) -> np.ndarray:
+    """The identity of size m - 1 (the subdiagonal of an m x m companion matrix; read-only, cached)."""
+    e = np.eye(m - 1)
+    e.flags.writeable = False
+    return e
 
 
 def _newton(flat, z, steps):
@@ -94,13 +109,13 @@ def _newton(flat, z, steps):
     values and derivatives from the powers of z (two small matrix products per step).
     Returns (z, the last step)."""
     m = flat.shape[-1] - 1
-    c = flat[:, :, None]  # (B, m+1, 1)
-    d = (flat[:, 1:] * np.arange(1, m + 1))[:, :, None]  # (B, m, 1)
+    c = flat[:, 1:, None]  # (B, m, 1)
+    d = (flat[:, 1:] * np.arange(1.0, m + 1))[:, :, None]  # (B, m, 1)
     step = np.zeros_like(z)
     with np.errstate(all="ignore"):
         for _ in range(steps):
-            P = np.cumprod(np.broadcast_to(z[..., None], z.shape + (m,)), axis=-1)  # z^1 .. z^m
-            step = ((P @ c[:, 1:])[..., 0] + flat[:, :1]) / ((P[..., :-1] @ d[:, 1:])[..., 0] + d[:, 0])
+            P = np.cumprod(z[..., None].repeat(m, axis=-1), axis=-1)  # z^1 .. z^m
+            step = ((P @ c)[..., 0] + flat[:, :1]) / ((P[..., :-1] @ d[:, 1:])[..., 0] + d[:, 0])
             step = np.where(np.isfinite(step), step, 0)
             z = z - step
     return z, step
@@ -185,15 +200,14 @@ def algorithm1(C, M, *, remainders: bool = False):
     M = np.asarray(M, float)
     n = C.shape[-2] - 1
     batch = np.broadcast_shapes(C.shape[:-2], M.shape[:-2])
-    D = np.broadcast_to(C, batch + C.shape[-2:])
-    M = np.broadcast_to(M, batch + (n, 2))
-    prim = np.max(np.sum(C[..., :4] ** 2, axis=-1), axis=-1)  # (|primal| of the largest coefficient)^2
+    D = C if C.shape[:-2] == batch else np.broadcast_to(C, batch + C.shape[-2:])
+    prim = dot(C[..., :4], C[..., :4]).max(axis=-1)  # (|primal| of the largest coefficient)^2
     H = np.empty(batch + (n, 8))
     R = np.empty(batch + (max(n - 1, 0), 8))
     ok = np.ones(batch, bool)
     for pos in range(n - 1, 0, -1):
         _, r1, r0 = divide_real_quadratic(D, M[..., pos, :])
-        good = np.sum(r1[..., :4] ** 2, axis=-1) > GENERIC_TOL**2 * prim
+        good = dot(r1[..., :4], r1[..., :4]) > GENERIC_TOL**2 * prim
         ok &= good
         r1 = np.where(good[..., None], r1, _ONE)
         h = -dq_mul(dq_inv(r1), r0)
@@ -213,9 +227,9 @@ def remainder_error(C, H, R) -> np.ndarray:
     n = H.shape[-2]
     with np.errstate(all="ignore"):
         E = np.zeros(np.broadcast_shapes(np.shape(C)[:-2], H.shape[:-2]) + (n, 8))
-        for p in range(1, n):
-            E[..., : n - p, :] += poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :])
-                                           if p + 1 < n else np.eye(8)[:1])
+        for p in range(1, n):  # (the last remainder is multiplied by the empty product 1)
+            E[..., : n - p, :] += (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
+                                   if p + 1 < n else R[..., p - 1 : p, :])
         scale = np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
         r = np.max(np.abs(E), axis=(-2, -1)) / scale
     return np.where(np.isfinite(r), r, np.inf)
@@ -242,7 +256,7 @@ def study_violation(H) -> np.ndarray:
 
 def is_translation(H) -> np.ndarray:
     """Which factors t - h (..., 8) are translations (no rotation part): |vec(primal h)| small."""
-    return ~(np.linalg.norm(H[..., 1:4], axis=-1) > PRISMATIC_TOL * (1 + np.abs(H[..., 0])))
+    return ~(np.sqrt(dot(H[..., 1:4], H[..., 1:4])) > PRISMATIC_TOL * (1 + np.abs(H[..., 0])))
 
 
 def polish(C, H, iterations: int = 2, step_tol: float = 1e-10):

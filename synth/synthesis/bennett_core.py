@@ -19,11 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multiply_back, norm_roots, quadratics,
+from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, norm_roots, quadratics, remainder_error,
                                       root_conditioning)
 from synth.algebra.polynomial import norm_poly
 from synth.checks import check_figures
-from synth.algebra.dq import pose_to_dq
+from synth.algebra.dq import dot, pose_to_dq
 from synth.synthesis.conic import condition, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
@@ -40,6 +40,7 @@ MIN_SEPARATION = 1e-5  # min |z1 - z2| / (1 + |z|^2) at or below this: nearly re
 MAX_RESIDUAL = 5e-13  # multiply-back error above this: per-set path (factorize refines)
 _ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
 _PREV = [3, 0, 1, 2]  # the previous joint around the loop
+_EYE4 = np.eye(4)
 
 
 def solve(T, check_samples: int) -> dict:
@@ -50,35 +51,37 @@ def solve(T, check_samples: int) -> dict:
     N = T.shape[0]
     finite = np.all(np.isfinite(T), axis=(1, 2, 3))
     with np.errstate(all="ignore"):
-        Tf = np.where(finite[:, None, None, None], T, np.eye(4))
+        Tf = np.where(finite[:, None, None, None], T, _EYE4)
         Tc, cond = condition(Tf)
         Q = pose_to_dq(np.concatenate([Tf, Tc], axis=1))  # world (checks) and conditioned (conic) poses
         con = conic(relative_displacements_dq(Q[:, 3:]))
         C, B = con.C, con.B  # (N, 3, 8), (N, 3)
         z = norm_roots(norm_poly(C))  # (N, 2), Re z[0] <= Re z[1]
         im, sep = root_conditioning(z)
-        H, ok = algorithm1(C[:, None], quadratics(z)[:, _ORDERS])  # (N, 2 branches, 2, 8)
-        residual = np.max(multiply_back(C[:, None], H), axis=1)
-        good = (finite & ok.all(axis=1) & (np.min(np.abs(B), axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
-                & (residual <= MAX_RESIDUAL) & ~np.any(is_translation(H), axis=(1, 2)))
+        H, ok, R = algorithm1(C[:, None], quadratics(z)[:, _ORDERS], remainders=True)  # (N, 2 branches, 2, 8)
+        residual = remainder_error(C[:, None], H, R).max(axis=1)  # the multiply-back error, up to rounding
+        good = (finite & ok.all(axis=1) & (np.abs(B).min(axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
+                & (residual <= MAX_RESIDUAL) & ~is_translation(H).any(axis=(1, 2)))
         world = to_world(np.concatenate([H.reshape(N, 4, 8), C], axis=1), cond)
         factors, motion = world[:, :4], world[:, 4:]  # h1 h2 k1 k2; C (world frame)
-        a, b = factors[..., 0], np.linalg.norm(factors[..., 1:4], axis=-1)
+        a, b = factors[..., 0], np.sqrt(dot(factors[..., 1:4], factors[..., 1:4]))
         U, M = -factors[..., 1:4] / b[..., None], factors[..., 5:8] / b[..., None]
         th = np.mod(2.0 * np.arctan2(b[:, None, :], TS[1:, None] - a[:, None, :]), 2 * np.pi)
         pose_angles = np.concatenate([np.zeros((N, 1, 4)), th], axis=1)  # (N, 3, 4)
         geo = loop_geometry(U[:, LOOP], M[:, LOOP])
-        good &= ~np.any(geo["parallel"], axis=1)
+        good &= ~geo["parallel"].any(axis=1)
         # the linkage's length scale (`synth.checks.extent`): the joint sites are the means of the feet of
         # the common normals around the loop (each link carries two joints of the loop)
         sites = 0.5 * (geo["foot_out"] + geo["foot_in"][:, _PREV])
         pts = np.concatenate([Tf[:, :, :3, 3], sites, Tf[:, :1, :3, 3]], axis=1)
-        length_scale = np.maximum(np.sqrt(np.mean(np.sum((pts - pts.mean(axis=1, keepdims=True)) ** 2, -1), -1)), 1e-9)
+        rel = pts - pts.sum(axis=1, keepdims=True) / pts.shape[1]
+        length_scale = np.maximum(np.sqrt(dot(rel, rel).sum(axis=-1) / pts.shape[1]), 1e-9)
         errors = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
         far = axis_distance(U, M, cond.centre)
         rel = relative_error(Tf, cond.scale, far, errors)
         good &= rel <= 0.1 * ACCEPT_TOL
-    return dict(good=good, finite=finite, lines=np.stack([U, M], axis=2), laws=np.stack([a, b], -1),
+    return dict(good=good, finite=finite, lines=np.concatenate([U[:, :, None], M[:, :, None]], axis=2),
+                laws=np.concatenate([a[..., None], b[..., None]], axis=-1),
                 pose_angles=pose_angles, factors=factors, motion=motion, study_form=B * cond.scale[:, None],
                 centre=cond.centre, scale=cond.scale, residual=residual, roots=z, geometry=geo,
                 bennett=bennett_parameters(geo), dh=dh_rows(U[:, LOOP], geo), errors=errors, relative_error=rel,
@@ -87,7 +90,8 @@ def solve(T, check_samples: int) -> dict:
 
 def axis_distance(U, M, c) -> np.ndarray:
     """Largest distance of the axes (U, M) (N, J, 3) from the points c (N, 3): |m - c x u|."""
-    return np.max(np.linalg.norm(M - cross3(c[:, None, :], U), axis=-1), axis=-1)
+    m = M - cross3(c[:, None, :], U)
+    return np.sqrt(dot(m, m).max(axis=-1))
 
 
 def relative_error(T, spread, far, errors) -> np.ndarray:
@@ -108,21 +112,21 @@ def loop_geometry(U, M) -> dict:
     ``normal`` (N, J, 3), ``parallel`` (N, J). Parallel axes: the foot on i is its point nearest the origin."""
     J = U.shape[-2]
     nxt = (np.arange(J) + 1) % J
-    U2, M2 = U[..., nxt, :], M[..., nxt, :]
-    p1, p2 = cross3(U, M), cross3(U2, M2)
+    U2 = U[..., nxt, :]
+    p1 = cross3(U, M)  # the axis points nearest the origin
+    p2 = p1[..., nxt, :]
     cr = cross3(U, U2)
-    s2 = np.sum(cr * cr, axis=-1, keepdims=True)
+    s2 = dot(cr, cr)[..., None]
     par = s2 < 1e-24
     s2s = np.where(par, 1.0, s2)
     d = p2 - p1
-    f1 = np.where(par, p1, p1 + np.sum(cross3(d, U2) * cr, -1, keepdims=True) / s2s * U)
-    f2 = np.where(par, p2 - np.sum(d * U2, -1, keepdims=True) * U2,
-                  p2 + np.sum(cross3(d, U) * cr, -1, keepdims=True) / s2s * U2)
+    f1 = np.where(par, p1, p1 + (dot(cross3(d, U2), cr) / s2s[..., 0])[..., None] * U)
+    f2 = np.where(par, p2 - dot(d, U2)[..., None] * U2, p2 + (dot(cross3(d, U), cr) / s2s[..., 0])[..., None] * U2)
     dv = f2 - f1
-    dist = np.linalg.norm(dv, axis=-1, keepdims=True)
+    dist = np.sqrt(dot(dv, dv))[..., None]
     nc = np.sqrt(s2)
     n = np.where(dist > 1e-12, dv / np.where(dist > 1e-12, dist, 1.0), np.where(nc > 1e-12, cr / np.where(nc > 1e-12, nc, 1.0), 0.0))
-    twist = np.arctan2(np.sum(cr * n, -1), np.sum(U * U2, -1))
+    twist = np.arctan2(dot(cr, n), dot(U, U2))
     return {"distance": dist[..., 0], "twist": twist, "foot_out": f1, "foot_in": f2, "normal": n, "parallel": par[..., 0]}
 
 
@@ -151,6 +155,6 @@ def dh_rows(U, geo) -> dict:
     J = U.shape[-2]
     prv = (np.arange(J) - 1) % J
     f_in, n_in = geo["foot_in"][..., prv, :], geo["normal"][..., prv, :]
-    d = np.sum((geo["foot_out"] - f_in) * U, -1)
-    theta = np.arctan2(np.sum(cross3(n_in, geo["normal"]) * U, -1), np.sum(n_in * geo["normal"], -1))
+    d = dot(geo["foot_out"] - f_in, U)
+    theta = np.arctan2(dot(cross3(n_in, geo["normal"]), U), dot(n_in, geo["normal"]))
     return {"a": geo["distance"], "alpha": geo["twist"], "d": d, "theta": theta}

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.algebra.algorithm1 import cross3
-from synth.algebra.dq import dq_mul, normalize_dq, pose_to_dq, study_form
+from synth.algebra.dq import dot, dq_mul, normalize_dq, pose_to_dq, study_form
 from synth.errors import SynthesisError
 
 
@@ -27,8 +27,10 @@ def condition(T) -> tuple[np.ndarray, Conditioning]:
     Works on (..., k, 4, 4); the centre is (..., 3), the scale (...)."""
     T = np.asarray(T, float)
     pos = T[..., :3, 3]
-    c = pos.mean(axis=-2)
-    L = np.sqrt(np.mean(np.sum((pos - c[..., None, :]) ** 2, axis=-1), axis=-1))
+    k = pos.shape[-2]
+    c = pos.sum(axis=-2) / k
+    rel = pos - c[..., None, :]
+    L = np.sqrt(dot(rel, rel).sum(axis=-1) / k)
     L = np.where(L > 0, L, 1.0)
     Tc = T.copy()
     Tc[..., :3, 3] = (pos - c[..., None, :]) / L[..., None, None]
