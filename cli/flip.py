@@ -23,7 +23,9 @@ Example:
 
 \b
 The four axes m, h, n, k (in this loop order) form a Bennett linkage; N(t-n) = N(t-m), N(t-k) = N(t-h).
-Exit codes: 0 flipped, 1 the flip does not exist (primal(h) = conj(primal(m)): a translation),
+When primal(h) = conj(primal(m)) the product is a circular translation and the flip is a
+parallelogram, one member of the family k = m - eps s, n = h + eps s (s perpendicular to the axes).
+Exit codes: 0 flipped, 1 the flip does not exist (the same axis reversed: the identity),
 2 bad input (not 8 numbers / not a rotation)."""
 
 

@@ -81,6 +81,43 @@ def bennett_flip(m, h, *, tol: float = FLIP_TOL):
     return k, n
 
 
+def parallelogram_flip(m, h, *, tol: float = FLIP_TOL):
+    """The flip when primal(h) = conj(primal(m)) (the product is a circular translation): not unique but a
+    2-parameter family k = m - eps s, n = h + eps s, s perpendicular to the common axis direction
+    (docs/exceptional.md, "Families of factorizations"); the four axes m, h, n, k form a parallelogram.
+
+    Returns (k, n, s) for the member s = c d, d = (axis point of h) - (axis point of m), c = |vec m|
+    (a rational approximation for exact input): the second pair of axes is the first one turned by a
+    quarter turn about the axis of m's direction, so the parallelogram is a rectangle with equal crank
+    and ground lengths. Raises FlipError when the two axes coincide (the product is the identity)."""
+    exact = is_exact(m, h)
+    M = [Fraction(x) for x in m] if exact else np.asarray(m, float)
+    H = [Fraction(x) for x in h] if exact else np.asarray(h, float)
+    v = M[1:4]
+    vv = sum(x * x for x in v)
+    # axis point of t - x (x = a + v + eps w): -(v x w) / |v|^2; the same formula holds for h (vector -v)
+    def point(x):
+        a, b = x[1:4], x[5:8]
+        cr = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+        return [-c / vv for c in cr]
+
+    d = [p - q for p, q in zip(point(H), point(M))]
+    size = sum(x * x for x in d)
+    scale = float(sum(abs(float(x)) for x in list(M) + list(H)))
+    if (size == 0) if exact else float(size) ** 0.5 <= tol * max(scale, 1e-300):
+        raise FlipError("no Bennett flip: the two axes coincide with opposite directions and equal angle laws, "
+                        "so (t - m)(t - h) is the identity")
+    c = float(vv) ** 0.5
+    if exact:
+        c = Fraction(c).limit_denominator(10**6) if Fraction(c) ** 2 != vv else Fraction(c)
+    s = [c * x for x in d]
+    K = list(M[:5]) + [M[5 + i] - s[i] for i in range(3)]
+    N = list(H[:5]) + [H[5 + i] + s[i] for i in range(3)]
+    if exact:
+        return K, N, s
+    return np.array(K, float), np.array(N, float), np.array(s, float)
+
+
 def flip_residual(m, h, k, n) -> float:
     """max |(t-m)(t-h) - (t-k)(t-n)| over the coefficients, relative to max(1, |coefficients|)."""
     lhs = product_of_linear(np.array([m, h], float))

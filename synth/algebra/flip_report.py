@@ -11,7 +11,7 @@ import numpy as np
 
 from synth.algebra.dq import plucker
 from synth.algebra.expr import parse_polynomial
-from synth.algebra.flip import bennett_flip, flip_residual, is_exact, is_rotation
+from synth.algebra.flip import FlipError, bennett_flip, flip_residual, is_exact, is_rotation, parallelogram_flip
 from synth.algebra.text import fmt_dq, fmt_num
 from synth.errors import InputError
 
@@ -87,6 +87,7 @@ class FlipReport:
     n: list
     exact: bool
     residual: float  # multiply-back relative error (0 when exact)
+    shift: list | None = None  # parallelogram flip: the member's s (k = m - eps s, n = h + eps s)
 
 
 def flip_report(m_text: str, h_text: str) -> FlipReport:
@@ -96,10 +97,15 @@ def flip_report(m_text: str, h_text: str) -> FlipReport:
     H = parse_factor(h_text, "H")
     check_rotation(M, "M")
     check_rotation(H, "H")
-    K, N = bennett_flip(M, H)
+    shift = None
+    try:
+        K, N = bennett_flip(M, H)
+    except FlipError:  # primal(h) = conj(primal(m)): a circular translation, the parallelogram family
+        K, N, shift = parallelogram_flip(M, H)
     exact = is_exact(M, H)
     return FlipReport(m=list(M), h=list(H), k=list(K), n=list(N), exact=exact,
-                      residual=0.0 if exact else flip_residual(M, H, K, N))
+                      residual=0.0 if exact else flip_residual(M, H, K, N),
+                      shift=None if shift is None else list(shift))
 
 
 def flip_document(rep: FlipReport) -> dict:
@@ -111,7 +117,11 @@ def flip_document(rep: FlipReport) -> dict:
             "n": vec(rep.n), "k_float": [float(x) + 0.0 for x in rep.k], "n_float": [float(x) + 0.0 for x in rep.n],
             "residual": rep.residual,
             "axes": {"m": axis(rep.m), "h": axis(rep.h), "n": axis(rep.n), "k": axis(rep.k)},
-            "loop": ["m", "h", "n", "k"]}
+            "loop": ["m", "h", "n", "k"],
+            **({"parallelogram": {"shift": vec(rep.shift),
+                                  "family": "k = m - eps s, n = h + eps s for every s perpendicular to the axes "
+                                            "(s != 0); the four axes form a parallelogram"}}
+               if rep.shift is not None else {})}
 
 
 def flip_text(rep: FlipReport) -> str:
@@ -121,6 +131,10 @@ def flip_text(rep: FlipReport) -> str:
         lines.append(f"  {name} = {fmt_dq(getattr(rep, name), DIGITS)}")
     for name in ("k", "n"):
         lines.append(f"  {name} = [{', '.join(fmt_num(x, digits=DIGITS) for x in getattr(rep, name))}]")
+    if rep.shift is not None:
+        lines.append("  parallelogram flip: (t - m)(t - h) is a circular translation, so the flip is not unique: "
+                     "k = m - eps s, n = h + eps s for every s perpendicular to the axes; shown s = ("
+                     + ", ".join(fmt_num(x, digits=DIGITS) for x in rep.shift) + ")")
     if not rep.exact:
         lines.append(f"  multiply-back check: relative error {rep.residual:.1e}")
     return "\n".join(lines)
