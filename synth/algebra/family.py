@@ -104,3 +104,45 @@ def family_text(family: dict, fmt_dq, fmt_vec) -> list[str]:
         lines.append(f"  h{a} = {fmt_dq(base[a - 1])} - eps s,  h{b} = {fmt_dq(base[b - 1])} + eps s,  "
                      f"s = {s} for all real {f}, {g}")
     return lines
+
+
+def coincident_neighbours(factors, tol: float = PAIR_TOL) -> list[int]:
+    """Indices i with t - h_i and t - h_{i+1} the same rotation (same axis and angle law): two joints on
+    one line, one after the other (a link between two coaxial pins at one place)."""
+    hs = np.asarray(factors, float)
+    scale = max(1.0, float(np.max(np.abs(hs)))) if len(hs) else 1.0
+    return [i for i in range(len(hs) - 1) if np.max(np.abs(hs[i] - hs[i + 1])) <= tol * scale]
+
+
+def separate_coincident(factors):
+    """Move conjugate pairs inside their family until no two consecutive factors coincide. The pair
+    holding the second factor of a coincidence (else the first) gets h_a - eps s, h_b + eps s with
+    s = |vec h_a| d, d the offset between the pair's axes: both axes move by n x d (n = unit(vec h_a)),
+    perpendicular to d (a quarter turn of the pair's crank). The product is unchanged.
+    Returns (factors (m, 8), shifted pair indices [(a, b), ...] 0-based); the input when nothing
+    coincides or no pair can move."""
+    hs = np.array(factors, float)
+    moved = []
+    for _ in range(len(hs)):
+        bad = coincident_neighbours(hs)
+        if not bad:
+            break
+        i = bad[0]
+        pairs = conjugate_pairs(hs)
+        pair = next((p for p in pairs if i + 1 in p and p not in moved), None) or \
+            next((p for p in pairs if i in p and p not in moved), None)
+        if pair is None:
+            break
+        a, b = pair
+        v = hs[a, 1:4]
+        beta = float(np.linalg.norm(v))
+        pa = -np.cross(v, hs[a, 5:8]) / beta**2  # axis points (the formula holds for h_b, vector -v)
+        pb = -np.cross(-v, hs[b, 5:8]) / beta**2
+        d = pb - pa
+        if np.linalg.norm(d) <= PAIR_TOL * max(1.0, float(np.linalg.norm(pa))):
+            d = plane_basis(v / beta)[0] * max(1.0, float(np.linalg.norm(hs[:, 5:8]))) * 0.5 / beta
+        s = beta * d  # moves both axes by n x d (docs/exceptional.md)
+        hs[a, 5:8] -= s
+        hs[b, 5:8] += s
+        moved.append(pair)
+    return hs, moved

@@ -24,7 +24,7 @@ import numpy as np
 
 from synth.algebra.cofactor import CofactorResult, factorize_with_cofactor
 from synth.algebra.exact import real_divmod, real_root_count
-from synth.algebra.family import conjugate_pairs
+from synth.algebra.family import conjugate_pairs, separate_coincident
 from synth.algebra.flip import parallelogram_flip
 from synth.errors import InputError, SynthesisError
 from synth.linkage import Linkage
@@ -190,6 +190,11 @@ def _build(factors, coupler_motion, kind, info, tool_ref, markers=None, m0=None,
     """The parallelogram for a circular translation (unless ``m0`` asks for the ladder), else the ladder."""
     if m0 is None and is_parallelogram(factors):
         return _parallelogram(factors, coupler_motion, kind, info, tool_ref, markers)
+    # two equal consecutive factors would put two pins on one line of one link (the vertical Darboux
+    # motion's C (t^2 + 1) has them): move a conjugate pair inside its family (same product)
+    factors, moved = separate_coincident(factors)
+    if moved:
+        info = dict(info, separated_pairs=[[a + 1, b + 1] for a, b in moved])
     return _ladder(factors, coupler_motion, kind, info, tool_ref, markers=markers, m0=m0, seed=seed)
 
 
