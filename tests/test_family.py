@@ -86,7 +86,7 @@ def test_parallelogram_flip_exact():
 
 # ------------------------------------------------------------------ Darboux: coincident neighbours
 def test_darboux_cofactor_has_coincident_neighbours_and_they_are_separated():
-    """C (t^2 + 1) = 5 rotations with h2 = h3 = i + (1/4) eps k; moving the pair (h3, h4) by s = (0, 1/2, 0)
+    """C (t^2 + 1) = 5 rotations with h2 = h3 = i + (1/4) eps k; moving the pair (h3, h4) by s = (0, -1/2, 0)
     puts h3 at (0, 1/4, -1/2), keeps the product and leaves no coincident neighbours."""
     res = factorize_with_cofactor(parse_polynomial(DARBOUX, exact=True))
     assert res.deg_R == 2 and coincident_neighbours(res.factors) == [1]
