@@ -185,15 +185,16 @@ def test_flip_does_not_exist_exit_1():
 
 def test_parallelogram_flip():
     """primal(h) = conj(primal(m)): a circular translation; the flip is one member of the parallelogram
-    family k = m - eps s, n = h + eps s (axes at x = -3/2 and 5/2 on the line of z; s = 2 (0, 0, 4))."""
+    family k = m - eps s, n = h + eps s (axes through z = -3/2 and 5/2; the pair moves by 4 (0, -4/5, 3/5),
+    s = (0, 24/5, 32/5))."""
     r = run("flip", "1 + 2i + 3eps j", "1 - 2i + 5eps j", "--json")
     assert r.exit_code == 0, r.output
     doc = json.loads(r.stdout)
-    assert doc["k"] == ["1", "2", "0", "0", "0", "0", "3", "-8"]
-    assert doc["n"] == ["1", "-2", "0", "0", "0", "0", "5", "8"]
-    assert doc["parallelogram"]["shift"] == ["0", "0", "8"]
+    assert doc["k"] == ["1", "2", "0", "0", "0", "0", "-9/5", "-32/5"]
+    assert doc["n"] == ["1", "-2", "0", "0", "0", "0", "49/5", "32/5"]
+    assert doc["parallelogram"]["shift"] == ["0", "24/5", "32/5"]
     ax = doc["axes"]
-    # opposite sides parallel and equal: a parallelogram (here a square of side 4)
+    # opposite sides parallel and equal: a parallelogram (here a rhombus of side 4)
     pm, ph, pn, pk = (np.array(ax[x]["point"]) for x in "mhnk")
     assert np.allclose(ph - pm, pn - pk) and np.allclose(np.linalg.norm(pk - pm), 4.0)
     r = run("flip", "1 + 2i + 3eps j", "1 - 2i + 5eps j")

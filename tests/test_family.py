@@ -74,11 +74,13 @@ def test_generic_factorization_has_no_family():
 
 # ------------------------------------------------------------------ parallelogram flip
 def test_parallelogram_flip_exact():
-    """m = 1 + 2i + 3 eps j (axis through (0, 0, -3/2)), h = 1 - 2i + 5 eps j (through (0, 0, 5/2)): s = 2 (0, 0, 4),
-    k = 1 + 2i + eps(3j - 8k), n = 1 - 2i + eps(5j + 8k), exactly; the product is unchanged."""
+    """m = 1 + 2i + 3 eps j (axis through (0, 0, -3/2)), h = 1 - 2i + 5 eps j (through (0, 0, 5/2)), d = (0, 0, 4):
+    s = (4/5) 2 d - (3/5) (2i x d) = (0, 24/5, 32/5), k = 1 + 2i + eps(-9/5 j - 32/5 k) (through
+    (0, -16/5, 9/10)), n = 1 - 2i + eps(49/5 j + 32/5 k), exactly; the product is unchanged."""
     m, h = [1, 2, 0, 0, 0, 0, 3, 0], [1, -2, 0, 0, 0, 0, 5, 0]
     k, n, s = parallelogram_flip(m, h)
-    assert k == [1, 2, 0, 0, 0, 0, 3, -8] and n == [1, -2, 0, 0, 0, 0, 5, 8] and s == [0, 0, 8]
+    assert k == [1, 2, 0, 0, 0, 0, F(-9, 5), F(-32, 5)] and n == [1, -2, 0, 0, 0, 0, F(49, 5), F(32, 5)]
+    assert s == [0, F(24, 5), F(32, 5)]
     assert np.all(product_of_linear(exact_array([k, n])) == product_of_linear(exact_array([m, h])))
     with pytest.raises(FlipError, match="identity"):
         parallelogram_flip(m, [1, -2, 0, 0, 0, 0, -3, 0])  # the same line reversed
@@ -112,9 +114,9 @@ def test_circle_and_circular_translation_give_a_parallelogram():
     lk = motion_linkage(parse_polynomial("t^2 + 1 + eps*(i + j*t)", exact=True))
     assert len(lk.joints) == 4 and lk.info["mobility"]["dof"] == 1
     pts = {j.name: j.point for j in lk.joints}
-    # opposite sides equal and parallel: ground h1-k1 and coupler h2-k2, cranks h1-h2 and k1-k2 (length 1)
-    assert np.allclose(pts["k1"] - pts["h1"], pts["k2"] - pts["h2"])
-    assert np.isclose(np.linalg.norm(pts["h2"] - pts["h1"]), 1.0)
+    # a rhombus: ground h1-k1 = coupler h2-k2 = (3/5, 4/5, 0), cranks h1-h2 = k1-k2 = (1, 0, 0)
+    assert np.allclose(pts["h1"], [-0.5, 0, 0]) and np.allclose(pts["h2"], [0.5, 0, 0])
+    assert np.allclose(pts["k1"], [0.1, 0.8, 0]) and np.allclose(pts["k2"], [1.1, 0.8, 0])
 
 
 def _verify(out, *extra):

@@ -86,10 +86,11 @@ def parallelogram_flip(m, h, *, tol: float = FLIP_TOL):
     2-parameter family k = m - eps s, n = h + eps s, s perpendicular to the common axis direction
     (docs/exceptional.md, "Families of factorizations"); the four axes m, h, n, k form a parallelogram.
 
-    Returns (k, n, s) for the member s = c d, d = (axis point of h) - (axis point of m), c = |vec m|
-    (a rational approximation for exact input): the second pair of axes is the first one turned by a
-    quarter turn about the axis of m's direction, so the parallelogram is a rectangle with equal crank
-    and ground lengths. Raises FlipError when the two axes coincide (the product is the identity)."""
+    Returns (k, n, s) for the member whose axes are those of m and h moved by d turned by the angle phi
+    (cos phi = 3/5, sin phi = 4/5) about the direction of vec m, d = (axis point of h) - (axis point of m):
+    s = (4/5) c d - (3/5) vec(m) x d, c = |vec m| (a rational approximation for exact input). The
+    parallelogram is a rhombus (ground and crank of length |d|). Raises FlipError when the two axes
+    coincide (the product is the identity)."""
     exact = is_exact(m, h)
     M = [Fraction(x) for x in m] if exact else np.asarray(m, float)
     H = [Fraction(x) for x in h] if exact else np.asarray(h, float)
@@ -110,7 +111,12 @@ def parallelogram_flip(m, h, *, tol: float = FLIP_TOL):
     c = float(vv) ** 0.5
     if exact:
         c = Fraction(c).limit_denominator(10**6) if Fraction(c) ** 2 != vv else Fraction(c)
-    s = [c * x for x in d]
+    # s = c (sin d - cos (v x d) / c'), c' = |v|: the axes move by d turned by phi about the direction of v,
+    # cos phi = 3/5, sin phi = 4/5 (rational; a rhombus whose flat configurations, at phi and phi + pi of the
+    # crank, fall between the whole-degree steps of a drive)
+    vxd = [v[1] * d[2] - v[2] * d[1], v[2] * d[0] - v[0] * d[2], v[0] * d[1] - v[1] * d[0]]
+    cos, sin = (Fraction(3, 5), Fraction(4, 5)) if exact else (0.6, 0.8)
+    s = [sin * c * x - cos * y for x, y in zip(d, vxd)]
     K = list(M[:5]) + [M[5 + i] - s[i] for i in range(3)]
     N = list(H[:5]) + [H[5 + i] + s[i] for i in range(3)]
     if exact:

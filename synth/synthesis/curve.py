@@ -166,7 +166,7 @@ def joint_count(factors) -> int:
 def _parallelogram(factors, coupler_motion, kind, info, tool_ref, markers=None):
     """The 4R parallelogram of a circular translation (t - h1)(t - h2) = (t - k1)(t - k2): branch h is
     the given factorization, branch k the member of its family from `parallelogram_flip` (the other pair
-    of axes a quarter turn away, at the crank's distance). The coupler translates."""
+    of axes turned about the crank by an angle with cos 3/5, a rhombus). The coupler translates."""
     from synth.checks import self_check
     from synth.synthesis.assemble import two_branch_linkage
     from synth.synthesis.multiloop import score_linkage
