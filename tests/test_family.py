@@ -153,3 +153,14 @@ def test_circle_and_darboux_pass_the_verifier(tmp_path):
         r = CliRunner().invoke(mpsynth, ["curve", str(FIXTURES / f"{name}.yaml"), "-o", str(out), "-q"])
         assert r.exit_code == 0, r.output
         _verify(out, *extra)
+
+
+@pytest.mark.slow
+def test_auto_keeps_the_smaller_linkage_for_a_viviani_quartic():
+    """w = (1 + t^2)^2 (a repeated factor): rotation 19 joints, translation 25; auto keeps 19 (~20 s)."""
+    from synth.io.curvespec import parse_real_polynomial
+    from synth.synthesis.curve import curve_motions
+
+    texts = ["2*(1 - t^2)^2", "4*t*(1 - t^2)", "4*t*(1 + t^2)", "(1 + t^2)^2"]
+    cands, _ = curve_motions([parse_real_polynomial(x, "test") for x in texts], method="auto")
+    assert [(c["method"], c["joints"]) for c in cands] == [("rotation", 19), ("translation", 25)]
