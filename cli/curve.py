@@ -37,6 +37,7 @@ spec is also read by verify_output.py). Lengths are in --units (default m); outp
 Examples:
   mpsynth curve fixtures/curve_ellipse.yaml -o out_ellipse      # 10 joints, link 'tracer' draws it
   mpsynth curve fixtures/motion_elliptic.yaml -o out_elliptic   # 13 joints, 'coupler' translates
+  mpsynth curve fixtures/motion_circular.yaml -o out_circ       # 4 joints: a parallelogram
   python ../shared/tools/verify_output.py out_ellipse --trace tracer --curve fixtures/curve_ellipse.yaml
 
 \b

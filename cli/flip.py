@@ -27,7 +27,9 @@ Example:
 \b
 The four axes m, h, m', h' (in this loop order) form a Bennett linkage; N(t-m') = N(t-m), N(t-h') = N(t-h).
 (--json also gives h' and m' as "k" and "n", the names of docs/exceptional.md.)
-Exit codes: 0 flipped, 1 the flip does not exist (primal(h) = conj(primal(m)): a translation),
+When primal(h) = conj(primal(m)) the product is a circular translation and the flip is a
+parallelogram, one member of the family h' = m - eps s, m' = h + eps s (s perpendicular to the axes).
+Exit codes: 0 flipped, 1 the flip does not exist (the same axis reversed: the identity),
 2 bad input (not 8 numbers / not a rotation)."""
 
 

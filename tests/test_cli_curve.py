@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -149,7 +150,7 @@ def test_missing_file_exit_2(tmp_path):
 def test_stdin(tmp_path):
     r = run("curve", "-", "--json", "-q", input='curve: {x: "1 - t^2", y: "2*t", z: "0", w: "1 + t^2"}\n')
     assert r.exit_code == 0, r.output
-    assert len(json.loads(r.stdout)["joints"]) == 7  # a circle: the circular translation
+    assert len(json.loads(r.stdout)["joints"]) == 4  # a circle: the parallelogram of its circular translation
 
 
 # ------------------------------------------------------------------ flip
@@ -178,8 +179,26 @@ def test_flip_float_input():
 
 
 def test_flip_does_not_exist_exit_1():
-    r = run("flip", "1 + 2i + 3eps j", "1 - 2i + 5eps j")
+    r = run("flip", "1 + 2i + 3eps j", "1 - 2i - 3eps j")  # the same axis reversed: the identity
     assert r.exit_code == 1 and "no Bennett flip" in r.stderr
+
+
+def test_parallelogram_flip():
+    """primal(h) = conj(primal(m)): a circular translation; the flip is one member of the parallelogram
+    family k = m - eps s, n = h + eps s (axes through z = -3/2 and 5/2; the pair moves by 4 (0, -4/5, 3/5),
+    s = (0, 24/5, 32/5))."""
+    r = run("flip", "1 + 2i + 3eps j", "1 - 2i + 5eps j", "--json")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert doc["k"] == ["1", "2", "0", "0", "0", "0", "-9/5", "-32/5"]
+    assert doc["n"] == ["1", "-2", "0", "0", "0", "0", "49/5", "32/5"]
+    assert doc["parallelogram"]["shift"] == ["0", "24/5", "32/5"]
+    ax = doc["axes"]
+    # opposite sides parallel and equal: a parallelogram (here a rhombus of side 4)
+    pm, ph, pn, pk = (np.array(ax[x]["point"]) for x in "mhnk")
+    assert np.allclose(ph - pm, pn - pk) and np.allclose(np.linalg.norm(pk - pm), 4.0)
+    r = run("flip", "1 + 2i + 3eps j", "1 - 2i + 5eps j")
+    assert r.exit_code == 0 and "parallelogram flip" in r.stdout
 
 
 @pytest.mark.parametrize("m,h,match", [

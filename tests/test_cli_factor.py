@@ -211,8 +211,22 @@ def test_exit_1_no_factorization():
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1
     assert "not generic" in lines[0] and "t^2 + 1" in lines[0]
-    r = run("--expr", "t^2 + 1 + eps(3i + 3j t)", "--json")
-    assert r.exit_code == 1 and r.stdout == ""
+
+def test_circular_translation_reports_its_family():
+    """a = b: not generic, but a 2-parameter family of factorizations (survey eq. (5)); exit 0, the
+    family in the JSON (parameters f, g, offset basis i, j) and in the text; every member multiplies back."""
+    from synth.algebra.family import family_residual
+
+    doc = run_json("--expr", "t^2 + 1 + eps*(3*i + 3*j*t)")
+    fam = doc["family"]
+    assert fam["parameters"] == ["f", "g"] and fam["pairs"] == [[1, 2]] and fam["dimension"] == 2
+    assert fam["basis"] == [[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]]
+    # the min-norm member: h1 = k - (3/2) eps j, h2 = -k - (3/2) eps j
+    assert np.allclose(fam["base_factors"], [[0, 0, 0, 1, 0, 0, -1.5, 0], [0, 0, 0, -1, 0, 0, -1.5, 0]])
+    vals = np.random.default_rng(1).normal(size=(20, 2)) * 5
+    assert np.max(family_residual({**fam, "factors": fam["base_factors"]}, vals)) < 1e-14
+    r = run("--expr", "t^2 + 1 + eps(3i + 3j t)")
+    assert r.exit_code == 0 and "a continuum of factorizations (2 real parameters)" in r.stdout
 
 
 def test_exit_1_exact_unavailable():

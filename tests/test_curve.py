@@ -147,7 +147,7 @@ def test_units_scale_to_metres():
 
 
 @pytest.mark.parametrize("name,texts,joints", [
-    ("circle (circular translation)", ["1 - t^2", "2*t", "0", "1 + t^2"], 7),
+    ("circle (circular translation): a parallelogram", ["1 - t^2", "2*t", "0", "1 + t^2"], 4),
     ("tilted ellipse off the origin", ["2 - t^2", "3*t + 2", "6 + t + 4*t^2", "1 + t^2"], 10),
     ("planar quartic, d = 4: (9/2) d + 1", ["t^3 - t", "t^2 + 2*t", "0", "(1 + t^2)*(4 + t^2)"], 19),
     ("space quartic", ["1 - t^2", "2*t", "t^3 + t^2", "(1 + t^2)*(t^2 + t + 2)"], 19),

@@ -81,6 +81,49 @@ def bennett_flip(m, h, *, tol: float = FLIP_TOL):
     return k, n
 
 
+def parallelogram_flip(m, h, *, tol: float = FLIP_TOL):
+    """The flip when primal(h) = conj(primal(m)) (the product is a circular translation): not unique but a
+    2-parameter family k = m - eps s, n = h + eps s, s perpendicular to the common axis direction
+    (docs/exceptional.md, "Families of factorizations"); the four axes m, h, n, k form a parallelogram.
+
+    Returns (k, n, s) for the member whose axes are those of m and h moved by d turned by the angle phi
+    (cos phi = 3/5, sin phi = 4/5) about the direction of vec m, d = (axis point of h) - (axis point of m):
+    s = (4/5) c d - (3/5) vec(m) x d, c = |vec m| (a rational approximation for exact input). The
+    parallelogram is a rhombus (ground and crank of length |d|). Raises FlipError when the two axes
+    coincide (the product is the identity)."""
+    exact = is_exact(m, h)
+    M = [Fraction(x) for x in m] if exact else np.asarray(m, float)
+    H = [Fraction(x) for x in h] if exact else np.asarray(h, float)
+    v = M[1:4]
+    vv = sum(x * x for x in v)
+    # axis point of t - x (x = a + v + eps w): -(v x w) / |v|^2; the same formula holds for h (vector -v)
+    def point(x):
+        a, b = x[1:4], x[5:8]
+        cr = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+        return [-c / vv for c in cr]
+
+    d = [p - q for p, q in zip(point(H), point(M))]
+    size = sum(x * x for x in d)
+    scale = float(sum(abs(float(x)) for x in list(M) + list(H)))
+    if (size == 0) if exact else float(size) ** 0.5 <= tol * max(scale, 1e-300):
+        raise FlipError("no Bennett flip: the two axes coincide with opposite directions and equal angle laws, "
+                        "so (t - m)(t - h) is the identity")
+    c = float(vv) ** 0.5
+    if exact:
+        c = Fraction(c).limit_denominator(10**6) if Fraction(c) ** 2 != vv else Fraction(c)
+    # s = c (sin d - cos (v x d) / c'), c' = |v|: the axes move by d turned by phi about the direction of v,
+    # cos phi = 3/5, sin phi = 4/5 (rational; a rhombus whose flat configurations, at phi and phi + pi of the
+    # crank, fall between the whole-degree steps of a drive)
+    vxd = [v[1] * d[2] - v[2] * d[1], v[2] * d[0] - v[0] * d[2], v[0] * d[1] - v[1] * d[0]]
+    cos, sin = (Fraction(3, 5), Fraction(4, 5)) if exact else (0.6, 0.8)
+    s = [sin * c * x - cos * y for x, y in zip(d, vxd)]
+    K = list(M[:5]) + [M[5 + i] - s[i] for i in range(3)]
+    N = list(H[:5]) + [H[5 + i] + s[i] for i in range(3)]
+    if exact:
+        return K, N, s
+    return np.array(K, float), np.array(N, float), np.array(s, float)
+
+
 def flip_residual(m, h, k, n) -> float:
     """max |(t-m)(t-h) - (t-k)(t-n)| over the coefficients, relative to max(1, |coefficients|)."""
     lhs = product_of_linear(np.array([m, h], float))

@@ -12,7 +12,7 @@ import numpy as np
 
 from synth.algebra.dq import plucker
 from synth.algebra.expr import parse_polynomial
-from synth.algebra.flip import bennett_flip, flip_residual, is_exact, is_rotation
+from synth.algebra.flip import FlipError, bennett_flip, flip_residual, is_exact, is_rotation, parallelogram_flip
 from synth.algebra.text import fmt_dq, fmt_num
 from synth.errors import InputError
 
@@ -88,6 +88,7 @@ class FlipReport:
     n: list
     exact: bool
     residual: float  # multiply-back relative error (0 when exact)
+    shift: list | None = None  # parallelogram flip: the member's s (k = m - eps s, n = h + eps s)
 
 
 def _floats(v) -> list | None:
@@ -113,10 +114,15 @@ def flip_report(m_text: str, h_text: str) -> FlipReport:
             M, H = fm, fh
     check_rotation(M, "M")
     check_rotation(H, "H")
-    K, N = bennett_flip(M, H)
+    shift = None
+    try:
+        K, N = bennett_flip(M, H)
+    except FlipError:  # primal(h) = conj(primal(m)): a circular translation, the parallelogram family
+        K, N, shift = parallelogram_flip(M, H)
     exact = is_exact(M, H)
     return FlipReport(m=list(M), h=list(H), k=list(K), n=list(N), exact=exact,
-                      residual=0.0 if exact else flip_residual(M, H, K, N))
+                      residual=0.0 if exact else flip_residual(M, H, K, N),
+                      shift=None if shift is None else list(shift))
 
 
 def flip_document(rep: FlipReport) -> dict:
@@ -129,7 +135,11 @@ def flip_document(rep: FlipReport) -> dict:
             "h_prime": vec(rep.k), "m_prime": vec(rep.n),  # the names of the text: h' = k, m' = n
             "residual": rep.residual,
             "axes": {"m": axis(rep.m), "h": axis(rep.h), "n": axis(rep.n), "k": axis(rep.k)},
-            "loop": ["m", "h", "n", "k"]}
+            "loop": ["m", "h", "n", "k"],
+            **({"parallelogram": {"shift": vec(rep.shift),
+                                  "family": "k = m - eps s, n = h + eps s for every s perpendicular to the axes "
+                                            "(s != 0); the four axes form a parallelogram"}}
+               if rep.shift is not None else {})}
 
 
 TEXT_NAMES = (("m", "m"), ("h", "h"), ("h'", "k"), ("m'", "n"))  # printed name, FlipReport field
@@ -144,6 +154,10 @@ def flip_text(rep: FlipReport) -> str:
         lines.append(f"  {name} = {fmt_dq(getattr(rep, field_), DIGITS)}")
     for name, field_ in TEXT_NAMES[2:]:
         lines.append(f"  {name} = [{', '.join(fmt_num(x, digits=DIGITS) for x in getattr(rep, field_))}]")
+    if rep.shift is not None:
+        lines.append("  parallelogram flip: (t - m)(t - h) is a circular translation, so the flip is not unique: "
+                     "h' = m - eps s, m' = h + eps s for every s perpendicular to the axes; shown s = ("
+                     + ", ".join(fmt_num(x, digits=DIGITS) for x in rep.shift) + ")")
     if not rep.exact:
         lines.append(f"  multiply-back check: relative error {rep.residual:.1e}")
     return "\n".join(lines)

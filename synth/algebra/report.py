@@ -15,10 +15,11 @@ import numpy as np
 from synth.algebra.cofactor import exact_result, factorize_with_cofactor
 from synth.algebra.exact import check_exact_motion_polynomial, factorize_exact
 from synth.algebra.factorize import check_motion_polynomial, classify, factorize
+from synth.algebra.family import factorization_family, family_text
 from synth.algebra.polyinput import PolynomialInput, exact_rows, float_rows, monic_input, prefixed
 from synth.algebra.polynomial import norm_poly, poly_mul
 from synth.algebra.text import fmt_dq, fmt_num, fmt_quadratic, fmt_t_minus, fmt_vec, poly_text
-from synth.errors import InputError
+from synth.errors import InputError, NotGenericError
 
 FORMAT = "mpsynth.factorization/1"
 
@@ -54,6 +55,7 @@ class Report:
     failed_orders: int = 0
     notes: list = field(default_factory=list)
     leading: list | None = None  # the leading coefficient C was divided by (None: C was monic)
+    family: dict | None = None  # a continuum of factorizations through the first one (synth.algebra.family)
 
 
 def _clean(v) -> list:
@@ -108,14 +110,20 @@ def compute(inp: PolynomialInput, *, exact: bool = False) -> Report:
     """Factor the input. Numeric (default) or exact rational arithmetic. Raises InputError (exit 2)
     for invalid polynomials, NotGenericError / NoFactorizationError / SynthesisError (exit 1) when
     no factorization is found."""
-    if exact:
-        C, L = prefixed(inp.source, monic_input, exact_rows(inp), True)
-        prefixed(inp.source, check_exact_motion_polynomial, C)
-        rep = _exact_report(C)
-    else:
-        C, L = prefixed(inp.source, monic_input, float_rows(inp))
-        prefixed(inp.source, check_motion_polynomial, C)
-        rep = _numeric_report(C)
+    try:
+        if exact:
+            C, L = prefixed(inp.source, monic_input, exact_rows(inp), True)
+            prefixed(inp.source, check_exact_motion_polynomial, C)
+            rep = _exact_report(C)
+        else:
+            C, L = prefixed(inp.source, monic_input, float_rows(inp))
+            prefixed(inp.source, check_motion_polynomial, C)
+            rep = _numeric_report(C)
+    except NotGenericError:
+        rep = _family_report(inp, exact)
+        if rep is None:
+            raise
+        return rep
     if L is not None:
         rep.leading = list(L)
         rep.notes.append(monic_note(L))
@@ -129,6 +137,21 @@ def monic_note(L) -> str:
                 "(a real number: the same motion)")
     return (f"C was not monic: C = L (t - h1)...(t - hn) with L = {fmt_dq(L, 12)}; the factors are those of "
             "L^-1 C (the same motion seen from the base frame moved by L^-1)")
+
+
+def _family_report(inp: PolynomialInput, exact: bool) -> Report | None:
+    """A non-generic C that factors without a co-factor (R = 1) and whose factorization lies in a
+    continuous family (e.g. the circular translation, survey eq. (5)): the report of that family, or
+    None (then C has no factorization found without a co-factor)."""
+    try:
+        rep, info = compute_cofactor(inp, exact=exact)
+    except Exception:  # noqa: BLE001 - any failure here means: report the original NotGenericError
+        return None
+    if len(info.R) != 1 or rep.family is None:
+        return None
+    rep.notes.append("infinitely many factorizations: a continuous family (the primal part has the real factor "
+                     f"{poly_text(info.mrpf)}); the table shows one member")
+    return rep
 
 
 @dataclass
@@ -174,7 +197,8 @@ def compute_cofactor(inp: PolynomialInput, *, exact: bool = False) -> tuple[Repo
     norm = [float(x) for x in norm_poly(CR)]
     rep = Report(exact=is_exact, degree=len(factors), generic=res.generic, norm=norm,
                  norm_factors=[j.quadratic for j in joints], factorizations=[row],
-                 coefficients=CR.tolist(), notes=notes, leading=None if L is None else list(L))
+                 coefficients=CR.tolist(), notes=notes, leading=None if L is None else list(L),
+                 family=factorization_family(np.asarray(res.factors, float)))
     info = CofactorInfo(R=R, mrpf=[float(x) for x in res.g], bound_met=res.bound_met,
                         components=[{k: v for k, v in c.items() if k != "family"} for c in res.report])
     return rep, info
@@ -240,8 +264,24 @@ def report_document(rep: Report) -> dict:
             for fz in rep.factorizations
         ],
         "failed_orders": rep.failed_orders,
-        **({"leading_coefficient": dq(rep.leading), "notes": list(rep.notes)} if rep.leading is not None else {}),
+        **({"leading_coefficient": dq(rep.leading)} if rep.leading is not None else {}),
+        **({"notes": list(rep.notes)} if rep.notes else {}),
+        **({"family": _family_json(rep.family)} if rep.family is not None else {}),
     }
+
+
+def _family_json(fam: dict) -> dict:
+    """The family of factorizations in the --json document: parameter names, pairs (1-based), the basis
+    of the offset s of each pair, the base member, and the rule (docs/exceptional.md)."""
+    rules = []
+    for p, (a, b) in enumerate(fam["pairs"]):
+        f, g = fam["parameters"][2 * p], fam["parameters"][2 * p + 1]
+        rules.append(f"h{a} - eps*({f}*e1 + {g}*e2), h{b} + eps*({f}*e1 + {g}*e2)")
+    return {"parameters": fam["parameters"], "dimension": fam["dimension"], "pairs": fam["pairs"],
+            "basis": fam["basis"], "base_factors": fam["factors"],
+            "factors": rules,
+            "description": "every member multiplies to the same polynomial: for each pair (a, b), "
+                           "h_a -> h_a - eps s, h_b -> h_b + eps s, s = f e1 + g e2 perpendicular to the axis"}
 
 
 def format_table(rep: Report) -> str:
@@ -278,8 +318,13 @@ def format_table(rep: Report) -> str:
         worst = max(fz.residual for fz in rep.factorizations)
         lines.append("")
         lines.append(f"multiply-back check: max relative error {worst:.1e}")
+    if rep.family is not None:
+        lines.append("")
+        lines.append(f"a continuum of factorizations ({rep.family['dimension']} real parameters): every member "
+                     "has the same product")
+        shown = dict(rep.family, factors=rep.factorizations[0].factors) if rep.factorizations else rep.family
+        lines += family_text(shown, fmt_dq, fmt_vec)
     if any(j.kind == "translation" for fz in rep.factorizations for j in fz.joints):
         lines.append("translation factors are prismatic joints: the point moves by shift(t) along the direction")
-    if rep.leading is not None:
-        lines.extend(rep.notes)
+    lines.extend(rep.notes)
     return "\n".join(lines)

@@ -23,8 +23,10 @@ from fractions import Fraction
 import numpy as np
 
 from synth.algebra.cofactor import CofactorResult, factorize_with_cofactor
-from synth.errors import InputError, SynthesisError
 from synth.algebra.exact import real_divmod, real_root_count
+from synth.algebra.family import conjugate_pairs, separate_coincident
+from synth.algebra.flip import parallelogram_flip
+from synth.errors import InputError, SynthesisError
 from synth.linkage import Linkage
 from synth.algebra.realfactor import UnboundedMotionError, poly_text, real_gcd_exact, real_gcd_numeric
 
@@ -143,6 +145,59 @@ def _ladder(factors, coupler_motion, kind, info, tool_ref, markers=None, m0=None
     return lk
 
 
+def is_parallelogram(factors) -> bool:
+    """Two factors with conjugate primal parts and distinct axes: a circular translation, built as a
+    parallelogram (4 joints) from two members of its family (docs/exceptional.md)."""
+    hs = np.asarray(factors, float)
+    if len(hs) != 2 or conjugate_pairs(hs) != [(0, 1)]:
+        return False
+    try:
+        parallelogram_flip(hs[0], hs[1])
+    except SynthesisError:
+        return False
+    return True
+
+
+def joint_count(factors) -> int:
+    """Joints of the linkage built for these factors: 4 for a parallelogram, else the ladder's 3 N + 1."""
+    return 4 if is_parallelogram(factors) else 3 * len(factors) + 1
+
+
+def _parallelogram(factors, coupler_motion, kind, info, tool_ref, markers=None):
+    """The 4R parallelogram of a circular translation (t - h1)(t - h2) = (t - k1)(t - k2): branch h is
+    the given factorization, branch k the member of its family from `parallelogram_flip` (the other pair
+    of axes turned about the crank by an angle with cos 3/5, a rhombus). The coupler translates."""
+    from synth.checks import self_check
+    from synth.synthesis.assemble import two_branch_linkage
+    from synth.synthesis.multiloop import score_linkage
+
+    hs = np.asarray(factors, float)
+    k1, k2, s = parallelogram_flip(hs[0], hs[1])
+    lk = two_branch_linkage(kind, hs, np.array([k1, k2]), coupler_motion, [tool_ref], [], [])
+    lk.info = dict(info)
+    if markers:
+        lk.info["markers"] = markers
+    lk.info["parallelogram"] = {"h": hs, "k": np.array([k1, k2]), "shift": s,
+                                "family": "k1 = h1 - eps s, k2 = h2 + eps s, s perpendicular to the axes"}
+    lk.info["mobility"] = score_linkage(lk)
+    lk.info["counts"] = {"joints": len(lk.joints), "links": len(lk.links) - len(lk.closures),
+                         "links_with_duplicates": len(lk.links), "loops": len(lk.closures)}
+    lk.checks = self_check(lk, CHECK_SAMPLES)
+    return lk
+
+
+def _build(factors, coupler_motion, kind, info, tool_ref, markers=None, m0=None, seed=0):
+    """The parallelogram for a circular translation (unless ``m0`` asks for the ladder), else the ladder."""
+    if m0 is None and is_parallelogram(factors):
+        return _parallelogram(factors, coupler_motion, kind, info, tool_ref, markers)
+    # two equal consecutive factors would put two pins on one line of one link (the vertical Darboux
+    # motion's C (t^2 + 1) has them): move a conjugate pair inside its family (same product)
+    factors, moved = separate_coincident(factors)
+    if moved:
+        info = dict(info, separated_pairs=[[a + 1, b + 1] for a, b in moved])
+    return _ladder(factors, coupler_motion, kind, info, tool_ref, markers=markers, m0=m0, seed=seed)
+
+
 def motion_linkage(C, *, scale: float = 1.0, m0=None, seed: int = 0, text: str | None = None) -> Linkage:
     """The multi-loop linkage (kind "motion") whose ``coupler`` performs the rational motion C (rows of 8
     numbers, ascending; Fractions allowed). ``scale``: length unit -> metres. Raises InputError,
@@ -162,7 +217,7 @@ def motion_linkage(C, *, scale: float = 1.0, m0=None, seed: int = 0, text: str |
                        "components": [_plain_report(r) for r in res.report],
                        "C_times_R": poly_mul(Cn, R8)}}
     tool_ref = dq_to_pose(lead / np.linalg.norm(lead[:4]))
-    return _ladder(res.factors, Cn, "motion", info, tool_ref, m0=m0, seed=seed)
+    return _build(res.factors, Cn, "motion", info, tool_ref, m0=m0, seed=seed)
 
 
 def _plain_report(rep):
@@ -298,14 +353,12 @@ def curve_motions(polys, *, scale: float = 1.0, method: str = "auto"):
     if method in ("auto", "translation"):
         try:
             res = factorize_with_cofactor(C)
-            out.append({"method": "translation", "motion": C, "result": res, "joints": 3 * len(res.factors) + 1})
+            out.append({"method": "translation", "motion": C, "result": res, "joints": joint_count(res.factors)})
         except SynthesisError as e:
             errors.append(f"translation: {e}")
-    try_rotation = method == "rotation"
-    if method == "auto":  # the kernel search makes k = 1 blocks circular; repeated factors of w gain nothing
-        from synth.algebra.factorize import norm_quadratics
-
-        try_rotation = max(norm_quadratics(np.asarray(w, float))[1]) == 1
+    # auto tries both and keeps the smaller linkage (a repeated factor of w can still gain: a Viviani
+    # quartic gives 19 joints by rotation and 25 by translation); a parallelogram (4 joints) is final
+    try_rotation = method == "rotation" or (method == "auto" and not (out and out[0]["joints"] <= 4))
     if try_rotation:
         F = C[:-1, 5:8]
         n = curve_plane(F)
@@ -323,7 +376,7 @@ def curve_motions(polys, *, scale: float = 1.0, method: str = "auto"):
                 except SynthesisError as e:
                     errors.append(f"rotation: {e}")
                     continue
-                cand = {"method": "rotation", "motion": CH, "result": res, "joints": 3 * len(res.factors) + 1,
+                cand = {"method": "rotation", "motion": CH, "result": res, "joints": joint_count(res.factors),
                         "H": H, "axis": {"point": p0, "direction": (-sign * np.asarray(d)).tolist()}}
                 if got is None or cand["joints"] < got["joints"]:
                     got = cand
@@ -378,7 +431,7 @@ def curve_linkage(x, y, z, w, *, scale: float = 1.0, method: str = "auto", m0=No
     if "H" in best:
         info["motion"]["rotation_cofactor_H"] = best["H"]
     markers = {"tracer": {"link": "coupler", "position": p0.tolist()}}
-    lk = _ladder(res.factors, best["motion"], "curve", info, T, markers=markers, m0=m0, seed=seed)
+    lk = _build(res.factors, best["motion"], "curve", info, T, markers=markers, m0=m0, seed=seed)
     lk.checks["max_trace_error"] = trace_error(lk)
     return lk
 
