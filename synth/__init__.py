@@ -5,6 +5,7 @@
     L = synth.sixbar(poses4)            # (4, 4, 4) -> the best 6R Linkage (options: family, member, pair)
     R = synth.bennett_batch(many)       # (N, 3, 4, 4) -> BennettBatch: arrays over N, per-set status
     F = synth.factorize(C)              # (n+1, 8) monic motion polynomial -> every factorization
+    S = synth.sweep(many, client=...)   # bennett_batch over chunks, here or on a Dask cluster
 
 Layers (data flows one way; see docs/architecture.md): ``synth.algebra`` (dual quaternions, motion
 polynomials, factorization), ``synth.synthesis`` (conic, cubic families, Bennett, 6R, curves),
@@ -23,7 +24,7 @@ from __future__ import annotations
 
 import importlib
 
-__all__ = ["bennett", "sixbar", "bennett_batch", "factorize", "BennettBatch", "Linkage", "MpsynthError",
+__all__ = ["bennett", "sixbar", "bennett_batch", "sweep", "factorize", "BennettBatch", "Linkage", "MpsynthError",
            "InputError", "SynthesisError"]
 
 _LAZY = {
@@ -31,6 +32,7 @@ _LAZY = {
     "sixbar": "synth.synthesis.sixbar",
     "bennett_batch": "synth.synthesis.bennett_batch",
     "BennettBatch": "synth.synthesis.bennett_batch",
+    "sweep": "synth.tools.sweep",
     "factorize": "synth.algebra.factorize",
     "Linkage": "synth.linkage",
     "MpsynthError": "synth.errors",
