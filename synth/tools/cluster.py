@@ -28,6 +28,7 @@ import collections
 import concurrent.futures
 import logging
 import os
+import socket
 import uuid
 from typing import Iterator
 
@@ -82,6 +83,7 @@ def connect(address: str, workers: int | None = None, timeout: float = CONNECT_T
     if workers:
         raise InputError(f"-j {workers}: the workers of --scheduler {address} are those started there "
                          "(dask worker ADDRESS); -j applies to local runs and --scheduler local")
+    _probe(address)
     try:
         client = distributed.Client(address, timeout=timeout)
     except (OSError, TimeoutError, ValueError) as e:
@@ -94,6 +96,22 @@ def connect(address: str, workers: int | None = None, timeout: float = CONNECT_T
         raise InputError(f"--scheduler {address}: no worker connected within {wait_workers:.0f} s; "
                          f"start some with: dask worker {address}") from None
     return client
+
+
+def _probe(address: str) -> None:
+    """A TCP scheduler address where nothing listens is refused at once (Dask would retry until its
+    timeout); other protocols are left to Dask."""
+    rest = address[len("tcp://"):] if address.startswith("tcp://") else address
+    if "://" in rest:
+        return
+    host, sep, port = rest.rpartition(":")
+    if not sep or not port.isdigit():
+        raise InputError(f"--scheduler {address}: not an address (tcp://host:port) or 'local'")
+    try:
+        socket.create_connection((host.strip("[]") or "127.0.0.1", int(port)), timeout=CONNECT_TIMEOUT).close()
+    except OSError as e:
+        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler there "
+                         f"({e.strerror or type(e).__name__})") from None
 
 
 def close(client) -> None:
