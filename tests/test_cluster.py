@@ -289,3 +289,45 @@ def test_help_stays_fast_and_dask_free():
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60,
                        env=dict(os.environ, PYTHONPATH=str(REPO)))
     assert p.returncode == 0 and p.stdout.strip() == "False", p.stderr
+
+
+class _Future:
+    def __init__(self, fn, args, kills):
+        self.fn, self.args, self.kills = fn, args, kills
+
+    def done(self):
+        return True
+
+    def result(self):
+        if self.kills(self.args[0]):
+            raise distributed.KilledWorker("task", "worker", 3)
+        return self.fn(*self.args)
+
+
+class _Client:
+    """Runs tasks here; a task whose chunk holds line 3 "kills its worker" (KilledWorker)."""
+
+    def __init__(self):
+        self.submitted = []
+
+    def submit(self, fn, *args, pure=True, key=None):
+        self.submitted.append([n for n, _ in args[0]])
+        return _Future(fn, args, lambda chunk: any(n == 3 for n, _ in chunk))
+
+    def nthreads(self):
+        return {"w": 1}
+
+    def cancel(self, futures):
+        pass
+
+
+def test_a_chunk_that_kills_workers_is_split_and_only_its_killer_fails():
+    client = _Client()
+    rng = np.random.default_rng(3)
+    lines = [json.dumps({"id": i, "kind": "bennett", "poses": matrix_specs(random_poses(rng, 3))}) for i in range(6)]
+    res = list(run_jobs_on(client, lines, chunksize=4))
+    assert [r["line"] for r in res] == [1, 2, 3, 4, 5, 6]
+    assert [r["ok"] for r in res] == [True, True, False, True, True, True]
+    assert res[2]["exit_code"] == 3 and "killed every Dask worker" in res[2]["error"]
+    assert res[:2] + res[3:] == [r for r in run_jobs(lines) if r["line"] != 3]
+    assert client.submitted == [[1, 2, 3, 4], [1], [2], [3], [4], [5, 6]]  # the chunk of line 3, split
