@@ -80,6 +80,7 @@ def _write(text: str) -> None:
 Example:
   mpsynth batch jobs.jsonl -j 4 > results.jsonl
   cat jobs.jsonl | mpsynth batch - | jq -c 'select(.ok)'
+  mpsynth batch jobs.jsonl --scheduler tcp://host:8786 --results results.parquet > results.jsonl
 
 \b
 A job line: {"id": "a1", "kind": "bennett", "poses": [...], "units": {...}, "out": "dir"}

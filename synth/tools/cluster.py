@@ -189,6 +189,9 @@ def _collect(client, fut, chunk, full, base) -> list[dict]:
                               "(out of memory, a crash); it was not completed"}]
         singles = [client.submit(run_chunk, [item], full, base, pure=False) for item in chunk]
         return [r for f, item in zip(singles, chunk) for r in _collect(client, f, [item], full, base)]
+    except ImportError as e:  # the worker's Python has no (or another) mpsynth
+        raise ClusterError(f"a Dask worker cannot run mpsynth's jobs ({type(e).__name__}: {e}); install "
+                           f"the same mpsynth on every worker ({INSTALL_HINT})") from None
     except (concurrent.futures.CancelledError, OSError, TimeoutError) as e:
         raise ClusterError(f"the Dask cluster failed while running the jobs from line {chunk[0][0]} on "
                            f"({type(e).__name__}: {' '.join(str(e).split())}); the results before them are complete") from None
