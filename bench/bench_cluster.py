@@ -114,6 +114,15 @@ class Cluster:
                 os.killpg(p.pid, signal.SIGKILL)
 
 
+def ceiling(cl: Cluster, tmp: Path, n: int) -> float:
+    """Jobs/s of one client when the jobs cost nothing (malformed lines, chunks of 256): the most a
+    single `mpsynth batch --scheduler` can hand out and print, however many workers there are."""
+    bad = tmp / "bad.jsonl"
+    bad.write_text("{\n" * n)
+    wall, _ = mpsynth(["batch", bad, "--scheduler", cl.address, "--chunksize", 256], tmp / "r_bad.jsonl")
+    return n / wall
+
+
 def random_sets(n, seed=2):
     sys.path.insert(0, str(ROOT / "tests"))
     from conftest import random_poses
@@ -127,7 +136,16 @@ def main():
     ap.add_argument("--jobs", type=int, default=100_000)
     ap.add_argument("--chunks", type=int, default=2000, help="blank-line chunks for the overhead figure")
     ap.add_argument("--markdown", type=Path, help="write the section into this file (between markers)")
+    ap.add_argument("--ceiling-only", action="store_true", help="only the client's ceiling (jobs/s)")
     a = ap.parse_args()
+    if a.ceiling_only:
+        with tempfile.TemporaryDirectory(prefix="bench_cluster-") as tmp:
+            cl = Cluster(Path(tmp))
+            try:
+                print(f"one client's ceiling: {ceiling(cl, Path(tmp), a.jobs):,.0f} jobs/s ({a.jobs:,} malformed lines)")
+            finally:
+                cl.stop()
+        return
     rows = []
     load0 = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="bench_cluster-") as tmp:
@@ -180,6 +198,7 @@ def main():
             H = sweep(P, chunksize=5000)
             hw = time.perf_counter() - t
             assert S.ok.sum() == H.ok.sum()
+            top = ceiling(cl, tmp, n)
         finally:
             cl.stop()
         same = all((tmp / f).read_bytes() == (tmp / "r_pool.jsonl").read_bytes()
@@ -203,7 +222,8 @@ def main():
               f"| Dask scheduler + 2 workers, {a.chunks:,} chunks of one blank line (`run_jobs_on`, connected client) "
               f"| {ow / a.chunks * 1e3:.2f} ms |",
               f"| multiprocessing pool (`run_jobs(jobs=2)`, pool start included), the same | {pw / a.chunks * 1e3:.2f} ms |", "",
-              "| `synth.sweep` (bennett_batch over chunks of 5,000 pose arrays) | sets/s |", "|---|---|",
+              f"| one client's ceiling: {n:,} malformed lines (no work), chunks of 256, on the cluster | {top:,.0f} jobs/s |",
+              "", "| `synth.sweep` (bennett_batch over chunks of 5,000 pose arrays) | sets/s |", "|---|---|",
               f"| on the cluster (2 workers), {len(P):,} sets | {len(P) / sw:,.0f} |",
               f"| in this process | {len(P) / hw:,.0f} |"]
     text = "\n".join(lines) + "\n"
