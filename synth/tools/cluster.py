@@ -138,7 +138,8 @@ def worker_threads(client) -> int:
 
 def default_chunksize(threads: int, total: int | None) -> int:
     """Jobs per task: about 8 tasks per worker thread for a known job count, between 1 and 256 (a
-    task's overhead is about a millisecond, a Bennett job's cost about as much: bench/RESULTS.md)."""
+    chunk's round trip costs milliseconds to tens of milliseconds, a Bennett job ~4 ms of CPU:
+    bench/RESULTS.md)."""
     if total is None:
         return 64
     return max(1, min(256, total // (8 * threads)))
