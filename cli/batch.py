@@ -1,6 +1,7 @@
 """`mpsynth batch JOBS.jsonl [-j N]`: many synthesis jobs from JSON lines, results as JSON lines."""
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import time
@@ -9,7 +10,9 @@ import click
 
 from synth.errors import InputError, OutputError
 from synth.io.docload import open_lines, read_lines
+from synth.tools import cluster
 from synth.tools.batchjobs import dumps, run_jobs, worker_count
+from synth.tools.resultstable import ResultsTable
 
 from .common import debug_option, echo, run_guarded
 from synth.io.streams import silence_stdout, terminate_as_exit
@@ -77,6 +80,7 @@ def _write(text: str) -> None:
 Example:
   mpsynth batch jobs.jsonl -j 4 > results.jsonl
   cat jobs.jsonl | mpsynth batch - | jq -c 'select(.ok)'
+  mpsynth batch jobs.jsonl --scheduler tcp://host:8786 --results results.parquet > results.jsonl
 
 \b
 A job line: {"id": "a1", "kind": "bennett", "poses": [...], "units": {...}, "out": "dir"}
@@ -91,37 +95,59 @@ Every input line (split on \\n only) gets one result line, in order:
 \b
 Exit codes: 0 every job succeeded, 1 some job failed (its result line says why), 2 JOBS unreadable.""")
 @click.argument("jobs_file", metavar="JOBS", type=click.Path(dir_okay=False, allow_dash=True))
-@click.option("-j", "--jobs", "workers", type=int, default=1, show_default=True,
-              help="Worker processes (0: one per CPU; never more than the CPUs or the jobs).")
+@click.option("-j", "--jobs", "workers", type=int,
+              help="Worker processes (0: one per CPU; never more than the CPUs or the jobs) [default: 1; "
+                   "with --scheduler local: one per CPU].")
 @click.option("--out-dir", type=click.Path(file_okay=False),
               help="Base directory of the jobs' relative 'out' paths (default: the working directory).")
 @click.option("--chunksize", type=int, help="Jobs handed to a worker at a time (default: from the job count).")
 @click.option("--full", is_flag=True, help="Add the whole linkage.json document to every successful result.")
+@click.option("--scheduler", metavar="ADDRESS|local",
+              help="Run the chunks of jobs on the Dask scheduler at ADDRESS (tcp://host:8786), or on a "
+                   "LocalCluster ('local'); needs mpsynth[cluster]. Same result lines, same order.")
+@click.option("--results", "results_file", type=click.Path(dir_okay=False),
+              help="Also write one row per job to this Parquet file (id, ok, status, kind, extent, "
+                   "checks, Bennett parameters, error); needs pyarrow (mpsynth[cluster]).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or summary on stderr.")
 @debug_option
 @run_guarded
-def batch(jobs_file, workers, out_dir, chunksize, full, quiet, debug):
+def batch(jobs_file, workers, out_dir, chunksize, full, scheduler, results_file, quiet, debug):
     """Run the synthesis jobs in JOBS (JSON lines; '-' reads standard input), one result line per line
     on stdout, in input order, streamed as the jobs finish. A failing job (malformed line, bad poses,
     no real linkage) gives a result line with its error and never stops the batch."""
-    if workers < 0:
+    if workers is not None and workers < 0:
         raise InputError(f"-j {workers}: must be 0 (one per CPU) or more")
     if chunksize is not None and chunksize < 1:
         raise InputError(f"--chunksize {chunksize}: must be at least 1")
     if out_dir is not None and not os.path.isdir(out_dir):
         raise InputError(f"--out-dir {out_dir}: not an existing directory")
+    if scheduler is not None and not scheduler.strip():
+        raise InputError("--scheduler: give an address (tcp://host:8786) or 'local'")
     stream, total = open_lines(jobs_file)
-    workers = worker_count(workers, total)
-
-    progress = Progress(total) if (not quiet and sys.stderr.isatty()) else None
+    table = ResultsTable(results_file, avoid=(jobs_file,)) if results_file else contextlib.nullcontext()
+    client = results = None
     start = time.monotonic()
     n = failed = 0
     codes: dict[int, int] = {}
+    progress = None
     try:
-        with stream, terminate_as_exit():
-            for res in run_jobs(_read(read_lines(stream), jobs_file), jobs=workers, chunksize=chunksize,
-                                full=full, total=total, out_dir=out_dir):
+        with stream, table, terminate_as_exit():
+            lines = _read(read_lines(stream), jobs_file)
+            if scheduler is None:
+                workers = worker_count(1 if workers is None else workers, total)
+                where = f"-j {workers}"
+                results = run_jobs(lines, jobs=workers, chunksize=chunksize, full=full, total=total,
+                                   out_dir=out_dir)
+            else:
+                client = cluster.connect(scheduler.strip(), workers)
+                where = f"{cluster.worker_threads(client)} Dask workers"
+                results = cluster.run_jobs_on(client, lines, chunksize=chunksize, full=full, total=total,
+                                              out_dir=out_dir)
+            progress = Progress(total) if (not quiet and sys.stderr.isatty()) else None
+            for res in results:
                 _write(dumps(res) + "\n")
+                if results_file:
+                    table.add(res)
                 if progress:
                     progress.update(res["ok"])
                 if res.get("skipped"):
@@ -136,10 +162,14 @@ def batch(jobs_file, workers, out_dir, chunksize, full, quiet, debug):
     finally:
         if progress:
             progress.close()
+        if results is not None:
+            results.close()  # cancels the chunks still in flight
+        if client is not None:
+            cluster.close(client)
     if not quiet:
         dt = time.monotonic() - start
         why = {2: "bad input", 1: "no linkage", 3: "internal error"}
         detail = ", ".join(f"{c} {why.get(k, k)}" for k, c in sorted(codes.items()))
         echo(f"batch: {n} jobs, {n - failed} ok, {failed} failed{f' ({detail})' if detail else ''} "
-             f"in {dt:.2f} s ({n / max(dt, 1e-9):.1f} jobs/s, -j {workers})")
+             f"in {dt:.2f} s ({n / max(dt, 1e-9):.1f} jobs/s, {where})")
     sys.exit(1 if failed else 0)

@@ -8,6 +8,7 @@
     L = synth.sixbar_points(pts7)       # (7, 3) -> the best 6R Linkage; synth.point_candidates(.., top=N): ranked
     R = synth.bennett_batch(many)       # (N, 3, 4, 4) -> BennettBatch: arrays over N, per-set status
     F = synth.factorize(C)              # (n+1, 8) monic motion polynomial -> every factorization
+    S = synth.sweep(many, client=...)   # bennett_batch over chunks, here or on a Dask cluster
 
 Layers (data flows one way; see docs/architecture.md): ``synth.algebra`` (dual quaternions, motion
 polynomials, factorization), ``synth.synthesis`` (conic, cubic families, Bennett, 6R, curves),
@@ -26,7 +27,8 @@ from __future__ import annotations
 
 import importlib
 
-__all__ = ["bennett", "sixbar", "bennett_points", "sixbar_points", "point_candidates", "bennett_batch", "factorize", "BennettBatch", "Linkage", "MpsynthError",
+__all__ = ["bennett", "sixbar", "bennett_points", "sixbar_points", "point_candidates", "bennett_batch", "sweep",
+           "factorize", "BennettBatch", "Linkage", "MpsynthError",
            "InputError", "SynthesisError"]
 
 _LAZY = {
@@ -37,6 +39,7 @@ _LAZY = {
     "point_candidates": "synth.synthesis.points",
     "bennett_batch": "synth.synthesis.bennett_batch",
     "BennettBatch": "synth.synthesis.bennett_batch",
+    "sweep": "synth.tools.sweep",
     "factorize": "synth.algebra.factorize",
     "Linkage": "synth.linkage",
     "MpsynthError": "synth.errors",

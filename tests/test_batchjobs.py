@@ -190,3 +190,16 @@ def test_open_lines_counts_jobs_and_names_unreadable_files(tmp_path):
         open_lines(str(tmp_path))
     with pytest.raises(InputError, match="no such file"):
         open_lines(str(tmp_path / "nope.jsonl"))
+
+
+def test_cluster_options_without_the_cluster_extra(monkeypatch, tmp_path):
+    """Without dask / pyarrow (the optional extra mpsynth[cluster]) the options are one-line input errors."""
+    jobs = tmp_path / "jobs.jsonl"
+    jobs.write_text("\n")
+    monkeypatch.setitem(sys.modules, "distributed", None)  # the import fails as if it were not installed
+    monkeypatch.setitem(sys.modules, "pyarrow", None)
+    r = run("batch", jobs, "--scheduler", "local")
+    assert r.exit_code == 2 and r.stdout == "" and "mpsynth[cluster]" in r.stderr and r.stderr.count("\n") == 1
+    r = run("batch", jobs, "--results", tmp_path / "r.parquet")
+    assert r.exit_code == 2 and "pyarrow" in r.stderr and "mpsynth[cluster]" in r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["jobs.jsonl"]

@@ -266,11 +266,19 @@ def numbered_lines(lines: Iterable[str]) -> Iterator[tuple[int, str]]:
     return enumerate(lines, 1)
 
 
-def _run_chunk(chunk, full: bool, out_dir):
+def numbered(lines) -> Iterator[tuple[int, str]]:
+    """(line number, text) pairs from (line number, text) pairs or plain text lines."""
+    return (it if isinstance(it, tuple) else (n, it) for n, it in enumerate(lines, 1))
+
+
+def run_chunk(chunk, full: bool, out_dir):
+    """The results of a list of (line number, text) jobs (a worker's unit of work)."""
     return [run_job(item, full=full, out_dir=out_dir) for item in chunk]
 
 
-def _chunks(items, size: int, max_bytes: int = 1 << 20):
+def chunks(items, size: int, max_bytes: int = 1 << 20):
+    """Lists of at most ``size`` items of ``items`` ((line number, text) pairs) and about ``max_bytes``
+    of job text."""
     chunk, nbytes = [], 0
     for item in items:
         chunk.append(item)
@@ -300,7 +308,7 @@ def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = Fa
     """Results of the jobs in ``lines``, in input order. ``lines``: an iterable of (line number, text)
     pairs (`synth.io.docload.read_lines`) or of text lines. ``jobs`` worker processes (the caller caps
     it, `worker_count`)."""
-    items = (it if isinstance(it, tuple) else (n, it) for n, it in enumerate(lines, 1))
+    items = numbered(lines)
     if jobs <= 1:
         for item in items:
             yield run_job(item, full=full, out_dir=out_dir)
@@ -311,8 +319,8 @@ def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = Fa
     pool = ctx.Pool(processes=jobs, initializer=_worker_init)
     pending: collections.deque = collections.deque()
     try:
-        for chunk in _chunks(items, chunksize):
-            pending.append(pool.apply_async(_run_chunk, (chunk, full, out_dir)))
+        for chunk in chunks(items, chunksize):
+            pending.append(pool.apply_async(run_chunk, (chunk, full, out_dir)))
             while len(pending) > 2 * jobs:
                 yield from pending.popleft().get()
             while pending and pending[0].ready():

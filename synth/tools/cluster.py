@@ -1,0 +1,198 @@
+"""Batch jobs on a Dask cluster: `mpsynth batch JOBS --scheduler ADDRESS|local`.
+
+``connect(address)`` gives a ``distributed.Client``: ``"local"`` starts a ``LocalCluster`` on this machine
+(one single-threaded worker process per CPU, or ``workers``), anything else is the address of a running
+scheduler (``tcp://host:8786``, see README "Sweeps on a Dask cluster"). ``run_jobs_on(client, lines)`` is
+`synth.tools.batchjobs.run_jobs` on that cluster: the same (line number, text) items, cut into chunks
+(`synth.tools.batchjobs.chunks`), each chunk one Dask task running `synth.tools.batchjobs.run_chunk` on a
+worker, at most a few tasks per worker thread in flight (bounded memory on both sides), results
+yielded in input order as soon as the chunks before them are done. The result dictionaries are the ones
+of the local run, so the result lines are the same bytes.
+
+Failures: a job never fails a task (`synth.tools.batchjobs.run_job` turns every error into a result). A
+worker that dies (killed, out of memory, its machine gone) loses no job: the scheduler runs its chunks
+again on another worker (up to Dask's ``distributed.scheduler.allowed-failures``, default 3); a chunk that
+killed that many workers is split and each of its jobs run alone, so that only a job that itself kills
+workers gets a result line with exit code 3. Running a job twice is harmless: an ``out`` directory
+written by the first attempt is mpsynth's own and is rewritten with the same files, each write atomic
+(`synth.io.writer`; a temporary directory of a killed worker is removed by the next write of that OUT on
+the same machine). ``out`` paths are resolved under the absolute ``out_dir`` of the client, which must
+be the same shared directory on every worker.
+
+Dask is an optional dependency (``pip install 'mpsynth[cluster]'``), imported only here and only when
+called; without it `connect` raises an InputError saying how to install it.
+"""
+from __future__ import annotations
+
+import collections
+import concurrent.futures
+import logging
+import os
+import socket
+import uuid
+from typing import Iterator
+
+from synth.errors import InputError, MpsynthError
+from synth.tools.batchjobs import chunks, numbered, run_chunk, worker_count
+
+CONNECT_TIMEOUT = 30.0  # seconds to reach the scheduler
+WORKER_TIMEOUT = 60.0  # seconds to wait for a first worker
+INSTALL_HINT = "pip install 'mpsynth[cluster]'"
+
+
+class ClusterError(MpsynthError):
+    """The cluster itself failed (the scheduler went away, a task was cancelled). Exit code 2."""
+
+    exit_code = 2
+
+
+def import_distributed():
+    """The ``distributed`` module, or an InputError saying how to install it."""
+    try:
+        import distributed
+    except ImportError as e:
+        raise InputError(f"--scheduler needs Dask, which is not installed ({e}); {INSTALL_HINT}") from None
+    return distributed
+
+
+def quiet_logs(level=logging.ERROR) -> None:
+    """Dask's own log lines (a worker removed, tasks rescheduled) below ``level`` are not printed: the
+    batch reports what matters in its result lines and summary."""
+    for name in ("distributed", "distributed.scheduler", "distributed.client", "distributed.worker",
+                 "distributed.nanny", "distributed.core", "distributed.comm", "distributed.batched"):
+        logging.getLogger(name).setLevel(level)
+
+
+def connect(address: str, workers: int | None = None, timeout: float = CONNECT_TIMEOUT,
+            wait_workers: float = WORKER_TIMEOUT):
+    """A ``distributed.Client``: ``address`` "local" starts a LocalCluster of ``workers`` single-threaded
+    processes (None or 0: one per CPU, `synth.tools.batchjobs.worker_count`); else it connects to the
+    scheduler at ``address`` and waits up to ``wait_workers`` s for a worker. InputError (one line) when
+    Dask is missing, the scheduler cannot be reached or has no worker. The caller closes the client
+    (and its ``cluster``, for "local": `close`)."""
+    distributed = import_distributed()
+    quiet_logs()
+    if address == "local":
+        n = worker_count(workers or 0, None)
+        try:
+            cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                               dashboard_address=None, silence_logs=logging.ERROR)
+        except Exception as e:
+            raise ClusterError(f"--scheduler local: cannot start a local Dask cluster ({type(e).__name__}: {e})") from None
+        return distributed.Client(cluster)
+    if workers:
+        raise InputError(f"-j {workers}: the workers of --scheduler {address} are those started there "
+                         "(dask worker ADDRESS); -j applies to local runs and --scheduler local")
+    _probe(address)
+    try:
+        client = distributed.Client(address, timeout=timeout)
+    except (OSError, TimeoutError, ValueError) as e:
+        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler there "
+                         f"({' '.join(str(e).split()) or type(e).__name__})") from None
+    try:
+        client.wait_for_workers(1, timeout=wait_workers)
+    except (TimeoutError, OSError):
+        close(client)
+        raise InputError(f"--scheduler {address}: no worker connected within {wait_workers:.0f} s; "
+                         f"start some with: dask worker {address}") from None
+    return client
+
+
+def _probe(address: str) -> None:
+    """A TCP scheduler address where nothing listens is refused at once (Dask would retry until its
+    timeout); other protocols are left to Dask."""
+    rest = address[len("tcp://"):] if address.startswith("tcp://") else address
+    if "://" in rest:
+        return
+    host, sep, port = rest.rpartition(":")
+    if not sep or not port.isdigit():
+        raise InputError(f"--scheduler {address}: not an address (tcp://host:port) or 'local'")
+    try:
+        socket.create_connection((host.strip("[]") or "127.0.0.1", int(port)), timeout=CONNECT_TIMEOUT).close()
+    except OSError as e:
+        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler there "
+                         f"({e.strerror or type(e).__name__})") from None
+
+
+def close(client) -> None:
+    """Close ``client`` and, for a LocalCluster it started, the cluster; never raises."""
+    cluster = getattr(client, "cluster", None)
+    try:
+        client.close()
+    except Exception:
+        pass
+    if cluster is not None:
+        try:
+            cluster.close()
+        except Exception:
+            pass
+
+
+def worker_threads(client) -> int:
+    """Worker threads of the cluster now (at least 1)."""
+    try:
+        return max(1, sum(client.nthreads().values()))
+    except Exception:
+        return 1
+
+
+def default_chunksize(threads: int, total: int | None) -> int:
+    """Jobs per task: about 8 tasks per worker thread for a known job count, between 1 and 256 (a
+    chunk's round trip costs milliseconds to tens of milliseconds, a Bennett job ~4 ms of CPU:
+    bench/RESULTS.md)."""
+    if total is None:
+        return 64
+    return max(1, min(256, total // (8 * threads)))
+
+
+def run_jobs_on(client, lines, chunksize: int | None = None, full: bool = False, total: int | None = None,
+                out_dir=None, window: int | None = None) -> Iterator[dict]:
+    """Results of the jobs in ``lines`` ((line number, text) pairs or text lines) computed on the Dask
+    cluster of ``client``, in input order, streamed; the same dictionaries as
+    `synth.tools.batchjobs.run_jobs`. ``window``: tasks in flight (default 3 per worker thread, at
+    least 4). Pending tasks are cancelled when the generator is closed early."""
+    threads = worker_threads(client)
+    if chunksize is None:
+        chunksize = default_chunksize(threads, total)
+    base = os.path.abspath(os.fspath(out_dir) if out_dir is not None else os.curdir)
+    window = window or max(4, 3 * threads)
+    token = uuid.uuid4().hex[:12]
+    pending: collections.deque = collections.deque()  # (future, chunk) in input order
+    try:
+        for chunk in chunks(numbered(lines), chunksize):
+            fut = client.submit(run_chunk, chunk, full, base, pure=False,
+                                key=f"mpsynth-batch-{token}-{chunk[0][0]}")
+            pending.append((fut, chunk))
+            while len(pending) >= window:
+                yield from _collect(client, *pending.popleft(), full, base)
+            while pending and pending[0][0].done():
+                yield from _collect(client, *pending.popleft(), full, base)
+        while pending:
+            yield from _collect(client, *pending.popleft(), full, base)
+    finally:
+        if pending:
+            try:
+                client.cancel([f for f, _ in pending])
+            except Exception:
+                pass
+
+
+def _collect(client, fut, chunk, full, base) -> list[dict]:
+    """The results of one submitted chunk; a chunk that killed workers is run job by job."""
+    distributed = import_distributed()
+    try:
+        return fut.result()
+    except distributed.KilledWorker:
+        if len(chunk) == 1:
+            lineno = chunk[0][0]
+            return [{"id": None, "line": lineno, "ok": False, "exit_code": 3,
+                     "error": "internal error: this job killed every Dask worker that ran it "
+                              "(out of memory, a crash); it was not completed"}]
+        singles = [client.submit(run_chunk, [item], full, base, pure=False) for item in chunk]
+        return [r for f, item in zip(singles, chunk) for r in _collect(client, f, [item], full, base)]
+    except ImportError as e:  # the worker's Python has no (or another) mpsynth
+        raise ClusterError(f"a Dask worker cannot run mpsynth's jobs ({type(e).__name__}: {e}); install "
+                           f"the same mpsynth on every worker ({INSTALL_HINT})") from None
+    except (concurrent.futures.CancelledError, OSError, TimeoutError) as e:
+        raise ClusterError(f"the Dask cluster failed while running the jobs from line {chunk[0][0]} on "
+                           f"({type(e).__name__}: {' '.join(str(e).split())}); the results before them are complete") from None
