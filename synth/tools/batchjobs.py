@@ -55,7 +55,7 @@ from synth.io.jsonout import linkage_document, plain
 from synth.io.names import check_robot_name, safe_robot_name
 from synth.io.poses import parse_pose_document
 from synth.io.writer import check_output_target, write_output
-from synth.synthesis.bennett import bennett
+from synth.synthesis.bennett import bennett, check_transmission
 
 KINDS = {"bennett": 3, "sixbar": 4}
 JOB_KEYS = ("id", "kind", "poses", "units", "out", "name", "normalize", "force",
@@ -141,7 +141,9 @@ def _check_job(job: dict) -> None:
 
 def _synthesize(kind: str, ps):
     if kind == "bennett":
-        return bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
+        linkage = bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
+        check_transmission(linkage)  # the CLI's gate (synth.synthesis.bennett.verify); sixbar has it inside
+        return linkage
     try:  # sixbar is optional in an installation
         from synth.synthesis.sixbar import sixbar
     except ImportError as e:
