@@ -3,7 +3,6 @@ polynomial, following the "two branches, one weld" convention of docs/convention
 from __future__ import annotations
 
 import functools
-import itertools
 import math
 
 import numpy as np
@@ -44,7 +43,6 @@ def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> 
         laws.append((float(h0), b))
         lines += (-v1 / b, -v2 / b, -v3 / b, w1 / b, w2 / b, w3 / b)
     lines = np.array(lines, float).reshape(-1, 3)
-    laws = shared_laws(laws, len(H))
     joints = [Joint(name, parent, child, lines[2 * i], lines[2 * i + 1], a, b)
               for i, ((name, parent, child), (a, b)) in enumerate(zip(specs, laws))]
     poses = np.asarray(poses, float)
@@ -59,30 +57,6 @@ def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> 
     return Linkage(kind, joints, {k: list(v) for k, v in links.items()}, [list(x) for x in branches],
                    [("coupler", "coupler_k")], poses[0], None if motion is None else np.asarray(motion, float),
                    records, info=dict(info) if info else {})
-
-
-SHARED_LAW_TOL = 1e-9  # relative: laws of two factors this close come from one norm quadratic
-
-
-def shared_laws(laws, n: int) -> list[tuple[float, float]]:
-    """The angle laws (a, b) of branches h (first n) and k (last n) with the laws of the two factors of
-    one norm quadratic made equal (their mean), as they are exactly (docs/conventions.md: the same norm
-    quadratic, the same angle law). Each h factor is matched with the k factor of the closest law (the
-    matching with the smallest largest distance); a pair further apart than SHARED_LAW_TOL (relative to
-    1 + |a| + b) is left as it is. Rounding makes the two computed laws differ by a few ulps of a; where
-    b is tiny against a, joint angles 2 atan2(b, t - a) near t = a amplify that by 1 / b, and the two
-    branches would drift apart by far more than the loop closes."""
-    h, k = laws[:n], laws[n:]
-    if len(k) != n or n > 4:
-        return list(laws)
-    best = min(itertools.permutations(range(n)),
-               key=lambda p: max(math.dist(h[i], k[p[i]]) for i in range(n)))
-    out = list(laws)
-    for i, j in enumerate(best):
-        (a1, b1), (a2, b2) = h[i], k[j]
-        if math.dist(h[i], k[j]) <= SHARED_LAW_TOL * (1.0 + abs(a1) + b1):
-            out[i] = out[n + j] = (0.5 * (a1 + a2), 0.5 * (b1 + b2))
-    return out
 
 
 @functools.lru_cache(maxsize=None)

@@ -10,20 +10,19 @@ ratio of the speeds of joints i and j over the whole motion is
 d the hyperbolic distance of the upper half plane: symmetric, 1 for equal laws, and unchanged by any
 real reparametrization t -> (alpha t + beta) / (gamma t + delta). A linkage whose largest ratio is huge
 is degenerate in practice: while one joint moves by 1 / rho the other makes a whole turn, a motion that
-double precision (and any drive) cannot resolve. Syntheses refuse such results (`require_transmission`).
+double precision (and any drive) cannot resolve. Syntheses refuse such results (`transmission_problem`;
+`synth.synthesis.bennett.check_transmission`, `synth.synthesis.sixbar`).
 """
 from __future__ import annotations
 
 import numpy as np
-
-from synth.errors import SynthesisError
 
 TRANSMISSION_LIMIT = 1e4  # largest accepted speed ratio of two joints anywhere in the cycle (module docstring)
 
 
 def transmission_ratios(a, b) -> np.ndarray:
     """Largest speed ratios rho_ij (..., J, J) of the joints with angle laws a, b (..., J) (b != 0):
-    exp of the hyperbolic distance of the norm roots a + i|b| (module docstring); inf where a b is 0 or
+    exp of the hyperbolic distance of the norm roots a + i|b| (module docstring); inf where b is 0 or
     not finite."""
     a = np.asarray(a, float)
     b = np.abs(np.asarray(b, float))
@@ -60,9 +59,3 @@ def transmission_problem(linkage, limit: float = TRANSMISSION_LIMIT) -> str | No
             f"turns {rho:.2g} times faster than joint {slow} (transmission ratio {rho:.2g}, at most "
             f"{limit:.0e} is accepted), a motion no drive and no double-precision check can follow")
 
-
-def require_transmission(linkage, limit: float = TRANSMISSION_LIMIT) -> None:
-    """Raise SynthesisError with `transmission_problem`'s sentence when the ratio exceeds ``limit``."""
-    msg = transmission_problem(linkage, limit)
-    if msg is not None:
-        raise SynthesisError(msg)
