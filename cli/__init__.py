@@ -1,0 +1,30 @@
+"""The `mpsynth` command line (click), a thin layer over `synth` (docs/architecture.md).
+
+The first thing the package does, before any command module or click is imported, is to install the ^C
+hooks: a SIGINT that arrives while Python is still importing (before `cli.main.main` can catch it) ends
+the run with one line ``mpsynth: interrupted`` and exit 130, not a traceback. Both the console script
+(``from cli.main import main``) and ``python -m cli.main`` import this package first. A SIGINT during
+CPython's own start-up (before any of this code runs) is the interpreter's to report."""
+import os
+import sys
+
+
+def interrupted_hook(kind, value, tb, _previous=sys.excepthook):
+    """sys.excepthook: ^C while Python is still importing (before `main` can catch it): one line, exit 130."""
+    if issubclass(kind, KeyboardInterrupt):
+        try:
+            sys.stderr.write("mpsynth: interrupted\n")
+            sys.stderr.flush()
+        finally:
+            os._exit(130)
+    _previous(kind, value, tb)
+
+
+def unraisable_hook(info, _previous=sys.unraisablehook):
+    """sys.unraisablehook: a ^C inside an import-lock callback is not reported twice."""
+    if not isinstance(info.exc_value, KeyboardInterrupt):
+        _previous(info)
+
+
+sys.excepthook = interrupted_hook
+sys.unraisablehook = unraisable_hook

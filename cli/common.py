@@ -10,12 +10,21 @@ import traceback
 import click
 
 from synth.io.names import check_package, check_robot_name, safe_robot_name
-from synth.io.streams import environment_error, silence_stdout
+from synth.io.streams import environment_error, silence_stderr, silence_stdout
 
 
 def echo(msg: str = "") -> None:
     """Human-readable output goes to stderr (stdout is reserved for --json)."""
     click.echo(msg, err=True)
+
+
+def report(msg: str) -> None:
+    """One error line on stderr; when stderr itself cannot be written (a full device, a closed pipe)
+    nothing is said and the exit code alone tells."""
+    try:
+        click.echo(msg, err=True)
+    except (OSError, ValueError):
+        silence_stderr()
 
 
 def run_guarded(func):
@@ -32,24 +41,23 @@ def run_guarded(func):
         except MpsynthError as e:
             if debug:
                 traceback.print_exc()
-            click.echo(f"mpsynth: {e}", err=True)
+            report(f"mpsynth: {e}")
             sys.exit(e.exit_code)
         except click.exceptions.Exit:
             raise
         except click.ClickException:
             raise
         except KeyboardInterrupt:
-            click.echo("mpsynth: interrupted", err=True)
+            report("mpsynth: interrupted")
             sys.exit(130)
         except Exception as e:  # an internal error: still one line unless --debug
-            if environment_error(e) is not None:  # a full disk, a closed stdout...: not a bug
+            if environment_error(e) is not None:  # a full disk, a closed stdout or stderr...: not a bug
                 silence_stdout()
-                click.echo(f"mpsynth: cannot write: {environment_error(e)}", err=True)
+                report(f"mpsynth: cannot write: {environment_error(e)}")
                 sys.exit(2)
             if debug:
                 traceback.print_exc()
-            click.echo(f"mpsynth: internal error: {type(e).__name__}: {e} (rerun with --debug for a traceback)",
-                       err=True)
+            report(f"mpsynth: internal error: {type(e).__name__}: {e} (rerun with --debug for a traceback)")
             sys.exit(3)
 
     return wrapper

@@ -1,34 +1,12 @@
 """The `mpsynth` command: a click group whose subcommands are imported only when run (fast --help)."""
 from __future__ import annotations
 
-import os
+import importlib
+import importlib.util
 import sys
 import warnings
 
-
-def _interrupted_hook(kind, value, tb, _previous=sys.excepthook):
-    """^C while Python is still importing (before `main` can catch it): one line, exit 130."""
-    if issubclass(kind, KeyboardInterrupt):
-        try:
-            sys.stderr.write("mpsynth: interrupted\n")
-            sys.stderr.flush()
-        finally:
-            os._exit(130)
-    _previous(kind, value, tb)
-
-
-def _unraisable_hook(info, _previous=sys.unraisablehook):
-    if not isinstance(info.exc_value, KeyboardInterrupt):  # ^C inside an import-lock callback
-        _previous(info)
-
-
-sys.excepthook = _interrupted_hook  # set before the imports below, which take most of the start-up
-sys.unraisablehook = _unraisable_hook
-
-import importlib  # noqa: E402
-import importlib.util  # noqa: E402
-
-import click  # noqa: E402
+import click  # the ^C hooks are installed by the package (cli/__init__.py) before this import
 
 # name -> (module:function, one-line help). Keep the help here so `mpsynth --help` imports nothing.
 COMMANDS = {
@@ -80,9 +58,17 @@ class LazyGroup(click.Group):
             sys.exit(_report_click_error(e))
         except click.exceptions.Abort as e:  # Ctrl-C outside a command's own handling, or EOF
             interrupted = isinstance(e.__cause__ or e.__context__, KeyboardInterrupt)
-            click.echo("mpsynth: interrupted" if interrupted else "mpsynth: aborted", err=True)
+            _report("mpsynth: interrupted" if interrupted else "mpsynth: aborted")
             sys.exit(130 if interrupted else 1)
         sys.exit(rv if isinstance(rv, int) else 0)  # an int here is the code of a click Exit (--help)
+
+    def invoke(self, ctx):
+        """click's invoke; a ^C while a command module is imported or run outside `run_guarded` is an
+        Abort caused by KeyboardInterrupt (click itself would first print a blank line)."""
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt as e:
+            raise click.exceptions.Abort() from e
 
     def resolve_command(self, ctx, args):
         try:
@@ -109,8 +95,16 @@ def _report_click_error(e: click.ClickException) -> int:
     ctx = getattr(e, "ctx", None)
     if isinstance(e, click.UsageError) and ctx is not None:
         msg += f" (see '{ctx.command_path} --help')"
-    click.echo(f"mpsynth: {msg}", err=True)
+    _report(f"mpsynth: {msg}")
     return e.exit_code
+
+
+def _report(msg: str) -> None:
+    """One error line on stderr, nothing when stderr cannot be written (`cli.common.report`; imported
+    here, on an error path, to keep `mpsynth --help` light)."""
+    from .common import report
+
+    report(msg)
 
 
 def _available(target: str) -> bool:
@@ -148,7 +142,7 @@ def main(argv=None):
     try:
         return mpsynth.main(args=argv, prog_name="mpsynth", standalone_mode=True)
     except KeyboardInterrupt:  # pragma: no cover
-        click.echo("mpsynth: interrupted", err=True)
+        _report("mpsynth: interrupted")
         sys.exit(130)
 
 

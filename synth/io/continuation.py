@@ -82,22 +82,25 @@ def _path_sets(u, closures):
     return _PATHS[key][1]
 
 
-def _gauss_newton(fun, x0, tol, max_iter=25):
+def _gauss_newton(fun, x0, tol, max_iter=25, target=1e-3):
     """Gauss-Newton with step halving (least squares through the SVD, so redundant loop equations and
-    rank deficiency are fine). Returns (x, |r|)."""
+    rank deficiency are fine) until |r| <= target * tol, or until a step no longer lowers it; below
+    1e-3 tol only full steps that halve |r| count (no halving: the rounding floor is near).
+    Returns (x, |r|)."""
     x = x0.copy()
     r, J = fun(x)
     nr = float(np.linalg.norm(r))
     for _ in range(max_iter):
-        if nr <= 1e-3 * tol:
+        if nr <= target * tol:
             break
+        polishing = nr <= 1e-3 * tol
         dx = np.linalg.lstsq(J, -r, rcond=1e-12)[0]
         lam, improved = 1.0, False
-        for _ in range(8):
+        for _ in range(1 if polishing else 8):
             xn = x + lam * dx
             rn, Jn = fun(xn)
             nrn = float(np.linalg.norm(rn))
-            if nrn < nr:
+            if nrn < (0.5 * nr if polishing else nr):
                 x, r, J, nr, improved = xn, rn, Jn, nrn, True
                 break
             lam /= 2
@@ -107,12 +110,17 @@ def _gauss_newton(fun, x0, tol, max_iter=25):
 
 
 def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, steps: int = 360,
-                  length: float = 1.0, tol: float = 1e-8, min_step: float = 1e-7) -> dict:
+                  length: float = 1.0, tol: float = 1e-8, min_step: float = 1e-9, ratio: float = 1.0) -> dict:
     """Drive ``driver`` from 0 through a full turn, solving ``others`` so every loop stays closed.
 
     Adaptive continuation: tangent predictor (from the loop Jacobian), Gauss-Newton corrector, the step
     (at most 2 pi / steps) halves when the corrector fails or moves a joint by more than a quarter of
-    the step bound, and grows by 1.5 after a success; below ``min_step`` * 2 pi the linkage is stuck.
+    the step bound, and grows by 1.5 after a success; below ``min_step`` * 2 pi the linkage is stuck
+    (1e-9: a joint turning up to ~1e7 times faster than the driver somewhere in the cycle is followed;
+    syntheses refuse ratios above 1e4, `synth.synthesis.conditioning`). ``ratio``: the linkage's
+    transmission ratio rho; where a joint turns rho times faster than the driver its angle is far more
+    uncertain than the loop residual (rho ~ 5e4 left the path 1.5e-4 rad off the laws with the residual
+    at 1e-3 tol), so the corrector goes on to 1e-3 tol / max(1, rho / 100).
     Returns ``followed`` (fraction of the turn), ``path`` (rows: driver angle, others' angles),
     ``accepted``/``rejected`` step counts, ``max_residual`` (of accepted points) and, when stuck, the
     ``angle`` and ``stuck_residual``."""
@@ -121,6 +129,7 @@ def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, ste
     all_j = [driver] + list(others)
     h_max = TWO_PI / steps
     h_min = TWO_PI * min_step
+    target = 1e-3 / max(1.0, ratio / 100.0)
 
     def fun_at(phi):
         def f(x):
@@ -144,7 +153,7 @@ def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, ste
     while phi < TWO_PI - 1e-13:
         step = min(h, TWO_PI - phi)
         guess = x + step * tangent(phi, x)
-        xn, res = _gauss_newton(fun_at(phi + step), guess, tol)
+        xn, res = _gauss_newton(fun_at(phi + step), guess, tol, target=target)
         jump = float(np.abs(xn - guess).max()) if len(xn) else 0.0
         if res <= tol and jump <= 0.25 * h_max + 1e-12 and np.all(np.isfinite(xn)):
             phi += step

@@ -223,7 +223,9 @@ def open_lines(source) -> tuple[IO[bytes], int | None]:
     number of its lines (None for standard input or anything but a regular file). InputError (one
     line) when it cannot be opened."""
     if source == "-":
-        return _stdin_buffer(), None
+        stream = _stdin_buffer()
+        _refuse_device(stream, "<stdin>")
+        return stream, None
     name = clean_text(os.fspath(source))
     try:
         stream = open(source, "rb")
@@ -233,10 +235,7 @@ def open_lines(source) -> tuple[IO[bytes], int | None]:
         raise InputError(f"{name}: cannot read file: it is a directory") from None
     except OSError as e:
         raise InputError(f"{name}: cannot read file: {clean_text(e.strerror or str(e))}") from None
-    mode = os.fstat(stream.fileno()).st_mode
-    if (stat.S_ISCHR(mode) or stat.S_ISBLK(mode)) and not stream.isatty() and not _is_devnull(source):
-        stream.close()  # /dev/zero, /dev/urandom, a disk: endless or binary, never job lines
-        raise InputError(f"{name}: is a device, not a file of job lines")
+    mode = _refuse_device(stream, name)
     total = None
     try:
         if stat.S_ISREG(mode):  # never count a pipe
@@ -251,11 +250,28 @@ def open_lines(source) -> tuple[IO[bytes], int | None]:
     return stream, total
 
 
-def _is_devnull(source) -> bool:
+def _refuse_device(stream, name: str) -> int:
+    """The st_mode of ``stream``'s file; InputError (the stream closed) when it is a device other than
+    a terminal or /dev/null: /dev/zero, /dev/urandom, /dev/full or a disk are endless or binary, never
+    job lines (as a path or redirected to standard input). 0 for a stream without a file descriptor."""
     try:
-        return os.path.samefile(source, os.devnull)
+        st = os.fstat(stream.fileno())
+    except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
+        return 0
+    if (stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode)) and not stream.isatty() and not _is_devnull(st):
+        if name != "<stdin>":
+            stream.close()
+        raise InputError(f"{name}: is a device, not a file of job lines")
+    return st.st_mode
+
+
+def _is_devnull(st) -> bool:
+    try:
+        null = os.stat(os.devnull)
     except OSError:
         return False
+    return (st.st_dev, st.st_ino) == (null.st_dev, null.st_ino) or (
+        stat.S_ISCHR(null.st_mode) and st.st_rdev == null.st_rdev)
 
 
 def read_lines(stream, limit: int = MAX_LINE_BYTES):

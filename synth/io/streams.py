@@ -16,9 +16,19 @@ ENVIRONMENT_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EPIPE, errno.EBADF, errn
 
 def silence_stdout() -> None:
     """Point stdout at /dev/null so that the interpreter's final flush cannot fail again."""
+    _silence(sys.stdout)
+
+
+def silence_stderr() -> None:
+    """Point stderr at /dev/null (it cannot be written: full, or a closed pipe), dropping what is
+    buffered, so that the interpreter's final flush cannot fail."""
+    _silence(sys.stderr)
+
+
+def _silence(stream) -> None:
     try:
         devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
+        os.dup2(devnull, stream.fileno())
         os.close(devnull)
     except (OSError, ValueError, AttributeError):
         pass

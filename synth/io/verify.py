@@ -20,12 +20,15 @@ the independent continuation is `synth.io.continuation`. The checks, each adding
    every loop closed, and the coupler follows ``motion_polynomial``;
 5. cycle, independent: the first joint of the first branch is driven through a full turn in adaptive
    steps (tangent predictor, Gauss-Newton corrector on all loops together, step halved on failure and
-   grown on success); it must complete the turn, come back to all-zero, and agree with the angle laws.
+   grown on success); it must complete the turn, come back to all-zero, and agree with the angle laws
+   (both within the continuation's tolerance below).
 
 Tolerances: with L the linkage's size (RMS spread of joint feet and tool positions) and A the largest
 coordinate, lengths must agree to ``rtol * L + 1e-13 * A`` and angles to ``rtol + 1e-13 * A / L``
 (``rtol`` 1e-8 by default); the continuation must agree with the angle laws to ``max(1e-6, 100 * angle
-tolerance)`` rad. Figures of every measurement are returned for ``--json``.
+tolerance)`` rad, times rho / 1e3 where the laws' transmission ratio rho (the largest speed ratio of two
+joints, `synth.synthesis.conditioning`) exceeds 1e3. Figures of every measurement are returned for
+``--json``.
 """
 from __future__ import annotations
 
@@ -39,6 +42,7 @@ from synth.io.continuation import continue_loop, law_angles
 from synth.io.frames import TWO_PI, invert_transform, pose_diff, wrap_angle
 from synth.io.readback import OutputFiles, angle_laws, mesh_path, read_files, solution_dirs
 from synth.io.urdf import driver_limits
+from synth.synthesis.conditioning import transmission_ratio
 
 
 # ----------------------------------------------------------------------------- checker
@@ -382,8 +386,12 @@ class _Checker:
         if not self.closures or self.driver is None:
             return
         others = [jn for jn in self.loop_joints if jn != self.driver]
+        rho = self._transmission()
+        # where a joint turns rho times faster than the driver, its continued angle is rho times as
+        # sensitive to the loop residual: the tolerance grows with the laws' transmission ratio
+        tol_dev = max(1e-6, 100 * self.tol_ang) * max(1.0, rho / 1e3)
         result = continue_loop(self.u, self.closures, self.driver, others, steps=self.steps,
-                               length=self.L, tol=max(self.tol_ang, self.tol_len / self.L))
+                               length=self.L, tol=max(self.tol_ang, self.tol_len / self.L), ratio=rho)
         laws = self._angle_laws()
         dev = None
         if laws and all(jn in laws for jn in self.loop_joints) and len(result["path"]):
@@ -403,11 +411,18 @@ class _Checker:
         else:
             back = float(np.abs(wrap_angle(np.array(result["path"][-1][1:]))).max()) if others else 0.0
             fig["return_error"] = back
-            if back > 1e-6:
+            if back > tol_dev:
                 self.fail(f"after a full turn of {self.driver} the linkage is not back at all-zero (off by {back:.3g} rad)")
-        tol_dev = max(1e-6, 100 * self.tol_ang)
         if dev is not None and dev > tol_dev:
             self.fail(f"continuation driven by {self.driver} deviates from the angle laws by {dev:.3g} rad")
+
+    def _transmission(self) -> float:
+        """The largest speed ratio of two loop joints (`synth.synthesis.conditioning`) from the laws."""
+        laws = self._angle_laws()
+        ab = np.array([laws[jn] for jn in self.loop_joints if jn in laws], float).reshape(-1, 2)
+        rho = float(transmission_ratio(ab[:, 0], ab[:, 1])) if len(ab) else 1.0
+        self.figures["transmission_ratio"] = rho
+        return rho if math.isfinite(rho) else 1.0  # broken laws (b = 0) are reported by `laws`
 
     # -------------------------------------------------------------- run
     def run(self):

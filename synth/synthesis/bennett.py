@@ -23,12 +23,13 @@ from synth.errors import InputError, NotGenericError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, LOOP, TS, axis_distance, bennett_parameters,
                                           dh_rows, loop_geometry, relative_error, solve)
+from synth.synthesis.conditioning import transmission_problem
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements, to_world
 from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_bennett import accepted_error
 from synth.synthesis.planar_bennett import candidates as planar_candidates
 
-__all__ = ["bennett", "bennett_candidates", "verify", "check_distinct", "sensitivity", "dh_table",
+__all__ = ["bennett", "bennett_candidates", "verify", "check_distinct", "check_transmission", "sensitivity", "dh_table",
            "bennett_parameters_of", "EPS", "FLOOR_ULPS", "ACCEPT_TOL"]
 
 COINCIDENT_TOL = 1e-9  # relative to the pose spread (translation) and radians (rotation)
@@ -90,9 +91,11 @@ def bennett_candidates(poses, names=None, *, check_samples: int = DEFAULT_CHECK_
 
 def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
     """The explicit verification of a Bennett linkage before it is written: the self-check at
-    ``samples`` parameters (stored as ``linkage.checks``) and the acceptance gate on it (SynthesisError
-    when the linkage misses its poses or does not close, relative error above ACCEPT_TOL); the info's
-    ``relative_error`` and warnings are updated. Returns the checks."""
+    ``samples`` parameters (stored as ``linkage.checks``) and the acceptance gates: SynthesisError when
+    the linkage misses its poses or does not close (relative error above ACCEPT_TOL), or when two joints'
+    speeds differ by more than `synth.synthesis.conditioning.TRANSMISSION_LIMIT` somewhere in the cycle
+    (`check_transmission`); the info's ``relative_error`` and warnings are updated. Returns the checks."""
+    check_transmission(linkage)
     checks = self_check(linkage, samples)
     T = np.array([p.matrix for p in linkage.poses], float)
     Tc, cond = condition(T)
@@ -115,6 +118,18 @@ def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
     info["warnings"] = _warnings(linkage, B, cond, info, float(far[0]))
     linkage.checks, linkage.info = checks, info
     return checks
+
+
+def check_transmission(linkage) -> None:
+    """SynthesisError when two joints' speeds differ by more than TRANSMISSION_LIMIT somewhere in the
+    cycle (`synth.synthesis.conditioning.transmission_problem`), naming the pair of poses nearly related
+    by a pure translation or rotation, or nearly coinciding, when there is one."""
+    why = transmission_problem(linkage)
+    if why:
+        T = np.array([p.matrix for p in linkage.poses], float)
+        pos = T[:, :3, 3]
+        spread = max(float(np.sqrt(np.mean(np.sum((pos - pos.mean(axis=0)) ** 2, axis=1)))), 1e-300)
+        raise SynthesisError(why + _near_degenerate(T, [p.name for p in linkage.poses], spread))
 
 
 def linkage_from_solution(out: dict, i: int, T, names, check_samples: int):
@@ -224,7 +239,7 @@ def _near_degenerate(T, names, spread) -> str:
 
 def _near_relations(T, names, spread) -> list[tuple[int, str]]:
     """(kind, text) for each pair of poses nearly coinciding (0), nearly related by a pure translation
-    (1) or by a pure rotation (2), within 1e-3 (relative)."""
+    (1) or by a pure rotation (2), within 1e-3 (relative); the text says by how much."""
     found = []
     for i, j in ((0, 1), (0, 2), (1, 2)):
         R = T[j, :3, :3] @ T[i, :3, :3].T
@@ -233,12 +248,14 @@ def _near_relations(T, names, spread) -> list[tuple[int, str]]:
         w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
         along = abs(float(np.dot(d, w / np.linalg.norm(w)))) if np.linalg.norm(w) > 1e-300 else 0.0
         trans = float(np.linalg.norm(d)) / spread
+        pair = f"poses {i} ({names[i]!r}) and {j} ({names[j]!r})"
         if ang < 1e-3 and trans < 1e-3:
-            found.append((0, f"poses {i} ({names[i]!r}) and {j} ({names[j]!r}) nearly coincide"))
+            found.append((0, f"{pair} nearly coincide (they differ by {max(ang, trans):.1e}, relative)"))
         elif ang < 1e-3:
-            found.append((1, f"poses {i} ({names[i]!r}) and {j} ({names[j]!r}) differ by nearly a pure translation"))
+            found.append((1, f"{pair} differ by nearly a pure translation (rotation {ang:.1e} rad)"))
         elif along / spread < 1e-3 * max(ang, 1e-300) or along / spread < 1e-6:
-            found.append((2, f"poses {i} ({names[i]!r}) and {j} ({names[j]!r}) differ by nearly a pure rotation"))
+            found.append((2, f"{pair} differ by nearly a pure rotation (translation along the axis "
+                             f"{along / spread:.1e}, relative)"))
     return found
 
 
@@ -321,8 +338,8 @@ def _general_factors(T, names):
     except SynthesisError as e:
         close = [text for kind, text in _near_relations(T, names, float(cond.scale)) if kind == 0]
         if close:  # the Study form of nearly equal poses vanishes quadratically: say what really happens
-            raise SynthesisError(f"{close[0]} (they differ by less than 1e-3, relative): the conic through "
-                                 "them is numerically degenerate; give three clearly distinct poses") from e
+            raise SynthesisError(f"{close[0]}: the conic through them is numerically degenerate (poses "
+                                 "1e-3 apart, relative, are needed); give three clearly distinct poses") from e
         raise
     try:
         res = factorize(con.C, validate=False)

@@ -28,6 +28,7 @@ from synth.checks import DEFAULT_CHECK_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett import check_distinct
+from synth.synthesis.conditioning import transmission_problem
 from synth.synthesis.conic import condition, relative_displacements, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, CubicFamily, families, quadric
 from synth.synthesis.planar import zero_pitch
@@ -386,10 +387,20 @@ def _ranked(poses, names, family, member, pair, grid, refine):
 
 
 def _built(problem: Problem, cands, check_samples: int):
-    """Yield (checked Linkage, whether it passes `checks_pass`) for the candidates in order, lazily."""
+    """Yield (checked Linkage, None if it passes `checks_pass` and the transmission gate
+    (`synth.synthesis.conditioning.transmission_problem`), else "check" or the gate's sentence) for the
+    candidates in order, lazily."""
     for cand in cands:
         linkage = build_linkage(problem, cand, check_samples=check_samples)
-        yield linkage, checks_pass(linkage, problem.cond.scale)
+        why = transmission_problem(linkage)
+        yield linkage, (why if why else None if checks_pass(linkage, problem.cond.scale) else "check")
+
+
+def _ill_conditioned(why: str, explicit: bool) -> SynthesisError:
+    """The refusal when the candidates that close are refused by the transmission gate (its sentence,
+    about "the linkage", said of the selected design or of the best candidate)."""
+    what = "the selected 6R design" if explicit else "the best 6R candidate"
+    return SynthesisError(why.replace("the linkage", what, 1))
 
 
 def sixbar_candidates(poses, names=None, *, family=None, member=None, pair=None, top=None,
@@ -405,12 +416,16 @@ def sixbar_candidates(poses, names=None, *, family=None, member=None, pair=None,
     problem, cands = _ranked(poses, names, family, member, pair, grid, refine)
     if not build:
         return cands[:top] if top else list(cands)
-    out = []
-    for linkage, passed in _built(problem, cands, check_samples):  # lazily, until ``top`` pass
-        if passed:
+    out, gate = [], None
+    for linkage, why in _built(problem, cands, check_samples):  # lazily, until ``top`` pass
+        if why is None:
             out.append(linkage)
             if top and len(out) >= top:
                 break
+        elif why != "check":
+            gate = gate or why
+    if not out and gate:
+        raise _ill_conditioned(gate, family is not None or member is not None or pair is not None)
     if not out:
         raise SynthesisError("no candidate 6R linkage passed the self-check (poses, closure) at "
                              f"{CHECK_TOL:g} relative: the pose set is numerically degenerate")
@@ -422,8 +437,9 @@ def sixbar(poses, names=None, *, family=None, member=None, pair=None, grid: int 
     """Synthesize the best 6R linkage (by the engineering score) whose coupler visits the four poses
     (shape (4, 4, 4), metres): the first of the ranked candidates (`scan`, at most MAX_ATTEMPTS) whose
     self-check (`synth.checks.self_check` at ``check_samples`` parameters, in ``linkage.checks``)
-    passes `checks_pass`. ``family`` (1|2), ``member`` (lambda1) and ``pair`` (1..9) restrict the
-    choice; ``grid`` members per family are scanned and the best ``refine`` candidates refined locally.
+    passes `checks_pass` and the transmission gate (`synth.synthesis.conditioning`). ``family`` (1|2),
+    ``member`` (lambda1) and ``pair`` (1..9) restrict the choice; ``grid`` members per family are scanned
+    and the best ``refine`` candidates refined locally.
     Planar or spherical poses (docs/planar.md) give a planar or spherical Watt six-bar of a member
     (t3, lambda1, lambda2, lambda3) of their cubic family (`synth.synthesis.planar_sixbar`; ``pair``: the
     chain 1..6). Raises SynthesisError (oval section, degenerate poses, no valid candidate) with a
@@ -432,13 +448,17 @@ def sixbar(poses, names=None, *, family=None, member=None, pair=None, grid: int 
     if planar is not None:
         return planar[0]
     problem, cands = _ranked(poses, names, family, member, pair, grid, refine)
-    first = None
-    for linkage, passed in _built(problem, islice(cands, MAX_ATTEMPTS), check_samples):  # lazily
+    first, gate = None, None
+    for linkage, why in _built(problem, islice(cands, MAX_ATTEMPTS), check_samples):  # lazily
         first = first or linkage
-        if passed:
+        if why is None:
             return linkage
+        if why != "check":
+            gate = gate or why
     c = first.checks
     explicit = family is not None or member is not None or pair is not None
+    if gate:
+        raise _ill_conditioned(gate, explicit)
     hint = ("the selected design is numerically ill-conditioned; choose another member or pair, or omit "
             "--member/--pair to scan" if explicit else
             "the pose set is numerically degenerate (nearly real or repeated norm roots in every member); "

@@ -57,7 +57,7 @@ from synth.io.jsonout import linkage_document, plain
 from synth.io.names import check_robot_name, safe_robot_name
 from synth.io.poses import parse_pose_document
 from synth.io.writer import check_output_target, write_output
-from synth.synthesis.bennett import bennett
+from synth.synthesis.bennett import bennett, check_transmission
 from synth.synthesis.points import MINIMUM, NEEDED, oriented_item, point_candidates
 
 KINDS = {"bennett": 3, "sixbar": 4}
@@ -149,7 +149,9 @@ def _synthesize(kind: str, ps):
         return point_candidates(ps.positions, ps.names, degree=DEGREES[kind], top=1, tool_rotation=rot,
                                 oriented=oriented, check_samples=VERIFY_SAMPLES)[0]
     if kind == "bennett":
-        return bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
+        linkage = bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
+        check_transmission(linkage)  # the CLI's gate (synth.synthesis.bennett.verify); sixbar has it inside
+        return linkage
     try:  # sixbar is optional in an installation
         from synth.synthesis.sixbar import sixbar
     except ImportError as e:

@@ -1,0 +1,61 @@
+"""Conditioning of a linkage's motion: the transmission ratio of its angle laws (docs/conventions.md,
+section "Transmission ratio").
+
+Joint j turns by theta_j(t) = 2 atan2(b_j, t - a_j) (norm root z_j = a_j + i b_j, b_j > 0). The largest
+ratio of the speeds of joints i and j over the whole motion is
+
+    rho_ij = max_t |d theta_i / d theta_j| = exp(d(z_i, z_j))
+           = (S + |z_i - z_j| |z_i - conj z_j|) / (2 b_i b_j),   S = (a_i - a_j)^2 + b_i^2 + b_j^2,
+
+d the hyperbolic distance of the upper half plane: symmetric, 1 for equal laws, and unchanged by any
+real reparametrization t -> (alpha t + beta) / (gamma t + delta). A linkage whose largest ratio is huge
+is degenerate in practice: while one joint moves by 1 / rho the other makes a whole turn, a motion that
+double precision (and any drive) cannot resolve. Syntheses refuse such results (`transmission_problem`;
+`synth.synthesis.bennett.check_transmission`, `synth.synthesis.sixbar`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+TRANSMISSION_LIMIT = 1e4  # largest accepted speed ratio of two joints anywhere in the cycle (module docstring)
+
+
+def transmission_ratios(a, b) -> np.ndarray:
+    """Largest speed ratios rho_ij (..., J, J) of the joints with angle laws a, b (..., J) (b != 0):
+    exp of the hyperbolic distance of the norm roots a + i|b| (module docstring); inf where b is 0 or
+    not finite."""
+    a = np.asarray(a, float)
+    b = np.abs(np.asarray(b, float))
+    da = a[..., :, None] - a[..., None, :]
+    bi, bj = b[..., :, None], b[..., None, :]
+    with np.errstate(all="ignore"):
+        s = da * da + bi * bi + bj * bj
+        near = np.sqrt(da * da + (bi - bj) ** 2) * np.sqrt(da * da + (bi + bj) ** 2)
+        rho = (s + near) / (2.0 * bi * bj)
+    return np.where(np.isfinite(rho) & (rho >= 1.0), rho, np.where(np.isfinite(rho), 1.0, np.inf))
+
+
+def transmission_ratio(a, b) -> np.ndarray:
+    """The largest of `transmission_ratios` over all pairs of joints: shape (...)."""
+    return np.max(transmission_ratios(a, b), axis=(-2, -1))
+
+
+def worst_pair(linkage) -> tuple[float, str, str]:
+    """(largest ratio, faster joint, slower joint) of a `synth.linkage.Linkage`; the faster joint is the
+    one with the smaller b (it turns fastest where t is near its a)."""
+    js = linkage.joints
+    R = transmission_ratios([j.a for j in js], [j.b for j in js])
+    i, k = np.unravel_index(int(np.argmax(R)), R.shape)
+    fast, slow = (js[i], js[k]) if abs(js[i].b) <= abs(js[k].b) else (js[k], js[i])
+    return float(R[i, k]), fast.name, slow.name
+
+
+def transmission_problem(linkage, limit: float = TRANSMISSION_LIMIT) -> str | None:
+    """The sentence saying why ``linkage`` is too ill-conditioned to give (ratio above ``limit``), or None."""
+    rho, fast, slow = worst_pair(linkage)
+    if rho <= limit:
+        return None
+    return (f"the linkage is ill-conditioned (nearly degenerate): at one point of its cycle joint {fast} "
+            f"turns {rho:.2g} times faster than joint {slow} (transmission ratio {rho:.2g}, at most "
+            f"{limit:.0e} is accepted), a motion no drive and no double-precision check can follow")
+
