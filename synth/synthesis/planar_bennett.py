@@ -31,6 +31,7 @@ from synth.synthesis.bennett_core import (ACCEPT_TOL, LOOP, axis_distance, benne
 from synth.synthesis.conic import conic_member, to_world
 from synth.synthesis.planar import (ZeroPitch, axis_penalties, isogram_margin, isogram_penalty, study_forms,
                                     tracks_motion)
+from synth.synthesis.sixbar_loops import score_warnings
 
 GRID = 2.0 ** np.linspace(-3, 3, 13)  # |lambda| values of the default scan, each with both signs
 ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
@@ -164,14 +165,7 @@ def accepted_error(linkage, T, cond) -> float:
 
 
 def warnings(info) -> list[str]:
-    p = info["score_parts"]
-    out = []
-    if p["conditioning"] < 1e-3:
-        out.append(f"poorly conditioned member (conditioning {p['conditioning']:.2g}): the linkage is valid but "
-                   "sensitive to small changes of the poses")
-    if p["extent"] > 100:
-        out.append(f"joint axes reach {p['extent']:.3g} pose spreads from the poses: valid but impractically large")
-    return out
+    return score_warnings(info["score_parts"])
 
 
 def candidates(zp: ZeroPitch, member=None, *, top: int = 1, check_samples: int = DEFAULT_CHECK_SAMPLES) -> list:
@@ -183,24 +177,27 @@ def candidates(zp: ZeroPitch, member=None, *, top: int = 1, check_samples: int =
                   "; score as the 6R scan (conditioning, extent, link lengths or angles)")
     else:
         choice = ""
-    out, switching = [], []
-    for g in rows[:MAX_BUILT]:
-        linkage = build(zp, sc, g, check_samples=check_samples, choice=choice)
-        if linkage.info["relative_error"] <= ACCEPT_TOL:
-            tracked = tracks_motion(linkage)
-            if not tracked and member is not None:
-                linkage.info["warnings"].append(SWITCH_WARNING)
-            (out if tracked or member is not None else switching).append(linkage)
-            if len(out) >= top:
-                break
-    out = with_fallback(out, switching, top)
+    built = (build(zp, sc, g, check_samples=check_samples, choice=choice) for g in rows[:MAX_BUILT])
+    out = select_tracked(built, member is not None, top, ACCEPT_TOL)
     if not out:
         raise _refusal(zp, member)
     return out
 
 
-def with_fallback(out: list, switching: list, top: int) -> list:
-    """The accepted linkages that track their motion, then (up to ``top``) those that do not, with a warning."""
+def select_tracked(built, explicit: bool, top: int, tol: float) -> list:
+    """Up to ``top`` of the linkages ``built`` (an iterable, best first, consumed lazily) whose relative
+    self-check error is at most ``tol``: those that follow their motion under continuation
+    (`tracks_motion`) first, then the others with SWITCH_WARNING. An ``explicit`` member is kept either way."""
+    out, switching = [], []
+    for linkage in built:
+        if linkage.info["relative_error"] > tol:
+            continue
+        tracked = tracks_motion(linkage)
+        if not tracked and explicit:
+            linkage.info["warnings"].append(SWITCH_WARNING)
+        (out if tracked or explicit else switching).append(linkage)
+        if len(out) >= top:
+            return out
     for linkage in switching[: max(0, top - len(out))]:
         linkage.info["warnings"].append(SWITCH_WARNING)
         out.append(linkage)

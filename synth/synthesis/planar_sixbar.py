@@ -20,6 +20,7 @@ on every two joints of one link. Conditioned frame as in docs/conic.md; lengths 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import islice
 
 import numpy as np
 
@@ -29,9 +30,8 @@ from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import watt_linkage
 from synth.synthesis.conic import to_world
 from synth.synthesis.cubic import PERMS, cubic_member
-from synth.synthesis.planar import ZeroPitch, axis_penalties, isogram_margin, isogram_penalty, tracks_motion
-from synth.synthesis.planar_bennett import (COND_WEIGHT, KAPPA_GOOD, RESIDUAL_TOL, SWITCH_WARNING, accepted_error,
-                                            with_fallback)
+from synth.synthesis.planar import ZeroPitch, axis_penalties, isogram_margin, isogram_penalty
+from synth.synthesis.planar_bennett import COND_WEIGHT, KAPPA_GOOD, RESIDUAL_TOL, accepted_error, select_tracked
 from synth.synthesis.sixbar_loops import factor_members, pair_geometry
 
 T3_GRID = np.array([-3.0, -1.0, -1 / 3, 1 / 3, 2 / 3, 4 / 3, 2.0, 4.0])  # t3 of the default scan (all three arcs)
@@ -174,19 +174,9 @@ def candidates(zp: ZeroPitch, member=None, chain=None, *, top: int = 1,
     choice = "" if member is not None else (
         f"the best-scored of {len(grid_members())} members x 6 chains (t3 in {T3_GRID.round(3).tolist()}, "
         f"lambdas in {LAMBDA_GRID.round(3).tolist()}); score as the 6R scan")
-    out, switching = [], []
-    for n, (mem, c, _) in enumerate(ranked(zp, member, chain)):
-        if n >= MAX_ATTEMPTS + top:
-            break
-        linkage = build(zp, mem, c, check_samples=check_samples, choice=choice)
-        if linkage.info["relative_error"] <= CHECK_TOL:
-            tracked = tracks_motion(linkage)
-            if not tracked and member is not None:
-                linkage.info["warnings"].append(SWITCH_WARNING)
-            (out if tracked or member is not None else switching).append(linkage)
-            if len(out) >= top:
-                break
-    out = with_fallback(out, switching, top)
+    built = (build(zp, mem, c, check_samples=check_samples, choice=choice)
+             for mem, c, _ in islice(ranked(zp, member, chain), MAX_ATTEMPTS + top))
+    out = select_tracked(built, member is not None, top, CHECK_TOL)
     if not out:
         what = "this member" if member is not None else "no member of the scan"
         raise SynthesisError(f"{what} of the {zp.kind} family of cubic motions through the poses gives an accurate "

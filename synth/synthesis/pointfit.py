@@ -31,8 +31,7 @@ from synth.algebra.dq import dq_inv, dq_mul, qmul
 from synth.algebra.polynomial import norm_poly
 from synth.synthesis.conic import Conditioning, to_world
 from synth.synthesis.cubic import PAIRS, PERMS
-from synth.synthesis.sixbar_loops import (COND_WEIGHT, RESIDUAL_TOL, factor_members, loop_geometry, pair_geometry,
-                                          penalties)
+from synth.synthesis.sixbar_loops import factor_members, loop_geometry, pair_geometry, score_loops
 
 __all__ = ["point_motion", "rereference", "parameter_samples", "parameter_separation", "scan", "PointScan",
            "BENNETT_ORDERS",
@@ -169,21 +168,9 @@ def scan(Y, degree: int, *, samples: int | None = None, seed: int = 0) -> PointS
     with np.errstate(all="ignore"):
         im, sep = a1.root_conditioning(roots)
         tsep = parameter_separation(t)
-        kappa = np.minimum(np.minimum(im, sep), tsep)
-        residual = np.maximum(res[:, pairs[:, 0]], res[:, pairs[:, 1]])
-        wide = np.zeros((S, len(pairs)))
-        parts = {"conditioning": kappa[:, None] + wide, "root_imag": im[:, None] + wide,
-                 "root_separation": sep[:, None] + wide, "parameter_separation": tsep[:, None] + wide,
-                 "extent": geo["extent"], "min_twist": geo["min_twist"], "min_offset": geo["min_offset"],
-                 "residual": residual}
-        parts.update(penalties(parts))
-        cost = (COND_WEIGHT * parts["penalty_conditioning"] + parts["penalty_size"] + parts["penalty_parallel"]
-                + parts["penalty_intersect"])
-        valid = (ok[:, pairs[:, 0]] & ok[:, pairs[:, 1]] & (residual <= RESIDUAL_TOL) & np.isfinite(cost)
-                 & (finite & (kappa > 0))[:, None])
-        score = np.where(valid, 10.0 ** -cost, 0.0)
+        parts, valid, score = score_loops(im, sep, ("parameter_separation", tsep), geo, res, ok, finite, pairs)
     return PointScan(degree=n, t=t, Y=YY, C=C, roots=roots, H=H, pairs=pairs, orders=orders, parts=parts,
-                     valid=valid, score=np.where(np.isfinite(score), score, 0.0))
+                     valid=valid, score=score)
 
 
 def _factor_quadratics(C):

@@ -29,7 +29,7 @@ from synth.synthesis.bennett import LOOP_NAMES, bennett_parameters_of, dh_table
 from synth.synthesis.conic import Conditioning, to_world
 from synth.synthesis.pointfit import PointScan, rereference, scan
 from synth.synthesis.sixbar import CHECK_TOL, LOOP, checks_pass
-from synth.synthesis.sixbar_loops import SCORE_RULE
+from synth.synthesis.sixbar_loops import SCORE_RULE, score_warnings
 
 __all__ = ["bennett_points", "sixbar_points", "point_candidates", "prepare_points", "oriented_item", "PointTask",
            "NEEDED",
@@ -187,7 +187,7 @@ def build_point_linkage(task: PointTask, sc: PointScan, member: int, loop: int, 
         linkage.info["dh"] = dh_table(linkage, LOOP_NAMES)
     else:
         linkage.info["dh"] = dh_table(linkage, LOOP)
-    linkage.info["warnings"] = _warnings(parts)
+    linkage.info["warnings"] = score_warnings(parts, "motion", "points")
     linkage.checks = self_check(linkage, check_samples)
     return linkage
 
@@ -202,17 +202,6 @@ def freedom_text(task: PointTask, samples: int) -> str:
         text += (f" and the {task.missing} missing point{'s' if task.missing > 1 else ''} (appended after the given "
                  "ones, reported in chosen_points; give them as points to fix them)")
     return text + f" chosen by the engineering score over {samples} seeded samples (score_rule)"
-
-
-def _warnings(parts) -> list[str]:
-    out = []
-    if parts["conditioning"] < 1e-3:
-        out.append(f"poorly conditioned motion (conditioning {parts['conditioning']:.2g}): the linkage is valid but "
-                   "sensitive to small changes of the points")
-    if parts["extent"] > 100:
-        out.append(f"joint axes reach {parts['extent']:.3g} point spreads from the points: valid but impractically "
-                   "large")
-    return out
 
 
 def point_candidates(points, names=None, *, degree: int, top: int | None = None, samples: int | None = None,

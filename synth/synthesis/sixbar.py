@@ -34,7 +34,7 @@ from synth.synthesis.cubic import PAIRS, PERMS, CubicFamily, families, quadric
 from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_sixbar import candidates as planar_candidates
 from synth.synthesis.sixbar_loops import (COND_WEIGHT, PART_KEYS, SCORE_RULE, MemberEval, dh_parameters,
-                                          evaluate_members, factor_members, lines)
+                                          evaluate_members, factor_members, lines, score_warnings)
 
 __all__ = ["COND_WEIGHT", "PART_KEYS", "SCORE_RULE", "Problem", "prepare", "scan", "sixbar", "sixbar_candidates",
            "one_member_loops", "build_linkage", "MemberLoops", "Candidate", "Ranking", "LOOP"]
@@ -337,7 +337,7 @@ def build_linkage(problem: Problem, cand: Candidate, *, check_samples: int = DEF
     }
     linkage = two_branch_linkage("6r", H, K, C, problem.poses, problem.names, (np.inf, 0.0, 1.0, cand.t3), info)
     linkage.info["dh"] = loop_dh(linkage, LOOP)
-    linkage.info["warnings"] = _warnings(cand)
+    linkage.info["warnings"] = score_warnings(cand.parts)
     if check:
         linkage.checks = self_check(linkage, check_samples)
     return linkage
@@ -352,17 +352,6 @@ def loop_dh(linkage, loop: list[str]) -> list[dict]:
     m = len(loop)
     return [{"joint": loop[i], "next": loop[(i + 1) % m], "a": cols["a"][i], "alpha": cols["alpha"][i],
              "d": cols["d"][i], "theta": cols["theta"][i]} for i in range(m)]
-
-
-def _warnings(cand: Candidate) -> list[str]:
-    p = cand.parts
-    out = []
-    if p["conditioning"] < 1e-3:
-        out.append(f"poorly conditioned member (conditioning {p['conditioning']:.2g}): the linkage is valid "
-                   "but sensitive to small changes of the poses")
-    if p["extent"] > 100:
-        out.append(f"joint axes reach {p['extent']:.3g} pose spreads from the poses: valid but impractically large")
-    return out
 
 
 def checks_pass(linkage, scale: float, tol: float = CHECK_TOL) -> bool:

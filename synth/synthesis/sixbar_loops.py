@@ -227,6 +227,29 @@ def penalties(parts) -> dict[str, np.ndarray]:
         }
 
 
+def score_loops(im, sep, separation: tuple, geo: dict, residual, ok, finite, pairs):
+    """THE engineering score of loops (SCORE_RULE) over a batch of G motions: ``im``, ``sep`` (G,) norm-root
+    conditioning (`root_conditioning`), ``separation`` = (name, (G,) values) of the task parameters' own
+    separation, ``geo`` the loop geometry (extent, min_twist, min_offset; (G, P)), ``residual`` and ``ok``
+    (G, orders) per factorization order, ``finite`` (G,) usable motions, ``pairs`` (P, 2) the orders each
+    loop joins. Returns (parts dict of (G, P) arrays, valid (G, P), score (G, P): 10^-cost, 0 when invalid)."""
+    name, values = separation
+    kappa = np.minimum(np.minimum(im, sep), values)
+    residual = np.maximum(residual[:, pairs[:, 0]], residual[:, pairs[:, 1]])
+    wide = np.zeros(residual.shape)
+    parts = {"conditioning": kappa[:, None] + wide, "root_imag": im[:, None] + wide,
+             "root_separation": sep[:, None] + wide, name: values[:, None] + wide,
+             "extent": geo["extent"], "min_twist": geo["min_twist"], "min_offset": geo["min_offset"],
+             "residual": residual}
+    parts.update(penalties(parts))
+    cost = (COND_WEIGHT * parts["penalty_conditioning"] + parts["penalty_size"] + parts["penalty_parallel"]
+            + parts["penalty_intersect"])
+    valid = (ok[:, pairs[:, 0]] & ok[:, pairs[:, 1]] & (residual <= RESIDUAL_TOL) & np.isfinite(cost)
+             & (finite & (kappa > 0))[:, None])
+    score = 10.0 ** -cost
+    return parts, valid, np.where(valid & np.isfinite(score), score, 0.0)
+
+
 def evaluate_members(C, lam, phi, fams, *, polish: bool = False) -> MemberEval:
     """Factor the monic members C (G, 4, 8) (`factor_members`) and score all their loops. ``lam``
     (G, 3), ``phi`` (G,) and ``fams`` (G CubicFamily) label the members."""
@@ -243,19 +266,20 @@ def evaluate_members(C, lam, phi, fams, *, polish: bool = False) -> MemberEval:
             if id(f) not in sep3:
                 sep3[id(f)] = parameter_separation(f.t3)
         t3s = np.array([sep3[id(f)] for f in fams], float).reshape(G)
-        kappa = np.minimum(np.minimum(im, sep), t3s)
-        residual = np.maximum(mf.residual[:, PAIRS[:, 0]], mf.residual[:, PAIRS[:, 1]])
-        wide = np.zeros((G, 9))
-        parts = {"conditioning": kappa[:, None] + wide, "root_imag": im[:, None] + wide,
-                 "root_separation": sep[:, None] + wide, "t3_separation": t3s[:, None] + wide,
-                 "extent": geo["extent"], "min_twist": geo["min_twist"], "min_offset": geo["min_offset"],
-                 "residual": residual}
-        parts.update(penalties(parts))
-        cost = (COND_WEIGHT * parts["penalty_conditioning"] + parts["penalty_size"] + parts["penalty_parallel"]
-                + parts["penalty_intersect"])
-        valid = (mf.ok[:, PAIRS[:, 0]] & mf.ok[:, PAIRS[:, 1]] & (residual <= RESIDUAL_TOL) & np.isfinite(cost)
-                 & (finite & (kappa > 0))[:, None])
-        score = 10.0 ** -cost
-        score = np.where(valid & np.isfinite(score), score, 0.0)
+        parts, valid, score = score_loops(im, sep, ("t3_separation", t3s), geo, mf.residual, mf.ok, finite, PAIRS)
     return MemberEval(fams=list(fams), phi=np.asarray(phi, float).reshape(G), lam=np.asarray(lam, float).reshape(G, 3),
                       factors=mf, parts=parts, valid=valid, score=score)
+
+
+def score_warnings(parts: dict, what: str = "member", task: str = "poses") -> list[str]:
+    """Plain-language warnings from a candidate's score parts (conditioning, extent in task spreads);
+    ``what`` names the candidate (member, motion), ``task`` the input (poses, points)."""
+    out = []
+    if parts["conditioning"] < 1e-3:
+        out.append(f"poorly conditioned {what} (conditioning {parts['conditioning']:.2g}): the linkage is valid "
+                   f"but sensitive to small changes of the {task}")
+    if parts["extent"] > 100:
+        spread = "pose" if task == "poses" else "point"
+        out.append(f"joint axes reach {parts['extent']:.3g} {spread} spreads from the {task}: valid but "
+                   "impractically large")
+    return out
