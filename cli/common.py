@@ -231,6 +231,12 @@ def collision_sentence(report, scale: float, unit: str) -> str:
     if report.free:
         where = ("over the full cycle" if report.range == "full" else
                  f"over the task range ({report.driver} from {lo:.1f} to {hi:.1f} deg)")
+        thin = report.thinned
+        if thin:
+            clear = " / ".join(" and ".join(p) for p in thin["default_pairs"][:2]) or "colliding bodies"
+            where += (f" (bars thinned to radius {length(thin['bar_radius'])}, pins to {length(thin['pin_radius'])}: "
+                      f"{thin['scale']:g} x the defaults {length(thin['default_bar_radius'])}, "
+                      f"{length(thin['default_pin_radius'])}, to clear {clear})")
         return f"collision-free {where}, clearance {length(report.clearance)}, min gap {length(report.min_distance)}"
     if report.pairs:
         p = report.pairs[0]

@@ -47,7 +47,10 @@ class CollisionReport:
     to ``driver_range[1]`` (increasing, may exceed 2 pi) that visits every task pose);
     ``min_distance``: the certified smallest gap over that range (a lower bound; negative: the solids
     may overlap) when ``certified``, else the smallest sampled gap; ``sampled_min_distance``: the
-    smallest gap seen at the samples; ``pairs``: the offending body pairs when not free ({"bodies":
+    smallest gap seen at the samples; ``thinned``: when the
+    default bar and pin radii collided and thinner ones are used, {"scale": of the defaults,
+    "default_pin_radius", "default_bar_radius": metres, "default_pairs": the bodies that collided at
+    the defaults}; ``pairs``: the offending body pairs when not free ({"bodies":
     [a, b], "min_distance": d, "driver_angles": [lo, hi]}, the closest first); ``message``: a sentence on what to change
     when not free; ``seconds``: time of the search."""
 
@@ -62,13 +65,16 @@ class CollisionReport:
     message: str = ""
     sampled_min_distance: float = float("nan")
     seconds: float = 0.0
+    thinned: dict | None = None  # set by synth.io.meshes.design_for when the default sizes collided
+
 
     def to_dict(self) -> dict:
         return {"free": self.free, "range": self.range, "clearance": self.clearance,
                 "min_distance": self.min_distance, "driver": self.driver,
                 "driver_range": [float(self.driver_range[0]), float(self.driver_range[1])],
                 "certified": self.certified, "pairs": self.pairs, "message": self.message,
-                "sampled_min_distance": self.sampled_min_distance}  # (not ``seconds``: outputs are reproducible)
+                "sampled_min_distance": self.sampled_min_distance,  # (not ``seconds``: outputs are reproducible)
+                **({"thinned": self.thinned} if self.thinned else {})}
 
 
 @dataclass
@@ -308,10 +314,12 @@ class _Critical:
         return pk[:, 0], pk[:, 1]
 
 
-def _improve(scorer: _Scorer, mask, target, scale, c, sigma, g, *, step0, step_min, iterations, tries=2):
+def _improve(scorer: _Scorer, mask, target, scale, c, sigma, g, *, step0, step_min, iterations, tries=2,
+             deadline=math.inf):
     """Coordinate moves from each start (rows of c, sigma, g): shift a centre, widen/narrow a gap, flip an
     order. Moves are screened on the critical entries; the best per start is evaluated fully and taken
-    when it improves; after ``tries`` failures (or when no move passes the screen) the step halves."""
+    when it improves; after ``tries`` failures (or when no move passes the screen) the step halves.
+    Stops early once the CPU clock passes ``deadline`` (process_time seconds)."""
     gmin = scorer.layout.gap_min
     n, J = c.shape
     crit = _Critical(mask, cap=4 * scorer.Q.shape[2] + 64)
@@ -322,7 +330,7 @@ def _improve(scorer: _Scorer, mask, target, scale, c, sigma, g, *, step0, step_m
     stall = np.zeros(n, int)
     moves = ((1, 1, 0), (-1, 1, 0), (0, 1, 1), (0, 1, -1), (0, -1, 0))
     for _ in range(iterations):
-        if (step < step_min).all():
+        if (step < step_min).all() or time.process_time() > deadline:
             break
         C = np.repeat(c[None], J * len(moves), axis=0)
         Sg = np.repeat(sigma[None], J * len(moves), axis=0)
@@ -361,13 +369,15 @@ def _improve(scorer: _Scorer, mask, target, scale, c, sigma, g, *, step0, step_m
 def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
                    hole_clearance: float = 0.0, clearance: float | None = None, seed: int = 0,
                    effort: float = 1.0, ranges: tuple[str, ...] = ("full", "task"),
-                   full_seconds: float | None = None) -> DesignResult:
+                   full_seconds: float | None = None, seconds: float | None = None) -> DesignResult:
     """A collision-free physical design for ``linkage`` (full cycle if found, else task range) and its
     certified `CollisionReport`; the most compact one found. Lengths in metres. ``clearance`` defaults
     to ``CLEARANCE_FRACTION`` times the bar radius; ``effort`` scales the number of candidates.
     ``ranges``: the ranges tried, in order (("full",): a quick full-cycle-only search, whose failure is
     reported as not free over the full cycle; ("task",): the task range only). ``full_seconds``: a CPU
-    budget of the full-cycle search (checked between its rounds; None: no limit)."""
+    budget of the full-cycle search (checked between its rounds; None: no limit); ``seconds``: a CPU
+    budget of the whole search (checked between moves; None: no limit; the certificate of the last
+    candidate is made even when it is spent)."""
 
     t0 = time.process_time()
     clearance = CLEARANCE_FRACTION * bar_radius if clearance is None else float(clearance)
@@ -414,9 +424,13 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     result, last = None, None
     n_starts = max(2, int(4 * effort))
     ranges = _ranges(ranges, task)
+    end = t0 + (math.inf if seconds is None else seconds)
     for rname, rng_phi, attempt in [(r, p, a) for r, p in ranges for a in range(ATTEMPTS)]:
         if rname == "full" and full_seconds is not None and time.process_time() - t0 > full_seconds:
             continue
+        if time.process_time() > end:
+            break
+        deadline = min(end, t0 + full_seconds) if rname == "full" and full_seconds is not None else end
         mask0 = np.ones(coarse.sum(), bool) if rname == "full" else coarse_task
         ranked = np.argsort(-_score(_violation(d0, target, mask0), size0), kind="stable")
         starts = ranked[attempt * n_starts:(attempt + 1) * n_starts]
@@ -424,11 +438,11 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
         step0 = 0.25 * scale
         previous = -math.inf
         for _ in range(ROUNDS):
-            if rname == "full" and full_seconds is not None and time.process_time() - t0 > full_seconds:
+            if time.process_time() > deadline:
                 break
             mask = np.ones(len(scorer.phis), bool) if rname == "full" else scorer.is_task
             c, s, g, best = _improve(scorer, mask, target, scale, c, s, g, step0=step0, step_min=0.01 * scale,
-                                     iterations=int(40 * effort))
+                                     iterations=int(40 * effort), deadline=deadline)
             last = (c, s, g, best)
             i = int(np.argmax(best))
             if best[i] < 1e5:  # nothing feasible: another round only while it still gains (a fifth)

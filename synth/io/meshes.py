@@ -30,6 +30,7 @@ for the tools that want them.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -80,11 +81,60 @@ def default_hole_clearance(pin_radius: float) -> float:
 
 
 def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None,
-               clearance=None, **search) -> DesignResult:
+               clearance=None, thin=True, **search) -> DesignResult:
     """The physical design of ``linkage`` (`synth.design.search.design_linkage`) with the given or default
     sizes (metres; see `default_sizes`, `default_hole_clearance`; clearance None: the search's default);
-    ``search``: further arguments of `design_linkage` (ranges, full_seconds)."""
-    pin_radius, link_radius, hub_length = default_sizes(linkage, pin_radius, link_radius, pin_length)
+    ``search``: further arguments of `design_linkage` (ranges, full_seconds).
+
+    Thinning (docs/design.md): when the search covered the task range and found no free design, and
+    neither radius was given (``thin``), it is retried with the bar and pin radii of the default times
+    `thin_scales` (hole clearance by its rule, default clearance with the bar) within `THIN_SECONDS` of
+    CPU (none when the first search took over `THIN_FIRST_MAX`); the first free design is returned, its
+    report's ``thinned`` saying so; else the default-size result."""
+    hub = default_sizes(linkage, pin_radius, link_radius, pin_length)[2]
+    result = _design(linkage, pin_radius, link_radius, hub, hole_clearance, clearance, search)
+    if (not thin or result.collision.free or pin_radius is not None or link_radius is not None
+            or "task" not in search.get("ranges", ("full", "task")) or result.collision.seconds > THIN_FIRST_MAX):
+        return result
+    pin0, bar0, _ = default_sizes(linkage)
+    end = time.process_time() + THIN_SECONDS
+    tried = None
+    for s in thin_scales(bar0):
+        left = end - time.process_time()
+        if left <= 0:
+            break
+        r = _design(linkage, s * pin0, s * bar0, hub, hole_clearance, clearance, {**search, "seconds": left})
+        if r.collision.free:
+            r.collision.thinned = {"scale": s, "pin_radius": s * pin0, "bar_radius": s * bar0,
+                                   "default_pin_radius": pin0, "default_bar_radius": bar0,
+                                   "default_pairs": [p["bodies"] for p in result.collision.pairs]}
+            return r
+        tried = s
+    if tried is not None:
+        result.collision.message += f" (the search tried bars and pins down to {tried:g} x the default radii too)"
+    return result
+
+
+THIN_SCALES = (0.5, 0.25)  # bar and pin radii tried, times the defaults, when the defaults collide
+THIN_MIN_BAR_RADIUS = 4e-4  # metres: a bar 0.8 mm thick, two extrusion widths of a 0.4 mm nozzle
+THIN_SECONDS = 1.0  # CPU budget of all the retries together (each search stops when it is spent)
+THIN_FIRST_MAX = 2.0  # no retry after a first search this slow (CPU s): a retry's fixed costs (screening the
+# starts, the certificate) scale like the first search's, so it would overrun its budget (multi-loop linkages)
+
+
+def thin_scales(bar_radius: float) -> list[float]:
+    """The scales of the default sizes retried when they collide: `THIN_SCALES`, each raised so the bar
+    radius stays at least `THIN_MIN_BAR_RADIUS` (never above the default), without repeats (docs/design.md)."""
+    out = []
+    for s in THIN_SCALES:
+        s = max(s, min(1.0, THIN_MIN_BAR_RADIUS / bar_radius))
+        if s < 1.0 and (not out or s < out[-1]):
+            out.append(s)
+    return out
+
+
+def _design(linkage, pin_radius, link_radius, hub_length, hole_clearance, clearance, search) -> DesignResult:
+    pin_radius, link_radius, hub_length = default_sizes(linkage, pin_radius, link_radius, hub_length)
     hole = default_hole_clearance(pin_radius) if hole_clearance is None else _positive(
         "hole clearance", hole_clearance, allow_zero=True)
     if clearance is not None:

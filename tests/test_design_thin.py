@@ -1,0 +1,81 @@
+"""Thinning (docs/design.md): when no collision-free design exists at the default bar and pin radii, the
+default output uses thinner ones and says so; explicit radii are never changed."""
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+
+import pytest
+from click.testing import CliRunner
+
+from cli.main import mpsynth
+from synth.io.meshes import (THIN_MIN_BAR_RADIUS, THIN_SCALES, default_hole_clearance, default_sizes, design_for,
+                             thin_scales)
+from synth.io.poses import load_poses
+from synth.synthesis.bennett import bennett
+
+from conftest import REPO
+
+THIN = REPO / "tests" / "data" / "bennett_thin.yaml"  # bench seed 22: collides at the default radii
+
+
+def run(*args):
+    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def linkage():
+    ps = load_poses(str(THIN))
+    return bennett(ps.matrices, ps.names)
+
+
+def test_thin_scales_halve_then_quarter_above_the_floor():
+    assert thin_scales(0.03) == list(THIN_SCALES) == [0.5, 0.25]
+    # a small linkage: the quarter would make bars thinner than the floor, so it is raised to the floor
+    s = thin_scales(4 * THIN_MIN_BAR_RADIUS / 3)
+    assert s == [0.75]
+    assert thin_scales(THIN_MIN_BAR_RADIUS) == []  # already at the floor: nothing thinner is tried
+    assert thin_scales(THIN_MIN_BAR_RADIUS / 2) == []  # below it (a tiny linkage): never thinned
+
+
+def test_explicit_radii_are_kept_and_the_message_says_what_to_change(linkage):
+    pin, bar, _ = default_sizes(linkage)
+    r = design_for(linkage, link_radius=bar, ranges=("task",))
+    assert not r.collision.free and r.collision.thinned is None
+    assert r.design.bar_radius == bar and r.design.pin_radius == pin
+    assert "--link-radius" in r.collision.message
+    assert "thinned" not in r.collision.to_dict()
+
+
+def test_a_full_cycle_only_search_is_not_thinned(linkage):
+    """rank_buildable's quick full-cycle pass: its failure is no reason to thin (the task range may work)."""
+    r = design_for(linkage, ranges=("full",), full_seconds=0.3)
+    assert r.collision.thinned is None
+    assert r.design.bar_radius == default_sizes(linkage)[1]
+
+
+def test_default_output_thins_the_bars_and_the_verifier_agrees(tmp_path, verifier):
+    out = tmp_path / "o"
+    r = CliRunner().invoke(mpsynth, ["bennett", str(THIN), "-o", str(out)], catch_exceptions=False)
+    assert r.exit_code == 0, r.output
+    line = next(x for x in r.output.splitlines() if "design:" in x)
+    assert line.strip().startswith("design: collision-free") and "bars thinned to radius" in line, line
+    assert "to clear link_" in line
+    doc = json.loads((out / "linkage.json").read_text())
+    col, des = doc["collision"], doc["design"]
+    thin = col["thinned"]
+    assert col["free"] and thin["scale"] in THIN_SCALES
+    assert des["bar_radius"] == pytest.approx(thin["bar_radius"]) == pytest.approx(thin["scale"] * thin["default_bar_radius"])
+    assert des["pin_radius"] == pytest.approx(thin["scale"] * thin["default_pin_radius"])
+    assert des["hole_clearance"] == pytest.approx(default_hole_clearance(des["pin_radius"]))  # the rule, kept
+    assert des["clearance"] == pytest.approx(0.25 * des["bar_radius"])
+    assert thin["default_pairs"]
+    pytest.importorskip("fcl")
+    p = subprocess.run([sys.executable, str(verifier), str(THIN), str(out), "--collisions", repr(col["clearance"]),
+                        "--collision-range", col["range"]], capture_output=True, text=True, timeout=600)
+    last = (p.stdout + p.stderr).strip().splitlines()[-1]
+    assert p.returncode == 0, last
+    m = re.search(r"collision_min=(\S+)m", last)
+    assert m and float(m.group(1)) >= col["min_distance"] - 1e-9, last
