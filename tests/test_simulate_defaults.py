@@ -9,6 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
+from synth.tools.sim.pybullet_sim import residual_threshold
 from synth.tools.sim.run import advice, default_seconds
 
 from conftest import REPO
@@ -41,6 +42,25 @@ def test_curve_fixtures_pass_simulate_with_the_defaults(tmp_path, fixture):
     r = run("simulate", out, "--json", "-q")
     res = json.loads(r.stdout)
     assert r.exit_code == 0 and res["engine"] == "mujoco" and res["max_joint_deviation"] < 1e-3, res
+
+
+def test_pybullet_tightens_its_solver_for_several_loops():
+    assert residual_threshold(1) == 1e-7 and residual_threshold(3) == residual_threshold(4) == 1e-12
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fixture", ["curve_ellipse.yaml", "motion_elliptic.yaml"])
+def test_curve_fixtures_pass_simulate_in_pybullet_with_the_defaults(tmp_path, fixture):
+    """`mpsynth simulate OUT --engine pybullet` with no other option passes on the curve fixtures (3 and 4
+    loops; measured 3.8e-4 and 7.2e-4 rad, about 20 s and 30 s CPU)."""
+    if importlib.util.find_spec("pybullet") is None:
+        pytest.skip("pybullet is not installed")
+    out = tmp_path / "o"
+    assert run("curve", REPO / "fixtures" / fixture, "-o", out, "-q").exit_code == 0
+    r = run("simulate", out, "--engine", "pybullet", "--json", "-q")
+    res = json.loads(r.stdout)
+    assert r.exit_code == 0 and res["engine"] == "pybullet" and res["max_joint_deviation"] < 1e-3, res
+    assert res["residual_threshold"] == 1e-12 and res["loops"] > 1
 
 
 def test_default_engine_is_mujoco(tmp_path):

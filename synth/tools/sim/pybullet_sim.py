@@ -11,8 +11,14 @@ relative pose), releases the default velocity motors (``VELOCITY_CONTROL`` with 
 first joint with ``POSITION_CONTROL``. Solver: fixed time step (default 1 ms), 3000 iterations (the loop
 is overconstrained: a weld of 6 equations on a 1-dof loop, which PyBullet's iterative solver only
 settles with many iterations; a 6R still gains from 300 to 3000), error reduction 0.8 per step (the
-default 0.2 lets the weld drift about four times further). The result goes to a JSON file named in the
-request.
+default 0.2 lets the weld drift about four times further). The solver stops early once its residual
+falls below a threshold (PyBullet's default 1e-7): for several loops (welds in series) that early stop,
+not the step or the iteration count, leaves the ~1e-4 m weld gap that near-singular configurations
+magnify to ~3e-3 rad in the joints, so a multi-loop linkage gets `residual_threshold` 1e-12 (measured
+on fixtures/curve_ellipse.yaml and motion_elliptic.yaml at the default 4 s per loop: 3.2e-3 / 3.3e-3 rad
+at 1e-7, 1.4e-3 / 2.2e-3 at 1e-9, 4.3e-4 / 9.8e-4 at 1e-10, 3.8e-4 / 7.2e-4 at 1e-12; about 19 s / 30 s
+CPU). A single loop keeps the default: the tighter threshold costs 5-9x there for no gain. The result
+goes to a JSON file named in the request.
 """
 from __future__ import annotations
 
@@ -34,6 +40,8 @@ from synth.tools.sim import DriveProfile, SimulationError, Tracker, load_setup, 
 DEFAULT_TIMESTEP = 1e-3
 ITERATIONS = 3000
 ERP = 0.8  # error reduction per step; PyBullet's default 0.2 lets the weld drift 4x further
+RESIDUAL_THRESHOLD = 1e-7  # PyBullet's default early stop of the solver: enough for one loop
+MULTI_LOOP_RESIDUAL_THRESHOLD = 1e-12  # several loops: see the module docstring
 MOTOR_FORCE = 1e4  # N m: a bound, not a gain (POSITION_CONTROL is a velocity-level constraint)
 
 
@@ -117,6 +125,11 @@ def run_in_subprocess(setup, *, seconds: float, timestep: float | None, gravity:
     return res
 
 
+def residual_threshold(loops: int) -> float:
+    """The solver's early-stop residual for a linkage of ``loops`` welded loops (module docstring)."""
+    return MULTI_LOOP_RESIDUAL_THRESHOLD if loops > 1 else RESIDUAL_THRESHOLD
+
+
 def _repo_root() -> Path:
     return Path(__file__).resolve().parents[2]
 
@@ -173,8 +186,9 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
                                    physicsClientId=cid)
             p.changeConstraint(c, maxForce=1e9, physicsClientId=cid)
             constraints.append(c)
+        residual = residual_threshold(len(setup.closures))
         p.setPhysicsEngineParameter(fixedTimeStep=timestep, numSolverIterations=ITERATIONS, numSubSteps=0, erp=ERP,
-                                    physicsClientId=cid)
+                                    solverResidualThreshold=residual, physicsClientId=cid)
         start = setup.start_angles()
         for jn in setup.joints:
             p.resetJointState(robot, index[jn], start[jn], 0.0, physicsClientId=cid)
@@ -208,7 +222,7 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
         tracker.joints({jn: qs[:, i] for i, jn in enumerate(setup.joints)}, targets)
         tracker.frames(frames)
         return tracker.result("pybullet", n, seconds=seconds, timestep=timestep, gravity=gravity,
-                              iterations=ITERATIONS, shared_inertial=setup.split, contacts=contacts,
+                              iterations=ITERATIONS, residual_threshold=residual, shared_inertial=setup.split, contacts=contacts,
                               contact_steps=contact_steps, max_contact_force=max_force,
                               wall_time=time.perf_counter() - t_wall)
     finally:

@@ -27,10 +27,12 @@ def default_seconds(loops: int) -> float:
 def advice(result: dict, engine: str, tol: float, seconds: float, loops: int) -> str:
     """What to change when the deviation exceeds ``tol``: a slower turn (the weld's give is about
     proportional to the speed), a finer MuJoCo step, or MuJoCo instead of PyBullet for several loops
-    (PyBullet's weld gap, ~1e-4 m on the curve fixtures whatever the speed, is magnified in the joints
-    by the near-singular configurations of the ladder: worst conditioning ~1e-3)."""
+    (PyBullet's weld gap, ~1e-4 m on the curve fixtures whatever the speed at its default solver
+    residual, is magnified in the joints by the near-singular configurations of the ladder: worst
+    conditioning ~1e-3; `synth.tools.sim.pybullet_sim.residual_threshold` tightens the solver for
+    several loops, which brings both curve fixtures within 1e-3 rad, but with little margin)."""
     if engine == "pybullet" and loops > 1:  # measured: a 6x slower turn barely helps PyBullet here
-        return (f"PyBullet's solver holds the {loops} welds only to ~{result['max_closure_gap']:.0e} m at any speed, "
+        return (f"PyBullet's solver holds the {loops} welds only to ~{result['max_closure_gap']:.0e} m, "
                 "and near-singular configurations of the loops magnify that in the joints; "
                 "use --engine mujoco (or a larger --tol)")
     factor = max(2.0, 2.0 * result["max_joint_deviation"] / tol)
