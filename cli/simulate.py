@@ -47,7 +47,7 @@ def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, contacts
     Exit 0 when every joint stays within --tol of the exact motion, 1 when not or when the engine fails,
     2 for unreadable input or an engine that is not installed (pip install 'mpsynth[sim]')."""
     res = run_sim(out, engine, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf,
-                  contacts=contacts)
+                  contacts=contacts, tol=tol)
     ok = res["max_joint_deviation"] <= tol
     res["ok"] = ok
     if not quiet:
@@ -60,6 +60,10 @@ def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, contacts
         echo(f"  worst joint deviation from the exact motion {res['max_joint_deviation']:.3e} rad "
              f"({res['worst_joint']}), worst closure gap {res['max_closure_gap']:.3e} m / "
              f"{res['max_closure_angle']:.3e} rad, {res['wall_time']:.2f} s wall time")
+        if "retried" in res:
+            r = res["retried"]
+            echo(f"  (the default {r['seconds']:g} s turn deviated {r['max_joint_deviation']:.2e} rad: "
+                 f"retried at {res['seconds']:.3g} s" + (", tighter solver)" if engine == "pybullet" else ")"))
         if contacts:
             echo(f"  contacts between bodies that share no joint: {res['contact_steps']} of {res['steps']} steps, "
                  f"largest contact force {res['max_contact_force']:.3g} N")

@@ -98,7 +98,7 @@ def _capsule_collisions(link, caps) -> None:
 
 
 def run_in_subprocess(setup, *, seconds: float, timestep: float | None, gravity: bool, timeout: float = 600.0,
-                      contacts: bool = False) -> dict:
+                      contacts: bool = False, tight: bool = False) -> dict:
     """Run `child_main` in a fresh Python; returns its result or raises SimulationError."""
     with tempfile.TemporaryDirectory(prefix="mpsynth-pybullet-") as tmp:
         tmp = Path(tmp)
@@ -106,7 +106,7 @@ def run_in_subprocess(setup, *, seconds: float, timestep: float | None, gravity:
         urdf.write_text(sim_urdf_text(setup, contacts), encoding="utf-8")
         request = {"out": str(setup.out), "urdf": str(urdf), "result": str(tmp / "result.json"),
                    "seconds": seconds, "timestep": timestep or DEFAULT_TIMESTEP, "gravity": gravity,
-                   "contacts": contacts}
+                   "contacts": contacts, "tight": tight}
         (tmp / "request.json").write_text(json.dumps(request), encoding="utf-8")
         try:
             r = subprocess.run([sys.executable, "-m", "synth.tools.sim.pybullet_sim", str(tmp / "request.json")],
@@ -125,9 +125,10 @@ def run_in_subprocess(setup, *, seconds: float, timestep: float | None, gravity:
     return res
 
 
-def residual_threshold(loops: int) -> float:
-    """The solver's early-stop residual for a linkage of ``loops`` welded loops (module docstring)."""
-    return MULTI_LOOP_RESIDUAL_THRESHOLD if loops > 1 else RESIDUAL_THRESHOLD
+def residual_threshold(loops: int, tight: bool = False) -> float:
+    """The solver's early-stop residual for a linkage of ``loops`` welded loops (module docstring);
+    ``tight``: the multi-loop threshold for any linkage (`synth.tools.sim.run.simulate`'s retry)."""
+    return MULTI_LOOP_RESIDUAL_THRESHOLD if loops > 1 or tight else RESIDUAL_THRESHOLD
 
 
 def _repo_root() -> Path:
@@ -147,8 +148,8 @@ def _pos_quat_xyzw(T):
 
 
 def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gravity: bool,
-                        contacts: bool = False) -> dict:
-    """The PyBullet run itself (call it in a child process only)."""
+                        contacts: bool = False, tight: bool = False) -> dict:
+    """The PyBullet run itself (call it in a child process only); ``tight``: see `residual_threshold`."""
     import pybullet as p
 
     t_wall = time.perf_counter()
@@ -186,7 +187,7 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
                                    physicsClientId=cid)
             p.changeConstraint(c, maxForce=1e9, physicsClientId=cid)
             constraints.append(c)
-        residual = residual_threshold(len(setup.closures))
+        residual = residual_threshold(len(setup.closures), tight)
         p.setPhysicsEngineParameter(fixedTimeStep=timestep, numSolverIterations=ITERATIONS, numSubSteps=0, erp=ERP,
                                     solverResidualThreshold=residual, physicsClientId=cid)
         start = setup.start_angles()
@@ -238,7 +239,8 @@ def child_main(argv=None) -> int:
         setup = load_setup(req["out"])
         with contextlib.redirect_stdout(io.StringIO()):  # PyBullet prints its build time on stdout
             res = simulate_in_process(setup, req["urdf"], seconds=req["seconds"], timestep=req["timestep"],
-                                      gravity=req["gravity"], contacts=req.get("contacts", False))
+                                      gravity=req["gravity"], contacts=req.get("contacts", False),
+                                      tight=req.get("tight", False))
     except Exception as e:  # noqa: BLE001 - reported to the parent as one line
         res = {"error": f"{type(e).__name__}: {e}"}
     result_path.write_text(json.dumps(res), encoding="utf-8")

@@ -42,12 +42,21 @@ def advice(result: dict, engine: str, tol: float, seconds: float, loops: int) ->
     return f"the loops' welds give way with the speed of the links ({loops} loop(s)); try " + " or ".join(tips)
 
 
+RETRY_MAX_SLOWDOWN = 8.0  # the default turn's automatic retry is at most this much slower
+
+
 def simulate(out, engine: str, *, seconds: float | None = None, timestep: float | None = None,
-             gravity: bool = False, export_mjcf=None, timeout: float = 600.0, contacts: bool = False) -> dict:
+             gravity: bool = False, export_mjcf=None, timeout: float = 600.0, contacts: bool = False,
+             tol: float | None = None) -> dict:
     """Run ``engine`` on OUT; returns the result dict (see `Tracker.result`, plus ``seconds``). ``seconds``
-    None: `default_seconds` for the linkage's loops. Raises EngineNotInstalled (exit 2), InputError
-    (exit 2) or SimulationError (exit 1)."""
+    None: `default_seconds` for the linkage's loops, and when the run then deviates by more than ``tol``
+    (rad) from the exact motion, one retry with a slower turn (the advised factor, at most
+    RETRY_MAX_SLOWDOWN; PyBullet also with the tight solver threshold): linkages that pass a flat
+    (change-point) configuration, where some joints turn several times faster than the driver, need
+    it; ``retried`` in the result then records the first attempt. Raises EngineNotInstalled (exit 2),
+    InputError (exit 2) or SimulationError (exit 1)."""
     setup = load_setup(out)  # input errors before engine errors
+    auto = seconds is None
     if seconds is None:
         seconds = default_seconds(len(setup.closures))
     if not (seconds > 0 and math.isfinite(seconds) and seconds <= 3600):
@@ -56,17 +65,23 @@ def simulate(out, engine: str, *, seconds: float | None = None, timestep: float 
         raise InputError(f"--timestep must be positive and at most a tenth of --seconds, got {timestep}")
     res = _run(setup, engine, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf,
                timeout=timeout, contacts=contacts)
+    if auto and tol is not None and res["max_joint_deviation"] > tol:
+        first = {"seconds": seconds, "max_joint_deviation": res["max_joint_deviation"]}
+        seconds *= min(RETRY_MAX_SLOWDOWN, max(2.0, 2.0 * res["max_joint_deviation"] / tol))
+        res = _run(setup, engine, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf,
+                   timeout=timeout, contacts=contacts, tight=True)
+        res["retried"] = first
     res["seconds"] = seconds
     res["loops"] = len(setup.closures)
     return res
 
 
-def _run(setup, engine, *, seconds, timestep, gravity, export_mjcf, timeout, contacts) -> dict:
+def _run(setup, engine, *, seconds, timestep, gravity, export_mjcf, timeout, contacts, tight=False) -> dict:
     if export_mjcf and engine != "mujoco":  # the MuJoCo run writes (and loads) it itself
         write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity, contacts=contacts)
     require_engine(engine)
     if engine == "pybullet":
         return run_in_subprocess(setup, seconds=seconds, timestep=timestep, gravity=gravity, timeout=timeout,
-                                 contacts=contacts)
+                                 contacts=contacts, tight=tight)
     return run_mujoco(setup, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf,
                       contacts=contacts)
