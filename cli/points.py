@@ -3,7 +3,7 @@ through prescribed points (docs/points.md). Called by cli/bennett.py and cli/six
 holds points."""
 from __future__ import annotations
 
-from .common import (choose_buildable, collision_sentence, default_robot_name, design_result, echo, emit_linkage,
+from .common import (add_collisions, choose_buildable, default_robot_name, design_solutions, echo, emit_linkage,
                      fmt_len, print_json)
 
 INDEX_FORMAT = "mpsynth.points-index/1"
@@ -94,9 +94,7 @@ def index_document(ps, linkages, ids, results) -> dict:
             sol["pair"] = lk.info["pair"]
         sols.append(sol)
     if results is not None:
-        for sol, r in zip(sols, results):
-            sol["collision"] = r.collision.to_dict()
-            sol["design_summary"] = collision_sentence(r.collision, ps.length_scale, ps.length_unit)
+        add_collisions(sols, results, ps)
     return {"format": INDEX_FORMAT, "kind": linkages[0].kind, "task": "points", "poses": ps.source,
             "units": {"length": "m", "angle": "rad"}, "input_length_unit": ps.length_unit,
             "input_length_scale": ps.length_scale, "score_rule": SCORE_RULE, "freedom": linkages[0].info["freedom"],
@@ -104,24 +102,13 @@ def index_document(ps, linkages, ids, results) -> dict:
 
 
 def _ranked(ps, linkages, top, *, out, name, force, package, sizes, quiet, as_json, require_free):
-    from synth.design.search import collision_rank
-    from synth.errors import SynthesisError
     from synth.io.jsonout import plain
     from synth.io.writer import write_solutions
 
     results = None
-    if out or as_json or require_free:
-        results = [design_result(lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source,
-                                 require_free=False) for lk in linkages]
-        order = sorted(range(len(linkages)), key=lambda i: (collision_rank(results[i].collision), i))
-        linkages, results = [linkages[i] for i in order], [results[i] for i in order]
-        if require_free:
-            keep = [i for i, r in enumerate(results) if r.collision.free]
-            if not keep:
-                best = collision_sentence(results[0].collision, ps.length_scale, ps.length_unit)
-                raise SynthesisError(f"{ps.source}: none of the {len(linkages)} best designs is collision-free; the "
-                                     f"best: {best}")
-            linkages, results = [linkages[i] for i in keep], [results[i] for i in keep]
+    if out or as_json or require_free:  # the physical design of every solution, collision-free first
+        linkages, results = design_solutions(linkages, ps, sizes, quiet=quiet, require_free=require_free,
+                                             what="designs")
     ids = [solution_id(r, lk) for r, lk in enumerate(linkages, start=1)]
     doc = index_document(ps, linkages, ids, results)
     if not quiet:

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import click
 
-from .common import (choose_buildable, collision_sentence, default_robot_name, design_result, echo, mesh_sizes,
-                     print_json, progress, run_guarded, synthesis_options)
+from .common import (add_collisions, choose_buildable, default_robot_name, design_solutions, echo, mesh_sizes,
+                     print_json, run_guarded, synthesis_options)
 
 INDEX_FORMAT = "mpsynth.sixbar-index/1"
 
@@ -170,39 +170,19 @@ def ranking_table(doc) -> list[str]:
 
 
 def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, quiet, as_json, require_free):
-    from pathlib import Path
-
     from synth.checks import VERIFY_SAMPLES
-    from synth.design.search import collision_rank
-    from synth.io.jsonout import write_json
-    from synth.io.writer import atomic_directory, write_linkage_files
     from synth.synthesis.sixbar import sixbar_candidates
 
     linkages = sixbar_candidates(ps.matrices, ps.names, family=family, member=member, pair=pair, top=top,
                                  build=True, check_samples=VERIFY_SAMPLES)
-    ids = [solution_id(r, lk) for r, lk in enumerate(linkages, start=1)]
     results = None
-    if out or as_json or require_free:  # the physical design of every solution
-        results = [design_result(lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source,
-                                 require_free=False)
-                   for lk in progress(linkages, "collision-free design search: design", quiet)]
-        # collision-free first (full cycle, then task range), then the scan's order
-        order = sorted(range(len(linkages)), key=lambda i: (collision_rank(results[i].collision), i))
-        linkages, results = [linkages[i] for i in order], [results[i] for i in order]
-        ids = [solution_id(r, lk) for r, lk in enumerate(linkages, start=1)]
-        if require_free:  # keep the collision-free ones (with their ranks in the scan)
-            keep = [i for i, r in enumerate(results) if r.collision.free]
-            if not keep:
-                from synth.errors import SynthesisError
-
-                raise SynthesisError(f"{ps.source}: none of the {len(linkages)} best 6R designs is collision-free; "
-                                     f"the best: {collision_sentence(results[0].collision, ps.length_scale, ps.length_unit)}")
-            linkages, ids, results = ([x[i] for i in keep] for x in (linkages, ids, results))
+    if out or as_json or require_free:  # the physical design of every solution, collision-free first
+        linkages, results = design_solutions(linkages, ps, sizes, quiet=quiet, require_free=require_free,
+                                             what="6R designs")
+    ids = [solution_id(r, lk) for r, lk in enumerate(linkages, start=1)]
     doc = index_document(linkages, ids, ps.source, ps.length_scale, ps.length_unit)
     if results is not None:
-        for sol, r in zip(doc["solutions"], results):
-            sol["collision"] = r.collision.to_dict()
-            sol["design_summary"] = collision_sentence(r.collision, ps.length_scale, ps.length_unit)
+        add_collisions(doc["solutions"], results, ps)
     if not quiet:
         echo(f"6r designs through {len(ps)} poses: the {len(linkages)} best of the scan"
              + (f" (asked for {top})" if len(linkages) < top else "")
@@ -212,13 +192,11 @@ def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, 
         for sol in doc["solutions"] if results is not None else ():
             echo(f"  {sol['id']}: {sol['design_summary']}")
     if out:
+        from synth.io.writer import write_solutions
+
         base = name or default_robot_name(ps.source)
-        with atomic_directory(Path(out), force=force) as tmp:
-            for lk, sid, r in zip(linkages, ids, results):
-                d = tmp / sid
-                d.mkdir()
-                write_linkage_files(lk, d, robot_name=f"{base}_{sid.replace('-', '_')}", package=package, result=r)
-            write_json(doc, tmp / "index.json")
+        write_solutions(out, [(sid, lk, f"{base}_{sid.replace('-', '_')}", r) for lk, sid, r in zip(linkages, ids, results)],
+                        doc, force=force, package=package)
         if not quiet:
             echo(f"  wrote {out}/: index.json and {len(ids)} solution directories ({', '.join(ids)})")
     elif not quiet and not as_json:
