@@ -14,11 +14,14 @@ import numpy as np
 
 from synth.algebra.algorithm1 import cross3
 from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq, qmul
+from synth.algebra.polynomial import product_of_linear
 from synth.linkage import Linkage
 
 _CONJ4 = np.array([1.0, -1.0, -1.0, -1.0])
 _E0 = np.eye(8)[0]
+_EPS = float(np.finfo(float).eps)
 DEFAULT_CHECK_SAMPLES = 4  # synthesis functions check closure and motion at this many parameters
+BOUND_CHECK_SAMPLES = 0  # Bennett: closure and motion bounded over the whole motion (`loop_bound`), no samples
 VERIFY_SAMPLES = 200  # the CLI verifies this many before writing anything
 
 
@@ -97,10 +100,11 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
     dual quaternions pose_dq (N, P, 8) (`synth.algebra.dq.pose_to_dq`); tool_ref_dq (N, 8); motion (N, n+1, 8) the motion polynomial. Figures: ``pose_translation`` /
     ``pose_rotation`` (tool frame at the reported angles vs the poses), ``closure_translation`` /
     ``closure_rotation`` (every welded pair at ``samples`` parameters covering R, t = inf included) and
-    ``motion`` (tool link vs C(t), translation + rotation)."""
+    ``motion`` (tool link vs C(t), translation + rotation); ``samples`` = 0: poses only (closure and
+    motion 0; see `loop_bound`)."""
     joints, tool_link, closures = structure
     N, P, J = pose_angles.shape
-    t = sample_parameters_batch(a, b, samples)  # (N, S), the last t = inf
+    t = sample_parameters_batch(a, b, samples) if samples > 0 else np.zeros((N, 0))  # (N, S), the last t = inf
     S = t.shape[1]
     inf = np.isinf(t)
     with np.errstate(invalid="ignore"):
@@ -148,6 +152,53 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
             "motion": (dt[:, P : P + S] + dr[:, P : P + S]).max(axis=1, initial=0.0)}
 
 
+def loop_bound(U, M, a, b, branches, motion) -> dict:
+    """Certified bounds, over the whole motion (every real t and t = inf), of the closure and motion errors
+    of N single loops of two branches from the base to the coupler (docs/conventions.md, "Certified
+    closure"). U, M (N, J, 3) lines, a, b (N, J) angle laws (b > 0); ``branches`` = (h, k) index arrays
+    of equal length n, base to coupler; motion (N, n+1, 8) the monic motion polynomial.
+
+    A joint at theta = 2 atan2(b, t - a) is ((t - a) + b (u - eps m)) / |t - z|, z = a + i b, so
+    branch h is the unit P_h(t) / R(t), P_h = prod (t - f_j), f_j = a_j - b_j u_j + eps b_j m_j,
+    R = prod |t - z_j|. Branch k and the motion are the poses of P_k(t) and C(t); a difference E of
+    degree <= n from P_h has the partial fractions E(t) / prod (t - z_j) = E_n + sum_j rho_j / (t - z_j),
+    rho_j = E(z_j) / prod_{m != j} (z_j - z_m), so |E(t)| / R(t) <= |E_n| + sum_j |rho_j| / b_j for
+    every t (primal and dual parts separately). Returns ``closure_translation``, ``closure_rotation``,
+    ``motion`` (N,) (metres, radians; inf where no bound applies, e.g. repeated roots), with an
+    allowance of 16 ulps for rounding."""
+    hk = np.asarray(branches)  # (2, n)
+    h = hk[0]
+    n = len(h)
+    F = np.concatenate([a[..., None], -b[..., None] * U, np.zeros(a.shape + (1,)), b[..., None] * M], axis=-1)
+    P = product_of_linear(F[:, hk])  # (N, 2, n+1, 8): P_h, P_k
+    E = P[:, :1] - np.stack([P[:, 1], motion], axis=1)  # (N, 2, n+1, 8): P_h - P_k, P_h - C
+    z = a[:, h] + 1j * b[:, h]  # (N, n)
+    with np.errstate(all="ignore"):
+        Ez = E[..., n:, :].astype(complex)  # Horner at the roots: (N, 2, n, 8)
+        for c in range(n - 1, -1, -1):
+            Ez = Ez * z[:, None, :, None] + E[..., c : c + 1, :]
+        gaps = z[:, :, None] - z[:, None, :]  # (N, n, n)
+        gaps[:, np.arange(n), np.arange(n)] = 1.0
+        rho = Ez / np.prod(gaps, axis=-1)[:, None, :, None]
+        part = np.abs(rho) ** 2
+        weights = 1.0 / b[:, None, h]
+        lead = E[..., n, :] ** 2
+        ep = np.sqrt(lead[..., :4].sum(-1)) + (np.sqrt(part[..., :4].sum(-1)) * weights).sum(-1)  # (N, 2)
+        ed = np.sqrt(lead[..., 4:].sum(-1)) + (np.sqrt(part[..., 4:].sum(-1)) * weights).sum(-1)
+        Q = np.sqrt(dot(M[:, h], M[:, h])).sum(axis=-1)[:, None]  # >= |dual part| of branch h's unit dq
+        # plus the rounding of a forward-kinematics evaluation (a few ulps; 16 allowed), so that the bound
+        # also covers sampled figures (`check_figures`)
+        ep, ed = ep + 16 * _EPS, ed + 16 * _EPS * np.maximum(Q, 1.0)
+        # poses of a unit X and of Y = X - D, |D| <= (ep, ed): rotation <= 4 asin(ep), translation
+        # <= 2 ((ed + Q ep + ed ep) s + Q (s - 1)) with s = 1 / (1 - ep)^2 >= 1 / |primal Y|^2
+        s = 1.0 / (1.0 - ep) ** 2
+        rot = 4.0 * np.arcsin(np.minimum(ep, 1.0))
+        tra = np.where(ep < 0.5, 2.0 * ((ed + Q * ep + ed * ep) * s + Q * (s - 1.0)), np.inf)
+    bad = ~(np.all(b[:, h] > 0, axis=1) & np.isfinite(tra).all(axis=1) & np.isfinite(rot).all(axis=1))
+    tra, rot = np.where(bad[:, None], np.inf, tra), np.where(bad[:, None], np.inf, rot)
+    return {"closure_translation": tra[:, 0], "closure_rotation": rot[:, 0], "motion": tra[:, 1] + rot[:, 1]}
+
+
 def structure(linkage: Linkage) -> tuple:
     """The `check_figures` structure of a linkage (joint tree, tool link, closures)."""
     return (tuple((j.parent, j.child) for j in linkage.joints), linkage.tool_link, tuple(map(tuple, linkage.closures)))
@@ -167,13 +218,17 @@ def linkage_figures(linkage: Linkage, samples: int) -> dict:
     return {k: float(v[0]) for k, v in out.items()}
 
 
-def as_checks(fig: dict, samples: int, length_scale: float) -> dict[str, float]:
-    """linkage.json's ``checks`` from the figures of one linkage."""
+def as_checks(fig: dict, samples: int, length_scale: float, bounded: bool = False) -> dict[str, float]:
+    """linkage.json's ``checks`` from the figures of one linkage; ``bounded``: the closure and motion
+    figures are certified bounds over the whole motion (`loop_bound`), not only sampled."""
     pt, pr = fig["pose_translation"], fig["pose_rotation"]
     ct, cr = fig["closure_translation"], fig["closure_rotation"]
-    return {"max_pose_error": pt + pr, "max_pose_translation_error": pt, "max_pose_rotation_error": pr,
-            "max_closure_error": ct + cr, "max_closure_translation_error": ct, "max_closure_rotation_error": cr,
-            "max_motion_error": fig["motion"], "length_scale": length_scale, "samples": samples}
+    out = {"max_pose_error": pt + pr, "max_pose_translation_error": pt, "max_pose_rotation_error": pr,
+           "max_closure_error": ct + cr, "max_closure_translation_error": ct, "max_closure_rotation_error": cr,
+           "max_motion_error": fig["motion"], "length_scale": length_scale, "samples": samples}
+    if bounded:
+        out["bounded"] = True
+    return out
 
 
 def link_displacements(linkage: Linkage, angles) -> dict[str, np.ndarray]:

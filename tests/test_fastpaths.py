@@ -72,12 +72,15 @@ def test_bennett_equals_the_per_set_path(seed):
             d = abs(v - rb.joint_angles[k]) % (2 * np.pi)
             assert min(d, 2 * np.pi - d) <= 1e-9
     assert fast.info["warnings"] == gen.info["warnings"]
-    assert set(fast.info) == set(gen.info) and set(fast.checks) == set(gen.checks)
+    # the vectorized path bounds closure and motion over the whole motion (checks["bounded"]); the
+    # per-set path samples them
+    assert set(fast.info) == set(gen.info) and set(fast.checks) == set(gen.checks) | {"bounded"}
     # relative to the linkage's size, plus a rounding floor of 1000 ulps of the coordinates (poses ~100 m
     # from the origin with a spread of 1 mm are only known to ~1e-14 m; ~1% of seeds need the floor)
     floor = 1e3 * np.finfo(float).eps * np.abs(T[:, :3, 3]).max()
-    for k in ("max_pose_translation_error", "max_closure_translation_error"):
-        assert fast.checks[k] <= 1e-9 * fast.checks["length_scale"] + floor
+    assert fast.checks["max_pose_translation_error"] <= 1e-9 * fast.checks["length_scale"] + floor
+    # the closure figure is a certified bound over the whole motion: within the acceptance limit
+    assert fast.checks["max_closure_translation_error"] <= 1e-8 * fast.checks["length_scale"] + floor
 
 
 def test_the_generic_path_is_taken_for_random_poses():

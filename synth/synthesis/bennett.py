@@ -18,7 +18,8 @@ import numpy as np
 
 from synth.algebra.algorithm1 import cross3
 from synth.algebra.factorize import factorize
-from synth.checks import DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, pose_difference, self_check
+from synth.checks import (BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, pose_difference,
+                          self_check)
 from synth.errors import InputError, NotGenericError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, LOOP, TS, axis_distance, bennett_parameters,
@@ -29,7 +30,7 @@ from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_bennett import accepted_error
 from synth.synthesis.planar_bennett import candidates as planar_candidates
 
-__all__ = ["bennett", "bennett_candidates", "verify", "check_distinct", "check_transmission", "sensitivity", "dh_table",
+__all__ = ["bennett", "bennett_candidates", "verify", "check_distinct", "check_transmission", "sensitivity", "perturbed_poses", "dh_table",
            "bennett_parameters_of", "EPS", "FLOOR_ULPS", "ACCEPT_TOL"]
 
 COINCIDENT_TOL = 1e-9  # relative to the pose spread (translation) and radians (rotation)
@@ -53,19 +54,20 @@ def check_distinct(T, names, tol=COINCIDENT_TOL):
                              "three distinct poses are needed")
 
 
-def bennett(poses, names=None, *, check_samples: int = DEFAULT_CHECK_SAMPLES, member=None):
+def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None):
     """Synthesize the Bennett linkage whose coupler visits the three poses (shape (3, 4, 4), metres).
 
     ``check_samples``: number of parameters covering the real line at which the loop closure and the
-    motion are verified (``linkage.checks``); the tool frame is always verified at every pose's reported
-    joint angles. Planar or spherical poses (docs/planar.md) have a family of quadratic motions through
+    motion are also sampled (``linkage.checks``); they are bounded over the whole motion in any case
+    (`synth.checks.loop_bound`; the per-set path samples at least DEFAULT_CHECK_SAMPLES instead), and
+    the tool frame is always verified at every pose's reported joint angles. Planar or spherical poses (docs/planar.md) have a family of quadratic motions through
     them and give a planar or spherical four-bar (kind ``planar_4r`` / ``spherical_4r``): the best-scored
     member, or ``member`` = (lambda1, lambda2). Raises InputError (shape, NaN, a member for spatial poses)
     or SynthesisError (degenerate or non-real cases, with a plain-language reason)."""
     return bennett_candidates(poses, names, check_samples=check_samples, member=member)[0]
 
 
-def bennett_candidates(poses, names=None, *, check_samples: int = DEFAULT_CHECK_SAMPLES, member=None,
+def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None,
                        top: int = 1) -> list:
     """`bennett` as a list: the one Bennett linkage of spatial poses, or up to ``top`` members of the
     family of planar or spherical poses, best score first (`synth.synthesis.planar_bennett.candidates`)."""
@@ -73,10 +75,12 @@ def bennett_candidates(poses, names=None, *, check_samples: int = DEFAULT_CHECK_
     if T.shape != (3, 4, 4):
         raise InputError(f"a Bennett linkage needs exactly 3 poses (array of shape (3, 4, 4)), got {T.shape}")
     names = list(names) if names is not None else ["p0", "p1", "p2"]
-    if member is None:
-        out = solve(T[None], check_samples)
+    if member is None and np.all(np.isfinite(T)):
+        # the perturbed sets of the condition estimate (`sensitivity`) ride in the same batch: a batch of
+        # three costs about what a batch of one does
+        out = solve(np.concatenate([T[None], perturbed_poses(T)]), check_samples)
         if out["good"][0]:
-            return [linkage_from_solution(out, 0, T, names, check_samples)]
+            return [linkage_from_solution(out, 0, T, names, check_samples, perturbed=_rows(out, slice(1, None)))]
     if not np.all(np.isfinite(T)):
         raise InputError("the poses contain NaN or infinity")
     check_distinct(T, names)
@@ -114,7 +118,6 @@ def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
     info = dict(linkage.info)
     info["relative_error"] = _accept(linkage, cond, max(rel, info.get("relative_error", 0.0)))
     B = [info["study_form"][k] / float(cond.scale) for k in ("B01", "B02", "B12")]
-    info.pop("condition_estimate", None)
     info["warnings"] = _warnings(linkage, B, cond, info, float(far[0]))
     linkage.checks, linkage.info = checks, info
     return checks
@@ -132,9 +135,10 @@ def check_transmission(linkage) -> None:
         raise SynthesisError(why + _near_degenerate(T, [p.name for p in linkage.poses], spread))
 
 
-def linkage_from_solution(out: dict, i: int, T, names, check_samples: int):
+def linkage_from_solution(out: dict, i: int, T, names, check_samples: int, perturbed: dict | None = None):
     """The `Linkage` of set i of a `synth.synthesis.bennett_core.solve` result (checks and info from
-    its arrays)."""
+    its arrays). ``perturbed``: ``good`` and ``factors`` of `perturbed_poses` (T) solved, when at hand
+    (`sensitivity` solves them otherwise)."""
     F = out["factors"][i]
     scale = float(out["scale"][i])
     cond = Conditioning(centre=out["centre"][i], scale=scale)
@@ -143,11 +147,11 @@ def linkage_from_solution(out: dict, i: int, T, names, check_samples: int):
             "conditioning": {"centre": out["centre"][i].tolist(), "scale": scale}}
     linkage = two_branch_linkage("bennett", F[:2], F[2:], out["motion"][i], T, names, TS, info)
     figures = {k: float(v[i]) for k, v in out["errors"].items()}
-    linkage.checks = as_checks(figures, check_samples, float(out["length_scale"][i]))
+    linkage.checks = as_checks(figures, check_samples, float(out["length_scale"][i]), bounded=True)
     bp = {k: v[i : i + 1] for k, v in out["bennett"].items()}
     dh = {k: v[i : i + 1] for k, v in out["dh"].items()}
     linkage.info = _complete_info(linkage, info, out["study_form"][i] / scale, cond, bp, dh,
-                                  float(out["relative_error"][i]), float(out["axis_distance"][i]))
+                                  float(out["relative_error"][i]), float(out["axis_distance"][i]), perturbed)
     return linkage
 
 
@@ -156,7 +160,7 @@ def _bennett_general(T, names, check_samples):
     message; the self-check by `synth.checks.self_check`."""
     H, K, C, con, cond, info = _general_factors(T, names)
     linkage = two_branch_linkage("bennett", H, K, C, T, names, con.ts, info)
-    linkage.checks = self_check(linkage, check_samples)
+    linkage.checks = self_check(linkage, max(check_samples, DEFAULT_CHECK_SAMPLES))
     U, M = _loop_lines(linkage)
     c = linkage.checks
     errors = {"pose_translation": c["max_pose_translation_error"], "pose_rotation": c["max_pose_rotation_error"],
@@ -176,7 +180,11 @@ def _loop_lines(linkage, loop=LOOP_NAMES):
     return lines[None, :, 0], lines[None, :, 1]
 
 
-def _complete_info(linkage, info, B, cond, bp, dh, rel, far) -> dict:
+def _rows(out: dict, rows) -> dict:
+    return {"good": out["good"][rows], "factors": out["factors"][rows]}
+
+
+def _complete_info(linkage, info, B, cond, bp, dh, rel, far, perturbed=None) -> dict:
     """``info`` plus the Bennett parameters, DH table, relative self-check error and warnings; raises
     SynthesisError when the self-check error ``rel`` exceeds ACCEPT_TOL (`_accept`)."""
     info = dict(info)
@@ -186,7 +194,7 @@ def _complete_info(linkage, info, B, cond, bp, dh, rel, far) -> dict:
     info["bennett"] = bp
     info["dh"] = _dh_list(LOOP_NAMES, dh)
     info["relative_error"] = _accept(linkage, cond, rel)
-    info["warnings"] = _warnings(linkage, [float(x) for x in B], cond, info, far)
+    info["warnings"] = _warnings(linkage, [float(x) for x in B], cond, info, far, perturbed)
     return info
 
 
@@ -259,15 +267,31 @@ def _near_relations(T, names, spread) -> list[tuple[int, str]]:
     return found
 
 
-def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int = 0) -> float:
+def perturbed_poses(T, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int = 0) -> np.ndarray:
+    """The poses (3, 4, 4) moved by ``trials`` deterministic random perturbations of relative size
+    ``eps`` (each pose: a rotation of eps radians and a translation of eps pose spreads, in its own
+    frame), shape (trials, 3, 4, 4)."""
+    T = np.asarray(T, float)
+    M = _small_motions(eps, seed, trials).copy()  # (trials, 3, 4, 4), translations of unit length
+    M[..., :3, 3] *= _spread(T)
+    return T @ M
+
+
+def _spread(T) -> float:
+    """RMS distance of the positions of poses (k, 4, 4) from their centroid (at least 1e-300)."""
+    pos = T[:, :3, 3]
+    return max(math.sqrt(float(np.sum((pos - pos.mean(axis=0)) ** 2)) / len(T)), 1e-300)
+
+
+def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int = 0, solved=None) -> float:
     """Condition estimate of the synthesis: the largest change of the joint axes (unit directions,
     and moments about the poses' centroid divided by the pose spread) per unit relative change of
-    the poses, over ``trials`` random perturbations of size ``eps`` (rotations of eps radians,
-    translations of eps pose spreads). Infinite when a perturbed input has no Bennett linkage.
-    Deterministic (fixed seed)."""
+    the poses, over the ``trials`` perturbations of `perturbed_poses`. Infinite when a perturbed input
+    has no Bennett linkage. Deterministic (fixed seed). ``solved``: ``good`` and ``factors`` of the
+    perturbed sets from `synth.synthesis.bennett_core.solve` (solved here when None)."""
     T = np.array([p.matrix for p in linkage.poses])
     c = T[:, :3, 3].mean(axis=0)
-    spread = max(float(np.sqrt(np.mean(np.sum((T[:, :3, 3] - c) ** 2, axis=1)))), 1e-300)
+    spread = _spread(T)
     names = [p.name for p in linkage.poses]
 
     def lines(F):  # factors (4, 8) of h1 h2 k1 k2 -> (4, 6): direction, moment about c / spread
@@ -279,13 +303,8 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
     J = {j.name: j for j in linkage.joints}
     ref = lines(np.array([np.concatenate([[J[n].a], -J[n].direction * J[n].b, [0.0], J[n].moment * J[n].b])
                           for n in order]))
-    draws = iter(_random_directions(seed, trials))
-    Tp = np.repeat(T[None], trials, axis=0)
-    for k in range(trials):
-        for i in range(3):
-            w, nw, v, nv = next(draws)
-            Tp[k, i] = T[i] @ _small_motion(w * (eps / nw), v * (eps * spread / nv))
-    out = solve(Tp, 2)  # all perturbed sets at once; the rest through the per-set path
+    Tp = perturbed_poses(T, eps, trials, seed) if solved is None or not np.all(solved["good"]) else None
+    out = solved if solved is not None else solve(Tp, BOUND_CHECK_SAMPLES)  # all perturbed sets at once; the rest one by one
     worst = 0.0
     for k in range(trials):
         if out["good"][k]:
@@ -303,30 +322,25 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
 
 
 @lru_cache(maxsize=8)
-def _random_directions(seed: int, trials: int) -> tuple:
-    """`sensitivity`'s random draws, (w, |w|, v, |v|) for each trial and pose (normal 3-vectors, in
-    the order drawn). Cached: the seed is fixed, and a new Generator costs more than the rest."""
+def _small_motions(eps: float, seed: int, trials: int) -> tuple:
+    """`perturbed_poses`' motions, one per trial and pose (in that order): a rotation of ``eps`` radians
+    about a random axis and a unit translation in a random direction (normal draws of a Generator
+    seeded with ``seed``: w, v per pose), shape (trials, 3, 4, 4). Cached (read-only): they depend on the
+    arguments only."""
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(3 * trials):
         w = rng.normal(size=3)
         v = rng.normal(size=3)
-        w.flags.writeable = v.flags.writeable = False
-        out.append((w, np.linalg.norm(w), v, np.linalg.norm(v)))
-    return tuple(out)
-
-
-def _small_motion(w, v):
-    """4x4 rigid motion: rotation vector w (Rodrigues), translation v."""
-    w0, w1, w2 = w.tolist()
-    th = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-    k0, k1, k2 = w0 / th, w1 / th, w2 / th
-    s, c1 = math.sin(th), 1 - math.cos(th)
-    # I + sin K + (1 - cos) K^2 with K = [k]x, K^2 = k k^T - I
-    return np.array([[1 + c1 * (k0 * k0 - 1), -s * k2 + c1 * k0 * k1, s * k1 + c1 * k0 * k2, v[0]],
-                     [s * k2 + c1 * k0 * k1, 1 + c1 * (k1 * k1 - 1), -s * k0 + c1 * k1 * k2, v[1]],
-                     [-s * k1 + c1 * k0 * k2, s * k0 + c1 * k1 * k2, 1 + c1 * (k2 * k2 - 1), v[2]],
-                     [0.0, 0.0, 0.0, 1.0]])
+        k = w / np.linalg.norm(w)
+        K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+        M = np.eye(4)
+        M[:3, :3] += math.sin(eps) * K + (1 - math.cos(eps)) * (K @ K)  # Rodrigues
+        M[:3, 3] = v * (eps / np.linalg.norm(v))
+        out.append(M)
+    out = np.array(out).reshape(trials, 3, 4, 4)
+    out.flags.writeable = False
+    return out
 
 
 def _general_factors(T, names):
@@ -369,7 +383,7 @@ def _general_factors(T, names):
     return H, K, C, con, cond, info
 
 
-def _warnings(linkage, B, cond, info, far) -> list[str]:
+def _warnings(linkage, B, cond, info, far, perturbed=None) -> list[str]:
     """Warnings for a valid result: axes far from the poses, and sensitivity to the poses. The condition
     estimate (`sensitivity`, two extra syntheses) runs only when a cheap indicator suggests trouble:
     axes more than 3 pose spreads away, a Study form value |B| < 1e-2 (nearly zero pitch), or norm
@@ -388,7 +402,9 @@ def _warnings(linkage, B, cond, info, far) -> list[str]:
     roots_close = len(bs) == 2 and math.dist(*bs) < 1e-2 * max(1.0, *(abs(x) for ab in bs for x in ab))
     nearly_real = min(j.b for j in linkage.joints) < 1e-2 * max(1.0, *(abs(j.a) for j in linkage.joints))
     if far > 3 or min(abs(x) for x in B) < 1e-2 or roots_close or nearly_real:
-        kappa = sensitivity(linkage)
+        kappa = info.get("condition_estimate")
+        if kappa is None:
+            kappa = sensitivity(linkage, solved=perturbed)
         info["condition_estimate"] = kappa
         if kappa > SENSITIVE:
             # orders of magnitude only: the text must not depend on rounding (batch and single paths agree)

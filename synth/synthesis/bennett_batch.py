@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from synth.checks import DEFAULT_CHECK_SAMPLES
+from synth.checks import BOUND_CHECK_SAMPLES
 from synth.errors import InputError, MpsynthError, SynthesisError
 from synth.synthesis.bennett import bennett, linkage_from_solution
 from synth.synthesis.bennett_core import ACCEPT_TOL, JOINTS, TS, solve
@@ -42,7 +42,7 @@ class BennettBatch:
     bennett: dict  # a, alpha, b, beta, opposite_length_mismatch, opposite_twist_mismatch: each (N,)
     errors: dict  # pose_translation, pose_rotation, closure_translation, closure_rotation, motion: (N,)
     relative_error: np.ndarray = None  # (N,): the figure synth.synthesis.bennett's acceptance gate compares to 1e-8
-    check_samples: int = DEFAULT_CHECK_SAMPLES
+    check_samples: int = BOUND_CHECK_SAMPLES
     names: list = field(default_factory=lambda: ["p0", "p1", "p2"])
     general: np.ndarray = None  # (N,) bool: the set went through the per-set path of synth.synthesis.bennett
     _solution: dict = field(default=None, repr=False)  # the arrays of `solve` (for `linkage`)
@@ -73,10 +73,11 @@ class BennettBatch:
 
 
 # ============================================================================ the pipeline
-def bennett_batch(poses, *, check_samples: int = DEFAULT_CHECK_SAMPLES, names=None) -> BennettBatch:
+def bennett_batch(poses, *, check_samples: int = BOUND_CHECK_SAMPLES, names=None) -> BennettBatch:
     """Bennett linkages for N pose sets, array of shape (N, 3, 4, 4) in metres (see the module
     docstring for conventions). ``check_samples``: parameters (covering R, as `synth.checks`) at which
-    closure and motion are verified for each set. Raises InputError only for a wrong overall shape."""
+    closure and motion are also sampled for each set (they are bounded over the whole motion in any
+    case, `synth.checks.loop_bound`). Raises InputError only for a wrong overall shape."""
     T = np.asarray(poses, float)
     if T.ndim != 4 or T.shape[1:] != (3, 4, 4):
         raise InputError(f"bennett_batch needs poses of shape (N, 3, 4, 4), got {T.shape}")

@@ -4,10 +4,12 @@
 displacements, the conic C through the poses, the roots of its norm polynomial, Algorithm 1 for both
 orders (branch h = (h1, h2), branch k = (k1, k2), C = (t-h1)(t-h2) = (t-k1)(t-k2)), the world frame,
 Plücker lines and angle laws, the angles at the poses, the loop geometry (Bennett parameters, DH table)
-and the self-checks at ``check_samples`` parameters (`synth.checks.check_figures`). ``synth.bennett`` is
+and the self-checks: the tool frame at the poses' angles and closure and motion bounded over the whole
+motion (`synth.checks.loop_bound`), plus samples at ``check_samples`` parameters
+(`synth.checks.check_figures`). ``synth.bennett`` is
 a batch of one, ``synth.bennett_batch`` a batch of many. Sets the generic pipeline cannot judge
 (``good`` False: degenerate or nearly degenerate poses, nearly real or repeated norm roots, a translation
-factor, a multiply-back error above MAX_RESIDUAL, a self-check near the acceptance limit) are left to
+factor, a multiply-back error above MAX_RESIDUAL after Newton polishing, a self-check near the acceptance limit) are left to
 the per-set path of `synth.synthesis.bennett`, which gives each refusal its message.
 
 Conventions: joints ``h1, h2, k1, k2``; h1 and k2 carry the norm factor whose root a + ib has the smaller
@@ -19,14 +21,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, norm_roots, quadratics, remainder_error,
-                                      root_conditioning)
+from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multiply_back, norm_roots, polish, quadratics,
+                                      remainder_error, root_conditioning)
 from synth.algebra.polynomial import norm_poly
-from synth.checks import check_figures
-from synth.algebra.dq import dot, pose_to_dq
+from synth.checks import check_figures, loop_bound
+from synth.algebra.dq import dot, dq_mul, pose_to_dq, translation_dq
 from synth.synthesis.conic import condition, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
+BRANCHES = ((0, 1), (2, 3))  # h1 h2 | k1 k2, base to coupler
 LOOP = (0, 1, 3, 2)  # h1 -> h2 -> k2 -> k1 -> h1
 TS = np.array([np.inf, 0.0, 1.0])
 STRUCTURE = ((("base", "link_h1"), ("link_h1", "coupler"), ("base", "link_k1"), ("link_k1", "coupler_k")),
@@ -37,7 +40,7 @@ EPS = float(np.finfo(float).eps)
 MIN_B = 1e-6  # |B_ij| (conditioned) at or below this: (nearly) degenerate conic -> per-set path
 MIN_IMAG = 1e-5  # min Im z / (1 + |z|^2) at or below this: nearly real norm root -> per-set path
 MIN_SEPARATION = 1e-5  # min |z1 - z2| / (1 + |z|^2) at or below this: nearly repeated root -> per-set path
-MAX_RESIDUAL = 5e-13  # multiply-back error above this: per-set path (factorize refines)
+MAX_RESIDUAL = 5e-13  # multiply-back error above this: polished; still above: per-set path
 _ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
 _PREV = [3, 0, 1, 2]  # the previous joint around the loop
 _EYE4 = np.eye(4)
@@ -52,14 +55,23 @@ def solve(T, check_samples: int) -> dict:
     finite = np.all(np.isfinite(T), axis=(1, 2, 3))
     with np.errstate(all="ignore"):
         Tf = np.where(finite[:, None, None, None], T, _EYE4)
-        Tc, cond = condition(Tf)
-        Q = pose_to_dq(np.concatenate([Tf, Tc], axis=1))  # world (checks) and conditioned (conic) poses
-        con = conic(relative_displacements_dq(Q[:, 3:]))
+        cond = condition(Tf)[1]
+        Q = pose_to_dq(Tf)  # world frame (checks)
+        # the conditioned poses (conic): translated by -centre, lengths divided by the scale
+        Qc = dq_mul(translation_dq(-cond.centre)[:, None], Q)
+        Qc[..., 4:] /= cond.scale[:, None, None]
+        con = conic(relative_displacements_dq(Qc))
         C, B = con.C, con.B  # (N, 3, 8), (N, 3)
         z = norm_roots(norm_poly(C))  # (N, 2), Re z[0] <= Re z[1]
         im, sep = root_conditioning(z)
         H, ok, R = algorithm1(C[:, None], quadratics(z)[:, _ORDERS], remainders=True)  # (N, 2 branches, 2, 8)
         residual = remainder_error(C[:, None], H, R).max(axis=1)  # the multiply-back error, up to rounding
+        # Algorithm 1 loses digits when roots are close or nearly real: Newton on the product equations
+        # (`polish`) restores them here rather than sending the set to the per-set path
+        redo = np.flatnonzero((residual > MAX_RESIDUAL) & ok.all(axis=1) & finite)
+        if redo.size:
+            H[redo] = polish(C[redo, None], H[redo])[0]
+            residual[redo] = multiply_back(C[redo, None], H[redo]).max(axis=1)
         good = (finite & ok.all(axis=1) & (np.abs(B).min(axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
                 & (residual <= MAX_RESIDUAL) & ~is_translation(H).any(axis=(1, 2)))
         world = to_world(np.concatenate([H.reshape(N, 4, 8), C], axis=1), cond)
@@ -77,6 +89,8 @@ def solve(T, check_samples: int) -> dict:
         rel = pts - pts.sum(axis=1, keepdims=True) / pts.shape[1]
         length_scale = np.maximum(np.sqrt(dot(rel, rel).sum(axis=-1) / pts.shape[1]), 1e-9)
         errors = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
+        for key, bound in loop_bound(U, M, a, b, BRANCHES, motion).items():  # the whole motion, certified
+            errors[key] = np.maximum(errors[key], bound)
         far = axis_distance(U, M, cond.centre)
         rel = relative_error(Tf, cond.scale, far, errors)
         good &= rel <= 0.1 * ACCEPT_TOL

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from synth.checks import DEFAULT_CHECK_SAMPLES
+from synth.checks import BOUND_CHECK_SAMPLES
 from synth.errors import InputError, MpsynthError, SynthesisError
 from synth.synthesis.bennett import bennett
 from synth.synthesis.bennett_batch import bennett_batch
@@ -36,7 +36,7 @@ from synth.tools.cluster import ClusterError, close, connect, import_distributed
 DEFAULT_CHUNK = 4096
 
 
-def bennett_chunk(poses, check_samples: int = DEFAULT_CHECK_SAMPLES) -> dict:
+def bennett_chunk(poses, check_samples: int = BOUND_CHECK_SAMPLES) -> dict:
     """`bennett_batch` of ``poses`` (n, 3, 4, 4), metres, as a dict of arrays over n: ``ok``, ``status``
     (str, "" when ok), ``general`` (solved by the per-set path), ``lines`` (n, 4, 2, 3), ``laws`` (n, 4, 2),
     ``pose_angles`` (n, 3, 4), ``motion`` (n, 3, 8), ``study_form`` (n, 3), ``residual``,
