@@ -117,14 +117,15 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
     lines[..., 1:4] = U
     lines[..., 5:8] = M
     lines[..., 5:8] *= -1.0
-    R = dq_right_matrix(lines)  # (N, J, 8, 8)
+    inner = [j for j, (parent, _) in enumerate(joints) if parent != "base"]
+    R = dict(zip(inner, np.moveaxis(dq_right_matrix(lines[:, inner]), 1, 0)))  # (N, 8, 8) each
     disp = {}
     for j, (parent, child) in enumerate(joints):
         if parent == "base":
             disp[child] = cos[..., j, :] * _E0 + sin[..., j, :] * lines[:, None, j]
         else:
             x = disp[parent]
-            disp[child] = cos[..., j, :] * x + sin[..., j, :] * (x @ R[:, j])
+            disp[child] = cos[..., j, :] * x + sin[..., j, :] * (x @ R[j])
     tool = disp[tool_link]
     # the pairs compared, stacked: X[0] (tool at the poses, tool link along the motion, closure links)
     # against X[1] (the poses, C(t), the duplicate links)

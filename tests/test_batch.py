@@ -132,3 +132,18 @@ def test_shapes_and_empty_batch():
         bennett_batch(np.zeros((3, 4, 4)))
     R = bennett_batch(np.zeros((0, 3, 4, 4)))
     assert len(R) == 0 and R.lines.shape == (0, 4, 2, 3) and R.status == []
+
+
+def test_chunked_solve_equals_one_chunk(monkeypatch):
+    """solve runs large batches in chunks (bennett_core.CHUNK); the joined result is the same."""
+    from synth.synthesis import bennett_core
+
+    P = _random_sets(9, 20)
+    whole = bennett_core.solve(P, 0)
+    monkeypatch.setattr(bennett_core, "CHUNK", 7)
+    parts = bennett_core.solve(P, 0)
+    for key in ("good", "lines", "laws", "pose_angles", "factors", "motion", "relative_error"):
+        np.testing.assert_allclose(parts[key], whole[key], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(parts["bennett"]["a"], whole["bennett"]["a"], rtol=1e-12)
+    np.testing.assert_allclose(parts["errors"]["closure_translation"], whole["errors"]["closure_translation"],
+                               rtol=1e-9, atol=1e-15)

@@ -40,6 +40,7 @@ EPS = float(np.finfo(float).eps)
 MIN_B = 1e-6  # |B_ij| (conditioned) at or below this: (nearly) degenerate conic -> per-set path
 MIN_IMAG = 1e-5  # min Im z / (1 + |z|^2) at or below this: nearly real norm root -> per-set path
 MIN_SEPARATION = 1e-5  # min |z1 - z2| / (1 + |z|^2) at or below this: nearly repeated root -> per-set path
+CHUNK = 2048  # sets per chunk of `solve` (measured on N = 10,000: chunks of 1,000-2,000 sets ~20% faster per set than one chunk)
 MAX_RESIDUAL = 5e-13  # multiply-back error above this: polished; still above: per-set path
 _ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
 _PREV = [3, 0, 1, 2]  # the previous joint around the loop
@@ -49,8 +50,22 @@ _EYE4 = np.eye(4)
 def solve(T, check_samples: int) -> dict:
     """The Bennett pipeline on poses T (N, 3, 4, 4), metres; returns a dict of arrays over N (see
     `synth.synthesis.bennett_batch.BennettBatch` for the fields) plus ``good`` (N,): the set was solved
-    here and its self-check is well inside ACCEPT_TOL. Rows of sets that are not good hold garbage."""
+    here and its self-check is well inside ACCEPT_TOL. Rows of sets that are not good hold garbage.
+    Large batches run in chunks of CHUNK sets, whose temporaries stay in the CPU caches."""
     T = np.asarray(T, float)
+    if T.shape[0] > CHUNK:
+        return _concatenate([_solve(T[i : i + CHUNK], check_samples) for i in range(0, T.shape[0], CHUNK)])
+    return _solve(T, check_samples)
+
+
+def _concatenate(parts: list):
+    """Dicts (nested) of arrays over sets, joined along the set axis."""
+    if isinstance(parts[0], dict):
+        return {k: _concatenate([p[k] for p in parts]) for k in parts[0]}
+    return np.concatenate(parts, axis=0)
+
+
+def _solve(T, check_samples: int) -> dict:
     N = T.shape[0]
     finite = np.all(np.isfinite(T), axis=(1, 2, 3))
     with np.errstate(all="ignore"):
