@@ -180,12 +180,11 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
             Ez = Ez * z[:, None, :, None] + E[..., c : c + 1, :]
         gaps = z[:, :, None] - z[:, None, :]  # (N, n, n)
         gaps[:, np.arange(n), np.arange(n)] = 1.0
-        rho = Ez / np.prod(gaps, axis=-1)[:, None, :, None]
-        part = np.abs(rho) ** 2
-        weights = 1.0 / b[:, None, h]
-        lead = E[..., n, :] ** 2
-        ep = np.sqrt(lead[..., :4].sum(-1)) + (np.sqrt(part[..., :4].sum(-1)) * weights).sum(-1)  # (N, 2)
-        ed = np.sqrt(lead[..., 4:].sum(-1)) + (np.sqrt(part[..., 4:].sum(-1)) * weights).sum(-1)
+        rho = np.abs(Ez / np.prod(gaps, axis=-1)[:, None, :, None]) ** 2  # |rho_j|^2 by component
+        N = len(a)
+        rho = np.sqrt(rho.reshape(N, 2, n, 2, 4).sum(-1))  # (N, 2, n, primal / dual)
+        lead = np.sqrt((E[..., n, :] ** 2).reshape(N, 2, 2, 4).sum(-1))  # (N, 2, primal / dual)
+        ep, ed = np.moveaxis(lead + (rho / b[:, None, h, None]).sum(axis=2), -1, 0)  # (N, 2) each
         Q = np.sqrt(dot(M[:, h], M[:, h])).sum(axis=-1)[:, None]  # >= |dual part| of branch h's unit dq
         # plus the rounding of a forward-kinematics evaluation (a few ulps; 16 allowed), so that the bound
         # also covers sampled figures (`check_figures`)
