@@ -170,32 +170,35 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
     hk = np.asarray(branches)  # (2, n)
     h = hk[0]
     n = len(h)
-    F = np.concatenate([a[..., None], -b[..., None] * U, np.zeros(a.shape + (1,)), b[..., None] * M], axis=-1)
+    N = len(a)
+    F = np.zeros(a.shape + (8,))
+    F[..., 0] = a
+    F[..., 1:4] = U * -b[..., None]
+    F[..., 5:8] = M * b[..., None]
     P = product_of_linear(F[:, hk])  # (N, 2, n+1, 8): P_h, P_k
     E = P[:, :1] - np.stack([P[:, 1], motion], axis=1)  # (N, 2, n+1, 8): P_h - P_k, P_h - C
-    z = a[:, h] + 1j * b[:, h]  # (N, n)
+    z = (a[:, h] + 1j * b[:, h])[:, None, :, None]  # (N, 1, n, 1)
     with np.errstate(all="ignore"):
-        Ez = E[..., n:, :].astype(complex)  # Horner at the roots: (N, 2, n, 8)
+        Ez = E[..., n:, :] + 0j  # Horner at the roots: (N, 2, n, 8)
         for c in range(n - 1, -1, -1):
-            Ez = Ez * z[:, None, :, None] + E[..., c : c + 1, :]
-        gaps = z[:, :, None] - z[:, None, :]  # (N, n, n)
-        gaps[:, np.arange(n), np.arange(n)] = 1.0
-        rho = np.abs(Ez / np.prod(gaps, axis=-1)[:, None, :, None]) ** 2  # |rho_j|^2 by component
-        N = len(a)
+            Ez = Ez * z + E[..., c : c + 1, :]
+        gaps = z - np.swapaxes(z, 2, 3)  # (N, 1, n, n): z_j - z_m
+        gaps[..., np.arange(n), np.arange(n)] = 1.0
+        rho = np.abs(Ez / gaps.prod(axis=-1)[..., None]) ** 2  # |rho_j|^2 by component
         rho = np.sqrt(rho.reshape(N, 2, n, 2, 4).sum(-1))  # (N, 2, n, primal / dual)
         lead = np.sqrt((E[..., n, :] ** 2).reshape(N, 2, 2, 4).sum(-1))  # (N, 2, primal / dual)
+        # with 16 ulps for the rounding of a forward-kinematics evaluation, so that the bound also covers
+        # sampled figures (`check_figures`); Q bounds the dual part of branch h's unit dual quaternion
+        Q = np.sqrt(dot(M[:, h], M[:, h])).sum(axis=-1)[:, None]
         ep, ed = np.moveaxis(lead + (rho / b[:, None, h, None]).sum(axis=2), -1, 0)  # (N, 2) each
-        Q = np.sqrt(dot(M[:, h], M[:, h])).sum(axis=-1)[:, None]  # >= |dual part| of branch h's unit dq
-        # plus the rounding of a forward-kinematics evaluation (a few ulps; 16 allowed), so that the bound
-        # also covers sampled figures (`check_figures`)
-        ep, ed = ep + 16 * _EPS, ed + 16 * _EPS * np.maximum(Q, 1.0)
+        ep = ep + 16 * _EPS
+        ed = ed + 16 * _EPS * np.maximum(Q, 1.0)
         # poses of a unit X and of Y = X - D, |D| <= (ep, ed): rotation <= 4 asin(ep), translation
         # <= 2 ((ed + Q ep + ed ep) s + Q (s - 1)) with s = 1 / (1 - ep)^2 >= 1 / |primal Y|^2
         s = 1.0 / (1.0 - ep) ** 2
-        rot = 4.0 * np.arcsin(np.minimum(ep, 1.0))
-        tra = np.where(ep < 0.5, 2.0 * ((ed + Q * ep + ed * ep) * s + Q * (s - 1.0)), np.inf)
-    bad = ~(np.all(b[:, h] > 0, axis=1) & np.isfinite(tra).all(axis=1) & np.isfinite(rot).all(axis=1))
-    tra, rot = np.where(bad[:, None], np.inf, tra), np.where(bad[:, None], np.inf, rot)
+        near = ep < 0.5  # (NaN: False)
+        rot = np.where(near, 4.0 * np.arcsin(np.minimum(ep, 1.0)), np.inf)
+        tra = np.where(near, 2.0 * ((ed + Q * ep + ed * ep) * s + Q * (s - 1.0)), np.inf)
     return {"closure_translation": tra[:, 0], "closure_rotation": rot[:, 0], "motion": tra[:, 1] + rot[:, 1]}
 
 

@@ -23,7 +23,7 @@ from synth.checks import (BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAM
 from synth.errors import InputError, NotGenericError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, LOOP, TS, axis_distance, bennett_parameters,
-                                          dh_rows, loop_geometry, relative_error, solve)
+                                          dh_rows, factor_sets, loop_geometry, relative_error, solve)
 from synth.synthesis.conditioning import transmission_problem
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements, to_world
 from synth.synthesis.planar import zero_pitch
@@ -78,9 +78,9 @@ def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SA
     if member is None and np.all(np.isfinite(T)):
         # the perturbed sets of the condition estimate (`sensitivity`) ride in the same batch: a batch of
         # three costs about what a batch of one does
-        out = solve(np.concatenate([T[None], perturbed_poses(T)]), check_samples)
+        out = solve(T[None], check_samples, extra=perturbed_poses(T))
         if out["good"][0]:
-            return [linkage_from_solution(out, 0, T, names, check_samples, perturbed=_rows(out, slice(1, None)))]
+            return [linkage_from_solution(out, 0, T, names, check_samples, perturbed=out["extra"])]
     if not np.all(np.isfinite(T)):
         raise InputError("the poses contain NaN or infinity")
     check_distinct(T, names)
@@ -137,7 +137,7 @@ def check_transmission(linkage) -> None:
 
 def linkage_from_solution(out: dict, i: int, T, names, check_samples: int, perturbed: dict | None = None):
     """The `Linkage` of set i of a `synth.synthesis.bennett_core.solve` result (checks and info from
-    its arrays). ``perturbed``: ``good`` and ``factors`` of `perturbed_poses` (T) solved, when at hand
+    its arrays). ``perturbed``: ``good`` and ``factors`` of `perturbed_poses` (T) (`factor_sets`), when at hand
     (`sensitivity` solves them otherwise)."""
     F = out["factors"][i]
     scale = float(out["scale"][i])
@@ -178,10 +178,6 @@ def _loop_lines(linkage, loop=LOOP_NAMES):
     """Lines (1, J, 3), (1, J, 3) of the joints ``loop`` in loop order."""
     lines = np.array([(j.direction, j.moment) for j in map(linkage.joint, loop)], float)
     return lines[None, :, 0], lines[None, :, 1]
-
-
-def _rows(out: dict, rows) -> dict:
-    return {"good": out["good"][rows], "factors": out["factors"][rows]}
 
 
 def _complete_info(linkage, info, B, cond, bp, dh, rel, far, perturbed=None) -> dict:
@@ -288,7 +284,7 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
     and moments about the poses' centroid divided by the pose spread) per unit relative change of
     the poses, over the ``trials`` perturbations of `perturbed_poses`. Infinite when a perturbed input
     has no Bennett linkage. Deterministic (fixed seed). ``solved``: ``good`` and ``factors`` of the
-    perturbed sets from `synth.synthesis.bennett_core.solve` (solved here when None)."""
+    perturbed sets (`synth.synthesis.bennett_core.factor_sets`; computed here when None)."""
     T = np.array([p.matrix for p in linkage.poses])
     c = T[:, :3, 3].mean(axis=0)
     spread = _spread(T)
@@ -304,7 +300,7 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
     ref = lines(np.array([np.concatenate([[J[n].a], -J[n].direction * J[n].b, [0.0], J[n].moment * J[n].b])
                           for n in order]))
     Tp = perturbed_poses(T, eps, trials, seed) if solved is None or not np.all(solved["good"]) else None
-    out = solved if solved is not None else solve(Tp, BOUND_CHECK_SAMPLES)  # all perturbed sets at once; the rest one by one
+    out = solved if solved is not None else factor_sets(Tp)
     worst = 0.0
     for k in range(trials):
         if out["good"][k]:

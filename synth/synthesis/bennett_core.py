@@ -26,7 +26,7 @@ from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multip
 from synth.algebra.polynomial import norm_poly
 from synth.checks import check_figures, loop_bound
 from synth.algebra.dq import dot, dq_mul, pose_to_dq, translation_dq
-from synth.synthesis.conic import condition, conic, relative_displacements_dq, to_world
+from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
 BRANCHES = ((0, 1), (2, 3))  # h1 h2 | k1 k2, base to coupler
@@ -47,12 +47,21 @@ _PREV = [3, 0, 1, 2]  # the previous joint around the loop
 _EYE4 = np.eye(4)
 
 
-def solve(T, check_samples: int) -> dict:
+def solve(T, check_samples: int, extra=None) -> dict:
     """The Bennett pipeline on poses T (N, 3, 4, 4), metres; returns a dict of arrays over N (see
     `synth.synthesis.bennett_batch.BennettBatch` for the fields) plus ``good`` (N,): the set was solved
     here and its self-check is well inside ACCEPT_TOL. Rows of sets that are not good hold garbage.
-    Large batches run in chunks of CHUNK sets, whose temporaries stay in the CPU caches."""
+    Large batches run in chunks of CHUNK sets, whose temporaries stay in the CPU caches. ``extra``
+    (M, 3, 4, 4): pose sets of which only the factorizations are wanted (the condition estimate's
+    perturbed sets), computed in the same batch: ``out["extra"]`` = {``good`` (M,) (the gates before
+    the self-check), ``factors`` (M, 4, 8)}."""
     T = np.asarray(T, float)
+    if extra is not None:
+        fac = _factors(np.concatenate([T, np.asarray(extra, float)]))
+        n = T.shape[0]
+        out = _solve(T, check_samples, {k: v[:n] for k, v in fac.items()})
+        out["extra"] = {"good": fac["good"][n:], "factors": fac["factors"][n:]}  # as `factor_sets`
+        return out
     if T.shape[0] > CHUNK:
         return _concatenate([_solve(T[i : i + CHUNK], check_samples) for i in range(0, T.shape[0], CHUNK)])
     return _solve(T, check_samples)
@@ -65,7 +74,17 @@ def _concatenate(parts: list):
     return np.concatenate(parts, axis=0)
 
 
-def _solve(T, check_samples: int) -> dict:
+def factor_sets(T) -> dict:
+    """The two factorizations only, for pose sets T (M, 3, 4, 4): ``good`` (M,) (the gates that need no
+    self-check) and ``factors`` (M, 4, 8) of h1 h2 k1 k2 in the world frame."""
+    fac = _factors(np.asarray(T, float))
+    return {"good": fac["good"], "factors": fac["factors"]}
+
+
+def _factors(T) -> dict:
+    """The first half of the pipeline, arrays over the sets of T (N, 3, 4, 4): conic, norm roots,
+    Algorithm 1 for both orders (polished where needed), the factors and C in the world frame, and
+    ``good``: the gates that need no self-check."""
     N = T.shape[0]
     finite = np.all(np.isfinite(T), axis=(1, 2, 3))
     with np.errstate(all="ignore"):
@@ -90,7 +109,18 @@ def _solve(T, check_samples: int) -> dict:
         good = (finite & ok.all(axis=1) & (np.abs(B).min(axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
                 & (residual <= MAX_RESIDUAL) & ~is_translation(H).any(axis=(1, 2)))
         world = to_world(np.concatenate([H.reshape(N, 4, 8), C], axis=1), cond)
-        factors, motion = world[:, :4], world[:, 4:]  # h1 h2 k1 k2; C (world frame)
+    return dict(finite=finite, Tf=Tf, Q=Q, centre=cond.centre, scale=cond.scale, B=B, roots=z, residual=residual,
+                good=good, factors=world[:, :4], motion=world[:, 4:])
+
+
+def _solve(T, check_samples: int, fac=None) -> dict:
+    fac = _factors(T) if fac is None else fac
+    N = T.shape[0]
+    finite, Tf, Q, B, z, residual = (fac[k] for k in ("finite", "Tf", "Q", "B", "roots", "residual"))
+    cond = Conditioning(centre=fac["centre"], scale=fac["scale"])
+    good = fac["good"].copy()
+    factors, motion = fac["factors"], fac["motion"]  # h1 h2 k1 k2; C (world frame)
+    with np.errstate(all="ignore"):
         a, b = factors[..., 0], np.sqrt(dot(factors[..., 1:4], factors[..., 1:4]))
         U, M = -factors[..., 1:4] / b[..., None], factors[..., 5:8] / b[..., None]
         th = np.mod(2.0 * np.arctan2(b[:, None, :], TS[1:, None] - a[:, None, :]), 2 * np.pi)
