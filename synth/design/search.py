@@ -88,9 +88,13 @@ class Layout:
     """The searched parametrization of a linkage's design and its capsules (see the module docstring).
 
     ``merged``: one capsule of the hub radius per mount covering the hub and, on the carrier, the whole
-    pin (fewer, looser capsules: the search); else bars, hubs and pins separately (the certificate)."""
+    pin (fewer, looser capsules: the search); else bars, hubs and pins separately (the certificate).
+    ``cranks``: {(link, joint a, joint b): (p0, p1, n)}: the bar of ``link`` from a to b is cranked, a
+    polyline mount a -> p0 + w0 n -> p1 + w1 n -> mount b with the crank offsets w (``end_offsets``'s
+    ``W``, one column per via point, in the order of ``vias``); points and the unit crank direction n in
+    the reference configuration (metres)."""
 
-    def __init__(self, linkage, *, pin_radius, bar_radius, hub_radius, hub_length, clearance, merged):
+    def __init__(self, linkage, *, pin_radius, bar_radius, hub_radius, hub_length, clearance, merged, cranks=None):
         self.linkage = linkage
         jl = joint_links(linkage)
         self.joints = [j.name for j in linkage.joints if jl[j.name]]
@@ -98,19 +102,30 @@ class Layout:
         self.mounts = [(link, j) for j in self.joints for link in jl[j]]
         self.mindex = {m: i for i, m in enumerate(self.mounts)}
         self.hub_length, self.gap_min = hub_length, hub_length + clearance
+        self.cranks = dict(cranks or {})
+        self.vias: list[tuple[str, str, str, int]] = []  # (link, a, b, 0|1) per crank offset column
         h = hub_length / 2
         jidx = {j: i for i, j in enumerate(self.joints)}
-        ends: list[tuple] = []  # (joint index, body, kind, index, const); kind 0: mount, 1: min, 2: max of joint
+        sites = linkage.joint_sites()
+        ends: list[tuple] = []  # (base, direction, body, kind, index, const); kind 0: mount, 1: min, 2: max of joint, 3: via
         caps: list[tuple] = []  # (body, label, end0, end1, radius)
 
         def end(j, body, kind, index, const):
-            ends.append((jidx[j], body, kind, index, const))
+            ends.append((sites[j], linkage.joint(j).direction, body, kind, index, const))
             return len(ends) - 1
 
         for link, names in linkage.links.items():
             for a, b in zip(names, names[1:]):
-                caps.append((link, f"bar {a}-{b}", end(a, link, 0, self.mindex[(link, a)], 0.0),
-                             end(b, link, 0, self.mindex[(link, b)], 0.0), bar_radius))
+                chain = [end(a, link, 0, self.mindex[(link, a)], 0.0)]
+                if (link, a, b) in self.cranks:
+                    p0, p1, n = self.cranks[(link, a, b)]
+                    for k, p in enumerate((p0, p1)):
+                        ends.append((np.asarray(p, float), np.asarray(n, float), link, 3, len(self.vias), 0.0))
+                        self.vias.append((link, a, b, k))
+                        chain.append(len(ends) - 1)
+                chain.append(end(b, link, 0, self.mindex[(link, b)], 0.0))
+                for e0, e1 in zip(chain, chain[1:]):
+                    caps.append((link, f"bar {a}-{b}", e0, e1, bar_radius))
         for link, j in self.mounts:
             carrier = self.links_of[j][0] == link
             m = self.mindex[(link, j)]
@@ -135,9 +150,10 @@ class Layout:
                 radii.append(x[4] + y[4])
                 bpi.append(bp_index[key])
                 labels.append(f"{x[0]}:{x[1]} / {y[0]}:{y[1]}")
-        self.ends = ends
-        self.cs = CapsuleSet(joints=self.joints, ends_joint=np.array([e[0] for e in ends], int),
-                             ends_body=[e[1] for e in ends], pairs=np.array(pairs, int).reshape(-1, 4),
+        self.ends = [e[3:] for e in ends]
+        self.cs = CapsuleSet(ends_base=np.array([e[0] for e in ends], float).reshape(-1, 3),
+                             ends_dir=np.array([e[1] for e in ends], float).reshape(-1, 3),
+                             ends_body=[e[2] for e in ends], pairs=np.array(pairs, int).reshape(-1, 4),
                              radii=np.array(radii, float), body_pair=np.array(bpi, int), body_pairs=body_pairs,
                              labels=labels)
 
@@ -152,20 +168,27 @@ class Layout:
                 S[:, self.mindex[(link, j)]] = c[:, ji] + sigma[:, ji] * (k - (n - 1) / 2) * g[:, ji]
         return S
 
-    def end_offsets(self, S) -> np.ndarray:
-        """(N, E) end-point offsets of the capsules from the mount offsets (N, M)."""
+    def end_offsets(self, S, W=None) -> np.ndarray:
+        """(N, E) end-point offsets of the capsules from the mount offsets S (N, M) and the crank offsets
+        W (N, V) (default: zero, the via points on the straight bar)."""
         lo = np.stack([S[:, [self.mindex[(l, j)] for l in self.links_of[j]]].min(axis=1) for j in self.joints], 1)
         hi = np.stack([S[:, [self.mindex[(l, j)] for l in self.links_of[j]]].max(axis=1) for j in self.joints], 1)
+        W = np.zeros((len(S), len(self.vias))) if W is None else np.broadcast_to(W, (len(S), len(self.vias)))
         cols = []
-        for _, _, kind, index, const in self.ends:
-            src = S[:, index] if kind == 0 else (lo[:, index] if kind == 1 else hi[:, index])
-            cols.append(src + const)
+        for kind, index, const in self.ends:
+            cols.append((S, lo, hi, W)[kind][:, index] + const)
         return np.stack(cols, axis=1)
 
-    def design(self, S, *, pin_radius, bar_radius, hub_radius, hole_clearance, clearance) -> PhysicalDesign:
-        """The `PhysicalDesign` of one mount-offset vector (M,)."""
+    def design(self, S, W=None, *, pin_radius, bar_radius, hub_radius, hole_clearance, clearance) -> PhysicalDesign:
+        """The `PhysicalDesign` of one mount-offset vector S (M,) and crank offsets W (V,)."""
         mounts = [Mount(link, j, float(S[i])) for i, (link, j) in enumerate(self.mounts)]
-        bars = [Bar(link, (a, b)) for link, names in self.linkage.links.items() for a, b in zip(names, names[1:])]
+        W = np.zeros(len(self.vias)) if W is None else W
+        vias: dict[tuple, list] = {}
+        for (link, a, b, k), w in zip(self.vias, W):
+            p0_p1_n = self.cranks[(link, a, b)]
+            vias.setdefault((link, a, b), []).append(np.asarray(p0_p1_n[k], float) + float(w) * np.asarray(p0_p1_n[2]))
+        bars = [Bar(link, (a, b), vias.get((link, a, b), [])) for link, names in self.linkage.links.items()
+                for a, b in zip(names, names[1:])]
         h = self.hub_length / 2
         pins = []
         for j in self.joints:
@@ -224,10 +247,10 @@ def task_phi_range(linkage) -> tuple[float, float]:
 
 # ----------------------------------------------------------------------------------------- search
 class _Scorer:
-    """Sampled capsule gaps of batches of candidates (c, sigma, g) over the full cycle and the task
-    range at once (task samples are flagged in ``is_task``)."""
+    """Sampled capsule gaps of batches of candidates X (N, D) over the full cycle and the task range at
+    once (task samples are flagged in ``is_task``); ``to_offsets(X)`` gives their end offsets (N, E)."""
 
-    def __init__(self, layout: Layout, full_samples: int, task_samples: int, task: tuple[float, float]):
+    def __init__(self, layout: Layout, full_samples: int, task_samples: int, task: tuple[float, float], to_offsets):
         lk = layout.linkage
         pf = even_samples(lk, *FULL, full_samples)
         pt = even_samples(lk, *task, task_samples)
@@ -235,7 +258,8 @@ class _Scorer:
         self.is_task = np.concatenate([_inside(pf, task), np.ones(len(pt), bool)])
         self.layout = layout
         self.task = task
-        Q, U = world_ends(lk, layout.cs, body_motion(lk, self.phis), lk.joint_sites())
+        self.to_offsets = to_offsets
+        Q, U = world_ends(layout.cs, body_motion(lk, self.phis))
         self.Q, self.U = Q.astype(SEARCH_DTYPE), U.astype(SEARCH_DTYPE)
         self.evaluations = 0
 
@@ -243,23 +267,52 @@ class _Scorer:
         """Sample the motion at ``phis`` too (where a certificate found a gap the samples missed)."""
         lk = self.layout.linkage
         phis = np.asarray(phis, float)
-        Q, U = world_ends(lk, self.layout.cs, body_motion(lk, phis), lk.joint_sites())
+        Q, U = world_ends(self.layout.cs, body_motion(lk, phis))
         self.phis = np.concatenate([self.phis, phis])
         self.is_task = np.concatenate([self.is_task, _inside(phis, self.task)])
         self.Q = np.concatenate([self.Q, Q.astype(SEARCH_DTYPE)], axis=3)
         self.U = np.concatenate([self.U, U.astype(SEARCH_DTYPE)], axis=3)
 
-    def offsets(self, c, sigma, g):
-        return self.layout.end_offsets(self.layout.mount_offsets(c, sigma, g)).astype(SEARCH_DTYPE)
+    def offsets(self, X):
+        return self.to_offsets(X).astype(SEARCH_DTYPE)
 
-    def full(self, c, sigma, g) -> np.ndarray:
+    def full(self, X) -> np.ndarray:
         """(N, P, K) gaps at every sample."""
-        self.evaluations += len(c)
-        return pair_distances(self.layout.cs, self.Q, self.U, self.offsets(c, sigma, g))
+        self.evaluations += len(X)
+        return pair_distances(self.layout.cs, self.Q, self.U, self.offsets(X))
 
-    def at(self, c, sigma, g, pidx, kidx) -> np.ndarray:
+    def at(self, X, pidx, kidx) -> np.ndarray:
         """(N, L) gaps at chosen (pair, sample) entries."""
-        return pair_distances_at(self.layout.cs, self.Q, self.U, self.offsets(c, sigma, g), pidx, kidx)
+        return pair_distances_at(self.layout.cs, self.Q, self.U, self.offsets(X), pidx, kidx)
+
+
+@dataclass
+class _Space:
+    """A searched parameter space: coordinate moves ``X[:, col] <- max(lo[col], X[:, col] * mul + add * step)``
+    (arrays, one entry per move) and the compactness ``size(X) -> (N,)`` (smaller is better)."""
+
+    col: np.ndarray
+    add: np.ndarray
+    mul: np.ndarray
+    lo: np.ndarray
+    size: object
+
+
+def _mount_space(J, gmin, scale) -> _Space:
+    """X = [c | sigma | g] (N, 3J): per joint shift the centre both ways, widen / narrow the stack, flip it."""
+    col, add, mul = [], [], []
+    for j in range(J):
+        for c, a, m in ((j, 1, 1), (j, -1, 1), (2 * J + j, 1, 1), (2 * J + j, -1, 1), (J + j, 0, -1)):
+            col.append(c), add.append(a), mul.append(m)
+    lo = np.concatenate([np.full(2 * J, -np.inf), np.full(J, gmin)])
+    return _Space(np.array(col), np.array(add, float), np.array(mul, float), lo,
+                  lambda X: _size(X[:, :J], X[:, 2 * J:], gmin, scale))
+
+
+def _crank_space(V, scale) -> _Space:
+    """X = W (N, V) crank offsets: each moved both ways; compact = small mean |w|."""
+    return _Space(np.repeat(np.arange(V), 2), np.tile([1.0, -1.0], V), np.ones(2 * V), np.full(V, -np.inf),
+                  lambda X: np.abs(X).mean(axis=1) / scale)
 
 
 def _inside(phis, rng) -> np.ndarray:
@@ -314,56 +367,78 @@ class _Critical:
         return pk[:, 0], pk[:, 1]
 
 
-def _improve(scorer: _Scorer, mask, target, scale, c, sigma, g, *, step0, step_min, iterations, tries=2,
+def _improve(scorer: _Scorer, space: _Space, mask, target, X, *, step0, step_min, iterations, tries=2,
              deadline=math.inf):
-    """Coordinate moves from each start (rows of c, sigma, g): shift a centre, widen/narrow a gap, flip an
-    order. Moves are screened on the critical entries; the best per start is evaluated fully and taken
-    when it improves; after ``tries`` failures (or when no move passes the screen) the step halves.
-    Stops early once the CPU clock passes ``deadline`` (process_time seconds)."""
-    gmin = scorer.layout.gap_min
-    n, J = c.shape
+    """Coordinate moves of ``space`` from each start (rows of X). Moves are screened on the critical
+    entries; the best per start is evaluated fully and taken when it improves; after ``tries`` failures
+    (or when no move passes the screen) the step halves. Stops early once the CPU clock passes
+    ``deadline`` (process_time seconds)."""
+    n, D = X.shape
+    nm = len(space.col)
     crit = _Critical(mask, cap=4 * scorer.Q.shape[2] + 64)
-    d = scorer.full(c, sigma, g)
+    d = scorer.full(X)
     crit.add(d)
-    best = _score(_violation(d, target, mask), _size(c, g, gmin, scale))
+    best = _score(_violation(d, target, mask), space.size(X))
     step = np.full(n, step0)
     stall = np.zeros(n, int)
-    moves = ((1, 1, 0), (-1, 1, 0), (0, 1, 1), (0, 1, -1), (0, -1, 0))
+    rows_m = np.arange(nm)
     for _ in range(iterations):
         if (step < step_min).all() or time.process_time() > deadline:
             break
-        C = np.repeat(c[None], J * len(moves), axis=0)
-        Sg = np.repeat(sigma[None], J * len(moves), axis=0)
-        G = np.repeat(g[None], J * len(moves), axis=0)
-        for j in range(J):
-            for m, (dc, flip, dg) in enumerate(moves):
-                k = j * len(moves) + m
-                C[k, :, j] += dc * step
-                Sg[k, :, j] *= flip
-                G[k, :, j] = np.maximum(gmin, G[k, :, j] + dg * step)
-        K = C.shape[0]
-        C, Sg, G = C.reshape(K * n, J), Sg.reshape(K * n, J), G.reshape(K * n, J)
+        C = np.repeat(X[None], nm, axis=0)  # (moves, n, D)
+        moved = X[:, space.col].T * space.mul[:, None] + space.add[:, None] * step[None]
+        C[rows_m, :, space.col] = np.maximum(space.lo[space.col][:, None], moved)
+        C = C.reshape(nm * n, D)
         pidx, kidx = crit.arrays()
-        ub = _score(_violation(scorer.at(C, Sg, G, pidx, kidx), target), _size(C, G, gmin, scale)).reshape(K, n)
+        ub = _score(_violation(scorer.at(C, pidx, kidx), target), space.size(C)).reshape(nm, n)
         kbest = np.argmax(ub, axis=0)  # (n,)
         hopeful = ub[kbest, np.arange(n)] > best + 1e-12
         rows = np.flatnonzero(hopeful)
         pick = kbest[rows] * n + rows
         accepted = np.zeros(n, bool)
         if len(pick):
-            d = scorer.full(C[pick], Sg[pick], G[pick])
+            d = scorer.full(C[pick])
             crit.add(d)
-            sc = _score(_violation(d, target, mask), _size(C[pick], G[pick], gmin, scale))
+            sc = _score(_violation(d, target, mask), space.size(C[pick]))
             for i, w, v in zip(rows, pick, sc):
                 if v > best[i] + 1e-12:
-                    c[i], sigma[i], g[i], best[i] = C[w], Sg[w], G[w], v
+                    X[i], best[i] = C[w], v
                     accepted[i] = True
         # a hopeful move that failed its full evaluation taught the screen something: retry once
         stall = np.where(accepted, 0, stall + np.where(hopeful, 1, tries))
         halve = stall >= tries
         step = np.where(halve, step / 2, step)
         stall = np.where(halve, 0, stall)
-    return c, sigma, g, best
+    return X, best
+
+
+def _rounds(scorer, space, X, mask, target, scale, *, effort, deadline, certify_best):
+    """Search rounds from the starts X: improve; when the best is feasible at the samples, certify it
+    (``certify_best(x) -> cert``); where the certificate fails, sample there too and go on (`ROUNDS`).
+    A round that finds nothing feasible is repeated only while it still reduces the violation by a
+    fifth. Returns (x, cert) of a certified design or None, and (X, best) of the last round."""
+    step0 = 0.25 * scale
+    previous = -math.inf
+    last = None
+    for _ in range(ROUNDS):
+        if time.process_time() > deadline:
+            break
+        X, best = _improve(scorer, space, mask(), target, X, step0=step0, step_min=0.01 * scale,
+                           iterations=int(40 * effort), deadline=deadline)
+        last = (X, best)
+        i = int(np.argmax(best))
+        if best[i] < 1e5:  # nothing feasible: another round only while it still gains (a fifth)
+            if best[i] <= 0.8 * previous:
+                break
+            previous = best[i]
+            continue
+        cert = certify_best(X[i])
+        if cert["certified"]:
+            return (X[i].copy(), cert), last
+        # the samples missed a close approach: sample there too and search on
+        scorer.add_samples(cert["where"][cert["sampled"] < target])
+        step0 = 0.1 * scale
+    return None, last
 
 
 def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
@@ -403,7 +478,12 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     target = max(clearance, 0.25 * CLEARANCE_FRACTION * bar_radius) * (1 + SAFETY)  # > 0 even for clearance 0
     rng = np.random.default_rng(seed)
     effort = effort * min(1.0, (6 / J) ** 2)  # many joints: many more pairs per candidate
-    scorer = _Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task)
+
+    def to_S(X):
+        return search.mount_offsets(X[:, :J], X[:, J:2 * J], X[:, 2 * J:])
+
+    scorer = _Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, lambda X: search.end_offsets(to_S(X)))
+    space = _mount_space(J, gmin, scale)
 
     # initial population: every order of the natural stack, then random stacks
     n_orders = min(2 ** J, 64)
@@ -414,11 +494,12 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     c0 = np.concatenate([np.zeros((n_orders, J)), rng.uniform(-1, 1, size=(n_rand, J)) * spread])
     g0 = np.concatenate([np.full((n_orders, J), gmin),
                          gmin * (1 + rng.exponential(0.5, size=(n_rand, J)) * (rng.random((n_rand, J)) < 0.3))])
+    X0 = np.concatenate([c0, sigma0, g0], axis=1)
     coarse = np.zeros(len(scorer.phis), bool)
     coarse[::3] = True
     pk = np.nonzero(np.ones((len(search.cs.pairs), len(scorer.phis)), bool) & coarse[None])
-    d0 = scorer.at(c0, sigma0, g0, *pk).reshape(len(c0), len(search.cs.pairs), -1)
-    size0 = _size(c0, g0, gmin, scale)
+    d0 = scorer.at(X0, *pk).reshape(len(X0), len(search.cs.pairs), -1)
+    size0 = space.size(X0)
     coarse_task = scorer.is_task[coarse]
 
     result, last = None, None
@@ -434,38 +515,20 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
         mask0 = np.ones(coarse.sum(), bool) if rname == "full" else coarse_task
         ranked = np.argsort(-_score(_violation(d0, target, mask0), size0), kind="stable")
         starts = ranked[attempt * n_starts:(attempt + 1) * n_starts]
-        c, s, g = c0[starts].copy(), sigma0[starts].copy(), g0[starts].copy()
-        step0 = 0.25 * scale
-        previous = -math.inf
-        for _ in range(ROUNDS):
-            if time.process_time() > deadline:
-                break
-            mask = np.ones(len(scorer.phis), bool) if rname == "full" else scorer.is_task
-            c, s, g, best = _improve(scorer, mask, target, scale, c, s, g, step0=step0, step_min=0.01 * scale,
-                                     iterations=int(40 * effort), deadline=deadline)
-            last = (c, s, g, best)
-            i = int(np.argmax(best))
-            if best[i] < 1e5:  # nothing feasible: another round only while it still gains (a fifth)
-                if best[i] <= 0.8 * previous:
-                    break
-                previous = best[i]
-                continue
-            S = search.mount_offsets(c[i:i + 1], s[i:i + 1], g[i:i + 1])[0]
-            cert = _certify(exact, S, rng_phi, clearance)
-            if cert["certified"]:
-                result = (rname, S, cert)
-                break
-            # the samples missed a close approach: sample there too and search on
-            scorer.add_samples(cert["where"][cert["sampled"] < target])
-            step0 = 0.1 * scale
-        if result is not None:
+        found, tried = _rounds(
+            scorer, space, X0[starts].copy(),
+            lambda: np.ones(len(scorer.phis), bool) if rname == "full" else scorer.is_task,
+            target, scale, effort=effort, deadline=deadline,
+            certify_best=lambda x: _certify(exact, to_S(x[None])[0], rng_phi, clearance))
+        last = tried or last
+        if found is not None:
+            result = (rname, to_S(found[0][None])[0], found[1])
             break
     if result is None and last is None:  # the budget was spent before any search: the natural stack
-        last = (c0[:1], sigma0[:1], g0[:1], np.zeros(1))
+        last = (X0[:1], np.zeros(1))
     if result is None:  # not even the task range: report the design that came closest over it
-        c, s, g, best = last
-        i = int(np.argmax(best))
-        S = search.mount_offsets(c[i:i + 1], s[i:i + 1], g[i:i + 1])[0]
+        X, best = last
+        S = to_S(X[int(np.argmax(best))][None])[0]
         result = (ranges[-1][0], S, _certify(exact, S, ranges[-1][1], clearance))
     rname, S, cert = result
     design = exact.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
@@ -490,8 +553,9 @@ def _ranges(names, task) -> tuple:
     return tuple(out)
 
 
-def _certify(layout: Layout, S, rng, clearance) -> dict:
-    return certify(layout.linkage, layout.cs, layout.end_offsets(S[None])[0], rng[0], rng[1], clearance)
+def _certify(layout: Layout, S, rng, clearance, W=None) -> dict:
+    W = None if W is None else np.asarray(W)[None]
+    return certify(layout.linkage, layout.cs, layout.end_offsets(S[None], W)[0], rng[0], rng[1], clearance)
 
 
 def _report(linkage, layout: Layout, rname: str, cert: dict, clearance: float, task) -> CollisionReport:
