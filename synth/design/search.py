@@ -66,6 +66,7 @@ class CollisionReport:
     sampled_min_distance: float = float("nan")
     seconds: float = 0.0
     thinned: dict | None = None  # set by synth.io.meshes.design_for when the default sizes collided
+    cranked: list | None = None  # [[link, joint a, joint b], ...]: the bars `crank_bars` cranked
 
 
     def to_dict(self) -> dict:
@@ -74,7 +75,8 @@ class CollisionReport:
                 "driver_range": [float(self.driver_range[0]), float(self.driver_range[1])],
                 "certified": self.certified, "pairs": self.pairs, "message": self.message,
                 "sampled_min_distance": self.sampled_min_distance,  # (not ``seconds``: outputs are reproducible)
-                **({"thinned": self.thinned} if self.thinned else {})}
+                **({"thinned": self.thinned} if self.thinned else {}),
+                **({"cranked": self.cranked} if self.cranked else {})}
 
 
 @dataclass
@@ -535,6 +537,81 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
                           hole_clearance=hole_clearance, clearance=clearance)
     report = _report(linkage, exact, rname, cert, clearance, task)
     report.seconds = time.process_time() - t0
+    return DesignResult(design, report)
+
+
+CRANK_FRACTIONS = (0.25, 0.75)  # where along a bar its two via points sit (from its first mount)
+
+
+def crank_direction(u, d) -> np.ndarray:
+    """Unit crank direction of a bar along d (3,) mounted on an axis of direction u (3,): u without its
+    component along the bar (for parallel axes: the axis, the bar is lifted out of its plane); any unit
+    vector normal to d when u is along d."""
+    d = d / max(np.linalg.norm(d), 1e-300)
+    n = u - np.dot(u, d) * d
+    if np.linalg.norm(n) < 1e-6:
+        n = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
+    return n / np.linalg.norm(n)
+
+
+def crank_bars(linkage, result: DesignResult, *, seed: int = 0, effort: float = 1.0,
+               seconds: float | None = None) -> DesignResult:
+    """Cranked bars for a design that straight bars could not make free (docs/design.md).
+
+    The mounts and pins of ``result.design`` stay; every bar of a body in ``result.collision.pairs``
+    becomes a polyline mount -> via -> via -> mount, the via points at `CRANK_FRACTIONS` of the straight
+    bar moved by w along `crank_direction`, and the offsets w are searched (the same coordinate search,
+    scorer and certificate as the mounts, over ``result.collision.range``). Returns the cranked design
+    when it is certified free, else ``result`` unchanged. ``seconds``: CPU budget (None: no limit)."""
+    t0 = time.process_time()
+    old = result.design
+    if result.collision.free or not result.collision.pairs:
+        return result
+    sizes = dict(pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
+                 hub_length=old.hub_length, clearance=old.clearance)
+    sites = linkage.joint_sites()
+    colliding = {b for p in result.collision.pairs for b in p["bodies"]}
+    cranks = {}
+    for bar in old.bars:
+        if bar.link not in colliding or bar.via:
+            continue
+        a, b = bar.joints
+        pa = sites[a] + old.mount(bar.link, a).offset * linkage.joint(a).direction
+        pb = sites[b] + old.mount(bar.link, b).offset * linkage.joint(b).direction
+        n = crank_direction(linkage.joint(a).direction, pb - pa)
+        cranks[(bar.link, a, b)] = (pa + CRANK_FRACTIONS[0] * (pb - pa), pa + CRANK_FRACTIONS[1] * (pb - pa), n)
+    if not cranks:
+        return result
+    search = Layout(linkage, merged=SEARCH_MERGED, cranks=cranks, **sizes)
+    exact = Layout(linkage, merged=False, cranks=cranks, **sizes)
+    S = np.array([old.mount(link, j).offset for link, j in exact.mounts])
+    V, J = len(exact.vias), len(exact.joints)
+    scale = linkage.extent()
+    task = task_phi_range(linkage)
+    rng_phi = FULL if result.collision.range == "full" else task
+    target = max(old.clearance, 0.25 * CLEARANCE_FRACTION * old.bar_radius) * (1 + SAFETY)
+    effort = effort * min(1.0, (6 / J) ** 2)
+    scorer = _Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task,
+                     lambda W: search.end_offsets(np.broadcast_to(S, (len(W), len(S))), W))
+    rng = np.random.default_rng(seed)
+    n_starts = max(2, int(4 * effort))
+    # straight bars, then random cranks of up to a few bar thicknesses to half the extent
+    X = np.concatenate([np.zeros((1, V)), rng.uniform(-1, 1, size=(n_starts - 1, V))
+                        * rng.choice(SPREADS, size=(n_starts - 1, 1)) * 0.5 * scale])
+    deadline = t0 + (math.inf if seconds is None else seconds)
+    found, _ = _rounds(scorer, _crank_space(V, scale), X,
+                       lambda: np.ones(len(scorer.phis), bool) if rng_phi == FULL else scorer.is_task,
+                       target, scale, effort=effort, deadline=deadline,
+                       certify_best=lambda w: _certify(exact, S, rng_phi, old.clearance, w))
+    if found is None:
+        result.collision.message += " (cranked bars of the colliding links were searched too)"
+        return result
+    W, cert = found
+    design = exact.design(S, W, pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
+                          hole_clearance=old.hole_clearance, clearance=old.clearance)
+    report = _report(linkage, exact, result.collision.range, cert, old.clearance, task)
+    report.cranked = [list(k) for k in cranks]
+    report.seconds = result.collision.seconds + time.process_time() - t0
     return DesignResult(design, report)
 
 
