@@ -66,7 +66,8 @@ class CollisionReport:
     sampled_min_distance: float = float("nan")
     seconds: float = 0.0
     thinned: dict | None = None  # set by synth.io.meshes.design_for when the default sizes collided
-    cranked: list | None = None  # [[link, joint a, joint b], ...]: the bars `crank_bars` cranked
+    cranked: list | None = None  # [[link, joint a, joint b], ...]: the cranked bars (crank_bars, layered_design)
+    layers: int | None = None  # levels used by a layered design (synth.design.layers)
 
 
     def to_dict(self) -> dict:
@@ -76,7 +77,8 @@ class CollisionReport:
                 "certified": self.certified, "pairs": self.pairs, "message": self.message,
                 "sampled_min_distance": self.sampled_min_distance,  # (not ``seconds``: outputs are reproducible)
                 **({"thinned": self.thinned} if self.thinned else {}),
-                **({"cranked": self.cranked} if self.cranked else {})}
+                **({"cranked": self.cranked} if self.cranked else {}),
+                **({"layers": self.layers} if self.layers else {})}
 
 
 @dataclass
@@ -521,7 +523,7 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
             scorer, space, X0[starts].copy(),
             lambda: np.ones(len(scorer.phis), bool) if rname == "full" else scorer.is_task,
             target, scale, effort=effort, deadline=deadline,
-            certify_best=lambda x: _certify(exact, to_S(x[None])[0], rng_phi, clearance))
+            certify_best=lambda x: certify_layout(exact, to_S(x[None])[0], rng_phi, clearance))
         last = tried or last
         if found is not None:
             result = (rname, to_S(found[0][None])[0], found[1])
@@ -531,11 +533,11 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     if result is None:  # not even the task range: report the design that came closest over it
         X, best = last
         S = to_S(X[int(np.argmax(best))][None])[0]
-        result = (ranges[-1][0], S, _certify(exact, S, ranges[-1][1], clearance))
+        result = (ranges[-1][0], S, certify_layout(exact, S, ranges[-1][1], clearance))
     rname, S, cert = result
     design = exact.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
                           hole_clearance=hole_clearance, clearance=clearance)
-    report = _report(linkage, exact, rname, cert, clearance, task)
+    report = report_for(linkage, exact, rname, cert, clearance)
     report.seconds = time.process_time() - t0
     return DesignResult(design, report)
 
@@ -602,14 +604,14 @@ def crank_bars(linkage, result: DesignResult, *, seed: int = 0, effort: float = 
     found, _ = _rounds(scorer, _crank_space(V, scale), X,
                        lambda: np.ones(len(scorer.phis), bool) if rng_phi == FULL else scorer.is_task,
                        target, scale, effort=effort, deadline=deadline,
-                       certify_best=lambda w: _certify(exact, S, rng_phi, old.clearance, w))
+                       certify_best=lambda w: certify_layout(exact, S, rng_phi, old.clearance, w))
     if found is None:
         result.collision.message += " (cranked bars of the colliding links were searched too)"
         return result
     W, cert = found
     design = exact.design(S, W, pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
                           hole_clearance=old.hole_clearance, clearance=old.clearance)
-    report = _report(linkage, exact, result.collision.range, cert, old.clearance, task)
+    report = report_for(linkage, exact, result.collision.range, cert, old.clearance)
     report.cranked = [list(k) for k in cranks]
     report.seconds = result.collision.seconds + time.process_time() - t0
     return DesignResult(design, report)
@@ -630,12 +632,14 @@ def _ranges(names, task) -> tuple:
     return tuple(out)
 
 
-def _certify(layout: Layout, S, rng, clearance, W=None) -> dict:
+def certify_layout(layout: Layout, S, rng, clearance, W=None) -> dict:
+    """`collision.certify` of the design with mount offsets S (M,) and crank offsets W (V,) over phi in rng."""
     W = None if W is None else np.asarray(W)[None]
     return certify(layout.linkage, layout.cs, layout.end_offsets(S[None], W)[0], rng[0], rng[1], clearance)
 
 
-def _report(linkage, layout: Layout, rname: str, cert: dict, clearance: float, task) -> CollisionReport:
+def report_for(linkage, layout: Layout, rname: str, cert: dict, clearance: float) -> CollisionReport:
+    """The `CollisionReport` of a certificate ``cert`` of a design of ``layout`` over the range ``rname``."""
     driver, start, end = task_range(linkage)
     drange = (0.0, TWO_PI) if rname == "full" else (start, end)
     cs = layout.cs

@@ -35,6 +35,7 @@ import time
 import numpy as np
 
 from synth.design.model import PhysicalDesign, axis_point, capsules
+from synth.design.layers import layered_design, parallel_axis
 from synth.design.search import DesignResult, crank_bars, design_linkage
 from synth.io.frames import link_origins
 from synth.io.solid import (Solid, boolean, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
@@ -92,12 +93,16 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     CPU (none when the first search took over `THIN_FIRST_MAX`); the first free design is returned, its
     report's ``thinned`` saying so; else the default-size result.
 
-    Cranked bars (docs/design.md): when that is still not free and the search covered the task range,
-    `synth.design.search.crank_bars` searches cranks of the colliding bodies' bars within `CRANK_SECONDS`
-    of CPU; a certified free result replaces it (its report's ``cranked`` names the bars)."""
+    Then, when that is still not free and the search covered the task range (docs/design.md): a planar
+    linkage (every axis parallel) gets a layered design (`synth.design.layers.layered_design`, within
+    `LAYER_SECONDS`), any other one cranked bars for the colliding bodies
+    (`synth.design.search.crank_bars`, within `CRANK_SECONDS`); a certified free result replaces it
+    (its report's ``cranked`` names the cranked bars, ``layers`` the levels of a layered design)."""
     result = _straight(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, search)
     if result.collision.free or "task" not in search.get("ranges", ("full", "task")):
         return result
+    if parallel_axis(linkage) is not None:
+        return layered_design(linkage, result, seconds=LAYER_SECONDS)
     return crank_bars(linkage, result, seconds=CRANK_SECONDS)
 
 
@@ -128,6 +133,7 @@ def _straight(linkage, pin_radius, link_radius, pin_length, hole_clearance, clea
 
 
 CRANK_SECONDS = 1.0  # CPU budget of the crank search after the straight bars failed
+LAYER_SECONDS = 20.0  # time limit of the layering programme of a planar linkage
 THIN_SCALES = (0.5, 0.25)  # bar and pin radii tried, times the defaults, when the defaults collide
 THIN_MIN_BAR_RADIUS = 4e-4  # metres: a bar 0.8 mm thick, two extrusion widths of a 0.4 mm nozzle
 THIN_SECONDS = 1.0  # CPU budget of all the retries together (each search stops when it is spent)
