@@ -133,7 +133,8 @@ def layer_levels(linkage, u, rng_phi, reach, seconds):
     z = {(i, h): P.var() for i in range(len(bars)) for h in range(PIECES)}
     col = {j: (P.var(), P.var()) for j in joints}  # the column of a joint: [lo, hi]
     hub = {(link, j): (P.var(), P.var()) for j in joints for link in jl[j]}
-    big = 2.0 * (len(z) + 1)
+    levels = len(z)  # levels 0 .. levels: enough for one level per piece
+    big = levels + 1.0
     for i, (link, a, b) in enumerate(bars):
         for j, h in ((a, 0), (b, PIECES - 1)):
             lo, hi = hub[(link, j)]
@@ -201,7 +202,7 @@ def layer_levels(linkage, u, rng_phi, reach, seconds):
     top = P.var()
     for v in z.values():
         P.row({top: 1, v: -1}, lo=0)
-    x = P.solve({top: 1.0}, len(z), seconds)
+    x = P.solve({top: 1.0}, levels, seconds)
     if x is None:
         return None
     return {bar: [int(round(x[z[(i, h)]])) for h in range(PIECES)] for i, bar in enumerate(bars)}

@@ -133,7 +133,7 @@ def _straight(linkage, pin_radius, link_radius, pin_length, hole_clearance, clea
 
 
 CRANK_SECONDS = 1.0  # CPU budget of the crank search after the straight bars failed
-LAYER_SECONDS = 20.0  # time limit of the layering programme of a planar linkage
+LAYER_SECONDS = 60.0  # time limit of the layering programme of a planar linkage (motion_elliptic: ~8 s)
 THIN_SCALES = (0.5, 0.25)  # bar and pin radii tried, times the defaults, when the defaults collide
 THIN_MIN_BAR_RADIUS = 4e-4  # metres: a bar 0.8 mm thick, two extrusion widths of a 0.4 mm nozzle
 THIN_SECONDS = 1.0  # CPU budget of all the retries together (each search stops when it is spent)
