@@ -165,14 +165,11 @@ def layer_levels(linkage, u, rng_phi, reach, seconds):
                 continue
             q0, q1 = ends[k]
             hit, s, t = _crossings(p0, p1, q0, q1)
-            d0, t0 = _point_segment(q0, q1, p0)
-            d1, t1 = _point_segment(q0, q1, p1)
-            e0, s0 = _point_segment(p0, p1, q0)
-            e1_, s1 = _point_segment(p0, p1, q1)
-            near = [(piece(s[hit]), piece(t[hit])), (np.zeros(int((d0 < reach).sum()), int), piece(t0[d0 < reach])),
-                    (np.full(int((d1 < reach).sum()), PIECES - 1), piece(t1[d1 < reach])),
-                    (piece(s0[e0 < reach]), np.zeros(int((e0 < reach).sum()), int)),
-                    (piece(s1[e1_ < reach]), np.full(int((e1_ < reach).sum()), PIECES - 1))]
+            near = [(piece(s[hit]), piece(t[hit]))]  # (piece of bar i, piece of bar k) where they meet
+            for x, first, on_i in ((p0, True, False), (p1, False, False), (q0, True, True), (q1, False, True)):
+                d, r = _point_segment(*((p0, p1) if on_i else (q0, q1)), x)  # an end near the other bar
+                end = np.full(int((d < reach).sum()), 0 if first else PIECES - 1)
+                near.append((piece(r[d < reach]), end) if on_i else (end, piece(r[d < reach])))
             for hs, hk in near:
                 for h, g in set(zip(hs.tolist(), hk.tolist())):
                     P.apart(z[(i, h)], z[(i, h)], z[(k, g)], z[(k, g)], big)
@@ -246,7 +243,7 @@ def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> D
             p0 = mid + (base + lv[0] * pitch - mid @ u) * u
             p1 = mid + (base + lv[1] * pitch - mid @ u) * u
             cranks[(link, a, b)] = (p0, p1, u)
-    for j in jl:  # a link holding a joint with no bar (one joint only): level of its partner's hub, stacked
+    for j in jl:  # a link with one joint has no bar: its hub on the sites' plane (the certificate decides)
         for link in jl[j]:
             height.setdefault((link, j), 0.0)
     sizes = dict(pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
