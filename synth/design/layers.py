@@ -22,8 +22,6 @@ import math
 import time
 
 import numpy as np
-from scipy.optimize import Bounds, LinearConstraint, milp
-
 from synth.design.collision import adjacent_pairs, body_motion, even_samples
 from synth.design.model import joint_links
 from synth.design.search import FULL, SAFETY, DesignResult, Layout, certify_layout, report_for, task_phi_range
@@ -90,6 +88,10 @@ class _Programme:
         self.row({b_lo: 1, a_hi: -1, y: -big}, 1 - big)  # y = 1: b above a
 
     def solve(self, cost, top, seconds):
+        # imported here, not at the top: scipy.optimize costs about half a second (more than a whole Bennett
+        # run) and only a planar linkage that straight bars cannot free needs it (as Dask for batch runs)
+        from scipy.optimize import Bounds, LinearConstraint, milp
+
         A = np.zeros((len(self.rows), self.n))
         for r, coefs in enumerate(self.rows):
             for k, v in coefs.items():
