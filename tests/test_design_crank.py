@@ -10,7 +10,8 @@ import sys
 import numpy as np
 import pytest
 
-from synth.design.search import CollisionReport, DesignResult, Layout, crank_bars, crank_direction
+from synth.design.cranks import crank_bars, crank_direction
+from synth.design.search import CollisionReport, DesignResult, Layout
 from synth.io.meshes import design_for, design_solids
 from synth.io.poses import load_poses
 from synth.io.writer import write_output

@@ -18,13 +18,14 @@ with scipy's HiGHS (`scipy.optimize.milp`) within a time limit. Lengths in metre
 """
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
+
 from synth.design.collision import adjacent_pairs, body_motion, even_samples
+from synth.design.coordinate import FULL
 from synth.design.model import joint_links
-from synth.design.search import FULL, SAFETY, DesignResult, Layout, certify_layout, report_for, task_phi_range
+from synth.design.search import SAFETY, DesignResult, Layout, certify_layout, report_for, task_phi_range
 
 PIECES = 2  # pieces per bar (each on its own level)
 SAMPLES_PER_JOINT = 160  # samples of the motion per joint for the constraints
@@ -229,6 +230,7 @@ def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> D
     reach = MARGIN * (old.hub_radius + old.bar_radius + old.clearance)
     levels = layer_levels(linkage, u, rng_phi, reach, seconds)
     if levels is None:
+        result.collision.message += " (no layering of the planar linkage was found either)"
         return result
     pitch = level_pitch(old)
     sites = linkage.joint_sites()
@@ -255,6 +257,7 @@ def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> D
                   for link, j in exact.mounts])
     cert = certify_layout(exact, S, rng_phi, old.clearance)
     if not cert["certified"]:
+        result.collision.message += " (a layering of the planar linkage was tried too; it did not certify)"
         return result
     design = exact.design(S, pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
                           hole_clearance=old.hole_clearance, clearance=old.clearance)

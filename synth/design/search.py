@@ -11,7 +11,8 @@ is on top) and the distance ``g_j >= hub_length + clearance`` of their centres; 
 stacks (every order, centred on the sites) and seeded random ones, scored on samples of the motion
 (evenly spaced in joint rotation) for the full cycle and the task range at once; the best are improved
 by coordinate moves (shift, flip, widen) and the winner is certified (`collision.certify`); where the
-certificate fails, those samples join the search's and it goes on.
+certificate fails, those samples join the search's and it goes on (the coordinate search itself:
+`synth.design.coordinate`; cranked bars: `synth.design.cranks`; planar layers: `synth.design.layers`).
 Deterministic for a given ``seed``.
 """
 from __future__ import annotations
@@ -22,20 +23,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from synth.design.collision import (CapsuleSet, adjacent_pairs, bodies, body_motion, certify, even_samples,
-                                    pair_distances, pair_distances_at, phi_of_t, t_of_phi, world_ends)
+from synth.design.collision import CapsuleSet, adjacent_pairs, bodies, certify, phi_of_t, t_of_phi
+from synth.design.coordinate import FULL, Scorer, mount_space, score, search_rounds, violation
 from synth.design.model import Bar, Mount, PhysicalDesign, Pin, joint_links
 
 TWO_PI = 2 * math.pi
 CLEARANCE_FRACTION = 0.25  # default clearance: this fraction of the bar radius
 SAFETY = 0.5  # the search asks for a sampled gap of clearance * (1 + SAFETY) so that certification holds
-FULL = (-math.pi / 2, math.pi / 2)
 FULL_SAMPLES, TASK_SAMPLES = 24, 12  # search samples per joint, full cycle and task range
 ATTEMPTS = 2  # independent sets of starts per range
 SPREADS = (0.25, 0.5, 1.0, 2.0)  # scales (times the extent) of the random stack centres
 SEARCH_MERGED = True  # the search scores merged hub+pin capsules (fewer pairs), the certificate the exact ones
-SEARCH_DTYPE = np.float32  # the search's sampled gaps (the certificate: float64)
-ROUNDS = 4  # search rounds, each adding the samples where the last certificate failed
 
 
 @dataclass
@@ -250,201 +248,6 @@ def task_phi_range(linkage) -> tuple[float, float]:
 
 
 # ----------------------------------------------------------------------------------------- search
-class _Scorer:
-    """Sampled capsule gaps of batches of candidates X (N, D) over the full cycle and the task range at
-    once (task samples are flagged in ``is_task``); ``to_offsets(X)`` gives their end offsets (N, E)."""
-
-    def __init__(self, layout: Layout, full_samples: int, task_samples: int, task: tuple[float, float], to_offsets):
-        lk = layout.linkage
-        pf = even_samples(lk, *FULL, full_samples)
-        pt = even_samples(lk, *task, task_samples)
-        self.phis = np.concatenate([pf, pt])
-        self.is_task = np.concatenate([_inside(pf, task), np.ones(len(pt), bool)])
-        self.layout = layout
-        self.task = task
-        self.to_offsets = to_offsets
-        Q, U = world_ends(layout.cs, body_motion(lk, self.phis))
-        self.Q, self.U = Q.astype(SEARCH_DTYPE), U.astype(SEARCH_DTYPE)
-        self.evaluations = 0
-
-    def add_samples(self, phis) -> None:
-        """Sample the motion at ``phis`` too (where a certificate found a gap the samples missed)."""
-        lk = self.layout.linkage
-        phis = np.asarray(phis, float)
-        Q, U = world_ends(self.layout.cs, body_motion(lk, phis))
-        self.phis = np.concatenate([self.phis, phis])
-        self.is_task = np.concatenate([self.is_task, _inside(phis, self.task)])
-        self.Q = np.concatenate([self.Q, Q.astype(SEARCH_DTYPE)], axis=3)
-        self.U = np.concatenate([self.U, U.astype(SEARCH_DTYPE)], axis=3)
-
-    def offsets(self, X):
-        return self.to_offsets(X).astype(SEARCH_DTYPE)
-
-    def full(self, X) -> np.ndarray:
-        """(N, P, K) gaps at every sample."""
-        self.evaluations += len(X)
-        return pair_distances(self.layout.cs, self.Q, self.U, self.offsets(X))
-
-    def at(self, X, pidx, kidx) -> np.ndarray:
-        """(N, L) gaps at chosen (pair, sample) entries."""
-        return pair_distances_at(self.layout.cs, self.Q, self.U, self.offsets(X), pidx, kidx)
-
-
-@dataclass
-class _Space:
-    """A searched parameter space: coordinate moves ``X[:, col] <- max(lo[col], X[:, col] * mul + add * step)``
-    (arrays, one entry per move) and the compactness ``size(X) -> (N,)`` (smaller is better)."""
-
-    col: np.ndarray
-    add: np.ndarray
-    mul: np.ndarray
-    lo: np.ndarray
-    size: object
-
-
-def _mount_space(J, gmin, scale) -> _Space:
-    """X = [c | sigma | g] (N, 3J): per joint shift the centre both ways, widen / narrow the stack, flip it."""
-    col, add, mul = [], [], []
-    for j in range(J):
-        for c, a, m in ((j, 1, 1), (j, -1, 1), (2 * J + j, 1, 1), (2 * J + j, -1, 1), (J + j, 0, -1)):
-            col.append(c), add.append(a), mul.append(m)
-    lo = np.concatenate([np.full(2 * J, -np.inf), np.full(J, gmin)])
-    return _Space(np.array(col), np.array(add, float), np.array(mul, float), lo,
-                  lambda X: _size(X[:, :J], X[:, 2 * J:], gmin, scale))
-
-
-def _crank_space(V, scale) -> _Space:
-    """X = W (N, V) crank offsets: each moved both ways; compact = small mean |w|."""
-    return _Space(np.repeat(np.arange(V), 2), np.tile([1.0, -1.0], V), np.ones(2 * V), np.full(V, -np.inf),
-                  lambda X: np.abs(X).mean(axis=1) / scale)
-
-
-def _inside(phis, rng) -> np.ndarray:
-    lo, hi = rng
-    return (phis - lo) % math.pi <= (hi - lo) + 1e-12
-
-
-def _size(c, g, gmin, scale):
-    return (np.abs(c).mean(axis=1) + (g - gmin).mean(axis=1)) / scale
-
-
-def _violation(d, target, mask=None) -> np.ndarray:
-    """(N,) sum over the (masked) entries of d (N, ..., K) of (target - d)^2 where d < target, over
-    target^2: zero exactly for the designs whose sampled gaps all reach the target."""
-    v = np.maximum(target - d, 0.0) / target
-    v = v * v
-    if mask is not None:
-        v = v * mask
-    return v.reshape(len(d), -1).sum(axis=1)
-
-
-def _score(violation, size):
-    """Feasible (no violation) first, then compact (small ``size``); else the smaller violation (a
-    sum over every sample and pair: a move that relieves one contact counts even when another is
-    deeper)."""
-    return np.where(violation <= 0, 1e6 - size, -violation)
-
-
-class _Critical:
-    """The (pair, sample) entries where candidates came closest: a candidate's violation there bounds its
-    violation from below, so moves are screened there before a full evaluation. Keeps the ``cap`` most
-    recently seen entries."""
-
-    def __init__(self, mask, cap):
-        self.mask, self.cap, self.keys = mask, cap, {}
-
-    def add(self, d):  # d (N, P, K)
-        dm = np.where(self.mask[None, None, :], d, np.inf)
-        k = dm.argmin(axis=2)  # (N, P): each pair's closest sample
-        flat = dm.reshape(len(d), -1)
-        top = np.argpartition(flat, min(16, flat.shape[1] - 1), axis=1)[:, :16]
-        new = [(p, int(x)) for row in k for p, x in enumerate(row)]
-        new += [divmod(int(x), d.shape[2]) for row in top for x in row]
-        for key in new:
-            self.keys.pop(key, None)
-            self.keys[key] = None
-        while len(self.keys) > self.cap:
-            self.keys.pop(next(iter(self.keys)))
-
-    def arrays(self):
-        pk = np.array(list(self.keys), int)
-        return pk[:, 0], pk[:, 1]
-
-
-def _improve(scorer: _Scorer, space: _Space, mask, target, X, *, step0, step_min, iterations, tries=2,
-             deadline=math.inf):
-    """Coordinate moves of ``space`` from each start (rows of X). Moves are screened on the critical
-    entries; the best per start is evaluated fully and taken when it improves; after ``tries`` failures
-    (or when no move passes the screen) the step halves. Stops early once the CPU clock passes
-    ``deadline`` (process_time seconds)."""
-    n, D = X.shape
-    nm = len(space.col)
-    crit = _Critical(mask, cap=4 * scorer.Q.shape[2] + 64)
-    d = scorer.full(X)
-    crit.add(d)
-    best = _score(_violation(d, target, mask), space.size(X))
-    step = np.full(n, step0)
-    stall = np.zeros(n, int)
-    rows_m = np.arange(nm)
-    for _ in range(iterations):
-        if (step < step_min).all() or time.process_time() > deadline:
-            break
-        C = np.repeat(X[None], nm, axis=0)  # (moves, n, D)
-        moved = X[:, space.col].T * space.mul[:, None] + space.add[:, None] * step[None]
-        C[rows_m, :, space.col] = np.maximum(space.lo[space.col][:, None], moved)
-        C = C.reshape(nm * n, D)
-        pidx, kidx = crit.arrays()
-        ub = _score(_violation(scorer.at(C, pidx, kidx), target), space.size(C)).reshape(nm, n)
-        kbest = np.argmax(ub, axis=0)  # (n,)
-        hopeful = ub[kbest, np.arange(n)] > best + 1e-12
-        rows = np.flatnonzero(hopeful)
-        pick = kbest[rows] * n + rows
-        accepted = np.zeros(n, bool)
-        if len(pick):
-            d = scorer.full(C[pick])
-            crit.add(d)
-            sc = _score(_violation(d, target, mask), space.size(C[pick]))
-            for i, w, v in zip(rows, pick, sc):
-                if v > best[i] + 1e-12:
-                    X[i], best[i] = C[w], v
-                    accepted[i] = True
-        # a hopeful move that failed its full evaluation taught the screen something: retry once
-        stall = np.where(accepted, 0, stall + np.where(hopeful, 1, tries))
-        halve = stall >= tries
-        step = np.where(halve, step / 2, step)
-        stall = np.where(halve, 0, stall)
-    return X, best
-
-
-def _rounds(scorer, space, X, mask, target, scale, *, effort, deadline, certify_best):
-    """Search rounds from the starts X: improve; when the best is feasible at the samples, certify it
-    (``certify_best(x) -> cert``); where the certificate fails, sample there too and go on (`ROUNDS`).
-    A round that finds nothing feasible is repeated only while it still reduces the violation by a
-    fifth. Returns (x, cert) of a certified design or None, and (X, best) of the last round."""
-    step0 = 0.25 * scale
-    previous = -math.inf
-    last = None
-    for _ in range(ROUNDS):
-        if time.process_time() > deadline:
-            break
-        X, best = _improve(scorer, space, mask(), target, X, step0=step0, step_min=0.01 * scale,
-                           iterations=int(40 * effort), deadline=deadline)
-        last = (X, best)
-        i = int(np.argmax(best))
-        if best[i] < 1e5:  # nothing feasible: another round only while it still gains (a fifth)
-            if best[i] <= 0.8 * previous:
-                break
-            previous = best[i]
-            continue
-        cert = certify_best(X[i])
-        if cert["certified"]:
-            return (X[i].copy(), cert), last
-        # the samples missed a close approach: sample there too and search on
-        scorer.add_samples(cert["where"][cert["sampled"] < target])
-        step0 = 0.1 * scale
-    return None, last
-
-
 def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
                    hole_clearance: float = 0.0, clearance: float | None = None, seed: int = 0,
                    effort: float = 1.0, ranges: tuple[str, ...] = ("full", "task"),
@@ -486,8 +289,8 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     def to_S(X):
         return search.mount_offsets(X[:, :J], X[:, J:2 * J], X[:, 2 * J:])
 
-    scorer = _Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, lambda X: search.end_offsets(to_S(X)))
-    space = _mount_space(J, gmin, scale)
+    scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, lambda X: search.end_offsets(to_S(X)))
+    space = mount_space(J, gmin, scale)
 
     # initial population: every order of the natural stack, then random stacks
     n_orders = min(2 ** J, 64)
@@ -517,9 +320,9 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
             break
         deadline = min(end, t0 + full_seconds) if rname == "full" and full_seconds is not None else end
         mask0 = np.ones(coarse.sum(), bool) if rname == "full" else coarse_task
-        ranked = np.argsort(-_score(_violation(d0, target, mask0), size0), kind="stable")
+        ranked = np.argsort(-score(violation(d0, target, mask0), size0), kind="stable")
         starts = ranked[attempt * n_starts:(attempt + 1) * n_starts]
-        found, tried = _rounds(
+        found, tried = search_rounds(
             scorer, space, X0[starts].copy(),
             lambda: np.ones(len(scorer.phis), bool) if rname == "full" else scorer.is_task,
             target, scale, effort=effort, deadline=deadline,
@@ -539,81 +342,6 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
                           hole_clearance=hole_clearance, clearance=clearance)
     report = report_for(linkage, exact, rname, cert, clearance)
     report.seconds = time.process_time() - t0
-    return DesignResult(design, report)
-
-
-CRANK_FRACTIONS = (0.25, 0.75)  # where along a bar its two via points sit (from its first mount)
-
-
-def crank_direction(u, d) -> np.ndarray:
-    """Unit crank direction of a bar along d (3,) mounted on an axis of direction u (3,): u without its
-    component along the bar (for parallel axes: the axis, the bar is lifted out of its plane); any unit
-    vector normal to d when u is along d."""
-    d = d / max(np.linalg.norm(d), 1e-300)
-    n = u - np.dot(u, d) * d
-    if np.linalg.norm(n) < 1e-6:
-        n = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
-    return n / np.linalg.norm(n)
-
-
-def crank_bars(linkage, result: DesignResult, *, seed: int = 0, effort: float = 1.0,
-               seconds: float | None = None) -> DesignResult:
-    """Cranked bars for a design that straight bars could not make free (docs/design.md).
-
-    The mounts and pins of ``result.design`` stay; every bar of a body in ``result.collision.pairs``
-    becomes a polyline mount -> via -> via -> mount, the via points at `CRANK_FRACTIONS` of the straight
-    bar moved by w along `crank_direction`, and the offsets w are searched (the same coordinate search,
-    scorer and certificate as the mounts, over ``result.collision.range``). Returns the cranked design
-    when it is certified free, else ``result`` unchanged. ``seconds``: CPU budget (None: no limit)."""
-    t0 = time.process_time()
-    old = result.design
-    if result.collision.free or not result.collision.pairs:
-        return result
-    sizes = dict(pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
-                 hub_length=old.hub_length, clearance=old.clearance)
-    sites = linkage.joint_sites()
-    colliding = {b for p in result.collision.pairs for b in p["bodies"]}
-    cranks = {}
-    for bar in old.bars:
-        if bar.link not in colliding or bar.via:
-            continue
-        a, b = bar.joints
-        pa = sites[a] + old.mount(bar.link, a).offset * linkage.joint(a).direction
-        pb = sites[b] + old.mount(bar.link, b).offset * linkage.joint(b).direction
-        n = crank_direction(linkage.joint(a).direction, pb - pa)
-        cranks[(bar.link, a, b)] = (pa + CRANK_FRACTIONS[0] * (pb - pa), pa + CRANK_FRACTIONS[1] * (pb - pa), n)
-    if not cranks:
-        return result
-    search = Layout(linkage, merged=SEARCH_MERGED, cranks=cranks, **sizes)
-    exact = Layout(linkage, merged=False, cranks=cranks, **sizes)
-    S = np.array([old.mount(link, j).offset for link, j in exact.mounts])
-    V, J = len(exact.vias), len(exact.joints)
-    scale = linkage.extent()
-    task = task_phi_range(linkage)
-    rng_phi = FULL if result.collision.range == "full" else task
-    target = max(old.clearance, 0.25 * CLEARANCE_FRACTION * old.bar_radius) * (1 + SAFETY)
-    effort = effort * min(1.0, (6 / J) ** 2)
-    scorer = _Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task,
-                     lambda W: search.end_offsets(np.broadcast_to(S, (len(W), len(S))), W))
-    rng = np.random.default_rng(seed)
-    n_starts = max(2, int(4 * effort))
-    # straight bars, then random cranks of up to a few bar thicknesses to half the extent
-    X = np.concatenate([np.zeros((1, V)), rng.uniform(-1, 1, size=(n_starts - 1, V))
-                        * rng.choice(SPREADS, size=(n_starts - 1, 1)) * 0.5 * scale])
-    deadline = t0 + (math.inf if seconds is None else seconds)
-    found, _ = _rounds(scorer, _crank_space(V, scale), X,
-                       lambda: np.ones(len(scorer.phis), bool) if rng_phi == FULL else scorer.is_task,
-                       target, scale, effort=effort, deadline=deadline,
-                       certify_best=lambda w: certify_layout(exact, S, rng_phi, old.clearance, w))
-    if found is None:
-        result.collision.message += " (cranked bars of the colliding links were searched too)"
-        return result
-    W, cert = found
-    design = exact.design(S, W, pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
-                          hole_clearance=old.hole_clearance, clearance=old.clearance)
-    report = report_for(linkage, exact, result.collision.range, cert, old.clearance)
-    report.cranked = [list(k) for k in cranks]
-    report.seconds = result.collision.seconds + time.process_time() - t0
     return DesignResult(design, report)
 
 

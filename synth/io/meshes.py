@@ -36,7 +36,8 @@ import numpy as np
 
 from synth.design.model import PhysicalDesign, axis_point, capsules
 from synth.design.layers import layered_design, parallel_axis
-from synth.design.search import DesignResult, crank_bars, design_linkage
+from synth.design.cranks import crank_bars
+from synth.design.search import DesignResult, design_linkage
 from synth.io.frames import link_origins
 from synth.io.solid import (Solid, boolean, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
                             mass_properties, read_stl_triangles, signed_volume, stl_bytes, surface_defect, weld)
@@ -96,7 +97,7 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     Then, when that is still not free and the search covered the task range (docs/design.md): a planar
     linkage (every axis parallel) gets a layered design (`synth.design.layers.layered_design`, within
     `LAYER_SECONDS`), any other one cranked bars for the colliding bodies
-    (`synth.design.search.crank_bars`, within `CRANK_SECONDS`); a certified free result replaces it
+    (`synth.design.cranks.crank_bars`, within `CRANK_SECONDS`); a certified free result replaces it
     (its report's ``cranked`` names the cranked bars, ``layers`` the levels of a layered design)."""
     result = _straight(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, search)
     if result.collision.free or "task" not in search.get("ranges", ("full", "task")):
