@@ -128,7 +128,7 @@ def dense_gaps(linkage, design, lo, hi, n=6000):
                  hub_radius=design.hub_radius, hub_length=design.hub_length, clearance=design.clearance)
     S = np.array([design.mount(link, j).offset for link, j in lay.mounts])
     phis = np.linspace(lo, hi, n)
-    Q, U = world_ends(linkage, lay.cs, body_motion(linkage, phis), linkage.joint_sites())
+    Q, U = world_ends(lay.cs, body_motion(linkage, phis))
     return pair_distances(lay.cs, Q, U, lay.end_offsets(S[None]))[0].min()
 
 

@@ -6,9 +6,10 @@ Conventions:
   (phi = +-pi/2 is t = infinity, the reference configuration);
 - a *body* is a link that holds joints (``linkage.links``; a loop's duplicate link holds none and is the
   same rigid body as its partner); two bodies that share a joint are *adjacent* and never tested;
-- the geometry is a set of capsules whose end points lie on joint axes: an end point is
-  ``site_j + offset * u_j`` (reference configuration) with an offset that is affine in the design's
-  mount offsets, so one pass evaluates a batch of designs (leading axis N) at every sample;
+- the geometry is a set of capsules whose end points move along lines fixed in their bodies: an end
+  point is ``base + offset * direction`` (reference configuration; a mount: the joint's site and axis
+  direction, the offset affine in the design's mount offsets; a via point of a cranked bar: a point and
+  a crank direction), so one pass evaluates a batch of designs (leading axis N) at every sample;
 - the certificate: along a path of joints j_1..j_m from body A to body B, a point x of B moves
   relative to A at speed at most ``sum_i |dtheta_i/dphi| * |x - q_i|``, q_i the site of j_i, and
   ``|x - q_i|`` is bounded by constant site-to-site lengths along the path; ``|dtheta/dphi| =
@@ -114,14 +115,15 @@ def body_motion(linkage, phis) -> dict[str, np.ndarray]:
 # ----------------------------------------------------------------------------------------- geometry
 @dataclass
 class CapsuleSet:
-    """Capsules whose end points lie on joint axes (reference configuration).
+    """Capsules whose end points move along lines fixed in their bodies (reference configuration).
 
-    ``ends``: (E,) joint index of each end point; ``pairs``: (P, 4) end indices (a0, a1, b0, b1) of the
+    ``ends_base``, ``ends_dir``: (E, 3) each end point is ``base + offset * dir`` (a mount: the joint's
+    site and direction); ``ends_body``: its body; ``pairs``: (P, 4) end indices (a0, a1, b0, b1) of the
     tested capsule pairs; ``radii``: (P,) sum of the two radii; ``body_pair``: (P,) index into
     ``body_pairs`` (list of (body A, body B)); ``cap``: (P, 2) capsule indices (of ``labels``)."""
 
-    joints: list[str]
-    ends_joint: np.ndarray
+    ends_base: np.ndarray
+    ends_dir: np.ndarray
     ends_body: list[str]
     pairs: np.ndarray
     radii: np.ndarray
@@ -155,16 +157,15 @@ def segment_distance(p0, p1, q0, q1) -> np.ndarray:
     return np.sqrt(dot(w, w))
 
 
-def world_ends(linkage, cs: CapsuleSet, motion: dict[str, np.ndarray], sites: dict) -> tuple[np.ndarray, np.ndarray]:
+def world_ends(cs: CapsuleSet, motion: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """(Q, U), each (4, 3, P, K): for the four end points (a0, a1, b0, b1) of every tested capsule pair,
-    the moved site and direction of the end point's axis at the samples (component-first); the end
-    point itself is ``Q + offset * U``."""
+    the moved base point and direction of the end point's line at the samples (component-first); the
+    end point itself is ``Q + offset * U``."""
     Q, U = [], []
-    for ji, body in zip(cs.ends_joint, cs.ends_body):
-        j = linkage.joint(cs.joints[ji])
+    for base, u, body in zip(cs.ends_base, cs.ends_dir, cs.ends_body):
         D = motion[body]
-        Q.append(D[:, :3, :3] @ sites[j.name] + D[:, :3, 3])
-        U.append(D[:, :3, :3] @ j.direction)
+        Q.append(D[:, :3, :3] @ base + D[:, :3, 3])
+        U.append(D[:, :3, :3] @ u)
     Q, U = np.array(Q).transpose(2, 0, 1), np.array(U).transpose(2, 0, 1)  # (3, E, K)
     idx = cs.pairs.T  # (4, P)
     return np.ascontiguousarray(Q[:, idx].transpose(1, 0, 2, 3)), np.ascontiguousarray(U[:, idx].transpose(1, 0, 2, 3))
@@ -207,8 +208,7 @@ def speed_coefficients(linkage, cs: CapsuleSet, offsets: np.ndarray, sites: dict
     """For one design (``offsets`` (E,)): a list of (P, J) arrays, one per way of bounding the relative
     speed of each capsule pair: ``V <= coef @ rate_bound`` (see the module docstring)."""
     jindex = {j.name: i for i, j in enumerate(linkage.joints)}
-    pts = np.array([sites[cs.joints[ji]] + o * linkage.joint(cs.joints[ji]).direction
-                    for ji, o in zip(cs.ends_joint, offsets)])
+    pts = cs.ends_base + np.asarray(offsets, float)[:, None] * cs.ends_dir  # (E, 3): mounts and via points
     options: dict[tuple, list] = {}
     out = []
     P, J = len(cs.pairs), len(linkage.joints)
@@ -251,7 +251,7 @@ def certify(linkage, cs: CapsuleSet, offsets: np.ndarray, lo: float, hi: float, 
     sites = linkage.joint_sites()
     coefs = speed_coefficients(linkage, cs, offsets, sites)
     phis = even_samples(linkage, lo, hi, samples)
-    dist = _dist_at(linkage, cs, offsets, phis, sites)
+    dist = _dist_at(linkage, cs, offsets, phis)
     while True:
         rates = rate_bound(linkage, phis[:-1], phis[1:])  # (J, K-1)
         V = np.min([c @ rates for c in coefs], axis=0)  # (P, K-1)
@@ -264,7 +264,7 @@ def certify(linkage, cs: CapsuleSet, offsets: np.ndarray, lo: float, hi: float, 
         if not bad.any() or len(phis) + bad.sum() > max_samples:
             break
         mids = (phis[:-1][bad] + phis[1:][bad]) / 2
-        new = _dist_at(linkage, cs, offsets, mids, sites)
+        new = _dist_at(linkage, cs, offsets, mids)
         order = np.argsort(np.concatenate([phis, mids]), kind="stable")
         phis = np.concatenate([phis, mids])[order]
         dist = np.concatenate([dist, new], axis=1)[:, order]
@@ -273,6 +273,6 @@ def certify(linkage, cs: CapsuleSet, offsets: np.ndarray, lo: float, hi: float, 
             "sampled": dist.min(axis=1), "where": phis[k], "phis": phis, "dist": dist}
 
 
-def _dist_at(linkage, cs, offsets, phis, sites) -> np.ndarray:
-    Q, U = world_ends(linkage, cs, body_motion(linkage, phis), sites)
+def _dist_at(linkage, cs, offsets, phis) -> np.ndarray:
+    Q, U = world_ends(cs, body_motion(linkage, phis))
     return pair_distances(cs, Q, U, offsets[None])[0]

@@ -11,7 +11,8 @@ is on top) and the distance ``g_j >= hub_length + clearance`` of their centres; 
 stacks (every order, centred on the sites) and seeded random ones, scored on samples of the motion
 (evenly spaced in joint rotation) for the full cycle and the task range at once; the best are improved
 by coordinate moves (shift, flip, widen) and the winner is certified (`collision.certify`); where the
-certificate fails, those samples join the search's and it goes on.
+certificate fails, those samples join the search's and it goes on (the coordinate search itself:
+`synth.design.coordinate`; cranked bars: `synth.design.cranks`; planar layers: `synth.design.layers`).
 Deterministic for a given ``seed``.
 """
 from __future__ import annotations
@@ -22,20 +23,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from synth.design.collision import (CapsuleSet, adjacent_pairs, bodies, body_motion, certify, even_samples,
-                                    pair_distances, pair_distances_at, phi_of_t, t_of_phi, world_ends)
+from synth.design.collision import CapsuleSet, adjacent_pairs, bodies, certify, phi_of_t, t_of_phi
+from synth.design.coordinate import FULL, Scorer, mount_space, score, search_rounds, violation
 from synth.design.model import Bar, Mount, PhysicalDesign, Pin, joint_links
 
 TWO_PI = 2 * math.pi
 CLEARANCE_FRACTION = 0.25  # default clearance: this fraction of the bar radius
 SAFETY = 0.5  # the search asks for a sampled gap of clearance * (1 + SAFETY) so that certification holds
-FULL = (-math.pi / 2, math.pi / 2)
 FULL_SAMPLES, TASK_SAMPLES = 24, 12  # search samples per joint, full cycle and task range
 ATTEMPTS = 2  # independent sets of starts per range
 SPREADS = (0.25, 0.5, 1.0, 2.0)  # scales (times the extent) of the random stack centres
 SEARCH_MERGED = True  # the search scores merged hub+pin capsules (fewer pairs), the certificate the exact ones
-SEARCH_DTYPE = np.float32  # the search's sampled gaps (the certificate: float64)
-ROUNDS = 4  # search rounds, each adding the samples where the last certificate failed
 
 
 @dataclass
@@ -66,6 +64,8 @@ class CollisionReport:
     sampled_min_distance: float = float("nan")
     seconds: float = 0.0
     thinned: dict | None = None  # set by synth.io.meshes.design_for when the default sizes collided
+    cranked: list | None = None  # [[link, joint a, joint b], ...]: the cranked bars (crank_bars, layered_design)
+    layers: int | None = None  # levels used by a layered design (synth.design.layers)
 
 
     def to_dict(self) -> dict:
@@ -74,7 +74,9 @@ class CollisionReport:
                 "driver_range": [float(self.driver_range[0]), float(self.driver_range[1])],
                 "certified": self.certified, "pairs": self.pairs, "message": self.message,
                 "sampled_min_distance": self.sampled_min_distance,  # (not ``seconds``: outputs are reproducible)
-                **({"thinned": self.thinned} if self.thinned else {})}
+                **({"thinned": self.thinned} if self.thinned else {}),
+                **({"cranked": self.cranked} if self.cranked else {}),
+                **({"layers": self.layers} if self.layers else {})}
 
 
 @dataclass
@@ -88,9 +90,13 @@ class Layout:
     """The searched parametrization of a linkage's design and its capsules (see the module docstring).
 
     ``merged``: one capsule of the hub radius per mount covering the hub and, on the carrier, the whole
-    pin (fewer, looser capsules: the search); else bars, hubs and pins separately (the certificate)."""
+    pin (fewer, looser capsules: the search); else bars, hubs and pins separately (the certificate).
+    ``cranks``: {(link, joint a, joint b): (p0, p1, n)}: the bar of ``link`` from a to b is cranked, a
+    polyline mount a -> p0 + w0 n -> p1 + w1 n -> mount b with the crank offsets w (``end_offsets``'s
+    ``W``, one column per via point, in the order of ``vias``); points and the unit crank direction n in
+    the reference configuration (metres)."""
 
-    def __init__(self, linkage, *, pin_radius, bar_radius, hub_radius, hub_length, clearance, merged):
+    def __init__(self, linkage, *, pin_radius, bar_radius, hub_radius, hub_length, clearance, merged, cranks=None):
         self.linkage = linkage
         jl = joint_links(linkage)
         self.joints = [j.name for j in linkage.joints if jl[j.name]]
@@ -98,19 +104,30 @@ class Layout:
         self.mounts = [(link, j) for j in self.joints for link in jl[j]]
         self.mindex = {m: i for i, m in enumerate(self.mounts)}
         self.hub_length, self.gap_min = hub_length, hub_length + clearance
+        self.cranks = dict(cranks or {})
+        self.vias: list[tuple[str, str, str, int]] = []  # (link, a, b, 0|1) per crank offset column
         h = hub_length / 2
         jidx = {j: i for i, j in enumerate(self.joints)}
-        ends: list[tuple] = []  # (joint index, body, kind, index, const); kind 0: mount, 1: min, 2: max of joint
+        sites = linkage.joint_sites()
+        ends: list[tuple] = []  # (base, direction, body, kind, index, const); kind 0: mount, 1: min, 2: max of joint, 3: via
         caps: list[tuple] = []  # (body, label, end0, end1, radius)
 
         def end(j, body, kind, index, const):
-            ends.append((jidx[j], body, kind, index, const))
+            ends.append((sites[j], linkage.joint(j).direction, body, kind, index, const))
             return len(ends) - 1
 
         for link, names in linkage.links.items():
             for a, b in zip(names, names[1:]):
-                caps.append((link, f"bar {a}-{b}", end(a, link, 0, self.mindex[(link, a)], 0.0),
-                             end(b, link, 0, self.mindex[(link, b)], 0.0), bar_radius))
+                chain = [end(a, link, 0, self.mindex[(link, a)], 0.0)]
+                if (link, a, b) in self.cranks:
+                    p0, p1, n = self.cranks[(link, a, b)]
+                    for k, p in enumerate((p0, p1)):
+                        ends.append((np.asarray(p, float), np.asarray(n, float), link, 3, len(self.vias), 0.0))
+                        self.vias.append((link, a, b, k))
+                        chain.append(len(ends) - 1)
+                chain.append(end(b, link, 0, self.mindex[(link, b)], 0.0))
+                for e0, e1 in zip(chain, chain[1:]):
+                    caps.append((link, f"bar {a}-{b}", e0, e1, bar_radius))
         for link, j in self.mounts:
             carrier = self.links_of[j][0] == link
             m = self.mindex[(link, j)]
@@ -135,9 +152,10 @@ class Layout:
                 radii.append(x[4] + y[4])
                 bpi.append(bp_index[key])
                 labels.append(f"{x[0]}:{x[1]} / {y[0]}:{y[1]}")
-        self.ends = ends
-        self.cs = CapsuleSet(joints=self.joints, ends_joint=np.array([e[0] for e in ends], int),
-                             ends_body=[e[1] for e in ends], pairs=np.array(pairs, int).reshape(-1, 4),
+        self.ends = [e[3:] for e in ends]
+        self.cs = CapsuleSet(ends_base=np.array([e[0] for e in ends], float).reshape(-1, 3),
+                             ends_dir=np.array([e[1] for e in ends], float).reshape(-1, 3),
+                             ends_body=[e[2] for e in ends], pairs=np.array(pairs, int).reshape(-1, 4),
                              radii=np.array(radii, float), body_pair=np.array(bpi, int), body_pairs=body_pairs,
                              labels=labels)
 
@@ -152,20 +170,27 @@ class Layout:
                 S[:, self.mindex[(link, j)]] = c[:, ji] + sigma[:, ji] * (k - (n - 1) / 2) * g[:, ji]
         return S
 
-    def end_offsets(self, S) -> np.ndarray:
-        """(N, E) end-point offsets of the capsules from the mount offsets (N, M)."""
+    def end_offsets(self, S, W=None) -> np.ndarray:
+        """(N, E) end-point offsets of the capsules from the mount offsets S (N, M) and the crank offsets
+        W (N, V) (default: zero, the via points on the straight bar)."""
         lo = np.stack([S[:, [self.mindex[(l, j)] for l in self.links_of[j]]].min(axis=1) for j in self.joints], 1)
         hi = np.stack([S[:, [self.mindex[(l, j)] for l in self.links_of[j]]].max(axis=1) for j in self.joints], 1)
+        W = np.zeros((len(S), len(self.vias))) if W is None else np.broadcast_to(W, (len(S), len(self.vias)))
         cols = []
-        for _, _, kind, index, const in self.ends:
-            src = S[:, index] if kind == 0 else (lo[:, index] if kind == 1 else hi[:, index])
-            cols.append(src + const)
+        for kind, index, const in self.ends:
+            cols.append((S, lo, hi, W)[kind][:, index] + const)
         return np.stack(cols, axis=1)
 
-    def design(self, S, *, pin_radius, bar_radius, hub_radius, hole_clearance, clearance) -> PhysicalDesign:
-        """The `PhysicalDesign` of one mount-offset vector (M,)."""
+    def design(self, S, W=None, *, pin_radius, bar_radius, hub_radius, hole_clearance, clearance) -> PhysicalDesign:
+        """The `PhysicalDesign` of one mount-offset vector S (M,) and crank offsets W (V,)."""
         mounts = [Mount(link, j, float(S[i])) for i, (link, j) in enumerate(self.mounts)]
-        bars = [Bar(link, (a, b)) for link, names in self.linkage.links.items() for a, b in zip(names, names[1:])]
+        W = np.zeros(len(self.vias)) if W is None else W
+        vias: dict[tuple, list] = {}
+        for (link, a, b, k), w in zip(self.vias, W):
+            p0_p1_n = self.cranks[(link, a, b)]
+            vias.setdefault((link, a, b), []).append(np.asarray(p0_p1_n[k], float) + float(w) * np.asarray(p0_p1_n[2]))
+        bars = [Bar(link, (a, b), vias.get((link, a, b), [])) for link, names in self.linkage.links.items()
+                for a, b in zip(names, names[1:])]
         h = self.hub_length / 2
         pins = []
         for j in self.joints:
@@ -223,149 +248,6 @@ def task_phi_range(linkage) -> tuple[float, float]:
 
 
 # ----------------------------------------------------------------------------------------- search
-class _Scorer:
-    """Sampled capsule gaps of batches of candidates (c, sigma, g) over the full cycle and the task
-    range at once (task samples are flagged in ``is_task``)."""
-
-    def __init__(self, layout: Layout, full_samples: int, task_samples: int, task: tuple[float, float]):
-        lk = layout.linkage
-        pf = even_samples(lk, *FULL, full_samples)
-        pt = even_samples(lk, *task, task_samples)
-        self.phis = np.concatenate([pf, pt])
-        self.is_task = np.concatenate([_inside(pf, task), np.ones(len(pt), bool)])
-        self.layout = layout
-        self.task = task
-        Q, U = world_ends(lk, layout.cs, body_motion(lk, self.phis), lk.joint_sites())
-        self.Q, self.U = Q.astype(SEARCH_DTYPE), U.astype(SEARCH_DTYPE)
-        self.evaluations = 0
-
-    def add_samples(self, phis) -> None:
-        """Sample the motion at ``phis`` too (where a certificate found a gap the samples missed)."""
-        lk = self.layout.linkage
-        phis = np.asarray(phis, float)
-        Q, U = world_ends(lk, self.layout.cs, body_motion(lk, phis), lk.joint_sites())
-        self.phis = np.concatenate([self.phis, phis])
-        self.is_task = np.concatenate([self.is_task, _inside(phis, self.task)])
-        self.Q = np.concatenate([self.Q, Q.astype(SEARCH_DTYPE)], axis=3)
-        self.U = np.concatenate([self.U, U.astype(SEARCH_DTYPE)], axis=3)
-
-    def offsets(self, c, sigma, g):
-        return self.layout.end_offsets(self.layout.mount_offsets(c, sigma, g)).astype(SEARCH_DTYPE)
-
-    def full(self, c, sigma, g) -> np.ndarray:
-        """(N, P, K) gaps at every sample."""
-        self.evaluations += len(c)
-        return pair_distances(self.layout.cs, self.Q, self.U, self.offsets(c, sigma, g))
-
-    def at(self, c, sigma, g, pidx, kidx) -> np.ndarray:
-        """(N, L) gaps at chosen (pair, sample) entries."""
-        return pair_distances_at(self.layout.cs, self.Q, self.U, self.offsets(c, sigma, g), pidx, kidx)
-
-
-def _inside(phis, rng) -> np.ndarray:
-    lo, hi = rng
-    return (phis - lo) % math.pi <= (hi - lo) + 1e-12
-
-
-def _size(c, g, gmin, scale):
-    return (np.abs(c).mean(axis=1) + (g - gmin).mean(axis=1)) / scale
-
-
-def _violation(d, target, mask=None) -> np.ndarray:
-    """(N,) sum over the (masked) entries of d (N, ..., K) of (target - d)^2 where d < target, over
-    target^2: zero exactly for the designs whose sampled gaps all reach the target."""
-    v = np.maximum(target - d, 0.0) / target
-    v = v * v
-    if mask is not None:
-        v = v * mask
-    return v.reshape(len(d), -1).sum(axis=1)
-
-
-def _score(violation, size):
-    """Feasible (no violation) first, then compact (small ``size``); else the smaller violation (a
-    sum over every sample and pair: a move that relieves one contact counts even when another is
-    deeper)."""
-    return np.where(violation <= 0, 1e6 - size, -violation)
-
-
-class _Critical:
-    """The (pair, sample) entries where candidates came closest: a candidate's violation there bounds its
-    violation from below, so moves are screened there before a full evaluation. Keeps the ``cap`` most
-    recently seen entries."""
-
-    def __init__(self, mask, cap):
-        self.mask, self.cap, self.keys = mask, cap, {}
-
-    def add(self, d):  # d (N, P, K)
-        dm = np.where(self.mask[None, None, :], d, np.inf)
-        k = dm.argmin(axis=2)  # (N, P): each pair's closest sample
-        flat = dm.reshape(len(d), -1)
-        top = np.argpartition(flat, min(16, flat.shape[1] - 1), axis=1)[:, :16]
-        new = [(p, int(x)) for row in k for p, x in enumerate(row)]
-        new += [divmod(int(x), d.shape[2]) for row in top for x in row]
-        for key in new:
-            self.keys.pop(key, None)
-            self.keys[key] = None
-        while len(self.keys) > self.cap:
-            self.keys.pop(next(iter(self.keys)))
-
-    def arrays(self):
-        pk = np.array(list(self.keys), int)
-        return pk[:, 0], pk[:, 1]
-
-
-def _improve(scorer: _Scorer, mask, target, scale, c, sigma, g, *, step0, step_min, iterations, tries=2,
-             deadline=math.inf):
-    """Coordinate moves from each start (rows of c, sigma, g): shift a centre, widen/narrow a gap, flip an
-    order. Moves are screened on the critical entries; the best per start is evaluated fully and taken
-    when it improves; after ``tries`` failures (or when no move passes the screen) the step halves.
-    Stops early once the CPU clock passes ``deadline`` (process_time seconds)."""
-    gmin = scorer.layout.gap_min
-    n, J = c.shape
-    crit = _Critical(mask, cap=4 * scorer.Q.shape[2] + 64)
-    d = scorer.full(c, sigma, g)
-    crit.add(d)
-    best = _score(_violation(d, target, mask), _size(c, g, gmin, scale))
-    step = np.full(n, step0)
-    stall = np.zeros(n, int)
-    moves = ((1, 1, 0), (-1, 1, 0), (0, 1, 1), (0, 1, -1), (0, -1, 0))
-    for _ in range(iterations):
-        if (step < step_min).all() or time.process_time() > deadline:
-            break
-        C = np.repeat(c[None], J * len(moves), axis=0)
-        Sg = np.repeat(sigma[None], J * len(moves), axis=0)
-        G = np.repeat(g[None], J * len(moves), axis=0)
-        for j in range(J):
-            for m, (dc, flip, dg) in enumerate(moves):
-                k = j * len(moves) + m
-                C[k, :, j] += dc * step
-                Sg[k, :, j] *= flip
-                G[k, :, j] = np.maximum(gmin, G[k, :, j] + dg * step)
-        K = C.shape[0]
-        C, Sg, G = C.reshape(K * n, J), Sg.reshape(K * n, J), G.reshape(K * n, J)
-        pidx, kidx = crit.arrays()
-        ub = _score(_violation(scorer.at(C, Sg, G, pidx, kidx), target), _size(C, G, gmin, scale)).reshape(K, n)
-        kbest = np.argmax(ub, axis=0)  # (n,)
-        hopeful = ub[kbest, np.arange(n)] > best + 1e-12
-        rows = np.flatnonzero(hopeful)
-        pick = kbest[rows] * n + rows
-        accepted = np.zeros(n, bool)
-        if len(pick):
-            d = scorer.full(C[pick], Sg[pick], G[pick])
-            crit.add(d)
-            sc = _score(_violation(d, target, mask), _size(C[pick], G[pick], gmin, scale))
-            for i, w, v in zip(rows, pick, sc):
-                if v > best[i] + 1e-12:
-                    c[i], sigma[i], g[i], best[i] = C[w], Sg[w], G[w], v
-                    accepted[i] = True
-        # a hopeful move that failed its full evaluation taught the screen something: retry once
-        stall = np.where(accepted, 0, stall + np.where(hopeful, 1, tries))
-        halve = stall >= tries
-        step = np.where(halve, step / 2, step)
-        stall = np.where(halve, 0, stall)
-    return c, sigma, g, best
-
-
 def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
                    hole_clearance: float = 0.0, clearance: float | None = None, seed: int = 0,
                    effort: float = 1.0, ranges: tuple[str, ...] = ("full", "task"),
@@ -403,7 +285,12 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     target = max(clearance, 0.25 * CLEARANCE_FRACTION * bar_radius) * (1 + SAFETY)  # > 0 even for clearance 0
     rng = np.random.default_rng(seed)
     effort = effort * min(1.0, (6 / J) ** 2)  # many joints: many more pairs per candidate
-    scorer = _Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task)
+
+    def to_S(X):
+        return search.mount_offsets(X[:, :J], X[:, J:2 * J], X[:, 2 * J:])
+
+    scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, lambda X: search.end_offsets(to_S(X)))
+    space = mount_space(J, gmin, scale)
 
     # initial population: every order of the natural stack, then random stacks
     n_orders = min(2 ** J, 64)
@@ -414,11 +301,12 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     c0 = np.concatenate([np.zeros((n_orders, J)), rng.uniform(-1, 1, size=(n_rand, J)) * spread])
     g0 = np.concatenate([np.full((n_orders, J), gmin),
                          gmin * (1 + rng.exponential(0.5, size=(n_rand, J)) * (rng.random((n_rand, J)) < 0.3))])
+    X0 = np.concatenate([c0, sigma0, g0], axis=1)
     coarse = np.zeros(len(scorer.phis), bool)
     coarse[::3] = True
     pk = np.nonzero(np.ones((len(search.cs.pairs), len(scorer.phis)), bool) & coarse[None])
-    d0 = scorer.at(c0, sigma0, g0, *pk).reshape(len(c0), len(search.cs.pairs), -1)
-    size0 = _size(c0, g0, gmin, scale)
+    d0 = scorer.at(X0, *pk).reshape(len(X0), len(search.cs.pairs), -1)
+    size0 = space.size(X0)
     coarse_task = scorer.is_task[coarse]
 
     result, last = None, None
@@ -432,45 +320,27 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
             break
         deadline = min(end, t0 + full_seconds) if rname == "full" and full_seconds is not None else end
         mask0 = np.ones(coarse.sum(), bool) if rname == "full" else coarse_task
-        ranked = np.argsort(-_score(_violation(d0, target, mask0), size0), kind="stable")
+        ranked = np.argsort(-score(violation(d0, target, mask0), size0), kind="stable")
         starts = ranked[attempt * n_starts:(attempt + 1) * n_starts]
-        c, s, g = c0[starts].copy(), sigma0[starts].copy(), g0[starts].copy()
-        step0 = 0.25 * scale
-        previous = -math.inf
-        for _ in range(ROUNDS):
-            if time.process_time() > deadline:
-                break
-            mask = np.ones(len(scorer.phis), bool) if rname == "full" else scorer.is_task
-            c, s, g, best = _improve(scorer, mask, target, scale, c, s, g, step0=step0, step_min=0.01 * scale,
-                                     iterations=int(40 * effort), deadline=deadline)
-            last = (c, s, g, best)
-            i = int(np.argmax(best))
-            if best[i] < 1e5:  # nothing feasible: another round only while it still gains (a fifth)
-                if best[i] <= 0.8 * previous:
-                    break
-                previous = best[i]
-                continue
-            S = search.mount_offsets(c[i:i + 1], s[i:i + 1], g[i:i + 1])[0]
-            cert = _certify(exact, S, rng_phi, clearance)
-            if cert["certified"]:
-                result = (rname, S, cert)
-                break
-            # the samples missed a close approach: sample there too and search on
-            scorer.add_samples(cert["where"][cert["sampled"] < target])
-            step0 = 0.1 * scale
-        if result is not None:
+        found, tried = search_rounds(
+            scorer, space, X0[starts].copy(),
+            lambda: np.ones(len(scorer.phis), bool) if rname == "full" else scorer.is_task,
+            target, scale, effort=effort, deadline=deadline,
+            certify_best=lambda x: certify_layout(exact, to_S(x[None])[0], rng_phi, clearance))
+        last = tried or last
+        if found is not None:
+            result = (rname, to_S(found[0][None])[0], found[1])
             break
     if result is None and last is None:  # the budget was spent before any search: the natural stack
-        last = (c0[:1], sigma0[:1], g0[:1], np.zeros(1))
+        last = (X0[:1], np.zeros(1))
     if result is None:  # not even the task range: report the design that came closest over it
-        c, s, g, best = last
-        i = int(np.argmax(best))
-        S = search.mount_offsets(c[i:i + 1], s[i:i + 1], g[i:i + 1])[0]
-        result = (ranges[-1][0], S, _certify(exact, S, ranges[-1][1], clearance))
+        X, best = last
+        S = to_S(X[int(np.argmax(best))][None])[0]
+        result = (ranges[-1][0], S, certify_layout(exact, S, ranges[-1][1], clearance))
     rname, S, cert = result
     design = exact.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
                           hole_clearance=hole_clearance, clearance=clearance)
-    report = _report(linkage, exact, rname, cert, clearance, task)
+    report = report_for(linkage, exact, rname, cert, clearance)
     report.seconds = time.process_time() - t0
     return DesignResult(design, report)
 
@@ -490,11 +360,14 @@ def _ranges(names, task) -> tuple:
     return tuple(out)
 
 
-def _certify(layout: Layout, S, rng, clearance) -> dict:
-    return certify(layout.linkage, layout.cs, layout.end_offsets(S[None])[0], rng[0], rng[1], clearance)
+def certify_layout(layout: Layout, S, rng, clearance, W=None) -> dict:
+    """`collision.certify` of the design with mount offsets S (M,) and crank offsets W (V,) over phi in rng."""
+    W = None if W is None else np.asarray(W)[None]
+    return certify(layout.linkage, layout.cs, layout.end_offsets(S[None], W)[0], rng[0], rng[1], clearance)
 
 
-def _report(linkage, layout: Layout, rname: str, cert: dict, clearance: float, task) -> CollisionReport:
+def report_for(linkage, layout: Layout, rname: str, cert: dict, clearance: float) -> CollisionReport:
+    """The `CollisionReport` of a certificate ``cert`` of a design of ``layout`` over the range ``rname``."""
     driver, start, end = task_range(linkage)
     drange = (0.0, TWO_PI) if rname == "full" else (start, end)
     cs = layout.cs

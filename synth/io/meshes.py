@@ -35,6 +35,8 @@ import time
 import numpy as np
 
 from synth.design.model import PhysicalDesign, axis_point, capsules
+from synth.design.layers import layered_design, parallel_axis
+from synth.design.cranks import crank_bars
 from synth.design.search import DesignResult, design_linkage
 from synth.io.frames import link_origins
 from synth.io.solid import (Solid, boolean, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
@@ -90,7 +92,23 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     neither radius was given (``thin``), it is retried with the bar and pin radii of the default times
     `thin_scales` (hole clearance by its rule, default clearance with the bar) within `THIN_SECONDS` of
     CPU (none when the first search took over `THIN_FIRST_MAX`); the first free design is returned, its
-    report's ``thinned`` saying so; else the default-size result."""
+    report's ``thinned`` saying so; else the default-size result.
+
+    Then, when that is still not free and the search covered the task range (docs/design.md): a planar
+    linkage (every axis parallel) gets a layered design (`synth.design.layers.layered_design`, within
+    `LAYER_SECONDS`), any other one cranked bars for the colliding bodies
+    (`synth.design.cranks.crank_bars`, within `CRANK_SECONDS`); a certified free result replaces it
+    (its report's ``cranked`` names the cranked bars, ``layers`` the levels of a layered design)."""
+    result = _straight(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, search)
+    if result.collision.free or "task" not in search.get("ranges", ("full", "task")):
+        return result
+    if parallel_axis(linkage) is not None:
+        return layered_design(linkage, result, seconds=LAYER_SECONDS)
+    return crank_bars(linkage, result, seconds=CRANK_SECONDS)
+
+
+def _straight(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, search) -> DesignResult:
+    """`design_for` with straight bars: the default sizes, then thinner ones."""
     hub = default_sizes(linkage, pin_radius, link_radius, pin_length)[2]
     result = _design(linkage, pin_radius, link_radius, hub, hole_clearance, clearance, search)
     if (not thin or result.collision.free or pin_radius is not None or link_radius is not None
@@ -115,6 +133,8 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     return result
 
 
+CRANK_SECONDS = 1.0  # CPU budget of the crank search after the straight bars failed
+LAYER_SECONDS = 60.0  # time limit of the layering programme of a planar linkage (motion_elliptic: ~8 s)
 THIN_SCALES = (0.5, 0.25)  # bar and pin radii tried, times the defaults, when the defaults collide
 THIN_MIN_BAR_RADIUS = 4e-4  # metres: a bar 0.8 mm thick, two extrusion widths of a 0.4 mm nozzle
 THIN_SECONDS = 1.0  # CPU budget of all the retries together (each search stops when it is spent)

@@ -1,0 +1,213 @@
+"""The coordinate search shared by the mount search and the crank search (docs/design.md, "What is
+searched"): candidates are rows of a parameter matrix X (N, D), scored by their sampled capsule gaps over
+the full cycle and the task range at once, improved by coordinate moves screened on the critical
+entries, and certified round by round. Lengths in metres, angles (phi) in radians.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.design.collision import body_motion, even_samples, pair_distances, pair_distances_at, world_ends
+
+FULL = (-math.pi / 2, math.pi / 2)  # phi of the whole cycle
+SEARCH_DTYPE = np.float32  # the search's sampled gaps (the certificate: float64)
+ROUNDS = 4  # search rounds, each adding the samples where the last certificate failed
+
+
+class Scorer:
+    """Sampled capsule gaps of batches of candidates X (N, D) over the full cycle and the task range at
+    once (task samples are flagged in ``is_task``); ``to_offsets(X)`` gives their end offsets (N, E)."""
+
+    def __init__(self, layout: Layout, full_samples: int, task_samples: int, task: tuple[float, float], to_offsets):
+        lk = layout.linkage
+        pf = even_samples(lk, *FULL, full_samples)
+        pt = even_samples(lk, *task, task_samples)
+        self.phis = np.concatenate([pf, pt])
+        self.is_task = np.concatenate([_inside(pf, task), np.ones(len(pt), bool)])
+        self.layout = layout
+        self.task = task
+        self.to_offsets = to_offsets
+        Q, U = world_ends(layout.cs, body_motion(lk, self.phis))
+        self.Q, self.U = Q.astype(SEARCH_DTYPE), U.astype(SEARCH_DTYPE)
+        self.evaluations = 0
+
+    def add_samples(self, phis) -> None:
+        """Sample the motion at ``phis`` too (where a certificate found a gap the samples missed)."""
+        lk = self.layout.linkage
+        phis = np.asarray(phis, float)
+        Q, U = world_ends(self.layout.cs, body_motion(lk, phis))
+        self.phis = np.concatenate([self.phis, phis])
+        self.is_task = np.concatenate([self.is_task, _inside(phis, self.task)])
+        self.Q = np.concatenate([self.Q, Q.astype(SEARCH_DTYPE)], axis=3)
+        self.U = np.concatenate([self.U, U.astype(SEARCH_DTYPE)], axis=3)
+
+    def offsets(self, X):
+        return self.to_offsets(X).astype(SEARCH_DTYPE)
+
+    def full(self, X) -> np.ndarray:
+        """(N, P, K) gaps at every sample."""
+        self.evaluations += len(X)
+        return pair_distances(self.layout.cs, self.Q, self.U, self.offsets(X))
+
+    def at(self, X, pidx, kidx) -> np.ndarray:
+        """(N, L) gaps at chosen (pair, sample) entries."""
+        return pair_distances_at(self.layout.cs, self.Q, self.U, self.offsets(X), pidx, kidx)
+
+
+@dataclass
+class Space:
+    """A searched parameter space: coordinate moves ``X[:, col] <- max(lo[col], X[:, col] * mul + add * step)``
+    (arrays, one entry per move) and the compactness ``size(X) -> (N,)`` (smaller is better)."""
+
+    col: np.ndarray
+    add: np.ndarray
+    mul: np.ndarray
+    lo: np.ndarray
+    size: object
+
+
+def mount_space(J, gmin, scale) -> Space:
+    """X = [c | sigma | g] (N, 3J): per joint shift the centre both ways, widen / narrow the stack, flip it."""
+    col, add, mul = [], [], []
+    for j in range(J):
+        for c, a, m in ((j, 1, 1), (j, -1, 1), (2 * J + j, 1, 1), (2 * J + j, -1, 1), (J + j, 0, -1)):
+            col.append(c), add.append(a), mul.append(m)
+    lo = np.concatenate([np.full(2 * J, -np.inf), np.full(J, gmin)])
+    return Space(np.array(col), np.array(add, float), np.array(mul, float), lo,
+                  lambda X: _size(X[:, :J], X[:, 2 * J:], gmin, scale))
+
+
+def crank_space(V, scale) -> Space:
+    """X = W (N, V) crank offsets: each moved both ways; compact = small mean |w|."""
+    return Space(np.repeat(np.arange(V), 2), np.tile([1.0, -1.0], V), np.ones(2 * V), np.full(V, -np.inf),
+                  lambda X: np.abs(X).mean(axis=1) / scale)
+
+
+def _inside(phis, rng) -> np.ndarray:
+    lo, hi = rng
+    return (phis - lo) % math.pi <= (hi - lo) + 1e-12
+
+
+def _size(c, g, gmin, scale):
+    return (np.abs(c).mean(axis=1) + (g - gmin).mean(axis=1)) / scale
+
+
+def violation(d, target, mask=None) -> np.ndarray:
+    """(N,) sum over the (masked) entries of d (N, ..., K) of (target - d)^2 where d < target, over
+    target^2: zero exactly for the designs whose sampled gaps all reach the target."""
+    v = np.maximum(target - d, 0.0) / target
+    v = v * v
+    if mask is not None:
+        v = v * mask
+    return v.reshape(len(d), -1).sum(axis=1)
+
+
+def score(violation, size):
+    """Feasible (no violation) first, then compact (small ``size``); else the smaller violation (a
+    sum over every sample and pair: a move that relieves one contact counts even when another is
+    deeper)."""
+    return np.where(violation <= 0, 1e6 - size, -violation)
+
+
+class _Critical:
+    """The (pair, sample) entries where candidates came closest: a candidate's violation there bounds its
+    violation from below, so moves are screened there before a full evaluation. Keeps the ``cap`` most
+    recently seen entries."""
+
+    def __init__(self, mask, cap):
+        self.mask, self.cap, self.keys = mask, cap, {}
+
+    def add(self, d):  # d (N, P, K)
+        dm = np.where(self.mask[None, None, :], d, np.inf)
+        k = dm.argmin(axis=2)  # (N, P): each pair's closest sample
+        flat = dm.reshape(len(d), -1)
+        top = np.argpartition(flat, min(16, flat.shape[1] - 1), axis=1)[:, :16]
+        new = [(p, int(x)) for row in k for p, x in enumerate(row)]
+        new += [divmod(int(x), d.shape[2]) for row in top for x in row]
+        for key in new:
+            self.keys.pop(key, None)
+            self.keys[key] = None
+        while len(self.keys) > self.cap:
+            self.keys.pop(next(iter(self.keys)))
+
+    def arrays(self):
+        pk = np.array(list(self.keys), int)
+        return pk[:, 0], pk[:, 1]
+
+
+def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, iterations, tries=2,
+             deadline=math.inf):
+    """Coordinate moves of ``space`` from each start (rows of X). Moves are screened on the critical
+    entries; the best per start is evaluated fully and taken when it improves; after ``tries`` failures
+    (or when no move passes the screen) the step halves. Stops early once the CPU clock passes
+    ``deadline`` (process_time seconds)."""
+    n, D = X.shape
+    nm = len(space.col)
+    crit = _Critical(mask, cap=4 * scorer.Q.shape[2] + 64)
+    d = scorer.full(X)
+    crit.add(d)
+    best = score(violation(d, target, mask), space.size(X))
+    step = np.full(n, step0)
+    stall = np.zeros(n, int)
+    rows_m = np.arange(nm)
+    for _ in range(iterations):
+        if (step < step_min).all() or time.process_time() > deadline:
+            break
+        C = np.repeat(X[None], nm, axis=0)  # (moves, n, D)
+        moved = X[:, space.col].T * space.mul[:, None] + space.add[:, None] * step[None]
+        C[rows_m, :, space.col] = np.maximum(space.lo[space.col][:, None], moved)
+        C = C.reshape(nm * n, D)
+        pidx, kidx = crit.arrays()
+        ub = score(violation(scorer.at(C, pidx, kidx), target), space.size(C)).reshape(nm, n)
+        kbest = np.argmax(ub, axis=0)  # (n,)
+        hopeful = ub[kbest, np.arange(n)] > best + 1e-12
+        rows = np.flatnonzero(hopeful)
+        pick = kbest[rows] * n + rows
+        accepted = np.zeros(n, bool)
+        if len(pick):
+            d = scorer.full(C[pick])
+            crit.add(d)
+            sc = score(violation(d, target, mask), space.size(C[pick]))
+            for i, w, v in zip(rows, pick, sc):
+                if v > best[i] + 1e-12:
+                    X[i], best[i] = C[w], v
+                    accepted[i] = True
+        # a hopeful move that failed its full evaluation taught the screen something: retry once
+        stall = np.where(accepted, 0, stall + np.where(hopeful, 1, tries))
+        halve = stall >= tries
+        step = np.where(halve, step / 2, step)
+        stall = np.where(halve, 0, stall)
+    return X, best
+
+
+def search_rounds(scorer, space, X, mask, target, scale, *, effort, deadline, certify_best):
+    """Search rounds from the starts X: improve; when the best is feasible at the samples, certify it
+    (``certify_best(x) -> cert``); where the certificate fails, sample there too and go on (`ROUNDS`).
+    A round that finds nothing feasible is repeated only while it still reduces the violation by a
+    fifth. Returns (x, cert) of a certified design or None, and (X, best) of the last round."""
+    step0 = 0.25 * scale
+    previous = -math.inf
+    last = None
+    for _ in range(ROUNDS):
+        if time.process_time() > deadline:
+            break
+        X, best = improve(scorer, space, mask(), target, X, step0=step0, step_min=0.01 * scale,
+                           iterations=int(40 * effort), deadline=deadline)
+        last = (X, best)
+        i = int(np.argmax(best))
+        if best[i] < 1e5:  # nothing feasible: another round only while it still gains (a fifth)
+            if best[i] <= 0.8 * previous:
+                break
+            previous = best[i]
+            continue
+        cert = certify_best(X[i])
+        if cert["certified"]:
+            return (X[i].copy(), cert), last
+        # the samples missed a close approach: sample there too and search on
+        scorer.add_samples(cert["where"][cert["sampled"] < target])
+        step0 = 0.1 * scale
+    return None, last

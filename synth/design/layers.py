@@ -1,0 +1,268 @@
+"""Layered designs of planar linkages (every joint axis parallel): bars in layers along the axis, cranked
+where a bar changes layer, found by a mixed-integer programme and certified (docs/design.md, "Layers").
+
+Conventions: ``u`` the common axis direction; a *height* is a coordinate along ``u`` (metres); the plane
+of motion is spanned by ``e1, e2``. Each bar (link, a, b) is cut into ``PIECES`` pieces along its straight
+course, each at its own level (an integer times the pitch); a bar whose pieces differ rises between them
+(a vertical step at the piece boundary: two via points). The hubs of a link sit at the level of its bar
+pieces there. Constraints, from the motion sampled evenly in joint rotation (`collision.even_samples`):
+
+- a bar piece that passes over a joint (in the plane, within the hub and bar radii and the clearance) is
+  above or below the whole column of that joint (both hubs and the pin between them);
+- two bar pieces of bodies that share no joint and cross in the plane are on different levels;
+- a step (riser) that a joint's column or another bar passes over is above or below it;
+- the two hubs on one axis are on different levels (stacked).
+
+Either-or constraints are big-M binaries; the objective is the number of levels used (compact). Solved
+with scipy's HiGHS (`scipy.optimize.milp`) within a time limit. Lengths in metres.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from synth.design.collision import adjacent_pairs, body_motion, even_samples
+from synth.design.coordinate import FULL
+from synth.design.model import joint_links
+from synth.design.search import SAFETY, DesignResult, Layout, certify_layout, report_for, task_phi_range
+
+PIECES = 2  # pieces per bar (each on its own level)
+SAMPLES_PER_JOINT = 160  # samples of the motion per joint for the constraints
+MARGIN = 1.0  # the in-plane reach of a constraint, times (hub radius + bar radius + clearance)
+
+
+def parallel_axis(linkage, tol: float = 1e-9) -> np.ndarray | None:
+    """The common unit axis direction when every joint axis is parallel to it (a planar linkage), else None."""
+    u = linkage.joints[0].direction
+    for j in linkage.joints:
+        if np.linalg.norm(np.cross(j.direction, u)) > tol:
+            return None
+    return u / np.linalg.norm(u)
+
+
+def _plane(u):
+    e1 = np.cross(u, np.eye(3)[int(np.argmin(np.abs(u)))])
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(u, e1)
+
+
+def _point_segment(p0, p1, x):
+    """(distance, parameter s in [0, 1]) of points x from segments p0-p1, arrays (K, 2)."""
+    d = p1 - p0
+    s = np.clip(((x - p0) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(p0 + s[:, None] * d - x, axis=-1), s
+
+
+def _crossings(p0, p1, q0, q1):
+    """(crossing, s, t): where segments p0-p1 and q0-q1 (K, 2) cross, at parameters s and t."""
+    r, w, qp = p1 - p0, q1 - q0, q0 - p0
+    den = r[:, 0] * w[:, 1] - r[:, 1] * w[:, 0]
+    ok = np.abs(den) > 1e-300
+    den = np.where(ok, den, 1.0)
+    s = (qp[:, 0] * w[:, 1] - qp[:, 1] * w[:, 0]) / den
+    t = (qp[:, 0] * r[:, 1] - qp[:, 1] * r[:, 0]) / den
+    return ok & (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1), s, t
+
+
+class _Programme:
+    """Variables and rows of a mixed-integer linear programme (sparse rows as dicts)."""
+
+    def __init__(self):
+        self.n, self.rows, self.lo, self.hi, self.binary = 0, [], [], [], []
+
+    def var(self, binary=False):
+        self.n += 1
+        if binary:
+            self.binary.append(self.n - 1)
+        return self.n - 1
+
+    def row(self, coefs, lo=-np.inf, hi=np.inf):
+        self.rows.append(coefs)
+        self.lo.append(lo)
+        self.hi.append(hi)
+
+    def apart(self, a_lo, a_hi, b_lo, b_hi, big):
+        """The intervals [a_lo, a_hi] and [b_lo, b_hi] (variables) at least one level apart, either way."""
+        y = self.var(binary=True)
+        self.row({a_lo: 1, b_hi: -1, y: big}, 1)  # y = 0: a above b
+        self.row({b_lo: 1, a_hi: -1, y: -big}, 1 - big)  # y = 1: b above a
+
+    def solve(self, cost, top, seconds):
+        # imported here, not at the top: scipy.optimize costs about half a second (more than a whole Bennett
+        # run) and only a planar linkage that straight bars cannot free needs it (as Dask for batch runs)
+        from scipy.optimize import Bounds, LinearConstraint, milp
+
+        A = np.zeros((len(self.rows), self.n))
+        for r, coefs in enumerate(self.rows):
+            for k, v in coefs.items():
+                A[r, k] += v
+        integrality = np.zeros(self.n)
+        integrality[self.binary] = 1
+        lb, ub = np.zeros(self.n), np.full(self.n, float(top))
+        ub[self.binary] = 1
+        c = np.zeros(self.n)
+        for k, v in cost.items():
+            c[k] = v
+        res = milp(c=c, constraints=LinearConstraint(A, self.lo, self.hi), integrality=integrality,
+                   bounds=Bounds(lb, ub), options={"time_limit": max(0.1, seconds)})
+        return None if res.x is None else res.x
+
+
+def layer_levels(linkage, u, rng_phi, reach, seconds):
+    """{(link, a, b): [level per piece]} of a layering over phi in ``rng_phi`` (None when none was found in
+    ``seconds``); ``reach``: the in-plane distance below which two parts interact (metres)."""
+    e1, e2 = _plane(u)
+    jl = joint_links(linkage)
+    joints = [j for j in jl if jl[j]]
+    adjacent = adjacent_pairs(linkage)
+
+    def adj(a, b):
+        return a == b or frozenset((a, b)) in adjacent
+
+    phis = even_samples(linkage, rng_phi[0], rng_phi[1], SAMPLES_PER_JOINT * len(joints))
+    motion = body_motion(linkage, phis)
+    sites = linkage.joint_sites()
+
+    def xy(body, p):
+        D = motion[body]
+        w = D[:, :3, :3] @ p + D[:, :3, 3]
+        return np.stack([w @ e1, w @ e2], axis=-1)
+
+    bars = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])]
+    ends = [(xy(link, sites[a]), xy(link, sites[b])) for link, a, b in bars]
+    jxy = {j: xy(jl[j][0], sites[j]) for j in joints}
+    P = _Programme()
+    z = {(i, h): P.var() for i in range(len(bars)) for h in range(PIECES)}
+    col = {j: (P.var(), P.var()) for j in joints}  # the column of a joint: [lo, hi]
+    hub = {(link, j): (P.var(), P.var()) for j in joints for link in jl[j]}
+    levels = len(z)  # levels 0 .. levels: enough for one level per piece
+    big = levels + 1.0
+    for i, (link, a, b) in enumerate(bars):
+        for j, h in ((a, 0), (b, PIECES - 1)):
+            lo, hi = hub[(link, j)]
+            P.row({lo: 1, z[(i, h)]: -1}, hi=0)  # the hub covers the level of its bar's piece
+            P.row({hi: 1, z[(i, h)]: -1}, lo=0)
+    for j in joints:
+        for link in jl[j]:
+            lo, hi = hub[(link, j)]
+            P.row({hi: 1, lo: -1}, lo=0)
+            P.row({col[j][0]: 1, lo: -1}, hi=0)
+            P.row({col[j][1]: 1, hi: -1}, lo=0)
+        if len(jl[j]) == 2:
+            P.apart(*hub[(jl[j][0], j)], *hub[(jl[j][1], j)], big)  # stacked hubs
+
+    def piece(s):
+        return np.minimum((s * PIECES).astype(int), PIECES - 1)
+
+    for i, (link, a, b) in enumerate(bars):
+        p0, p1 = ends[i]
+        for j in joints:  # a piece over a joint's column
+            if link in jl[j] or all(adj(link, x) for x in jl[j]):
+                continue
+            d, s = _point_segment(p0, p1, jxy[j])
+            for h in set(piece(s[d < reach]).tolist()):
+                P.apart(z[(i, h)], z[(i, h)], *col[j], big)
+        for k in range(i + 1, len(bars)):  # crossing pieces
+            if adj(link, bars[k][0]):
+                continue
+            q0, q1 = ends[k]
+            hit, s, t = _crossings(p0, p1, q0, q1)
+            near = [(piece(s[hit]), piece(t[hit]))]  # (piece of bar i, piece of bar k) where they meet
+            for x, first, on_i in ((p0, True, False), (p1, False, False), (q0, True, True), (q1, False, True)):
+                d, r = _point_segment(*((p0, p1) if on_i else (q0, q1)), x)  # an end near the other bar
+                end = np.full(int((d < reach).sum()), 0 if first else PIECES - 1)
+                near.append((piece(r[d < reach]), end) if on_i else (end, piece(r[d < reach])))
+            for hs, hk in near:
+                for h, g in set(zip(hs.tolist(), hk.tolist())):
+                    P.apart(z[(i, h)], z[(i, h)], z[(k, g)], z[(k, g)], big)
+        for h in range(1, PIECES):  # the step between two pieces
+            lo, hi = P.var(), P.var()
+            for g in (h - 1, h):
+                P.row({lo: 1, z[(i, g)]: -1}, hi=0)
+                P.row({hi: 1, z[(i, g)]: -1}, lo=0)
+            rp = p0 + (h / PIECES) * (p1 - p0)
+            for j in joints:
+                if link in jl[j] or all(adj(link, x) for x in jl[j]):
+                    continue
+                if (np.linalg.norm(jxy[j] - rp, axis=-1) < reach).any():
+                    P.apart(lo, hi, *col[j], big)
+            for k, (other, c, e) in enumerate(bars):
+                if adj(link, other):
+                    continue
+                d, s = _point_segment(ends[k][0], ends[k][1], rp)
+                for g in set(piece(s[d < reach]).tolist()):
+                    P.apart(lo, hi, z[(k, g)], z[(k, g)], big)
+    for n, j in enumerate(joints):  # two columns that meet (bodies that share no joint): apart
+        for k in joints[n + 1:]:
+            if all(adj(x, y) for x in jl[j] for y in jl[k]):
+                continue
+            if (np.linalg.norm(jxy[j] - jxy[k], axis=-1) < reach).any():
+                P.apart(*col[j], *col[k], big)
+    top = P.var()
+    for v in z.values():
+        P.row({top: 1, v: -1}, lo=0)
+    x = P.solve({top: 1.0}, levels, seconds)
+    if x is None:
+        return None
+    return {bar: [int(round(x[z[(i, h)]])) for h in range(PIECES)] for i, bar in enumerate(bars)}
+
+
+def level_pitch(design) -> float:
+    """Metres between two levels: stacked hubs (hub length + clearance) and a bar clear of a hub's capsule
+    one level away (half a hub length + hub radius + bar radius + clearance: the capsules the certificate
+    uses reach a radius beyond a hub's flat end), with the search's safety factor on the clearance."""
+    return max(design.hub_length, design.hub_length / 2 + design.hub_radius + design.bar_radius,
+               2 * design.bar_radius) + (1 + SAFETY) * design.clearance
+
+
+def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> DesignResult:
+    """A certified layered design of a planar linkage (docs/design.md, "Layers"), or ``result`` unchanged
+    when the axes are not all parallel, no layering is found within ``seconds`` (CPU, the programme's
+    time limit), or it does not certify. Keeps the sizes of ``result.design``; the pitch of the levels
+    (`pitch`) keeps a bar clear of the hubs one level up or down."""
+    t0 = time.process_time()
+    u = parallel_axis(linkage)
+    old = result.design
+    if u is None or result.collision.free:
+        return result
+    rng_phi = FULL if result.collision.range == "full" else task_phi_range(linkage)
+    reach = MARGIN * (old.hub_radius + old.bar_radius + old.clearance)
+    levels = layer_levels(linkage, u, rng_phi, reach, seconds)
+    if levels is None:
+        result.collision.message += " (no layering of the planar linkage was found either)"
+        return result
+    pitch = level_pitch(old)
+    sites = linkage.joint_sites()
+    jl = joint_links(linkage)
+    base = -0.5 * pitch * max(max(v) for v in levels.values())  # centre the stack on the plane of the sites
+    height = {}
+    cranks = {}
+    for (link, a, b), lv in levels.items():
+        for j, level in ((a, lv[0]), (b, lv[-1])):
+            height[(link, j)] = base + level * pitch
+        if len(set(lv)) > 1:
+            pa, pb = sites[a], sites[b]
+            mid = (pa + pb) / 2
+            p0 = mid + (base + lv[0] * pitch - mid @ u) * u
+            p1 = mid + (base + lv[1] * pitch - mid @ u) * u
+            cranks[(link, a, b)] = (p0, p1, u)
+    for j in jl:  # a link with one joint has no bar: its hub on the sites' plane (the certificate decides)
+        for link in jl[j]:
+            height.setdefault((link, j), 0.0)
+    sizes = dict(pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
+                 hub_length=old.hub_length, clearance=old.clearance)
+    exact = Layout(linkage, merged=False, cranks=cranks, **sizes)
+    S = np.array([(height[(link, j)] - sites[j] @ u) / float(linkage.joint(j).direction @ u)
+                  for link, j in exact.mounts])
+    cert = certify_layout(exact, S, rng_phi, old.clearance)
+    if not cert["certified"]:
+        result.collision.message += " (a layering of the planar linkage was tried too; it did not certify)"
+        return result
+    design = exact.design(S, pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
+                          hole_clearance=old.hole_clearance, clearance=old.clearance)
+    report = report_for(linkage, exact, result.collision.range, cert, old.clearance)
+    report.cranked = [list(k) for k in cranks]
+    report.layers = len({lv for v in levels.values() for lv in v})
+    report.seconds = result.collision.seconds + time.process_time() - t0
+    return DesignResult(design, report)
