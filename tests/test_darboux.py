@@ -109,6 +109,26 @@ def test_the_search_finds_a_three_joint_chain_when_one_exists():
     assert res < 1e-10 and far < 10
 
 
+def test_a_non_vertical_darboux_motion_has_a_three_joint_chain():
+    """The literature's case: the elliptic (Cardan) motion, origin on the circle r (cos phi - 1, -sin phi),
+    with the harmonic lift z = c (sin(phi + 0.7) - sin 0.7); every trajectory is planar (a Darboux motion),
+    and the same search finds a 3R chain (seed 3, 0.3 s; none of seeds 0..4 with the phases 0 or pi/2)."""
+    r, c, ph = 0.5, 1.0, 0.7
+
+    def motion(phis):
+        T = _darboux_poses(phis, c)
+        T[:, 2, 3] = c * (np.sin(phis + ph) - np.sin(ph))
+        T[:, 0, 3] += r * (np.cos(phis) - 1)
+        T[:, 1, 3] -= r * np.sin(phis)
+        return T
+
+    x = np.array([0.3, -1.2, 0.8, 1.0])
+    traj = (motion(np.linspace(0, 2 * np.pi, 12)) @ x)[:, :3]
+    assert np.linalg.svd(traj - traj.mean(axis=0), compute_uv=False)[2] < 1e-12  # a planar trajectory
+    res, far = open_chain_search(3, seed=3, motion=motion)
+    assert res < 1e-10 and far < 10
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [100, 101, 102, 103])
 def test_no_three_joint_open_chain_performs_the_motion(seed):
