@@ -30,8 +30,8 @@ from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_bennett import accepted_error
 from synth.synthesis.planar_bennett import candidates as planar_candidates
 
-__all__ = ["bennett", "bennett_candidates", "verify", "check_distinct", "check_transmission", "sensitivity", "perturbed_poses", "dh_table",
-           "bennett_parameters_of", "EPS", "FLOOR_ULPS", "ACCEPT_TOL"]
+__all__ = ["bennett", "bennett_candidates", "verify", "check_distinct", "check_transmission", "sensitivity",
+           "perturbed_poses", "dh_table", "bennett_parameters_of", "EPS", "FLOOR_ULPS", "ACCEPT_TOL"]
 
 COINCIDENT_TOL = 1e-9  # relative to the pose spread (translation) and radians (rotation)
 ACCURATE = 1e-9  # a self-check error above this (relative) gets a warning
@@ -60,9 +60,10 @@ def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, memb
     ``check_samples``: number of parameters covering the real line at which the loop closure and the
     motion are also sampled (``linkage.checks``); they are bounded over the whole motion in any case
     (`synth.checks.loop_bound`; the per-set path samples at least DEFAULT_CHECK_SAMPLES instead), and
-    the tool frame is always verified at every pose's reported joint angles. Planar or spherical poses (docs/planar.md) have a family of quadratic motions through
-    them and give a planar or spherical four-bar (kind ``planar_4r`` / ``spherical_4r``): the best-scored
-    member, or ``member`` = (lambda1, lambda2). Raises InputError (shape, NaN, a member for spatial poses)
+    the tool frame is always verified at every pose's reported joint angles. Planar or spherical poses
+    (docs/planar.md) have a family of quadratic motions through them and give a planar or spherical
+    four-bar (kind ``planar_4r`` / ``spherical_4r``): the best-scored member, or ``member`` =
+    (lambda1, lambda2). Raises InputError (shape, NaN, a member for spatial poses)
     or SynthesisError (degenerate or non-real cases, with a plain-language reason)."""
     return bennett_candidates(poses, names, check_samples=check_samples, member=member)[0]
 
@@ -76,8 +77,8 @@ def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SA
         raise InputError(f"a Bennett linkage needs exactly 3 poses (array of shape (3, 4, 4)), got {T.shape}")
     names = list(names) if names is not None else ["p0", "p1", "p2"]
     if member is None and np.all(np.isfinite(T)):
-        # the perturbed sets of the condition estimate (`sensitivity`) ride in the same batch: a batch of
-        # three costs about what a batch of one does
+        # the perturbed sets of the condition estimate (`sensitivity`) are factored in the same batch
+        # (the first half of the pipeline only)
         out = solve(T[None], check_samples, extra=perturbed_poses(T))
         if out["good"][0]:
             return [linkage_from_solution(out, 0, T, names, check_samples, perturbed=out["extra"])]
@@ -137,8 +138,8 @@ def check_transmission(linkage) -> None:
 
 def linkage_from_solution(out: dict, i: int, T, names, check_samples: int, perturbed: dict | None = None):
     """The `Linkage` of set i of a `synth.synthesis.bennett_core.solve` result (checks and info from
-    its arrays). ``perturbed``: ``good`` and ``factors`` of `perturbed_poses` (T) (`factor_sets`), when at hand
-    (`sensitivity` solves them otherwise)."""
+    its arrays). ``perturbed``: ``good`` and ``factors`` of `perturbed_poses` (T) (`factor_sets`), when
+    at hand (`sensitivity` computes them otherwise)."""
     F = out["factors"][i]
     scale = float(out["scale"][i])
     cond = Conditioning(centre=out["centre"][i], scale=scale)

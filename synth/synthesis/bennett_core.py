@@ -9,8 +9,8 @@ motion (`synth.checks.loop_bound`), plus samples at ``check_samples`` parameters
 (`synth.checks.check_figures`). ``synth.bennett`` is
 a batch of one, ``synth.bennett_batch`` a batch of many. Sets the generic pipeline cannot judge
 (``good`` False: degenerate or nearly degenerate poses, nearly real or repeated norm roots, a translation
-factor, a multiply-back error above MAX_RESIDUAL after Newton polishing, a self-check near the acceptance limit) are left to
-the per-set path of `synth.synthesis.bennett`, which gives each refusal its message.
+factor, a multiply-back error above MAX_RESIDUAL after Newton polishing, a self-check near the
+acceptance limit) are left to the per-set path of `synth.synthesis.bennett`, which gives each refusal its message.
 
 Conventions: joints ``h1, h2, k1, k2``; h1 and k2 carry the norm factor whose root a + ib has the smaller
 real part; pose 0 at t = inf (all angles 0), pose 1 at t = 0, pose 2 at t = 1; lengths in metres,
@@ -40,7 +40,7 @@ EPS = float(np.finfo(float).eps)
 MIN_B = 1e-6  # |B_ij| (conditioned) at or below this: (nearly) degenerate conic -> per-set path
 MIN_IMAG = 1e-5  # min Im z / (1 + |z|^2) at or below this: nearly real norm root -> per-set path
 MIN_SEPARATION = 1e-5  # min |z1 - z2| / (1 + |z|^2) at or below this: nearly repeated root -> per-set path
-CHUNK = 2048  # sets per chunk of `solve` (measured on N = 10,000: chunks of 1,000-2,000 sets ~20% faster per set than one chunk)
+CHUNK = 2048  # sets per chunk of `solve` (N = 10,000: chunks of 1,000-2,000 sets ~20% faster per set than one)
 MAX_RESIDUAL = 5e-13  # multiply-back error above this: polished; still above: per-set path
 _ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
 _PREV = [3, 0, 1, 2]  # the previous joint around the loop
