@@ -246,3 +246,53 @@ def test_general_darboux_motion_gets_a_verified_ten_joint_linkage(tmp_path):
     v = subprocess.run([sys.executable, str(verifier), str(out), "--steps", "90"], capture_output=True, text=True,
                        timeout=1800)
     assert v.returncode == 0 and v.stdout.strip().splitlines()[-1].startswith("verify OK"), v.stdout + v.stderr
+
+
+def test_the_seven_joint_loop_of_the_two_chains_closes_with_one_degree_of_freedom():
+    """The 3R chain h1 h2 h3 and the 4R chain g1 g2 g3 g4 (g2 at twice the rate, 2 theta) both move their
+    end link by C: joint angles theta = 2 atan2(1, t) about the lines of `joint_from_factor` (g2: 2 theta)
+    give the same end pose at every sampled t, and the seven joint screws there span 6 dimensions
+    (instantaneous mobility 7 - 6 = 1). Numbers for docs/exceptional.md, section 6; the linkage itself
+    is not built."""
+    from synth.algebra.dq import rotation_about_line
+    from synth.synthesis.assemble import joint_from_factor
+
+    u = [F(2, 3), F(-1, 3), F(-2, 3)]
+    G = _exact([[0, *u, 0, F(-1, 2), 1, -1], [0, *(-x for x in u), 0, F(3, 4), 0, F(3, 4)], [0, *u, 0, 0, 0, 0],
+                [0, 0, 0, 1, 0, -1, 0, 0]])
+    chains = ([(joint_from_factor(f"h{i}", "", "", h.astype(float)), 1) for i, h in enumerate(_general_three_joint())],
+              [(joint_from_factor(f"g{i}", "", "", g.astype(float)), 2 if i == 1 else 1) for i, g in enumerate(G)])
+    for t in (-2.0, -0.3, 0.4, 1.7, 5.0):
+        ends, screws = [], []
+        for sign, chain in zip((1, -1), chains):
+            T = np.eye(4)
+            for j, rate in chain:
+                d = T[:3, :3] @ j.direction
+                p = T[:3, :3] @ j.point + T[:3, 3]
+                screws.append(sign * np.concatenate([d, np.cross(p, d)]))
+                T = T @ rotation_about_line(j.direction, j.moment, rate * float(j.angle(t)))
+            ends.append(T)
+        assert np.allclose(ends[0], ends[1], atol=1e-12)
+        sv = np.linalg.svd(np.array(screws), compute_uv=False)
+        assert len(screws) == 7 and sv[5] > 1e-3 * sv[0], sv  # rank 6: a 1-dimensional null space
+
+
+@pytest.mark.parametrize("seed", [2, 9])
+def test_every_three_joint_factorization_found_ends_with_h3(seed):
+    """Least squares for C = (t - h1)(t - h2)(t - h3) over rotation factors (scalar parts 0, direction
+    perpendicular to moment), from random starts: the solutions end with h3 = k + (1/8) eps i and have h1, h2
+    along -+(4, 4, -7)/9 (seeds 2 and 9 of 0..19 converge; ~0.1 s each)."""
+    C = np.array(parse_polynomial(GENERAL), float)
+
+    def resid(x):
+        X = x.reshape(3, 6)
+        H = np.zeros((3, 8))
+        H[:, 1:4], H[:, 5:8] = X[:, :3], X[:, 3:]
+        return np.concatenate([(product_of_linear(H) - C).ravel(), np.sum(X[:, :3] * X[:, 3:], axis=1)])
+
+    sol = least_squares(resid, np.random.default_rng(seed).normal(size=18), method="lm", xtol=1e-15, ftol=1e-15,
+                        max_nfev=5000)
+    X = sol.x.reshape(3, 6)
+    assert np.linalg.norm(sol.fun) < 1e-10
+    assert np.allclose(X[2], [0, 0, 1, 0.125, 0, 0], atol=1e-6)
+    assert np.allclose(X[0, :3], [4 / 9, 4 / 9, -7 / 9], atol=1e-6) and np.allclose(X[1, :3], -X[0, :3], atol=1e-6)
