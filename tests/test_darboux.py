@@ -136,3 +136,163 @@ def test_no_three_joint_open_chain_performs_the_motion(seed):
     never at a finite 3R chain (docs/exceptional.md, section 6; ~1 min per start on a loaded machine)."""
     res, far = open_chain_search(3, seed=seed)
     assert res > 1e-7 or far > 50
+
+
+# ------------------------------------------------------------------ a general (non-vertical) Darboux motion
+GENERAL = "(t^2 + 1)*(t - k) + eps*(i + k/2 - (j + k/2)*t)*(t - k)"  # fixtures/motion_darboux_general.yaml
+
+
+def _exact(rows):
+    return np.array([[F(x) for x in r] for r in rows], dtype=object)
+
+
+def _same(a, b):
+    return a.shape == b.shape and all(x == y for x, y in zip(a.ravel(), b.ravel()))
+
+
+def _general_three_joint(s=(0, 0, 0)):
+    """C = (t - h1)(t - h2)(t - h3): h3 = k + (1/8) eps i (the vertical axis through (0, -1/8, 0)), and
+    (t - h1)(t - h2) the circular translation with axes along -+(4, 4, -7)/9, a member of its 2-parameter
+    family (h1 - eps s, h2 + eps s, s perpendicular to the axes)."""
+    a, b, c = (F(x) for x in s)
+    u = [F(4, 9), F(4, 9), F(-7, 9)]
+    w = [F(-1, 16), F(1, 2), F(1, 4)]
+    h1 = [0, *u, 0, w[0] - a, w[1] - b, w[2] - c]
+    h2 = [0, *(-x for x in u), 0, w[0] + a, w[1] + b, w[2] + c]
+    h3 = [0, 0, 0, 1, 0, F(1, 8), 0, 0]
+    return _exact([h1, h2, h3])
+
+
+def test_general_darboux_motion_polynomial():
+    """Exact Study condition, norm (t^2 + 1)^3, primal part (t^2 + 1)(t - k) (the real factor that makes
+    it non-generic), and planar point paths (a Darboux motion) that are not those of a rotation about a
+    vertical axis (the horizontal part is the elliptic motion)."""
+    from synth.algebra.dq import dq_to_pose
+
+    C = np.array(parse_polynomial(GENERAL, exact=True), dtype=object)
+    conj = C.copy()
+    conj[:, [1, 2, 3, 5, 6, 7]] *= -1
+    N = poly_mul(C, conj)
+    assert all(v == 0 for v in N[:, 1:].ravel())  # real norm: the Study condition holds
+    assert [N[d, 0] for d in range(7)] == [1, 0, 3, 0, 3, 0, 1]  # (t^2 + 1)^3
+    Cf = C.astype(float)
+    ts = np.tan(np.linspace(-1.5, 1.5, 15))
+    poses = np.array([dq_to_pose(sum(Cf[d] * t ** d for d in range(4))) for t in ts])
+    for x in ([0.3, -1.2, 0.8, 1.0], [0, 0, 0, 1.0]):
+        traj = poses @ np.array(x)
+        assert np.linalg.svd(traj[:, :3] - traj[:, :3].mean(0), compute_uv=False)[2] < 1e-12
+    # not vertical: a rotation about a vertical axis would keep one fixed centre; here the poles of the
+    # horizontal displacements from the reference pose run over the unit circle about the origin, while the
+    # origin runs on the unit circle about (-1, 0) (the elliptic motion)
+    R2, d2 = poses[:, :2, :2], poses[:, :2, 3]
+    fixed = np.linalg.solve(np.eye(2) - R2, d2[..., None])[..., 0]
+    assert np.ptp(fixed, axis=0).max() > 1 and np.allclose(np.hypot(fixed[:, 0], fixed[:, 1]), 1)
+    assert np.allclose(np.hypot(d2[:, 0] + 1, d2[:, 1]), 1)
+
+
+def test_general_darboux_three_joint_chains_share_the_last_axis():
+    """Two members of the family of 3R chains multiply back exactly; both end in the same joint h3, so
+    the 6R loop of the two chains is a parallelogram (four parallel axes) plus one axis twice: its six
+    joint screws at the reference configuration span 4 dimensions, 6 - 4 = 2 degrees of freedom."""
+    C = np.array(parse_polynomial(GENERAL, exact=True), dtype=object)
+    H = _general_three_joint()
+    K = _general_three_joint((1, -1, 0))  # s = (1, -1, 0) is perpendicular to (4, 4, -7)
+    assert _same(product_of_linear(H), C) and _same(product_of_linear(K), C)
+    assert all(x == y for x, y in zip(H[2], K[2]))
+    screws = np.array([[*h[1:4], *h[5:8]] for h in np.vstack([H, K]).astype(float)])
+    assert np.linalg.matrix_rank(screws, tol=1e-9) == 4
+
+
+def test_general_darboux_four_joint_chain_with_a_double_rate_joint():
+    """C (t^2 + 1) = (t - g1)(t - g2)^2 (t - g3)(t - g4) exactly: three parallel axes along
+    -+(2, -1, -2)/3 whose middle joint turns at twice the rate (the segment translation
+    t^2 + 1 + eps (1 - t)(i + j + k/2) times t^2 + 1), then the vertical axis g4 = k - eps i through
+    (0, 1, 0). With a 3R chain above it closes the 7R loop of the literature (not built: the joint model
+    has one angle law 2 atan2(b, t - a) per joint)."""
+    C = np.array(parse_polynomial(GENERAL, exact=True), dtype=object)
+    u = [F(2, 3), F(-1, 3), F(-2, 3)]
+    g1 = [0, *u, 0, F(-1, 2), 1, -1]
+    g2 = [0, *(-x for x in u), 0, F(3, 4), 0, F(3, 4)]
+    g3 = [0, *u, 0, 0, 0, 0]
+    g4 = [0, 0, 0, 1, 0, -1, 0, 0]
+    M = _exact([[1] + [0] * 7, [0] * 8, [1] + [0] * 7])  # t^2 + 1
+    assert _same(product_of_linear(_exact([g1, g2, g2, g3, g4])), poly_mul(C, M))
+
+
+def test_general_darboux_motion_gets_a_verified_ten_joint_linkage(tmp_path):
+    """`mpsynth curve` on the fixture: C factors with R = 1 into the three rotations above (the cofactor
+    search), the ladder of Bennett flips has 10 joints and 3 loops, mobility 1; the shared verifier
+    accepts it (~12 s with the verifier)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from click.testing import CliRunner
+
+    from cli.main import mpsynth
+
+    repo = Path(__file__).resolve().parents[1]
+    verifier = Path(__file__).resolve().parents[2] / "shared/tools/verify_output.py"
+    out = tmp_path / "darboux_general"
+    r = CliRunner().invoke(mpsynth, ["curve", str(repo / "fixtures/motion_darboux_general.yaml"), "-o", str(out),
+                                     "-q"])
+    assert r.exit_code == 0, r.output
+    import json
+
+    info = json.loads((out / "linkage.json").read_text())
+    assert len(info["joints"]) == 10
+    if not verifier.exists():
+        pytest.skip("../shared/tools/verify_output.py is not present")
+    v = subprocess.run([sys.executable, str(verifier), str(out), "--steps", "90"], capture_output=True, text=True,
+                       timeout=1800)
+    assert v.returncode == 0 and v.stdout.strip().splitlines()[-1].startswith("verify OK"), v.stdout + v.stderr
+
+
+def test_the_seven_joint_loop_of_the_two_chains_closes_with_one_degree_of_freedom():
+    """The 3R chain h1 h2 h3 and the 4R chain g1 g2 g3 g4 (g2 at twice the rate, 2 theta) both move their
+    end link by C: joint angles theta = 2 atan2(1, t) about the lines of `joint_from_factor` (g2: 2 theta)
+    give the same end pose at every sampled t, and the seven joint screws there span 6 dimensions
+    (instantaneous mobility 7 - 6 = 1). Numbers for docs/exceptional.md, section 6; the linkage itself
+    is not built."""
+    from synth.algebra.dq import rotation_about_line
+    from synth.synthesis.assemble import joint_from_factor
+
+    u = [F(2, 3), F(-1, 3), F(-2, 3)]
+    G = _exact([[0, *u, 0, F(-1, 2), 1, -1], [0, *(-x for x in u), 0, F(3, 4), 0, F(3, 4)], [0, *u, 0, 0, 0, 0],
+                [0, 0, 0, 1, 0, -1, 0, 0]])
+    chains = ([(joint_from_factor(f"h{i}", "", "", h.astype(float)), 1) for i, h in enumerate(_general_three_joint())],
+              [(joint_from_factor(f"g{i}", "", "", g.astype(float)), 2 if i == 1 else 1) for i, g in enumerate(G)])
+    for t in (-2.0, -0.3, 0.4, 1.7, 5.0):
+        ends, screws = [], []
+        for sign, chain in zip((1, -1), chains):
+            T = np.eye(4)
+            for j, rate in chain:
+                d = T[:3, :3] @ j.direction
+                p = T[:3, :3] @ j.point + T[:3, 3]
+                screws.append(sign * np.concatenate([d, np.cross(p, d)]))
+                T = T @ rotation_about_line(j.direction, j.moment, rate * float(j.angle(t)))
+            ends.append(T)
+        assert np.allclose(ends[0], ends[1], atol=1e-12)
+        sv = np.linalg.svd(np.array(screws), compute_uv=False)
+        assert len(screws) == 7 and sv[5] > 1e-3 * sv[0], sv  # rank 6: a 1-dimensional null space
+
+
+@pytest.mark.parametrize("seed", [2, 9])
+def test_every_three_joint_factorization_found_ends_with_h3(seed):
+    """Least squares for C = (t - h1)(t - h2)(t - h3) over rotation factors (scalar parts 0, direction
+    perpendicular to moment), from random starts: the solutions end with h3 = k + (1/8) eps i and have h1, h2
+    along -+(4, 4, -7)/9 (seeds 2 and 9 of 0..19 converge; ~0.1 s each)."""
+    C = np.array(parse_polynomial(GENERAL), float)
+
+    def resid(x):
+        X = x.reshape(3, 6)
+        H = np.zeros((3, 8))
+        H[:, 1:4], H[:, 5:8] = X[:, :3], X[:, 3:]
+        return np.concatenate([(product_of_linear(H) - C).ravel(), np.sum(X[:, :3] * X[:, 3:], axis=1)])
+
+    sol = least_squares(resid, np.random.default_rng(seed).normal(size=18), method="lm", xtol=1e-15, ftol=1e-15,
+                        max_nfev=5000)
+    X = sol.x.reshape(3, 6)
+    assert np.linalg.norm(sol.fun) < 1e-10
+    assert np.allclose(X[2], [0, 0, 1, 0.125, 0, 0], atol=1e-6)
+    assert np.allclose(X[0, :3], [4 / 9, 4 / 9, -7 / 9], atol=1e-6) and np.allclose(X[1, :3], -X[0, :3], atol=1e-6)
