@@ -25,7 +25,7 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, LOOP, TS, axis_distance, bennett_parameters,
                                           dh_rows, factor_sets, loop_geometry, relative_error, solve)
 from synth.synthesis.conditioning import transmission_problem
-from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements, to_world
+from synth.synthesis.conic import Conditioning, condition, conditioning, conic, relative_displacements, to_world
 from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_bennett import accepted_error
 from synth.synthesis.planar_bennett import candidates as planar_candidates
@@ -44,8 +44,7 @@ def check_distinct(T, names, tol=COINCIDENT_TOL):
     """Refuse coincident poses (k, 4, 4) with a message naming them: translations within ``tol`` of
     the RMS spread of the positions and rotations within ``tol`` radians."""
     T = np.asarray(T, float)
-    pos = T[:, :3, 3]
-    L = max(float(np.sqrt(np.mean(np.sum((pos - pos.mean(axis=0)) ** 2, axis=1)))), 1e-300)
+    L = _spread(T)
     i, j = np.triu_indices(len(T), 1)
     dt, dr = pose_difference(T[i], T[j])
     same = ((dt <= tol * L) & (dr <= tol)) | ((dt == 0) & (dr <= tol))
@@ -103,7 +102,7 @@ def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
     check_transmission(linkage)
     checks = self_check(linkage, samples)
     T = np.array([p.matrix for p in linkage.poses], float)
-    Tc, cond = condition(T)
+    cond = conditioning(T)
     if linkage.kind in ("planar_4r", "spherical_4r"):  # a member of a family (docs/planar.md)
         linkage.checks = checks
         rel = accepted_error(linkage, T, cond)
@@ -131,9 +130,7 @@ def check_transmission(linkage) -> None:
     why = transmission_problem(linkage)
     if why:
         T = np.array([p.matrix for p in linkage.poses], float)
-        pos = T[:, :3, 3]
-        spread = max(float(np.sqrt(np.mean(np.sum((pos - pos.mean(axis=0)) ** 2, axis=1)))), 1e-300)
-        raise SynthesisError(why + _near_degenerate(T, [p.name for p in linkage.poses], spread))
+        raise SynthesisError(why + _near_degenerate(T, [p.name for p in linkage.poses], _spread(T)))
 
 
 def linkage_from_solution(out: dict, i: int, T, names, check_samples: int, perturbed: dict | None = None):

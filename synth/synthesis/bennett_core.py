@@ -26,7 +26,7 @@ from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multip
 from synth.algebra.polynomial import norm_poly
 from synth.checks import check_figures, loop_bound
 from synth.algebra.dq import dot, dq_mul, pose_to_dq, translation_dq
-from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq, to_world
+from synth.synthesis.conic import Conditioning, conditioning, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
 BRANCHES = ((0, 1), (2, 3))  # h1 h2 | k1 k2, base to coupler
@@ -89,7 +89,7 @@ def _factors(T) -> dict:
     finite = np.all(np.isfinite(T), axis=(1, 2, 3))
     with np.errstate(all="ignore"):
         Tf = np.where(finite[:, None, None, None], T, _EYE4)
-        cond = condition(Tf)[1]
+        cond = conditioning(Tf)
         Q = pose_to_dq(Tf)  # world frame (checks)
         # the conditioned poses (conic): translated by -centre, lengths divided by the scale
         Qc = dq_mul(translation_dq(-cond.centre)[:, None], Q)

@@ -22,19 +22,25 @@ class Conditioning:
     scale: float  # metres per conditioned unit
 
 
-def condition(T) -> tuple[np.ndarray, Conditioning]:
-    """Move the origin to the centroid of the positions and divide lengths by their RMS spread.
-    Works on (..., k, 4, 4); the centre is (..., 3), the scale (...)."""
-    T = np.asarray(T, float)
-    pos = T[..., :3, 3]
+def conditioning(T) -> Conditioning:
+    """The centroid of the positions of poses T (..., k, 4, 4) (centre (..., 3)) and their RMS spread
+    (scale (...), 1 where the positions coincide)."""
+    pos = np.asarray(T, float)[..., :3, 3]
     k = pos.shape[-2]
     c = pos.sum(axis=-2) / k
     rel = pos - c[..., None, :]
     L = np.sqrt(dot(rel, rel).sum(axis=-1) / k)
-    L = np.where(L > 0, L, 1.0)
+    return Conditioning(centre=c, scale=np.where(L > 0, L, 1.0))
+
+
+def condition(T) -> tuple[np.ndarray, Conditioning]:
+    """Move the origin to the centroid of the positions and divide lengths by their RMS spread
+    (`conditioning`). Works on (..., k, 4, 4); the centre is (..., 3), the scale (...)."""
+    T = np.asarray(T, float)
+    cond = conditioning(T)
     Tc = T.copy()
-    Tc[..., :3, 3] = (pos - c[..., None, :]) / L[..., None, None]
-    return Tc, Conditioning(centre=c, scale=L)
+    Tc[..., :3, 3] = (T[..., :3, 3] - cond.centre[..., None, :]) / cond.scale[..., None, None]
+    return Tc, cond
 
 
 def to_world(h, cond: Conditioning):
