@@ -24,6 +24,7 @@ import numpy as np
 from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multiply_back, norm_roots, polish, quadratics,
                                       remainder_error, root_conditioning)
 from synth.algebra.polynomial import norm_poly
+from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound
 from synth.algebra.dq import dot, dq_mul, pose_to_dq, translation_dq
 from synth.synthesis.conic import Conditioning, conditioning, conic, relative_displacements_dq, to_world
@@ -40,6 +41,7 @@ EPS = float(np.finfo(float).eps)
 MIN_B = 1e-6  # |B_ij| (conditioned) at or below this: (nearly) degenerate conic -> per-set path
 MIN_IMAG = 1e-5  # min Im z / (1 + |z|^2) at or below this: nearly real norm root -> per-set path
 MIN_SEPARATION = 1e-5  # min |z1 - z2| / (1 + |z|^2) at or below this: nearly repeated root -> per-set path
+ONE_THREAD_MIN = 256  # sets from which BLAS runs on one thread (`synth.blas`: threads only cost here)
 CHUNK = 2048  # sets per chunk of `solve` (N = 10,000: chunks of 1,000-2,000 sets ~20% faster per set than one)
 MAX_RESIDUAL = 5e-13  # multiply-back error above this: polished; still above: per-set path
 _ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
@@ -51,7 +53,8 @@ def solve(T, check_samples: int, extra=None) -> dict:
     """The Bennett pipeline on poses T (N, 3, 4, 4), metres; returns a dict of arrays over N (see
     `synth.synthesis.bennett_batch.BennettBatch` for the fields) plus ``good`` (N,): the set was solved
     here and its self-check is well inside ACCEPT_TOL. Rows of sets that are not good hold garbage.
-    Large batches run in chunks of CHUNK sets, whose temporaries stay in the CPU caches. ``extra``
+    Large batches run in chunks of CHUNK sets, whose temporaries stay in the CPU caches, with BLAS on
+    one thread from ONE_THREAD_MIN sets on (`synth.blas`, docs/architecture.md "Threads"). ``extra``
     (M, 3, 4, 4): pose sets of which only the factorizations are wanted (the condition estimate's
     perturbed sets), computed in the same batch: ``out["extra"]`` = {``good`` (M,) (the gates before
     the self-check), ``factors`` (M, 4, 8)}."""
@@ -62,8 +65,10 @@ def solve(T, check_samples: int, extra=None) -> dict:
         out = _solve(T, check_samples, {k: v[:n] for k, v in fac.items()})
         out["extra"] = {"good": fac["good"][n:], "factors": fac["factors"][n:]}  # as `factor_sets`
         return out
-    if T.shape[0] > CHUNK:
-        return _concatenate([_solve(T[i : i + CHUNK], check_samples) for i in range(0, T.shape[0], CHUNK)])
+    if T.shape[0] >= ONE_THREAD_MIN:
+        with one_blas_thread():
+            parts = [_solve(T[i : i + CHUNK], check_samples) for i in range(0, T.shape[0], CHUNK)]
+        return parts[0] if len(parts) == 1 else _concatenate(parts)
     return _solve(T, check_samples)
 
 
