@@ -13,6 +13,7 @@ import functools
 import numpy as np
 
 from synth.algebra.algorithm1 import cross3
+from synth.algebra.anglelaw import half_angle
 from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq, qmul
 from synth.algebra.polynomial import product_of_linear
 from synth.linkage import Linkage
@@ -107,8 +108,7 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
     t = sample_parameters_batch(a, b, samples) if samples > 0 else np.zeros((N, 0))  # (N, S), the last t = inf
     S = t.shape[1]
     inf = np.isinf(t)
-    with np.errstate(invalid="ignore"):
-        half_s = np.where(inf[..., None], 0.0, np.arctan2(b[:, None, :], t[..., None] - a[:, None, :]))
+    half_s = half_angle(a[:, None, :], b[:, None, :], t[..., None])
     half = np.concatenate([0.5 * pose_angles, half_s], axis=1)  # (N, P + S, J)
     cos, sin = np.cos(half)[..., None], np.sin(half)[..., None]
     # the joint displacement G = cos + sin (u - eps m) multiplies on the right: x G = cos x + sin x R(line),

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from synth.algebra.anglelaw import driven_angle
 from synth.io.frames import TWO_PI, invert_transform
 from synth.io.urdfmodel import UrdfModel
 
@@ -18,13 +19,13 @@ from synth.io.urdfmodel import UrdfModel
 def law_angles(laws: dict, driver: str, phi) -> dict[str, np.ndarray]:
     """Exact joint angles when the driver joint is at angle(s) ``phi`` in [0, 2pi]: the driver's law
     theta = 2 atan2(b, t - a) gives t = a + b cot(phi/2); with s = sin(phi/2) >= 0, c = cos(phi/2),
-    theta_j = 2 atan2(b_j s, (a_d - a_j) s + b_d c), which is exact at phi = 0 (t = infinity) too."""
+    theta_j = 2 atan2(b_j s, (a_d - a_j) s + b_d c), which is exact at phi = 0 (t = infinity) too
+    (`synth.algebra.anglelaw.driven_angle`)."""
     phi = np.asarray(phi, float)
     ad, bd = laws[driver]
-    s, c = np.sin(phi / 2), np.cos(phi / 2)
     out = {}
     for jn, (a, b) in laws.items():
-        out[jn] = phi.copy() if jn == driver else np.mod(2.0 * np.arctan2(b * s, (ad - a) * s + bd * c), TWO_PI)
+        out[jn] = phi.copy() if jn == driver else driven_angle(a, b, ad, bd, phi)
     return out
 
 

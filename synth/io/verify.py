@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.algebra.anglelaw import angle_law, angle_law_inverse
 from synth.algebra.polynomial import pose_at
 from synth.io.continuation import continue_loop, law_angles
 from synth.io.frames import TWO_PI, invert_transform, pose_diff, wrap_angle
@@ -342,7 +343,7 @@ class _Checker:
             for jn, v in rec["joint_angles"].items():
                 if jn in laws:
                     a, b = laws[jn]
-                    th = 0.0 if math.isinf(t) else 2.0 * math.atan2(b, t - a)
+                    th = float(angle_law(a, b, t))
                     worst = max(worst, abs(float(wrap_angle(th - float(v)))))
         if worst > self.tol_ang:
             self.fail(f"linkage.json: pose joint angles differ from the angle laws by {worst:.3g} rad")
@@ -365,9 +366,7 @@ class _Checker:
             try:
                 Cn = np.array(C, float)
                 a, b = laws[self.driver]
-                s, c = np.sin(phi / 2), np.cos(phi / 2)
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    t = np.where(s == 0, np.inf, a + b * c / s)
+                t = angle_law_inverse(a, b, phi)
                 target = pose_at(Cn, t)
                 disp = F[tool_link] @ invert_transform(self.u.fk({})[tool_link])
                 dt, dr = pose_diff(disp, target)

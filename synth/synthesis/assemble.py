@@ -7,10 +7,8 @@ import math
 
 import numpy as np
 
+from synth.algebra.anglelaw import angle_law
 from synth.linkage import Joint, Linkage, PoseRecord
-
-TWO_PI = 2.0 * math.pi
-INF = math.inf
 
 
 def joint_from_factor(name: str, parent: str, child: str, h) -> Joint:
@@ -21,11 +19,14 @@ def joint_from_factor(name: str, parent: str, child: str, h) -> Joint:
                  moment=np.array([w1 / b, w2 / b, w3 / b]), a=h0, b=b)
 
 
-def _angle(a: float, b: float, t: float) -> float:
-    """`Joint.angle` for a scalar t, in plain floats: 2 atan2(b, t - a) mod 2 pi, 0 at t = +-inf."""
-    if math.isinf(t):
-        return 0.0
-    return (2.0 * math.atan2(b, t - a)) % (2.0 * math.pi)
+def pose_records(joints, poses, names, ts) -> list[PoseRecord]:
+    """One PoseRecord per pose (4x4 matrix, name, parameter t) with every joint's angle there
+    (`synth.algebra.anglelaw.angle_law`, all poses and joints in one call)."""
+    ts = [float(t) for t in ts]
+    law = np.array([(j.a, j.b, 1) for j in joints], float).reshape(-1, 3).T
+    ang = angle_law(law[0], law[1], np.array(ts)[:, None], law[2]).tolist()  # (poses, joints)
+    jn = [j.name for j in joints]
+    return [PoseRecord(name, T, t, dict(zip(jn, row))) for name, T, t, row in zip(names, poses, ts, ang)]
 
 
 def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> Linkage:
@@ -46,14 +47,7 @@ def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> 
     joints = [Joint(name, parent, child, lines[2 * i], lines[2 * i + 1], a, b)
               for i, ((name, parent, child), (a, b)) in enumerate(zip(specs, laws))]
     poses = np.asarray(poses, float)
-    jn = [spec[0] for spec in specs]
-    records = []
-    for name, T, t in zip(names, poses, map(float, ts)):
-        if t == INF or t == -INF:  # as _angle
-            ang = dict.fromkeys(jn, 0.0)
-        else:
-            ang = {n: (2.0 * math.atan2(b, t - a)) % TWO_PI for n, (a, b) in zip(jn, laws)}
-        records.append(PoseRecord(name, T, t, ang))
+    records = pose_records(joints, poses, names, ts)
     return Linkage(kind, joints, {k: list(v) for k, v in links.items()}, [list(x) for x in branches],
                    [("coupler", "coupler_k")], poses[0], None if motion is None else np.asarray(motion, float),
                    records, info=dict(info) if info else {})
@@ -94,8 +88,7 @@ def watt_linkage(kind: str, F, motion, poses, names, ts, info=None) -> Linkage:
     (h3, k3), link_k2 (k2, k3), link_g1 (g1, g2); two loops, cut at the coupler (duplicate ``coupler_k``)
     and at link_h2 (duplicate ``link_h2_g``), welded as in docs/conventions.md, section 6."""
     joints = [joint_from_factor(n, p, c, h) for (n, p, c), h in zip(WATT_JOINTS, np.asarray(F, float))]
-    records = [PoseRecord(name, T, float(t), {j.name: _angle(j.a, j.b, float(t)) for j in joints})
-               for name, T, t in zip(names, np.asarray(poses, float), ts)]
+    records = pose_records(joints, np.asarray(poses, float), names, ts)
     return Linkage(kind, joints, {k: list(v) for k, v in WATT_LINKS.items()},
                    [["h1", "h2", "h3"], ["h1", "k2", "k3"], ["g1", "g2"]],
                    [("coupler", "coupler_k"), ("link_h2", "link_h2_g")], np.asarray(poses, float)[0],
