@@ -38,6 +38,7 @@ class Joint:
     moment: np.ndarray  # (3,) metres
     a: float  # angle law theta(t) = rate * 2 atan2(b, t - a)
     b: float
+    rate: int = 1  # the joint of a factor (t - h)^rate (docs/exceptional.md, section 6)
 
     @property
     def point(self) -> np.ndarray:
@@ -46,12 +47,12 @@ class Joint:
 
     def angle(self, t):
         """Joint angle (rad) at parameter t (scalar or array; +-inf gives 0), in [0, 2pi)."""
-        return angle_law(self.a, self.b, t)
+        return angle_law(self.a, self.b, t, self.rate)
 
     def parameter(self, theta, branch: int = 0):
         """Parameter t where the joint is at angle theta (`synth.algebra.anglelaw.angle_law_inverse`;
         a joint of rate r reaches every angle at r parameters, ``branch`` 0 .. r - 1); theta = 0: inf."""
-        return angle_law_inverse(self.a, self.b, theta, 1, branch)
+        return angle_law_inverse(self.a, self.b, theta, self.rate, branch)
 
 
 @dataclass

@@ -1,4 +1,5 @@
 """The one angle law (synth/algebra/anglelaw.py): worked values, inverse, driven angles, repeated factors."""
+import json
 import math
 
 import numpy as np
@@ -9,6 +10,7 @@ from hypothesis import strategies as st
 from synth.algebra.anglelaw import angle_law, angle_law_inverse, driven_angle, half_angle
 from synth.algebra.dq import dq_mul, rotation_about_line
 from synth.algebra.polynomial import pose_at
+from synth.errors import InputError
 
 TWO_PI = 2 * math.pi
 
@@ -76,3 +78,82 @@ def test_rate_is_a_repeated_factor():
     sq[0] = dq_mul(h, h)
     for t in (-2.0, 0.1, 0.4, 3.0):
         assert np.allclose(pose_at(sq, t), rotation_about_line(u, m, float(angle_law(a, b, t, 2))), atol=1e-12)
+
+
+# ------------------------------------------------------------------ joints of rate 2 (a repeated factor)
+def _darboux_chain():
+    """The open 4-joint chain of C (t^2 + 1) for the general Darboux motion (docs/exceptional.md, section 6):
+    g1, g2 (rate 2), g3 parallel, then the vertical g4; as a `Linkage` without closures, at 3 poses."""
+    from synth.algebra.expr import parse_polynomial
+    from synth.algebra.polynomial import poly_mul
+    from synth.synthesis.assemble import joint_from_factor, pose_records
+    from synth.linkage import Linkage
+
+    u = np.array([2, -1, -2]) / 3
+    G = [[0, *u, 0, -0.5, 1, -1], [0, *-u, 0, 0.75, 0, 0.75], [0, *u, 0, 0, 0, 0], [0, 0, 0, 1, 0, -1, 0, 0]]
+    links = ["base", "l1", "l2", "l3", "coupler"]
+    joints = [joint_from_factor(f"g{i + 1}", links[i], links[i + 1], np.array(g, float)) for i, g in enumerate(G)]
+    joints[1].rate = 2
+    C = np.array(parse_polynomial("(t^2 + 1)*(t - k) + eps*(i + k/2 - (j + k/2)*t)*(t - k)"), float)
+    M = np.zeros((3, 8))
+    M[0, 0] = M[2, 0] = 1.0
+    CM = poly_mul(C, M)
+    ts = [np.inf, 0.0, -1.5]
+    poses = pose_at(CM, np.array(ts))
+    lk = Linkage("curve", joints, {n: [] for n in links}, [[j.name for j in joints]], [], poses[0], CM,
+                 pose_records(joints, poses, ["p0", "p1", "p2"], ts))
+    return lk
+
+
+def test_a_rate_two_joint_in_the_self_check():
+    from synth.checks import self_check
+
+    lk = _darboux_chain()
+    assert lk.poses[1].joint_angles["g2"] == pytest.approx(0.0, abs=1e-12)  # t = 0: 2 x half a turn
+    fig = self_check(lk, 40)
+    assert fig["max_motion_error"] < 1e-12 and fig["max_pose_error"] < 1e-12
+    lk.joints[1].rate = 1  # the same chain read with one angle law per joint does not perform the motion
+    assert self_check(lk, 40)["max_motion_error"] > 0.1
+
+
+def test_rate_round_trips_through_linkage_json():
+    from synth.io.jsonout import linkage_document, plain
+    from synth.io.readback import angle_rates, linkage_from_document
+
+    lk = _darboux_chain()
+    doc = plain(linkage_document(lk))
+    laws = {j["name"]: j["angle_law"] for j in doc["joints"]}
+    assert laws["g2"]["rate"] == 2 and "rate" not in laws["g1"]  # written only when not 1
+    assert angle_rates(doc) == {"g1": 1, "g2": 2, "g3": 1, "g4": 1}
+    back = linkage_from_document(doc)
+    assert [j.rate for j in back.joints] == [1, 2, 1, 1]
+    ts = np.array([-3.0, -0.2, 0.7, 4.0])
+    for j, k in zip(lk.joints, back.joints):
+        assert np.allclose(j.angle(ts), k.angle(ts), atol=1e-14)
+        # the inverse: one of the rate branches gives t back
+        for t in ts:
+            cands = [float(k.parameter(k.angle(t), br)) for br in range(k.rate)]
+            assert min(abs(c - t) for c in cands) < 1e-9
+    bad = json.loads(json.dumps(doc))
+    bad["joints"][1]["angle_law"]["rate"] = 0
+    with pytest.raises(InputError, match="rate"):
+        linkage_from_document(bad)
+
+
+def test_law_angles_and_follower_angles_honour_rates():
+    from synth.io.continuation import law_angles
+    from synth.tools.trajectory import follower_angles
+
+    lk = _darboux_chain()
+    laws = {j.name: (j.a, j.b) for j in lk.joints}
+    rates = {j.name: j.rate for j in lk.joints}
+    ts = np.array([-2.0, 0.3, 5.0])
+    phi = lk.joint("g1").angle(ts)
+    ex = law_angles(laws, "g1", phi, rates)
+    ang, dang = follower_angles(lk, "g1", phi)
+    for i, j in enumerate(lk.joints):
+        d = np.angle(np.exp(1j * (ex[j.name] - j.angle(ts))))
+        assert np.abs(d).max() < 1e-9
+        assert np.abs(np.angle(np.exp(1j * (ang[:, i] - j.angle(ts))))).max() < 1e-9
+    # the rate-2 joint turns twice as fast as a rate-1 joint of the same law
+    assert dang[:, 1] == pytest.approx(2 * dang[:, 2], rel=1e-12)

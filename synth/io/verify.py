@@ -41,7 +41,7 @@ from synth.algebra.anglelaw import angle_law, angle_law_inverse
 from synth.algebra.polynomial import pose_at
 from synth.io.continuation import continue_loop, law_angles
 from synth.io.frames import TWO_PI, invert_transform, pose_diff, wrap_angle
-from synth.io.readback import OutputFiles, angle_laws, mesh_path, read_files, solution_dirs
+from synth.io.readback import OutputFiles, angle_laws, angle_rates, mesh_path, read_files, solution_dirs
 from synth.io.urdf import driver_limits
 from synth.synthesis.conditioning import transmission_ratio
 
@@ -77,6 +77,9 @@ class _Checker:
 
     def _angle_laws(self) -> dict[str, tuple[float, float]]:
         return angle_laws(self.doc)
+
+    def _angle_rates(self) -> dict[str, int]:
+        return angle_rates(self.doc)
 
     # -------------------------------------------------------------- scales
     def _scales(self):
@@ -333,6 +336,7 @@ class _Checker:
             if not (math.isfinite(a) and math.isfinite(b)) or b == 0:
                 self.fail(f"linkage.json: joint {jn} has angle law a={a}, b={b} (b must be finite and non-zero)")
                 return
+        rates = self._angle_rates()
         # pose angles from the laws
         worst = 0.0
         for i, rec in enumerate(self._json_poses()):
@@ -343,14 +347,14 @@ class _Checker:
             for jn, v in rec["joint_angles"].items():
                 if jn in laws:
                     a, b = laws[jn]
-                    th = float(angle_law(a, b, t))
+                    th = float(angle_law(a, b, t, rates.get(jn, 1)))
                     worst = max(worst, abs(float(wrap_angle(th - float(v)))))
         if worst > self.tol_ang:
             self.fail(f"linkage.json: pose joint angles differ from the angle laws by {worst:.3g} rad")
         self.figures["law_vs_pose_angles"] = worst
         # loops along the motion, uniform in the driver's angle
         phi = np.linspace(0.0, TWO_PI, self.samples, endpoint=False)
-        cfg = law_angles(laws, self.driver, phi)
+        cfg = law_angles(laws, self.driver, phi, rates)
         F = self.u.fk(cfg, n=len(phi))
         ct = cr = 0.0
         for (a, b), R in zip(self.closures, self._closure_refs()):
@@ -366,7 +370,7 @@ class _Checker:
             try:
                 Cn = np.array(C, float)
                 a, b = laws[self.driver]
-                t = angle_law_inverse(a, b, phi)
+                t = angle_law_inverse(a, b, phi, rates.get(self.driver, 1))
                 target = pose_at(Cn, t)
                 disp = F[tool_link] @ invert_transform(self.u.fk({})[tool_link])
                 dt, dr = pose_diff(disp, target)
@@ -395,7 +399,7 @@ class _Checker:
         dev = None
         if laws and all(jn in laws for jn in self.loop_joints) and len(result["path"]):
             path = np.array(result["path"])
-            exact = law_angles(laws, self.driver, path[:, 0])
+            exact = law_angles(laws, self.driver, path[:, 0], self._angle_rates())
             dev = 0.0
             for k, jn in enumerate(others):
                 dev = max(dev, float(np.abs(wrap_angle(path[:, k + 1] - exact[jn])).max()))

@@ -23,7 +23,7 @@ def pose_records(joints, poses, names, ts) -> list[PoseRecord]:
     """One PoseRecord per pose (4x4 matrix, name, parameter t) with every joint's angle there
     (`synth.algebra.anglelaw.angle_law`, all poses and joints in one call)."""
     ts = [float(t) for t in ts]
-    law = np.array([(j.a, j.b, 1) for j in joints], float).reshape(-1, 3).T
+    law = np.array([(j.a, j.b, j.rate) for j in joints], float).reshape(-1, 3).T
     ang = angle_law(law[0], law[1], np.array(ts)[:, None], law[2]).tolist()  # (poses, joints)
     jn = [j.name for j in joints]
     return [PoseRecord(name, T, t, dict(zip(jn, row))) for name, T, t, row in zip(names, poses, ts, ang)]

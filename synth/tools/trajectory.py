@@ -119,10 +119,11 @@ def follower_angles(linkage: Linkage, driver: str, phi) -> tuple[np.ndarray, np.
     d = linkage.joint(driver)
     a = np.array([j.a for j in linkage.joints])
     b = np.array([j.b for j in linkage.joints])
-    ang = driven_angle(a, b, d.a, d.b, phi[..., None], continued=True)
+    r = np.array([j.rate for j in linkage.joints])
+    ang = driven_angle(a, b, d.a, d.b, phi[..., None], r, d.rate, continued=True)
     k = [j.name for j in linkage.joints].index(driver)
     ang[..., k] = phi
-    dang = driven_speed(a, b, d.a, d.b, phi[..., None])
+    dang = driven_speed(a, b, d.a, d.b, phi[..., None], r, d.rate)
     dang[..., k] = 1.0
     return ang, dang
 
