@@ -29,12 +29,14 @@ def pose_records(joints, poses, names, ts) -> list[PoseRecord]:
     return [PoseRecord(name, T, t, dict(zip(jn, row))) for name, T, t, row in zip(names, poses, ts, ang)]
 
 
-def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> Linkage:
+def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None, rates=None) -> Linkage:
     """Linkage with branch h: base -h1-> link_h1 ... -hn-> coupler and branch k likewise ending in
-    coupler_k. H, K: (n, 8) factors in the world frame (metres) with C = (t-h1)...(t-hn) =
-    (t-k1)...(t-kn); poses (m, 4, 4) with parameters ts (first = inf). ``motion=None`` leaves
-    ``linkage.motion`` None (for a caller that sets it later)."""
-    specs, links, branches = _layout(len(H))
+    coupler_k. H, K: (n, 8) and (m, 8) factors in the world frame (metres) with C = (t-h1)...(t-hn) =
+    (t-k1)...(t-kn) (m = n but for joints of rate other than 1: ``rates`` (n + m,) in the order h, k, the
+    products of (t - h)^rate being C times real polynomials, docs/exceptional.md section 6); poses (m, 4, 4)
+    with parameters ts (first = inf). ``motion=None`` leaves ``linkage.motion`` None (for a caller that
+    sets it later)."""
+    specs, links, branches = _layout(len(H), len(K))
     laws, lines = [], []
     for h in (*H, *K):  # joint_from_factor, with all Plücker coordinates in one array
         if type(h) is not tuple:
@@ -44,8 +46,9 @@ def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> 
         laws.append((float(h0), b))
         lines += (-v1 / b, -v2 / b, -v3 / b, w1 / b, w2 / b, w3 / b)
     lines = np.array(lines, float).reshape(-1, 3)
-    joints = [Joint(name, parent, child, lines[2 * i], lines[2 * i + 1], a, b)
-              for i, ((name, parent, child), (a, b)) in enumerate(zip(specs, laws))]
+    rates = [1] * len(laws) if rates is None else [int(r) for r in rates]
+    joints = [Joint(name, parent, child, lines[2 * i], lines[2 * i + 1], a, b, r)
+              for i, ((name, parent, child), (a, b), r) in enumerate(zip(specs, laws, rates))]
     poses = np.asarray(poses, float)
     records = pose_records(joints, poses, names, ts)
     return Linkage(kind, joints, {k: list(v) for k, v in links.items()}, [list(x) for x in branches],
@@ -54,22 +57,23 @@ def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> 
 
 
 @functools.lru_cache(maxsize=None)
-def _layout(n: int):
-    """(joint (name, parent, child) in tree order, links, branches) of two branches of n joints."""
+def _layout(n: int, m: int):
+    """(joint (name, parent, child) in tree order, links, branches) of two branches of n (h) and m (k)
+    joints."""
     specs = []
     links: dict[str, tuple] = {"base": ("h1", "k1")}
-    for branch in "hk":
-        for i in range(n):
+    for branch, count in (("h", n), ("k", m)):
+        for i in range(count):
             parent = "base" if i == 0 else f"link_{branch}{i}"
-            if i == n - 1:
+            if i == count - 1:
                 child = "coupler" if branch == "h" else "coupler_k"
             else:
                 child = f"link_{branch}{i + 1}"
                 links[child] = (f"{branch}{i + 1}", f"{branch}{i + 2}")
             specs.append((f"{branch}{i + 1}", parent, child))
-    links["coupler"] = (f"h{n}", f"k{n}")
+    links["coupler"] = (f"h{n}", f"k{m}")
     links["coupler_k"] = ()
-    branches = (tuple(f"h{i + 1}" for i in range(n)), tuple(f"k{i + 1}" for i in range(n)))
+    branches = (tuple(f"h{i + 1}" for i in range(n)), tuple(f"k{i + 1}" for i in range(m)))
     return tuple(specs), links, branches
 
 
