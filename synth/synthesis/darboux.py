@@ -22,7 +22,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from synth.algebra.dq import dq_conj
-from synth.algebra.dualsystem import dual_matrix, perp_basis, rot_item, rotation_from, split_unknowns, unit
+from synth.algebra.dualsystem import dual_matrix, perp_basis, rot_item, rotation_from, unit
 from synth.algebra.polynomial import divide_real_quadratic, poly_mul, product_of_linear
 from synth.algebra.realpoly import quad
 from synth.checks import self_check
