@@ -89,6 +89,18 @@ def test_random_darboux_motions_get_a_mobile_seven_joint_loop(seed):
     assert dofs == [1, 1, 1, 1]
 
 
+def test_members_of_the_construction():
+    """Other turns of the parallel axes and members of the 3R family multiply back and close mobile loops;
+    the turn pi/2 (u in the plane of d and vec p) gives 2 degrees of freedom and is refused."""
+    C = _C(GENERAL)
+    for turn, shift in ((5 * np.pi / 8, (-0.5, 0.0)), (3 * np.pi / 4, (0.0, 0.3))):
+        H, G = chains(C, turn, shift)
+        assert max(chain_residuals(C, H, G)) < 1e-14
+        lk = darboux_linkage(C, turn=turn, shift=shift, check_samples=20, singular=False)
+        assert lk.info["mobility"]["dof"] == 1 and lk.checks["max_closure_error"] < 1e-12
+    assert chains(C, np.pi / 2) is not None and darboux_linkage(C, turn=np.pi / 2, singular=False) is None
+
+
 def test_singular_configurations_are_recorded():
     """Where the three parallel axes k1 k2 k3 become coplanar the loop Jacobian loses rank: for the fixture
     at t = +-1 +- sqrt 2 (h1 at 45, 135, 225, 315 degrees); another branch of the configuration curve

@@ -176,16 +176,23 @@ def _real(m):
     return out
 
 
-def chains(C) -> tuple[np.ndarray, np.ndarray] | None:
+def chains(C, turn: float = 0.0, shift=(0.0, 0.0)) -> tuple[np.ndarray, np.ndarray] | None:
     """(H (3, 8), G (4, 8)) of a monic cubic Darboux motion C, or None when C is not one whose 7R this
-    construction builds (module docstring)."""
+    construction builds (module docstring). ``turn``: of the parallel axes of G about d (`four_joint_chain`);
+    ``shift`` (f, g): the member h1 - eps s, h2 + eps s of the 3R family, s = f e1 + g e2 (e1, e2 =
+    `perp_basis` of the axis of h1), in the units of C."""
     st = darboux_structure(C)
     if st is None:
         return None
     H = three_joint_chain(C, st)
-    G = four_joint_chain(C, st) if H is not None else None
+    G = four_joint_chain(C, st, turn) if H is not None else None
     if G is None:
         return None
+    e1, e2 = perp_basis(H[0, 1:4])
+    s = shift[0] * e1 + shift[1] * e2
+    H = H.copy()
+    H[0, 5:8] -= s
+    H[1, 5:8] += s
     return H, G
 
 
@@ -198,15 +205,17 @@ def chain_residuals(C, H, G) -> tuple[float, float]:
     return float(rh), float(rg)
 
 
-def darboux_linkage(C, *, kind: str = "motion", tool_ref=None, info=None, check_samples: int = 200):
+def darboux_linkage(C, *, kind: str = "motion", tool_ref=None, info=None, check_samples: int = 200,
+                    turn: float = 0.0, shift=(0.0, 0.0), singular: bool = True):
     """The 7R loop of a monic cubic Darboux motion C (world frame, metres), or None when `chains` does
-    not apply: branch h = h1 h2 h3 (C), branch k = k1 k2 k3 k4 = g1 g2 g3 g4 (C M, k2 of rate 2), welded
-    at the coupler (docs/conventions.md, section 6). ``info`` is copied into ``linkage.info`` with the key
-    ``darboux`` added; ``checks`` holds the sampled self-check (`synth.checks.self_check`; the certified
-    bound does not apply to a joint of rate 2)."""
-
+    not apply (or, for this ``turn``, the loop has more than one degree of freedom): branch h = h1 h2 h3 (C),
+    branch k = k1 k2 k3 k4 = g1 g2 g3 g4 (C M, k2 of rate 2), welded at the coupler (docs/conventions.md,
+    section 6). ``turn``, ``shift``: the member (`chains`). ``info`` is copied into ``linkage.info`` with the
+    key ``darboux`` added (with the singular parameters unless ``singular`` is false: `singular_parameters`);
+    ``checks`` holds the sampled self-check (`synth.checks.self_check`; the certified bound does not apply
+    to a joint of rate 2)."""
     C = np.asarray(C, float)
-    got = chains(C)
+    got = chains(C, turn, shift)
     if got is None:
         return None
     H, G = got
@@ -216,15 +225,25 @@ def darboux_linkage(C, *, kind: str = "motion", tool_ref=None, info=None, check_
     lk.info = dict(info or {})
     lk.info["darboux"] = {"h": H, "g": G, "rates": {"k2": 2},
                           "products": "C = (t - h1)(t - h2)(t - h3),  C M = (t - g1)(t - g2)^2 (t - g3)(t - g4)",
-                          "M": darboux_structure(C)["M"], "residuals": {"h": rh, "g": rg}}
+                          "M": darboux_structure(C)["M"], "residuals": {"h": rh, "g": rg},
+                          "member": {"turn": float(turn), "shift": [float(x) for x in shift]}}
     lk.info["mobility"] = score_linkage(lk)
-    sing = singular_parameters(lk)
-    lk.info["darboux"]["singular_t"] = sing
-    lk.info["darboux"]["singular_driver_deg"] = [float(np.degrees(lk.joints[0].angle(t))) for t in sing]
+    if lk.info["mobility"]["dof"] != 1:
+        return None
+    if singular:
+        add_singular(lk)
     lk.info["counts"] = {"joints": len(lk.joints), "links": len(lk.links) - len(lk.closures),
                          "links_with_duplicates": len(lk.links), "loops": len(lk.closures)}
     lk.checks = self_check(lk, check_samples)
     return lk
+
+
+def add_singular(linkage) -> None:
+    """Record the singular parameters (`singular_parameters`) and the driver h1's angles there in
+    ``linkage.info["darboux"]``."""
+    sing = singular_parameters(linkage)
+    linkage.info["darboux"]["singular_t"] = sing
+    linkage.info["darboux"]["singular_driver_deg"] = [float(np.degrees(linkage.joints[0].angle(t))) for t in sing]
 
 
 def singular_parameters(linkage, grid: int = 720, tol: float = 1e-8) -> list[float]:
