@@ -203,7 +203,8 @@ def print_linkage_summary(linkage, scale: float, unit: str) -> None:
     for j in linkage.joints:
         p = j.point / scale
         echo(f"  {j.name:6} ({p[0]:11.5g} {p[1]:11.5g} {p[2]:11.5g}) {unit:>3}  "
-             f"({j.direction[0]:8.5f} {j.direction[1]:8.5f} {j.direction[2]:8.5f})  {j.a:.6g}, {j.b:.6g}")
+             f"({j.direction[0]:8.5f} {j.direction[1]:8.5f} {j.direction[2]:8.5f})  {j.a:.6g}, {j.b:.6g}"
+             + (f"  (rate {j.rate}: {j.rate} theta)" if j.rate != 1 else ""))
     echo("  (angle law a, b: the joint angle is theta(t) = 2 atan2(b, t - a) along the motion parameter t;"
          " theta = 0 at the first pose, t = inf)")
     for rec in linkage.poses:

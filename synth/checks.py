@@ -13,6 +13,7 @@ import functools
 import numpy as np
 
 from synth.algebra.algorithm1 import cross3
+from synth.algebra.anglelaw import half_angle
 from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq, qmul
 from synth.algebra.polynomial import product_of_linear
 from synth.linkage import Linkage
@@ -91,12 +92,12 @@ def sample_parameters(linkage: Linkage, samples: int = 200) -> np.ndarray:
     return sample_parameters_batch(a, b, samples)[0]
 
 
-def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, motion, samples: int) -> dict:
+def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, motion, samples: int, rate=1) -> dict:
     """Self-check figures of N linkages of one structure, each an (N,) array.
 
     ``structure`` = (joints [(parent link, child link)] in tree order, tool link, closures [(link,
     duplicate)]); U, M (N, J, 3) Plücker lines (unit direction, moment) at the reference configuration;
-    a, b (N, J) angle laws; pose_angles (N, P, J) the reported joint angles at the poses, given as unit
+    a, b (N, J) angle laws (``rate`` (N, J) or a scalar: their rates, `synth.algebra.anglelaw`); pose_angles (N, P, J) the reported joint angles at the poses, given as unit
     dual quaternions pose_dq (N, P, 8) (`synth.algebra.dq.pose_to_dq`); tool_ref_dq (N, 8); motion (N, n+1, 8) the motion polynomial. Figures: ``pose_translation`` /
     ``pose_rotation`` (tool frame at the reported angles vs the poses), ``closure_translation`` /
     ``closure_rotation`` (every welded pair at ``samples`` parameters covering R, t = inf included) and
@@ -107,8 +108,7 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
     t = sample_parameters_batch(a, b, samples) if samples > 0 else np.zeros((N, 0))  # (N, S), the last t = inf
     S = t.shape[1]
     inf = np.isinf(t)
-    with np.errstate(invalid="ignore"):
-        half_s = np.where(inf[..., None], 0.0, np.arctan2(b[:, None, :], t[..., None] - a[:, None, :]))
+    half_s = half_angle(a[:, None, :], b[:, None, :], t[..., None], np.asarray(rate)[..., None, :] if np.ndim(rate) else rate)
     half = np.concatenate([0.5 * pose_angles, half_s], axis=1)  # (N, P + S, J)
     cos, sin = np.cos(half)[..., None], np.sin(half)[..., None]
     # the joint displacement G = cos + sin (u - eps m) multiplies on the right: x G = cos x + sin x R(line),
@@ -164,7 +164,8 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
     R = prod |t - z_j|. Branch k and the motion are the poses of P_k(t) and C(t); a difference E of
     degree <= n from P_h has the partial fractions E(t) / prod (t - z_j) = E_n + sum_j rho_j / (t - z_j),
     rho_j = E(z_j) / prod_{m != j} (z_j - z_m), so |E(t)| / R(t) <= |E_n| + sum_j |rho_j| / b_j for
-    every t (primal and dual parts separately). Returns ``closure_translation``, ``closure_rotation``,
+    every t (primal and dual parts separately). Joints of rate 1 only (a joint of rate r is a repeated
+    root, where no bound applies: such linkages are checked at samples, `check_figures`). Returns ``closure_translation``, ``closure_rotation``,
     ``motion`` (N,) (metres, radians; inf where no bound applies, e.g. repeated roots), with an
     allowance of 16 ulps for rounding."""
     hk = np.asarray(branches)  # (2, n)
@@ -213,11 +214,12 @@ def linkage_figures(linkage: Linkage, samples: int) -> dict:
     lines = np.array([(j.direction, j.moment) for j in js], float)  # (J, 2, 3)
     a = np.array([[j.a for j in js]])
     b = np.array([[j.b for j in js]])
+    rate = np.array([[j.rate for j in js]]) if any(j.rate != 1 for j in js) else 1
     ang = np.array([[[rec.joint_angles[j.name] for j in js] for rec in linkage.poses]], float).reshape(1, -1, len(js))
     T = np.array([rec.matrix for rec in linkage.poses] + [linkage.tool_ref], float)
     Q = pose_to_dq(T)
     out = check_figures(structure(linkage), lines[None, :, 0], lines[None, :, 1], a, b, ang, Q[None, :-1], Q[None, -1],
-                        np.asarray(linkage.motion, float)[None], samples)
+                        np.asarray(linkage.motion, float)[None], samples, rate)
     return {k: float(v[0]) for k, v in out.items()}
 
 

@@ -5,7 +5,8 @@ Conventions (see docs/conventions.md, sections 4-6):
 - the *reference configuration* is the first pose (t = infinity, all joint angles 0);
 - a joint is a revolute axis given as a normalized Plücker line (unit `direction`, `moment` =
   point x direction) at the reference configuration, and an angle law
-  ``theta(t) = 2 atan2(b, t - a)`` (0 at t = infinity, one full turn as t runs over R);
+  ``theta(t) = rate * 2 atan2(b, t - a)`` (`synth.algebra.anglelaw`; 0 at t = infinity, ``rate`` full turns
+  as t runs over R; rate 1 but for a repeated factor (t - h)^rate, docs/exceptional.md section 6);
 - the joints form a tree rooted at link ``base``; each joint moves its ``child`` relative to its
   ``parent`` by ``disp(child) = disp(parent) @ Rot(line, theta)`` where ``disp`` is a link's world
   displacement from the reference configuration (product of exponentials);
@@ -22,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from synth.algebra.anglelaw import angle_law, angle_law_inverse
 from synth.algebra.dq import common_normal_feet, rotation_about_line
 
 
@@ -34,8 +36,9 @@ class Joint:
     child: str
     direction: np.ndarray  # (3,) unit
     moment: np.ndarray  # (3,) metres
-    a: float  # angle law theta(t) = 2 atan2(b, t - a)
+    a: float  # angle law theta(t) = rate * 2 atan2(b, t - a)
     b: float
+    rate: int = 1  # the joint of a factor (t - h)^rate (docs/exceptional.md, section 6)
 
     @property
     def point(self) -> np.ndarray:
@@ -44,10 +47,12 @@ class Joint:
 
     def angle(self, t):
         """Joint angle (rad) at parameter t (scalar or array; +-inf gives 0), in [0, 2pi)."""
-        t = np.asarray(t, dtype=float)
-        th = 2.0 * np.arctan2(self.b, t - self.a)
-        th = np.where(np.isinf(t), 0.0, th)
-        return np.mod(th, 2.0 * np.pi)
+        return angle_law(self.a, self.b, t, self.rate)
+
+    def parameter(self, theta, branch: int = 0):
+        """Parameter t where the joint is at angle theta (`synth.algebra.anglelaw.angle_law_inverse`;
+        a joint of rate r reaches every angle at r parameters, ``branch`` 0 .. r - 1); theta = 0: inf."""
+        return angle_law_inverse(self.a, self.b, theta, self.rate, branch)
 
 
 @dataclass

@@ -207,8 +207,8 @@ def test_general_darboux_four_joint_chain_with_a_double_rate_joint():
     """C (t^2 + 1) = (t - g1)(t - g2)^2 (t - g3)(t - g4) exactly: three parallel axes along
     -+(2, -1, -2)/3 whose middle joint turns at twice the rate (the segment translation
     t^2 + 1 + eps (1 - t)(i + j + k/2) times t^2 + 1), then the vertical axis g4 = k - eps i through
-    (0, 1, 0). With a 3R chain above it closes the 7R loop of the literature (not built: the joint model
-    has one angle law 2 atan2(b, t - a) per joint)."""
+    (0, 1, 0). With a 3R chain above it closes the 7R loop that `mpsynth curve` builds (tests/test_darboux7.py;
+    g2 is a joint of rate 2)."""
     C = np.array(parse_polynomial(GENERAL, exact=True), dtype=object)
     u = [F(2, 3), F(-1, 3), F(-2, 3)]
     g1 = [0, *u, 0, F(-1, 2), 1, -1]
@@ -219,41 +219,12 @@ def test_general_darboux_four_joint_chain_with_a_double_rate_joint():
     assert _same(product_of_linear(_exact([g1, g2, g2, g3, g4])), poly_mul(C, M))
 
 
-def test_general_darboux_motion_gets_a_verified_ten_joint_linkage(tmp_path):
-    """`mpsynth curve` on the fixture: C factors with R = 1 into the three rotations above (the cofactor
-    search), the ladder of Bennett flips has 10 joints and 3 loops, mobility 1; the shared verifier
-    accepts it (~12 s with the verifier)."""
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    from click.testing import CliRunner
-
-    from cli.main import mpsynth
-
-    repo = Path(__file__).resolve().parents[1]
-    verifier = Path(__file__).resolve().parents[2] / "shared/tools/verify_output.py"
-    out = tmp_path / "darboux_general"
-    r = CliRunner().invoke(mpsynth, ["curve", str(repo / "fixtures/motion_darboux_general.yaml"), "-o", str(out),
-                                     "-q"])
-    assert r.exit_code == 0, r.output
-    import json
-
-    info = json.loads((out / "linkage.json").read_text())
-    assert len(info["joints"]) == 10
-    if not verifier.exists():
-        pytest.skip("../shared/tools/verify_output.py is not present")
-    v = subprocess.run([sys.executable, str(verifier), str(out), "--steps", "90"], capture_output=True, text=True,
-                       timeout=1800)
-    assert v.returncode == 0 and v.stdout.strip().splitlines()[-1].startswith("verify OK"), v.stdout + v.stderr
-
-
 def test_the_seven_joint_loop_of_the_two_chains_closes_with_one_degree_of_freedom():
     """The 3R chain h1 h2 h3 and the 4R chain g1 g2 g3 g4 (g2 at twice the rate, 2 theta) both move their
     end link by C: joint angles theta = 2 atan2(1, t) about the lines of `joint_from_factor` (g2: 2 theta)
     give the same end pose at every sampled t, and the seven joint screws there span 6 dimensions
-    (instantaneous mobility 7 - 6 = 1). Numbers for docs/exceptional.md, section 6; the linkage itself
-    is not built."""
+    (instantaneous mobility 7 - 6 = 1). Numbers for docs/exceptional.md, section 6 (the linkage is built by
+    synth/synthesis/darboux.py from a general construction, tests/test_darboux7.py)."""
     from synth.algebra.dq import rotation_about_line
     from synth.synthesis.assemble import joint_from_factor
 

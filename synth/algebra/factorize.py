@@ -13,6 +13,7 @@ import numpy as np
 
 from synth.algebra.algorithm1 import (PRISMATIC_TOL, algorithm1, distinct_orders, multiply_back, norm_roots,
                                       polish, root_conditioning)
+from synth.algebra.anglelaw import half_angle
 from synth.algebra.dq import dq_inv, dq_mul, plucker
 from synth.algebra.polynomial import divide_real_quadratic, norm_poly, right_value, study_residual
 from synth.errors import InputError, NoFactorizationError, NotGenericError
@@ -54,9 +55,9 @@ class Factor:
         return 2 * self.h[5:8]
 
     def angle(self, t):
-        """theta(t) = 2 atan2(b, t - a), 0 at t = inf (revolute factors)."""
-        t = np.asarray(t, float)
-        return np.where(np.isinf(t), 0.0, 2 * np.arctan2(self.b, t - self.a))
+        """theta(t) = 2 atan2(b, t - a) in (-2 pi, 2 pi), not reduced, 0 at t = inf (revolute factors;
+        `synth.algebra.anglelaw.half_angle`)."""
+        return 2.0 * half_angle(self.a, self.b, t)
 
 
 @dataclass

@@ -92,7 +92,7 @@ def rate_bound(linkage, phi0, phi1) -> np.ndarray:
         star = (psi + np.pi) / 2  # minimisers: star + k pi
         inside = np.ceil((phi0 - star) / np.pi) <= np.floor((phi1 - star) / np.pi)
         qmin = np.where(inside, A0 - rho, np.minimum(Q(phi0), Q(phi1)))
-        out.append(2 * abs(b) / np.maximum(qmin, 1e-300))
+        out.append(2 * abs(b) * j.rate / np.maximum(qmin, 1e-300))
     return np.array(out)
 
 

@@ -232,7 +232,7 @@ def phi_of_angle(joint, theta) -> float:
     th = float(theta) % TWO_PI
     if th < 1e-15 or TWO_PI - th < 1e-15:
         return math.pi / 2
-    return float(phi_of_t(joint.a + joint.b / math.tan(th / 2)))
+    return float(phi_of_t(joint.parameter(th)))
 
 
 def task_phi_range(linkage) -> tuple[float, float]:

@@ -10,21 +10,25 @@ from __future__ import annotations
 
 import numpy as np
 
+from synth.algebra.anglelaw import driven_angle
 from synth.io.frames import TWO_PI, invert_transform
 from synth.io.urdfmodel import UrdfModel
 
 
 # ----------------------------------------------------------------------------- angle laws
-def law_angles(laws: dict, driver: str, phi) -> dict[str, np.ndarray]:
+def law_angles(laws: dict, driver: str, phi, rates: dict | None = None) -> dict[str, np.ndarray]:
     """Exact joint angles when the driver joint is at angle(s) ``phi`` in [0, 2pi]: the driver's law
     theta = 2 atan2(b, t - a) gives t = a + b cot(phi/2); with s = sin(phi/2) >= 0, c = cos(phi/2),
-    theta_j = 2 atan2(b_j s, (a_d - a_j) s + b_d c), which is exact at phi = 0 (t = infinity) too."""
+    theta_j = 2 atan2(b_j s, (a_d - a_j) s + b_d c), which is exact at phi = 0 (t = infinity) too
+    (`synth.algebra.anglelaw.driven_angle`). ``rates``: joint -> rate of its law (default 1; a driver of
+    rate r covers the motion once as phi runs over [0, 2 pi r])."""
     phi = np.asarray(phi, float)
+    rates = rates or {}
     ad, bd = laws[driver]
-    s, c = np.sin(phi / 2), np.cos(phi / 2)
+    rd = rates.get(driver, 1)
     out = {}
     for jn, (a, b) in laws.items():
-        out[jn] = phi.copy() if jn == driver else np.mod(2.0 * np.arctan2(b * s, (ad - a) * s + bd * c), TWO_PI)
+        out[jn] = phi.copy() if jn == driver else driven_angle(a, b, ad, bd, phi, rates.get(jn, 1), rd)
     return out
 
 
@@ -172,3 +176,28 @@ def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, ste
     return {"followed": 1.0, "path": path, "accepted": accepted, "rejected": rejected, "max_residual": worst,
             "angle": TWO_PI, "stuck_residual": 0.0}
 
+
+
+def crossing(u: UrdfModel, closures, driver: str, others: list[str], phi: float, x, exact, *, length: float = 1.0,
+             iters: int = 60) -> dict:
+    """Is the continued configuration ``x`` (others' angles, driver at ``phi``) that deviates from the
+    exact one ``exact`` (same order) on another branch of the configuration curve crossing it? Polishes
+    ``x`` by full Gauss-Newton steps to the rounding floor and measures the loop Jacobian (all joints) at
+    ``exact``. Returns ``deviation`` (polished x vs exact, rad), ``residual`` (polished) and
+    ``conditioning`` (smallest / largest singular value of the 6 x (1 + others) Jacobian, rank 6 kept):
+    a closed x off ``exact`` at a near-singular ``exact`` is a branch crossing, not an error."""
+    F0 = u.fk({})
+    refs = [invert_transform(F0[a]) @ F0[b] for a, b in closures]
+    x = np.array(x, float)
+    for _ in range(iters):
+        r, J = loop_residual(u, closures, refs, {driver: phi, **dict(zip(others, x))}, others, length)
+        dx = np.linalg.lstsq(J, -r, rcond=1e-14)[0]
+        if float(np.abs(dx).max()) < 1e-16:
+            break
+        x = x + dx
+    r, _ = loop_residual(u, closures, refs, {driver: phi, **dict(zip(others, x))}, others, length, jacobian=False)
+    _, J = loop_residual(u, closures, refs, {driver: phi, **dict(zip(others, exact))}, [driver] + list(others), length)
+    sv = np.linalg.svd(J, compute_uv=False)
+    k = min(6 * len(closures), len(sv)) - 1
+    dev = float(np.abs((np.asarray(x) - np.asarray(exact) + np.pi) % TWO_PI - np.pi).max())
+    return {"deviation": dev, "residual": float(np.linalg.norm(r)), "conditioning": float(sv[k] / sv[0])}

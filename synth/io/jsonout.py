@@ -3,7 +3,7 @@
 Beyond the contract's required keys we add (the contract allows new keys): ``poses[].t`` (the motion
 parameter of the pose, null for t = infinity), ``poses[].kind = "point"`` and ``poses[].position`` for the points
 of a point task (docs/points.md), ``joints[].parent/child/angle_law`` (theta(t) =
-2 atan2(b, t - a)), ``links`` (link -> joints it carries), ``tool_link``, ``tool_ref`` and ``info``
+rate * 2 atan2(b, t - a); ``rate`` written only when it is not 1), ``links`` (link -> joints it carries), ``tool_link``, ``tool_ref`` and ``info``
 (the linkage's kind-specific extras), ``design`` (the physical design: `PhysicalDesign.to_dict`, with
 every pin's length and mesh file: the bill of materials) and ``collision`` (what the design achieves:
 `CollisionReport.to_dict`) and ``stl`` (the STL files' unit, millimetres, with the URDF mesh scale 0.001,
@@ -81,7 +81,7 @@ def linkage_document(linkage, design=None, collision=None) -> dict:
             {"name": j.name,
              "line": {"direction": np.asarray(j.direction, float), "moment": np.asarray(j.moment, float)},
              "parent": j.parent, "child": j.child,
-             "angle_law": {"a": float(j.a), "b": float(j.b)}}
+             "angle_law": {"a": float(j.a), "b": float(j.b), **({"rate": int(j.rate)} if j.rate != 1 else {})}}
             for j in linkage.joints
         ],
         "branches": [list(b) for b in linkage.branches],

@@ -287,6 +287,20 @@ def angle_laws(doc: dict) -> dict[str, tuple[float, float]]:
     return laws
 
 
+def angle_rates(doc: dict) -> dict[str, int]:
+    """joint -> rate of its angle law (``joints[].angle_law.rate``, theta(t) = rate * 2 atan2(b, t - a);
+    1 when absent or not a positive integer) for the joints of a linkage.json document."""
+    rates = {}
+    joints = doc.get("joints")
+    for j in joints if isinstance(joints, list) else []:
+        if not isinstance(j, dict) or not isinstance(j.get("name"), str):
+            continue
+        law = j.get("angle_law") if isinstance(j.get("angle_law"), dict) else j
+        r = law.get("rate", 1)
+        rates[j["name"]] = r if isinstance(r, int) and not isinstance(r, bool) and r >= 1 else 1
+    return rates
+
+
 def read_output(out) -> Readback:
     """Read OUT (see the module docstring) and judge it strictly: raises InputError (one line) on the
     first problem of either file, a missing mesh or a URDF axis off its linkage.json line."""
@@ -342,7 +356,10 @@ def linkage_from_document(doc: dict, where: str = "linkage.json") -> Linkage:
             a, b = float(law["a"]), float(law["b"])
             if not (math.isfinite(a) and math.isfinite(b)):
                 raise InputError(f"{where}: joint {jd['name']}: angle law is not finite")
-            joints.append(Joint(str(jd["name"]), str(jd["parent"]), str(jd["child"]), u, m, a, b))
+            rate = law.get("rate", 1)
+            if isinstance(rate, bool) or not isinstance(rate, int) or rate < 1:
+                raise InputError(f"{where}: joint {jd['name']}: angle law rate {rate!r} is not a positive integer")
+            joints.append(Joint(str(jd["name"]), str(jd["parent"]), str(jd["child"]), u, m, a, b, rate))
         poses = []
         for i, pd in enumerate(doc.get("poses", [])):
             t = pd.get("t", None)

@@ -7,10 +7,8 @@ import math
 
 import numpy as np
 
+from synth.algebra.anglelaw import angle_law
 from synth.linkage import Joint, Linkage, PoseRecord
-
-TWO_PI = 2.0 * math.pi
-INF = math.inf
 
 
 def joint_from_factor(name: str, parent: str, child: str, h) -> Joint:
@@ -21,19 +19,24 @@ def joint_from_factor(name: str, parent: str, child: str, h) -> Joint:
                  moment=np.array([w1 / b, w2 / b, w3 / b]), a=h0, b=b)
 
 
-def _angle(a: float, b: float, t: float) -> float:
-    """`Joint.angle` for a scalar t, in plain floats: 2 atan2(b, t - a) mod 2 pi, 0 at t = +-inf."""
-    if math.isinf(t):
-        return 0.0
-    return (2.0 * math.atan2(b, t - a)) % (2.0 * math.pi)
+def pose_records(joints, poses, names, ts) -> list[PoseRecord]:
+    """One PoseRecord per pose (4x4 matrix, name, parameter t) with every joint's angle there
+    (`synth.algebra.anglelaw.angle_law`, all poses and joints in one call)."""
+    ts = [float(t) for t in ts]
+    law = np.array([(j.a, j.b, j.rate) for j in joints], float).reshape(-1, 3).T
+    ang = angle_law(law[0], law[1], np.array(ts)[:, None], law[2]).tolist()  # (poses, joints)
+    jn = [j.name for j in joints]
+    return [PoseRecord(name, T, t, dict(zip(jn, row))) for name, T, t, row in zip(names, poses, ts, ang)]
 
 
-def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> Linkage:
+def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None, rates=None) -> Linkage:
     """Linkage with branch h: base -h1-> link_h1 ... -hn-> coupler and branch k likewise ending in
-    coupler_k. H, K: (n, 8) factors in the world frame (metres) with C = (t-h1)...(t-hn) =
-    (t-k1)...(t-kn); poses (m, 4, 4) with parameters ts (first = inf). ``motion=None`` leaves
-    ``linkage.motion`` None (for a caller that sets it later)."""
-    specs, links, branches = _layout(len(H))
+    coupler_k. H, K: (n, 8) and (m, 8) factors in the world frame (metres) with C = (t-h1)...(t-hn) =
+    (t-k1)...(t-kn) (m = n but for joints of rate other than 1: ``rates`` (n + m,) in the order h, k, the
+    products of (t - h)^rate being C times real polynomials, docs/exceptional.md section 6); poses (m, 4, 4)
+    with parameters ts (first = inf). ``motion=None`` leaves ``linkage.motion`` None (for a caller that
+    sets it later)."""
+    specs, links, branches = _layout(len(H), len(K))
     laws, lines = [], []
     for h in (*H, *K):  # joint_from_factor, with all Plücker coordinates in one array
         if type(h) is not tuple:
@@ -43,39 +46,34 @@ def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None) -> 
         laws.append((float(h0), b))
         lines += (-v1 / b, -v2 / b, -v3 / b, w1 / b, w2 / b, w3 / b)
     lines = np.array(lines, float).reshape(-1, 3)
-    joints = [Joint(name, parent, child, lines[2 * i], lines[2 * i + 1], a, b)
-              for i, ((name, parent, child), (a, b)) in enumerate(zip(specs, laws))]
+    rates = [1] * len(laws) if rates is None else [int(r) for r in rates]
+    joints = [Joint(name, parent, child, lines[2 * i], lines[2 * i + 1], a, b, r)
+              for i, ((name, parent, child), (a, b), r) in enumerate(zip(specs, laws, rates))]
     poses = np.asarray(poses, float)
-    jn = [spec[0] for spec in specs]
-    records = []
-    for name, T, t in zip(names, poses, map(float, ts)):
-        if t == INF or t == -INF:  # as _angle
-            ang = dict.fromkeys(jn, 0.0)
-        else:
-            ang = {n: (2.0 * math.atan2(b, t - a)) % TWO_PI for n, (a, b) in zip(jn, laws)}
-        records.append(PoseRecord(name, T, t, ang))
+    records = pose_records(joints, poses, names, ts)
     return Linkage(kind, joints, {k: list(v) for k, v in links.items()}, [list(x) for x in branches],
                    [("coupler", "coupler_k")], poses[0], None if motion is None else np.asarray(motion, float),
                    records, info=dict(info) if info else {})
 
 
 @functools.lru_cache(maxsize=None)
-def _layout(n: int):
-    """(joint (name, parent, child) in tree order, links, branches) of two branches of n joints."""
+def _layout(n: int, m: int):
+    """(joint (name, parent, child) in tree order, links, branches) of two branches of n (h) and m (k)
+    joints."""
     specs = []
     links: dict[str, tuple] = {"base": ("h1", "k1")}
-    for branch in "hk":
-        for i in range(n):
+    for branch, count in (("h", n), ("k", m)):
+        for i in range(count):
             parent = "base" if i == 0 else f"link_{branch}{i}"
-            if i == n - 1:
+            if i == count - 1:
                 child = "coupler" if branch == "h" else "coupler_k"
             else:
                 child = f"link_{branch}{i + 1}"
                 links[child] = (f"{branch}{i + 1}", f"{branch}{i + 2}")
             specs.append((f"{branch}{i + 1}", parent, child))
-    links["coupler"] = (f"h{n}", f"k{n}")
+    links["coupler"] = (f"h{n}", f"k{m}")
     links["coupler_k"] = ()
-    branches = (tuple(f"h{i + 1}" for i in range(n)), tuple(f"k{i + 1}" for i in range(n)))
+    branches = (tuple(f"h{i + 1}" for i in range(n)), tuple(f"k{i + 1}" for i in range(m)))
     return tuple(specs), links, branches
 
 
@@ -94,8 +92,7 @@ def watt_linkage(kind: str, F, motion, poses, names, ts, info=None) -> Linkage:
     (h3, k3), link_k2 (k2, k3), link_g1 (g1, g2); two loops, cut at the coupler (duplicate ``coupler_k``)
     and at link_h2 (duplicate ``link_h2_g``), welded as in docs/conventions.md, section 6."""
     joints = [joint_from_factor(n, p, c, h) for (n, p, c), h in zip(WATT_JOINTS, np.asarray(F, float))]
-    records = [PoseRecord(name, T, float(t), {j.name: _angle(j.a, j.b, float(t)) for j in joints})
-               for name, T, t in zip(names, np.asarray(poses, float), ts)]
+    records = pose_records(joints, np.asarray(poses, float), names, ts)
     return Linkage(kind, joints, {k: list(v) for k, v in WATT_LINKS.items()},
                    [["h1", "h2", "h3"], ["h1", "k2", "k3"], ["g1", "g2"]],
                    [("coupler", "coupler_k"), ("link_h2", "link_h2_g")], np.asarray(poses, float)[0],

@@ -23,6 +23,7 @@ import numpy as np
 
 from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multiply_back, norm_roots, polish, quadratics,
                                       remainder_error, root_conditioning)
+from synth.algebra.anglelaw import angle_law
 from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound
@@ -128,7 +129,7 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     with np.errstate(all="ignore"):
         a, b = factors[..., 0], np.sqrt(dot(factors[..., 1:4], factors[..., 1:4]))
         U, M = -factors[..., 1:4] / b[..., None], factors[..., 5:8] / b[..., None]
-        th = np.mod(2.0 * np.arctan2(b[:, None, :], TS[1:, None] - a[:, None, :]), 2 * np.pi)
+        th = angle_law(a[:, None, :], b[:, None, :], TS[1:, None])
         pose_angles = np.concatenate([np.zeros((N, 1, 4)), th], axis=1)  # (N, 3, 4)
         geo = loop_geometry(U[:, LOOP], M[:, LOOP])
         good &= ~geo["parallel"].any(axis=1)

@@ -2,7 +2,8 @@
 
 ``motion_linkage(C)``: C (monic after normalization, bounded) -> C R = (t - h_1)...(t - h_N) by the
 co-factor algorithm -> the ladder of Bennett flips from one extra rotation m0 (chosen automatically).
-The link ``coupler`` moves by C (the motion is not changed by the real co-factor R).
+The link ``coupler`` moves by C (the motion is not changed by the real co-factor R). A general Darboux
+motion gets the 7R loop of `synth.synthesis.darboux` instead (7 joints, fewer than any ladder of it).
 
 ``curve_linkage(x, y, z, w)``: the point (x/w, y/w, z/w) (polynomials in t, w without real zero, deg x, y,
 z <= deg w). The curvilinear translation C_T = w + eps F, F = -(X - p0 w)/2, moves the point p0 = X/w at
@@ -27,6 +28,7 @@ from synth.algebra.exact import real_divmod, real_root_count
 from synth.algebra.family import conjugate_pairs, separate_coincident
 from synth.algebra.flip import parallelogram_flip
 from synth.errors import InputError, SynthesisError
+from synth.synthesis.darboux import DARBOUX_JOINTS, darboux_linkage
 from synth.linkage import Linkage
 from synth.algebra.realfactor import UnboundedMotionError, poly_text, real_gcd_exact, real_gcd_numeric
 
@@ -217,6 +219,12 @@ def motion_linkage(C, *, scale: float = 1.0, m0=None, seed: int = 0, text: str |
                        "components": [_plain_report(r) for r in res.report],
                        "C_times_R": poly_mul(Cn, R8)}}
     tool_ref = dq_to_pose(lead / np.linalg.norm(lead[:4]))
+    if m0 is None and joint_count(res.factors) > DARBOUX_JOINTS:  # the smaller linkage: a Darboux 7R
+        lk = darboux_linkage(Cn, tool_ref=tool_ref, info=info, check_samples=CHECK_SAMPLES)
+        if lk is not None:
+            lk.info["motion"]["alternatives"] = [{"method": "darboux 7R", "joints": DARBOUX_JOINTS},
+                                                 {"method": "ladder", "joints": joint_count(res.factors)}]
+            return lk
     return _build(res.factors, Cn, "motion", info, tool_ref, m0=m0, seed=seed)
 
 

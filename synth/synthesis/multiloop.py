@@ -58,7 +58,7 @@ def norm_of(h) -> tuple[float, float]:
 # ------------------------------------------------------------------ linkage
 def _reversed(j: Joint) -> Joint:
     return Joint(name=j.name, parent=j.parent, child=j.child, direction=-np.asarray(j.direction),
-                 moment=-np.asarray(j.moment), a=j.a, b=j.b)
+                 moment=-np.asarray(j.moment), a=j.a, b=j.b, rate=j.rate)
 
 
 def ladder_linkage(hs, m0, *, kind: str = "motion", motion=None, coupler: str = "coupler",

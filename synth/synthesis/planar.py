@@ -123,8 +123,7 @@ def tracks_motion(linkage, driver: str = "h1", steps: int = 180, tol: float = 1e
     others = [i for i in range(len(names)) if i != d]
     jd = linkage.joints[d]
     theta = np.linspace(0.0, 2 * np.pi, steps + 1)[1:-1]
-    with np.errstate(all="ignore"):
-        t = jd.a + jd.b / np.tan(theta / 2)  # the driver's angle law inverted
+    t = jd.parameter(theta)  # the driver's angle law inverted
     laws = np.array([j.angle(t) for j in linkage.joints]).T  # (steps - 1, joints)
     q_prev = q = np.zeros(len(names))
     for k, th in enumerate(theta):

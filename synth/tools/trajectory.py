@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.algebra.anglelaw import driven_angle, driven_speed
 from synth.algebra.dq import matrix_to_quat
 from synth.design.search import task_range
 from synth.errors import InputError
@@ -118,19 +119,11 @@ def follower_angles(linkage: Linkage, driver: str, phi) -> tuple[np.ndarray, np.
     d = linkage.joint(driver)
     a = np.array([j.a for j in linkage.joints])
     b = np.array([j.b for j in linkage.joints])
-    u = phi[..., None] / 2.0
-    turns = np.floor(u / math.pi)
-    r = u - turns * math.pi
-    full = r >= math.pi  # rounding
-    turns, r = np.where(full, turns + 1, turns), np.where(full, r - math.pi, r)  # r in [0, pi)
-    s, c = np.sin(r), np.cos(r)
-    # the angle from (b_d, 0) to (b_d c + (a_d - a) s, b s): within [0, pi) or (-pi, 0] by the sign of b b_d
-    g = np.arctan2(d.b * b * s, d.b * (d.b * c + (d.a - a) * s))
-    ang = 2.0 * g + TWO_PI * turns * np.sign(b * d.b)
+    r = np.array([j.rate for j in linkage.joints])
+    ang = driven_angle(a, b, d.a, d.b, phi[..., None], r, d.rate, continued=True)
     k = [j.name for j in linkage.joints].index(driver)
     ang[..., k] = phi
-    ss, cc = np.sin(u), np.cos(u)
-    dang = b * d.b / ((d.b * cc + (d.a - a) * ss) ** 2 + (b * ss) ** 2)
+    dang = driven_speed(a, b, d.a, d.b, phi[..., None], r, d.rate)
     dang[..., k] = 1.0
     return ang, dang
 

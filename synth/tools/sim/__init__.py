@@ -38,7 +38,7 @@ import numpy as np
 from synth.errors import InputError, MpsynthError
 from synth.io.continuation import law_angles
 from synth.io.frames import invert_transform, pose_diff
-from synth.io.readback import angle_laws, mesh_path, read_files
+from synth.io.readback import angle_laws, angle_rates, mesh_path, read_files
 
 ENGINES = ("pybullet", "mujoco")
 TWO_PI = 2.0 * math.pi
@@ -81,6 +81,7 @@ class SimSetup:
     split: list = field(default_factory=list)  # links whose inertial was shared with their welded copy
     size: float = 1.0  # RMS spread of the joint frames (m): the scale for the closure gap
     drive_range: tuple = (0.0, TWO_PI)  # the driver's sweep: its URDF limits when it has them, else a turn
+    rates: dict = field(default_factory=dict)  # joint -> rate of its angle law (absent: 1)
 
     def start_angles(self) -> dict:
         """Joint angles at the start of the sweep: all zero, or the exact motion at the lower limit."""
@@ -92,7 +93,7 @@ class SimSetup:
 
     def exact(self, phi):
         """Exact angles of every joint when the driver is at angle(s) phi (radians, any turn)."""
-        return law_angles(self.laws, self.driver, np.mod(np.asarray(phi, float), TWO_PI))
+        return law_angles(self.laws, self.driver, np.mod(np.asarray(phi, float), TWO_PI), self.rates)
 
     def mesh_path(self, filename: str) -> Path:
         """Absolute path of a URDF mesh filename (relative to OUT; package://NAME/x -> OUT/x)."""
@@ -134,7 +135,7 @@ def load_setup(out) -> SimSetup:
     if lim is not None and 0 < lim[1] - lim[0] < TWO_PI - 1e-9:  # a task-range design: stay inside
         drive = (float(lim[0]), float(lim[1]))
     return SimSetup(Path(out).resolve(), u, u.name or "linkage", laws, driver, joints, closures, names, refs,
-                    inertials, split, size, drive)
+                    inertials, split, size, drive, angle_rates(doc))
 
 
 def contact_exclusions(setup) -> set:
