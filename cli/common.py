@@ -201,9 +201,10 @@ def print_linkage_summary(linkage, scale: float, unit: str) -> None:
     echo(f"{linkage.kind} linkage: {len(linkage.joints)} revolute joints, {len(linkage.closures)} loop(s)")
     echo(f"  {'joint':6} {'point on axis':>40}  {'direction':>28}  angle law a, b")
     for j in linkage.joints:
-        p = j.point / scale
+        p = j.point / scale + 0.0  # + 0.0: no "-0" in the table
+        d = j.direction + 0.0
         echo(f"  {j.name:6} ({p[0]:11.5g} {p[1]:11.5g} {p[2]:11.5g}) {unit:>3}  "
-             f"({j.direction[0]:8.5f} {j.direction[1]:8.5f} {j.direction[2]:8.5f})  {j.a:.6g}, {j.b:.6g}"
+             f"({d[0]:8.5f} {d[1]:8.5f} {d[2]:8.5f})  {j.a + 0.0:.6g}, {j.b:.6g}"
              + (f"  (rate {j.rate}: {j.rate} theta)" if j.rate != 1 else ""))
     echo("  (angle law a, b: the joint angle is theta(t) = 2 atan2(b, t - a) along the motion parameter t;"
          " theta = 0 at the first pose, t = inf)")

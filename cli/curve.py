@@ -105,6 +105,12 @@ def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quie
         mob = linkage.info.get("mobility", {})
         if mob:
             echo(f"  mobility: dof {mob['dof']} at all sampled t, worst conditioning {mob['conditioning']:.1e}")
+        crossings = linkage.info.get("darboux", {}).get("singular_driver_deg", [])
+        if crossings:
+            first = linkage.joints[0].name
+            where = ", ".join(f"{d:.0f}" for d in sorted(crossings))
+            echo(f"  singular configurations: {first} at {where} deg, where another assembly branch of the "
+                 "loop meets the motion; a built linkage can switch branch there (guide it through)")
 
     emit_linkage(linkage, source=source, scale=scale, unit=unit, out=out, name=name, force=force,
                  package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,

@@ -122,8 +122,9 @@ def test_curve_builds_the_7r_end_to_end(tmp_path):
     from synth.algebra.anglelaw import angle_law
 
     out = tmp_path / "d7"
-    r = CliRunner().invoke(mpsynth, ["curve", str(REPO / "fixtures/motion_darboux_general.yaml"), "-o", str(out), "-q"])
+    r = CliRunner().invoke(mpsynth, ["curve", str(REPO / "fixtures/motion_darboux_general.yaml"), "-o", str(out)])
     assert r.exit_code == 0, r.output
+    assert "singular configurations: h1 at 45, 135, 225, 315 deg" in r.output  # said in words, not only in info
     doc = json.loads((out / "linkage.json").read_text())
     assert len(doc["joints"]) == 7 and doc["info"]["counts"]["loops"] == 1
     rates = {j["name"]: j["angle_law"].get("rate", 1) for j in doc["joints"]}
