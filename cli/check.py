@@ -71,6 +71,9 @@ def summary_line(out, result) -> str:
             bits.append(f"turn by {cont['driver']} {100 * cont['followed']:.0f}%")
             if "max_deviation_from_laws" in cont:
                 bits.append(f"vs laws {cont['max_deviation_from_laws']:.1e} rad")
+            if cont.get("branch_crossings_deg"):
+                at = ", ".join(f"{d:.0f}" for d in cont["branch_crossings_deg"])
+                bits.append(f"branch crossing(s) passed on the laws' motion at {cont['driver']} = {at} deg")
         if m:
             bits.append(f"meshes {m['good']}/{m['referenced']}")
         parts.append((f"{sid}: " if sid else "") + ", ".join(bits))

@@ -9,6 +9,7 @@ steps (tangent predictor, Gauss-Newton corrector on all loops together), without
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from synth.algebra.anglelaw import driven_angle
 from synth.io.frames import TWO_PI, invert_transform
@@ -114,7 +115,8 @@ def _gauss_newton(fun, x0, tol, max_iter=25, target=1e-3):
 
 
 def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, steps: int = 360,
-                  length: float = 1.0, tol: float = 1e-8, min_step: float = 1e-9, ratio: float = 1.0) -> dict:
+                  length: float = 1.0, tol: float = 1e-8, min_step: float = 1e-9, ratio: float = 1.0,
+                  guide=None, guide_tol: float = 1e-6, singular: float = 1e-3) -> dict:
     """Drive ``driver`` from 0 through a full turn, solving ``others`` so every loop stays closed.
 
     Adaptive continuation: tangent predictor (from the loop Jacobian), Gauss-Newton corrector, the step
@@ -125,9 +127,18 @@ def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, ste
     transmission ratio rho; where a joint turns rho times faster than the driver its angle is far more
     uncertain than the loop residual (rho ~ 5e4 left the path 1.5e-4 rad off the laws with the residual
     at 1e-3 tol), so the corrector goes on to 1e-3 tol / max(1, rho / 100).
+    ``guide``: optional phi -> the others' angles the linkage's angle laws expect (`law_angles`), used
+    only at branch crossings (docs/exceptional.md, section 6): where an accepted point is more than
+    ``guide_tol`` rad off the guide, or the continuation is stuck, and the loop Jacobian at the guide's
+    configurations since the last point on it loses rank (conditioning at most ``singular``,
+    `law_conditioning`), the continuation re-seeds at the guide's configuration polished by the
+    corrector, provided that closes the loops and stays within ``guide_tol`` of the guide; each such
+    crossing is reported. Anywhere else (or when a re-seed fails) the guide is dropped, so a linkage
+    that does not move as its laws say still leaves them.
     Returns ``followed`` (fraction of the turn), ``path`` (rows: driver angle, others' angles),
-    ``accepted``/``rejected`` step counts, ``max_residual`` (of accepted points) and, when stuck, the
-    ``angle`` and ``stuck_residual``."""
+    ``accepted``/``rejected`` step counts, ``max_residual`` (of accepted points), ``crossings`` (dicts:
+    ``angle`` of the rank drop, its ``conditioning``, the ``deviation`` re-seeded away, rad) and, when
+    stuck, the ``angle`` and ``stuck_residual``."""
     F0 = u.fk({})
     refs = [invert_transform(F0[a]) @ F0[b] for a, b in closures]
     all_j = [driver] + list(others)
@@ -148,12 +159,28 @@ def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, ste
             return np.zeros(len(others))
         return np.linalg.lstsq(J[:, 1:], -J[:, 0], rcond=1e-10)[0]
 
+    def polished_guide(phi_a, phi_b, x_near):
+        """The guide's configuration at phi_b polished, when a rank drop of the laws lies in [phi_a, phi_b]
+        and it closes the loops next to the guide: (x, crossing record), else None."""
+        g = np.asarray(guide(phi_b), float)
+        cond, at = law_conditioning(u, closures, refs, driver, others, guide, phi_a, phi_b, length)
+        if cond > singular:
+            return None
+        xg, res = _gauss_newton(fun_at(phi_b), g, tol, target=target)
+        if not (res <= tol and np.all(np.isfinite(xg)) and _wrapped(xg - g).max(initial=0.0) <= guide_tol):
+            return None
+        xg = xg - TWO_PI * np.round((xg - x_near) / TWO_PI)  # keep the path continuous
+        return xg, {"angle": at, "conditioning": cond,
+                    "deviation": float(_wrapped(x_near - g).max(initial=0.0))}
+
     phi, h = 0.0, h_max
     x = np.zeros(len(others))
     path = [np.concatenate([[0.0], x])]
     accepted = rejected = 0
     worst = float(np.linalg.norm(fun_at(0.0)(x)[0]))
     stuck_res = 0.0
+    crossings = []
+    last_on = 0.0  # the last driver angle where the path agreed with the guide
     while phi < TWO_PI - 1e-13:
         step = min(h, TWO_PI - phi)
         guess = x + step * tangent(phi, x)
@@ -162,6 +189,16 @@ def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, ste
         if res <= tol and jump <= 0.25 * h_max + 1e-12 and np.all(np.isfinite(xn)):
             phi += step
             x = xn
+            if guide is not None and len(x):
+                if _wrapped(x - np.asarray(guide(phi), float)).max() > guide_tol:
+                    got = polished_guide(last_on, phi, x)
+                    if got is None:
+                        guide = None  # off the laws away from a rank drop: no more guiding
+                    else:
+                        x, rec = got
+                        crossings.append(rec)
+                if guide is not None:
+                    last_on = phi
             worst = max(worst, res)
             path.append(np.concatenate([[phi], x]))
             accepted += 1
@@ -170,12 +207,56 @@ def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, ste
             rejected += 1
             stuck_res = res
             if step <= h_min:
-                return {"followed": phi / TWO_PI, "path": path, "accepted": accepted, "rejected": rejected,
-                        "max_residual": worst, "angle": phi, "stuck_residual": stuck_res}
+                got = None
+                if guide is not None and len(x):  # stuck at a crossing: re-seed past it
+                    phi_b = min(phi + h_max, TWO_PI)
+                    got = polished_guide(last_on, phi_b, x)
+                if got is None:
+                    return {"followed": phi / TWO_PI, "path": path, "accepted": accepted, "rejected": rejected,
+                            "max_residual": worst, "crossings": crossings, "angle": phi,
+                            "stuck_residual": stuck_res}
+                x, rec = got
+                crossings.append(rec)
+                phi = last_on = phi_b
+                path.append(np.concatenate([[phi], x]))
+                accepted += 1
+                h = h_max
+                continue
             h = step / 2
     return {"followed": 1.0, "path": path, "accepted": accepted, "rejected": rejected, "max_residual": worst,
-            "angle": TWO_PI, "stuck_residual": 0.0}
+            "crossings": crossings, "angle": TWO_PI, "stuck_residual": 0.0}
 
+
+def _wrapped(d):
+    return np.abs((np.asarray(d, float) + np.pi) % TWO_PI - np.pi)
+
+
+def jacobian_conditioning(u: UrdfModel, closures, refs, driver: str, others, phi: float, x, length: float = 1.0) -> float:
+    """Smallest kept / largest singular value of the loop Jacobian with respect to all loop joints at the
+    configuration (driver at ``phi``, ``others`` at ``x``), rank n - 1 kept for n joints (mobility 1): near 0
+    at a singular configuration, where other branches of the configuration curve can cross."""
+    _, J = loop_residual(u, closures, refs, {driver: phi, **dict(zip(others, x))}, [driver] + list(others), length)
+    sv = np.linalg.svd(J, compute_uv=False)
+    k = min(len(sv), J.shape[1] - 1) - 1
+    return float(sv[k] / sv[0]) if k >= 0 and sv[0] > 0 else 1.0
+
+
+def law_conditioning(u: UrdfModel, closures, refs, driver: str, others, guide, lo: float, hi: float,
+                     length: float = 1.0, samples: int = 16) -> tuple[float, float]:
+    """(minimum, driver angle of it) of `jacobian_conditioning` at the configurations ``guide(phi)`` for
+    phi in [lo, hi] (``samples`` + 1 values, the least refined by a bounded scalar minimization)."""
+    def cond(p):
+        return jacobian_conditioning(u, closures, refs, driver, others, p, guide(p), length)
+
+    phis = np.linspace(lo, hi, samples + 1)
+    c = np.array([cond(p) for p in phis])
+    i = int(np.argmin(c))
+    a, b = phis[max(i - 1, 0)], phis[min(i + 1, samples)]
+    if b > a:
+        r = minimize_scalar(cond, bounds=(a, b), method="bounded", options={"xatol": 1e-10 * max(1.0, hi)})
+        if r.fun < c[i]:
+            return float(r.fun), float(r.x)
+    return float(c[i]), float(phis[i])
 
 
 def crossing(u: UrdfModel, closures, driver: str, others: list[str], phi: float, x, exact, *, length: float = 1.0,
@@ -184,7 +265,7 @@ def crossing(u: UrdfModel, closures, driver: str, others: list[str], phi: float,
     exact one ``exact`` (same order) on another branch of the configuration curve crossing it? Polishes
     ``x`` by full Gauss-Newton steps to the rounding floor and measures the loop Jacobian (all joints) at
     ``exact``. Returns ``deviation`` (polished x vs exact, rad), ``residual`` (polished) and
-    ``conditioning`` (smallest / largest singular value of the 6 x (1 + others) Jacobian, rank 6 kept):
+    ``conditioning`` (smallest kept / largest singular value of the Jacobian, rank 1 + others - 1 kept):
     a closed x off ``exact`` at a near-singular ``exact`` is a branch crossing, not an error."""
     F0 = u.fk({})
     refs = [invert_transform(F0[a]) @ F0[b] for a, b in closures]
@@ -198,6 +279,6 @@ def crossing(u: UrdfModel, closures, driver: str, others: list[str], phi: float,
     r, _ = loop_residual(u, closures, refs, {driver: phi, **dict(zip(others, x))}, others, length, jacobian=False)
     _, J = loop_residual(u, closures, refs, {driver: phi, **dict(zip(others, exact))}, [driver] + list(others), length)
     sv = np.linalg.svd(J, compute_uv=False)
-    k = min(6 * len(closures), len(sv)) - 1
+    k = min(len(sv), J.shape[1] - 1) - 1  # rank n - 1 of n joints (mobility 1)
     dev = float(np.abs((np.asarray(x) - np.asarray(exact) + np.pi) % TWO_PI - np.pi).max())
     return {"deviation": dev, "residual": float(np.linalg.norm(r)), "conditioning": float(sv[k] / sv[0])}

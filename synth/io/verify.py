@@ -393,9 +393,17 @@ class _Checker:
         # where a joint turns rho times faster than the driver, its continued angle is rho times as
         # sensitive to the loop residual: the tolerance grows with the laws' transmission ratio
         tol_dev = max(1e-6, 100 * self.tol_ang) * max(1.0, rho / 1e3)
-        result = continue_loop(self.u, self.closures, self.driver, others, steps=self.steps,
-                               length=self.L, tol=max(self.tol_ang, self.tol_len / self.L), ratio=rho)
         laws = self._angle_laws()
+        guide = None
+        if laws and others and all(jn in laws for jn in self.loop_joints):
+            rates = self._angle_rates()
+
+            def guide(p):
+                ex = law_angles(laws, self.driver, np.array([p]), rates)
+                return np.array([ex[jn][0] for jn in others])
+        result = continue_loop(self.u, self.closures, self.driver, others, steps=self.steps,
+                               length=self.L, tol=max(self.tol_ang, self.tol_len / self.L), ratio=rho,
+                               guide=guide, guide_tol=tol_dev)
         dev, crossings = None, []
         if laws and all(jn in laws for jn in self.loop_joints) and len(result["path"]):
             path = np.array(result["path"])
@@ -417,8 +425,13 @@ class _Checker:
                "rejected": result["rejected"], "max_residual": result["max_residual"]}
         if dev is not None:
             fig["max_deviation_from_laws"] = dev
-        if crossings:
-            fig["branch_crossings_deg"] = [round(math.degrees(p), 6) for p in crossings]
+        crossings += [c["angle"] for c in result.get("crossings", [])]
+        if crossings:  # one angle per crossing (points within a degree of each other are one)
+            merged = []
+            for p in sorted(crossings):
+                if not merged or p - merged[-1] > math.radians(1.0):
+                    merged.append(p)
+            fig["branch_crossings_deg"] = [round(math.degrees(p), 3) for p in merged]
         self.figures["continuation"] = fig
         if result["followed"] < 1.0:
             self.fail(f"linkage driven by {self.driver} stuck at {math.degrees(result['angle']):.4g} deg of a "
