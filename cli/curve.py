@@ -2,14 +2,17 @@
 `tracer` frame draws a rational curve (docs/exceptional.md)."""
 from __future__ import annotations
 
+import math
+
 import click
 
+from synth.design.members import choose_member
 from synth.io.curvespec import load_spec
 from synth.io.posespec import LENGTH_UNITS
 from synth.io.writer import check_output_target
 from synth.synthesis.curve import CurveSpec, spec_linkage
 
-from .common import debug_option, design_option_list, echo, emit_linkage, json_option, mesh_sizes, run_guarded
+from .common import debug_option, design_option_list, design_result, echo, emit_linkage, json_option, mesh_sizes, run_guarded
 
 
 def design_options(func):
@@ -105,6 +108,11 @@ def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quie
         mob = linkage.info.get("mobility", {})
         if mob:
             echo(f"  mobility: dof {mob['dof']} at all sampled t, worst conditioning {mob['conditioning']:.1e}")
+        choice = linkage.info.get("darboux", {}).get("member_choice")
+        if choice and choice["member"] != "default":
+            m = choice["member"]
+            echo(f"  member: turn {math.degrees(m['turn']):.1f} deg of the parallel axes, 3R shift "
+                 f"({m['shift'][0] / scale:.3g}, {m['shift'][1] / scale:.3g}) {unit}: {choice['reason']}")
         crossings = linkage.info.get("darboux", {}).get("singular_driver_deg", [])
         if crossings:
             first = linkage.joints[0].name
@@ -112,6 +120,11 @@ def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quie
             echo(f"  singular configurations: {first} at {where} deg, where another assembly branch of the "
                  "loop meets the motion; a built linkage can switch branch there (guide it through)")
 
+    result = None
+    if "darboux" in linkage.info and (out or as_json or require_free):  # a collision-free member first
+        linkage, result = choose_member(linkage, lambda lk, ranges, full_seconds, effort: design_result(
+            lk, sizes, scale=scale, unit=unit, source=source, require_free=False, ranges=ranges,
+            full_seconds=full_seconds, effort=effort))
     emit_linkage(linkage, source=source, scale=scale, unit=unit, out=out, name=name, force=force,
                  package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,
-                 require_free=require_free)
+                 require_free=require_free, result=result)

@@ -112,9 +112,11 @@ def test_singular_configurations_are_recorded():
 
 
 def test_curve_builds_the_7r_end_to_end(tmp_path):
-    """`mpsynth curve` on the fixture: 7 joints, k2 of rate 2 in linkage.json; the URDF (yourdfpy) at the law
-    angles closes the weld and its tool traces the Darboux path; `mpsynth check` and the shared verifier
-    (with --trace tool --curve) accept it."""
+    """`mpsynth curve` on the fixture: 7 joints, k2 of rate 2 in linkage.json; the default member's design
+    collides, so a collision-free member is chosen (synth/design/members.py) and said in words; the URDF
+    (yourdfpy) at the law angles closes the weld and its tool traces the Darboux path; `mpsynth collide`,
+    `mpsynth check` (through its branch crossing) and the shared verifier (with --trace tool --curve and
+    --collisions at the written clearance over the full cycle) accept it."""
     import yourdfpy
     from click.testing import CliRunner
 
@@ -124,8 +126,14 @@ def test_curve_builds_the_7r_end_to_end(tmp_path):
     out = tmp_path / "d7"
     r = CliRunner().invoke(mpsynth, ["curve", str(REPO / "fixtures/motion_darboux_general.yaml"), "-o", str(out)])
     assert r.exit_code == 0, r.output
-    assert "singular configurations: h1 at 45, 135, 225, 315 deg" in r.output  # said in words, not only in info
+    assert "singular configurations: h1 at 45, 127, 135, 225, 307, 315 deg" in r.output  # in words, not only in info
+    assert "member: turn 22.5 deg of the parallel axes, 3R shift (-0.482, 0) m" in r.output
+    assert "design: collision-free over the full cycle" in r.output
     doc = json.loads((out / "linkage.json").read_text())
+    col = doc["collision"]
+    assert col["free"] and col["range"] == "full" and col["certified"] and col["min_distance"] >= col["clearance"]
+    choice = doc["info"]["darboux"]["member_choice"]
+    assert choice["member"] == doc["info"]["darboux"]["member"] and choice["free_found"] >= 1
     assert len(doc["joints"]) == 7 and doc["info"]["counts"]["loops"] == 1
     rates = {j["name"]: j["angle_law"].get("rate", 1) for j in doc["joints"]}
     assert rates == {"h1": 1, "h2": 1, "h3": 1, "k1": 1, "k2": 2, "k3": 1, "k4": 1}
@@ -142,6 +150,8 @@ def test_curve_builds_the_7r_end_to_end(tmp_path):
         p = robot.get_transform("tool")[:3, 3]
         assert np.allclose(p, [np.cos(th) - 1, np.sin(th), (np.cos(th) - 1 + np.sin(th)) / 2], atol=1e-12)
     r = CliRunner().invoke(mpsynth, ["check", str(out), "--no-meshes"])
+    assert r.exit_code == 0 and "branch crossing(s) passed" in r.output, r.output
+    r = CliRunner().invoke(mpsynth, ["collide", str(out), "-q"])
     assert r.exit_code == 0, r.output
     verifier = REPO.parent / "shared/tools/verify_output.py"
     if not verifier.exists():
@@ -149,5 +159,6 @@ def test_curve_builds_the_7r_end_to_end(tmp_path):
     curve = tmp_path / "path.yaml"
     curve.write_text('curve:\n  x: "-2"\n  y: "2*t"\n  z: "t - 1"\n  w: "t^2 + 1"\n')
     v = subprocess.run([sys.executable, str(verifier), str(out), "--steps", "90", "--trace", "tool", "--curve",
-                        str(curve)], capture_output=True, text=True, timeout=600)
+                        str(curve), "--collisions", repr(col["clearance"]), "--collision-range", "full"],
+                       capture_output=True, text=True, timeout=600)
     assert v.returncode == 0 and v.stdout.strip().splitlines()[-1].startswith("verify OK"), v.stdout + v.stderr

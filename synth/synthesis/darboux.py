@@ -238,6 +238,15 @@ def darboux_linkage(C, *, kind: str = "motion", tool_ref=None, info=None, check_
     return lk
 
 
+def darboux_member(linkage, turn: float, shift=(0.0, 0.0), *, singular: bool = True, check_samples: int = 200):
+    """Another member (`chains`: ``turn`` rad, ``shift`` metres) of the 7R of the Darboux motion of
+    ``linkage`` (a `darboux_linkage`), with the same motion, tool frame and info (but its own ``darboux``,
+    ``mobility`` and ``counts``); None where `darboux_linkage` refuses it."""
+    info = {k: v for k, v in linkage.info.items() if k not in ("darboux", "mobility", "counts")}
+    return darboux_linkage(linkage.motion, kind=linkage.kind, tool_ref=linkage.tool_ref, info=info,
+                           check_samples=check_samples, turn=turn, shift=shift, singular=singular)
+
+
 def add_singular(linkage) -> None:
     """Record the singular parameters (`singular_parameters`) and the driver h1's angles there in
     ``linkage.info["darboux"]``."""
