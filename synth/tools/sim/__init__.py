@@ -82,6 +82,7 @@ class SimSetup:
     size: float = 1.0  # RMS spread of the joint frames (m): the scale for the closure gap
     drive_range: tuple = (0.0, TWO_PI)  # the driver's sweep: its URDF limits when it has them, else a turn
     rates: dict = field(default_factory=dict)  # joint -> rate of its angle law (absent: 1)
+    singular_deg: tuple = ()  # driver angles (deg) of singular configurations (linkage.json info.darboux)
 
     def start_angles(self) -> dict:
         """Joint angles at the start of the sweep: all zero, or the exact motion at the lower limit."""
@@ -135,7 +136,19 @@ def load_setup(out) -> SimSetup:
     if lim is not None and 0 < lim[1] - lim[0] < TWO_PI - 1e-9:  # a task-range design: stay inside
         drive = (float(lim[0]), float(lim[1]))
     return SimSetup(Path(out).resolve(), u, u.name or "linkage", laws, driver, joints, closures, names, refs,
-                    inertials, split, size, drive, angle_rates(doc))
+                    inertials, split, size, drive, angle_rates(doc), _singular_deg(doc, driver))
+
+
+def _singular_deg(doc: dict, driver: str) -> tuple:
+    """The driver's angles (deg) at the singular configurations recorded in linkage.json (the 7R Darboux
+    loop's ``info.darboux.singular_driver_deg``, driver = the first joint of the first branch), else ()."""
+    d = doc.get("info", {}).get("darboux", {}) if isinstance(doc.get("info"), dict) else {}
+    br = doc.get("branches")
+    first = br[0][0] if isinstance(br, list) and br and isinstance(br[0], list) and br[0] else None
+    vals = d.get("singular_driver_deg") if isinstance(d, dict) else None
+    if first != driver or not isinstance(vals, list):
+        return ()
+    return tuple(float(v) for v in vals if isinstance(v, (int, float)))
 
 
 def contact_exclusions(setup) -> set:
@@ -234,6 +247,7 @@ class Tracker:
         self.setup = setup
         self.max_dev = 0.0
         self.worst_joint = None
+        self.worst_angle = 0.0  # the driver's angle (rad) where the worst joint deviation was seen
         self.max_gap = 0.0
         self.max_gap_angle = 0.0
         self.max_driver_error = 0.0
@@ -247,9 +261,11 @@ class Tracker:
         for jn in s.joints:
             if jn == s.driver:
                 continue
-            d = float(np.abs(np.mod(q[jn] - exact[jn] + math.pi, TWO_PI) - math.pi).max())
-            if d > self.max_dev or self.worst_joint is None:
-                self.max_dev, self.worst_joint = max(d, self.max_dev), jn
+            dev = np.abs(np.mod(q[jn] - exact[jn] + math.pi, TWO_PI) - math.pi)
+            i = int(np.argmax(dev))
+            if dev[i] > self.max_dev or self.worst_joint is None:
+                self.worst_angle = float(q[s.driver][i])
+                self.max_dev, self.worst_joint = max(float(dev[i]), self.max_dev), jn
         if target is not None:
             err = float(np.abs(q[s.driver] - np.asarray(target, float)).max())
             self.max_driver_error = max(self.max_driver_error, err)
@@ -265,7 +281,7 @@ class Tracker:
     def result(self, engine: str, steps: int, **extra) -> dict:
         return {"engine": engine, "max_joint_deviation": self.max_dev, "max_closure_gap": self.max_gap,
                 "steps": steps, "max_closure_angle": self.max_gap_angle, "linkage_size": self.setup.size,
-                "worst_joint": self.worst_joint,
+                "worst_joint": self.worst_joint, "worst_driver_angle": self.worst_angle,
                 "driver": self.setup.driver, "max_driver_error": self.max_driver_error,
                 "drive_range": [float(v) for v in self.setup.drive_range], **extra}
 

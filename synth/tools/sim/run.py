@@ -30,7 +30,17 @@ def advice(result: dict, engine: str, tol: float, seconds: float, loops: int) ->
     (PyBullet's weld gap, ~1e-4 m on the curve fixtures whatever the speed at its default solver
     residual, is magnified in the joints by the near-singular configurations of the ladder: worst
     conditioning ~1e-3; `synth.tools.sim.pybullet_sim.residual_threshold` tightens the solver for
-    several loops, which brings both curve fixtures within 1e-3 rad, but with little margin)."""
+    several loops, which brings both curve fixtures within 1e-3 rad, but with little margin). A worst
+    deviation next to a recorded singular configuration (`near_singular`: the 7R Darboux loop's branch
+    crossings, docs/exceptional.md section 6) is said to be one, with the slower turn to try."""
+    near = near_singular(result)
+    if near is not None:
+        return (f"the worst deviation ({result['worst_joint']} at {result['driver']} = "
+                f"{math.degrees(result['worst_driver_angle']) % 360:.0f} deg) is next to a singular configuration "
+                f"({result['driver']} = {near:.0f} deg, linkage.json info.darboux.singular_driver_deg), where another "
+                "assembly branch of the loop meets the motion and the welds' give is magnified; try a slower turn "
+                f"(--seconds {min(3600.0, seconds * max(2.0, 2.0 * result['max_joint_deviation'] / tol)):.3g})"
+                + (f" or a smaller --timestep (e.g. {result['timestep'] / 4:.2g})" if engine == "mujoco" else ""))
     if engine == "pybullet" and loops > 1:  # measured: a 6x slower turn barely helps PyBullet here
         return (f"PyBullet's solver holds the {loops} welds only to ~{result['max_closure_gap']:.0e} m, "
                 "and near-singular configurations of the loops magnify that in the joints; "
@@ -40,6 +50,21 @@ def advice(result: dict, engine: str, tol: float, seconds: float, loops: int) ->
     if engine == "mujoco":
         tips.append(f"a smaller --timestep (e.g. {result['timestep'] / 4:.2g})")
     return f"the loops' welds give way with the speed of the links ({loops} loop(s)); try " + " or ".join(tips)
+
+
+NEAR_SINGULAR_DEG = 10.0  # a worst deviation this close (driver angle) to a singular configuration is blamed on it
+
+
+def near_singular(result: dict) -> float | None:
+    """The driver angle (deg) of the singular configuration (``result["singular_driver_deg"]``) within
+    `NEAR_SINGULAR_DEG` of where the worst joint deviation was seen (``worst_driver_angle``, rad), else None."""
+    at = math.degrees(result.get("worst_driver_angle", 0.0)) % 360
+    best = None
+    for s in result.get("singular_driver_deg", ()):
+        d = abs((at - s + 180) % 360 - 180)
+        if d <= NEAR_SINGULAR_DEG and (best is None or d < best[0]):
+            best = (d, s)
+    return None if best is None else best[1]
 
 
 RETRY_MAX_SLOWDOWN = 8.0  # the default turn's automatic retry is at most this much slower
@@ -73,6 +98,8 @@ def simulate(out, engine: str, *, seconds: float | None = None, timestep: float 
         res["retried"] = first
     res["seconds"] = seconds
     res["loops"] = len(setup.closures)
+    if setup.singular_deg:
+        res["singular_driver_deg"] = list(setup.singular_deg)
     return res
 
 
