@@ -3,8 +3,9 @@
 ``law_angles``: every joint's exact angle when the driver joint is at a given angle (linkage.json's
 ``joints[].angle_law``, theta_j(t) = 2 atan2(b_j, t - a_j); docs/conventions.md).
 ``continue_loop``: drive one joint of a `synth.io.urdfmodel.UrdfModel` through a full turn in adaptive
-steps (tangent predictor, Gauss-Newton corrector on all loops together), without using the laws: what
-`mpsynth check` compares the laws with. Angles in radians, lengths in metres.
+steps (tangent predictor, Gauss-Newton corrector on all loops together), without using the laws except
+to stay on their motion at a branch crossing (a singular configuration where another branch of the
+configuration curve meets it; docs/exceptional.md, section 6): what `mpsynth check` compares the laws with. Angles in radians, lengths in metres.
 """
 from __future__ import annotations
 

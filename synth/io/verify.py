@@ -21,7 +21,10 @@ the independent continuation is `synth.io.continuation`. The checks, each adding
 5. cycle, independent: the first joint of the first branch is driven through a full turn in adaptive
    steps (tangent predictor, Gauss-Newton corrector on all loops together, step halved on failure and
    grown on success); it must complete the turn, come back to all-zero, and agree with the angle laws
-   (both within the continuation's tolerance below).
+   (both within the continuation's tolerance below). The laws guide it only at branch crossings: where
+   it leaves them next to a configuration of the laws whose loop Jacobian loses rank, it re-seeds on the
+   laws' configuration when that closes the loops (`synth.io.continuation.continue_loop`, ``guide``),
+   and the crossing is reported (``branch_crossings_deg``; docs/exceptional.md, section 6).
 
 Tolerances: with L the linkage's size (RMS spread of joint feet and tool positions) and A the largest
 coordinate, lengths must agree to ``rtol * L + 1e-13 * A`` and angles to ``rtol + 1e-13 * A / L``
