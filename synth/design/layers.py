@@ -109,12 +109,14 @@ class _Programme:
         return None if res.x is None else res.x
 
 
-def layer_levels(linkage, u, rng_phi, reach, seconds):
+def layer_levels(linkage, u, rng_phi, reach, seconds, keep=None):
     """{(link, a, b): [level per piece]} of a layering over phi in ``rng_phi`` (None when none was found in
-    ``seconds``); ``reach``: the in-plane distance below which two parts interact (metres)."""
+    ``seconds``); ``reach``: the in-plane distance below which two parts interact (metres). ``keep``: the
+    joints layered (default: all; a partly planar linkage layers its joints parallel to ``u`` and the
+    bars between two of them, `synth.design.mixed`)."""
     e1, e2 = _plane(u)
     jl = joint_links(linkage)
-    joints = [j for j in jl if jl[j]]
+    joints = [j for j in jl if jl[j] and (keep is None or j in keep)]
     adjacent = adjacent_pairs(linkage)
 
     def adj(a, b):
@@ -129,7 +131,8 @@ def layer_levels(linkage, u, rng_phi, reach, seconds):
         w = D[:, :3, :3] @ p + D[:, :3, 3]
         return np.stack([w @ e1, w @ e2], axis=-1)
 
-    bars = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])]
+    bars = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])
+            if keep is None or (a in keep and b in keep)]
     ends = [(xy(link, sites[a]), xy(link, sites[b])) for link, a, b in bars]
     jxy = {j: xy(jl[j][0], sites[j]) for j in joints}
     P = _Programme()

@@ -37,6 +37,7 @@ import numpy as np
 from synth.design.model import PhysicalDesign, axis_point, capsules
 from synth.design.layers import layered_design, parallel_axis
 from synth.design.cranks import crank_bars
+from synth.design.mixed import dominant_axis, mixed_design
 from synth.design.search import DesignResult, design_linkage
 from synth.io.frames import link_origins
 from synth.io.solid import (Solid, boolean, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
@@ -96,7 +97,9 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
 
     Then, when that is still not free and the search covered the task range (docs/design.md): a planar
     linkage (every axis parallel) gets a layered design (`synth.design.layers.layered_design`, within
-    `LAYER_SECONDS`), any other one cranked bars for the colliding bodies
+    `LAYER_SECONDS`), a partly planar one (`synth.design.mixed.dominant_axis`) its parallel part layered
+    and the rest searched around it (`synth.design.mixed.mixed_design`, within `LAYER_SECONDS` each),
+    any other one (or a partly planar one that is still not free) cranked bars for the colliding bodies
     (`synth.design.cranks.crank_bars`, within `CRANK_SECONDS`); a certified free result replaces it
     (its report's ``cranked`` names the cranked bars, ``layers`` the levels of a layered design)."""
     result = _straight(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, search)
@@ -104,6 +107,10 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
         return result
     if parallel_axis(linkage) is not None:
         return layered_design(linkage, result, seconds=LAYER_SECONDS)
+    if dominant_axis(linkage) is not None:
+        result = mixed_design(linkage, result, seconds=LAYER_SECONDS)
+        if result.collision.free:
+            return result
     return crank_bars(linkage, result, seconds=CRANK_SECONDS)
 
 
