@@ -109,11 +109,14 @@ class _Programme:
         return None if res.x is None else res.x
 
 
-def layer_levels(linkage, u, rng_phi, reach, seconds, keep=None):
+def layer_levels(linkage, u, rng_phi, reach, seconds, keep=None, exits=()):
     """{(link, a, b): [level per piece]} of a layering over phi in ``rng_phi`` (None when none was found in
     ``seconds``); ``reach``: the in-plane distance below which two parts interact (metres). ``keep``: the
     joints layered (default: all; a partly planar linkage layers its joints parallel to ``u`` and the
-    bars between two of them, `synth.design.mixed`)."""
+    bars between two of them, `synth.design.mixed`). ``exits``: joints (of ``keep``) where a bar leaves
+    the stack along the axis to a joint not kept (a riser): the joint's column then reaches the top or
+    the bottom of the stack, and the result's entry ``(joint, "exit")`` is ``[top + 1]`` or ``[-1]``, the
+    level the riser ends on."""
     e1, e2 = _plane(u)
     jl = joint_links(linkage)
     joints = [j for j in jl if jl[j] and (keep is None or j in keep)]
@@ -205,10 +208,18 @@ def layer_levels(linkage, u, rng_phi, reach, seconds, keep=None):
     top = P.var()
     for v in z.values():
         P.row({top: 1, v: -1}, lo=0)
+    side = {}
+    for j in exits:  # the riser at j: the column reaches the top (y = 0) or the bottom (y = 1)
+        y = side[j] = P.var(binary=True)
+        P.row({col[j][1]: 1, top: -1, y: big}, lo=0)
+        P.row({col[j][0]: 1, y: big}, hi=big)
     x = P.solve({top: 1.0}, levels, seconds)
     if x is None:
         return None
-    return {bar: [int(round(x[z[(i, h)]])) for h in range(PIECES)] for i, bar in enumerate(bars)}
+    out = {bar: [int(round(x[z[(i, h)]])) for h in range(PIECES)] for i, bar in enumerate(bars)}
+    for j, y in side.items():
+        out[(j, "exit")] = [-1 if round(x[y]) else int(round(x[top])) + 1]
+    return out
 
 
 def level_pitch(design) -> float:

@@ -89,22 +89,47 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
     old = result.design
     rng_phi = FULL if result.collision.range == "full" else task_phi_range(linkage)
     reach = MARGIN * (old.hub_radius + old.bar_radius + old.clearance)
-    levels = layer_levels(linkage, u, rng_phi, reach, seconds, keep=keep)
+    jl = joint_links(linkage)
+    risers = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])
+              if (a in keep) != (b in keep)]  # bars from the stack to another joint
+    exits = sorted({a if a in keep else b for _, a, b in risers})
+    levels = layer_levels(linkage, u, rng_phi, reach, seconds, keep=keep, exits=exits)
     if levels is None:
         result.collision.message += " (no layering of its parallel joints was found either)"
         return result
     pitch = level_pitch(old)
-    base = -0.5 * pitch * max(max(v) for v in levels.values())
+    base = -0.5 * pitch * max(max(v) for k, v in levels.items() if k[-1] != "exit")
     heights, cranks, crank_heights = {}, {}, []
     sites = linkage.joint_sites()
-    for (link, a, b), lv in levels.items():
-        for j, level in ((a, lv[0]), (b, lv[-1])):
-            heights[(link, j)] = base + level * pitch
-        if len(set(lv)) > 1:
-            mid = (sites[a] + sites[b]) / 2
-            p = mid - (mid @ u) * u  # the crank's via points: p + w u, w the height of each half
-            cranks[(link, a, b)] = (p, p, u)
-            crank_heights += [base + lv[0] * pitch, base + lv[1] * pitch]
+
+    def flat(p):  # a point's projection on the plane of height 0
+        return p - (p @ u) * u
+
+    bars = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])]
+    for link, a, b in bars:  # a hub sits on the level of the first of its link's bars there
+        for j, level in ((a, levels.get((link, a, b), [None])[0]), (b, levels.get((link, a, b), [None])[-1])):
+            if level is not None:
+                heights.setdefault((link, j), base + level * pitch)
+    for link, a, b in bars:
+        if (link, a, b) in levels:  # vias p + w u at the heights w: a riser at an end whose hub is on
+            lv = levels[(link, a, b)]  # another level, a step where the halves differ
+            ha, hb = base + lv[0] * pitch, base + lv[-1] * pitch
+            pts, ws = [], []
+            if abs(heights[(link, a)] - ha) > 1e-12:
+                pts, ws = [flat(sites[a])], [ha]
+            if len(set(lv)) > 1:
+                p = flat((sites[a] + sites[b]) / 2)
+                pts, ws = pts + [p, p], ws + [ha, hb]
+            if abs(heights[(link, b)] - hb) > 1e-12:
+                pts, ws = pts + [flat(sites[b])], ws + [hb]
+            if pts:
+                cranks[(link, a, b)] = (*pts, u)
+                crank_heights += ws
+        elif (link, a, b) in risers:  # along the axis of the kept joint out of the stack, then across
+            j = a if a in keep else b
+            p = flat(sites[j])
+            cranks[(link, a, b)] = (p, u)
+            crank_heights.append(base + levels[(j, "exit")][0] * pitch)
     jl = joint_links(linkage)
     for j in keep:  # a parallel joint of a link with no layered bar there: on the sites' plane
         for link in jl[j]:
@@ -146,9 +171,14 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
         S, W = stack_exact.offsets(x[None])
         return certify_layout(exact, S[0], rng_phi, old.clearance, W[0])
 
-    found, _ = search_rounds(scorer, space, X0[starts].copy(), lambda: mask, target, scale, effort=effort,
+    found, last = search_rounds(scorer, space, X0[starts].copy(), lambda: mask, target, scale, effort=effort,
                              deadline=time.process_time() + seconds, certify_best=certify_best)
     if found is None:
+        X, best = last
+        x = X[int(np.argmax(best))]
+        cert = certify_best(x)
+        closest = report_for(linkage, exact, result.collision.range, cert, old.clearance)
+        mixed_design.last = (closest, cert, exact, x, stack_exact)
         result.collision.message += " (a layering of its parallel joints was searched too)"
         return result
     x, cert = found
@@ -157,6 +187,6 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
                           hub_radius=old.hub_radius, hole_clearance=old.hole_clearance, clearance=old.clearance)
     report = report_for(linkage, exact, result.collision.range, cert, old.clearance)
     report.cranked = [list(k) for k in cranks]
-    report.layers = len({lv for v in levels.values() for lv in v})
+    report.layers = len({lv for k, v in levels.items() if k[-1] != "exit" for lv in v})
     report.seconds = result.collision.seconds + time.process_time() - t0
     return DesignResult(design, report)

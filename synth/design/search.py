@@ -91,10 +91,10 @@ class Layout:
 
     ``merged``: one capsule of the hub radius per mount covering the hub and, on the carrier, the whole
     pin (fewer, looser capsules: the search); else bars, hubs and pins separately (the certificate).
-    ``cranks``: {(link, joint a, joint b): (p0, p1, n)}: the bar of ``link`` from a to b is cranked, a
-    polyline mount a -> p0 + w0 n -> p1 + w1 n -> mount b with the crank offsets w (``end_offsets``'s
-    ``W``, one column per via point, in the order of ``vias``); points and the unit crank direction n in
-    the reference configuration (metres)."""
+    ``cranks``: {(link, joint a, joint b): (p0, p1, ..., n)}: the bar of ``link`` from a to b is cranked,
+    a polyline mount a -> p0 + w0 n -> p1 + w1 n -> ... -> mount b with the crank offsets w
+    (``end_offsets``'s ``W``, one column per via point, in the order of ``vias``); points and the unit
+    crank direction n in the reference configuration (metres)."""
 
     def __init__(self, linkage, *, pin_radius, bar_radius, hub_radius, hub_length, clearance, merged, cranks=None):
         self.linkage = linkage
@@ -120,8 +120,8 @@ class Layout:
             for a, b in zip(names, names[1:]):
                 chain = [end(a, link, 0, self.mindex[(link, a)], 0.0)]
                 if (link, a, b) in self.cranks:
-                    p0, p1, n = self.cranks[(link, a, b)]
-                    for k, p in enumerate((p0, p1)):
+                    *points, n = self.cranks[(link, a, b)]
+                    for k, p in enumerate(points):
                         ends.append((np.asarray(p, float), np.asarray(n, float), link, 3, len(self.vias), 0.0))
                         self.vias.append((link, a, b, k))
                         chain.append(len(ends) - 1)
@@ -187,8 +187,8 @@ class Layout:
         W = np.zeros(len(self.vias)) if W is None else W
         vias: dict[tuple, list] = {}
         for (link, a, b, k), w in zip(self.vias, W):
-            p0_p1_n = self.cranks[(link, a, b)]
-            vias.setdefault((link, a, b), []).append(np.asarray(p0_p1_n[k], float) + float(w) * np.asarray(p0_p1_n[2]))
+            crank = self.cranks[(link, a, b)]
+            vias.setdefault((link, a, b), []).append(np.asarray(crank[k], float) + float(w) * np.asarray(crank[-1]))
         bars = [Bar(link, (a, b), vias.get((link, a, b), [])) for link, names in self.linkage.links.items()
                 for a, b in zip(names, names[1:])]
         h = self.hub_length / 2
