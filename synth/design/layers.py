@@ -230,6 +230,56 @@ def level_pitch(design) -> float:
                2 * design.bar_radius) + (1 + SAFETY) * design.clearance
 
 
+def stack_geometry(linkage, levels: dict, u, pitch: float, keep=None) -> tuple[dict, dict, list, list]:
+    """(heights, cranks, W, out) of a layering ``levels`` (`layer_levels`) with ``pitch`` metres between levels,
+    the stack centred on the plane of height 0: ``heights[(link, joint)]`` the height (along ``u``) of each
+    hub, on the level of the first of its link's layered bars there (a joint of ``keep`` without one: 0);
+    ``cranks`` (`search.Layout`'s) with via points ``p + w u`` (p on the plane of height 0) at the heights
+    ``W`` (in the order of the Layout's via points): a step at the middle of a bar whose halves differ, a
+    riser along the axis where a bar ends on another level than its hub, and for a bar from a joint of
+    ``keep`` to another joint (``(joint, "exit")`` in ``levels``) a riser out of the stack first; ``out``
+    (one per entry of W): +1 or -1 for the end of such a riser (the direction out of the stack), else 0."""
+    base = -0.5 * pitch * max(max(v) for k, v in levels.items() if k[-1] != "exit")
+    sites = linkage.joint_sites()
+    jl = joint_links(linkage)
+    heights, cranks, W, out = {}, {}, [], []
+
+    def flat(p):  # a point's projection on the plane of height 0
+        return p - (p @ u) * u
+
+    bars = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])]
+    for link, a, b in bars:
+        lv = levels.get((link, a, b))
+        if lv is not None:
+            heights.setdefault((link, a), base + lv[0] * pitch)
+            heights.setdefault((link, b), base + lv[-1] * pitch)
+    for link, a, b in bars:
+        lv = levels.get((link, a, b))
+        pts, ws, side = [], [], 0
+        if lv is not None:
+            ha, hb = base + lv[0] * pitch, base + lv[-1] * pitch
+            if abs(heights[(link, a)] - ha) > 1e-12:
+                pts, ws = [flat(sites[a])], [ha]
+            if len(set(lv)) > 1:
+                p = flat((sites[a] + sites[b]) / 2)
+                pts, ws = pts + [p, p], ws + [ha, hb]
+            if abs(heights[(link, b)] - hb) > 1e-12:
+                pts, ws = pts + [flat(sites[b])], ws + [hb]
+        elif keep is not None and (a in keep) != (b in keep):
+            j = a if a in keep else b
+            pts, ws = [flat(sites[j])], [base + levels[(j, "exit")][0] * pitch]
+            side = 1 if levels[(j, "exit")][0] >= 0 else -1
+        if pts:
+            cranks[(link, a, b)] = (*pts, u)
+            W += ws
+            out += [side] * len(ws)
+    for j in jl:  # a link with no layered bar at a joint (one joint only, or bars to joints not kept)
+        if keep is None or j in keep:
+            for link in jl[j]:
+                heights.setdefault((link, j), 0.0)
+    return heights, cranks, W, out
+
+
 def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> DesignResult:
     """A certified layered design of a planar linkage (docs/design.md, "Layers"), or ``result`` unchanged
     when the axes are not all parallel, no layering is found within ``seconds`` (CPU, the programme's
@@ -246,34 +296,18 @@ def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> D
     if levels is None:
         result.collision.message += " (no layering of the planar linkage was found either)"
         return result
-    pitch = level_pitch(old)
+    heights, cranks, W, _ = stack_geometry(linkage, levels, u, level_pitch(old))
     sites = linkage.joint_sites()
-    jl = joint_links(linkage)
-    base = -0.5 * pitch * max(max(v) for v in levels.values())  # centre the stack on the plane of the sites
-    height = {}
-    cranks = {}
-    for (link, a, b), lv in levels.items():
-        for j, level in ((a, lv[0]), (b, lv[-1])):
-            height[(link, j)] = base + level * pitch
-        if len(set(lv)) > 1:
-            pa, pb = sites[a], sites[b]
-            mid = (pa + pb) / 2
-            p0 = mid + (base + lv[0] * pitch - mid @ u) * u
-            p1 = mid + (base + lv[1] * pitch - mid @ u) * u
-            cranks[(link, a, b)] = (p0, p1, u)
-    for j in jl:  # a link with one joint has no bar: its hub on the sites' plane (the certificate decides)
-        for link in jl[j]:
-            height.setdefault((link, j), 0.0)
     sizes = dict(pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
                  hub_length=old.hub_length, clearance=old.clearance)
     exact = Layout(linkage, merged=False, cranks=cranks, **sizes)
-    S = np.array([(height[(link, j)] - sites[j] @ u) / float(linkage.joint(j).direction @ u)
+    S = np.array([(heights[(link, j)] - sites[j] @ u) / float(linkage.joint(j).direction @ u)
                   for link, j in exact.mounts])
-    cert = certify_layout(exact, S, rng_phi, old.clearance)
+    cert = certify_layout(exact, S, rng_phi, old.clearance, W)
     if not cert["certified"]:
         result.collision.message += " (a layering of the planar linkage was tried too; it did not certify)"
         return result
-    design = exact.design(S, pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
+    design = exact.design(S, np.asarray(W), pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
                           hole_clearance=old.hole_clearance, clearance=old.clearance)
     report = report_for(linkage, exact, result.collision.range, cert, old.clearance)
     report.cranked = [list(k) for k in cranks]

@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from synth.design.coordinate import FULL, Scorer, Space, score, search_rounds, violation
-from synth.design.layers import MARGIN, layer_levels, level_pitch
+from synth.design.layers import MARGIN, layer_levels, level_pitch, stack_geometry
 from synth.design.model import joint_links
 from synth.design.search import (CLEARANCE_FRACTION, FULL_SAMPLES, SAFETY, SEARCH_MERGED, SPREADS, TASK_SAMPLES,
                                  DesignResult, Layout, certify_layout, report_for, task_phi_range)
@@ -37,10 +37,11 @@ def dominant_axis(linkage, tol: float = 1e-9):
 
 
 class _Stack:
-    """The parametrization X = [delta | c | sigma | g] (N, 1 + 3 Js): the layered mounts and crank points at
-    their heights shifted by delta along u; the stacks of the ``Js`` other joints as in `search.Layout`."""
+    """The parametrization X = [delta | c | sigma | g | e] (N, 1 + 3 Js + R): the layered mounts and crank
+    points at their heights shifted by delta along u; the stacks of the ``Js`` other joints as in
+    `search.Layout`; how far (e >= 0) each of the R risers out of the stack reaches beyond it."""
 
-    def __init__(self, layout: Layout, u, heights: dict, crank_heights: list, spatial: list):
+    def __init__(self, layout: Layout, u, heights: dict, crank_heights: list, outward: list, spatial: list):
         lk = layout.linkage
         sites = lk.joint_sites()
         M = len(layout.mounts)
@@ -52,25 +53,36 @@ class _Stack:
             self.S0[layout.mindex[(link, j)]] = (h - sites[j] @ u) / du
             self.dS[layout.mindex[(link, j)]] = 1.0 / du
         self.W0 = np.asarray(crank_heights, float)
+        self.riser = np.flatnonzero(outward)
+        self.out = np.asarray(outward, float)[self.riser]
 
     def offsets(self, X):
         n, Js, J = len(X), len(self.spatial), len(self.layout.joints)
         c, sigma, g = np.zeros((n, J)), np.ones((n, J)), np.zeros((n, J))
-        c[:, self.col], sigma[:, self.col], g[:, self.col] = X[:, 1:1 + Js], X[:, 1 + Js:1 + 2 * Js], X[:, 1 + 2 * Js:]
+        e = 1 + 3 * Js
+        c[:, self.col], sigma[:, self.col], g[:, self.col] = X[:, 1:1 + Js], X[:, 1 + Js:1 + 2 * Js], X[:, 1 + 2 * Js:e]
         S = self.S0 + X[:, :1] * self.dS + self.layout.mount_offsets(c, sigma, g)
-        return S, self.W0 + X[:, :1]
+        W = self.W0 + X[:, :1]
+        W[:, self.riser] += X[:, e:] * self.out
+        return S, W
 
 
-def _space(Js, gmin, scale) -> Space:
+def _space(Js, R, gmin, scale) -> Space:
     col, add, mul = [0, 0], [1, -1], [1, 1]
     for j in range(Js):
         for c, a, m in ((1 + j, 1, 1), (1 + j, -1, 1), (1 + 2 * Js + j, 1, 1), (1 + 2 * Js + j, -1, 1),
                         (1 + Js + j, 0, -1)):
             col.append(c), add.append(a), mul.append(m)
-    lo = np.concatenate([np.full(1 + 2 * Js, -np.inf), np.full(Js, gmin)])
+    e = 1 + 3 * Js
+    for r in range(R):
+        col += [e + r, e + r]
+        add += [1, -1]
+        mul += [1, 1]
+    lo = np.concatenate([np.full(1 + 2 * Js, -np.inf), np.full(Js, gmin), np.zeros(R)])
 
     def size(X):
-        return (np.abs(X[:, 0]) + np.abs(X[:, 1:1 + Js]).mean(axis=1) + (X[:, 1 + 2 * Js:] - gmin).mean(axis=1)) / scale
+        return (np.abs(X[:, 0]) + np.abs(X[:, 1:1 + Js]).mean(axis=1) + (X[:, 1 + 2 * Js:e] - gmin).mean(axis=1)
+                + X[:, e:].sum(axis=1)) / scale
 
     return Space(np.array(col), np.array(add, float), np.array(mul, float), lo, size)
 
@@ -89,7 +101,6 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
     old = result.design
     rng_phi = FULL if result.collision.range == "full" else task_phi_range(linkage)
     reach = MARGIN * (old.hub_radius + old.bar_radius + old.clearance)
-    jl = joint_links(linkage)
     risers = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])
               if (a in keep) != (b in keep)]  # bars from the stack to another joint
     exits = sorted({a if a in keep else b for _, a, b in risers})
@@ -97,51 +108,15 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
     if levels is None:
         result.collision.message += " (no layering of its parallel joints was found either)"
         return result
-    pitch = level_pitch(old)
-    base = -0.5 * pitch * max(max(v) for k, v in levels.items() if k[-1] != "exit")
-    heights, cranks, crank_heights = {}, {}, []
-    sites = linkage.joint_sites()
-
-    def flat(p):  # a point's projection on the plane of height 0
-        return p - (p @ u) * u
-
-    bars = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])]
-    for link, a, b in bars:  # a hub sits on the level of the first of its link's bars there
-        for j, level in ((a, levels.get((link, a, b), [None])[0]), (b, levels.get((link, a, b), [None])[-1])):
-            if level is not None:
-                heights.setdefault((link, j), base + level * pitch)
-    for link, a, b in bars:
-        if (link, a, b) in levels:  # vias p + w u at the heights w: a riser at an end whose hub is on
-            lv = levels[(link, a, b)]  # another level, a step where the halves differ
-            ha, hb = base + lv[0] * pitch, base + lv[-1] * pitch
-            pts, ws = [], []
-            if abs(heights[(link, a)] - ha) > 1e-12:
-                pts, ws = [flat(sites[a])], [ha]
-            if len(set(lv)) > 1:
-                p = flat((sites[a] + sites[b]) / 2)
-                pts, ws = pts + [p, p], ws + [ha, hb]
-            if abs(heights[(link, b)] - hb) > 1e-12:
-                pts, ws = pts + [flat(sites[b])], ws + [hb]
-            if pts:
-                cranks[(link, a, b)] = (*pts, u)
-                crank_heights += ws
-        elif (link, a, b) in risers:  # along the axis of the kept joint out of the stack, then across
-            j = a if a in keep else b
-            p = flat(sites[j])
-            cranks[(link, a, b)] = (p, u)
-            crank_heights.append(base + levels[(j, "exit")][0] * pitch)
-    jl = joint_links(linkage)
-    for j in keep:  # a parallel joint of a link with no layered bar there: on the sites' plane
-        for link in jl[j]:
-            heights.setdefault((link, j), 0.0)
+    heights, cranks, crank_heights, outward = stack_geometry(linkage, levels, u, level_pitch(old), keep=keep)
     sizes = dict(pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
                  hub_length=old.hub_length, clearance=old.clearance)
     search = Layout(linkage, merged=SEARCH_MERGED, cranks=cranks, **sizes)
     exact = Layout(linkage, merged=False, cranks=cranks, **sizes)
     spatial = [j for j in exact.joints if j not in keep]
-    stack = _Stack(search, u, heights, crank_heights, spatial)
-    stack_exact = _Stack(exact, u, heights, crank_heights, spatial)
-    Js, J = len(spatial), len(exact.joints)
+    stack = _Stack(search, u, heights, crank_heights, outward, spatial)
+    stack_exact = _Stack(exact, u, heights, crank_heights, outward, spatial)
+    Js, J, R = len(spatial), len(exact.joints), len(stack.riser)
     scale = linkage.extent()
     task = task_phi_range(linkage)
     gmin = search.gap_min
@@ -153,13 +128,15 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
         return search.end_offsets(S, W)
 
     scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, to_offsets)
-    space = _space(Js, gmin, scale)
+    space = _space(Js, R, gmin, scale)
     rng = np.random.default_rng(seed)
     n = int(effort * 16 * Js) + 8
     spread = rng.choice(SPREADS, size=(n, 1)) * scale
     X0 = np.concatenate([rng.uniform(-1, 1, size=(n, 1 + Js)) * spread, rng.choice([-1.0, 1.0], size=(n, Js)),
-                         gmin * (1 + rng.exponential(0.5, size=(n, Js)) * (rng.random((n, Js)) < 0.3))], axis=1)
-    X0[0, :1 + Js], X0[0, 1 + Js:1 + 2 * Js], X0[0, 1 + 2 * Js:] = 0.0, 1.0, gmin  # the natural stack
+                         gmin * (1 + rng.exponential(0.5, size=(n, Js)) * (rng.random((n, Js)) < 0.3)),
+                         rng.exponential(0.1, size=(n, R)) * spread], axis=1)
+    e = 1 + 3 * Js
+    X0[0, :1 + Js], X0[0, 1 + Js:1 + 2 * Js], X0[0, 1 + 2 * Js:e], X0[0, e:] = 0.0, 1.0, gmin, 0.0  # natural
     mask = np.ones(len(scorer.phis), bool) if rng_phi == FULL else scorer.is_task
     coarse = np.flatnonzero(mask)[::3]
     P = len(search.cs.pairs)
@@ -171,14 +148,9 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
         S, W = stack_exact.offsets(x[None])
         return certify_layout(exact, S[0], rng_phi, old.clearance, W[0])
 
-    found, last = search_rounds(scorer, space, X0[starts].copy(), lambda: mask, target, scale, effort=effort,
+    found, _ = search_rounds(scorer, space, X0[starts].copy(), lambda: mask, target, scale, effort=effort,
                              deadline=time.process_time() + seconds, certify_best=certify_best)
     if found is None:
-        X, best = last
-        x = X[int(np.argmax(best))]
-        cert = certify_best(x)
-        closest = report_for(linkage, exact, result.collision.range, cert, old.clearance)
-        mixed_design.last = (closest, cert, exact, x, stack_exact)
         result.collision.message += " (a layering of its parallel joints was searched too)"
         return result
     x, cert = found

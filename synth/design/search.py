@@ -345,6 +345,24 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     return DesignResult(design, report)
 
 
+def natural_result(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
+                   hole_clearance: float = 0.0, clearance: float | None = None) -> DesignResult:
+    """The natural stack (every hub stack centred on its joint's site) with the sizes `design_linkage`
+    would use, not searched and not checked (``free`` False, ``min_distance`` nan): the start of a
+    search that keeps only the sizes (`synth.design.mixed.mixed_design`)."""
+    clearance = CLEARANCE_FRACTION * bar_radius if clearance is None else float(clearance)
+    hub_radius = max(bar_radius, pin_radius + hole_clearance + 0.5 * pin_radius)
+    layout = Layout(linkage, merged=False, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
+                    hub_length=hub_length, clearance=clearance)
+    J = len(layout.joints)
+    S = layout.mount_offsets(np.zeros((1, J)), np.ones((1, J)), np.full((1, J), layout.gap_min))[0]
+    design = layout.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
+                           hole_clearance=hole_clearance, clearance=clearance)
+    report = CollisionReport(free=False, range="full", clearance=clearance, min_distance=math.nan,
+                             driver=driver_joint(linkage), driver_range=(0.0, TWO_PI))
+    return DesignResult(design, report)
+
+
 def _ranges(names, task) -> tuple:
     """((name, (lo, hi)), ...) of the ranges to search, in order; a task range that is the whole cycle is
     the full cycle."""
