@@ -6,8 +6,8 @@ result is certified. Lengths in metres.
 """
 from __future__ import annotations
 
-import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -67,6 +67,26 @@ class _Stack:
         return S, W
 
 
+def _moving_pairs(layout: Layout, spatial: list, risers) -> None:
+    """Keep in ``layout`` (the search's) only the capsule pairs with an end that the search moves other than
+    by the common shift: a mount or pin end on a joint of ``spatial``, or a riser's via point (column
+    ``risers`` of W). The gaps between two layered parts do not depend on the search (the certificate
+    checks them all)."""
+    moving = []
+    for kind, index, _ in layout.ends:
+        if kind == 0:
+            moving.append(layout.mounts[index][1] in spatial)
+        elif kind in (1, 2):
+            moving.append(layout.joints[index] in spatial)
+        else:
+            moving.append(index in set(int(r) for r in risers))
+    moving = np.array(moving, bool)
+    cs = layout.cs
+    rows = moving[cs.pairs].any(axis=1)
+    layout.cs = replace(cs, pairs=cs.pairs[rows], radii=cs.radii[rows], body_pair=cs.body_pair[rows],
+                        labels=[lab for lab, r in zip(cs.labels, rows) if r])
+
+
 def _space(Js, R, gmin, scale) -> Space:
     col, add, mul = [0, 0], [1, -1], [1, 1]
     for j in range(Js):
@@ -117,6 +137,7 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
     stack = _Stack(search, u, heights, crank_heights, outward, spatial)
     stack_exact = _Stack(exact, u, heights, crank_heights, outward, spatial)
     Js, J, R = len(spatial), len(exact.joints), len(stack.riser)
+    _moving_pairs(search, spatial, stack.riser)
     scale = linkage.extent()
     task = task_phi_range(linkage)
     gmin = search.gap_min
