@@ -265,7 +265,7 @@ def stack_geometry(linkage, levels: dict, u, pitch: float, keep=None) -> tuple[d
                 pts, ws = pts + [p, p], ws + [ha, hb]
             if abs(heights[(link, b)] - hb) > 1e-12:
                 pts, ws = pts + [flat(sites[b])], ws + [hb]
-        elif keep is not None and (a in keep) != (b in keep):
+        elif keep is not None and (a in keep) != (b in keep) and ((a if a in keep else b), "exit") in levels:
             j = a if a in keep else b
             pts, ws = [flat(sites[j])], [base + levels[(j, "exit")][0] * pitch]
             side = 1 if levels[(j, "exit")][0] >= 0 else -1

@@ -124,10 +124,22 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
     risers = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])
               if (a in keep) != (b in keep)]  # bars from the stack to another joint
     exits = sorted({a if a in keep else b for _, a, b in risers})
+    for attempt in ((exits, ()) if exits else ((),)):  # risers out of the stack, else straight bars
+        found = _attempt(linkage, result, u, keep, attempt, rng_phi, reach, seconds, seed, effort)
+        if found is not None:
+            found.collision.seconds = result.collision.seconds + time.process_time() - t0
+            return found
+    result.collision.message += " (a layering of its parallel joints was searched too)"
+    return result
+
+
+def _attempt(linkage, result, u, keep, exits, rng_phi, reach, seconds, seed, effort):
+    """`mixed_design` with risers at ``exits`` (none: straight bars from the stack); None when no
+    layering or no certified design is found."""
+    old = result.design
     levels = layer_levels(linkage, u, rng_phi, reach, seconds, keep=keep, exits=exits)
     if levels is None:
-        result.collision.message += " (no layering of its parallel joints was found either)"
-        return result
+        return None
     heights, cranks, crank_heights, outward = stack_geometry(linkage, levels, u, level_pitch(old), keep=keep)
     sizes = dict(pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
                  hub_length=old.hub_length, clearance=old.clearance)
@@ -172,8 +184,7 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
     found, _ = search_rounds(scorer, space, X0[starts].copy(), lambda: mask, target, scale, effort=effort,
                              deadline=time.process_time() + seconds, certify_best=certify_best)
     if found is None:
-        result.collision.message += " (a layering of its parallel joints was searched too)"
-        return result
+        return None
     x, cert = found
     S, W = stack_exact.offsets(x[None])
     design = exact.design(S[0], W[0], pin_radius=old.pin_radius, bar_radius=old.bar_radius,
@@ -181,5 +192,4 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
     report = report_for(linkage, exact, result.collision.range, cert, old.clearance)
     report.cranked = [list(k) for k in cranks]
     report.layers = len({lv for k, v in levels.items() if k[-1] != "exit" for lv in v})
-    report.seconds = result.collision.seconds + time.process_time() - t0
     return DesignResult(design, report)
