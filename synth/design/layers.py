@@ -93,10 +93,12 @@ class _Programme:
         # run) and only a planar linkage that straight bars cannot free needs it (as Dask for batch runs)
         from scipy.optimize import Bounds, LinearConstraint, milp
 
-        A = np.zeros((len(self.rows), self.n))
-        for r, coefs in enumerate(self.rows):
-            for k, v in coefs.items():
-                A[r, k] += v
+        from scipy.sparse import coo_matrix
+
+        rows = [r for r, coefs in enumerate(self.rows) for _ in coefs]
+        cols = [k for coefs in self.rows for k in coefs]
+        vals = [v for coefs in self.rows for v in coefs.values()]
+        A = coo_matrix((vals, (rows, cols)), shape=(len(self.rows), self.n)).tocsr()  # sparse: few per row
         integrality = np.zeros(self.n)
         integrality[self.binary] = 1
         lb, ub = np.zeros(self.n), np.full(self.n, float(top))
