@@ -93,10 +93,12 @@ class _Programme:
         # run) and only a planar linkage that straight bars cannot free needs it (as Dask for batch runs)
         from scipy.optimize import Bounds, LinearConstraint, milp
 
-        A = np.zeros((len(self.rows), self.n))
-        for r, coefs in enumerate(self.rows):
-            for k, v in coefs.items():
-                A[r, k] += v
+        from scipy.sparse import coo_matrix
+
+        rows = [r for r, coefs in enumerate(self.rows) for _ in coefs]
+        cols = [k for coefs in self.rows for k in coefs]
+        vals = [v for coefs in self.rows for v in coefs.values()]
+        A = coo_matrix((vals, (rows, cols)), shape=(len(self.rows), self.n)).tocsr()  # sparse: few per row
         integrality = np.zeros(self.n)
         integrality[self.binary] = 1
         lb, ub = np.zeros(self.n), np.full(self.n, float(top))
@@ -109,12 +111,17 @@ class _Programme:
         return None if res.x is None else res.x
 
 
-def layer_levels(linkage, u, rng_phi, reach, seconds):
+def layer_levels(linkage, u, rng_phi, reach, seconds, keep=None, exits=()):
     """{(link, a, b): [level per piece]} of a layering over phi in ``rng_phi`` (None when none was found in
-    ``seconds``); ``reach``: the in-plane distance below which two parts interact (metres)."""
+    ``seconds``); ``reach``: the in-plane distance below which two parts interact (metres). ``keep``: the
+    joints layered (default: all; a partly planar linkage layers its joints parallel to ``u`` and the
+    bars between two of them, `synth.design.mixed`). ``exits``: joints (of ``keep``) where a bar leaves
+    the stack along the axis to a joint not kept (a riser): the joint's column then reaches the top or
+    the bottom of the stack, and the result's entry ``(joint, "exit")`` is ``[top + 1]`` or ``[-1]``, the
+    level the riser ends on."""
     e1, e2 = _plane(u)
     jl = joint_links(linkage)
-    joints = [j for j in jl if jl[j]]
+    joints = [j for j in jl if jl[j] and (keep is None or j in keep)]
     adjacent = adjacent_pairs(linkage)
 
     def adj(a, b):
@@ -129,7 +136,8 @@ def layer_levels(linkage, u, rng_phi, reach, seconds):
         w = D[:, :3, :3] @ p + D[:, :3, 3]
         return np.stack([w @ e1, w @ e2], axis=-1)
 
-    bars = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])]
+    bars = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])
+            if keep is None or (a in keep and b in keep)]
     ends = [(xy(link, sites[a]), xy(link, sites[b])) for link, a, b in bars]
     jxy = {j: xy(jl[j][0], sites[j]) for j in joints}
     P = _Programme()
@@ -202,10 +210,18 @@ def layer_levels(linkage, u, rng_phi, reach, seconds):
     top = P.var()
     for v in z.values():
         P.row({top: 1, v: -1}, lo=0)
+    side = {}
+    for j in exits:  # the riser at j: the column reaches the top (y = 0) or the bottom (y = 1)
+        y = side[j] = P.var(binary=True)
+        P.row({col[j][1]: 1, top: -1, y: big}, lo=0)
+        P.row({col[j][0]: 1, y: big}, hi=big)
     x = P.solve({top: 1.0}, levels, seconds)
     if x is None:
         return None
-    return {bar: [int(round(x[z[(i, h)]])) for h in range(PIECES)] for i, bar in enumerate(bars)}
+    out = {bar: [int(round(x[z[(i, h)]])) for h in range(PIECES)] for i, bar in enumerate(bars)}
+    for j, y in side.items():
+        out[(j, "exit")] = [-1 if round(x[y]) else int(round(x[top])) + 1]
+    return out
 
 
 def level_pitch(design) -> float:
@@ -214,6 +230,56 @@ def level_pitch(design) -> float:
     uses reach a radius beyond a hub's flat end), with the search's safety factor on the clearance."""
     return max(design.hub_length, design.hub_length / 2 + design.hub_radius + design.bar_radius,
                2 * design.bar_radius) + (1 + SAFETY) * design.clearance
+
+
+def stack_geometry(linkage, levels: dict, u, pitch: float, keep=None) -> tuple[dict, dict, list, list]:
+    """(heights, cranks, W, out) of a layering ``levels`` (`layer_levels`) with ``pitch`` metres between levels,
+    the stack centred on the plane of height 0: ``heights[(link, joint)]`` the height (along ``u``) of each
+    hub, on the level of the first of its link's layered bars there (a joint of ``keep`` without one: 0);
+    ``cranks`` (`search.Layout`'s) with via points ``p + w u`` (p on the plane of height 0) at the heights
+    ``W`` (in the order of the Layout's via points): a step at the middle of a bar whose halves differ, a
+    riser along the axis where a bar ends on another level than its hub, and for a bar from a joint of
+    ``keep`` to another joint (``(joint, "exit")`` in ``levels``) a riser out of the stack first; ``out``
+    (one per entry of W): +1 or -1 for the end of such a riser (the direction out of the stack), else 0."""
+    base = -0.5 * pitch * max(max(v) for k, v in levels.items() if k[-1] != "exit")
+    sites = linkage.joint_sites()
+    jl = joint_links(linkage)
+    heights, cranks, W, out = {}, {}, [], []
+
+    def flat(p):  # a point's projection on the plane of height 0
+        return p - (p @ u) * u
+
+    bars = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])]
+    for link, a, b in bars:
+        lv = levels.get((link, a, b))
+        if lv is not None:
+            heights.setdefault((link, a), base + lv[0] * pitch)
+            heights.setdefault((link, b), base + lv[-1] * pitch)
+    for link, a, b in bars:
+        lv = levels.get((link, a, b))
+        pts, ws, side = [], [], 0
+        if lv is not None:
+            ha, hb = base + lv[0] * pitch, base + lv[-1] * pitch
+            if abs(heights[(link, a)] - ha) > 1e-12:
+                pts, ws = [flat(sites[a])], [ha]
+            if len(set(lv)) > 1:
+                p = flat((sites[a] + sites[b]) / 2)
+                pts, ws = pts + [p, p], ws + [ha, hb]
+            if abs(heights[(link, b)] - hb) > 1e-12:
+                pts, ws = pts + [flat(sites[b])], ws + [hb]
+        elif keep is not None and (a in keep) != (b in keep) and ((a if a in keep else b), "exit") in levels:
+            j = a if a in keep else b
+            pts, ws = [flat(sites[j])], [base + levels[(j, "exit")][0] * pitch]
+            side = 1 if levels[(j, "exit")][0] >= 0 else -1
+        if pts:
+            cranks[(link, a, b)] = (*pts, u)
+            W += ws
+            out += [side] * len(ws)
+    for j in jl:  # a link with no layered bar at a joint (one joint only, or bars to joints not kept)
+        if keep is None or j in keep:
+            for link in jl[j]:
+                heights.setdefault((link, j), 0.0)
+    return heights, cranks, W, out
 
 
 def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> DesignResult:
@@ -232,34 +298,18 @@ def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> D
     if levels is None:
         result.collision.message += " (no layering of the planar linkage was found either)"
         return result
-    pitch = level_pitch(old)
+    heights, cranks, W, _ = stack_geometry(linkage, levels, u, level_pitch(old))
     sites = linkage.joint_sites()
-    jl = joint_links(linkage)
-    base = -0.5 * pitch * max(max(v) for v in levels.values())  # centre the stack on the plane of the sites
-    height = {}
-    cranks = {}
-    for (link, a, b), lv in levels.items():
-        for j, level in ((a, lv[0]), (b, lv[-1])):
-            height[(link, j)] = base + level * pitch
-        if len(set(lv)) > 1:
-            pa, pb = sites[a], sites[b]
-            mid = (pa + pb) / 2
-            p0 = mid + (base + lv[0] * pitch - mid @ u) * u
-            p1 = mid + (base + lv[1] * pitch - mid @ u) * u
-            cranks[(link, a, b)] = (p0, p1, u)
-    for j in jl:  # a link with one joint has no bar: its hub on the sites' plane (the certificate decides)
-        for link in jl[j]:
-            height.setdefault((link, j), 0.0)
     sizes = dict(pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
                  hub_length=old.hub_length, clearance=old.clearance)
     exact = Layout(linkage, merged=False, cranks=cranks, **sizes)
-    S = np.array([(height[(link, j)] - sites[j] @ u) / float(linkage.joint(j).direction @ u)
+    S = np.array([(heights[(link, j)] - sites[j] @ u) / float(linkage.joint(j).direction @ u)
                   for link, j in exact.mounts])
-    cert = certify_layout(exact, S, rng_phi, old.clearance)
+    cert = certify_layout(exact, S, rng_phi, old.clearance, W)
     if not cert["certified"]:
         result.collision.message += " (a layering of the planar linkage was tried too; it did not certify)"
         return result
-    design = exact.design(S, pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
+    design = exact.design(S, np.asarray(W), pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
                           hole_clearance=old.hole_clearance, clearance=old.clearance)
     report = report_for(linkage, exact, result.collision.range, cert, old.clearance)
     report.cranked = [list(k) for k in cranks]

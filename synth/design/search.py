@@ -91,10 +91,10 @@ class Layout:
 
     ``merged``: one capsule of the hub radius per mount covering the hub and, on the carrier, the whole
     pin (fewer, looser capsules: the search); else bars, hubs and pins separately (the certificate).
-    ``cranks``: {(link, joint a, joint b): (p0, p1, n)}: the bar of ``link`` from a to b is cranked, a
-    polyline mount a -> p0 + w0 n -> p1 + w1 n -> mount b with the crank offsets w (``end_offsets``'s
-    ``W``, one column per via point, in the order of ``vias``); points and the unit crank direction n in
-    the reference configuration (metres)."""
+    ``cranks``: {(link, joint a, joint b): (p0, p1, ..., n)}: the bar of ``link`` from a to b is cranked,
+    a polyline mount a -> p0 + w0 n -> p1 + w1 n -> ... -> mount b with the crank offsets w
+    (``end_offsets``'s ``W``, one column per via point, in the order of ``vias``); points and the unit
+    crank direction n in the reference configuration (metres)."""
 
     def __init__(self, linkage, *, pin_radius, bar_radius, hub_radius, hub_length, clearance, merged, cranks=None):
         self.linkage = linkage
@@ -120,8 +120,8 @@ class Layout:
             for a, b in zip(names, names[1:]):
                 chain = [end(a, link, 0, self.mindex[(link, a)], 0.0)]
                 if (link, a, b) in self.cranks:
-                    p0, p1, n = self.cranks[(link, a, b)]
-                    for k, p in enumerate((p0, p1)):
+                    *points, n = self.cranks[(link, a, b)]
+                    for k, p in enumerate(points):
                         ends.append((np.asarray(p, float), np.asarray(n, float), link, 3, len(self.vias), 0.0))
                         self.vias.append((link, a, b, k))
                         chain.append(len(ends) - 1)
@@ -187,8 +187,8 @@ class Layout:
         W = np.zeros(len(self.vias)) if W is None else W
         vias: dict[tuple, list] = {}
         for (link, a, b, k), w in zip(self.vias, W):
-            p0_p1_n = self.cranks[(link, a, b)]
-            vias.setdefault((link, a, b), []).append(np.asarray(p0_p1_n[k], float) + float(w) * np.asarray(p0_p1_n[2]))
+            crank = self.cranks[(link, a, b)]
+            vias.setdefault((link, a, b), []).append(np.asarray(crank[k], float) + float(w) * np.asarray(crank[-1]))
         bars = [Bar(link, (a, b), vias.get((link, a, b), [])) for link, names in self.linkage.links.items()
                 for a, b in zip(names, names[1:])]
         h = self.hub_length / 2
@@ -342,6 +342,24 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
                           hole_clearance=hole_clearance, clearance=clearance)
     report = report_for(linkage, exact, rname, cert, clearance)
     report.seconds = time.process_time() - t0
+    return DesignResult(design, report)
+
+
+def natural_result(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
+                   hole_clearance: float = 0.0, clearance: float | None = None) -> DesignResult:
+    """The natural stack (every hub stack centred on its joint's site) with the sizes `design_linkage`
+    would use, not searched and not checked (``free`` False, ``min_distance`` nan): the start of a
+    search that keeps only the sizes (`synth.design.mixed.mixed_design`)."""
+    clearance = CLEARANCE_FRACTION * bar_radius if clearance is None else float(clearance)
+    hub_radius = max(bar_radius, pin_radius + hole_clearance + 0.5 * pin_radius)
+    layout = Layout(linkage, merged=False, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
+                    hub_length=hub_length, clearance=clearance)
+    J = len(layout.joints)
+    S = layout.mount_offsets(np.zeros((1, J)), np.ones((1, J)), np.full((1, J), layout.gap_min))[0]
+    design = layout.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
+                           hole_clearance=hole_clearance, clearance=clearance)
+    report = CollisionReport(free=False, range="full", clearance=clearance, min_distance=math.nan,
+                             driver=driver_joint(linkage), driver_range=(0.0, TWO_PI))
     return DesignResult(design, report)
 
 

@@ -37,7 +37,8 @@ import numpy as np
 from synth.design.model import PhysicalDesign, axis_point, capsules
 from synth.design.layers import layered_design, parallel_axis
 from synth.design.cranks import crank_bars
-from synth.design.search import DesignResult, design_linkage
+from synth.design.mixed import dominant_axis, mixed_design
+from synth.design.search import DesignResult, design_linkage, natural_result
 from synth.io.frames import link_origins
 from synth.io.solid import (Solid, boolean, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
                             mass_properties, read_stl_triangles, signed_volume, stl_bytes, surface_defect, weld)
@@ -94,16 +95,28 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     CPU (none when the first search took over `THIN_FIRST_MAX`); the first free design is returned, its
     report's ``thinned`` saying so; else the default-size result.
 
+    A partly planar linkage (`synth.design.mixed.dominant_axis`) gets, before all that, its parallel part
+    layered and the rest searched around it (`synth.design.mixed.mixed_design`, within `LAYER_SECONDS`
+    each); the rest follows only when that finds nothing (docs/design.md).
+
     Then, when that is still not free and the search covered the task range (docs/design.md): a planar
     linkage (every axis parallel) gets a layered design (`synth.design.layers.layered_design`, within
     `LAYER_SECONDS`), any other one cranked bars for the colliding bodies
     (`synth.design.cranks.crank_bars`, within `CRANK_SECONDS`); a certified free result replaces it
     (its report's ``cranked`` names the cranked bars, ``layers`` the levels of a layered design)."""
+    partly_planar = dominant_axis(linkage) is not None and "task" in search.get("ranges", ("full", "task"))
+    if partly_planar:  # straight bars in its planar part cross (as in a planar linkage): layers first
+        first = mixed_design(linkage, _design(linkage, pin_radius, link_radius, pin_length, hole_clearance,
+                                              clearance, search, natural=True), seconds=LAYER_SECONDS)
+        if first.collision.free:
+            return first
     result = _straight(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, search)
     if result.collision.free or "task" not in search.get("ranges", ("full", "task")):
         return result
     if parallel_axis(linkage) is not None:
         return layered_design(linkage, result, seconds=LAYER_SECONDS)
+    if partly_planar:
+        result.collision.message += " (a layering of its parallel joints was searched too)"
     return crank_bars(linkage, result, seconds=CRANK_SECONDS)
 
 
@@ -153,12 +166,18 @@ def thin_scales(bar_radius: float) -> list[float]:
     return out
 
 
-def _design(linkage, pin_radius, link_radius, hub_length, hole_clearance, clearance, search) -> DesignResult:
+def _design(linkage, pin_radius, link_radius, hub_length, hole_clearance, clearance, search,
+            natural=False) -> DesignResult:
+    """`design_linkage` with the sizes resolved (defaults, validation); ``natural``: not searched, the
+    natural stack with those sizes (`natural_result`)."""
     pin_radius, link_radius, hub_length = default_sizes(linkage, pin_radius, link_radius, hub_length)
     hole = default_hole_clearance(pin_radius) if hole_clearance is None else _positive(
         "hole clearance", hole_clearance, allow_zero=True)
     if clearance is not None:
         clearance = _positive("clearance", clearance, allow_zero=True)
+    if natural:
+        return natural_result(linkage, pin_radius=pin_radius, bar_radius=link_radius, hub_length=hub_length,
+                              hole_clearance=hole, clearance=clearance)
     return design_linkage(linkage, pin_radius=pin_radius, bar_radius=link_radius, hub_length=hub_length,
                           hole_clearance=hole, clearance=clearance, **search)
 

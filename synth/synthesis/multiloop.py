@@ -211,6 +211,17 @@ def _common_direction(hs):
     return None
 
 
+def _leading_direction(hs):
+    """The common axis direction of the leading factors h_1, h_2, ... when at least two share one (and
+    not all do): an m0 of that direction makes their loops planar (the flip of two parallel rotations is
+    parallel), and planar loops can be layered (docs/design.md)."""
+    U = np.array([-np.asarray(h[1:4], float) / np.linalg.norm(h[1:4]) for h in hs])
+    run = 1
+    while run < len(U) and np.linalg.norm(np.cross(U[0], U[run])) <= 1e-9:
+        run += 1
+    return U[0] if 2 <= run < len(U) else None
+
+
 def _axis_points(hs):
     out = []
     for h in hs:
@@ -233,8 +244,9 @@ def make_rotation(a: float, b: float, direction, point) -> np.ndarray:
 
 
 def m0_candidates(hs, count: int = 24, seed: int = 0):
-    """Deterministic candidates for m0: planar factors keep the common axis direction; the point is
-    around the centroid of the axes, at 0.5-1.5 times their spread; the norm differs from every h."""
+    """Deterministic candidates for m0: planar factors keep the common axis direction, factors whose
+    leading ones share a direction take that one (`_leading_direction`: those loops are planar); the
+    point is around the centroid of the axes, at 0.5-1.5 times their spread; the norm differs from every h."""
     hs = np.asarray(hs, float)
     rng = np.random.default_rng(seed)
     pts = _axis_points(hs)
@@ -244,6 +256,8 @@ def m0_candidates(hs, count: int = 24, seed: int = 0):
     a_mean, b_mean = float(ab[:, 0].mean()), float(ab[:, 1].mean())
     scale = spread if spread > 0 else max(1.0, float(np.max(np.abs(hs[:, 5:]))))
     n = _common_direction(hs)
+    if n is None:
+        n = _leading_direction(hs)
     out = []
     norms = [(a_mean + 2 * b_mean, 1.5 * b_mean), (a_mean - 2 * b_mean, 1.5 * b_mean),
              (a_mean + 1.5 * b_mean, b_mean), (a_mean - 1.5 * b_mean, 0.75 * b_mean),
