@@ -86,14 +86,27 @@ def open_chain_search(n_joints: int, seed: int, samples: int = 9, max_nfev: int 
 
 def test_a_four_joint_open_chain_is_found():
     """The control: the search finds a 4R chain (three parallel horizontal axes, then a vertical one); from
-    6 sample poses it converges in 2 of the starts 0..5, seed 3 in about 1 s."""
-    res, far = open_chain_search(4, seed=3, samples=6)
-    assert res < 1e-10 and far < 10
+    6 sample poses seeds 3 and 6 of 0..7 converge (in about 200 evaluations, under a second each). Least
+    squares from a random start is chaotic: a last-bit difference (e.g. another memory alignment of a
+    temporary, after other tests ran in the same process) can send one start elsewhere, so either
+    start counts."""
+    assert_chain_found(4, (3, 6), samples=6, max_nfev=600)
+
+
+def assert_chain_found(n_joints, seeds, **search):
+    """`open_chain_search` from each seed in turn until one reaches residual 1e-10 with axes within 10."""
+    results = []
+    for seed in seeds:
+        res, far = open_chain_search(n_joints, seed=seed, **search)
+        results.append((seed, res, far))
+        if res < 1e-10 and far < 10:
+            return
+    raise AssertionError(f"no {n_joints}-joint chain found from the seeds {seeds}: {results}")
 
 
 def test_the_search_finds_a_three_joint_chain_when_one_exists():
     """The control for 3 joints: the motion of a random 3R chain whose angles follow three different laws
-    of phi is found again (4 of the starts 0..5 reach 1e-15; seed 0 in 0.3 s)."""
+    of phi is found again (seeds 0, 4, 5 reach 1e-15 in 0.2 s each; either start counts, as above)."""
     rng = np.random.default_rng(11)
     L = rng.normal(size=(3, 6))
 
@@ -105,14 +118,14 @@ def test_the_search_finds_a_three_joint_chain_when_one_exists():
             T = T @ _rot(L[j, :3], L[j, 3:], laws[j])
         return T
 
-    res, far = open_chain_search(3, seed=0, motion=motion)
-    assert res < 1e-10 and far < 10
+    assert_chain_found(3, (0, 4, 5), motion=motion)
 
 
 def test_a_non_vertical_darboux_motion_has_a_three_joint_chain():
     """The literature's case: the elliptic (Cardan) motion, origin on the circle r (cos phi - 1, -sin phi),
     with the harmonic lift z = c (sin(phi + 0.7) - sin 0.7); every trajectory is planar (a Darboux motion),
-    and the same search finds a 3R chain (seed 3, 0.3 s; none of seeds 0..4 with the phases 0 or pi/2)."""
+    and the same search finds a 3R chain (seeds 3 and 10 of 0..11, 0.2 s each; none of seeds 0..4 with the
+    phases 0 or pi/2)."""
     r, c, ph = 0.5, 1.0, 0.7
 
     def motion(phis):
@@ -125,8 +138,7 @@ def test_a_non_vertical_darboux_motion_has_a_three_joint_chain():
     x = np.array([0.3, -1.2, 0.8, 1.0])
     traj = (motion(np.linspace(0, 2 * np.pi, 12)) @ x)[:, :3]
     assert np.linalg.svd(traj - traj.mean(axis=0), compute_uv=False)[2] < 1e-12  # a planar trajectory
-    res, far = open_chain_search(3, seed=3, motion=motion)
-    assert res < 1e-10 and far < 10
+    assert_chain_found(3, (3, 10), motion=motion, max_nfev=600)
 
 
 @pytest.mark.slow
