@@ -107,3 +107,15 @@ def closure_error(lk: Linkage, samples: int = 200) -> float:
     for a, b in lk.closures:
         worst = max(worst, max(pose_error(D[a][i], D[b][i]) for i in range(len(t))))
     return worst
+
+
+def move_urdf_axis(urdf_path, joint: str, dx: float = 1e-3) -> None:
+    """Add ``dx`` to the x component of a continuous joint's axis in a written URDF (a corrupted output
+    for the checkers to catch)."""
+    import re
+
+    text = urdf_path.read_text()
+    m = re.search(rf'(<joint name="{joint}" type="continuous">.*?<axis xyz=")([^"]+)"', text, re.S)
+    axis = [float(v) for v in m.group(2).split()]
+    axis[0] += dx
+    urdf_path.write_text(text[:m.start(2)] + " ".join(repr(v) for v in axis) + text[m.end(2):])

@@ -11,6 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
+from linkage_fixtures import move_urdf_axis
 from synth.io.continuation import continue_loop, law_angles
 from synth.io.urdfmodel import read_urdf
 from synth.io.verify import check_output
@@ -103,12 +104,7 @@ def _problems(out, *extra):
 
 
 def test_perturbed_axis_is_caught(copy):
-    urdf = copy / "linkage.urdf"
-    text = urdf.read_text()
-    m = re.search(r'(<joint name="h2" type="continuous">.*?<axis xyz=")([^"]+)"', text, re.S)
-    axis = [float(v) for v in m.group(2).split()]
-    axis[0] += 1e-3
-    urdf.write_text(text[:m.start(2)] + " ".join(repr(v) for v in axis) + text[m.end(2):])
+    move_urdf_axis(copy / "linkage.urdf", "h2")
     msg = _problems(copy)
     assert "joint h2: URDF axis differs" in msg
     assert "tool frame misses pose" in msg

@@ -5,7 +5,6 @@ axis still fails."""
 from __future__ import annotations
 
 import json
-import re
 import shutil
 
 import numpy as np
@@ -13,6 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
+from linkage_fixtures import move_urdf_axis
 from synth.algebra.expr import parse_polynomial
 from synth.io.continuation import continue_loop, law_angles
 from synth.io.meshes import design_for
@@ -124,12 +124,7 @@ def test_wrong_rate_of_the_member_fails(copy):
 
 
 def test_moved_axis_of_the_member_fails(copy):
-    urdf = copy / "linkage.urdf"
-    text = urdf.read_text()
-    m = re.search(r'(<joint name="k3" type="continuous">.*?<axis xyz=")([^"]+)"', text, re.S)
-    axis = [float(v) for v in m.group(2).split()]
-    axis[0] += 1e-3
-    urdf.write_text(text[:m.start(2)] + " ".join(repr(v) for v in axis) + text[m.end(2):])
+    move_urdf_axis(copy / "linkage.urdf", "k3")
     msg = _problems(copy)
     assert "open" in msg and ("stuck" in msg or "deviates from the angle laws" in msg)
 

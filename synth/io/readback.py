@@ -271,19 +271,23 @@ def read_files(out) -> OutputFiles:
     return OutputFiles(out, urdf, doc)
 
 
-def angle_laws(doc: dict) -> dict[str, tuple[float, float]]:
-    """joint -> (a, b) of its angle law theta(t) = 2 atan2(b, t - a) (``joints[].angle_law``; older
-    documents carry ``a`` and ``b`` on the joint itself), for the joints of a linkage.json document
-    that have numeric ones; nothing is judged here (`mpsynth check` reports missing or bad laws)."""
-    laws = {}
+def _law_entries(doc: dict):
+    """(joint name, its angle-law dict) for the well-formed joints of a linkage.json document
+    (``joints[].angle_law``; older documents carry ``a`` and ``b`` on the joint itself)."""
     joints = doc.get("joints")
     for j in joints if isinstance(joints, list) else []:
-        if not isinstance(j, dict) or not isinstance(j.get("name"), str):
-            continue
-        law = j.get("angle_law") if isinstance(j.get("angle_law"), dict) else j
+        if isinstance(j, dict) and isinstance(j.get("name"), str):
+            yield j["name"], (j["angle_law"] if isinstance(j.get("angle_law"), dict) else j)
+
+
+def angle_laws(doc: dict) -> dict[str, tuple[float, float]]:
+    """joint -> (a, b) of its angle law theta(t) = 2 atan2(b, t - a), for the joints of a linkage.json
+    document that have numeric ones; nothing is judged here (`mpsynth check` reports missing or bad laws)."""
+    laws = {}
+    for name, law in _law_entries(doc):
         a, b = law.get("a"), law.get("b")
         if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (a, b)):
-            laws[j["name"]] = (float(a), float(b))
+            laws[name] = (float(a), float(b))
     return laws
 
 
@@ -291,13 +295,9 @@ def angle_rates(doc: dict) -> dict[str, int]:
     """joint -> rate of its angle law (``joints[].angle_law.rate``, theta(t) = rate * 2 atan2(b, t - a);
     1 when absent or not a positive integer) for the joints of a linkage.json document."""
     rates = {}
-    joints = doc.get("joints")
-    for j in joints if isinstance(joints, list) else []:
-        if not isinstance(j, dict) or not isinstance(j.get("name"), str):
-            continue
-        law = j.get("angle_law") if isinstance(j.get("angle_law"), dict) else j
+    for name, law in _law_entries(doc):
         r = law.get("rate", 1)
-        rates[j["name"]] = r if isinstance(r, int) and not isinstance(r, bool) and r >= 1 else 1
+        rates[name] = r if isinstance(r, int) and not isinstance(r, bool) and r >= 1 else 1
     return rates
 
 
