@@ -20,6 +20,7 @@ Lengths in metres, angles in radians.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -254,7 +255,7 @@ def certify(linkage, cs: CapsuleSet, offsets: np.ndarray, lo: float, hi: float, 
     dist = _dist_at(linkage, cs, offsets, phis)
     while True:
         rates = rate_bound(linkage, phis[:-1], phis[1:])  # (J, K-1)
-        V = np.min([c @ rates for c in coefs], axis=0)  # (P, K-1)
+        V = functools.reduce(np.minimum, (c @ rates for c in coefs))  # (P, K-1), two at a time (memory)
         dphi = np.diff(phis)
         lower = (dist[:, :-1] + dist[:, 1:] - V * dphi) / 2
         lower = np.minimum(lower, np.minimum(dist[:, :-1], dist[:, 1:]))
@@ -273,6 +274,12 @@ def certify(linkage, cs: CapsuleSet, offsets: np.ndarray, lo: float, hi: float, 
             "sampled": dist.min(axis=1), "where": phis[k], "phis": phis, "dist": dist}
 
 
-def _dist_at(linkage, cs, offsets, phis) -> np.ndarray:
-    Q, U = world_ends(cs, body_motion(linkage, phis))
-    return pair_distances(cs, Q, U, offsets[None])[0]
+def _dist_at(linkage, cs, offsets, phis, chunk: int = 1 << 18) -> np.ndarray:
+    """(P, K) capsule-pair distances of one design at the driver angles ``phis``, in blocks of samples
+    of about ``chunk`` pair distances (the end points of every pair at every sample are 64 floats)."""
+    step = max(1, chunk // max(len(cs.pairs), 1))
+    parts = []
+    for k0 in range(0, len(phis), step):
+        Q, U = world_ends(cs, body_motion(linkage, phis[k0:k0 + step]))
+        parts.append(pair_distances(cs, Q, U, offsets[None])[0])
+    return np.concatenate(parts, axis=1) if len(parts) != 1 else parts[0]
