@@ -17,9 +17,8 @@ def half_angle(a, b, t, rate=1) -> np.ndarray:
     t = +-inf: what a unit dual quaternion ``cos + sin (u - eps m)`` of the joint needs."""
     t = np.asarray(t, float)
     inf = np.isinf(t)
-    with np.errstate(invalid="ignore"):
-        h = np.arctan2(b, np.where(inf, 1.0, t) - a)
-    return np.where(inf, 0.0, np.multiply(rate, h))
+    h = np.arctan2(b, np.where(inf, 1.0, t) - a)
+    return np.where(inf, 0.0, h if isinstance(rate, int) and rate == 1 else np.multiply(rate, h))
 
 
 def angle_law(a, b, t, rate=1) -> np.ndarray:

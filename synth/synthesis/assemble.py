@@ -24,7 +24,8 @@ def pose_records(joints, poses, names, ts) -> list[PoseRecord]:
     (`synth.algebra.anglelaw.angle_law`, all poses and joints in one call)."""
     ts = [float(t) for t in ts]
     law = np.array([(j.a, j.b, j.rate) for j in joints], float).reshape(-1, 3).T
-    ang = angle_law(law[0], law[1], np.array(ts)[:, None], law[2]).tolist()  # (poses, joints)
+    rate = law[2] if any(j.rate != 1 for j in joints) else 1
+    ang = angle_law(law[0], law[1], np.array(ts)[:, None], rate).tolist()  # (poses, joints)
     jn = [j.name for j in joints]
     return [PoseRecord(name, T, t, dict(zip(jn, row))) for name, T, t, row in zip(names, poses, ts, ang)]
 
