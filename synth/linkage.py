@@ -141,6 +141,12 @@ class Linkage:
         pts = [p.matrix[:3, 3] for p in self.poses] + [self.tool_ref[:3, 3]]
         return np.mean(pts, axis=0)
 
+    def counts(self) -> dict[str, int]:
+        """``info["counts"]`` of a multi-loop linkage: joints, links (without the welded duplicates),
+        links with them, loops."""
+        return {"joints": len(self.joints), "links": len(self.links) - len(self.closures),
+                "links_with_duplicates": len(self.links), "loops": len(self.closures)}
+
     def extent(self) -> float:
         """A length scale of the linkage: RMS distance of the joint sites (see ``joint_sites``) and the
         tool positions from their centroid, at least 1e-9 m."""

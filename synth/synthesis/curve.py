@@ -141,8 +141,7 @@ def _ladder(factors, coupler_motion, kind, info, tool_ref, markers=None, m0=None
     lk.info = dict(lk.info)
     lk.info["m0"] = [float(x) for x in m0]
     lk.info["mobility"] = score
-    lk.info["counts"] = {"joints": len(lk.joints), "links": len(lk.links) - len(lk.closures),
-                         "links_with_duplicates": len(lk.links), "loops": len(lk.closures)}
+    lk.info["counts"] = lk.counts()
     lk.checks = self_check(lk, CHECK_SAMPLES)
     return lk
 
@@ -182,8 +181,7 @@ def _parallelogram(factors, coupler_motion, kind, info, tool_ref, markers=None):
     lk.info["parallelogram"] = {"h": hs, "k": np.array([k1, k2]), "shift": s,
                                 "family": "k1 = h1 - eps s, k2 = h2 + eps s, s perpendicular to the axes"}
     lk.info["mobility"] = score_linkage(lk)
-    lk.info["counts"] = {"joints": len(lk.joints), "links": len(lk.links) - len(lk.closures),
-                         "links_with_duplicates": len(lk.links), "loops": len(lk.closures)}
+    lk.info["counts"] = lk.counts()
     lk.checks = self_check(lk, CHECK_SAMPLES)
     return lk
 

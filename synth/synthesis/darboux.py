@@ -71,14 +71,14 @@ def translation_part(C, M, p, w) -> tuple[np.ndarray, np.ndarray, float]:
 
 def _affine_root(fun, e1, e2):
     """w = x e1 + y e2 with fun(w) = 0 for a map fun: R^3 -> R^2 affine in (x, y) (the quadratic terms
-    cancel, module docstring), and the 2x2 matrix's conditioning; (None, 0) when singular."""
+    cancel, module docstring); None when its 2x2 matrix is singular."""
     f0 = fun(np.zeros(3))
     J = np.stack([fun(e1) - f0, fun(e2) - f0], axis=1)
     sv = np.linalg.svd(J, compute_uv=False)
     if sv[0] == 0 or sv[1] <= 1e-9 * max(sv[0], float(np.abs(f0).max())):
-        return None, 0.0
+        return None
     x = np.linalg.solve(J, -f0)
-    return x[0] * e1 + x[1] * e2, float(sv[1] / sv[0])
+    return x[0] * e1 + x[1] * e2
 
 
 def _solve(prims, target, shared=()):
@@ -117,20 +117,17 @@ def three_joint_chain(C, st) -> np.ndarray | None:
         A, B, _ = translation_part(C, M, p, w)
         return np.array([2 * A @ B - (B @ B) * c1, A @ A - (B @ B) * c0])
 
-    w, cond = _affine_root(circ, e1, e2)
+    w = _affine_root(circ, e1, e2)
     if w is None:
         return None
     A, B, rem = translation_part(C, M, p, w)
     n = np.cross(A, B)
     if rem > TOL * (1 + np.abs(C).max()) or np.linalg.norm(n) <= TOL * (A @ A + B @ B):
         return None
-    alpha, beta = -c1 / 2, float(np.sqrt(c0 - c1 * c1 / 4))
     target = np.asarray(C, float)[:3, 4:]
     best = None
     for sign in (1.0, -1.0):
-        u = sign * unit(n)
-        prims = [np.array([alpha, *(beta * u)]), np.array([alpha, *(-beta * u)]), p]
-        H, _, res = _solve(prims, target)
+        H, _, res = _solve([*_norm_roots(M, sign * unit(n)), p], target)
         if best is None or res < best[1]:
             best = (H, res)
     return best[0] if best[1] <= TOL else None
@@ -149,7 +146,7 @@ def four_joint_chain(C, st, turn: float = 0.0) -> np.ndarray | None:
         x = np.cross(A, B)
         return np.array([x @ e1, x @ e2])
 
-    w, cond = _affine_root(par, e1, e2)
+    w = _affine_root(par, e1, e2)
     if w is None:
         return None
     A, B, rem = translation_part(C, M, p, w)
@@ -160,14 +157,20 @@ def four_joint_chain(C, st, turn: float = 0.0) -> np.ndarray | None:
     u0 = np.cross(d, r)
     u0 = unit(u0) if np.linalg.norm(u0) > 1e-6 else perp_basis(d)[0]
     u = np.cos(turn) * u0 + np.sin(turn) * np.cross(d, u0)
-    c0, c1 = M
-    alpha, beta = -c1 / 2, float(np.sqrt(c0 - c1 * c1 / 4))
-    xp, xm = np.array([alpha, *(beta * u)]), np.array([alpha, *(-beta * u)])
+    xp, xm = _norm_roots(M, u)
     CM = poly_mul(np.asarray(C, float), _real(quad(M)))
     G, _, res = _solve([xp, xm, xm, xp, p], CM[:5, 4:], shared=[(1, 2)])
     if res > TOL:
         return None
     return G[[0, 1, 3, 4]]
+
+
+def _norm_roots(M, u) -> tuple[np.ndarray, np.ndarray]:
+    """The primal parts alpha +- beta u of the two rotations about direction u whose norm is
+    M = [c0, c1] (t^2 + c1 t + c0 = (t - alpha)^2 + beta^2)."""
+    c0, c1 = M
+    alpha, beta = -c1 / 2, float(np.sqrt(c0 - c1 * c1 / 4))
+    return np.array([alpha, *(beta * u)]), np.array([alpha, *(-beta * u)])
 
 
 def _real(m):
@@ -232,8 +235,7 @@ def darboux_linkage(C, *, kind: str = "motion", tool_ref=None, info=None, check_
         return None
     if singular:
         add_singular(lk)
-    lk.info["counts"] = {"joints": len(lk.joints), "links": len(lk.links) - len(lk.closures),
-                         "links_with_duplicates": len(lk.links), "loops": len(lk.closures)}
+    lk.info["counts"] = lk.counts()
     lk.checks = self_check(lk, check_samples)
     return lk
 
