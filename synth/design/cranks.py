@@ -9,7 +9,7 @@ import numpy as np
 
 from synth.design.coordinate import FULL, Scorer, crank_space, search_rounds
 from synth.design.search import (CLEARANCE_FRACTION, FULL_SAMPLES, SAFETY, SEARCH_MERGED, SPREADS, TASK_SAMPLES,
-                                 DesignResult, Layout, certify_layout, report_for, task_phi_range)
+                                 DesignResult, Layout, certify_layout, cranked_result, sizes_of, task_phi_range)
 
 CRANK_FRACTIONS = (0.25, 0.75)  # where along a bar its two via points sit (from its first mount)
 
@@ -38,8 +38,7 @@ def crank_bars(linkage, result: DesignResult, *, seed: int = 0, effort: float = 
     old = result.design
     if result.collision.free or not result.collision.pairs:
         return result
-    sizes = dict(pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
-                 hub_length=old.hub_length, clearance=old.clearance)
+    sizes = sizes_of(old)
     sites = linkage.joint_sites()
     colliding = {b for p in result.collision.pairs for b in p["bodies"]}
     cranks = {}
@@ -78,9 +77,6 @@ def crank_bars(linkage, result: DesignResult, *, seed: int = 0, effort: float = 
         result.collision.message += " (cranked bars of the colliding links were searched too)"
         return result
     W, cert = found
-    design = exact.design(S, W, pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
-                          hole_clearance=old.hole_clearance, clearance=old.clearance)
-    report = report_for(linkage, exact, result.collision.range, cert, old.clearance)
-    report.cranked = [list(k) for k in cranks]
-    report.seconds = result.collision.seconds + time.process_time() - t0
-    return DesignResult(design, report)
+    out = cranked_result(linkage, exact, S, W, old, result.collision.range, cert, cranks)
+    out.collision.seconds = result.collision.seconds + time.process_time() - t0
+    return out

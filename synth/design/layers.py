@@ -25,7 +25,7 @@ import numpy as np
 from synth.design.collision import adjacent_pairs, body_motion, even_samples
 from synth.design.coordinate import FULL
 from synth.design.model import joint_links
-from synth.design.search import SAFETY, DesignResult, Layout, certify_layout, report_for, task_phi_range
+from synth.design.search import SAFETY, DesignResult, Layout, certify_layout, cranked_result, sizes_of, task_phi_range
 
 PIECES = 2  # pieces per bar (each on its own level)
 SAMPLES_PER_JOINT = 160  # samples of the motion per joint for the constraints
@@ -300,19 +300,14 @@ def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> D
         return result
     heights, cranks, W, _ = stack_geometry(linkage, levels, u, level_pitch(old))
     sites = linkage.joint_sites()
-    sizes = dict(pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
-                 hub_length=old.hub_length, clearance=old.clearance)
-    exact = Layout(linkage, merged=False, cranks=cranks, **sizes)
+    exact = Layout(linkage, merged=False, cranks=cranks, **sizes_of(old))
     S = np.array([(heights[(link, j)] - sites[j] @ u) / float(linkage.joint(j).direction @ u)
                   for link, j in exact.mounts])
     cert = certify_layout(exact, S, rng_phi, old.clearance, W)
     if not cert["certified"]:
         result.collision.message += " (a layering of the planar linkage was tried too; it did not certify)"
         return result
-    design = exact.design(S, np.asarray(W), pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
-                          hole_clearance=old.hole_clearance, clearance=old.clearance)
-    report = report_for(linkage, exact, result.collision.range, cert, old.clearance)
-    report.cranked = [list(k) for k in cranks]
-    report.layers = len({lv for v in levels.values() for lv in v})
-    report.seconds = result.collision.seconds + time.process_time() - t0
-    return DesignResult(design, report)
+    out = cranked_result(linkage, exact, S, np.asarray(W), old, result.collision.range, cert, cranks)
+    out.collision.layers = len({lv for v in levels.values() for lv in v})
+    out.collision.seconds = result.collision.seconds + time.process_time() - t0
+    return out

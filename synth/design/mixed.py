@@ -15,7 +15,7 @@ from synth.design.coordinate import FULL, Scorer, Space, score, search_rounds, v
 from synth.design.layers import MARGIN, layer_levels, level_pitch, stack_geometry
 from synth.design.model import joint_links
 from synth.design.search import (CLEARANCE_FRACTION, FULL_SAMPLES, SAFETY, SEARCH_MERGED, SPREADS, TASK_SAMPLES,
-                                 DesignResult, Layout, certify_layout, report_for, task_phi_range)
+                                 DesignResult, Layout, certify_layout, cranked_result, sizes_of, task_phi_range)
 
 MIN_PARALLEL = 4  # joints sharing a direction before their part of the linkage is layered
 
@@ -141,8 +141,7 @@ def _attempt(linkage, result, u, keep, exits, rng_phi, reach, seconds, seed, eff
     if levels is None:
         return None
     heights, cranks, crank_heights, outward = stack_geometry(linkage, levels, u, level_pitch(old), keep=keep)
-    sizes = dict(pin_radius=old.pin_radius, bar_radius=old.bar_radius, hub_radius=old.hub_radius,
-                 hub_length=old.hub_length, clearance=old.clearance)
+    sizes = sizes_of(old)
     search = Layout(linkage, merged=SEARCH_MERGED, cranks=cranks, **sizes)
     exact = Layout(linkage, merged=False, cranks=cranks, **sizes)
     spatial = [j for j in exact.joints if j not in keep]
@@ -187,9 +186,6 @@ def _attempt(linkage, result, u, keep, exits, rng_phi, reach, seconds, seed, eff
         return None
     x, cert = found
     S, W = stack_exact.offsets(x[None])
-    design = exact.design(S[0], W[0], pin_radius=old.pin_radius, bar_radius=old.bar_radius,
-                          hub_radius=old.hub_radius, hole_clearance=old.hole_clearance, clearance=old.clearance)
-    report = report_for(linkage, exact, result.collision.range, cert, old.clearance)
-    report.cranked = [list(k) for k in cranks]
-    report.layers = len({lv for k, v in levels.items() if k[-1] != "exit" for lv in v})
-    return DesignResult(design, report)
+    out = cranked_result(linkage, exact, S[0], W[0], old, result.collision.range, cert, cranks)
+    out.collision.layers = len({lv for k, v in levels.items() if k[-1] != "exit" for lv in v})
+    return out

@@ -186,11 +186,17 @@ def straight_design(linkage, *, pin_radius: float, bar_radius: float, hub_length
         if len(names) == 1:
             mounts.append(Mount(link, names[0], float((offsets or {}).get((link, names[0]), 0.0))))
     design = PhysicalDesign(pin_radius=pin_radius, bar_radius=bar_radius,
-                            hub_radius=max(bar_radius, pin_radius + hole_clearance + 0.5 * pin_radius),
+                            hub_radius=hub_radius_for(pin_radius, bar_radius, hole_clearance),
                             hub_length=hub_length, hole_clearance=hole_clearance, clearance=clearance,
                             mounts=mounts, bars=bars, pins=[])
     design.pins = pins_for(linkage, design)
     return design
+
+
+def hub_radius_for(pin_radius: float, bar_radius: float, hole_clearance: float) -> float:
+    """A hub's radius: the bar's, or the pin's bore (pin radius + hole clearance) with half a pin radius
+    of wall when that is larger (metres)."""
+    return max(bar_radius, pin_radius + hole_clearance + 0.5 * pin_radius)
 
 
 def pins_for(linkage, design: PhysicalDesign) -> list[Pin]:

@@ -25,7 +25,7 @@ import numpy as np
 
 from synth.design.collision import CapsuleSet, adjacent_pairs, bodies, certify, phi_of_t, t_of_phi
 from synth.design.coordinate import FULL, Scorer, mount_space, score, search_rounds, violation
-from synth.design.model import Bar, Mount, PhysicalDesign, Pin, joint_links
+from synth.design.model import Bar, Mount, PhysicalDesign, Pin, hub_radius_for, joint_links
 
 TWO_PI = 2 * math.pi
 CLEARANCE_FRACTION = 0.25  # default clearance: this fraction of the bar radius
@@ -160,6 +160,12 @@ class Layout:
                              labels=labels)
 
     # parameters: c (N, J) centres, sigma (N, J) +-1, g (N, J) hub distances
+    def natural_offsets(self) -> np.ndarray:
+        """(M,) mount offsets of the natural stack: every joint's hubs stacked about its site, in tree
+        order, ``gap_min`` apart."""
+        J = len(self.joints)
+        return self.mount_offsets(np.zeros((1, J)), np.ones((1, J)), np.full((1, J), self.gap_min))[0]
+
     def mount_offsets(self, c, sigma, g) -> np.ndarray:
         """(N, M) mount offsets."""
         S = np.empty((c.shape[0], len(self.mounts)))
@@ -262,15 +268,12 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     candidate is made even when it is spent)."""
 
     t0 = time.process_time()
-    clearance = CLEARANCE_FRACTION * bar_radius if clearance is None else float(clearance)
-    hub_radius = max(bar_radius, pin_radius + hole_clearance + 0.5 * pin_radius)
-    sizes = dict(pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius, hub_length=hub_length,
-                 clearance=clearance)
+    sizes = resolved_sizes(pin_radius, bar_radius, hub_length, hole_clearance, clearance)
+    clearance, hub_radius = sizes["clearance"], sizes["hub_radius"]
     search = Layout(linkage, merged=SEARCH_MERGED, **sizes)
     exact = Layout(linkage, merged=False, **sizes)
     if not len(exact.cs.pairs):  # every two bodies share a joint: nothing can collide
-        J = len(exact.joints)
-        S = exact.mount_offsets(np.zeros((1, J)), np.ones((1, J)), np.full((1, J), exact.gap_min))[0]
+        S = exact.natural_offsets()
         driver = driver_joint(linkage)
         design = exact.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
                               hole_clearance=hole_clearance, clearance=clearance)
@@ -350,16 +353,38 @@ def natural_result(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     """The natural stack (every hub stack centred on its joint's site) with the sizes `design_linkage`
     would use, not searched and not checked (``free`` False, ``min_distance`` nan): the start of a
     search that keeps only the sizes (`synth.design.mixed.mixed_design`)."""
-    clearance = CLEARANCE_FRACTION * bar_radius if clearance is None else float(clearance)
-    hub_radius = max(bar_radius, pin_radius + hole_clearance + 0.5 * pin_radius)
-    layout = Layout(linkage, merged=False, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
-                    hub_length=hub_length, clearance=clearance)
-    J = len(layout.joints)
-    S = layout.mount_offsets(np.zeros((1, J)), np.ones((1, J)), np.full((1, J), layout.gap_min))[0]
-    design = layout.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
-                           hole_clearance=hole_clearance, clearance=clearance)
-    report = CollisionReport(free=False, range="full", clearance=clearance, min_distance=math.nan,
+    sizes = resolved_sizes(pin_radius, bar_radius, hub_length, hole_clearance, clearance)
+    layout = Layout(linkage, merged=False, **sizes)
+    design = layout.design(layout.natural_offsets(), pin_radius=pin_radius, bar_radius=bar_radius,
+                           hub_radius=sizes["hub_radius"], hole_clearance=hole_clearance, clearance=sizes["clearance"])
+    report = CollisionReport(free=False, range="full", clearance=sizes["clearance"], min_distance=math.nan,
                              driver=driver_joint(linkage), driver_range=(0.0, TWO_PI))
+    return DesignResult(design, report)
+
+
+def resolved_sizes(pin_radius: float, bar_radius: float, hub_length: float, hole_clearance: float = 0.0,
+                   clearance: float | None = None) -> dict:
+    """`Layout`'s sizes (metres) for a design's inputs: the clearance CLEARANCE_FRACTION times the bar radius
+    unless given, the hub radius `synth.design.model.hub_radius_for`."""
+    return dict(pin_radius=pin_radius, bar_radius=bar_radius,
+                hub_radius=hub_radius_for(pin_radius, bar_radius, hole_clearance), hub_length=hub_length,
+                clearance=CLEARANCE_FRACTION * bar_radius if clearance is None else float(clearance))
+
+
+def sizes_of(design) -> dict:
+    """`Layout`'s sizes of an existing `PhysicalDesign` (to search another shape with the same parts)."""
+    return dict(pin_radius=design.pin_radius, bar_radius=design.bar_radius, hub_radius=design.hub_radius,
+                hub_length=design.hub_length, clearance=design.clearance)
+
+
+def cranked_result(linkage, layout: Layout, S, W, like, rname: str, cert: dict, cranks: dict) -> DesignResult:
+    """The design of ``layout`` with mount offsets S (M,) and crank offsets W (V,), with the sizes, hole
+    clearance and clearance of the design ``like``, and the report of its certificate ``cert`` over the
+    range ``rname`` naming the cranked bars (``cranks``: `Layout`'s)."""
+    design = layout.design(S, W, pin_radius=like.pin_radius, bar_radius=like.bar_radius, hub_radius=like.hub_radius,
+                           hole_clearance=like.hole_clearance, clearance=like.clearance)
+    report = report_for(linkage, layout, rname, cert, like.clearance)
+    report.cranked = [list(k) for k in cranks]
     return DesignResult(design, report)
 
 
