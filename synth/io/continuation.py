@@ -13,7 +13,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from synth.algebra.anglelaw import driven_angle
-from synth.io.frames import TWO_PI, invert_transform
+from synth.io.frames import TWO_PI, invert_transform, wrap_angle
 from synth.io.urdfmodel import UrdfModel
 
 
@@ -229,7 +229,8 @@ def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, ste
 
 
 def _wrapped(d):
-    return np.abs((np.asarray(d, float) + np.pi) % TWO_PI - np.pi)
+    """|angle differences| (rad), wrapped to [0, pi]."""
+    return np.abs(wrap_angle(d))
 
 
 def jacobian_conditioning(u: UrdfModel, closures, refs, driver: str, others, phi: float, x, length: float = 1.0) -> float:
@@ -278,8 +279,5 @@ def crossing(u: UrdfModel, closures, driver: str, others: list[str], phi: float,
             break
         x = x + dx
     r, _ = loop_residual(u, closures, refs, {driver: phi, **dict(zip(others, x))}, others, length, jacobian=False)
-    _, J = loop_residual(u, closures, refs, {driver: phi, **dict(zip(others, exact))}, [driver] + list(others), length)
-    sv = np.linalg.svd(J, compute_uv=False)
-    k = min(len(sv), J.shape[1] - 1) - 1  # rank n - 1 of n joints (mobility 1)
-    dev = float(np.abs((np.asarray(x) - np.asarray(exact) + np.pi) % TWO_PI - np.pi).max())
-    return {"deviation": dev, "residual": float(np.linalg.norm(r)), "conditioning": float(sv[k] / sv[0])}
+    return {"deviation": float(_wrapped(x - np.asarray(exact, float)).max()), "residual": float(np.linalg.norm(r)),
+            "conditioning": jacobian_conditioning(u, closures, refs, driver, others, phi, exact, length)}

@@ -37,7 +37,7 @@ import numpy as np
 
 from synth.errors import InputError, MpsynthError
 from synth.io.continuation import law_angles
-from synth.io.frames import invert_transform, pose_diff
+from synth.io.frames import invert_transform, pose_diff, wrap_angle
 from synth.io.readback import angle_laws, angle_rates, mesh_path, read_files
 
 ENGINES = ("pybullet", "mujoco")
@@ -261,7 +261,7 @@ class Tracker:
         for jn in s.joints:
             if jn == s.driver:
                 continue
-            dev = np.abs(np.mod(q[jn] - exact[jn] + math.pi, TWO_PI) - math.pi)
+            dev = np.abs(wrap_angle(q[jn] - exact[jn]))
             i = int(np.argmax(dev))
             if dev[i] > self.max_dev or self.worst_joint is None:
                 self.worst_angle = float(q[s.driver][i])
