@@ -25,7 +25,8 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, LOOP, TS, axis_distance, bennett_parameters,
                                           dh_rows, factor_sets, loop_geometry, relative_error, solve)
 from synth.synthesis.conditioning import transmission_problem
-from synth.synthesis.conic import Conditioning, condition, conditioning, conic, relative_displacements, to_world
+from synth.synthesis.conic import (Conditioning, condition, conditioning, conic, relative_displacements,
+                                   position_spread, to_world)
 from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_bennett import accepted_error
 from synth.synthesis.planar_bennett import candidates as planar_candidates
@@ -272,9 +273,9 @@ def perturbed_poses(T, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int 
 
 
 def _spread(T) -> float:
-    """RMS distance of the positions of poses (k, 4, 4) from their centroid (at least 1e-300)."""
-    pos = T[:, :3, 3]
-    return max(math.sqrt(float(np.sum((pos - pos.mean(axis=0)) ** 2)) / len(T)), 1e-300)
+    """RMS distance of the positions of poses (k, 4, 4) from their centroid, at least 1e-300
+    (`synth.synthesis.conic.position_spread`)."""
+    return max(float(position_spread(T)[1]), 1e-300)
 
 
 def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int = 0, solved=None) -> float:

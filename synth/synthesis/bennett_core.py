@@ -129,8 +129,7 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     with np.errstate(all="ignore"):
         a, b = factors[..., 0], np.sqrt(dot(factors[..., 1:4], factors[..., 1:4]))
         U, M = -factors[..., 1:4] / b[..., None], factors[..., 5:8] / b[..., None]
-        th = angle_law(a[:, None, :], b[:, None, :], TS[1:, None])
-        pose_angles = np.concatenate([np.zeros((N, 1, 4)), th], axis=1)  # (N, 3, 4)
+        pose_angles = angle_law(a[:, None, :], b[:, None, :], TS[:, None])  # (N, 3, 4); 0 at t = inf
         geo = loop_geometry(U[:, LOOP], M[:, LOOP])
         good &= ~geo["parallel"].any(axis=1)
         # the linkage's length scale (`synth.checks.extent`): the joint sites are the means of the feet of

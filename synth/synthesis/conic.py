@@ -22,14 +22,19 @@ class Conditioning:
     scale: float  # metres per conditioned unit
 
 
-def conditioning(T) -> Conditioning:
-    """The centroid of the positions of poses T (..., k, 4, 4) (centre (..., 3)) and their RMS spread
-    (scale (...), 1 where the positions coincide)."""
+def position_spread(T) -> tuple[np.ndarray, np.ndarray]:
+    """(centroid (..., 3), RMS distance from it (...)) of the positions of poses T (..., k, 4, 4)."""
     pos = np.asarray(T, float)[..., :3, 3]
     k = pos.shape[-2]
     c = pos.sum(axis=-2) / k
     rel = pos - c[..., None, :]
-    L = np.sqrt(dot(rel, rel).sum(axis=-1) / k)
+    return c, np.sqrt(dot(rel, rel).sum(axis=-1) / k)
+
+
+def conditioning(T) -> Conditioning:
+    """The centroid of the positions of poses T (..., k, 4, 4) (centre (..., 3)) and their RMS spread
+    (scale (...), 1 where the positions coincide)."""
+    c, L = position_spread(T)
     return Conditioning(centre=c, scale=np.where(L > 0, L, 1.0))
 
 
