@@ -282,6 +282,20 @@ def stack_geometry(linkage, levels: dict, u, pitch: float, keep=None) -> tuple[d
     return heights, cranks, W, out
 
 
+def height_offsets(layout: Layout, heights: dict, u) -> tuple[np.ndarray, np.ndarray]:
+    """(S, dS), each (M,) over ``layout.mounts``: the offsets along their joints' axes that put the hubs of
+    ``heights`` ({(link, joint): height along ``u``}) at those heights, and the change of each offset per
+    unit of height (both 0 for a mount not in ``heights``)."""
+    lk = layout.linkage
+    sites = lk.joint_sites()
+    S, dS = np.zeros(len(layout.mounts)), np.zeros(len(layout.mounts))
+    for (link, j), h in heights.items():
+        du = float(lk.joint(j).direction @ u)
+        S[layout.mindex[(link, j)]] = (h - sites[j] @ u) / du
+        dS[layout.mindex[(link, j)]] = 1.0 / du
+    return S, dS
+
+
 def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> DesignResult:
     """A certified layered design of a planar linkage (docs/design.md, "Layers"), or ``result`` unchanged
     when the axes are not all parallel, no layering is found within ``seconds`` (CPU, the programme's
@@ -299,10 +313,8 @@ def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> D
         result.collision.message += " (no layering of the planar linkage was found either)"
         return result
     heights, cranks, W, _ = stack_geometry(linkage, levels, u, level_pitch(old))
-    sites = linkage.joint_sites()
     exact = Layout(linkage, merged=False, cranks=cranks, **sizes_of(old))
-    S = np.array([(heights[(link, j)] - sites[j] @ u) / float(linkage.joint(j).direction @ u)
-                  for link, j in exact.mounts])
+    S, _ = height_offsets(exact, heights, u)  # every hub of a planar linkage has its height
     cert = certify_layout(exact, S, rng_phi, old.clearance, W)
     if not cert["certified"]:
         result.collision.message += " (a layering of the planar linkage was tried too; it did not certify)"

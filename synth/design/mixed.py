@@ -12,7 +12,7 @@ from dataclasses import replace
 import numpy as np
 
 from synth.design.coordinate import FULL, Scorer, Space, score, search_rounds, violation
-from synth.design.layers import MARGIN, layer_levels, level_pitch, stack_geometry
+from synth.design.layers import MARGIN, height_offsets, layer_levels, level_pitch, stack_geometry
 from synth.design.model import joint_links
 from synth.design.search import (CLEARANCE_FRACTION, FULL_SAMPLES, SAFETY, SEARCH_MERGED, SPREADS, TASK_SAMPLES,
                                  DesignResult, Layout, certify_layout, cranked_result, sizes_of, task_phi_range)
@@ -42,16 +42,9 @@ class _Stack:
     `search.Layout`; how far (e >= 0) each of the R risers out of the stack reaches beyond it."""
 
     def __init__(self, layout: Layout, u, heights: dict, crank_heights: list, outward: list, spatial: list):
-        lk = layout.linkage
-        sites = lk.joint_sites()
-        M = len(layout.mounts)
         self.layout, self.spatial = layout, spatial
         self.col = [layout.joints.index(j) for j in spatial]
-        self.S0, self.dS = np.zeros(M), np.zeros(M)
-        for (link, j), h in heights.items():
-            du = float(lk.joint(j).direction @ u)
-            self.S0[layout.mindex[(link, j)]] = (h - sites[j] @ u) / du
-            self.dS[layout.mindex[(link, j)]] = 1.0 / du
+        self.S0, self.dS = height_offsets(layout, heights, u)
         self.W0 = np.asarray(crank_heights, float)
         self.riser = np.flatnonzero(outward)
         self.out = np.asarray(outward, float)[self.riser]
