@@ -15,7 +15,7 @@ import numpy as np
 from synth.algebra.algorithm1 import cross3
 from synth.algebra.anglelaw import half_angle
 from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq, qmul
-from synth.algebra.polynomial import product_of_linear
+from synth.algebra.polynomial import evaluate, product_of_linear
 from synth.linkage import Linkage
 
 _CONJ4 = np.array([1.0, -1.0, -1.0, -1.0])
@@ -200,7 +200,26 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
         near = ep < 0.5  # (NaN: False)
         rot = np.where(near, 4.0 * np.arcsin(np.minimum(ep, 1.0)), np.inf)
         tra = np.where(near, 2.0 * ((ed + Q * ep + ed * ep) * s + Q * (s - 1.0)), np.inf)
-    return {"closure_translation": tra[:, 0], "closure_rotation": rot[:, 0], "motion": tra[:, 1] + rot[:, 1]}
+    return {"closure_translation": tra[:, 0], "closure_rotation": rot[:, 0], "motion": tra[:, 1] + rot[:, 1],
+            "motion_translation": tra[:, 1], "motion_rotation": rot[:, 1]}
+
+
+def pose_bound(motion, ts, pose_dq, bound) -> dict:
+    """Certified pose errors of N single loops at the reported angles (the angle laws at the pose
+    parameters ``ts`` (P,), t = inf allowed), without forward kinematics: there the tool link is the
+    motion at t_i to within the motion bound of `loop_bound` (``bound``), so the tool frame misses pose
+    i by at most that bound plus the distance of C(t_i) Q_0 from Q_i (translation also plus the rotation
+    bound times |d_0|: the reference pose Q_0 moves with the tool). motion (N, n+1, 8), pose_dq (N, P, 8)
+    the poses (`synth.algebra.dq.pose_to_dq`), pose 0 the reference. Returns ``pose_translation``,
+    ``pose_rotation`` (N,) in metres and radians."""
+    Ct = evaluate(motion, ts)  # (N, P, 8)
+    X = np.stack([dq_mul(Ct, pose_dq[:, :1]), pose_dq])
+    dt, dr = _pose_difference(X)
+    d0 = X[1, :, 0]
+    reach = np.sqrt(dot(d0[..., 4:], d0[..., 4:]) / dot(d0[..., :4], d0[..., :4])) * 2.0  # |d_0|
+    rot = bound["motion_rotation"]
+    return {"pose_translation": dt.max(axis=1) + bound["motion_translation"] + rot * reach,
+            "pose_rotation": dr.max(axis=1) + rot}
 
 
 def structure(linkage: Linkage) -> tuple:

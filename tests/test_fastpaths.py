@@ -78,8 +78,10 @@ def test_bennett_equals_the_per_set_path(seed):
     # relative to the linkage's size, plus a rounding floor of 1000 ulps of the coordinates (poses ~100 m
     # from the origin with a spread of 1 mm are only known to ~1e-14 m; ~1% of seeds need the floor)
     floor = 1e3 * np.finfo(float).eps * np.abs(T[:, :3, 3]).max()
-    assert fast.checks["max_pose_translation_error"] <= 1e-9 * fast.checks["length_scale"] + floor
-    # the closure figure is a certified bound over the whole motion: within the acceptance limit
+    # the pose and closure figures are certified bounds (`pose_bound`, `loop_bound`): within the acceptance
+    # limit; the per-set path's sampled figures within a tenth of it
+    assert gen.checks["max_pose_translation_error"] <= 1e-9 * gen.checks["length_scale"] + floor
+    assert fast.checks["max_pose_translation_error"] <= 1e-8 * fast.checks["length_scale"] + floor
     assert fast.checks["max_closure_translation_error"] <= 1e-8 * fast.checks["length_scale"] + floor
 
 

@@ -1,13 +1,14 @@
-"""The certified closure and motion bounds (synth.checks.loop_bound, docs/conventions.md section 9):
-they bound the errors at every parameter, including dense samples, and they grow with a real defect."""
+"""The certified closure, motion and pose bounds (synth.checks.loop_bound, pose_bound, docs/conventions.md
+section 9): they bound the errors at every parameter, including dense samples, and the forward kinematics
+at the poses' angles, and they grow with a real defect."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from synth.algebra.dq import pose_to_dq
-from synth.checks import check_figures, loop_bound
-from synth.synthesis.bennett_core import BRANCHES, STRUCTURE, solve
+from synth.checks import check_figures, loop_bound, pose_bound
+from synth.synthesis.bennett_core import BRANCHES, STRUCTURE, TS, solve
 
 from conftest import random_poses
 
@@ -63,3 +64,32 @@ def test_repeated_roots_give_no_bound():
     a[:, 1], b[:, 1] = a[:, 0], b[:, 0]  # h1 and h2 with the same law: the partial fractions do not exist
     bound = loop_bound(U, M, a, b, BRANCHES, out["motion"])
     assert np.all(np.isinf(bound["closure_translation"]))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_pose_bound_is_above_the_forward_kinematics_at_the_poses(seed):
+    T = _sets(seed, 200)
+    out = solve(T, 0)
+    U, M, a, b = _arrays(out)
+    Q = pose_to_dq(T)
+    fk = check_figures(STRUCTURE, U, M, a, b, out["pose_angles"], Q, Q[:, 0], out["motion"], 0)
+    bound = pose_bound(out["motion"], TS, Q, loop_bound(U, M, a, b, BRANCHES, out["motion"]))
+    for key in ("pose_translation", "pose_rotation"):
+        assert np.all(bound[key] >= fk[key]), key
+    size = out["scale"] + np.abs(T[:, :, :3, 3]).max(axis=(1, 2))
+    assert np.median(bound["pose_translation"] / size) < 1e-12
+
+
+def test_pose_bound_detects_a_moved_pose_and_a_wrong_motion():
+    T = _sets(5, 50)
+    out = solve(T, 0)
+    U, M, a, b = _arrays(out)
+    bound = loop_bound(U, M, a, b, BRANCHES, out["motion"])
+    moved = T.copy()
+    moved[:, 2, :3, 3] += 1e-6 * out["scale"][:, None]  # pose 2 shifted: the linkage misses it
+    got = pose_bound(out["motion"], TS, pose_to_dq(moved), bound)
+    assert np.all(got["pose_translation"] >= 1e-6 * out["scale"] * np.sqrt(3) * (1 - 1e-9))
+    wrong = out["motion"].copy()
+    wrong[:, 0, 1] += 1e-6  # C no longer the tool link's motion: the motion bound grows, and with it the pose bound
+    bad = loop_bound(U, M, a, b, BRANCHES, wrong)
+    assert np.all(pose_bound(wrong, TS, pose_to_dq(T), bad)["pose_rotation"] > 1e-7)

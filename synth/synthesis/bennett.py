@@ -60,7 +60,8 @@ def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, memb
     ``check_samples``: number of parameters covering the real line at which the loop closure and the
     motion are also sampled (``linkage.checks``); they are bounded over the whole motion in any case
     (`synth.checks.loop_bound`; the per-set path samples at least DEFAULT_CHECK_SAMPLES instead), and
-    the tool frame is always verified at every pose's reported joint angles. Planar or spherical poses
+    the tool frame at every pose's reported joint angles is bounded likewise (`synth.checks.pose_bound`;
+    the per-set path evaluates it). Planar or spherical poses
     (docs/planar.md) have a family of quadratic motions through them and give a planar or spherical
     four-bar (kind ``planar_4r`` / ``spherical_4r``): the best-scored member, or ``member`` =
     (lambda1, lambda2). Raises InputError (shape, NaN, a member for spatial poses)

@@ -4,9 +4,9 @@
 displacements, the conic C through the poses, the roots of its norm polynomial, Algorithm 1 for both
 orders (branch h = (h1, h2), branch k = (k1, k2), C = (t-h1)(t-h2) = (t-k1)(t-k2)), the world frame,
 Plücker lines and angle laws, the angles at the poses, the loop geometry (Bennett parameters, DH table)
-and the self-checks: the tool frame at the poses' angles and closure and motion bounded over the whole
-motion (`synth.checks.loop_bound`), plus samples at ``check_samples`` parameters
-(`synth.checks.check_figures`). ``synth.bennett`` is
+and the self-checks: closure and motion bounded over the whole motion (`synth.checks.loop_bound`) and
+the tool frame at the poses' angles bounded through the motion (`synth.checks.pose_bound`), plus samples
+at ``check_samples`` parameters (`synth.checks.check_figures`). ``synth.bennett`` is
 a batch of one, ``synth.bennett_batch`` a batch of many. Sets the generic pipeline cannot judge
 (``good`` False: degenerate or nearly degenerate poses, nearly real or repeated norm roots, a translation
 factor, a multiply-back error above MAX_RESIDUAL after Newton polishing, a self-check near the
@@ -26,7 +26,7 @@ from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multip
 from synth.algebra.anglelaw import angle_law
 from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
-from synth.checks import check_figures, loop_bound
+from synth.checks import check_figures, loop_bound, pose_bound
 from synth.algebra.dq import dot, dq_mul, pose_to_dq, translation_dq
 from synth.synthesis.conic import Conditioning, conditioning, conic, relative_displacements_dq, to_world
 
@@ -138,9 +138,13 @@ def _solve(T, check_samples: int, fac=None) -> dict:
         pts = np.concatenate([Tf[:, :, :3, 3], sites, Tf[:, :1, :3, 3]], axis=1)
         rel = pts - pts.sum(axis=1, keepdims=True) / pts.shape[1]
         length_scale = np.maximum(np.sqrt(dot(rel, rel).sum(axis=-1) / pts.shape[1]), 1e-9)
-        errors = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
-        for key, bound in loop_bound(U, M, a, b, BRANCHES, motion).items():  # the whole motion, certified
-            errors[key] = np.maximum(errors[key], bound)
+        # certified: closure and motion over the whole motion, the poses at their angles through the motion
+        bound = loop_bound(U, M, a, b, BRANCHES, motion)
+        errors = pose_bound(motion, TS, Q[:, :3], bound)
+        errors.update((k, bound[k]) for k in ("closure_translation", "closure_rotation", "motion"))
+        if check_samples > 0:
+            sampled = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
+            errors = {k: np.maximum(v, sampled[k]) for k, v in errors.items()}
         far = axis_distance(U, M, cond.centre)
         rel = relative_error(Tf, cond.scale, far, errors)
         good &= rel <= 0.1 * ACCEPT_TOL
