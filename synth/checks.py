@@ -212,14 +212,18 @@ def pose_bound(motion, ts, pose_dq, bound) -> dict:
     bound times |d_0|: the reference pose Q_0 moves with the tool). motion (N, n+1, 8), pose_dq (N, P, 8)
     the poses (`synth.algebra.dq.pose_to_dq`), pose 0 the reference. Returns ``pose_translation``,
     ``pose_rotation`` (N,) in metres and radians."""
-    Ct = evaluate(motion, ts)  # (N, P, 8)
-    X = np.stack([dq_mul(Ct, pose_dq[:, :1]), pose_dq])
+    ts = np.asarray(ts, float)
+    # at t = inf a monic C is 1: the tool link is at its reference there, and pose 0 is the reference
+    keep = np.flatnonzero(np.isfinite(ts) | ~np.all(motion[:, -1] == _E0))
+    X = np.empty((2, len(motion), keep.size, 8))
+    X[0] = dq_mul(evaluate(motion, ts[keep]), pose_dq[:, :1])
+    X[1] = pose_dq[:, keep]
     dt, dr = _pose_difference(X)
-    d0 = X[1, :, 0]
-    reach = np.sqrt(dot(d0[..., 4:], d0[..., 4:]) / dot(d0[..., :4], d0[..., :4])) * 2.0  # |d_0|
+    d0 = pose_dq[:, 0]
+    reach = 2.0 * np.sqrt(dot(d0[..., 4:], d0[..., 4:]) / dot(d0[..., :4], d0[..., :4]))  # |d_0|
     rot = bound["motion_rotation"]
-    return {"pose_translation": dt.max(axis=1) + bound["motion_translation"] + rot * reach,
-            "pose_rotation": dr.max(axis=1) + rot}
+    return {"pose_translation": dt.max(axis=1, initial=0.0) + bound["motion_translation"] + rot * reach,
+            "pose_rotation": dr.max(axis=1, initial=0.0) + rot}
 
 
 def structure(linkage: Linkage) -> tuple:

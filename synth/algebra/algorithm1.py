@@ -214,8 +214,11 @@ def algorithm1(C, M, *, remainders: bool = False):
         H[..., pos, :] = h
         D, R[..., pos - 1, :] = divide_linear_right(D, h)
     # the last remainder D = D1 t + D0 is linear with the leading coefficient of C: h_1 = -D1^{-1} D0
-    # (the remainder of D mod M_1, whatever M_1)
-    H[..., 0, :] = -dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])
+    # (the remainder of D mod M_1, whatever M_1); D1 = 1 exactly when C is monic
+    if np.all(C[..., n, :] == _ONE):
+        H[..., 0, :] = -D[..., 0, :]
+    else:
+        H[..., 0, :] = -dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])
     return (H, ok, R) if remainders else (H, ok)
 
 

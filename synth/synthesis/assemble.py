@@ -19,24 +19,27 @@ def joint_from_factor(name: str, parent: str, child: str, h) -> Joint:
                  moment=np.array([w1 / b, w2 / b, w3 / b]), a=h0, b=b)
 
 
-def pose_records(joints, poses, names, ts) -> list[PoseRecord]:
+def pose_records(joints, poses, names, ts, angles=None) -> list[PoseRecord]:
     """One PoseRecord per pose (4x4 matrix, name, parameter t) with every joint's angle there
-    (`synth.algebra.anglelaw.angle_law`, all poses and joints in one call)."""
+    (`synth.algebra.anglelaw.angle_law`, all poses and joints in one call; ``angles`` (poses, joints):
+    these angle laws' values, when the caller has them already)."""
     ts = [float(t) for t in ts]
-    law = np.array([(j.a, j.b, j.rate) for j in joints], float).reshape(-1, 3).T
-    rate = law[2] if any(j.rate != 1 for j in joints) else 1
-    ang = angle_law(law[0], law[1], np.array(ts)[:, None], rate).tolist()  # (poses, joints)
+    if angles is None:
+        law = np.array([(j.a, j.b, j.rate) for j in joints], float).reshape(-1, 3).T
+        rate = law[2] if any(j.rate != 1 for j in joints) else 1
+        angles = angle_law(law[0], law[1], np.array(ts)[:, None], rate)
+    ang = np.asarray(angles, float).tolist()
     jn = [j.name for j in joints]
     return [PoseRecord(name, T, t, dict(zip(jn, row))) for name, T, t, row in zip(names, poses, ts, ang)]
 
 
-def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None, rates=None) -> Linkage:
+def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None, rates=None, angles=None) -> Linkage:
     """Linkage with branch h: base -h1-> link_h1 ... -hn-> coupler and branch k likewise ending in
     coupler_k. H, K: (n, 8) and (m, 8) factors in the world frame (metres) with C = (t-h1)...(t-hn) =
     (t-k1)...(t-kn) (m = n but for joints of rate other than 1: ``rates`` (n + m,) in the order h, k, the
     products of (t - h)^rate being C times real polynomials, docs/exceptional.md section 6); poses (m, 4, 4)
     with parameters ts (first = inf). ``motion=None`` leaves ``linkage.motion`` None (for a caller that
-    sets it later)."""
+    sets it later). ``angles``: the joints' angles at the poses (`pose_records`), when at hand."""
     specs, links, branches = _layout(len(H), len(K))
     laws, lines = [], []
     for h in (*H, *K):  # joint_from_factor, with all Plücker coordinates in one array
@@ -51,7 +54,7 @@ def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None, rat
     joints = [Joint(name, parent, child, lines[2 * i], lines[2 * i + 1], a, b, r)
               for i, ((name, parent, child), (a, b), r) in enumerate(zip(specs, laws, rates))]
     poses = np.asarray(poses, float)
-    records = pose_records(joints, poses, names, ts)
+    records = pose_records(joints, poses, names, ts, angles)
     return Linkage(kind, joints, {k: list(v) for k, v in links.items()}, [list(x) for x in branches],
                    [("coupler", "coupler_k")], poses[0], None if motion is None else np.asarray(motion, float),
                    records, info=dict(info) if info else {})

@@ -145,7 +145,8 @@ def linkage_from_solution(out: dict, i: int, T, names, check_samples: int, pertu
     info = {"factorization_residual": float(out["residual"][i]),
             "study_form": dict(zip(("B01", "B02", "B12"), out["study_form"][i].tolist())),
             "conditioning": {"centre": out["centre"][i].tolist(), "scale": scale}}
-    linkage = two_branch_linkage("bennett", F[:2], F[2:], out["motion"][i], T, names, TS, info)
+    linkage = two_branch_linkage("bennett", F[:2], F[2:], out["motion"][i], T, names, TS, info,
+                                 angles=out["pose_angles"][i])
     figures = {k: float(v[i]) for k, v in out["errors"].items()}
     linkage.checks = as_checks(figures, check_samples, float(out["length_scale"][i]), bounded=True)
     bp = {k: v[i : i + 1] for k, v in out["bennett"].items()}
