@@ -204,23 +204,20 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
             "motion_translation": tra[:, 1], "motion_rotation": rot[:, 1]}
 
 
-def pose_bound(motion, ts, pose_dq, bound) -> dict:
-    """Certified pose errors of N single loops at the reported angles (the angle laws at the pose
-    parameters ``ts`` (P,), t = inf allowed), without forward kinematics: there the tool link is the
-    motion at t_i to within the motion bound of `loop_bound` (``bound``), so the tool frame misses pose
-    i by at most that bound plus the distance of C(t_i) Q_0 from Q_i (translation also plus the rotation
-    bound times |d_0|: the reference pose Q_0 moves with the tool). motion (N, n+1, 8), pose_dq (N, P, 8)
-    the poses (`synth.algebra.dq.pose_to_dq`), pose 0 the reference. Returns ``pose_translation``,
-    ``pose_rotation`` (N,) in metres and radians."""
-    ts = np.asarray(ts, float)
-    # at t = inf a monic C is 1: the tool link is at its reference there, and pose 0 is the reference
-    keep = np.flatnonzero(np.isfinite(ts) | ~np.all(motion[:, -1] == _E0))
-    X = np.empty((2, len(motion), keep.size, 8))
-    X[0] = dq_mul(evaluate(motion, ts[keep]), pose_dq[:, :1])
-    X[1] = pose_dq[:, keep]
+def pose_bound(motion, ts, pose_dq, ref_dq, bound) -> dict:
+    """Certified pose errors of N single loops at the reported angles (the angle laws at the finite pose
+    parameters ``ts`` (P,)), without forward kinematics: there the tool link is the monic motion C at
+    t_i to within the motion bound of `loop_bound` (``bound``), so the tool frame misses pose i by at
+    most that bound plus the distance of C(t_i) Q_0 from Q_i (translation also plus the rotation bound
+    times |d_0|: the reference pose Q_0 moves with the tool). The reference pose itself, at t = inf where
+    C = 1 and every angle is 0, is exact. motion (N, n+1, 8), pose_dq (N, P, 8) and ref_dq (N, 8) unit
+    dual quaternions (`synth.algebra.dq.pose_to_dq`). Returns ``pose_translation``, ``pose_rotation``
+    (N,) in metres and radians."""
+    X = np.empty((2,) + pose_dq.shape)
+    X[0] = dq_mul(evaluate(motion, ts), ref_dq[:, None])
+    X[1] = pose_dq
     dt, dr = _pose_difference(X)
-    d0 = pose_dq[:, 0]
-    reach = 2.0 * np.sqrt(dot(d0[..., 4:], d0[..., 4:]) / dot(d0[..., :4], d0[..., :4]))  # |d_0|
+    reach = 2.0 * np.sqrt(dot(ref_dq[:, 4:], ref_dq[:, 4:]))  # |d_0| (unit ref_dq)
     rot = bound["motion_rotation"]
     return {"pose_translation": dt.max(axis=1, initial=0.0) + bound["motion_translation"] + rot * reach,
             "pose_rotation": dr.max(axis=1, initial=0.0) + rot}

@@ -73,7 +73,7 @@ def test_pose_bound_is_above_the_forward_kinematics_at_the_poses(seed):
     U, M, a, b = _arrays(out)
     Q = pose_to_dq(T)
     fk = check_figures(STRUCTURE, U, M, a, b, out["pose_angles"], Q, Q[:, 0], out["motion"], 0)
-    bound = pose_bound(out["motion"], TS, Q, loop_bound(U, M, a, b, BRANCHES, out["motion"]))
+    bound = pose_bound(out["motion"], TS[1:], Q[:, 1:], Q[:, 0], loop_bound(U, M, a, b, BRANCHES, out["motion"]))
     for key in ("pose_translation", "pose_rotation"):
         assert np.all(bound[key] >= fk[key]), key
     size = out["scale"] + np.abs(T[:, :, :3, 3]).max(axis=(1, 2))
@@ -87,9 +87,11 @@ def test_pose_bound_detects_a_moved_pose_and_a_wrong_motion():
     bound = loop_bound(U, M, a, b, BRANCHES, out["motion"])
     moved = T.copy()
     moved[:, 2, :3, 3] += 1e-6 * out["scale"][:, None]  # pose 2 shifted: the linkage misses it
-    got = pose_bound(out["motion"], TS, pose_to_dq(moved), bound)
+    Qm = pose_to_dq(moved)
+    got = pose_bound(out["motion"], TS[1:], Qm[:, 1:], Qm[:, 0], bound)
     assert np.all(got["pose_translation"] >= 1e-6 * out["scale"] * np.sqrt(3) * (1 - 1e-9))
     wrong = out["motion"].copy()
     wrong[:, 0, 1] += 1e-6  # C no longer the tool link's motion: the motion bound grows, and with it the pose bound
     bad = loop_bound(U, M, a, b, BRANCHES, wrong)
-    assert np.all(pose_bound(wrong, TS, pose_to_dq(T), bad)["pose_rotation"] > 1e-7)
+    Q = pose_to_dq(T)
+    assert np.all(pose_bound(wrong, TS[1:], Q[:, 1:], Q[:, 0], bad)["pose_rotation"] > 1e-7)

@@ -17,6 +17,7 @@ from functools import lru_cache
 import numpy as np
 
 from synth.algebra.algorithm1 import cross3
+from synth.algebra.dq import dot
 from synth.algebra.factorize import factorize
 from synth.checks import (BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, pose_difference,
                           self_check)
@@ -287,35 +288,32 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
     has no Bennett linkage. Deterministic (fixed seed). ``solved``: ``good`` and ``factors`` of the
     perturbed sets (`synth.synthesis.bennett_core.factor_sets`; computed here when None)."""
     T = np.array([p.matrix for p in linkage.poses])
-    c = T[:, :3, 3].mean(axis=0)
-    spread = _spread(T)
-    names = [p.name for p in linkage.poses]
-
-    def lines(F):  # factors (4, 8) of h1 h2 k1 k2 -> (4, 6): direction, moment about c / spread
-        b = np.linalg.norm(F[:, 1:4], axis=1, keepdims=True)
-        u, m = -F[:, 1:4] / b, F[:, 5:8] / b
-        return np.concatenate([u, (m - cross3(c, u)) / spread], axis=1)
-
-    order = ["h1", "h2", "k1", "k2"]
+    c, spread = position_spread(T)
+    spread = max(float(spread), 1e-300)
     J = {j.name: j for j in linkage.joints}
-    ref = lines(np.array([np.concatenate([[J[n].a], -J[n].direction * J[n].b, [0.0], J[n].moment * J[n].b])
-                          for n in order]))
+    order = ("h1", "h2", "k1", "k2")
     Tp = perturbed_poses(T, eps, trials, seed) if solved is None or not np.all(solved["good"]) else None
     out = solved if solved is not None else factor_sets(Tp)
-    worst = 0.0
+    F = []
     for k in range(trials):
         if out["good"][k]:
-            F = out["factors"][k]
+            F.append(out["factors"][k])
         else:
             try:
-                H, K, *_ = _general_factors(Tp[k], names)
+                H, K, *_ = _general_factors(Tp[k], [p.name for p in linkage.poses])
             except SynthesisError:
                 return float("inf")
-            F = np.concatenate([H, K])
-        new = lines(F)
-        d = min(np.max(np.abs(new - ref)), np.max(np.abs(new[[2, 3, 0, 1]] - ref)))  # branches may swap labels
-        worst = max(worst, float(d) / eps)
-    return worst
+            F.append(np.concatenate([H, K]))
+    F = np.array(F)  # (trials, 4, 8): h1 h2 k1 k2
+    b = np.sqrt(dot(F[..., 1:4], F[..., 1:4]))[..., None]
+    # lines (1 + trials, 4, 6): the linkage's, then the perturbed ones: direction, moment about c / spread
+    U = np.concatenate([[[J[n].direction for n in order]], -F[..., 1:4] / b])
+    M = np.concatenate([[[J[n].moment for n in order]], F[..., 5:8] / b])
+    L = np.concatenate([U, (M - cross3(c, U)) / spread], axis=-1)
+    new, ref = L[1:].reshape(trials, -1), L[0].reshape(-1)
+    swapped = L[1:, [2, 3, 0, 1]].reshape(trials, -1)  # branches may swap labels
+    d = np.minimum(np.abs(new - ref).max(axis=1), np.abs(swapped - ref).max(axis=1))
+    return float(d.max()) / eps
 
 
 @lru_cache(maxsize=8)

@@ -19,6 +19,8 @@ theta(t) = 2 atan2(b, t - a).
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multiply_back, norm_roots, polish, quadratics,
@@ -140,7 +142,7 @@ def _solve(T, check_samples: int, fac=None) -> dict:
         length_scale = np.maximum(np.sqrt(dot(rel, rel).sum(axis=-1) / pts.shape[1]), 1e-9)
         # certified: closure and motion over the whole motion, the poses at their angles through the motion
         bound = loop_bound(U, M, a, b, BRANCHES, motion)
-        errors = pose_bound(motion, TS, Q[:, :3], bound)
+        errors = pose_bound(motion, TS[1:], Q[:, 1:3], Q[:, 0], bound)  # (pose 0: t = inf)
         errors.update((k, bound[k]) for k in ("closure_translation", "closure_rotation", "motion"))
         if check_samples > 0:
             sampled = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
@@ -168,7 +170,7 @@ def relative_error(T, spread, far, errors) -> np.ndarray:
     floor of FLOOR_ULPS ulps of the coordinates' magnitude (a pose 1e6 m from the origin is only known
     to ~1e-10 m)."""
     size = np.maximum(spread, far)
-    floor = FLOOR_ULPS * EPS * np.max(np.abs(T[:, :, :3, 3]), axis=(1, 2)) / ACCEPT_TOL
+    floor = FLOOR_ULPS * EPS / ACCEPT_TOL * np.abs(T[:, :, :3, 3]).reshape(len(T), 3 * T.shape[1]).max(axis=1, initial=0.0)
     return np.maximum.reduce([errors["pose_translation"] / (spread + floor), errors["pose_rotation"],
                               errors["closure_translation"] / (size + floor), errors["closure_rotation"]])
 
@@ -178,24 +180,42 @@ def loop_geometry(U, M) -> dict:
     (i, i+1 mod J) ``distance`` and signed ``twist`` (the angle from u_i to u_{i+1} about the common
     normal from i to i+1) (N, J), the feet ``foot_out`` (on i) and ``foot_in`` (on i+1) and the unit
     ``normal`` (N, J, 3), ``parallel`` (N, J). Parallel axes: the foot on i is its point nearest the origin."""
-    J = U.shape[-2]
-    nxt = (np.arange(J) + 1) % J
+    nxt = _next_index(U.shape[-2])
     U2 = U[..., nxt, :]
     p1 = cross3(U, M)  # the axis points nearest the origin
     p2 = p1[..., nxt, :]
     cr = cross3(U, U2)
-    s2 = dot(cr, cr)[..., None]
+    s2 = dot(cr, cr)
     par = s2 < 1e-24
-    s2s = np.where(par, 1.0, s2)
+    some_parallel = bool(par.any())
     d = p2 - p1
-    f1 = np.where(par, p1, p1 + (dot(cross3(d, U2), cr) / s2s[..., 0])[..., None] * U)
-    f2 = np.where(par, p2 - dot(d, U2)[..., None] * U2, p2 + (dot(cross3(d, U), cr) / s2s[..., 0])[..., None] * U2)
+    # feet of the common normal: p1 + k1 u, p2 + k2 u2 with k = ((d x u2) . cr, (d x u) . cr) / |cr|^2
+    k = dot(cross3(d[..., None, :], np.stack([U2, U], axis=-2)), cr[..., None, :]) / (
+        np.where(par, 1.0, s2) if some_parallel else s2)[..., None]
+    f1 = p1 + k[..., :1] * U
+    f2 = p2 + k[..., 1:] * U2
+    if some_parallel:  # parallel axes: from the point of i nearest the origin, straight across
+        f1 = np.where(par[..., None], p1, f1)
+        f2 = np.where(par[..., None], p2 - dot(d, U2)[..., None] * U2, f2)
     dv = f2 - f1
-    dist = np.sqrt(dot(dv, dv))[..., None]
-    nc = np.sqrt(s2)
-    n = np.where(dist > 1e-12, dv / np.where(dist > 1e-12, dist, 1.0), np.where(nc > 1e-12, cr / np.where(nc > 1e-12, nc, 1.0), 0.0))
+    dist = np.sqrt(dot(dv, dv))
+    apart = dist > 1e-12
+    if apart.all():
+        n = dv / dist[..., None]
+    else:  # intersecting axes: the normal of their plane (0 when they also coincide)
+        nc = np.sqrt(s2)[..., None]
+        n = np.where(apart[..., None], dv / np.where(apart, dist, 1.0)[..., None],
+                     np.where(nc > 1e-12, cr / np.where(nc > 1e-12, nc, 1.0), 0.0))
     twist = np.arctan2(dot(cr, n), dot(U, U2))
-    return {"distance": dist[..., 0], "twist": twist, "foot_out": f1, "foot_in": f2, "normal": n, "parallel": par[..., 0]}
+    return {"distance": dist, "twist": twist, "foot_out": f1, "foot_in": f2, "normal": n, "parallel": par}
+
+
+@functools.lru_cache(maxsize=None)
+def _next_index(J: int) -> np.ndarray:
+    """(i + 1) mod J for i < J (read-only, cached)."""
+    out = (np.arange(J) + 1) % J
+    out.flags.writeable = False
+    return out
 
 
 def bennett_parameters(geo) -> dict:
@@ -220,8 +240,7 @@ def dh_rows(U, geo) -> dict:
     """Denavit-Hartenberg parameters around closed loops (lines U (N, J, 3) in loop order, geometry from
     `loop_geometry`): for joint i ``a``/``alpha`` to the next joint, ``d`` the offset along axis i
     between the incoming and outgoing common normals, ``theta`` the angle between them about axis i."""
-    J = U.shape[-2]
-    prv = (np.arange(J) - 1) % J
+    prv = np.argsort(_next_index(U.shape[-2]))  # (i - 1) mod J
     f_in, n_in = geo["foot_in"][..., prv, :], geo["normal"][..., prv, :]
     d = dot(geo["foot_out"] - f_in, U)
     theta = np.arctan2(dot(cross3(n_in, geo["normal"]), U), dot(n_in, geo["normal"]))
