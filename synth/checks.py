@@ -178,20 +178,20 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
     F[..., 5:8] = M * b[..., None]
     P = product_of_linear(F[:, hk])  # (N, 2, n+1, 8): P_h, P_k
     E = P[:, :1] - np.stack([P[:, 1], motion], axis=1)  # (N, 2, n+1, 8): P_h - P_k, P_h - C
-    z = (a[:, h] + 1j * b[:, h])[:, None, :, None]  # (N, 1, n, 1)
+    z = a[:, h] + 1j * b[:, h]  # (N, n)
     with np.errstate(all="ignore"):
         Ez = E[..., n:, :] + 0j  # Horner at the roots: (N, 2, n, 8)
         for c in range(n - 1, -1, -1):
-            Ez = Ez * z + E[..., c : c + 1, :]
-        gaps = z - np.swapaxes(z, 2, 3)  # (N, 1, n, n): z_j - z_m
-        gaps[..., np.arange(n), np.arange(n)] = 1.0
-        rho = np.abs(Ez / gaps.prod(axis=-1)[..., None]) ** 2  # |rho_j|^2 by component
-        rho = np.sqrt(rho.reshape(N, 2, n, 2, 4).sum(-1))  # (N, 2, n, primal / dual)
-        lead = np.sqrt((E[..., n, :] ** 2).reshape(N, 2, 2, 4).sum(-1))  # (N, 2, primal / dual)
+            Ez = Ez * z[:, None, :, None] + E[..., c : c + 1, :]
+        # |rho_j| b_j-weighted: |E(z_j)| / (b_j prod_{m != j} |z_j - z_m|), primal and dual part
+        gaps = np.abs((z[:, :, None] - z[:, None, :] + _eye(n)).prod(axis=-1)) * b[:, h]  # (N, n)
+        A = np.abs(Ez).reshape(N, 2, n, 2, 4)
+        rho = np.sqrt(dot(A, A)) / gaps[:, None, :, None]  # (N, 2, n, primal / dual)
+        L = E[..., n, :].reshape(N, 2, 2, 4)
         # with 16 ulps for the rounding of a forward-kinematics evaluation, so that the bound also covers
         # sampled figures (`check_figures`); Q bounds the dual part of branch h's unit dual quaternion
         Q = np.sqrt(dot(M[:, h], M[:, h])).sum(axis=-1)[:, None]
-        ep, ed = np.moveaxis(lead + (rho / b[:, None, h, None]).sum(axis=2), -1, 0)  # (N, 2) each
+        ep, ed = np.moveaxis(np.sqrt(dot(L, L)) + rho.sum(axis=2), -1, 0)  # (N, 2) each
         ep = ep + 16 * _EPS
         ed = ed + 16 * _EPS * np.maximum(Q, 1.0)
         # poses of a unit X and of Y = X - D, |D| <= (ep, ed): rotation <= 4 asin(ep), translation
@@ -202,6 +202,14 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
         tra = np.where(near, 2.0 * ((ed + Q * ep + ed * ep) * s + Q * (s - 1.0)), np.inf)
     return {"closure_translation": tra[:, 0], "closure_rotation": rot[:, 0], "motion": tra[:, 1] + rot[:, 1],
             "motion_translation": tra[:, 1], "motion_rotation": rot[:, 1]}
+
+
+@functools.lru_cache(maxsize=None)
+def _eye(n: int) -> np.ndarray:
+    """The identity of size n (read-only, cached)."""
+    e = np.eye(n)
+    e.flags.writeable = False
+    return e
 
 
 def pose_bound(motion, ts, pose_dq, ref_dq, bound) -> dict:

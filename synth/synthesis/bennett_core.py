@@ -223,17 +223,18 @@ def bennett_parameters(geo) -> dict:
     alpha (links h1h2 and k2k1), b, beta (coupler h2k2 and base k1h1), the mismatches of opposite links,
     a/sin(alpha), b/sin(beta) and the Bennett condition residual |a/sin(alpha)| - |b/sin(beta)| (relative;
     NaN when a twist vanishes)."""
-    (a1, b1, a2, b2), (al1, be1, al2, be2) = geo["distance"].T, geo["twist"].T
+    dist, twist = geo["distance"], geo["twist"]  # (N, 4): a, b, a', b' and alpha, beta, alpha', beta'
     with np.errstate(all="ignore"):
-        sa, sb = np.abs(np.sin(al1)), np.abs(np.sin(be1))
-        ra = np.where(sa > 1e-15, a1 / sa, np.inf)
-        rb = np.where(sb > 1e-15, b1 / sb, np.inf)
-        scale = np.maximum(np.maximum(a1, b1), 1e-300)
-        res = np.where(np.isfinite(ra + rb), np.abs(ra - rb) / np.maximum(np.maximum(ra, rb), 1e-300), np.nan)
-    return {"a": a1, "alpha": al1, "b": b1, "beta": be1,
-            "opposite_length_mismatch": np.maximum(np.abs(a1 - a2), np.abs(b1 - b2)) / scale,
-            "opposite_twist_mismatch": np.maximum(np.abs(np.abs(al1) - np.abs(al2)), np.abs(np.abs(be1) - np.abs(be2))),
-            "a_over_sin_alpha": ra, "b_over_sin_beta": rb, "bennett_condition_residual": res}
+        s = np.abs(np.sin(twist[:, :2]))
+        r = np.where(s > 1e-15, dist[:, :2] / s, np.inf)  # a / sin(alpha), b / sin(beta)
+        res = np.where(np.isfinite(r[:, 0] + r[:, 1]), np.abs(r[:, 0] - r[:, 1]) / np.maximum(r.max(axis=1), 1e-300),
+                       np.nan)
+        scale = np.maximum(dist[:, :2].max(axis=1), 1e-300)
+        opposite = np.abs(dist[:, :2] - dist[:, 2:]).max(axis=1) / scale
+        opposite_twist = np.abs(np.abs(twist[:, :2]) - np.abs(twist[:, 2:])).max(axis=1)
+    return {"a": dist[:, 0], "alpha": twist[:, 0], "b": dist[:, 1], "beta": twist[:, 1],
+            "opposite_length_mismatch": opposite, "opposite_twist_mismatch": opposite_twist,
+            "a_over_sin_alpha": r[:, 0], "b_over_sin_beta": r[:, 1], "bennett_condition_residual": res}
 
 
 def dh_rows(U, geo) -> dict:
