@@ -47,12 +47,21 @@ def check_distinct(T, names, tol=COINCIDENT_TOL):
     the RMS spread of the positions and rotations within ``tol`` radians."""
     T = np.asarray(T, float)
     L = _spread(T)
-    i, j = np.triu_indices(len(T), 1)
+    i, j = _pairs(len(T))
     dt, dr = pose_difference(T[i], T[j])
     same = ((dt <= tol * L) & (dr <= tol)) | ((dt == 0) & (dr <= tol))
     for a, b in zip(i[same].tolist(), j[same].tolist()):
         raise SynthesisError(f"poses {a} ({names[a]!r}) and {b} ({names[b]!r}) coincide: "
                              "three distinct poses are needed")
+
+
+@lru_cache(maxsize=None)
+def _pairs(k: int) -> tuple:
+    """The index pairs i < j of k poses (``numpy.triu_indices(k, 1)``; cached, read-only)."""
+    out = np.triu_indices(k, 1)
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None):
