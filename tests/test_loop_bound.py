@@ -25,18 +25,21 @@ def _arrays(out):
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_bound_is_above_the_error_at_dense_samples(seed):
+def test_bounds_are_above_the_errors_at_dense_samples_and_the_poses(seed):
     T = _sets(seed, 200)
     out = solve(T, 0)
     U, M, a, b = _arrays(out)
     Q = pose_to_dq(T)
     sampled = check_figures(STRUCTURE, U, M, a, b, out["pose_angles"], Q, Q[:, 0], out["motion"], 500)
     bound = loop_bound(U, M, a, b, BRANCHES, out["motion"])
-    for key in ("closure_translation", "closure_rotation", "motion"):
+    # the poses' figures: forward kinematics at the reported angles (pose 0 included) against the bound
+    bound.update(pose_bound(out["motion"], TS[1:], Q[:, 1:], Q[:, 0], bound))
+    for key in ("closure_translation", "closure_rotation", "motion", "pose_translation", "pose_rotation"):
         assert np.all(bound[key] >= sampled[key]), key
     # and stays at the rounding level for these well-conditioned sets
     size = out["scale"] + np.abs(T[:, :, :3, 3]).max(axis=(1, 2))
     assert np.median(bound["closure_translation"] / size) < 1e-12
+    assert np.median(bound["pose_translation"] / size) < 1e-12
 
 
 def test_bound_detects_a_moved_axis_and_a_wrong_angle_law():
@@ -64,20 +67,6 @@ def test_repeated_roots_give_no_bound():
     a[:, 1], b[:, 1] = a[:, 0], b[:, 0]  # h1 and h2 with the same law: the partial fractions do not exist
     bound = loop_bound(U, M, a, b, BRANCHES, out["motion"])
     assert np.all(np.isinf(bound["closure_translation"]))
-
-
-@pytest.mark.parametrize("seed", [0, 1])
-def test_pose_bound_is_above_the_forward_kinematics_at_the_poses(seed):
-    T = _sets(seed, 200)
-    out = solve(T, 0)
-    U, M, a, b = _arrays(out)
-    Q = pose_to_dq(T)
-    fk = check_figures(STRUCTURE, U, M, a, b, out["pose_angles"], Q, Q[:, 0], out["motion"], 0)
-    bound = pose_bound(out["motion"], TS[1:], Q[:, 1:], Q[:, 0], loop_bound(U, M, a, b, BRANCHES, out["motion"]))
-    for key in ("pose_translation", "pose_rotation"):
-        assert np.all(bound[key] >= fk[key]), key
-    size = out["scale"] + np.abs(T[:, :, :3, 3]).max(axis=(1, 2))
-    assert np.median(bound["pose_translation"] / size) < 1e-12
 
 
 def test_pose_bound_detects_a_moved_pose_and_a_wrong_motion():
