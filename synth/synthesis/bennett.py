@@ -31,7 +31,7 @@ from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_bennett import accepted_error
 from synth.synthesis.planar_bennett import candidates as planar_candidates
 
-__all__ = ["bennett", "bennett_candidates", "verify", "check_distinct", "check_transmission", "sensitivity",
+__all__ = ["bennett", "bennett_candidates", "per_set_candidates", "verify", "check_distinct", "check_transmission", "sensitivity",
            "perturbed_poses", "dh_table", "bennett_parameters_of", "EPS", "FLOOR_ULPS", "ACCEPT_TOL"]
 
 COINCIDENT_TOL = 1e-9  # relative to the pose spread (translation) and radians (rotation)
@@ -83,6 +83,15 @@ def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SA
         out = solve(T[None], check_samples, extra=perturbed_poses(T))
         if out["good"][0]:
             return [linkage_from_solution(out, 0, T, names, check_samples, perturbed=out["extra"])]
+    return per_set_candidates(T, names, check_samples=check_samples, member=member, top=top)
+
+
+def per_set_candidates(T, names, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None, top: int = 1) -> list:
+    """`bennett_candidates` for a set (3, 4, 4) that `synth.synthesis.bennett_core.solve` did not judge
+    good (or with a ``member``): the per-set path, which synthesizes it or refuses it with a message.
+    `synth.synthesis.bennett_batch` calls it directly for such sets (solve has already run there)."""
+    T = np.asarray(T, float)
+    names = list(names)
     if not np.all(np.isfinite(T)):
         raise InputError("the poses contain NaN or infinity")
     check_distinct(T, names)
