@@ -106,16 +106,19 @@ def _shift(m: int) -> np.ndarray:
 
 def _newton(flat, z, steps):
     """``steps`` Newton steps on the real polynomials flat (B, m+1) at the complex points z (B, r),
-    values and derivatives from the powers of z (two small matrix products per step).
+    value and derivative by Horner's scheme (elementwise on (B, r): no per-polynomial matrix products).
     Returns (z, the last step)."""
     m = flat.shape[-1] - 1
-    c = flat[:, 1:, None]  # (B, m, 1)
-    d = (flat[:, 1:] * np.arange(1.0, m + 1))[:, :, None]  # (B, m, 1)
+    cols = [flat[:, k : k + 1] for k in range(m + 1)]  # (B, 1) each, broadcast against z
     step = np.zeros_like(z)
     with np.errstate(all="ignore"):
         for _ in range(steps):
-            P = np.cumprod(z[..., None].repeat(m, axis=-1), axis=-1)  # z^1 .. z^m
-            step = ((P @ c)[..., 0] + flat[:, :1]) / ((P[..., :-1] @ d[:, 1:])[..., 0] + d[:, 0])
+            val, der = cols[m], cols[m]
+            val = val * z + cols[m - 1]
+            for k in range(m - 2, -1, -1):
+                der = der * z + val
+                val = val * z + cols[k]
+            step = val / der
             step = np.where(np.isfinite(step), step, 0)
             z = z - step
     return z, step
@@ -124,34 +127,40 @@ def _newton(flat, z, steps):
 def _ferrari_upper(flat):
     """Ferrari's closed form for the quartics flat (B, 5) (monic, ascending): the two roots with the
     largest imaginary parts, (B, 2). Depressed quartic y^4 + p y^2 + q y + r (t = y - n3/4), the
-    largest real root m of the resolvent cubic, then two quadratics."""
+    largest real root m of the resolvent cubic, then two real quadratics; of each quadratic's two roots
+    (a conjugate pair, or +-y for a biquadratic) the one with the larger imaginary part."""
     n0, n1, n2, n3 = (flat[:, k] / flat[:, 4] for k in range(4))
     s = n3 / 4.0
-    p = n2 - 6.0 * s * s
-    q = n1 - 2.0 * n2 * s + 8.0 * s**3
-    r = n0 - n1 * s + n2 * s * s - 3.0 * s**4
+    ss = s * s
+    p = n2 - 6.0 * ss
+    q = n1 - s * (2.0 * n2 - 8.0 * ss)
+    r = n0 - s * (n1 - s * (n2 - 3.0 * ss))
     mres = _largest_cubic_root(p, p * p / 4.0 - r, -q * q / 8.0)
     pos = mres > 0
     w = np.sqrt(np.where(pos, 2.0 * mres, 1.0))
-    sgn = np.array([1.0, 1.0, -1.0, -1.0])
+    sgn = np.array([1.0, -1.0])
     half = 0.5 * sgn * w[:, None]  # -B/2 for the two quadratics y^2 + B y + Cq, B = -sgn w
     Cq = (p / 2.0 + mres)[:, None] + sgn * (q / (2.0 * w))[:, None]
-    root = np.sqrt((half * half - Cq).astype(complex)) * np.array([1.0, -1.0, 1.0, -1.0])
-    Z = half + root
-    # q = 0 (m = 0): a biquadratic, y^2 = -p/2 +- sqrt(p^2/4 - r)
-    y = np.sqrt(-p[:, None] / 2.0 + np.sqrt((p * p / 4.0 - r).astype(complex))[:, None] * np.array([1, 1, -1, -1]))
-    Z = np.where(pos[:, None], Z, y * np.array([1.0, -1.0, 1.0, -1.0])) - s[:, None]
-    return np.take_along_axis(Z, np.argsort(-Z.imag, axis=1)[:, :2], axis=1)
+    Z = half + np.sqrt((half * half - Cq).astype(complex))  # (B, 2): the root of each with Im >= 0
+    # q = 0 (m = 0): a biquadratic, y^2 = -p/2 +- sqrt(p^2/4 - r), roots +-y
+    bi = np.flatnonzero(~pos)
+    if bi.size:
+        pb = p[bi, None]
+        y = np.sqrt(-pb / 2.0 + np.sqrt((pb * pb / 4.0 - r[bi, None]).astype(complex)) * sgn)
+        Z[bi] = np.where(y.imag < 0, -y, y)
+    return Z - s[:, None]
 
 
 def _largest_cubic_root(b, c, d):
     """Largest real root of x^3 + b x^2 + c x + d (arrays): trigonometric form or Cardano, then Newton."""
-    p = c - b * b / 3.0
-    q = 2.0 * b**3 / 27.0 - b * c / 3.0 + d
-    disc = (q / 2.0) ** 2 + (p / 3.0) ** 3
+    bb = b * b
+    p = c - bb / 3.0
+    q = 2.0 * bb * b / 27.0 - b * c / 3.0 + d
+    p3 = p / 3.0
+    disc = (q / 2.0) ** 2 + p3 * p3 * p3
     three = disc < 0
-    r = np.sqrt(np.where(three, -p / 3.0, 0.0))
-    arg = np.clip(-q / np.where(three, 2.0 * r**3, 1.0), -1.0, 1.0)
+    r = np.sqrt(np.where(three, -p3, 0.0))
+    arg = np.clip(-q / np.where(three, 2.0 * r * r * r, 1.0), -1.0, 1.0)
     sq = np.sqrt(np.where(three, 0.0, disc))
     x = np.where(three, 2.0 * r * np.cos(np.arccos(arg) / 3.0), np.cbrt(-q / 2.0 + sq) + np.cbrt(-q / 2.0 - sq)) - b / 3.0
     for _ in range(2):
