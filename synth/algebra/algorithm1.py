@@ -214,6 +214,7 @@ def algorithm1(C, M, *, remainders: bool = False):
     H = np.empty(batch + (n, 8))
     R = np.empty(batch + (max(n - 1, 0), 8))
     ok = np.ones(batch, bool)
+    monic = bool(np.all(C[..., n, :] == _ONE))  # then so is every quotient D
     for pos in range(n - 1, 0, -1):
         _, r1, r0 = divide_real_quadratic(D, M[..., pos, :])
         good = dot(r1[..., :4], r1[..., :4]) > GENERIC_TOL**2 * prim
@@ -221,10 +222,10 @@ def algorithm1(C, M, *, remainders: bool = False):
         r1 = np.where(good[..., None], r1, _ONE)
         h = -dq_mul(dq_inv(r1), r0)
         H[..., pos, :] = h
-        D, R[..., pos - 1, :] = divide_linear_right(D, h)
+        D, R[..., pos - 1, :] = divide_linear_right(D, h, monic=monic)
     # the last remainder D = D1 t + D0 is linear with the leading coefficient of C: h_1 = -D1^{-1} D0
     # (the remainder of D mod M_1, whatever M_1); D1 = 1 exactly when C is monic
-    if np.all(C[..., n, :] == _ONE):
+    if monic:
         H[..., 0, :] = -D[..., 0, :]
     else:
         H[..., 0, :] = -dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])

@@ -260,8 +260,23 @@ def pose_to_dq(T):
     """4x4 pose(s) (..., 4, 4) to unit dual quaternion(s) (..., 8) with p0 >= 0: r - (eps/2) d r."""
     T = np.asarray(T, float)
     r = matrix_to_quat(T[..., :3, :3])
-    d = np.concatenate([np.zeros(T.shape[:-2] + (1,)), T[..., :3, 3]], axis=-1)
-    return np.concatenate([r, -0.5 * qmul(d, r)], axis=-1)
+    return translated(np.concatenate([r, np.zeros(r.shape)], axis=-1), T[..., :3, 3])
+
+
+def translated(h, v):
+    """``translation_dq(v) h`` (the motion h, then the translation by v), (..., 8) and (..., 3), broadcast:
+    p + eps (q - (v/2) p), one quaternion product (the dual-quaternion product with the translation's
+    zeros left out)."""
+    h = np.asarray(h, float)
+    v = np.asarray(v, float)
+    p = h[..., :4]
+    v4 = np.zeros(v.shape[:-1] + (4,))
+    v4[..., 1:] = v
+    vp = qmul(v4, p)
+    out = np.empty(vp.shape[:-1] + (8,))
+    out[..., :4] = p
+    out[..., 4:] = h[..., 4:] - 0.5 * vp
+    return out
 
 
 def dq_to_pose(h):

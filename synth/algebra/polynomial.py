@@ -142,19 +142,21 @@ def divide_real_quadratic(C, M):
     return Q, C[..., 1, :], C[..., 0, :]
 
 
-def divide_linear_right(C, h):
-    """C = D (t - h) + C(h): returns D (..., n, 8) and the remainder C(h) (..., 8)."""
+def divide_linear_right(C, h, *, monic: bool = False):
+    """C = D (t - h) + C(h): returns D (..., n, 8) and the remainder C(h) (..., 8). ``monic``: the caller
+    knows C's leading coefficient is exactly 1, whose product with h is h (one product fewer)."""
     C = as_array(C)
     h = as_array(h)
     n = C.shape[-2] - 1
     D = zeros(np.broadcast_shapes(C.shape[:-2], h.shape[:-1]) + (n, 8), result_dtype(C, h))
     d = C[..., n, :] * np.ones(h.shape, int)
     D[..., n - 1, :] = d
+    dh = h if monic else dq_mul(d, h)
     for k in range(n - 1, 0, -1):
-        d = C[..., k, :] + dq_mul(d, h)
+        d = C[..., k, :] + dh
         D[..., k - 1, :] = d
-    rem = C[..., 0, :] + dq_mul(d, h)
-    return D, rem
+        dh = dq_mul(d, h)
+    return D, C[..., 0, :] + dh
 
 
 def divide_right(C, D):

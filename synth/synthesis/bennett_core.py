@@ -27,7 +27,7 @@ from synth.algebra.anglelaw import angle_law
 from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
-from synth.algebra.dq import dot, dq_mul, pose_to_dq, translation_dq
+from synth.algebra.dq import dot, pose_to_dq, translated
 from synth.synthesis.conic import Conditioning, conditioning, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
@@ -98,7 +98,7 @@ def _factors(T) -> dict:
         cond = conditioning(Tf)
         Q = pose_to_dq(Tf)  # world frame (checks)
         # the conditioned poses (conic): translated by -centre, lengths divided by the scale
-        Qc = dq_mul(translation_dq(-cond.centre)[:, None], Q)
+        Qc = translated(Q, -cond.centre[:, None])
         Qc[..., 4:] /= cond.scale[:, None, None]
         con = conic(relative_displacements_dq(Qc))
         C, B = con.C, con.B  # (N, 3, 8), (N, 3)
