@@ -17,8 +17,8 @@ import numpy as np
 
 from synth.checks import BOUND_CHECK_SAMPLES
 from synth.errors import InputError, MpsynthError, SynthesisError
-from synth.synthesis.bennett import linkage_from_solution, per_set_candidates
-from synth.synthesis.bennett_core import ACCEPT_TOL, JOINTS, TS, solve
+from synth.synthesis.bennett import linkage_from_solution, per_set_candidates, perturbed_poses
+from synth.synthesis.bennett_core import ACCEPT_TOL, JOINTS, TS, factor_sets, solve
 
 __all__ = ["BennettBatch", "bennett_batch", "JOINTS", "TS", "ACCEPT_TOL"]
 
@@ -106,10 +106,18 @@ def bennett_batch(poses, *, check_samples: int = BOUND_CHECK_SAMPLES, names=None
 
 
 def _fallback(res: BennettBatch, idx, names):
-    """Sets not handled by the vectorized core: synth.synthesis.bennett decides (result or message)."""
-    for i in idx.tolist():
+    """Sets not handled by the vectorized core: synth.synthesis.bennett decides (result or message). The
+    perturbed sets of their condition estimates (`synth.synthesis.bennett.sensitivity`) are factored
+    in one batch."""
+    if not idx.size:
+        return
+    Tp = np.stack([perturbed_poses(res.poses[i]) for i in idx.tolist()])  # (M, trials, 3, 4, 4)
+    fac = factor_sets(Tp.reshape(-1, 3, 4, 4))
+    trials = Tp.shape[1]
+    for n, i in enumerate(idx.tolist()):
+        perturbed = {k: v[n * trials : (n + 1) * trials] for k, v in fac.items()}
         try:
-            L = per_set_candidates(res.poses[i], names, check_samples=res.check_samples)[0]
+            L = per_set_candidates(res.poses[i], names, check_samples=res.check_samples, perturbed=perturbed)[0]
         except MpsynthError as e:
             res.status[i] = str(e)
             continue
