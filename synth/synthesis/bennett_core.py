@@ -94,7 +94,7 @@ def _factors(T) -> dict:
     N = T.shape[0]
     finite = np.all(np.isfinite(T), axis=(1, 2, 3))
     with np.errstate(all="ignore"):
-        Tf = np.where(finite[:, None, None, None], T, _EYE4)
+        Tf = T if finite.all() else np.where(finite[:, None, None, None], T, _EYE4)
         cond = conditioning(Tf)
         Q = pose_to_dq(Tf)  # world frame (checks)
         # the conditioned poses (conic): translated by -centre, lengths divided by the scale
