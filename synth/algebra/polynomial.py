@@ -50,17 +50,19 @@ def linear(h):
 
 def product_of_linear(hs):
     """(t - h_1)(t - h_2)...(t - h_n) for hs of shape (..., n, 8): (..., n+1, 8), monic. Built factor by
-    factor, C (t - h) = t C - C h, one coefficient product per coefficient (the factors are monic)."""
+    factor, C (t - h) = t C - C h, one coefficient product per coefficient but the leading one (the
+    factors are monic, so C's leading coefficient is 1 and 1 h = h)."""
     hs = as_array(hs)
     n = hs.shape[-2]
     C = zeros(hs.shape[:-2] + (n + 1, 8), hs.dtype)
     C[..., 1, 0] = Fraction(1) if hs.dtype == object else 1.0
     C[..., 0, :] = -hs[..., 0, :]
     for i in range(1, n):  # C has degree i
-        Ch = dq_mul(C[..., : i + 1, :], hs[..., i : i + 1, :])
+        Ch = dq_mul(C[..., :i, :], hs[..., i : i + 1, :])
         C[..., 1 : i + 2, :] = C[..., : i + 1, :].copy()
         C[..., 0, :] = 0
-        C[..., : i + 1, :] -= Ch
+        C[..., :i, :] -= Ch
+        C[..., i, :] -= hs[..., i, :]
     return C
 
 
