@@ -243,7 +243,7 @@ def remainder_error(C, H, R) -> np.ndarray:
     finite. Equals `multiply_back` up to rounding."""
     n = H.shape[-2]
     with np.errstate(all="ignore"):
-        E = np.zeros(np.broadcast_shapes(np.shape(C)[:-2], H.shape[:-2]) + (n, 8))
+        E = np.zeros(np.broadcast_shapes(np.shape(C)[:-2], H.shape[:-2]) + (max(n - 1, 1), 8))  # (t^0..t^{n-2})
         for p in range(1, n):  # (the last remainder is multiplied by the empty product 1)
             E[..., : n - p, :] += (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
                                    if p + 1 < n else R[..., p - 1 : p, :])
