@@ -44,7 +44,8 @@ MIN_IMAG = 1e-5  # min Im z / (1 + |z|^2) at or below this: nearly real norm roo
 MIN_SEPARATION = 1e-5  # min |z1 - z2| / (1 + |z|^2) at or below this: nearly repeated root -> per-set path
 ONE_THREAD_MIN = 256  # sets from which BLAS runs on one thread (`synth.blas`: threads only cost here)
 CHUNK = 2048  # sets per chunk of `solve` (N = 10,000: chunks of 1,000-2,000 sets ~20% faster per set than one)
-MAX_RESIDUAL = 5e-13  # multiply-back error above this: polished; still above: per-set path
+MAX_RESIDUAL = 5e-13  # multiply-back error above this after polishing: per-set path
+POLISH_ABOVE = 3e-14  # multiply-back error above this: polished (the world-frame bounds of `loop_bound` grow with it)
 _ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
 _PREV = [3, 0, 1, 2]  # the previous joint around the loop
 _EYE4 = np.eye(4)
@@ -108,7 +109,7 @@ def _factors(T) -> dict:
         residual = remainder_error(C[:, None], H, R).max(axis=1)  # the multiply-back error, up to rounding
         # Algorithm 1 loses digits when roots are close or nearly real: Newton on the product equations
         # (`polish`) restores them here rather than sending the set to the per-set path
-        redo = np.flatnonzero((residual > MAX_RESIDUAL) & ok.all(axis=1) & finite)
+        redo = np.flatnonzero((residual > POLISH_ABOVE) & ok.all(axis=1) & finite)
         if redo.size:
             H[redo] = polish(C[redo, None], H[redo])[0]
             residual[redo] = multiply_back(C[redo, None], H[redo]).max(axis=1)
