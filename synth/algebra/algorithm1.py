@@ -35,16 +35,20 @@ _LEVI_CIVITA[np.arange(3), _PREV, _NEXT] = -1.0
 
 def cross3(a, b) -> np.ndarray:
     """Cross product of 3-vectors (..., 3), broadcast (``numpy.cross`` costs ~15 us of overhead per
-    call, which dominates a single synthesis): a few vectors by one einsum with the Levi-Civita symbol,
-    more by index permutations, many by ``numpy.cross``."""
+    call, which dominates a single synthesis, and is 2-5x slower than componentwise products on large
+    broadcast batches): a few vectors by one einsum with the Levi-Civita symbol, more by index
+    permutations, many component by component into the result."""
     a = np.asarray(a, float)
     b = np.asarray(b, float)
     n = a.size + b.size
     if n <= 96:
         return np.einsum("ijk,...j,...k->...i", _LEVI_CIVITA, a, b)
-    if n > 3000:
-        return np.cross(a, b)
-    return np.take(a, _NEXT, -1) * np.take(b, _PREV, -1) - np.take(a, _PREV, -1) * np.take(b, _NEXT, -1)
+    if n <= 3000:
+        return np.take(a, _NEXT, -1) * np.take(b, _PREV, -1) - np.take(a, _PREV, -1) * np.take(b, _NEXT, -1)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        np.subtract(a[..., j] * b[..., k], a[..., k] * b[..., j], out=out[..., i])
+    return out
 
 
 def orders(n: int) -> np.ndarray:
@@ -106,16 +110,19 @@ def _shift(m: int) -> np.ndarray:
 
 def _newton(flat, z, steps):
     """``steps`` Newton steps on the real polynomials flat (B, m+1) at the complex points z (B, r),
-    values and derivatives from the powers of z (two small matrix products per step).
+    value and derivative by Horner's scheme (elementwise on (B, r): no per-polynomial matrix products).
     Returns (z, the last step)."""
     m = flat.shape[-1] - 1
-    c = flat[:, 1:, None]  # (B, m, 1)
-    d = (flat[:, 1:] * np.arange(1.0, m + 1))[:, :, None]  # (B, m, 1)
+    cols = [flat[:, k : k + 1] for k in range(m + 1)]  # (B, 1) each, broadcast against z
     step = np.zeros_like(z)
     with np.errstate(all="ignore"):
         for _ in range(steps):
-            P = np.cumprod(z[..., None].repeat(m, axis=-1), axis=-1)  # z^1 .. z^m
-            step = ((P @ c)[..., 0] + flat[:, :1]) / ((P[..., :-1] @ d[:, 1:])[..., 0] + d[:, 0])
+            val, der = cols[m], cols[m]
+            val = val * z + cols[m - 1]
+            for k in range(m - 2, -1, -1):
+                der = der * z + val
+                val = val * z + cols[k]
+            step = val / der
             step = np.where(np.isfinite(step), step, 0)
             z = z - step
     return z, step
@@ -124,34 +131,40 @@ def _newton(flat, z, steps):
 def _ferrari_upper(flat):
     """Ferrari's closed form for the quartics flat (B, 5) (monic, ascending): the two roots with the
     largest imaginary parts, (B, 2). Depressed quartic y^4 + p y^2 + q y + r (t = y - n3/4), the
-    largest real root m of the resolvent cubic, then two quadratics."""
+    largest real root m of the resolvent cubic, then two real quadratics; of each quadratic's two roots
+    (a conjugate pair, or +-y for a biquadratic) the one with the larger imaginary part."""
     n0, n1, n2, n3 = (flat[:, k] / flat[:, 4] for k in range(4))
     s = n3 / 4.0
-    p = n2 - 6.0 * s * s
-    q = n1 - 2.0 * n2 * s + 8.0 * s**3
-    r = n0 - n1 * s + n2 * s * s - 3.0 * s**4
+    ss = s * s
+    p = n2 - 6.0 * ss
+    q = n1 - s * (2.0 * n2 - 8.0 * ss)
+    r = n0 - s * (n1 - s * (n2 - 3.0 * ss))
     mres = _largest_cubic_root(p, p * p / 4.0 - r, -q * q / 8.0)
     pos = mres > 0
     w = np.sqrt(np.where(pos, 2.0 * mres, 1.0))
-    sgn = np.array([1.0, 1.0, -1.0, -1.0])
+    sgn = np.array([1.0, -1.0])
     half = 0.5 * sgn * w[:, None]  # -B/2 for the two quadratics y^2 + B y + Cq, B = -sgn w
     Cq = (p / 2.0 + mres)[:, None] + sgn * (q / (2.0 * w))[:, None]
-    root = np.sqrt((half * half - Cq).astype(complex)) * np.array([1.0, -1.0, 1.0, -1.0])
-    Z = half + root
-    # q = 0 (m = 0): a biquadratic, y^2 = -p/2 +- sqrt(p^2/4 - r)
-    y = np.sqrt(-p[:, None] / 2.0 + np.sqrt((p * p / 4.0 - r).astype(complex))[:, None] * np.array([1, 1, -1, -1]))
-    Z = np.where(pos[:, None], Z, y * np.array([1.0, -1.0, 1.0, -1.0])) - s[:, None]
-    return np.take_along_axis(Z, np.argsort(-Z.imag, axis=1)[:, :2], axis=1)
+    Z = half + np.sqrt((half * half - Cq).astype(complex))  # (B, 2): the root of each with Im >= 0
+    # q = 0 (m = 0): a biquadratic, y^2 = -p/2 +- sqrt(p^2/4 - r), roots +-y
+    bi = np.flatnonzero(~pos)
+    if bi.size:
+        pb = p[bi, None]
+        y = np.sqrt(-pb / 2.0 + np.sqrt((pb * pb / 4.0 - r[bi, None]).astype(complex)) * sgn)
+        Z[bi] = np.where(y.imag < 0, -y, y)
+    return Z - s[:, None]
 
 
 def _largest_cubic_root(b, c, d):
     """Largest real root of x^3 + b x^2 + c x + d (arrays): trigonometric form or Cardano, then Newton."""
-    p = c - b * b / 3.0
-    q = 2.0 * b**3 / 27.0 - b * c / 3.0 + d
-    disc = (q / 2.0) ** 2 + (p / 3.0) ** 3
+    bb = b * b
+    p = c - bb / 3.0
+    q = 2.0 * bb * b / 27.0 - b * c / 3.0 + d
+    p3 = p / 3.0
+    disc = (q / 2.0) ** 2 + p3 * p3 * p3
     three = disc < 0
-    r = np.sqrt(np.where(three, -p / 3.0, 0.0))
-    arg = np.clip(-q / np.where(three, 2.0 * r**3, 1.0), -1.0, 1.0)
+    r = np.sqrt(np.where(three, -p3, 0.0))
+    arg = np.clip(-q / np.where(three, 2.0 * r * r * r, 1.0), -1.0, 1.0)
     sq = np.sqrt(np.where(three, 0.0, disc))
     x = np.where(three, 2.0 * r * np.cos(np.arccos(arg) / 3.0), np.cbrt(-q / 2.0 + sq) + np.cbrt(-q / 2.0 - sq)) - b / 3.0
     for _ in range(2):
@@ -205,6 +218,7 @@ def algorithm1(C, M, *, remainders: bool = False):
     H = np.empty(batch + (n, 8))
     R = np.empty(batch + (max(n - 1, 0), 8))
     ok = np.ones(batch, bool)
+    monic = bool(np.all(C[..., n, :] == _ONE))  # then so is every quotient D
     for pos in range(n - 1, 0, -1):
         _, r1, r0 = divide_real_quadratic(D, M[..., pos, :])
         good = dot(r1[..., :4], r1[..., :4]) > GENERIC_TOL**2 * prim
@@ -212,10 +226,10 @@ def algorithm1(C, M, *, remainders: bool = False):
         r1 = np.where(good[..., None], r1, _ONE)
         h = -dq_mul(dq_inv(r1), r0)
         H[..., pos, :] = h
-        D, R[..., pos - 1, :] = divide_linear_right(D, h)
+        D, R[..., pos - 1, :] = divide_linear_right(D, h, monic=monic)
     # the last remainder D = D1 t + D0 is linear with the leading coefficient of C: h_1 = -D1^{-1} D0
     # (the remainder of D mod M_1, whatever M_1); D1 = 1 exactly when C is monic
-    if np.all(C[..., n, :] == _ONE):
+    if monic:
         H[..., 0, :] = -D[..., 0, :]
     else:
         H[..., 0, :] = -dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])
@@ -229,7 +243,7 @@ def remainder_error(C, H, R) -> np.ndarray:
     finite. Equals `multiply_back` up to rounding."""
     n = H.shape[-2]
     with np.errstate(all="ignore"):
-        E = np.zeros(np.broadcast_shapes(np.shape(C)[:-2], H.shape[:-2]) + (n, 8))
+        E = np.zeros(np.broadcast_shapes(np.shape(C)[:-2], H.shape[:-2]) + (max(n - 1, 1), 8))  # (t^0..t^{n-2})
         for p in range(1, n):  # (the last remainder is multiplied by the empty product 1)
             E[..., : n - p, :] += (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
                                    if p + 1 < n else R[..., p - 1 : p, :])

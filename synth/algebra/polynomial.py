@@ -50,17 +50,19 @@ def linear(h):
 
 def product_of_linear(hs):
     """(t - h_1)(t - h_2)...(t - h_n) for hs of shape (..., n, 8): (..., n+1, 8), monic. Built factor by
-    factor, C (t - h) = t C - C h, one coefficient product per coefficient (the factors are monic)."""
+    factor, C (t - h) = t C - C h, one coefficient product per coefficient but the leading one (the
+    factors are monic, so C's leading coefficient is 1 and 1 h = h)."""
     hs = as_array(hs)
     n = hs.shape[-2]
     C = zeros(hs.shape[:-2] + (n + 1, 8), hs.dtype)
     C[..., 1, 0] = Fraction(1) if hs.dtype == object else 1.0
     C[..., 0, :] = -hs[..., 0, :]
     for i in range(1, n):  # C has degree i
-        Ch = dq_mul(C[..., : i + 1, :], hs[..., i : i + 1, :])
+        Ch = dq_mul(C[..., :i, :], hs[..., i : i + 1, :])
         C[..., 1 : i + 2, :] = C[..., : i + 1, :].copy()
         C[..., 0, :] = 0
-        C[..., : i + 1, :] -= Ch
+        C[..., :i, :] -= Ch
+        C[..., i, :] -= hs[..., i, :]
     return C
 
 
@@ -142,19 +144,21 @@ def divide_real_quadratic(C, M):
     return Q, C[..., 1, :], C[..., 0, :]
 
 
-def divide_linear_right(C, h):
-    """C = D (t - h) + C(h): returns D (..., n, 8) and the remainder C(h) (..., 8)."""
+def divide_linear_right(C, h, *, monic: bool = False):
+    """C = D (t - h) + C(h): returns D (..., n, 8) and the remainder C(h) (..., 8). ``monic``: the caller
+    knows C's leading coefficient is exactly 1, whose product with h is h (one product fewer)."""
     C = as_array(C)
     h = as_array(h)
     n = C.shape[-2] - 1
     D = zeros(np.broadcast_shapes(C.shape[:-2], h.shape[:-1]) + (n, 8), result_dtype(C, h))
     d = C[..., n, :] * np.ones(h.shape, int)
     D[..., n - 1, :] = d
+    dh = h if monic else dq_mul(d, h)
     for k in range(n - 1, 0, -1):
-        d = C[..., k, :] + dq_mul(d, h)
+        d = C[..., k, :] + dh
         D[..., k - 1, :] = d
-    rem = C[..., 0, :] + dq_mul(d, h)
-    return D, rem
+        dh = dq_mul(d, h)
+    return D, C[..., 0, :] + dh
 
 
 def divide_right(C, D):

@@ -32,7 +32,7 @@ from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_bennett import accepted_error
 from synth.synthesis.planar_bennett import candidates as planar_candidates
 
-__all__ = ["bennett", "bennett_candidates", "verify", "check_distinct", "check_transmission", "sensitivity",
+__all__ = ["bennett", "bennett_candidates", "per_set_candidates", "verify", "check_distinct", "check_transmission", "sensitivity",
            "perturbed_poses", "dh_table", "bennett_parameters_of", "EPS", "FLOOR_ULPS", "ACCEPT_TOL"]
 
 COINCIDENT_TOL = 1e-9  # relative to the pose spread (translation) and radians (rotation)
@@ -93,6 +93,17 @@ def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SA
         out = solve(T[None], check_samples, extra=perturbed_poses(T))
         if out["good"][0]:
             return [linkage_from_solution(out, 0, T, names, check_samples, perturbed=out["extra"])]
+    return per_set_candidates(T, names, check_samples=check_samples, member=member, top=top)
+
+
+def per_set_candidates(T, names, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None, top: int = 1,
+                       perturbed: dict | None = None) -> list:
+    """`bennett_candidates` for a set (3, 4, 4) that `synth.synthesis.bennett_core.solve` did not judge
+    good (or with a ``member``): the per-set path, which synthesizes it or refuses it with a message.
+    `synth.synthesis.bennett_batch` calls it directly for such sets (solve has already run there), with
+    ``perturbed``: `factor_sets` of `perturbed_poses` (T), factored in one batch for all such sets."""
+    T = np.asarray(T, float)
+    names = list(names)
     if not np.all(np.isfinite(T)):
         raise InputError("the poses contain NaN or infinity")
     check_distinct(T, names)
@@ -102,7 +113,7 @@ def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SA
     if member is not None:
         raise InputError("--member picks a member of the family of motions through planar or spherical poses; "
                          "these poses are spatial, so the conic and the Bennett linkage through them are unique")
-    return [_bennett_general(T, names, check_samples)]
+    return [_bennett_general(T, names, check_samples, perturbed)]
 
 
 def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
@@ -166,9 +177,9 @@ def linkage_from_solution(out: dict, i: int, T, names, check_samples: int, pertu
     return linkage
 
 
-def _bennett_general(T, names, check_samples):
+def _bennett_general(T, names, check_samples, perturbed=None):
     """The per-set path: the same conic, `factorize` with root merging and refinement, every refusal
-    message; the self-check by `synth.checks.self_check`."""
+    message; the self-check by `synth.checks.self_check`. ``perturbed``: as `linkage_from_solution`."""
     H, K, C, con, cond, info = _general_factors(T, names)
     linkage = two_branch_linkage("bennett", H, K, C, T, names, con.ts, info)
     linkage.checks = self_check(linkage, max(check_samples, DEFAULT_CHECK_SAMPLES))
@@ -181,7 +192,7 @@ def _bennett_general(T, names, check_samples):
     rel = float(relative_error(T[None], np.array([cond.scale]), far, {k: np.array([v]) for k, v in errors.items()})[0])
     geo = loop_geometry(U, M)
     linkage.info = _complete_info(linkage, info, con.B, cond, bennett_parameters(geo), dh_rows(U, geo), rel,
-                                  float(far[0]))
+                                  float(far[0]), perturbed)
     return linkage
 
 

@@ -4,9 +4,10 @@
 over N, with the conventions of `synth.synthesis.bennett_core` (joints ``h1, h2, k1, k2``; lines
 (direction, moment) at the first pose; angle laws (a, b) with theta(t) = 2 atan2(b, t - a); pose 0 at
 t = inf, pose 1 at t = 0, pose 2 at t = 1; errors in metres and radians). The numeric core has no Python
-loop over the sets. Sets it cannot judge go one by one through `synth.synthesis.bennett.bennett` (its
-per-set path), which either synthesizes them or refuses them; its message becomes the set's ``status``.
-One bad set never raises. For random poses this is well under 1% of the sets.
+loop over the sets. Sets it cannot judge go one by one through the per-set path of
+`synth.synthesis.bennett` (`per_set_candidates`; solve has already run on them here), which either
+synthesizes them or refuses them; its message becomes the set's ``status``. One bad set never raises.
+For random poses this is well under 1% of the sets.
 """
 from __future__ import annotations
 
@@ -16,8 +17,8 @@ import numpy as np
 
 from synth.checks import BOUND_CHECK_SAMPLES
 from synth.errors import InputError, MpsynthError, SynthesisError
-from synth.synthesis.bennett import bennett, linkage_from_solution
-from synth.synthesis.bennett_core import ACCEPT_TOL, JOINTS, TS, solve
+from synth.synthesis.bennett import linkage_from_solution, per_set_candidates, perturbed_poses
+from synth.synthesis.bennett_core import ACCEPT_TOL, JOINTS, TS, factor_sets, solve
 
 __all__ = ["BennettBatch", "bennett_batch", "JOINTS", "TS", "ACCEPT_TOL"]
 
@@ -68,7 +69,7 @@ class BennettBatch:
             raise (InputError if msg.startswith("the poses contain") else SynthesisError)(msg)
         names = list(names) if names is not None else list(self.names)
         if self.general[i]:  # synthesized by the per-set path of synth.synthesis.bennett
-            return bennett(self.poses[i], names, check_samples=self.check_samples)
+            return per_set_candidates(self.poses[i], names, check_samples=self.check_samples)[0]
         return linkage_from_solution(self._solution, i, self.poses[i], names, self.check_samples)
 
 
@@ -105,10 +106,18 @@ def bennett_batch(poses, *, check_samples: int = BOUND_CHECK_SAMPLES, names=None
 
 
 def _fallback(res: BennettBatch, idx, names):
-    """Sets not handled by the vectorized core: synth.synthesis.bennett decides (result or message)."""
-    for i in idx.tolist():
+    """Sets not handled by the vectorized core: synth.synthesis.bennett decides (result or message). The
+    perturbed sets of their condition estimates (`synth.synthesis.bennett.sensitivity`) are factored
+    in one batch."""
+    if not idx.size:
+        return
+    Tp = np.stack([perturbed_poses(res.poses[i]) for i in idx.tolist()])  # (M, trials, 3, 4, 4)
+    fac = factor_sets(Tp.reshape(-1, 3, 4, 4))
+    trials = Tp.shape[1]
+    for n, i in enumerate(idx.tolist()):
+        perturbed = {k: v[n * trials : (n + 1) * trials] for k, v in fac.items()}
         try:
-            L = bennett(res.poses[i], names, check_samples=res.check_samples)
+            L = per_set_candidates(res.poses[i], names, check_samples=res.check_samples, perturbed=perturbed)[0]
         except MpsynthError as e:
             res.status[i] = str(e)
             continue

@@ -29,7 +29,7 @@ from synth.algebra.anglelaw import angle_law
 from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
-from synth.algebra.dq import dot, dq_mul, pose_to_dq, translation_dq
+from synth.algebra.dq import dot, pose_to_dq, translated
 from synth.synthesis.conic import Conditioning, conditioning, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
@@ -46,7 +46,8 @@ MIN_IMAG = 1e-5  # min Im z / (1 + |z|^2) at or below this: nearly real norm roo
 MIN_SEPARATION = 1e-5  # min |z1 - z2| / (1 + |z|^2) at or below this: nearly repeated root -> per-set path
 ONE_THREAD_MIN = 256  # sets from which BLAS runs on one thread (`synth.blas`: threads only cost here)
 CHUNK = 2048  # sets per chunk of `solve` (N = 10,000: chunks of 1,000-2,000 sets ~20% faster per set than one)
-MAX_RESIDUAL = 5e-13  # multiply-back error above this: polished; still above: per-set path
+MAX_RESIDUAL = 5e-13  # multiply-back error above this after polishing: per-set path
+POLISH_ABOVE = 3e-14  # multiply-back error above this: polished (the world-frame bounds of `loop_bound` grow with it)
 _ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
 _PREV = [3, 0, 1, 2]  # the previous joint around the loop
 _EYE4 = np.eye(4)
@@ -96,11 +97,11 @@ def _factors(T) -> dict:
     N = T.shape[0]
     finite = np.all(np.isfinite(T), axis=(1, 2, 3))
     with np.errstate(all="ignore"):
-        Tf = np.where(finite[:, None, None, None], T, _EYE4)
+        Tf = T if finite.all() else np.where(finite[:, None, None, None], T, _EYE4)
         cond = conditioning(Tf)
         Q = pose_to_dq(Tf)  # world frame (checks)
         # the conditioned poses (conic): translated by -centre, lengths divided by the scale
-        Qc = dq_mul(translation_dq(-cond.centre)[:, None], Q)
+        Qc = translated(Q, -cond.centre[:, None])
         Qc[..., 4:] /= cond.scale[:, None, None]
         con = conic(relative_displacements_dq(Qc))
         C, B = con.C, con.B  # (N, 3, 8), (N, 3)
@@ -110,7 +111,7 @@ def _factors(T) -> dict:
         residual = remainder_error(C[:, None], H, R).max(axis=1)  # the multiply-back error, up to rounding
         # Algorithm 1 loses digits when roots are close or nearly real: Newton on the product equations
         # (`polish`) restores them here rather than sending the set to the per-set path
-        redo = np.flatnonzero((residual > MAX_RESIDUAL) & ok.all(axis=1) & finite)
+        redo = np.flatnonzero((residual > POLISH_ABOVE) & ok.all(axis=1) & finite)
         if redo.size:
             H[redo] = polish(C[redo, None], H[redo])[0]
             residual[redo] = multiply_back(C[redo, None], H[redo]).max(axis=1)

@@ -15,6 +15,8 @@ from synth.algebra.algorithm1 import cross3
 from synth.algebra.dq import dot, dq_mul, normalize_dq, pose_to_dq, study_form
 from synth.errors import SynthesisError
 
+_ONE = np.eye(8)[0]
+
 
 @dataclass
 class Conditioning:
@@ -68,9 +70,12 @@ def relative_displacements(T):
 
 
 def relative_displacements_dq(H):
-    """`relative_displacements` of poses given as unit dual quaternions H (..., k, 8)."""
+    """`relative_displacements` of poses given as unit dual quaternions H (..., k, 8) (D_0 = 1 exactly)."""
     H0inv = H[..., :1, :] * np.array([1.0, -1, -1, -1, 1, -1, -1, -1])  # unit: inverse = conjugate
-    return normalize_dq(dq_mul(H, H0inv))
+    D = np.empty(H.shape)
+    D[..., 0, :] = _ONE
+    D[..., 1:, :] = normalize_dq(dq_mul(H[..., 1:, :], H0inv))
+    return D
 
 
 
