@@ -125,7 +125,7 @@ def _factors(T) -> dict:
 def _solve(T, check_samples: int, fac=None) -> dict:
     fac = _factors(T) if fac is None else fac
     N = T.shape[0]
-    finite, Tf, Q, B, z, residual = (fac[k] for k in ("finite", "Tf", "Q", "B", "roots", "residual"))
+    finite, Tf, Q, B, residual = (fac[k] for k in ("finite", "Tf", "Q", "B", "residual"))
     cond = Conditioning(centre=fac["centre"], scale=fac["scale"])
     good = fac["good"].copy()
     factors, motion = fac["factors"], fac["motion"]  # h1 h2 k1 k2; C (world frame)
@@ -154,7 +154,7 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     return dict(good=good, finite=finite, lines=np.concatenate([U[:, :, None], M[:, :, None]], axis=2),
                 laws=np.concatenate([a[..., None], b[..., None]], axis=-1),
                 pose_angles=pose_angles, factors=factors, motion=motion, study_form=B * cond.scale[:, None],
-                centre=cond.centre, scale=cond.scale, residual=residual, roots=z, geometry=geo,
+                centre=cond.centre, scale=cond.scale, residual=residual,
                 bennett=bennett_parameters(geo), dh=dh_rows(U[:, LOOP], geo), errors=errors, relative_error=rel,
                 axis_distance=far, length_scale=length_scale)
 
