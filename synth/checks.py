@@ -221,7 +221,7 @@ def pose_bound(motion, ts, pose_dq, ref_dq, bound) -> dict:
     dual quaternions (`synth.algebra.dq.pose_to_dq`). Returns ``pose_translation``, ``pose_rotation``
     (N,) in metres and radians."""
     X = np.empty((2,) + pose_dq.shape)
-    X[0] = dq_mul(evaluate(motion, ts), ref_dq[:, None])
+    np.matmul(evaluate(motion, ts), dq_right_matrix(ref_dq), out=X[0])  # C(t_i) Q_0
     X[1] = pose_dq
     dt, dr = _pose_difference(X)
     reach = 2.0 * np.sqrt(dot(ref_dq[:, 4:], ref_dq[:, 4:]))  # |d_0| (unit ref_dq)
