@@ -12,7 +12,7 @@ import functools
 
 import numpy as np
 
-from synth.algebra.algorithm1 import cross3
+from synth.algebra.algorithm1 import cross3, identity
 from synth.algebra.anglelaw import half_angle
 from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq, qmul
 from synth.algebra.polynomial import evaluate, product_of_linear
@@ -182,15 +182,15 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
     z = a[:, h] + 1j * b[:, h]  # (N, n)
     with np.errstate(all="ignore"):
         # |E(z_j)| <= sum_c |E_c| |z_j|^c (primal and dual part), divided by b_j prod_{m != j} |z_j - z_m|
-        C = E.reshape(N, 2, n + 1, 2, 4)
-        C = np.sqrt(dot(C, C))  # (N, 2, n+1, primal / dual)
-        gaps = np.abs((z[:, :, None] - z[:, None, :] + _eye(n)).prod(axis=-1)) * b[:, h]  # (N, n)
+        En = E.reshape(N, 2, n + 1, 2, 4)
+        En = np.sqrt(dot(En, En))  # |E_c| (N, 2, n+1, primal / dual)
+        gaps = np.abs((z[:, :, None] - z[:, None, :] + identity(n)).prod(axis=-1)) * b[:, h]  # (N, n)
         w = np.abs(z)[..., None] ** np.arange(n + 1) / gaps[..., None]  # (N, n, n+1)
-        rho = np.matmul(w.sum(axis=1)[:, None, None, :], C)[:, :, 0]  # (N, 2, primal / dual): sum_j |rho_j| / b_j
+        rho = np.matmul(w.sum(axis=1)[:, None, None, :], En)[:, :, 0]  # (N, 2, primal / dual): sum_j |rho_j| / b_j
         # with 16 ulps for the rounding of a forward-kinematics evaluation, so that the bound also covers
         # sampled figures (`check_figures`); Q bounds the dual part of branch h's unit dual quaternion
         Q = np.sqrt(dot(M[:, h], M[:, h])).sum(axis=-1)[:, None]
-        ep, ed = np.moveaxis(C[:, :, n] + rho, -1, 0)  # (N, 2) each
+        ep, ed = np.moveaxis(En[:, :, n] + rho, -1, 0)  # (N, 2) each
         ep = ep + 16 * _EPS
         ed = ed + 16 * _EPS * np.maximum(Q, 1.0)
         # poses of a unit X and of Y = X - D, |D| <= (ep, ed): rotation <= 4 asin(ep), translation
@@ -201,14 +201,6 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
         tra = np.where(near, 2.0 * ((ed + Q * ep + ed * ep) * s + Q * (s - 1.0)), np.inf)
     return {"closure_translation": tra[:, 0], "closure_rotation": rot[:, 0], "motion": tra[:, 1] + rot[:, 1],
             "motion_translation": tra[:, 1], "motion_rotation": rot[:, 1]}
-
-
-@functools.lru_cache(maxsize=None)
-def _eye(n: int) -> np.ndarray:
-    """The identity of size n (read-only, cached)."""
-    e = np.eye(n)
-    e.flags.writeable = False
-    return e
 
 
 def pose_bound(motion, ts, pose_dq, ref_dq, bound) -> dict:

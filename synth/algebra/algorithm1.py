@@ -90,7 +90,7 @@ def _eig_upper(flat):
     (NaN for a polynomial with a non-finite or zero leading coefficient), reflected into Im z >= 0."""
     B, m = flat.shape[0], flat.shape[-1] - 1
     comp = np.zeros((B, m, m))
-    comp[:, 1:, :-1] = _shift(m)
+    comp[:, 1:, :-1] = identity(m - 1)  # the subdiagonal
     with np.errstate(all="ignore"):
         last = -flat[:, :m] / flat[:, m:]
     fin = np.isfinite(last).all(axis=-1)[:, None]
@@ -101,9 +101,9 @@ def _eig_upper(flat):
 
 
 @functools.lru_cache(maxsize=None)
-def _shift(m: int) -> np.ndarray:
-    """The identity of size m - 1 (the subdiagonal of an m x m companion matrix; read-only, cached)."""
-    e = np.eye(m - 1)
+def identity(n: int) -> np.ndarray:
+    """The identity matrix of size n (read-only, cached: small kernels build it on every call)."""
+    e = np.eye(n)
     e.flags.writeable = False
     return e
 
@@ -184,15 +184,18 @@ def root_conditioning(z) -> tuple[np.ndarray, np.ndarray]:
     n = z.shape[-1]
     if n < 2:
         return im, np.ones(im.shape)
-    i, j = _pairs(n)
+    i, j = index_pairs(n)
     sep = np.min(np.abs(z[..., i] - z[..., j]) / np.maximum(w[..., i], w[..., j]), axis=-1)
     return im, sep
 
 
 @functools.lru_cache(maxsize=None)
-def _pairs(n: int):
-    """Index pairs i < j of n items (``numpy.triu_indices(n, 1)``, cached)."""
-    return np.triu_indices(n, 1)
+def index_pairs(n: int) -> tuple:
+    """Index pairs i < j of n items (``numpy.triu_indices(n, 1)``; read-only, cached)."""
+    out = np.triu_indices(n, 1)
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def quadratics(z) -> np.ndarray:

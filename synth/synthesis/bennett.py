@@ -16,7 +16,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from synth.algebra.algorithm1 import cross3
+from synth.algebra.algorithm1 import cross3, index_pairs
 from synth.algebra.dq import dot
 from synth.algebra.factorize import factorize
 from synth.checks import (BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, pose_difference,
@@ -47,21 +47,12 @@ def check_distinct(T, names, tol=COINCIDENT_TOL):
     the RMS spread of the positions and rotations within ``tol`` radians."""
     T = np.asarray(T, float)
     L = _spread(T)
-    i, j = _pairs(len(T))
+    i, j = index_pairs(len(T))
     dt, dr = pose_difference(T[i], T[j])
     same = ((dt <= tol * L) & (dr <= tol)) | ((dt == 0) & (dr <= tol))
     for a, b in zip(i[same].tolist(), j[same].tolist()):
         raise SynthesisError(f"poses {a} ({names[a]!r}) and {b} ({names[b]!r}) coincide: "
                              "three distinct poses are needed")
-
-
-@lru_cache(maxsize=None)
-def _pairs(k: int) -> tuple:
-    """The index pairs i < j of k poses (``numpy.triu_indices(k, 1)``; cached, read-only)."""
-    out = np.triu_indices(k, 1)
-    for a in out:
-        a.flags.writeable = False
-    return out
 
 
 def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None):

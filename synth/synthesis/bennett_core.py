@@ -181,7 +181,7 @@ def loop_geometry(U, M) -> dict:
     (i, i+1 mod J) ``distance`` and signed ``twist`` (the angle from u_i to u_{i+1} about the common
     normal from i to i+1) (N, J), the feet ``foot_out`` (on i) and ``foot_in`` (on i+1) and the unit
     ``normal`` (N, J, 3), ``parallel`` (N, J). Parallel axes: the foot on i is its point nearest the origin."""
-    nxt = _next_index(U.shape[-2])
+    nxt = _cyclic_index(U.shape[-2], 1)
     U2 = U[..., nxt, :]
     p1 = cross3(U, M)  # the axis points nearest the origin
     p2 = p1[..., nxt, :]
@@ -212,9 +212,9 @@ def loop_geometry(U, M) -> dict:
 
 
 @functools.lru_cache(maxsize=None)
-def _next_index(J: int) -> np.ndarray:
-    """(i + 1) mod J for i < J (read-only, cached)."""
-    out = (np.arange(J) + 1) % J
+def _cyclic_index(J: int, step: int) -> np.ndarray:
+    """(i + step) mod J for i < J (read-only, cached)."""
+    out = (np.arange(J) + step) % J
     out.flags.writeable = False
     return out
 
@@ -242,7 +242,7 @@ def dh_rows(U, geo) -> dict:
     """Denavit-Hartenberg parameters around closed loops (lines U (N, J, 3) in loop order, geometry from
     `loop_geometry`): for joint i ``a``/``alpha`` to the next joint, ``d`` the offset along axis i
     between the incoming and outgoing common normals, ``theta`` the angle between them about axis i."""
-    prv = np.argsort(_next_index(U.shape[-2]))  # (i - 1) mod J
+    prv = _cyclic_index(U.shape[-2], -1)
     f_in, n_in = geo["foot_in"][..., prv, :], geo["normal"][..., prv, :]
     d = dot(geo["foot_out"] - f_in, U)
     theta = np.arctan2(dot(cross3(n_in, geo["normal"]), U), dot(n_in, geo["normal"]))
