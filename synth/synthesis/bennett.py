@@ -161,10 +161,8 @@ def linkage_from_solution(out: dict, i: int, T, names, check_samples: int, pertu
                                  angles=out["pose_angles"][i])
     figures = {k: float(v[i]) for k, v in out["errors"].items()}
     linkage.checks = as_checks(figures, check_samples, float(out["length_scale"][i]), bounded=True)
-    bp = {k: v[i : i + 1] for k, v in out["bennett"].items()}
-    dh = {k: v[i : i + 1] for k, v in out["dh"].items()}
-    linkage.info = _complete_info(linkage, info, out["study_form"][i] / scale, cond, bp, dh,
-                                  float(out["relative_error"][i]), float(out["axis_distance"][i]), perturbed)
+    linkage.info = _complete_info(linkage, info, out["study_form"][i] / scale, cond, out["bennett"], out["dh"],
+                                  float(out["relative_error"][i]), float(out["axis_distance"][i]), perturbed, row=i)
     return linkage
 
 
@@ -193,15 +191,16 @@ def _loop_lines(linkage, loop=LOOP_NAMES):
     return lines[None, :, 0], lines[None, :, 1]
 
 
-def _complete_info(linkage, info, B, cond, bp, dh, rel, far, perturbed=None) -> dict:
-    """``info`` plus the Bennett parameters, DH table, relative self-check error and warnings; raises
-    SynthesisError when the self-check error ``rel`` exceeds ACCEPT_TOL (`_accept`)."""
+def _complete_info(linkage, info, B, cond, bp, dh, rel, far, perturbed=None, row: int = 0) -> dict:
+    """``info`` plus the Bennett parameters ``bp`` and DH table ``dh`` (dicts of arrays over sets, of
+    which set ``row`` is this linkage's), relative self-check error and warnings; raises SynthesisError
+    when the self-check error ``rel`` exceeds ACCEPT_TOL (`_accept`)."""
     info = dict(info)
-    bp = {k: float(v[0]) for k, v in bp.items()}
+    bp = {k: float(v[row]) for k, v in bp.items()}
     if not math.isfinite(bp["bennett_condition_residual"]):
         bp["bennett_condition_residual"] = None
     info["bennett"] = bp
-    info["dh"] = _dh_list(LOOP_NAMES, dh)
+    info["dh"] = _dh_list(LOOP_NAMES, dh, row)
     info["relative_error"] = _accept(linkage, cond, rel)
     info["warnings"] = _warnings(linkage, [float(x) for x in B], cond, info, far, perturbed)
     return info
@@ -223,11 +222,11 @@ def dh_table(linkage, loop: list[str]) -> list[dict]:
     return _dh_list(loop, dh_rows(U, loop_geometry(U, M)))
 
 
-def _dh_list(loop, rows) -> list[dict]:
-    m = len(loop)
-    cols = {k: v[0].tolist() for k, v in rows.items()}
-    return [{"joint": loop[i], "next": loop[(i + 1) % m], "a": cols["a"][i], "alpha": cols["alpha"][i],
-             "d": cols["d"][i], "theta": cols["theta"][i]} for i in range(m)]
+def _dh_list(loop, rows, row: int = 0) -> list[dict]:
+    """linkage.json's DH table: set ``row`` of `dh_rows` (arrays (N, J)) as one dict per joint of ``loop``."""
+    keys = ("a", "alpha", "d", "theta")
+    cols = np.stack([rows[k][row] for k in keys], axis=-1).tolist()  # (J, 4)
+    return [{"joint": j, "next": nxt, **dict(zip(keys, c))} for j, nxt, c in zip(loop, loop[1:] + loop[:1], cols)]
 
 
 def _accept(linkage, cond, rel) -> float:
@@ -404,9 +403,10 @@ def _warnings(linkage, B, cond, info, far, perturbed=None) -> list[str]:
     if far > 1e3:
         out.append(f"joint axes lie {far:.3g} pose spreads away from the poses: the poses are nearly "
                    "related by pure translations, the linkage is valid but impractically large")
-    bs = sorted({(round(j.a, 12), round(j.b, 12)) for j in linkage.joints})
-    roots_close = len(bs) == 2 and math.dist(*bs) < 1e-2 * max(1.0, *(abs(x) for ab in bs for x in ab))
-    nearly_real = min(j.b for j in linkage.joints) < 1e-2 * max(1.0, *(abs(j.a) for j in linkage.joints))
+    # the two norm roots a + ib are those of h1 and h2 (k2 and k1 repeat them)
+    (a1, b1), (a2, b2) = ((j.a, j.b) for j in map(linkage.joint, ("h1", "h2")))
+    roots_close = math.hypot(a1 - a2, b1 - b2) < 1e-2 * max(1.0, abs(a1), abs(b1), abs(a2), abs(b2))
+    nearly_real = min(b1, b2) < 1e-2 * max(1.0, abs(a1), abs(a2))
     if far > 3 or min(abs(x) for x in B) < 1e-2 or roots_close or nearly_real:
         kappa = info.get("condition_estimate")
         if kappa is None:
