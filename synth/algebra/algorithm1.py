@@ -80,24 +80,49 @@ def norm_roots(N, newton: int = 2) -> np.ndarray:
             z[redo] = _newton(flat[redo], _eig_upper(flat[redo]), newton)[0]
     else:
         z = _newton(flat, _eig_upper(flat), newton)[0]
-    z = np.where(z.imag < 0, z.conj(), z)
-    z = z[np.arange(z.shape[0])[:, None], np.argsort(z.real + 1e-12 * z.imag, axis=-1, kind="stable")]
+    np.abs(z.imag, out=z.imag)  # (z is a fresh array) reflected into Im z >= 0
+    key = z.imag * _TIE
+    key += z.real
+    order = np.argsort(key, axis=-1, kind="stable")
+    z = z.reshape(-1)[order + _row_offsets(*z.shape)]
     return z.reshape(batch + (m // 2,))
 
 
+_TIE = np.array(1e-12)  # sort key Re z + 1e-12 Im z: equal real parts (up to rounding) ordered by Im z
+
+
+@functools.lru_cache(maxsize=16)
+def _row_offsets(rows: int, cols: int) -> np.ndarray:
+    """Flat offsets (rows, 1) of the rows of a C-contiguous (rows, cols) array (read-only, cached):
+    ``a.reshape(-1)[idx + offsets]`` gathers ``a[i, idx[i, j]]`` in one indexing operation."""
+    out = (np.arange(rows) * cols)[:, None]
+    out.flags.writeable = False
+    return out
+
+
 def _eig_upper(flat):
-    """The m/2 eigenvalues with the largest imaginary parts of the companion matrices of flat (B, m+1)
-    (NaN for a polynomial with a non-finite or zero leading coefficient), reflected into Im z >= 0."""
+    """The m/2 eigenvalues of the companion matrices of flat (B, m+1), reflected into Im z >= 0, one of
+    each conjugate pair, sorted by (Re z, Im z) (NaN for a polynomial with a non-finite or zero leading
+    coefficient). LAPACK returns the eigenvalues of a real matrix with each complex pair exactly
+    conjugate, so after the reflection a pair is two equal values, adjacent after sorting, and every
+    other sorted value takes each pair once (and, with real eigenvalues, m/2 - pairs of them)."""
     B, m = flat.shape[0], flat.shape[-1] - 1
     comp = np.zeros((B, m, m))
     comp[:, 1:, :-1] = identity(m - 1)  # the subdiagonal
     with np.errstate(all="ignore"):
-        last = -flat[:, :m] / flat[:, m:]
-    fin = np.isfinite(last).all(axis=-1)[:, None]
-    comp[:, :, -1] = np.where(fin, last, 0.0)
-    z = np.where(fin, np.linalg.eigvals(comp), np.nan)
-    z = z[np.arange(B)[:, None], np.argsort(-z.imag, axis=-1)[:, : m // 2]]
-    return np.where(z.imag < 0, z.conj(), z)
+        np.divide(flat[:, :m], -flat[:, m:], out=comp[:, :, -1])
+    try:
+        z = np.linalg.eigvals(comp)
+    except np.linalg.LinAlgError:
+        bad = ~np.isfinite(comp[:, :, -1]).all(axis=-1)
+        if not bad.any():
+            raise
+        comp[bad, :, -1] = 0.0
+        z = np.array(np.linalg.eigvals(comp), complex)
+        z[bad] = np.nan
+    z = np.asarray(z, complex)  # (eigvals gives a real array when every eigenvalue is real)
+    np.abs(z.imag, out=z.imag)
+    return np.sort(z, axis=-1)[:, ::2]
 
 
 @functools.lru_cache(maxsize=None)
@@ -110,20 +135,23 @@ def identity(n: int) -> np.ndarray:
 
 def _newton(flat, z, steps):
     """``steps`` Newton steps on the real polynomials flat (B, m+1) at the complex points z (B, r),
-    value and derivative by Horner's scheme (elementwise on (B, r): no per-polynomial matrix products).
-    Returns (z, the last step)."""
+    value and derivative by Horner's scheme (elementwise on (B, r): no per-polynomial matrix products;
+    the coefficients are copied once to complex arrays of z's shape, so no step casts or broadcasts).
+    A step where the derivative vanishes is 0. Returns (z, the last step)."""
     m = flat.shape[-1] - 1
-    cols = [flat[:, k : k + 1] for k in range(m + 1)]  # (B, 1) each, broadcast against z
-    step = np.zeros_like(z)
+    cols = np.empty((m + 1,) + z.shape, complex)  # cols[k] (B, r): the coefficient of t^k
+    cols[...] = flat.T[:, :, None]
+    step = np.zeros(z.shape, complex)
     with np.errstate(all="ignore"):
         for _ in range(steps):
-            val, der = cols[m], cols[m]
-            val = val * z + cols[m - 1]
+            val, der = cols[m] * z, cols[m]
+            val += cols[m - 1]
             for k in range(m - 2, -1, -1):
-                der = der * z + val
-                val = val * z + cols[k]
-            step = val / der
-            step = np.where(np.isfinite(step), step, 0)
+                der = der * z
+                der += val
+                val *= z
+                val += cols[k]
+            step = np.divide(val, der, out=np.zeros(z.shape, complex), where=der != 0)
             z = z - step
     return z, step
 
@@ -215,27 +243,33 @@ def algorithm1(C, M, *, remainders: bool = False):
     C = np.asarray(C, float)
     M = np.asarray(M, float)
     n = C.shape[-2] - 1
-    batch = np.broadcast_shapes(C.shape[:-2], M.shape[:-2])
-    D = C if C.shape[:-2] == batch else np.broadcast_to(C, batch + C.shape[-2:])
     prim = dot(C[..., :4], C[..., :4]).max(axis=-1)  # (|primal| of the largest coefficient)^2
-    H = np.empty(batch + (n, 8))
-    R = np.empty(batch + (max(n - 1, 0), 8))
-    ok = np.ones(batch, bool)
-    monic = bool(np.all(C[..., n, :] == _ONE))  # then so is every quotient D
+    prim *= GENERIC_TOL**2
+    monic = bool((C[..., n, :] == _ONE).all())  # then so is every quotient D
+    D, ok, hs, rs = C, None, [], []  # D: the quotient so far (broadcast against M by the first division)
     for pos in range(n - 1, 0, -1):
         _, r1, r0 = divide_real_quadratic(D, M[..., pos, :])
-        good = dot(r1[..., :4], r1[..., :4]) > GENERIC_TOL**2 * prim
-        ok &= good
+        good = dot(r1[..., :4], r1[..., :4]) > prim
+        ok = good if ok is None else ok & good
         r1 = np.where(good[..., None], r1, _ONE)
-        h = -dq_mul(dq_inv(r1), r0)
-        H[..., pos, :] = h
-        D, R[..., pos - 1, :] = divide_linear_right(D, h, monic=monic)
+        h = dq_mul(dq_inv(r1), r0)
+        np.negative(h, out=h)
+        hs.append(h)
+        D, rem = divide_linear_right(D, h, monic=monic)
+        rs.append(rem)
     # the last remainder D = D1 t + D0 is linear with the leading coefficient of C: h_1 = -D1^{-1} D0
     # (the remainder of D mod M_1, whatever M_1); D1 = 1 exactly when C is monic
-    if monic:
-        H[..., 0, :] = -D[..., 0, :]
-    else:
-        H[..., 0, :] = -dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])
+    h = D[..., 0, :] if monic else dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])
+    batch = np.broadcast_shapes(h.shape[:-1], M.shape[:-2]) if n == 1 else hs[0].shape[:-1]
+    H = np.empty(batch + (n, 8))
+    np.negative(h, out=H[..., 0, :])
+    for pos, h in zip(range(n - 1, 0, -1), hs):
+        H[..., pos, :] = h
+    R = np.empty(batch + (max(n - 1, 0), 8))
+    for pos, rem in zip(range(n - 1, 0, -1), rs):
+        R[..., pos - 1, :] = rem
+    if ok is None:
+        ok = np.ones(batch, bool)
     return (H, ok, R) if remainders else (H, ok)
 
 

@@ -17,6 +17,7 @@ from fractions import Fraction
 import numpy as np
 
 _CONJ = np.array([1, -1, -1, -1, 1, -1, -1, -1])
+_CONJ_F = _CONJ.astype(float)
 _FLOAT = np.dtype(np.float64)
 
 
@@ -256,8 +257,12 @@ def dq_inv(h):
     h = as_array(h)
     p = h[..., :4]
     a = dot(p, p)[..., None]
-    out = h * _CONJ / a
-    out[..., 4:] -= out[..., :4] * (2 * dot(p, h[..., 4:])[..., None] / a)
+    out = h * (_CONJ_F if h.dtype is _FLOAT else _CONJ)
+    out /= a
+    b = dot(p, h[..., 4:])[..., None]
+    b /= a
+    b += b  # 2 p.q / |p|^2
+    out[..., 4:] -= out[..., :4] * b
     return out
 
 
