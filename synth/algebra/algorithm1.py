@@ -18,7 +18,7 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dot, dq_inv, dq_left_matrix, dq_mul, dq_right_matrix
+from synth.algebra.dq import dot, dq_inv, dq_left_matrix, dq_mul, dq_right_matrix, row_offsets
 from synth.algebra.polynomial import divide_linear_right, divide_real_quadratic, poly_mul, product_of_linear
 
 GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D_k)|: the remainder is not invertible
@@ -84,20 +84,11 @@ def norm_roots(N, newton: int = 2) -> np.ndarray:
     key = z.imag * _TIE
     key += z.real
     order = np.argsort(key, axis=-1, kind="stable")
-    z = z.reshape(-1)[order + _row_offsets(*z.shape)]
+    z = z.reshape(-1)[order + row_offsets(*z.shape)]
     return z.reshape(batch + (m // 2,))
 
 
 _TIE = np.array(1e-12)  # sort key Re z + 1e-12 Im z: equal real parts (up to rounding) ordered by Im z
-
-
-@functools.lru_cache(maxsize=16)
-def _row_offsets(rows: int, cols: int) -> np.ndarray:
-    """Flat offsets (rows, 1) of the rows of a C-contiguous (rows, cols) array (read-only, cached):
-    ``a.reshape(-1)[idx + offsets]`` gathers ``a[i, idx[i, j]]`` in one indexing operation."""
-    out = (np.arange(rows) * cols)[:, None]
-    out.flags.writeable = False
-    return out
 
 
 def _eig_upper(flat):
@@ -207,13 +198,14 @@ def root_conditioning(z) -> tuple[np.ndarray, np.ndarray]:
     ``min Im z / (1 + |z|^2)`` (a real root: a real factor of the primal part, or a joint whose angle
     jumps) and ``min |z - z'| / (1 + max(|z|, |z'|)^2)`` (a repeated root: equal norm factors)."""
     z = np.asarray(z)
-    w = 1 + np.abs(z) ** 2
-    im = np.min(np.abs(z.imag) / w, axis=-1)
+    w = np.square(np.abs(z))
+    w += 1.0
+    im = (np.abs(z.imag) / w).min(axis=-1)
     n = z.shape[-1]
     if n < 2:
         return im, np.ones(im.shape)
     i, j = index_pairs(n)
-    sep = np.min(np.abs(z[..., i] - z[..., j]) / np.maximum(w[..., i], w[..., j]), axis=-1)
+    sep = (np.abs(z[..., i] - z[..., j]) / np.maximum(w[..., i], w[..., j])).min(axis=-1)
     return im, sep
 
 
@@ -229,7 +221,10 @@ def index_pairs(n: int) -> tuple:
 def quadratics(z) -> np.ndarray:
     """Monic real quadratics (..., n, 2) = [c0, c1] (t^2 + c1 t + c0) with the roots z, z-bar."""
     z = np.asarray(z)
-    return np.stack([np.abs(z) ** 2, -2 * z.real], axis=-1)
+    out = np.empty(z.shape + (2,))
+    np.square(np.abs(z), out=out[..., 0])
+    np.multiply(z.real, -2.0, out=out[..., 1])
+    return out
 
 
 def algorithm1(C, M, *, remainders: bool = False):
@@ -280,12 +275,16 @@ def remainder_error(C, H, R) -> np.ndarray:
     finite. Equals `multiply_back` up to rounding."""
     n = H.shape[-2]
     with np.errstate(all="ignore"):
-        E = np.zeros(np.broadcast_shapes(np.shape(C)[:-2], H.shape[:-2]) + (max(n - 1, 1), 8))  # (t^0..t^{n-2})
+        E = np.zeros(H.shape[:-2] + (1, 8)) if n < 2 else None  # (t^0..t^{n-2}) (broadcast against C below)
         for p in range(1, n):  # (the last remainder is multiplied by the empty product 1)
-            E[..., : n - p, :] += (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
-                                   if p + 1 < n else R[..., p - 1 : p, :])
-        scale = np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
-        r = np.max(np.abs(E), axis=(-2, -1)) / scale
+            term = (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
+                    if p + 1 < n else R[..., p - 1 : p, :])
+            if E is None:  # p = 1: all n - 1 coefficients (a fresh product for n > 2, never written for n = 2)
+                E = term
+            else:
+                E[..., : n - p, :] += term
+        scale = np.maximum(np.abs(C).max(axis=(-2, -1)), 1.0)
+        r = np.abs(E).max(axis=(-2, -1)) / scale
     return np.where(np.isfinite(r), r, np.inf)
 
 

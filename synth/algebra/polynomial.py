@@ -15,7 +15,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from synth.algebra.dq import as_array, dq_conj, dq_inv, dq_mul, dq_to_pose, result_dtype, zeros
+from synth.algebra.dq import as_array, dot, dq_conj, dq_inv, dq_mul, dq_to_pose, result_dtype, zeros
 
 
 def degree(C) -> int:
@@ -76,9 +76,10 @@ def norm_poly(C):
     is the Study condition; see `study_residual`.)"""
     P = as_array(C)[..., :4]
     n1 = P.shape[-2]
+    G = dot(P[..., :, None, :], P[..., None, :, :])  # G[i, j] = p_i . p_j (one call; `dot` rounds alike at every batch size)
     out = zeros(P.shape[:-2] + (2 * n1 - 1,), P.dtype)
-    for i in range(n1):
-        out[..., i : i + n1] += np.einsum("...d,...jd->...j", P[..., i, :], P)
+    for i in range(n1):  # N_k = sum of G[i, j] over i + j = k
+        out[..., i : i + n1] += G[..., i, :]
     return out
 
 
