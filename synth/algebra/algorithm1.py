@@ -65,10 +65,11 @@ def distinct_orders(mult) -> list[tuple]:
 
 def norm_roots(N, newton: int = 2) -> np.ndarray:
     """One root of each conjugate pair of a real monic polynomial N (..., 2n+1) (ascending) without
-    real roots: shape (..., n), Im z >= 0, sorted by (Re z, Im z). Quartics (n = 2, the Bennett case)
-    start from Ferrari's closed form, other degrees (and quartics where Newton does not settle) from
-    companion-matrix eigenvalues (batched ``numpy.linalg.eigvals``); then ``newton`` Newton steps on N.
-    Real or repeated roots are not detected here (see `root_conditioning`)."""
+    real roots: shape (..., n), Im z >= 0, sorted by Re z + 1e-12 Im z. Quartics (n = 2, the Bennett
+    case) in batches of FERRARI_MIN_BATCH or more start from Ferrari's closed form, everything else (and
+    quartics where Newton does not settle) from companion-matrix eigenvalues (batched
+    ``numpy.linalg.eigvals``); then ``newton`` Newton steps on N. Real or repeated roots are not
+    detected here (see `root_conditioning`)."""
     N = np.asarray(N, float)
     batch, m = N.shape[:-1], N.shape[-1] - 1
     flat = N.reshape(-1, m + 1)
