@@ -129,11 +129,15 @@ def _newton(flat, z, steps):
     """``steps`` Newton steps on the real polynomials flat (B, m+1) at the complex points z (B, r),
     value and derivative by Horner's scheme (elementwise on (B, r): no per-polynomial matrix products;
     the coefficients are copied once to complex arrays of z's shape, so no step casts or broadcasts).
-    A step where the derivative vanishes is 0. Returns (z, the last step)."""
+    Where the steps end non-finite (a vanishing derivative), z keeps its start and the step is inf.
+    Returns (z, the last step)."""
     m = flat.shape[-1] - 1
     cols = np.empty((m + 1,) + z.shape, complex)  # cols[k] (B, r): the coefficient of t^k
     cols[...] = flat.T[:, :, None]
+    z0 = z = np.array(z, complex)  # (contiguous)
     step = np.zeros(z.shape, complex)
+    if steps < 1:
+        return z, step
     with np.errstate(all="ignore"):
         for _ in range(steps):
             val, der = cols[m] * z, cols[m]
@@ -143,8 +147,12 @@ def _newton(flat, z, steps):
                 der += val
                 val *= z
                 val += cols[k]
-            step = np.divide(val, der, out=np.zeros(z.shape, complex), where=der != 0)
+            step = val / der
             z = z - step
+    fin = np.isfinite(z)
+    if not fin.all():
+        z = np.where(fin, z, z0)
+        step = np.where(fin, step, np.inf)
     return z, step
 
 
