@@ -255,7 +255,8 @@ def algorithm1(C, M, *, remainders: bool = False):
         _, r1, r0 = divide_real_quadratic(D, M[..., pos, :])
         good = dot(r1[..., :4], r1[..., :4]) > prim
         ok = good if ok is None else ok & good
-        r1 = np.where(good[..., None], r1, _ONE)
+        if not good.all():
+            r1 = np.where(good[..., None], r1, _ONE)
         h = dq_mul(dq_inv(r1), r0)
         np.negative(h, out=h)
         hs.append(h)
@@ -302,8 +303,8 @@ def multiply_back(C, H) -> np.ndarray:
     max |(t - h_1)...(t - h_n) - C| / max(1, max |C|), inf where not finite."""
     with np.errstate(all="ignore"):
         E = product_of_linear(H) - C
-        scale = np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
-        r = np.max(np.abs(E), axis=(-2, -1)) / scale
+        scale = np.maximum(1.0, np.abs(C).max(axis=(-2, -1)))
+        r = np.abs(E).max(axis=(-2, -1)) / scale
     return np.where(np.isfinite(r), r, np.inf)
 
 
@@ -311,7 +312,7 @@ def study_violation(H) -> np.ndarray:
     """Largest Study-condition violation of the linear factors t - h, h (..., n, 8): the dual scalar
     part and v.w of each h must vanish (relative to max(1, |h|)). Shape (...)."""
     with np.errstate(all="ignore"):
-        s = np.maximum(1.0, np.max(np.abs(H), axis=-1))
+        s = np.maximum(1.0, np.abs(H).max(axis=-1))
         v = (np.abs(H[..., 4]) + np.abs(np.sum(H[..., 1:4] * H[..., 5:8], -1)) / s) / s
         return np.max(v, axis=-1)
 
@@ -334,11 +335,11 @@ def polish(C, H, iterations: int = 3, step_tol: float = 1e-10):
     n = C.shape[-2] - 1
     H = np.array(np.broadcast_to(H, np.broadcast_shapes(C.shape[:-2], np.shape(H)[:-2]) + (n, 8)), float)
     r = (product_of_linear(H) - C)[..., :n, :]
-    rm = np.max(np.abs(r), axis=(-2, -1))
-    tiny = 2e-16 * np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
+    rm = np.abs(r).max(axis=(-2, -1))
+    tiny = 2e-16 * np.maximum(1.0, np.abs(C).max(axis=(-2, -1)))
     with np.errstate(all="ignore"):
         for _ in range(iterations):
-            if not np.any(rm > tiny):
+            if not (rm > tiny).any():
                 break
             J = _jacobian(H)
             try:
@@ -348,13 +349,13 @@ def polish(C, H, iterations: int = 3, step_tol: float = 1e-10):
             D = d.reshape(H.shape)
             Hn = H + np.where(np.isfinite(D), D, 0)
             rn = (product_of_linear(Hn) - C)[..., :n, :]
-            rmn = np.max(np.abs(rn), axis=(-2, -1))
+            rmn = np.abs(rn).max(axis=(-2, -1))
             better = rmn < rm
             H = np.where(better[..., None, None], Hn, H)
             r = np.where(better[..., None, None], rn, r)
             rm = np.where(better, rmn, rm)
-            big = np.max(np.abs(D), axis=(-2, -1)) > step_tol * np.maximum(1.0, np.max(np.abs(H), axis=(-2, -1)))
-            if not np.any(better & big):
+            big = np.abs(D).max(axis=(-2, -1)) > step_tol * np.maximum(1.0, np.abs(H).max(axis=(-2, -1)))
+            if not (better & big).any():
                 break
     return H, rm
 
@@ -365,27 +366,21 @@ def _jacobian(H):
     -A_i(t) dh_i B_i(t) with A_i = prod_{j<i} (t - h_j), B_i = prod_{j>i} (t - h_j)."""
     n = H.shape[-2]
     batch = H.shape[:-2]
-    lin = np.zeros(batch + (n, 2, 8))
-    lin[..., 0, :] = -H
-    lin[..., 1, 0] = 1.0
     J = np.zeros(batch + (n, 8, n, 8))  # (coefficient k, component, factor i, component)
     for i in range(n):
-        A = _prod(lin[..., :i, :, :], batch)  # (..., i+1, 8)
-        B = _prod(lin[..., i + 1 :, :, :], batch)  # (..., n-i, 8)
-        LA = np.swapaxes(dq_left_matrix(A), -1, -2)  # column convention
-        RB = np.swapaxes(dq_right_matrix(B), -1, -2)
-        for a in range(A.shape[-2]):
-            for b in range(B.shape[-2]):
-                k = a + b
-                if k < n:
-                    J[..., k, :, i, :] -= LA[..., a, :, :] @ RB[..., b, :, :]
+        LA = np.swapaxes(dq_left_matrix(_prod(H[..., :i, :])), -1, -2)  # (..., i+1, 8, 8), column convention
+        RB = np.swapaxes(dq_right_matrix(_prod(H[..., i + 1 :, :])), -1, -2)  # (..., n-i, 8, 8)
+        P = LA[..., :, None, :, :] @ RB[..., None, :, :, :]  # (..., i+1, n-i, 8, 8): every LA[a] RB[b]
+        for a in range(i + 1):
+            for b in range(min(n - a, n - i)):  # coefficient k = a + b < n
+                J[..., a + b, :, i, :] -= P[..., a, b, :, :]
     return J.reshape(batch + (8 * n, 8 * n))
 
 
-def _prod(lins, batch):
-    """Product of the linear polynomials lins (..., m, 2, 8), left to right; 1 when m = 0."""
-    out = np.zeros(batch + (1, 8))
+def _prod(hs):
+    """(t - h_1)...(t - h_m) for hs (..., m, 8), ascending coefficients (..., m+1, 8); 1 when m = 0."""
+    if hs.shape[-2]:
+        return product_of_linear(hs)
+    out = np.zeros(hs.shape[:-2] + (1, 8))
     out[..., 0, 0] = 1.0
-    for j in range(lins.shape[-3]):
-        out = poly_mul(out, lins[..., j, :, :])
     return out
