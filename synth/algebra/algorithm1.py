@@ -18,7 +18,7 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dot, dq_inv, dq_left_matrix, dq_mul, dq_right_matrix
+from synth.algebra.dq import dot, dq_inv, dq_left_matrix, dq_mul, dq_right_matrix, row_offsets
 from synth.algebra.polynomial import divide_linear_right, divide_real_quadratic, poly_mul, product_of_linear
 
 GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D_k)|: the remainder is not invertible
@@ -65,10 +65,11 @@ def distinct_orders(mult) -> list[tuple]:
 
 def norm_roots(N, newton: int = 2) -> np.ndarray:
     """One root of each conjugate pair of a real monic polynomial N (..., 2n+1) (ascending) without
-    real roots: shape (..., n), Im z >= 0, sorted by (Re z, Im z). Quartics (n = 2, the Bennett case)
-    start from Ferrari's closed form, other degrees (and quartics where Newton does not settle) from
-    companion-matrix eigenvalues (batched ``numpy.linalg.eigvals``); then ``newton`` Newton steps on N.
-    Real or repeated roots are not detected here (see `root_conditioning`)."""
+    real roots: shape (..., n), Im z >= 0, sorted by Re z + 1e-12 Im z. Quartics (n = 2, the Bennett
+    case) in batches of FERRARI_MIN_BATCH or more start from Ferrari's closed form, everything else (and
+    quartics where Newton does not settle) from companion-matrix eigenvalues (batched
+    ``numpy.linalg.eigvals``); then ``newton`` Newton steps on N. Real or repeated roots are not
+    detected here (see `root_conditioning`)."""
     N = np.asarray(N, float)
     batch, m = N.shape[:-1], N.shape[-1] - 1
     flat = N.reshape(-1, m + 1)
@@ -80,24 +81,40 @@ def norm_roots(N, newton: int = 2) -> np.ndarray:
             z[redo] = _newton(flat[redo], _eig_upper(flat[redo]), newton)[0]
     else:
         z = _newton(flat, _eig_upper(flat), newton)[0]
-    z = np.where(z.imag < 0, z.conj(), z)
-    z = z[np.arange(z.shape[0])[:, None], np.argsort(z.real + 1e-12 * z.imag, axis=-1, kind="stable")]
+    np.abs(z.imag, out=z.imag)  # (z is a fresh array) reflected into Im z >= 0
+    key = z.imag * _TIE
+    key += z.real
+    order = np.argsort(key, axis=-1, kind="stable")
+    z = z.reshape(-1)[order + row_offsets(*z.shape)]
     return z.reshape(batch + (m // 2,))
 
 
+_TIE = np.array(1e-12)  # sort key Re z + 1e-12 Im z: equal real parts (up to rounding) ordered by Im z
+
+
 def _eig_upper(flat):
-    """The m/2 eigenvalues with the largest imaginary parts of the companion matrices of flat (B, m+1)
-    (NaN for a polynomial with a non-finite or zero leading coefficient), reflected into Im z >= 0."""
+    """The m/2 eigenvalues of the companion matrices of flat (B, m+1), reflected into Im z >= 0, one of
+    each conjugate pair, sorted by (Re z, Im z) (NaN for a polynomial with a non-finite or zero leading
+    coefficient). LAPACK returns the eigenvalues of a real matrix with each complex pair exactly
+    conjugate, so after the reflection a pair is two equal values, adjacent after sorting, and every
+    other sorted value takes each pair once (and, with real eigenvalues, m/2 - pairs of them)."""
     B, m = flat.shape[0], flat.shape[-1] - 1
     comp = np.zeros((B, m, m))
     comp[:, 1:, :-1] = identity(m - 1)  # the subdiagonal
     with np.errstate(all="ignore"):
-        last = -flat[:, :m] / flat[:, m:]
-    fin = np.isfinite(last).all(axis=-1)[:, None]
-    comp[:, :, -1] = np.where(fin, last, 0.0)
-    z = np.where(fin, np.linalg.eigvals(comp), np.nan)
-    z = z[np.arange(B)[:, None], np.argsort(-z.imag, axis=-1)[:, : m // 2]]
-    return np.where(z.imag < 0, z.conj(), z)
+        np.divide(flat[:, :m], -flat[:, m:], out=comp[:, :, -1])
+    try:
+        z = np.linalg.eigvals(comp)
+    except np.linalg.LinAlgError:
+        bad = ~np.isfinite(comp[:, :, -1]).all(axis=-1)
+        if not bad.any():
+            raise
+        comp[bad, :, -1] = 0.0
+        z = np.array(np.linalg.eigvals(comp), complex)
+        z[bad] = np.nan
+    z = np.asarray(z, complex)  # (eigvals gives a real array when every eigenvalue is real)
+    np.abs(z.imag, out=z.imag)
+    return np.sort(z, axis=-1)[:, ::2]
 
 
 @functools.lru_cache(maxsize=None)
@@ -110,21 +127,32 @@ def identity(n: int) -> np.ndarray:
 
 def _newton(flat, z, steps):
     """``steps`` Newton steps on the real polynomials flat (B, m+1) at the complex points z (B, r),
-    value and derivative by Horner's scheme (elementwise on (B, r): no per-polynomial matrix products).
+    value and derivative by Horner's scheme (elementwise on (B, r): no per-polynomial matrix products;
+    the coefficients are copied once to complex arrays of z's shape, so no step casts or broadcasts).
+    Where the steps end non-finite (a vanishing derivative), z keeps its start and the step is inf.
     Returns (z, the last step)."""
     m = flat.shape[-1] - 1
-    cols = [flat[:, k : k + 1] for k in range(m + 1)]  # (B, 1) each, broadcast against z
-    step = np.zeros_like(z)
+    cols = np.empty((m + 1,) + z.shape, complex)  # cols[k] (B, r): the coefficient of t^k
+    cols[...] = flat.T[:, :, None]
+    z0 = z = np.array(z, complex)  # (contiguous)
+    step = np.zeros(z.shape, complex)
+    if steps < 1:
+        return z, step
     with np.errstate(all="ignore"):
         for _ in range(steps):
-            val, der = cols[m], cols[m]
-            val = val * z + cols[m - 1]
+            val, der = cols[m] * z, cols[m]
+            val += cols[m - 1]
             for k in range(m - 2, -1, -1):
-                der = der * z + val
-                val = val * z + cols[k]
+                der = der * z
+                der += val
+                val *= z
+                val += cols[k]
             step = val / der
-            step = np.where(np.isfinite(step), step, 0)
             z = z - step
+    fin = np.isfinite(z)
+    if not fin.all():
+        z = np.where(fin, z, z0)
+        step = np.where(fin, step, np.inf)
     return z, step
 
 
@@ -179,13 +207,14 @@ def root_conditioning(z) -> tuple[np.ndarray, np.ndarray]:
     ``min Im z / (1 + |z|^2)`` (a real root: a real factor of the primal part, or a joint whose angle
     jumps) and ``min |z - z'| / (1 + max(|z|, |z'|)^2)`` (a repeated root: equal norm factors)."""
     z = np.asarray(z)
-    w = 1 + np.abs(z) ** 2
-    im = np.min(np.abs(z.imag) / w, axis=-1)
+    w = np.square(np.abs(z))
+    w += 1.0
+    im = (np.abs(z.imag) / w).min(axis=-1)
     n = z.shape[-1]
     if n < 2:
         return im, np.ones(im.shape)
     i, j = index_pairs(n)
-    sep = np.min(np.abs(z[..., i] - z[..., j]) / np.maximum(w[..., i], w[..., j]), axis=-1)
+    sep = (np.abs(z[..., i] - z[..., j]) / np.maximum(w[..., i], w[..., j])).min(axis=-1)
     return im, sep
 
 
@@ -201,7 +230,10 @@ def index_pairs(n: int) -> tuple:
 def quadratics(z) -> np.ndarray:
     """Monic real quadratics (..., n, 2) = [c0, c1] (t^2 + c1 t + c0) with the roots z, z-bar."""
     z = np.asarray(z)
-    return np.stack([np.abs(z) ** 2, -2 * z.real], axis=-1)
+    out = np.empty(z.shape + (2,))
+    np.square(np.abs(z), out=out[..., 0])
+    np.multiply(z.real, -2.0, out=out[..., 1])
+    return out
 
 
 def algorithm1(C, M, *, remainders: bool = False):
@@ -215,27 +247,34 @@ def algorithm1(C, M, *, remainders: bool = False):
     C = np.asarray(C, float)
     M = np.asarray(M, float)
     n = C.shape[-2] - 1
-    batch = np.broadcast_shapes(C.shape[:-2], M.shape[:-2])
-    D = C if C.shape[:-2] == batch else np.broadcast_to(C, batch + C.shape[-2:])
     prim = dot(C[..., :4], C[..., :4]).max(axis=-1)  # (|primal| of the largest coefficient)^2
-    H = np.empty(batch + (n, 8))
-    R = np.empty(batch + (max(n - 1, 0), 8))
-    ok = np.ones(batch, bool)
-    monic = bool(np.all(C[..., n, :] == _ONE))  # then so is every quotient D
+    prim *= GENERIC_TOL**2
+    monic = bool((C[..., n, :] == _ONE).all())  # then so is every quotient D
+    D, ok, hs, rs = C, None, [], []  # D: the quotient so far (broadcast against M by the first division)
     for pos in range(n - 1, 0, -1):
         _, r1, r0 = divide_real_quadratic(D, M[..., pos, :])
-        good = dot(r1[..., :4], r1[..., :4]) > GENERIC_TOL**2 * prim
-        ok &= good
-        r1 = np.where(good[..., None], r1, _ONE)
-        h = -dq_mul(dq_inv(r1), r0)
-        H[..., pos, :] = h
-        D, R[..., pos - 1, :] = divide_linear_right(D, h, monic=monic)
+        good = dot(r1[..., :4], r1[..., :4]) > prim
+        ok = good if ok is None else ok & good
+        if not good.all():
+            r1 = np.where(good[..., None], r1, _ONE)
+        h = dq_mul(dq_inv(r1), r0)
+        np.negative(h, out=h)
+        hs.append(h)
+        D, rem = divide_linear_right(D, h, monic=monic)
+        rs.append(rem)
     # the last remainder D = D1 t + D0 is linear with the leading coefficient of C: h_1 = -D1^{-1} D0
     # (the remainder of D mod M_1, whatever M_1); D1 = 1 exactly when C is monic
-    if monic:
-        H[..., 0, :] = -D[..., 0, :]
-    else:
-        H[..., 0, :] = -dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])
+    h = D[..., 0, :] if monic else dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])
+    batch = np.broadcast_shapes(h.shape[:-1], M.shape[:-2]) if n == 1 else hs[0].shape[:-1]
+    H = np.empty(batch + (n, 8))
+    np.negative(h, out=H[..., 0, :])
+    for pos, h in zip(range(n - 1, 0, -1), hs):
+        H[..., pos, :] = h
+    R = np.empty(batch + (max(n - 1, 0), 8))
+    for pos, rem in zip(range(n - 1, 0, -1), rs):
+        R[..., pos - 1, :] = rem
+    if ok is None:
+        ok = np.ones(batch, bool)
     return (H, ok, R) if remainders else (H, ok)
 
 
@@ -246,12 +285,16 @@ def remainder_error(C, H, R) -> np.ndarray:
     finite. Equals `multiply_back` up to rounding."""
     n = H.shape[-2]
     with np.errstate(all="ignore"):
-        E = np.zeros(np.broadcast_shapes(np.shape(C)[:-2], H.shape[:-2]) + (max(n - 1, 1), 8))  # (t^0..t^{n-2})
+        E = np.zeros(H.shape[:-2] + (1, 8)) if n < 2 else None  # (t^0..t^{n-2}) (broadcast against C below)
         for p in range(1, n):  # (the last remainder is multiplied by the empty product 1)
-            E[..., : n - p, :] += (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
-                                   if p + 1 < n else R[..., p - 1 : p, :])
-        scale = np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
-        r = np.max(np.abs(E), axis=(-2, -1)) / scale
+            term = (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
+                    if p + 1 < n else R[..., p - 1 : p, :])
+            if E is None:  # p = 1: all n - 1 coefficients (a fresh product for n > 2, never written for n = 2)
+                E = term
+            else:
+                E[..., : n - p, :] += term
+        scale = np.maximum(np.abs(C).max(axis=(-2, -1)), 1.0)
+        r = np.abs(E).max(axis=(-2, -1)) / scale
     return np.where(np.isfinite(r), r, np.inf)
 
 
@@ -260,8 +303,8 @@ def multiply_back(C, H) -> np.ndarray:
     max |(t - h_1)...(t - h_n) - C| / max(1, max |C|), inf where not finite."""
     with np.errstate(all="ignore"):
         E = product_of_linear(H) - C
-        scale = np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
-        r = np.max(np.abs(E), axis=(-2, -1)) / scale
+        scale = np.maximum(1.0, np.abs(C).max(axis=(-2, -1)))
+        r = np.abs(E).max(axis=(-2, -1)) / scale
     return np.where(np.isfinite(r), r, np.inf)
 
 
@@ -269,7 +312,7 @@ def study_violation(H) -> np.ndarray:
     """Largest Study-condition violation of the linear factors t - h, h (..., n, 8): the dual scalar
     part and v.w of each h must vanish (relative to max(1, |h|)). Shape (...)."""
     with np.errstate(all="ignore"):
-        s = np.maximum(1.0, np.max(np.abs(H), axis=-1))
+        s = np.maximum(1.0, np.abs(H).max(axis=-1))
         v = (np.abs(H[..., 4]) + np.abs(np.sum(H[..., 1:4] * H[..., 5:8], -1)) / s) / s
         return np.max(v, axis=-1)
 
@@ -292,11 +335,11 @@ def polish(C, H, iterations: int = 3, step_tol: float = 1e-10):
     n = C.shape[-2] - 1
     H = np.array(np.broadcast_to(H, np.broadcast_shapes(C.shape[:-2], np.shape(H)[:-2]) + (n, 8)), float)
     r = (product_of_linear(H) - C)[..., :n, :]
-    rm = np.max(np.abs(r), axis=(-2, -1))
-    tiny = 2e-16 * np.maximum(1.0, np.max(np.abs(C), axis=(-2, -1)))
+    rm = np.abs(r).max(axis=(-2, -1))
+    tiny = 2e-16 * np.maximum(1.0, np.abs(C).max(axis=(-2, -1)))
     with np.errstate(all="ignore"):
         for _ in range(iterations):
-            if not np.any(rm > tiny):
+            if not (rm > tiny).any():
                 break
             J = _jacobian(H)
             try:
@@ -306,13 +349,13 @@ def polish(C, H, iterations: int = 3, step_tol: float = 1e-10):
             D = d.reshape(H.shape)
             Hn = H + np.where(np.isfinite(D), D, 0)
             rn = (product_of_linear(Hn) - C)[..., :n, :]
-            rmn = np.max(np.abs(rn), axis=(-2, -1))
+            rmn = np.abs(rn).max(axis=(-2, -1))
             better = rmn < rm
             H = np.where(better[..., None, None], Hn, H)
             r = np.where(better[..., None, None], rn, r)
             rm = np.where(better, rmn, rm)
-            big = np.max(np.abs(D), axis=(-2, -1)) > step_tol * np.maximum(1.0, np.max(np.abs(H), axis=(-2, -1)))
-            if not np.any(better & big):
+            big = np.abs(D).max(axis=(-2, -1)) > step_tol * np.maximum(1.0, np.abs(H).max(axis=(-2, -1)))
+            if not (better & big).any():
                 break
     return H, rm
 
@@ -323,27 +366,21 @@ def _jacobian(H):
     -A_i(t) dh_i B_i(t) with A_i = prod_{j<i} (t - h_j), B_i = prod_{j>i} (t - h_j)."""
     n = H.shape[-2]
     batch = H.shape[:-2]
-    lin = np.zeros(batch + (n, 2, 8))
-    lin[..., 0, :] = -H
-    lin[..., 1, 0] = 1.0
     J = np.zeros(batch + (n, 8, n, 8))  # (coefficient k, component, factor i, component)
     for i in range(n):
-        A = _prod(lin[..., :i, :, :], batch)  # (..., i+1, 8)
-        B = _prod(lin[..., i + 1 :, :, :], batch)  # (..., n-i, 8)
-        LA = np.swapaxes(dq_left_matrix(A), -1, -2)  # column convention
-        RB = np.swapaxes(dq_right_matrix(B), -1, -2)
-        for a in range(A.shape[-2]):
-            for b in range(B.shape[-2]):
-                k = a + b
-                if k < n:
-                    J[..., k, :, i, :] -= LA[..., a, :, :] @ RB[..., b, :, :]
+        LA = np.swapaxes(dq_left_matrix(_prod(H[..., :i, :])), -1, -2)  # (..., i+1, 8, 8), column convention
+        RB = np.swapaxes(dq_right_matrix(_prod(H[..., i + 1 :, :])), -1, -2)  # (..., n-i, 8, 8)
+        P = LA[..., :, None, :, :] @ RB[..., None, :, :, :]  # (..., i+1, n-i, 8, 8): every LA[a] RB[b]
+        for a in range(i + 1):
+            for b in range(min(n - a, n - i)):  # coefficient k = a + b < n
+                J[..., a + b, :, i, :] -= P[..., a, b, :, :]
     return J.reshape(batch + (8 * n, 8 * n))
 
 
-def _prod(lins, batch):
-    """Product of the linear polynomials lins (..., m, 2, 8), left to right; 1 when m = 0."""
-    out = np.zeros(batch + (1, 8))
+def _prod(hs):
+    """(t - h_1)...(t - h_m) for hs (..., m, 8), ascending coefficients (..., m+1, 8); 1 when m = 0."""
+    if hs.shape[-2]:
+        return product_of_linear(hs)
+    out = np.zeros(hs.shape[:-2] + (1, 8))
     out[..., 0, 0] = 1.0
-    for j in range(lins.shape[-3]):
-        out = poly_mul(out, lins[..., j, :, :])
     return out

@@ -12,11 +12,13 @@ is float only.
 """
 from __future__ import annotations
 
+import functools
 from fractions import Fraction
 
 import numpy as np
 
 _CONJ = np.array([1, -1, -1, -1, 1, -1, -1, -1])
+_CONJ_F = _CONJ.astype(float)
 _FLOAT = np.dtype(np.float64)
 
 
@@ -39,6 +41,15 @@ def zeros(shape, dtype) -> np.ndarray:
     if np.dtype(dtype) == object:
         return np.full(shape, Fraction(0), dtype=object)
     return np.zeros(shape, dtype)
+
+
+@functools.lru_cache(maxsize=16)
+def row_offsets(rows: int, cols: int) -> np.ndarray:
+    """Flat offsets (rows, 1) of the rows of a C-contiguous (rows, cols) array (read-only, cached):
+    ``a.reshape(-1)[idx + offsets]`` gathers ``a[i, idx[i, j]]`` in one indexing operation."""
+    out = (np.arange(rows) * cols)[:, None]
+    out.flags.writeable = False
+    return out
 
 
 def result_dtype(*arrays):
@@ -193,14 +204,16 @@ def matrix_to_quat(R):
     entry K_kk = 4 q_k^2 is 4 q_k q, divided by s = 2 sqrt(K_kk) = 4 |q_k| (and q_k = s / 4)."""
     R = np.asarray(R, float)
     batch = R.shape[:-2]
-    K = R.reshape(-1, 9) @ _SHEPPERD_A + _SHEPPERD_C  # (M, 16)
-    row = np.arange(K.shape[0]) * 4 + K[:, ::5].argmax(axis=1)  # row k of each K, as a row of K (4M, 4)
-    k = row % 4
+    K = R.reshape(-1, 9) @ _SHEPPERD_A
+    K += _SHEPPERD_C  # (M, 16)
+    row = K[:, ::5].argmax(axis=1)
+    row += row_offsets(K.shape[0], 4)[:, 0]  # row 4i + k of K as (4M, 4) = the flat index of q_k in q (M, 4)
     q = K.reshape(-1, 4).take(row, axis=0)  # 4 q_k q
-    s = 2.0 * np.sqrt(K.reshape(-1).take(4 * row + k))  # 4 |q_k|
-    s = np.where(q[:, 0] < 0, -s, s)  # the sign giving w >= 0 (q_0 = K_k0 / s)
+    s = np.sqrt(q.reshape(-1).take(row))  # sqrt(K_kk) (q[i, k] = K_kk)
+    s *= 2.0  # 4 |q_k|
+    np.negative(s, out=s, where=q[:, 0] < 0)  # the sign giving w >= 0 (q_0 = K_k0 / s)
     q /= s[:, None]
-    q.reshape(-1)[4 * np.arange(K.shape[0]) + k] = 0.25 * s
+    q.reshape(-1)[row] = 0.25 * s
     q /= np.sqrt(dot(q, q))[:, None]
     return q.reshape(batch + (4,))
 
@@ -256,8 +269,12 @@ def dq_inv(h):
     h = as_array(h)
     p = h[..., :4]
     a = dot(p, p)[..., None]
-    out = h * _CONJ / a
-    out[..., 4:] -= out[..., :4] * (2 * dot(p, h[..., 4:])[..., None] / a)
+    out = h * (_CONJ_F if h.dtype is _FLOAT else _CONJ)
+    out /= a
+    b = dot(p, h[..., 4:])[..., None]
+    b /= a
+    b += b  # 2 p.q / |p|^2
+    out[..., 4:] -= out[..., :4] * b
     return out
 
 
@@ -318,8 +335,8 @@ def normalize_dq(h):
     """Scale to |p| = 1 and p0 >= 0 (the same pose)."""
     h = np.asarray(h, float)
     n = np.sqrt(dot(h[..., :4], h[..., :4]))[..., None]
-    s = np.where(h[..., :1] < 0, -1.0, 1.0)
-    return h * s / n
+    np.negative(n, out=n, where=h[..., :1] < 0)
+    return h / n
 
 
 # ----------------------------------------------------------------- lines

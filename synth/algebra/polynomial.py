@@ -15,7 +15,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from synth.algebra.dq import as_array, dq_conj, dq_inv, dq_mul, dq_to_pose, result_dtype, zeros
+from synth.algebra.dq import as_array, dot, dq_conj, dq_inv, dq_mul, dq_to_pose, result_dtype, zeros
 
 
 def degree(C) -> int:
@@ -76,9 +76,10 @@ def norm_poly(C):
     is the Study condition; see `study_residual`.)"""
     P = as_array(C)[..., :4]
     n1 = P.shape[-2]
+    G = dot(P[..., :, None, :], P[..., None, :, :])  # G[i, j] = p_i . p_j (one call; `dot` rounds alike at every batch size)
     out = zeros(P.shape[:-2] + (2 * n1 - 1,), P.dtype)
-    for i in range(n1):
-        out[..., i : i + n1] += np.einsum("...d,...jd->...j", P[..., i, :], P)
+    for i in range(n1):  # N_k = sum of G[i, j] over i + j = k
+        out[..., i : i + n1] += G[..., i, :]
     return out
 
 
@@ -129,36 +130,42 @@ def right_value(C, h):
 
 def divide_real_quadratic(C, M):
     """C = Q M + (r1 t + r0) for a real monic quadratic M = t^2 + M[1] t + M[0] (M shape (..., 2) =
-    [c0, c1]). Returns Q (..., n-1, 8), r1, r0 (..., 8). Real M divides left and right alike."""
-    C = as_array(C).copy()
+    [c0, c1]), broadcast. Returns Q (..., n-1, 8), r1, r0 (..., 8). Real M divides left and right alike."""
+    C = as_array(C)
     M = as_array(M)
     n = C.shape[-2] - 1
     c0 = M[..., 0:1]
     c1 = M[..., 1:2]
-    Q = zeros(C.shape[:-2] + (max(n - 1, 1), 8), result_dtype(C, M))
+    rows = [C[..., k, :] for k in range(n + 1)]  # the running remainder, coefficient by coefficient
+    Q = None
     for k in range(n, 1, -1):
-        q = C[..., k, :]
+        q = rows[k]
+        rows[k - 1] = rows[k - 1] - c1 * q
+        rows[k - 2] = rows[k - 2] - c0 * q
+        if Q is None:  # (rows[k - 2] has the broadcast batch of C and M)
+            Q = zeros(rows[k - 2].shape[:-1] + (n - 1, 8), rows[k - 2].dtype)
         Q[..., k - 2, :] = q
-        C[..., k - 1, :] -= c1 * q
-        C[..., k - 2, :] -= c0 * q
-    return Q, C[..., 1, :], C[..., 0, :]
+    if Q is None:  # degree 1: C is its own remainder
+        return zeros(C.shape[:-2] + (1, 8), result_dtype(C, M)), rows[1].copy(), rows[0].copy()
+    return Q, rows[1], rows[0]
 
 
 def divide_linear_right(C, h, *, monic: bool = False):
-    """C = D (t - h) + C(h): returns D (..., n, 8) and the remainder C(h) (..., 8). ``monic``: the caller
-    knows C's leading coefficient is exactly 1, whose product with h is h (one product fewer)."""
+    """C = D (t - h) + C(h): returns D (..., n, 8) and the remainder C(h) (..., 8), broadcast. ``monic``:
+    the caller knows C's leading coefficient is exactly 1, whose product with h is h (one product fewer)."""
     C = as_array(C)
     h = as_array(h)
     n = C.shape[-2] - 1
-    D = zeros(np.broadcast_shapes(C.shape[:-2], h.shape[:-1]) + (n, 8), result_dtype(C, h))
-    d = C[..., n, :] * np.ones(h.shape, int)
-    D[..., n - 1, :] = d
-    dh = h if monic else dq_mul(d, h)
+    ds = [C[..., n, :]]  # the coefficients of D, from the top
+    dh = h if monic else dq_mul(ds[0], h)
     for k in range(n - 1, 0, -1):
-        d = C[..., k, :] + dh
-        D[..., k - 1, :] = d
-        dh = dq_mul(d, h)
-    return D, C[..., 0, :] + dh
+        ds.append(C[..., k, :] + dh)
+        dh = dq_mul(ds[-1], h)
+    rem = C[..., 0, :] + dh  # (the broadcast batch of C and h)
+    D = zeros(rem.shape[:-1] + (n, 8), rem.dtype)
+    for k, d in enumerate(reversed(ds)):
+        D[..., k, :] = d
+    return D, rem
 
 
 def divide_right(C, D):

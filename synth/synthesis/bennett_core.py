@@ -95,12 +95,13 @@ def _factors(T) -> dict:
     Algorithm 1 for both orders (polished where needed), the factors and C in the world frame, and
     ``good``: the gates that need no self-check."""
     N = T.shape[0]
-    finite = np.all(np.isfinite(T), axis=(1, 2, 3))
+    finite = np.isfinite(T).all(axis=(1, 2, 3))
     with np.errstate(all="ignore"):
         Tf = T if finite.all() else np.where(finite[:, None, None, None], T, _EYE4)
         cond = conditioning(Tf)
         Q = pose_to_dq(Tf)  # world frame (checks)
-        # the conditioned poses (conic): translated by -centre, lengths divided by the scale
+        # the conditioned poses (conic): translated by -centre, lengths divided by the scale (from Q, not from
+        # the positions: the conic then passes through the poses as the checks see them)
         Qc = translated(Q, -cond.centre[:, None])
         Qc[..., 4:] /= cond.scale[:, None, None]
         con = conic(relative_displacements_dq(Qc))
@@ -111,11 +112,12 @@ def _factors(T) -> dict:
         residual = remainder_error(C[:, None], H, R).max(axis=1)  # the multiply-back error, up to rounding
         # Algorithm 1 loses digits when roots are close or nearly real: Newton on the product equations
         # (`polish`) restores them here rather than sending the set to the per-set path
-        redo = np.flatnonzero((residual > POLISH_ABOVE) & ok.all(axis=1) & finite)
+        ok = ok.all(axis=1) & finite
+        redo = np.flatnonzero((residual > POLISH_ABOVE) & ok)
         if redo.size:
             H[redo] = polish(C[redo, None], H[redo])[0]
             residual[redo] = multiply_back(C[redo, None], H[redo]).max(axis=1)
-        good = (finite & ok.all(axis=1) & (np.abs(B).min(axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
+        good = (ok & (np.abs(B).min(axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
                 & (residual <= MAX_RESIDUAL) & ~is_translation(H).any(axis=(1, 2)))
         world = to_world(np.concatenate([H.reshape(N, 4, 8), C], axis=1), cond)
     return dict(finite=finite, Tf=Tf, Q=Q, centre=cond.centre, scale=cond.scale, B=B, roots=z, residual=residual,

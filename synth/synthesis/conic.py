@@ -16,6 +16,7 @@ from synth.algebra.dq import dot, dq_mul, normalize_dq, pose_to_dq, study_form
 from synth.errors import SynthesisError
 
 _ONE = np.eye(8)[0]
+_CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
 
 
 @dataclass
@@ -71,7 +72,7 @@ def relative_displacements(T):
 
 def relative_displacements_dq(H):
     """`relative_displacements` of poses given as unit dual quaternions H (..., k, 8) (D_0 = 1 exactly)."""
-    H0inv = H[..., :1, :] * np.array([1.0, -1, -1, -1, 1, -1, -1, -1])  # unit: inverse = conjugate
+    H0inv = H[..., :1, :] * _CONJ  # unit: inverse = conjugate
     D = np.empty(H.shape)
     D[..., 0, :] = _ONE
     D[..., 1:, :] = normalize_dq(dq_mul(H[..., 1:, :], H0inv))
@@ -94,14 +95,14 @@ def conic(D, tol=1e-9) -> ConicData:
     for a single input whose Study-form values vanish (pure rotations or translations between poses)."""
     D = np.asarray(D, float)
     D1, D2 = D[..., 1, :], D[..., 2, :]
-    B01 = D1[..., 4] / 2
-    B02 = D2[..., 4] / 2
-    B12 = study_form(D1, D2)
+    B = np.empty(D.shape[:-2] + (3,))  # B01, B02, B12
+    B[..., :2] = D[..., 1:, 4]
+    B[..., :2] /= 2
+    B[..., 2] = study_form(D1, D2)
     if D.ndim == 2:
-        check_conic_degeneracy(D, B01, B02, B12, tol)
-    lam1, lam2 = B02 / B12, B01 / B12  # C(0) = lam1 D_1, C(1) = lam2 D_2 (docs/conic.md, section 2)
-    C = conic_member(D, np.stack(np.broadcast_arrays(lam1, lam2), -1))
-    return ConicData(C=C, ts=np.array([np.inf, 0.0, 1.0]), B=np.stack([B01, B02, B12], -1))
+        check_conic_degeneracy(D, *B, tol)
+    lam = B[..., 1::-1] / B[..., 2:]  # B02 / B12, B01 / B12: C(0) = lam1 D_1, C(1) = lam2 D_2 (docs/conic.md, section 2)
+    return ConicData(C=conic_member(D, lam), ts=np.array([np.inf, 0.0, 1.0]), B=B)
 
 
 def conic_member(D, lam) -> np.ndarray:
@@ -113,11 +114,12 @@ def conic_member(D, lam) -> np.ndarray:
     lam = np.asarray(lam, float)
     l1, l2 = lam[..., 0, None], lam[..., 1, None]
     D1, D2 = D[..., 1, :], D[..., 2, :]
-    C = np.zeros(np.broadcast_shapes(D.shape[:-2], lam.shape[:-1]) + (3, 8))
+    batch = D.shape[:-2] if D.shape[:-2] == lam.shape[:-1] else np.broadcast_shapes(D.shape[:-2], lam.shape[:-1])
+    C = np.zeros(batch + (3, 8))
     C[..., 2, 0] = 1.0
-    C[..., 1, :] = -l1 * D1 + l2 * D2
+    np.multiply(l1, D1, out=C[..., 0, :])
+    np.subtract(l2 * D2, C[..., 0, :], out=C[..., 1, :])
     C[..., 1, 0] -= 1.0
-    C[..., 0, :] = l1 * D1
     return C
 
 
