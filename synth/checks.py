@@ -61,10 +61,9 @@ def _pose_difference(X):
     d = qmul(P, X[..., 4:] * _CONJ4)[..., 1:] * (2.0 / n)[..., None]
     d = d[0] - d[1]
     dt = np.sqrt(dot(d, d))
-    u = P * (1.0 / np.sqrt(n))[..., None]
-    s = np.where(dot(u[0], u[1]) < 0, -1.0, 1.0)
-    w = u[0] - s[..., None] * u[1]
-    dr = 4.0 * np.arcsin(np.minimum(0.5 * np.sqrt(dot(w, w)), 1.0))
+    u = P / np.sqrt(n)[..., None]
+    w = u[0] - np.copysign(1.0, dot(u[0], u[1]))[..., None] * u[1]  # |w| <= sqrt(2)
+    dr = 4.0 * np.arcsin(0.5 * np.sqrt(dot(w, w)))
     return dt, dr
 
 

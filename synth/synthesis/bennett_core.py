@@ -149,7 +149,8 @@ def _solve(T, check_samples: int, fac=None) -> dict:
         # certified: closure and motion over the whole motion, the poses at their angles through the motion
         bound = loop_bound(U, M, a, b, BRANCHES, motion)
         errors = pose_bound(motion, TS[1:], Q[:, 1:3], Q[:, 0], bound)  # (pose 0: t = inf)
-        errors.update((k, bound[k]) for k in ("closure_translation", "closure_rotation", "motion"))
+        errors["closure_translation"], errors["closure_rotation"], errors["motion"] = (
+            bound["closure_translation"], bound["closure_rotation"], bound["motion"])
         if check_samples > 0:
             sampled = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
             errors = {k: np.maximum(v, sampled[k]) for k, v in errors.items()}
@@ -185,11 +186,13 @@ def loop_geometry(U, M) -> dict:
     normal from i to i+1) (N, J), the feet ``foot_out`` (on i) and ``foot_in`` (on i+1), both as ``feet``
     (N, J, 2, 3), and the unit ``normal`` (N, J, 3), ``parallel`` (N, J). Parallel axes: the foot on i is
     its point nearest the origin."""
-    pair = _pair_index(U.shape[-2])  # (J, 2): i, i+1
+    J = U.shape[-2]
+    pair = _pair_index(J)  # (J, 2): i, i+1
     UU = U.take(pair, axis=-2)  # (N, J, 2, 3): u_i, u_{i+1}
-    PP = cross3(U, M).take(pair, axis=-2)  # the axis points nearest the origin, p_i, p_{i+1}
     u1, u2 = UU[..., 0, :], UU[..., 1, :]
-    cr = cross3(u1, u2)
+    # u_i x m_i (the axis point p_i nearest the origin) and cr = u_i x u_{i+1}, one product
+    X = cross3(u1[..., None, :], np.concatenate([M, U], axis=-2).take(_moment_next_index(J), axis=-2))
+    PP, cr = X[..., 0, :].take(pair, axis=-2), X[..., 1, :]  # p_i, p_{i+1}
     s2 = dot(cr, cr)
     par = s2 < 1e-24
     some_parallel = bool(par.any())
@@ -218,6 +221,14 @@ def loop_geometry(U, M) -> dict:
 def _cyclic_index(J: int, step: int) -> np.ndarray:
     """(i + step) mod J for i < J (read-only, cached)."""
     out = (np.arange(J) + step) % J
+    out.flags.writeable = False
+    return out
+
+
+@functools.lru_cache(maxsize=None)
+def _moment_next_index(J: int) -> np.ndarray:
+    """Rows (m_i, u_{i+1}) of the J moments stacked on the J directions, (J, 2) (read-only, cached)."""
+    out = np.stack([np.arange(J), J + _cyclic_index(J, 1)], axis=-1)
     out.flags.writeable = False
     return out
 
