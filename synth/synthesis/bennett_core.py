@@ -183,7 +183,7 @@ def relative_error(T, spread, far, errors) -> np.ndarray:
 def loop_geometry(U, M) -> dict:
     """Geometry of consecutive axes around closed loops, lines U, M (N, J, 3) in loop order: for the pair
     (i, i+1 mod J) ``distance`` and signed ``twist`` (the angle from u_i to u_{i+1} about the common
-    normal from i to i+1) (N, J), the feet ``foot_out`` (on i) and ``foot_in`` (on i+1), both as ``feet``
+    normal from i to i+1) (N, J), both as ``distance_twist`` (2, N, J), the feet ``foot_out`` (on i) and ``foot_in`` (on i+1), both as ``feet``
     (N, J, 2, 3), and the unit ``normal`` (N, J, 3), ``parallel`` (N, J). Parallel axes: the foot on i is
     its point nearest the origin."""
     J = U.shape[-2]
@@ -204,7 +204,8 @@ def loop_geometry(U, M) -> dict:
         across = np.stack([PP[..., 0, :], PP[..., 1, :] - dot(d, u2)[..., None] * u2], axis=-2)
         feet = np.where(par[..., None, None], across, feet)
     dv = feet[..., 1, :] - feet[..., 0, :]
-    dist = np.sqrt(dot(dv, dv))
+    dt = np.empty((2,) + s2.shape)  # distance, twist
+    dist = np.sqrt(dot(dv, dv), out=dt[0])
     apart = dist > 1e-12
     if apart.all():
         n = dv / dist[..., None]
@@ -212,9 +213,9 @@ def loop_geometry(U, M) -> dict:
         nc = np.sqrt(s2)[..., None]
         n = np.where(apart[..., None], dv / np.where(apart, dist, 1.0)[..., None],
                      np.where(nc > 1e-12, cr / np.where(nc > 1e-12, nc, 1.0), 0.0))
-    twist = np.arctan2(dot(cr, n), dot(u1, u2))
-    return {"distance": dist, "twist": twist, "foot_out": feet[..., 0, :], "foot_in": feet[..., 1, :], "feet": feet,
-            "normal": n, "parallel": par}
+    twist = np.arctan2(dot(cr, n), dot(u1, u2), out=dt[1])
+    return {"distance": dist, "twist": twist, "distance_twist": dt, "foot_out": feet[..., 0, :], "foot_in": feet[..., 1, :],
+            "feet": feet, "normal": n, "parallel": par}
 
 
 @functools.lru_cache(maxsize=None)
@@ -267,13 +268,12 @@ def bennett_parameters(geo) -> dict:
         r = np.where(s > 1e-15, dist[:, :2] / s, np.inf)  # a / sin(alpha), b / sin(beta), >= 0
         r0, r1 = r[:, 0], r[:, 1]
         res = np.abs(r0 - r1) / np.maximum(np.maximum(r0, r1), 1e-300)  # NaN when either is inf
-        opposite = np.abs(dist[:, :2] - dist[:, 2:])
-        opposite = np.maximum(opposite[:, 0], opposite[:, 1]) / np.maximum(np.maximum(dist[:, 0], dist[:, 1]), 1e-300)
-        tw = np.abs(twist)
-        opposite_twist = np.abs(tw[:, :2] - tw[:, 2:])
+        dt = np.abs(geo["distance_twist"])  # (2, N, 4): distances and |twists|
+        mismatch = np.abs(dt[..., :2] - dt[..., 2:])
+        mismatch = np.maximum(mismatch[..., 0], mismatch[..., 1])  # (2, N): lengths, twists
     return {"a": dist[:, 0], "alpha": twist[:, 0], "b": dist[:, 1], "beta": twist[:, 1],
-            "opposite_length_mismatch": opposite,
-            "opposite_twist_mismatch": np.maximum(opposite_twist[:, 0], opposite_twist[:, 1]),
+            "opposite_length_mismatch": mismatch[0] / np.maximum(np.maximum(dist[:, 0], dist[:, 1]), 1e-300),
+            "opposite_twist_mismatch": mismatch[1],
             "a_over_sin_alpha": r0, "b_over_sin_beta": r1, "bennett_condition_residual": res}
 
 
