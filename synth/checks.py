@@ -183,20 +183,22 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
     E = np.empty(P.shape)  # P_h - P_k, P_h - C
     np.subtract(P[:, 0], P[:, 1], out=E[:, 0])
     np.subtract(P[:, 0], motion, out=E[:, 1])
-    z = (a + 1j * b).take(h, axis=1)  # (N, n)
+    bh = b.take(h, axis=1)
+    z = np.empty(bh.shape, complex)  # (N, n)
+    z.real, z.imag = a.take(h, axis=1), bh
     with np.errstate(all="ignore"):
         # |E(z_j)| <= sum_c |E_c| |z_j|^c (primal and dual part), divided by b_j prod_{m != j} |z_j - z_m|:
         # sum_j |rho_j| / b_j <= sum_c W_c |E_c|, W_c = sum_j |z_j|^c / (b_j prod_{m != j} |z_j - z_m|)
         En = E.reshape(N, 2, n + 1, 2, 4)
         En = np.sqrt(dot(En, En))  # |E_c| (N, 2, n+1, primal / dual)
-        gaps = np.abs((z[:, :, None] - z[:, None, :] + identity(n)).prod(axis=-1)) * z.imag  # (N, n)
+        gaps = np.abs((z[:, :, None] - z[:, None, :] + identity(n)).prod(axis=-1)) * bh  # (N, n)
         W = np.matmul((1.0 / gaps)[:, None, :], np.abs(z)[..., None] ** _powers(n))  # (N, 1, n+1)
         W[..., n] += 1.0  # |E_n|
         e = np.matmul(W[:, None], En)[:, :, 0]  # (N, 2, primal / dual): |E_n| + sum_j |rho_j| / b_j
         # with 16 ulps for the rounding of a forward-kinematics evaluation, so that the bound also covers
         # sampled figures (`check_figures`); Q bounds the dual part of branch h's unit dual quaternion
         Mh = M.take(h, axis=1)
-        Q = np.sqrt(dot(Mh, Mh)).sum(axis=-1)[:, None]
+        Q = np.sqrt(dot(Mh, Mh)).sum(axis=-1, keepdims=True)
         ep = e[..., 0] + _ULPS16
         ed = e[..., 1] + _ULPS16 * np.maximum(Q, 1.0)
         # poses of a unit X and of Y = X - D, |D| <= (ep, ed): rotation <= 4 asin(ep), translation
