@@ -30,7 +30,7 @@ from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
 from synth.algebra.dq import dot, pose_to_dq, translated
-from synth.synthesis.conic import Conditioning, conditioning, conic, relative_displacements_dq, to_world
+from synth.synthesis.conic import conditioning, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
 BRANCHES = np.array([[0, 1], [2, 3]])  # h1 h2 | k1 k2, base to coupler
@@ -129,7 +129,8 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     factors, motion, Q, centre, scale = fac["factors"], fac["motion"], fac["Q"], fac["centre"], fac["scale"]
     with np.errstate(all="ignore"):
         # the lines (N, 4, 2, 3) (direction u, moment m) and angle laws (N, 4, 2) (a, b) of the factors
-        # a + v + eps (q0 + w): b = |v|, u = -v / b, m = w / b
+        # a + v + eps (q0 + w): b = |v|, u = -v / b, m = w / b (divided by -b and b: the same floats as the
+        # joints of `synth.synthesis.assemble.two_branch_linkage`, which the bounds below certify)
         laws = np.empty((N, 4, 2))
         laws[..., 0] = factors[..., 0]
         vw = factors.reshape(N, 4, 2, 4)[..., 1:]
@@ -183,9 +184,9 @@ def relative_error(T, spread, far, errors) -> np.ndarray:
 def loop_geometry(U, M) -> dict:
     """Geometry of consecutive axes around closed loops, lines U, M (N, J, 3) in loop order: for the pair
     (i, i+1 mod J) ``distance`` and signed ``twist`` (the angle from u_i to u_{i+1} about the common
-    normal from i to i+1) (N, J), both as ``distance_twist`` (2, N, J), the feet ``foot_out`` (on i) and ``foot_in`` (on i+1), both as ``feet``
-    (N, J, 2, 3), and the unit ``normal`` (N, J, 3), ``parallel`` (N, J). Parallel axes: the foot on i is
-    its point nearest the origin."""
+    normal from i to i+1) (N, J), both as ``distance_twist`` (2, N, J), the feet ``foot_out`` (on i) and
+    ``foot_in`` (on i+1), both as ``feet`` (N, J, 2, 3), the unit ``normal`` (N, J, 3) and ``parallel``
+    (N, J). Parallel axes: the foot on i is its point nearest the origin."""
     J = U.shape[-2]
     pair = _pair_index(J)  # (J, 2): i, i+1
     UU = U.take(pair, axis=-2)  # (N, J, 2, 3): u_i, u_{i+1}
@@ -198,7 +199,8 @@ def loop_geometry(U, M) -> dict:
     some_parallel = bool(par.any())
     d = PP[..., 1, :] - PP[..., 0, :]
     # feet of the common normal: p_i + k1 u_i, p_{i+1} + k2 u_{i+1} with k = ((d x u2) . cr, (d x u1) . cr) / |cr|^2
-    k = dot(cross3(d[..., None, :], UU), cr[..., None, :]) / (np.where(par, 1.0, s2) if some_parallel else s2)[..., None]
+    k = dot(cross3(d[..., None, :], UU), cr[..., None, :]) / (
+        np.where(par, 1.0, s2) if some_parallel else s2)[..., None]
     feet = PP + k[..., ::-1, None] * UU
     if some_parallel:  # parallel axes: from the point of i nearest the origin, straight across
         across = np.stack([PP[..., 0, :], PP[..., 1, :] - dot(d, u2)[..., None] * u2], axis=-2)
@@ -214,8 +216,8 @@ def loop_geometry(U, M) -> dict:
         n = np.where(apart[..., None], dv / np.where(apart, dist, 1.0)[..., None],
                      np.where(nc > 1e-12, cr / np.where(nc > 1e-12, nc, 1.0), 0.0))
     twist = np.arctan2(dot(cr, n), dot(u1, u2), out=dt[1])
-    return {"distance": dist, "twist": twist, "distance_twist": dt, "foot_out": feet[..., 0, :], "foot_in": feet[..., 1, :],
-            "feet": feet, "normal": n, "parallel": par}
+    return {"distance": dist, "twist": twist, "distance_twist": dt, "foot_out": feet[..., 0, :],
+            "foot_in": feet[..., 1, :], "feet": feet, "normal": n, "parallel": par}
 
 
 @functools.lru_cache(maxsize=None)
@@ -289,4 +291,4 @@ def dh_rows(U, geo) -> dict:
     return {"a": geo["distance"], "alpha": geo["twist"], "d": d, "theta": theta}
 
 
-_SITES = _sites_map(4, 3)
+_SITES = _sites_map(4, 3)  # the Bennett loop's length-scale map (`_solve`)
