@@ -129,8 +129,8 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     factors, motion, Q, centre, scale = fac["factors"], fac["motion"], fac["Q"], fac["centre"], fac["scale"]
     with np.errstate(all="ignore"):
         # the lines (N, 4, 2, 3) (direction u, moment m) and angle laws (N, 4, 2) (a, b) of the factors
-        # a + v + eps (q0 + w): b = |v|, u = -v / b, m = w / b (divided by -b and b: the same floats as the
-        # joints of `synth.synthesis.assemble.two_branch_linkage`, which the bounds below certify)
+        # a + v + eps (q0 + w): b = |v|, u = -v / b, m = w / b (as `synth.synthesis.assemble`'s joints, to
+        # within an ulp of b: the 16-ulp allowance of `synth.checks.loop_bound`)
         laws = np.empty((N, 4, 2))
         laws[..., 0] = factors[..., 0]
         vw = factors.reshape(N, 4, 2, 4)[..., 1:]
