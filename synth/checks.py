@@ -21,6 +21,7 @@ from synth.linkage import Linkage
 _CONJ4 = np.array([1.0, -1.0, -1.0, -1.0])
 _E0 = np.eye(8)[0]
 _EPS = float(np.finfo(float).eps)
+_ULPS16 = 16 * _EPS  # the rounding allowance of `loop_bound`
 DEFAULT_CHECK_SAMPLES = 4  # synthesis functions check closure and motion at this many parameters
 BOUND_CHECK_SAMPLES = 0  # Bennett: closure and motion bounded over the whole motion (`loop_bound`), no samples
 VERIFY_SAMPLES = 200  # the CLI verifies this many before writing anything
@@ -60,10 +61,9 @@ def _pose_difference(X):
     d = qmul(P, X[..., 4:] * _CONJ4)[..., 1:] * (2.0 / n)[..., None]
     d = d[0] - d[1]
     dt = np.sqrt(dot(d, d))
-    u = P * (1.0 / np.sqrt(n))[..., None]
-    s = np.where(dot(u[0], u[1]) < 0, -1.0, 1.0)
-    w = u[0] - s[..., None] * u[1]
-    dr = 4.0 * np.arcsin(np.minimum(0.5 * np.sqrt(dot(w, w)), 1.0))
+    u = P / np.sqrt(n)[..., None]
+    w = u[0] - np.copysign(1.0, dot(u[0], u[1]))[..., None] * u[1]  # |w| <= sqrt(2)
+    dr = 4.0 * np.arcsin(0.5 * np.sqrt(dot(w, w)))
     return dt, dr
 
 
@@ -171,36 +171,51 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
     allowance of 16 ulps for rounding."""
     hk = np.asarray(branches)  # (2, n)
     h = hk[0]
-    n = len(h)
-    N = len(a)
-    F = np.zeros(a.shape + (8,))
+    n = h.shape[0]
+    N = a.shape[0]
+    F = np.empty(a.shape + (8,))
     F[..., 0] = a
-    F[..., 1:4] = U * -b[..., None]
-    F[..., 5:8] = M * b[..., None]
-    P = product_of_linear(F[:, hk])  # (N, 2, n+1, 8): P_h, P_k
-    E = P[:, :1] - np.stack([P[:, 1], motion], axis=1)  # (N, 2, n+1, 8): P_h - P_k, P_h - C
-    z = a[:, h] + 1j * b[:, h]  # (N, n)
+    F[..., 4] = 0.0
+    bb = b[..., None]
+    np.multiply(U, -bb, out=F[..., 1:4])
+    np.multiply(M, bb, out=F[..., 5:8])
+    P = product_of_linear(F.take(hk, axis=1))  # (N, 2, n+1, 8): P_h, P_k
+    E = np.empty(P.shape)  # P_h - P_k, P_h - C
+    np.subtract(P[:, 0], P[:, 1], out=E[:, 0])
+    np.subtract(P[:, 0], motion, out=E[:, 1])
+    bh = b.take(h, axis=1)
+    z = np.empty(bh.shape, complex)  # (N, n)
+    z.real, z.imag = a.take(h, axis=1), bh
     with np.errstate(all="ignore"):
-        # |E(z_j)| <= sum_c |E_c| |z_j|^c (primal and dual part), divided by b_j prod_{m != j} |z_j - z_m|
+        # |E(z_j)| <= sum_c |E_c| |z_j|^c (primal and dual part), divided by b_j prod_{m != j} |z_j - z_m|:
+        # sum_j |rho_j| / b_j <= sum_c W_c |E_c|, W_c = sum_j |z_j|^c / (b_j prod_{m != j} |z_j - z_m|)
         En = E.reshape(N, 2, n + 1, 2, 4)
         En = np.sqrt(dot(En, En))  # |E_c| (N, 2, n+1, primal / dual)
-        gaps = np.abs((z[:, :, None] - z[:, None, :] + identity(n)).prod(axis=-1)) * b[:, h]  # (N, n)
-        w = np.abs(z)[..., None] ** np.arange(n + 1) / gaps[..., None]  # (N, n, n+1)
-        rho = np.matmul(w.sum(axis=1)[:, None, None, :], En)[:, :, 0]  # (N, 2, primal / dual): sum_j |rho_j| / b_j
+        gaps = np.abs((z[:, :, None] - z[:, None, :] + identity(n)).prod(axis=-1)) * bh  # (N, n)
+        W = np.matmul((1.0 / gaps)[:, None, :], np.abs(z)[..., None] ** _powers(n))  # (N, 1, n+1)
+        W[..., n] += 1.0  # |E_n|
+        e = np.matmul(W[:, None], En)[:, :, 0]  # (N, 2, primal / dual): |E_n| + sum_j |rho_j| / b_j
         # with 16 ulps for the rounding of a forward-kinematics evaluation, so that the bound also covers
         # sampled figures (`check_figures`); Q bounds the dual part of branch h's unit dual quaternion
-        Q = np.sqrt(dot(M[:, h], M[:, h])).sum(axis=-1)[:, None]
-        ep, ed = np.moveaxis(En[:, :, n] + rho, -1, 0)  # (N, 2) each
-        ep = ep + 16 * _EPS
-        ed = ed + 16 * _EPS * np.maximum(Q, 1.0)
+        Mh = M.take(h, axis=1)
+        Q = np.sqrt(dot(Mh, Mh)).sum(axis=-1, keepdims=True)
+        ep = e[..., 0] + _ULPS16
+        ed = e[..., 1] + _ULPS16 * np.maximum(Q, 1.0)
         # poses of a unit X and of Y = X - D, |D| <= (ep, ed): rotation <= 4 asin(ep), translation
-        # <= 2 ((ed + Q ep + ed ep) s + Q (s - 1)) with s = 1 / (1 - ep)^2 >= 1 / |primal Y|^2
-        s = 1.0 / (1.0 - ep) ** 2
+        # <= 2 s (ed (1 + ep) + Q ep (3 - ep)) with s = 1 / (1 - ep)^2 >= 1 / |primal Y|^2
         near = ep < 0.5  # (NaN: False)
-        rot = np.where(near, 4.0 * np.arcsin(np.minimum(ep, 1.0)), np.inf)
-        tra = np.where(near, 2.0 * ((ed + Q * ep + ed * ep) * s + Q * (s - 1.0)), np.inf)
+        rot = np.where(near, 4.0 * np.arcsin(ep), np.inf)
+        tra = np.where(near, (2.0 / (1.0 - ep) ** 2) * (ed * (1.0 + ep) + Q * ep * (3.0 - ep)), np.inf)
     return {"closure_translation": tra[:, 0], "closure_rotation": rot[:, 0], "motion": tra[:, 1] + rot[:, 1],
             "motion_translation": tra[:, 1], "motion_rotation": rot[:, 1]}
+
+
+@functools.lru_cache(maxsize=8)
+def _powers(n: int) -> np.ndarray:
+    """The exponents 0 .. n as floats (read-only, cached)."""
+    out = np.arange(n + 1.0)
+    out.flags.writeable = False
+    return out
 
 
 def pose_bound(motion, ts, pose_dq, ref_dq, bound) -> dict:

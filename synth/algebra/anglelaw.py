@@ -16,9 +16,8 @@ def half_angle(a, b, t, rate=1) -> np.ndarray:
     """``rate * atan2(b, t - a)``, half the joint angle, not reduced (in [0, rate pi] for b > 0), 0 at
     t = +-inf: what a unit dual quaternion ``cos + sin (u - eps m)`` of the joint needs."""
     t = np.asarray(t, float)
-    inf = np.isinf(t)
-    h = np.arctan2(b, np.where(inf, 1.0, t) - a)
-    return np.where(inf, 0.0, h if isinstance(rate, int) and rate == 1 else np.multiply(rate, h))
+    h = np.where(t == -np.inf, 0.0, np.arctan2(b, t - a))  # atan2(b, +inf) = 0 for finite b
+    return h if isinstance(rate, int) and rate == 1 else np.multiply(rate, h)
 
 
 def angle_law(a, b, t, rate=1) -> np.ndarray:

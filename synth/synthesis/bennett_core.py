@@ -30,11 +30,11 @@ from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
 from synth.algebra.dq import dot, pose_to_dq, translated
-from synth.synthesis.conic import Conditioning, conditioning, conic, relative_displacements_dq, to_world
+from synth.synthesis.conic import conditioning, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
-BRANCHES = ((0, 1), (2, 3))  # h1 h2 | k1 k2, base to coupler
-LOOP = (0, 1, 3, 2)  # h1 -> h2 -> k2 -> k1 -> h1
+BRANCHES = np.array([[0, 1], [2, 3]])  # h1 h2 | k1 k2, base to coupler
+LOOP = np.array([0, 1, 3, 2])  # h1 -> h2 -> k2 -> k1 -> h1
 TS = np.array([np.inf, 0.0, 1.0])
 STRUCTURE = ((("base", "link_h1"), ("link_h1", "coupler"), ("base", "link_k1"), ("link_k1", "coupler_k")),
              "coupler", (("coupler", "coupler_k"),))
@@ -49,8 +49,9 @@ CHUNK = 2048  # sets per chunk of `solve` (N = 10,000: chunks of 1,000-2,000 set
 MAX_RESIDUAL = 5e-13  # multiply-back error above this after polishing: per-set path
 POLISH_ABOVE = 3e-14  # multiply-back error above this: polished (the world-frame bounds of `loop_bound` grow with it)
 _ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
-_PREV = [3, 0, 1, 2]  # the previous joint around the loop
 _EYE4 = np.eye(4)
+_LINE_SIGNS = np.array([[-1.0], [1.0]])  # u = -v / b, m = w / b
+_FLOOR = FLOOR_ULPS * EPS / ACCEPT_TOL
 
 
 def solve(T, check_samples: int, extra=None) -> dict:
@@ -127,38 +128,42 @@ def _factors(T) -> dict:
 def _solve(T, check_samples: int, fac=None) -> dict:
     fac = _factors(T) if fac is None else fac
     N = T.shape[0]
-    finite, Tf, Q, B, residual = (fac[k] for k in ("finite", "Tf", "Q", "B", "residual"))
-    cond = Conditioning(centre=fac["centre"], scale=fac["scale"])
-    good = fac["good"].copy()
-    factors, motion = fac["factors"], fac["motion"]  # h1 h2 k1 k2; C (world frame)
+    factors, motion, Q, centre, scale = fac["factors"], fac["motion"], fac["Q"], fac["centre"], fac["scale"]
     with np.errstate(all="ignore"):
-        a, b = factors[..., 0], np.sqrt(dot(factors[..., 1:4], factors[..., 1:4]))
-        U, M = -factors[..., 1:4] / b[..., None], factors[..., 5:8] / b[..., None]
+        # the lines (N, 4, 2, 3) (direction u, moment m) and angle laws (N, 4, 2) (a, b) of the factors
+        # a + v + eps (q0 + w): b = |v|, u = -v / b, m = w / b (as `synth.synthesis.assemble`'s joints, to
+        # within an ulp of b: the 16-ulp allowance of `synth.checks.loop_bound`)
+        laws = np.empty((N, 4, 2))
+        laws[..., 0] = factors[..., 0]
+        vw = factors.reshape(N, 4, 2, 4)[..., 1:]
+        np.sqrt(dot(vw[..., 0, :], vw[..., 0, :]), out=laws[..., 1])
+        a, b = laws[..., 0], laws[..., 1]
+        lines = vw / (_LINE_SIGNS * b[..., None, None])
+        U, M = lines[..., 0, :], lines[..., 1, :]
         pose_angles = angle_law(a[:, None, :], b[:, None, :], TS[:, None])  # (N, 3, 4); 0 at t = inf
-        geo = loop_geometry(U[:, LOOP], M[:, LOOP])
-        good &= ~geo["parallel"].any(axis=1)
-        # the linkage's length scale (`synth.checks.extent`): the joint sites are the means of the feet of
-        # the common normals around the loop (each link carries two joints of the loop)
-        sites = 0.5 * (geo["foot_out"] + geo["foot_in"][:, _PREV])
-        pts = np.concatenate([Tf[:, :, :3, 3], sites, Tf[:, :1, :3, 3]], axis=1)
-        rel = pts - pts.sum(axis=1, keepdims=True) / pts.shape[1]
-        length_scale = np.maximum(np.sqrt(dot(rel, rel).sum(axis=-1) / pts.shape[1]), 1e-9)
+        loop = lines.take(LOOP, axis=1)
+        geo = loop_geometry(loop[..., 0, :], loop[..., 1, :])
+        # the linkage's length scale (`synth.checks.extent`): the RMS distance from their centroid of the
+        # tool positions (pose 0 twice: the reference) and the joint sites, the means of the feet of the
+        # common normals around the loop (each link carries two joints of the loop), one linear map
+        pts = np.concatenate([fac["Tf"][:, :, :3, 3], geo["feet"].reshape(N, 8, 3)], axis=1)
+        rel = np.matmul(_SITES, pts).reshape(N, 24)
+        length_scale = np.maximum(np.sqrt(dot(rel, rel) * 0.125), 1e-9)
         # certified: closure and motion over the whole motion, the poses at their angles through the motion
         bound = loop_bound(U, M, a, b, BRANCHES, motion)
         errors = pose_bound(motion, TS[1:], Q[:, 1:3], Q[:, 0], bound)  # (pose 0: t = inf)
-        errors.update((k, bound[k]) for k in ("closure_translation", "closure_rotation", "motion"))
+        errors["closure_translation"], errors["closure_rotation"], errors["motion"] = (
+            bound["closure_translation"], bound["closure_rotation"], bound["motion"])
         if check_samples > 0:
             sampled = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
             errors = {k: np.maximum(v, sampled[k]) for k, v in errors.items()}
-        far = axis_distance(U, M, cond.centre)
-        rel = relative_error(Tf, cond.scale, far, errors)
-        good &= rel <= 0.1 * ACCEPT_TOL
-    return dict(good=good, finite=finite, lines=np.concatenate([U[:, :, None], M[:, :, None]], axis=2),
-                laws=np.concatenate([a[..., None], b[..., None]], axis=-1),
-                pose_angles=pose_angles, factors=factors, motion=motion, study_form=B * cond.scale[:, None],
-                centre=cond.centre, scale=cond.scale, residual=residual,
-                bennett=bennett_parameters(geo), dh=dh_rows(U[:, LOOP], geo), errors=errors, relative_error=rel,
-                axis_distance=far, length_scale=length_scale)
+        far = axis_distance(U, M, centre)
+        rel = relative_error(fac["Tf"], scale, far, errors)
+        good = fac["good"] & ~geo["parallel"].any(axis=1) & (rel <= 0.1 * ACCEPT_TOL)
+    return dict(good=good, finite=fac["finite"], lines=lines, laws=laws, pose_angles=pose_angles, factors=factors,
+                motion=motion, study_form=fac["B"] * scale[:, None], centre=centre, scale=scale,
+                residual=fac["residual"], bennett=bennett_parameters(geo), dh=dh_rows(loop[..., 0, :], geo),
+                errors=errors, relative_error=rel, axis_distance=far, length_scale=length_scale)
 
 
 def axis_distance(U, M, c) -> np.ndarray:
@@ -172,36 +177,39 @@ def relative_error(T, spread, far, errors) -> np.ndarray:
     spread (closure: to the axes' largest distance ``far`` from the centroid, `axis_distance`), plus a
     floor of FLOOR_ULPS ulps of the coordinates' magnitude (a pose 1e6 m from the origin is only known
     to ~1e-10 m)."""
-    size = np.maximum(spread, far)
-    floor = FLOOR_ULPS * EPS / ACCEPT_TOL * np.abs(T[:, :, :3, 3]).reshape(len(T), 3 * T.shape[1]).max(axis=1, initial=0.0)
-    return np.maximum.reduce([errors["pose_translation"] / (spread + floor), errors["pose_rotation"],
-                              errors["closure_translation"] / (size + floor), errors["closure_rotation"]])
+    floor = np.abs(T[:, :, :3, 3]).reshape(len(T), 3 * T.shape[1]).max(axis=1, initial=0.0) * _FLOOR
+    return np.maximum(np.maximum(errors["pose_translation"] / (spread + floor), errors["pose_rotation"]),
+                      np.maximum(errors["closure_translation"] / (np.maximum(spread, far) + floor),
+                                 errors["closure_rotation"]))
 
 
 def loop_geometry(U, M) -> dict:
     """Geometry of consecutive axes around closed loops, lines U, M (N, J, 3) in loop order: for the pair
     (i, i+1 mod J) ``distance`` and signed ``twist`` (the angle from u_i to u_{i+1} about the common
-    normal from i to i+1) (N, J), the feet ``foot_out`` (on i) and ``foot_in`` (on i+1) and the unit
-    ``normal`` (N, J, 3), ``parallel`` (N, J). Parallel axes: the foot on i is its point nearest the origin."""
-    nxt = _cyclic_index(U.shape[-2], 1)
-    U2 = U[..., nxt, :]
-    p1 = cross3(U, M)  # the axis points nearest the origin
-    p2 = p1[..., nxt, :]
-    cr = cross3(U, U2)
+    normal from i to i+1) (N, J), both as ``distance_twist`` (2, N, J), the feet ``foot_out`` (on i) and
+    ``foot_in`` (on i+1), both as ``feet`` (N, J, 2, 3), the unit ``normal`` (N, J, 3) and ``parallel``
+    (N, J). Parallel axes: the foot on i is its point nearest the origin."""
+    J = U.shape[-2]
+    pair = _pair_index(J)  # (J, 2): i, i+1
+    UU = U.take(pair, axis=-2)  # (N, J, 2, 3): u_i, u_{i+1}
+    u1, u2 = UU[..., 0, :], UU[..., 1, :]
+    # u_i x m_i (the axis point p_i nearest the origin) and cr = u_i x u_{i+1}, one product
+    X = cross3(u1[..., None, :], np.concatenate([M, U], axis=-2).take(_moment_next_index(J), axis=-2))
+    PP, cr = X[..., 0, :].take(pair, axis=-2), X[..., 1, :]  # p_i, p_{i+1}
     s2 = dot(cr, cr)
     par = s2 < 1e-24
     some_parallel = bool(par.any())
-    d = p2 - p1
-    # feet of the common normal: p1 + k1 u, p2 + k2 u2 with k = ((d x u2) . cr, (d x u) . cr) / |cr|^2
-    k = dot(cross3(d[..., None, :], np.stack([U2, U], axis=-2)), cr[..., None, :]) / (
+    d = PP[..., 1, :] - PP[..., 0, :]
+    # feet of the common normal: p_i + k1 u_i, p_{i+1} + k2 u_{i+1} with k = ((d x u2) . cr, (d x u1) . cr) / |cr|^2
+    k = dot(cross3(d[..., None, :], UU), cr[..., None, :]) / (
         np.where(par, 1.0, s2) if some_parallel else s2)[..., None]
-    f1 = p1 + k[..., :1] * U
-    f2 = p2 + k[..., 1:] * U2
+    feet = PP + k[..., ::-1, None] * UU
     if some_parallel:  # parallel axes: from the point of i nearest the origin, straight across
-        f1 = np.where(par[..., None], p1, f1)
-        f2 = np.where(par[..., None], p2 - dot(d, U2)[..., None] * U2, f2)
-    dv = f2 - f1
-    dist = np.sqrt(dot(dv, dv))
+        across = np.stack([PP[..., 0, :], PP[..., 1, :] - dot(d, u2)[..., None] * u2], axis=-2)
+        feet = np.where(par[..., None, None], across, feet)
+    dv = feet[..., 1, :] - feet[..., 0, :]
+    dt = np.empty((2,) + s2.shape)  # distance, twist
+    dist = np.sqrt(dot(dv, dv), out=dt[0])
     apart = dist > 1e-12
     if apart.all():
         n = dv / dist[..., None]
@@ -209,14 +217,46 @@ def loop_geometry(U, M) -> dict:
         nc = np.sqrt(s2)[..., None]
         n = np.where(apart[..., None], dv / np.where(apart, dist, 1.0)[..., None],
                      np.where(nc > 1e-12, cr / np.where(nc > 1e-12, nc, 1.0), 0.0))
-    twist = np.arctan2(dot(cr, n), dot(U, U2))
-    return {"distance": dist, "twist": twist, "foot_out": f1, "foot_in": f2, "normal": n, "parallel": par}
+    twist = np.arctan2(dot(cr, n), dot(u1, u2), out=dt[1])
+    return {"distance": dist, "twist": twist, "distance_twist": dt, "foot_out": feet[..., 0, :],
+            "foot_in": feet[..., 1, :], "feet": feet, "normal": n, "parallel": par}
 
 
 @functools.lru_cache(maxsize=None)
 def _cyclic_index(J: int, step: int) -> np.ndarray:
     """(i + step) mod J for i < J (read-only, cached)."""
     out = (np.arange(J) + step) % J
+    out.flags.writeable = False
+    return out
+
+
+@functools.lru_cache(maxsize=None)
+def _moment_next_index(J: int) -> np.ndarray:
+    """Rows (m_i, u_{i+1}) of the J moments stacked on the J directions, (J, 2) (read-only, cached)."""
+    out = np.stack([np.arange(J), J + _cyclic_index(J, 1)], axis=-1)
+    out.flags.writeable = False
+    return out
+
+
+@functools.lru_cache(maxsize=None)
+def _pair_index(J: int) -> np.ndarray:
+    """The consecutive pairs (i, i+1 mod J) around a loop of J joints, (J, 2) (read-only, cached)."""
+    out = np.stack([np.arange(J), _cyclic_index(J, 1)], axis=-1)
+    out.flags.writeable = False
+    return out
+
+
+def _sites_map(J: int, P: int) -> np.ndarray:
+    """The linear map (P + J + 1, P + 2 J) from the tool positions of P poses and the feet (foot_out,
+    foot_in of each pair, `loop_geometry`) around a loop of J joints to the points of the length scale,
+    less their centroid: the positions, the joint sites (the mean of the feet on either side: foot_out of
+    pair i, foot_in of pair i-1), and pose 0 again (the tool reference)."""
+    S = np.zeros((P + J + 1, P + 2 * J))
+    S[:P, :P] = np.eye(P)
+    S[P + J, 0] = 1.0
+    for i, prev in enumerate(_cyclic_index(J, -1)):
+        S[P + i, P + 2 * i] = S[P + i, P + 2 * prev + 1] = 0.5
+    out = S - S.mean(axis=0)
     out.flags.writeable = False
     return out
 
@@ -229,15 +269,16 @@ def bennett_parameters(geo) -> dict:
     dist, twist = geo["distance"], geo["twist"]  # (N, 4): a, b, a', b' and alpha, beta, alpha', beta'
     with np.errstate(all="ignore"):
         s = np.abs(np.sin(twist[:, :2]))
-        r = np.where(s > 1e-15, dist[:, :2] / s, np.inf)  # a / sin(alpha), b / sin(beta)
-        res = np.where(np.isfinite(r[:, 0] + r[:, 1]), np.abs(r[:, 0] - r[:, 1]) / np.maximum(r.max(axis=1), 1e-300),
-                       np.nan)
-        scale = np.maximum(dist[:, :2].max(axis=1), 1e-300)
-        opposite = np.abs(dist[:, :2] - dist[:, 2:]).max(axis=1) / scale
-        opposite_twist = np.abs(np.abs(twist[:, :2]) - np.abs(twist[:, 2:])).max(axis=1)
+        r = np.where(s > 1e-15, dist[:, :2] / s, np.inf)  # a / sin(alpha), b / sin(beta), >= 0
+        r0, r1 = r[:, 0], r[:, 1]
+        res = np.abs(r0 - r1) / np.maximum(np.maximum(r0, r1), 1e-300)  # NaN when either is inf
+        dt = np.abs(geo["distance_twist"])  # (2, N, 4): distances and |twists|
+        mismatch = np.abs(dt[..., :2] - dt[..., 2:])
+        mismatch = np.maximum(mismatch[..., 0], mismatch[..., 1])  # (2, N): lengths, twists
     return {"a": dist[:, 0], "alpha": twist[:, 0], "b": dist[:, 1], "beta": twist[:, 1],
-            "opposite_length_mismatch": opposite, "opposite_twist_mismatch": opposite_twist,
-            "a_over_sin_alpha": r[:, 0], "b_over_sin_beta": r[:, 1], "bennett_condition_residual": res}
+            "opposite_length_mismatch": mismatch[0] / np.maximum(np.maximum(dist[:, 0], dist[:, 1]), 1e-300),
+            "opposite_twist_mismatch": mismatch[1],
+            "a_over_sin_alpha": r0, "b_over_sin_beta": r1, "bennett_condition_residual": res}
 
 
 def dh_rows(U, geo) -> dict:
@@ -245,7 +286,11 @@ def dh_rows(U, geo) -> dict:
     `loop_geometry`): for joint i ``a``/``alpha`` to the next joint, ``d`` the offset along axis i
     between the incoming and outgoing common normals, ``theta`` the angle between them about axis i."""
     prv = _cyclic_index(U.shape[-2], -1)
-    f_in, n_in = geo["foot_in"][..., prv, :], geo["normal"][..., prv, :]
+    n_out = geo["normal"]
+    f_in, n_in = geo["foot_in"].take(prv, axis=-2), n_out.take(prv, axis=-2)
     d = dot(geo["foot_out"] - f_in, U)
-    theta = np.arctan2(dot(cross3(n_in, geo["normal"]), U), dot(n_in, geo["normal"]))
+    theta = np.arctan2(dot(cross3(n_in, n_out), U), dot(n_in, n_out))
     return {"a": geo["distance"], "alpha": geo["twist"], "d": d, "theta": theta}
+
+
+_SITES = _sites_map(4, 3)  # the Bennett loop's length-scale map (`_solve`)
