@@ -33,31 +33,43 @@ def pose_records(joints, poses, names, ts, angles=None) -> list[PoseRecord]:
     return [PoseRecord(name, T, t, dict(zip(jn, row))) for name, T, t, row in zip(names, poses, ts, ang)]
 
 
-def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None, rates=None, angles=None) -> Linkage:
+def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None, rates=None, angles=None,
+                       lines=None) -> Linkage:
     """Linkage with branch h: base -h1-> link_h1 ... -hn-> coupler and branch k likewise ending in
     coupler_k. H, K: (n, 8) and (m, 8) factors in the world frame (metres) with C = (t-h1)...(t-hn) =
     (t-k1)...(t-kn) (m = n but for joints of rate other than 1: ``rates`` (n + m,) in the order h, k, the
     products of (t - h)^rate being C times real polynomials, docs/exceptional.md section 6); poses (m, 4, 4)
     with parameters ts (first = inf). ``motion=None`` leaves ``linkage.motion`` None (for a caller that
-    sets it later). ``angles``: the joints' angles at the poses (`pose_records`), when at hand."""
+    sets it later). ``angles``: the joints' angles at the poses (`pose_records`), when at hand.
+    ``lines``: the joints' (lines (n + m, 2, 3), angle laws (n + m, 2)) in the order h, k, when at hand
+    (`synth.synthesis.bennett_core.solve` computes them from the factors and certifies those)."""
     specs, links, branches = _layout(len(H), len(K))
+    if lines is None:
+        lines, laws = _joint_lines((*H, *K))
+    else:
+        lines, laws = np.array(lines[0], float), lines[1].tolist()
+    rates = [1] * len(laws) if rates is None else [int(r) for r in rates]
+    joints = [Joint(name, parent, child, line[0], line[1], a, b, r)
+              for (name, parent, child), line, (a, b), r in zip(specs, lines, laws, rates)]
+    poses = np.asarray(poses, float)
+    records = pose_records(joints, poses, names, ts, angles)
+    return Linkage(kind, joints, {k: list(v) for k, v in links.items()}, [list(x) for x in branches],
+                   [("coupler", "coupler_k")], poses[0], None if motion is None else np.asarray(motion, float),
+                   records, info=dict(info) if info else {})
+
+
+def _joint_lines(factors) -> tuple:
+    """(lines (J, 2, 3), angle laws [(a, b)] * J) of the joints t - h of the factors h (8,) (arrays or
+    sequences of numbers): `joint_from_factor` for all of them, the Plücker coordinates in one array."""
     laws, lines = [], []
-    for h in (*H, *K):  # joint_from_factor, with all Plücker coordinates in one array
+    for h in factors:
         if type(h) is not tuple:
             h = h.tolist() if isinstance(h, np.ndarray) else tuple(map(float, h))
         h0, v1, v2, v3, _, w1, w2, w3 = h
         b = math.sqrt(v1 * v1 + v2 * v2 + v3 * v3)
         laws.append((float(h0), b))
         lines += (-v1 / b, -v2 / b, -v3 / b, w1 / b, w2 / b, w3 / b)
-    lines = np.array(lines, float).reshape(-1, 3)
-    rates = [1] * len(laws) if rates is None else [int(r) for r in rates]
-    joints = [Joint(name, parent, child, lines[2 * i], lines[2 * i + 1], a, b, r)
-              for i, ((name, parent, child), (a, b), r) in enumerate(zip(specs, laws, rates))]
-    poses = np.asarray(poses, float)
-    records = pose_records(joints, poses, names, ts, angles)
-    return Linkage(kind, joints, {k: list(v) for k, v in links.items()}, [list(x) for x in branches],
-                   [("coupler", "coupler_k")], poses[0], None if motion is None else np.asarray(motion, float),
-                   records, info=dict(info) if info else {})
+    return np.array(lines, float).reshape(-1, 2, 3), laws
 
 
 @functools.lru_cache(maxsize=None)

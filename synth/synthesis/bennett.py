@@ -158,7 +158,7 @@ def linkage_from_solution(out: dict, i: int, T, names, check_samples: int, pertu
             "study_form": dict(zip(("B01", "B02", "B12"), out["study_form"][i].tolist())),
             "conditioning": {"centre": out["centre"][i].tolist(), "scale": scale}}
     linkage = two_branch_linkage("bennett", F[:2], F[2:], out["motion"][i], T, names, TS, info,
-                                 angles=out["pose_angles"][i])
+                                 angles=out["pose_angles"][i], lines=(out["lines"][i], out["laws"][i]))
     figures = {k: float(v[i]) for k, v in out["errors"].items()}
     linkage.checks = as_checks(figures, check_samples, float(out["length_scale"][i]), bounded=True)
     linkage.info = _complete_info(linkage, info, out["study_form"][i] / scale, cond, out["bennett"], out["dh"],
@@ -224,9 +224,9 @@ def dh_table(linkage, loop: list[str]) -> list[dict]:
 
 def _dh_list(loop, rows, row: int = 0) -> list[dict]:
     """linkage.json's DH table: set ``row`` of `dh_rows` (arrays (N, J)) as one dict per joint of ``loop``."""
-    keys = ("a", "alpha", "d", "theta")
-    cols = np.stack([rows[k][row] for k in keys], axis=-1).tolist()  # (J, 4)
-    return [{"joint": j, "next": nxt, **dict(zip(keys, c))} for j, nxt, c in zip(loop, loop[1:] + loop[:1], cols)]
+    a, alpha, d, theta = (rows[k][row].tolist() for k in ("a", "alpha", "d", "theta"))
+    return [{"joint": j, "next": nxt, "a": x1, "alpha": x2, "d": x3, "theta": x4}
+            for j, nxt, x1, x2, x3, x4 in zip(loop, loop[1:] + loop[:1], a, alpha, d, theta)]
 
 
 def _accept(linkage, cond, rel) -> float:
