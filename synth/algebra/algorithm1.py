@@ -130,9 +130,8 @@ def _newton(flat, z, steps):
     cols = np.empty((m + 1,) + z.shape, complex)  # cols[k] (B, r): the coefficient of t^k
     cols[...] = flat.T[:, :, None]
     z0 = z = np.array(z, complex)  # (contiguous)
-    step = np.zeros(z.shape, complex)
     if steps < 1:
-        return z, step
+        return z, np.zeros(z.shape, complex)
     for _ in range(steps):
         val, der = cols[m] * z, cols[m]
         val += cols[m - 1]

@@ -63,9 +63,9 @@ def dot(a, b) -> np.ndarray:
     ``.sum(-1)`` is several times slower on large batches; object arrays (exact) by a sum. (One strategy
     for every size: a faster sum of columns on large batches rounds differently from vecdot, and the
     6R scan's batch-versus-single agreement amplifies that to ~1e-9.)"""
-    if a.dtype.kind == "O" or b.dtype.kind == "O":
-        return np.asarray(np.sum(a * b, axis=-1))
-    return _VECDOT(a, b)
+    if a.dtype is _FLOAT and b.dtype is _FLOAT or a.dtype.kind != "O" and b.dtype.kind != "O":
+        return _VECDOT(a, b)
+    return np.asarray(np.sum(a * b, axis=-1))
 
 
 def _einsum_dot(a, b):
@@ -210,20 +210,17 @@ _SHEPPERD_A, _SHEPPERD_C = _shepperd_map()
 def matrix_to_quat(R):
     """Unit quaternion (..., 4), w >= 0, of rotation matrices (..., 3, 3). Numerically stable for all
     angles (Shepperd's method): K = 4 q q^T is affine in R; the row of K with the largest diagonal
-    entry K_kk = 4 q_k^2 is 4 q_k q, divided by s = 2 sqrt(K_kk) = 4 |q_k| (and q_k = s / 4)."""
+    entry K_kk = 4 q_k^2 is 4 q_k q with |q_k| >= 1/2, normalized (its sign from K_k0 = 4 q_k q_0)."""
     R = np.asarray(R, float)
     batch = R.shape[:-2]
     K = R.reshape(-1, 9) @ _SHEPPERD_A
     K += _SHEPPERD_C  # (M, 16)
     row = K[:, ::5].argmax(axis=1)
-    row += row_offsets(K.shape[0], 4)[:, 0]  # row 4i + k of K as (4M, 4) = the flat index of q_k in q (M, 4)
+    row += row_offsets(K.shape[0], 4)[:, 0]  # row 4i + k of K as (4M, 4)
     q = K.reshape(-1, 4).take(row, axis=0)  # 4 q_k q
-    s = np.sqrt(q.reshape(-1).take(row))  # sqrt(K_kk) (q[i, k] = K_kk)
-    s *= 2.0  # 4 |q_k|
-    np.negative(s, out=s, where=q[:, 0] < 0)  # the sign giving w >= 0 (q_0 = K_k0 / s)
+    s = np.sqrt(dot(q, q))  # 4 |q_k|
+    np.negative(s, out=s, where=q[:, 0] < 0)  # the sign giving w >= 0
     q /= s[:, None]
-    q.reshape(-1)[row] = 0.25 * s
-    q /= np.sqrt(dot(q, q))[:, None]
     return q.reshape(batch + (4,))
 
 
