@@ -210,17 +210,20 @@ _SHEPPERD_A, _SHEPPERD_C = _shepperd_map()
 def matrix_to_quat(R):
     """Unit quaternion (..., 4), w >= 0, of rotation matrices (..., 3, 3). Numerically stable for all
     angles (Shepperd's method): K = 4 q q^T is affine in R; the row of K with the largest diagonal
-    entry K_kk = 4 q_k^2 is 4 q_k q with |q_k| >= 1/2, normalized (its sign from K_k0 = 4 q_k q_0)."""
+    entry K_kk = 4 q_k^2 is 4 q_k q, divided by s = 2 sqrt(K_kk) = 4 |q_k| (and q_k = s / 4)."""
     R = np.asarray(R, float)
     batch = R.shape[:-2]
     K = R.reshape(-1, 9) @ _SHEPPERD_A
     K += _SHEPPERD_C  # (M, 16)
     row = K[:, ::5].argmax(axis=1)
-    row += row_offsets(K.shape[0], 4)[:, 0]  # row 4i + k of K as (4M, 4)
+    row += row_offsets(K.shape[0], 4)[:, 0]  # row 4i + k of K as (4M, 4) = the flat index of q_k in q (M, 4)
     q = K.reshape(-1, 4).take(row, axis=0)  # 4 q_k q
-    s = np.sqrt(dot(q, q))  # 4 |q_k|
-    np.negative(s, out=s, where=q[:, 0] < 0)  # the sign giving w >= 0
+    s = np.sqrt(q.reshape(-1).take(row))  # sqrt(K_kk) (q[i, k] = K_kk)
+    s *= 2.0  # 4 |q_k|
+    np.negative(s, out=s, where=q[:, 0] < 0)  # the sign giving w >= 0 (q_0 = K_k0 / s)
     q /= s[:, None]
+    q.reshape(-1)[row] = 0.25 * s
+    q /= np.sqrt(dot(q, q))[:, None]
     return q.reshape(batch + (4,))
 
 
