@@ -101,8 +101,9 @@ def evaluate(C, t):
     C = np.asarray(C, float)
     t = np.asarray(t, float)
     inf = np.isinf(t)
-    V = np.power(np.where(inf, 0.0, t)[..., None], _powers(C.shape[-2] - 1))  # (*S, n+1)
-    if inf.any():
+    some_inf = inf.any()
+    V = np.power((np.where(inf, 0.0, t) if some_inf else t)[..., None], _powers(C.shape[-2] - 1))  # (*S, n+1)
+    if some_inf:
         V[inf] = _powers(C.shape[-2] - 1) == C.shape[-2] - 1  # t^n / t^n at infinity: the leading coefficient
     if t.ndim > 1:  # S[:-1] are batch axes of the product: C's batch in front of them
         C = C.reshape(C.shape[:-2] + (1,) * (t.ndim - 1) + C.shape[-2:])
