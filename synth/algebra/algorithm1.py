@@ -79,7 +79,7 @@ def norm_roots(N, newton: int = 2) -> np.ndarray:
     np.abs(z.imag, out=z.imag)  # (z is a fresh array) reflected into Im z >= 0
     key = z.imag * _TIE
     key += z.real
-    order = np.argsort(key, axis=-1, kind="stable")
+    order = key.argsort(axis=-1, kind="stable")
     z = z.reshape(-1)[order + row_offsets(*z.shape)]
     return z.reshape(batch + (m // 2,))
 
@@ -109,7 +109,8 @@ def _eig_upper(flat):
         z[bad] = np.nan
     z = np.asarray(z, complex)  # (eigvals gives a real array when every eigenvalue is real)
     np.abs(z.imag, out=z.imag)
-    return np.sort(z, axis=-1)[:, ::2]
+    z.sort(axis=-1)  # (z is a fresh array)
+    return z[:, ::2]
 
 
 @functools.lru_cache(maxsize=None)
