@@ -27,24 +27,19 @@ FERRARI_MIN_BATCH = 32  # quartics from this batch size on start from Ferrari's 
 _ONE = np.eye(8)[0]
 
 
-_NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
-_LEVI_CIVITA = np.zeros((3, 3, 3))
-_LEVI_CIVITA[np.arange(3), _NEXT, _PREV] = 1.0
-_LEVI_CIVITA[np.arange(3), _PREV, _NEXT] = -1.0
+_CROSS_A, _CROSS_B = np.array([1, 2, 0, 2, 0, 1]), np.array([2, 0, 1, 1, 2, 0])  # a_j b_k, then a_k b_j
 
 
 def cross3(a, b) -> np.ndarray:
     """Cross product of 3-vectors (..., 3), broadcast (``numpy.cross`` costs ~15 us of overhead per
     call, which dominates a single synthesis, and is 2-5x slower than componentwise products on large
-    broadcast batches): a few vectors by one einsum with the Levi-Civita symbol, more by index
-    permutations, many component by component into the result."""
+    broadcast batches): up to a few hundred vectors by one product of two index permutations (all six
+    a_j b_k at once), more component by component into the result."""
     a = np.asarray(a, float)
     b = np.asarray(b, float)
-    n = a.size + b.size
-    if n <= 96:
-        return np.einsum("ijk,...j,...k->...i", _LEVI_CIVITA, a, b)
-    if n <= 3000:
-        return np.take(a, _NEXT, -1) * np.take(b, _PREV, -1) - np.take(a, _PREV, -1) * np.take(b, _NEXT, -1)
+    if a.size + b.size <= 3000:
+        ab = a.take(_CROSS_A, -1) * b.take(_CROSS_B, -1)
+        return ab[..., :3] - ab[..., 3:]
     out = np.empty(np.broadcast_shapes(a.shape, b.shape))
     for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
         np.subtract(a[..., j] * b[..., k], a[..., k] * b[..., j], out=out[..., i])
@@ -73,18 +68,18 @@ def norm_roots(N, newton: int = 2) -> np.ndarray:
     N = np.asarray(N, float)
     batch, m = N.shape[:-1], N.shape[-1] - 1
     flat = N.reshape(-1, m + 1)
-    if m == 4 and flat.shape[0] >= FERRARI_MIN_BATCH:
-        with np.errstate(all="ignore"):
+    with np.errstate(all="ignore"):  # (for `_eig_upper` and `_newton` too)
+        if m == 4 and flat.shape[0] >= FERRARI_MIN_BATCH:
             z, step = _newton(flat, _ferrari_upper(flat), max(newton, 1) + 1)
-        redo = ~np.all(np.abs(step) <= 1e-10 * np.maximum(1.0, np.abs(z)), axis=-1) & np.all(np.isfinite(flat), axis=-1)
-        if np.any(redo):
-            z[redo] = _newton(flat[redo], _eig_upper(flat[redo]), newton)[0]
-    else:
-        z = _newton(flat, _eig_upper(flat), newton)[0]
+            redo = ~(np.abs(step) <= 1e-10 * np.maximum(1.0, np.abs(z))).all(axis=-1) & np.isfinite(flat).all(axis=-1)
+            if redo.any():
+                z[redo] = _newton(flat[redo], _eig_upper(flat[redo]), newton)[0]
+        else:
+            z = _newton(flat, _eig_upper(flat), newton)[0]
     np.abs(z.imag, out=z.imag)  # (z is a fresh array) reflected into Im z >= 0
     key = z.imag * _TIE
     key += z.real
-    order = np.argsort(key, axis=-1, kind="stable")
+    order = key.argsort(axis=-1, kind="stable")
     z = z.reshape(-1)[order + row_offsets(*z.shape)]
     return z.reshape(batch + (m // 2,))
 
@@ -97,12 +92,12 @@ def _eig_upper(flat):
     each conjugate pair, sorted by (Re z, Im z) (NaN for a polynomial with a non-finite or zero leading
     coefficient). LAPACK returns the eigenvalues of a real matrix with each complex pair exactly
     conjugate, so after the reflection a pair is two equal values, adjacent after sorting, and every
-    other sorted value takes each pair once (and, with real eigenvalues, m/2 - pairs of them)."""
+    other sorted value takes each pair once (and, with real eigenvalues, m/2 - pairs of them). Called
+    under ``numpy.errstate(all="ignore")`` (`norm_roots`)."""
     B, m = flat.shape[0], flat.shape[-1] - 1
     comp = np.zeros((B, m, m))
     comp[:, 1:, :-1] = identity(m - 1)  # the subdiagonal
-    with np.errstate(all="ignore"):
-        np.divide(flat[:, :m], -flat[:, m:], out=comp[:, :, -1])
+    np.divide(flat[:, :m], -flat[:, m:], out=comp[:, :, -1])
     try:
         z = np.linalg.eigvals(comp)
     except np.linalg.LinAlgError:
@@ -114,7 +109,8 @@ def _eig_upper(flat):
         z[bad] = np.nan
     z = np.asarray(z, complex)  # (eigvals gives a real array when every eigenvalue is real)
     np.abs(z.imag, out=z.imag)
-    return np.sort(z, axis=-1)[:, ::2]
+    z.sort(axis=-1)  # (z is a fresh array)
+    return z[:, ::2]
 
 
 @functools.lru_cache(maxsize=None)
@@ -130,25 +126,23 @@ def _newton(flat, z, steps):
     value and derivative by Horner's scheme (elementwise on (B, r): no per-polynomial matrix products;
     the coefficients are copied once to complex arrays of z's shape, so no step casts or broadcasts).
     Where the steps end non-finite (a vanishing derivative), z keeps its start and the step is inf.
-    Returns (z, the last step)."""
+    Returns (z, the last step). Called under ``numpy.errstate(all="ignore")`` (`norm_roots`)."""
     m = flat.shape[-1] - 1
     cols = np.empty((m + 1,) + z.shape, complex)  # cols[k] (B, r): the coefficient of t^k
     cols[...] = flat.T[:, :, None]
     z0 = z = np.array(z, complex)  # (contiguous)
-    step = np.zeros(z.shape, complex)
     if steps < 1:
-        return z, step
-    with np.errstate(all="ignore"):
-        for _ in range(steps):
-            val, der = cols[m] * z, cols[m]
-            val += cols[m - 1]
-            for k in range(m - 2, -1, -1):
-                der = der * z
-                der += val
-                val *= z
-                val += cols[k]
-            step = val / der
-            z = z - step
+        return z, np.zeros(z.shape, complex)
+    for _ in range(steps):
+        val, der = cols[m] * z, cols[m]
+        val += cols[m - 1]
+        for k in range(m - 2, -1, -1):
+            der = der * z
+            der += val
+            val *= z
+            val += cols[k]
+        step = val / der
+        z = z - step
     fin = np.isfinite(z)
     if not fin.all():
         z = np.where(fin, z, z0)
@@ -213,9 +207,19 @@ def root_conditioning(z) -> tuple[np.ndarray, np.ndarray]:
     n = z.shape[-1]
     if n < 2:
         return im, np.ones(im.shape)
-    i, j = index_pairs(n)
-    sep = (np.abs(z[..., i] - z[..., j]) / np.maximum(w[..., i], w[..., j])).min(axis=-1)
+    ij = _pair_columns(n)  # i then j of every pair i < j
+    p = ij.shape[0] // 2
+    zz, ww = z.take(ij, axis=-1), w.take(ij, axis=-1)
+    sep = (np.abs(zz[..., :p] - zz[..., p:]) / np.maximum(ww[..., :p], ww[..., p:])).min(axis=-1)
     return im, sep
+
+
+@functools.lru_cache(maxsize=None)
+def _pair_columns(n: int) -> np.ndarray:
+    """The `index_pairs` of n items as one index array: every i, then every j (read-only, cached)."""
+    out = np.concatenate(index_pairs(n))
+    out.flags.writeable = False
+    return out
 
 
 @functools.lru_cache(maxsize=None)
@@ -252,7 +256,7 @@ def algorithm1(C, M, *, remainders: bool = False):
     monic = bool((C[..., n, :] == _ONE).all())  # then so is every quotient D
     D, ok, hs, rs = C, None, [], []  # D: the quotient so far (broadcast against M by the first division)
     for pos in range(n - 1, 0, -1):
-        _, r1, r0 = divide_real_quadratic(D, M[..., pos, :])
+        _, r1, r0 = divide_real_quadratic(D, M[..., pos, :], quotient=False)
         good = dot(r1[..., :4], r1[..., :4]) > prim
         ok = good if ok is None else ok & good
         if not good.all():

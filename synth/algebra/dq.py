@@ -63,9 +63,9 @@ def dot(a, b) -> np.ndarray:
     ``.sum(-1)`` is several times slower on large batches; object arrays (exact) by a sum. (One strategy
     for every size: a faster sum of columns on large batches rounds differently from vecdot, and the
     6R scan's batch-versus-single agreement amplifies that to ~1e-9.)"""
-    if a.dtype.kind == "O" or b.dtype.kind == "O":
-        return np.asarray(np.sum(a * b, axis=-1))
-    return _VECDOT(a, b)
+    if a.dtype is _FLOAT and b.dtype is _FLOAT or a.dtype.kind != "O" and b.dtype.kind != "O":
+        return _VECDOT(a, b)
+    return np.asarray(np.sum(a * b, axis=-1))
 
 
 def _einsum_dot(a, b):
@@ -136,8 +136,10 @@ def _product(a, b, flat, sparse):
     """The bilinear product (a b)_k = sum_ij a_i b_j T[i, j, k] of the algebra with structure constants
     T (``flat`` = T reshaped (n, n*n), ``sparse`` = `_sparse` (T)): floats by the dense left-multiplication
     matrix, object arrays (exact) with only the nonzero T[i, j, k] = +-1."""
-    a = as_array(a)
-    b = as_array(b)
+    if type(a) is not np.ndarray or a.dtype is not _FLOAT:
+        a = as_array(a)
+    if type(b) is not np.ndarray or b.dtype is not _FLOAT:
+        b = as_array(b)
     if a.dtype is not _FLOAT or b.dtype is not _FLOAT:  # (as_array: float64 or object)
         i, j, neg, starts = sparse
         terms = a[..., i] * b[..., j]
@@ -148,7 +150,14 @@ def _product(a, b, flat, sparse):
         L = (a.reshape(-1, n) @ flat).reshape(a.shape[:-1] + (n, n))
     else:
         L = (a @ flat).reshape(a.shape[:-1] + (n, n))
+    return _VECMAT(b, L)
+
+
+def _matmul_vecmat(b, L):
     return np.matmul(b[..., None, :], L)[..., 0, :]
+
+
+_VECMAT = getattr(np, "vecmat", _matmul_vecmat)  # b @ L for row vectors b (numpy >= 2.2)
 
 
 def qmul(a, b):

@@ -233,7 +233,7 @@ def algorithm1_exact(C, quads, orders):
         suffixes = sorted({tuple(o[n - L:]) for o in orders})
         D = D[[index[s[1:]] for s in suffixes]]
         ok = ok_prev[[index[s[1:]] for s in suffixes]]
-        _, r1, r0 = poly.divide_real_quadratic(D, quads[[s[0] for s in suffixes]])
+        _, r1, r0 = poly.divide_real_quadratic(D, quads[[s[0] for s in suffixes]], quotient=False)
         good = np.any(r1[:, :4] != 0, axis=-1)
         ok &= good
         h = -dqa.dq_mul(dqa.dq_inv(np.where(good[:, None], r1, one)), r0)

@@ -251,7 +251,7 @@ def _refine_quadratics(C, quads, mult, roots, iterations=4):
     Cb = np.broadcast_to(C, (len(M),) + C.shape)
 
     def resid(Mv):
-        _, r1, r0 = divide_real_quadratic(Cb, Mv)
+        _, r1, r0 = divide_real_quadratic(Cb, Mv, quotient=False)
         return right_value(Cb, -dq_mul(dq_inv(r1), r0))
 
     r = resid(M)

@@ -11,6 +11,7 @@ arrays in, float64 out; object arrays of Fractions in, exact Fractions out (the 
 """
 from __future__ import annotations
 
+import functools
 from fractions import Fraction
 
 import numpy as np
@@ -50,19 +51,16 @@ def linear(h):
 
 def product_of_linear(hs):
     """(t - h_1)(t - h_2)...(t - h_n) for hs of shape (..., n, 8): (..., n+1, 8), monic. Built factor by
-    factor, C (t - h) = t C - C h, one coefficient product per coefficient but the leading one (the
-    factors are monic, so C's leading coefficient is 1 and 1 h = h)."""
+    factor, C (t - h) = t C - C h, with C's i+1 coefficients kept in the top rows n-i..n so that
+    multiplying by t needs no shift: one coefficient product per step for all of C's coefficients (the
+    leading one is 1, and 1 h = h exactly)."""
     hs = as_array(hs)
     n = hs.shape[-2]
     C = zeros(hs.shape[:-2] + (n + 1, 8), hs.dtype)
-    C[..., 1, 0] = Fraction(1) if hs.dtype == object else 1.0
-    C[..., 0, :] = -hs[..., 0, :]
-    for i in range(1, n):  # C has degree i
-        Ch = dq_mul(C[..., :i, :], hs[..., i : i + 1, :])
-        C[..., 1 : i + 2, :] = C[..., : i + 1, :].copy()
-        C[..., 0, :] = 0
-        C[..., :i, :] -= Ch
-        C[..., i, :] -= hs[..., i, :]
+    C[..., n, 0] = Fraction(1) if hs.dtype == object else 1.0
+    np.negative(hs[..., 0, :], out=C[..., n - 1, :])
+    for i in range(1, n):  # C has degree i, in rows n-i..n
+        C[..., n - i - 1 : n, :] -= dq_mul(C[..., n - i :, :], hs[..., i : i + 1, :])
     return C
 
 
@@ -98,18 +96,25 @@ def is_motion_polynomial(C, tol=1e-10) -> bool:
 
 def evaluate(C, t):
     """C(t) for real t (scalar or array of shape S), giving (..., *S, 8). t = +-inf gives the leading
-    coefficient (the identity for monic C)."""
+    coefficient (the identity for monic C). One matrix product of the powers t^k (*S, n+1) with the
+    coefficients."""
     C = np.asarray(C, float)
     t = np.asarray(t, float)
     inf = np.isinf(t)
-    tt = np.where(inf, 0.0, t)[..., None]
-    batch = C.shape[:-2]
-    Cb = C.reshape(batch + (1,) * t.ndim + C.shape[-2:])
-    out = Cb[..., -1, :] * np.ones(tt.shape)
-    for k in range(C.shape[-2] - 2, -1, -1):
-        out = out * tt + Cb[..., k, :]
-    if np.any(inf):
-        out = np.where(inf[..., None], Cb[..., -1, :], out)
+    some_inf = inf.any()
+    V = np.power((np.where(inf, 0.0, t) if some_inf else t)[..., None], _powers(C.shape[-2] - 1))  # (*S, n+1)
+    if some_inf:
+        V[inf] = _powers(C.shape[-2] - 1) == C.shape[-2] - 1  # t^n / t^n at infinity: the leading coefficient
+    if t.ndim > 1:  # S[:-1] are batch axes of the product: C's batch in front of them
+        C = C.reshape(C.shape[:-2] + (1,) * (t.ndim - 1) + C.shape[-2:])
+    return np.matmul(V, C)
+
+
+@functools.lru_cache(maxsize=16)
+def _powers(n: int) -> np.ndarray:
+    """The exponents 0 .. n as floats (read-only, cached)."""
+    out = np.arange(n + 1.0)
+    out.flags.writeable = False
     return out
 
 
@@ -128,9 +133,10 @@ def right_value(C, h):
     return out
 
 
-def divide_real_quadratic(C, M):
+def divide_real_quadratic(C, M, *, quotient: bool = True):
     """C = Q M + (r1 t + r0) for a real monic quadratic M = t^2 + M[1] t + M[0] (M shape (..., 2) =
-    [c0, c1]), broadcast. Returns Q (..., n-1, 8), r1, r0 (..., 8). Real M divides left and right alike."""
+    [c0, c1]), broadcast. Returns Q (..., n-1, 8) (None when not ``quotient``: the remainder only), r1,
+    r0 (..., 8). Real M divides left and right alike."""
     C = as_array(C)
     M = as_array(M)
     n = C.shape[-2] - 1
@@ -142,11 +148,14 @@ def divide_real_quadratic(C, M):
         q = rows[k]
         rows[k - 1] = rows[k - 1] - c1 * q
         rows[k - 2] = rows[k - 2] - c0 * q
+        if not quotient:
+            continue
         if Q is None:  # (rows[k - 2] has the broadcast batch of C and M)
-            Q = zeros(rows[k - 2].shape[:-1] + (n - 1, 8), rows[k - 2].dtype)
+            Q = np.empty(rows[k - 2].shape[:-1] + (n - 1, 8), rows[k - 2].dtype)  # (every row written)
         Q[..., k - 2, :] = q
-    if Q is None:  # degree 1: C is its own remainder
-        return zeros(C.shape[:-2] + (1, 8), result_dtype(C, M)), rows[1].copy(), rows[0].copy()
+    if n < 2:  # degree 1: C is its own remainder
+        Q = zeros(C.shape[:-2] + (1, 8), result_dtype(C, M)) if quotient else None
+        return Q, rows[1].copy(), rows[0].copy()
     return Q, rows[1], rows[0]
 
 
@@ -162,7 +171,7 @@ def divide_linear_right(C, h, *, monic: bool = False):
         ds.append(C[..., k, :] + dh)
         dh = dq_mul(ds[-1], h)
     rem = C[..., 0, :] + dh  # (the broadcast batch of C and h)
-    D = zeros(rem.shape[:-1] + (n, 8), rem.dtype)
+    D = np.empty(rem.shape[:-1] + (n, 8), rem.dtype)  # (every row written)
     for k, d in enumerate(reversed(ds)):
         D[..., k, :] = d
     return D, rem
