@@ -29,8 +29,8 @@ from synth.algebra.anglelaw import angle_law
 from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
-from synth.algebra.dq import dot, pose_to_dq, translated
-from synth.synthesis.conic import conditioning, conic, relative_displacements_dq, to_world
+from synth.algebra.dq import dot, dq_mul, pose_to_dq, translated
+from synth.synthesis.conic import Conditioning, conditioning, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
 BRANCHES = np.array([[0, 1], [2, 3]])  # h1 h2 | k1 k2, base to coupler
@@ -54,18 +54,20 @@ _LINE_SIGNS = np.array([[-1.0], [1.0]])  # u = -v / b, m = w / b
 _FLOOR = FLOOR_ULPS * EPS / ACCEPT_TOL
 
 
-def solve(T, check_samples: int, extra=None) -> dict:
+def solve(T, check_samples: int, perturb=None) -> dict:
     """The Bennett pipeline on poses T (N, 3, 4, 4), metres; returns a dict of arrays over N (see
     `synth.synthesis.bennett_batch.BennettBatch` for the fields) plus ``good`` (N,): the set was solved
     here and its self-check is well inside ACCEPT_TOL. Rows of sets that are not good hold garbage.
     Large batches run in chunks of CHUNK sets, whose temporaries stay in the CPU caches, with BLAS on
-    one thread from ONE_THREAD_MIN sets on (`synth.blas`, docs/architecture.md "Threads"). ``extra``
-    (M, 3, 4, 4): pose sets of which only the factorizations are wanted (the condition estimate's
-    perturbed sets), computed in the same batch: ``out["extra"]`` = {``good`` (M,) (the gates before
-    the self-check), ``factors`` (M, 4, 8)}."""
+    one thread from ONE_THREAD_MIN sets on (`synth.blas`, docs/architecture.md "Threads"). ``perturb``
+    (K, 3, 8): unit dual quaternions of small motions, one per copy and pose, translations in units of
+    the pose spread (the condition estimate's perturbations, `synth.synthesis.bennett.perturbed_poses`):
+    every set with pose i moved to T_i M_ki is also factored, in the same batch (the first half of the
+    pipeline only, `_factors`): ``out["extra"]`` = {``good`` (N K,) (the gates before the self-check),
+    ``factors`` (N K, 4, 8)}, set by set."""
     T = np.asarray(T, float)
-    if extra is not None:
-        fac = _factors(np.concatenate([T, np.asarray(extra, float)]))
+    if perturb is not None:
+        fac = _factors(T, perturb)
         n = T.shape[0]
         out = _solve(T, check_samples, {k: v[:n] for k, v in fac.items()})
         out["extra"] = {"good": fac["good"][n:], "factors": fac["factors"][n:]}  # as `factor_sets`
@@ -91,11 +93,11 @@ def factor_sets(T) -> dict:
     return {"good": fac["good"], "factors": fac["factors"]}
 
 
-def _factors(T) -> dict:
+def _factors(T, perturb=None) -> dict:
     """The first half of the pipeline, arrays over the sets of T (N, 3, 4, 4): conic, norm roots,
     Algorithm 1 for both orders (polished where needed), the factors and C in the world frame, and
-    ``good``: the gates that need no self-check."""
-    N = T.shape[0]
+    ``good``: the gates that need no self-check. ``perturb`` (K, 3, 8): as `solve`; the perturbed copies
+    follow the N sets (set by set) in the arrays over sets, except ``Tf`` and ``Q`` (the N sets only)."""
     finite = np.isfinite(T).all(axis=(1, 2, 3))
     with np.errstate(all="ignore"):
         Tf = T if finite.all() else np.where(finite[:, None, None, None], T, _EYE4)
@@ -105,6 +107,16 @@ def _factors(T) -> dict:
         # the positions: the conic then passes through the poses as the checks see them)
         Qc = translated(Q, -cond.centre[:, None])
         Qc[..., 4:] /= cond.scale[:, None, None]
+        if perturb is not None:
+            # T_i M moved to the conditioned frame is Tc_i M' with M's translation divided by the spread, i.e.
+            # in spread units: the copies are products of conditioned poses and the given motions, with the
+            # set's conditioning (the same world-frame factors up to rounding: the conic is unique)
+            K = perturb.shape[0]
+            Qc = np.concatenate([Qc, dq_mul(Qc[:, None], perturb).reshape(-1, 3, 8)])
+            rows = _copy_rows(T.shape[0], K)
+            cond = Conditioning(centre=cond.centre.take(rows, axis=0), scale=cond.scale.take(rows))
+            finite = finite.take(rows)
+        N = Qc.shape[0]
         con = conic(relative_displacements_dq(Qc))
         C, B = con.C, con.B  # (N, 3, 8), (N, 3)
         z = norm_roots(norm_poly(C))  # (N, 2), Re z[0] <= Re z[1]
@@ -123,6 +135,14 @@ def _factors(T) -> dict:
         world = to_world(np.concatenate([H.reshape(N, 4, 8), C], axis=1), cond)
     return dict(finite=finite, Tf=Tf, Q=Q, centre=cond.centre, scale=cond.scale, B=B, roots=z, residual=residual,
                 good=good, factors=world[:, :4], motion=world[:, 4:])
+
+
+@functools.lru_cache(maxsize=16)
+def _copy_rows(N: int, K: int) -> np.ndarray:
+    """The set of each row of N sets followed by K copies of each, (N (1 + K),) (read-only, cached)."""
+    out = np.concatenate([np.arange(N), np.repeat(np.arange(N), K)])
+    out.flags.writeable = False
+    return out
 
 
 def _solve(T, check_samples: int, fac=None) -> dict:
