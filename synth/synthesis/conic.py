@@ -30,8 +30,8 @@ def position_spread(T) -> tuple[np.ndarray, np.ndarray]:
     pos = np.asarray(T, float)[..., :3, 3]
     k = pos.shape[-2]
     c = pos.sum(axis=-2) / k
-    rel = pos - c[..., None, :]
-    return c, np.sqrt(dot(rel, rel).sum(axis=-1) / k)
+    rel = (pos - c[..., None, :]).reshape(pos.shape[:-2] + (3 * k,))
+    return c, np.sqrt(dot(rel, rel) / k)
 
 
 def conditioning(T) -> Conditioning:
@@ -54,15 +54,41 @@ def condition(T) -> tuple[np.ndarray, Conditioning]:
 def to_world(h, cond: Conditioning):
     """Map dual quaternions h (..., 8) from conditioned to world coordinates: scale the dual part by L,
     then conjugate by the translation to the centroid (h -> tau h tau^-1 with tau = 1 - eps c / 2, which
-    adds vec(p) x c to the dual vector part). A batched ``cond`` (scale (B,), centre (B, 3)) applies to
-    the leading axis of h."""
-    h = np.array(h, float)
+    adds vec(p) x c to the dual vector part): one linear map h -> h W of each set (`world_map`). A
+    batched ``cond`` (scale (B,), centre (B, 3)) applies to the leading axis of h."""
+    h = np.asarray(h, float)
     L = np.asarray(cond.scale, float)
-    c = np.asarray(cond.centre, float)
-    extra = h.ndim - 1 - L.ndim
-    h[..., 4:] *= L.reshape(L.shape + (1,) * (extra + 1))
-    h[..., 5:8] += cross3(h[..., 1:4], c.reshape(c.shape[:-1] + (1,) * extra + (3,)))
-    return h
+    W = world_map(L, cond.centre)
+    extra = h.ndim - 1 - L.ndim  # axes of h between the sets and the coefficients
+    if extra == 0:
+        return np.matmul(h[..., None, :], W)[..., 0, :]
+    return np.matmul(h, W.reshape(L.shape + (1,) * (extra - 1) + (8, 8)))
+
+
+def world_map(L, c) -> np.ndarray:
+    """The matrices W (..., 8, 8) of `to_world` (row vectors: h_world = h W) for scales L (...) and
+    centres c (..., 3): diag(1, 1, 1, 1, L, L, L, L) plus vec(p) x c in the dual vector rows."""
+    Lc = np.empty(np.shape(L) + (4,))
+    Lc[..., 0] = L
+    Lc[..., 1:] = c
+    W = Lc @ _WORLD_LC
+    W += _WORLD_ONE
+    return W.reshape(Lc.shape[:-1] + (8, 8))
+
+
+def _world_constants():
+    """(4, 64) and (64,): W = (L, c) @ A + B, flattened (`world_map`)."""
+    A = np.zeros((4, 8, 8))
+    A[0, 4:, 4:] = np.eye(4)
+    for j, k, i in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):  # (p x c)_i = p_j c_k - p_k c_j (vector axes 1..3)
+        A[1 + k, 1 + j, 5 + i] = 1.0
+        A[1 + j, 1 + k, 5 + i] = -1.0
+    B = np.zeros((8, 8))
+    B[:4, :4] = np.eye(4)
+    return A.reshape(4, 64), B.reshape(64)
+
+
+_WORLD_LC, _WORLD_ONE = _world_constants()
 
 
 def relative_displacements(T):
