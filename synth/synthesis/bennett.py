@@ -17,7 +17,7 @@ from functools import lru_cache
 import numpy as np
 
 from synth.algebra.algorithm1 import cross3, index_pairs
-from synth.algebra.dq import dot, pose_to_dq
+from synth.algebra.dq import dot, dq_right_matrix, pose_to_dq
 from synth.algebra.factorize import factorize
 from synth.checks import (BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, pose_difference,
                           self_check)
@@ -81,7 +81,7 @@ def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SA
     if member is None and np.all(np.isfinite(T)):
         # the perturbed sets of the condition estimate (`sensitivity`) are factored in the same batch
         # (the first half of the pipeline only)
-        out = solve(T[None], check_samples, perturb=_small_motion_dqs(SENSITIVITY_EPS, 0, 2))
+        out = solve(T[None], check_samples, perturb=_small_motion_matrices(SENSITIVITY_EPS, 0, 2))
         if out["good"][0]:
             return [linkage_from_solution(out, 0, T, names, check_samples, perturbed=out["extra"])]
         return per_set_candidates(T, names, check_samples=check_samples, top=top, perturbed=out["extra"])
@@ -280,7 +280,7 @@ def perturbed_poses(T, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int 
     """The poses (3, 4, 4) moved by ``trials`` deterministic random perturbations of relative size
     ``eps`` (each pose: a rotation of eps radians and a translation of eps pose spreads, in its own
     frame), shape (trials, 3, 4, 4). (`bennett_candidates` has `synth.synthesis.bennett_core.solve`
-    apply the same motions to the conditioned poses' dual quaternions, `_small_motion_dqs`.)"""
+    apply the same motions to the conditioned poses' dual quaternions, `_small_motion_matrices`.)"""
     T = np.asarray(T, float)
     M = _small_motions(eps, seed, trials).copy()  # (trials, 3, 4, 4), translations of unit length
     M[..., :3, 3] *= _spread(T)
@@ -351,10 +351,10 @@ def _small_motions(eps: float, seed: int, trials: int) -> tuple:
 
 
 @lru_cache(maxsize=8)
-def _small_motion_dqs(eps: float, seed: int, trials: int) -> np.ndarray:
-    """`_small_motions` as unit dual quaternions (trials, 3, 8), translations in pose spreads (cached,
-    read-only)."""
-    out = pose_to_dq(_small_motions(eps, seed, trials))
+def _small_motion_matrices(eps: float, seed: int, trials: int) -> np.ndarray:
+    """The right-multiplication matrices (trials, 3, 8, 8) of `_small_motions` as unit dual quaternions,
+    translations in pose spreads (`synth.synthesis.bennett_core.solve`'s ``perturb``; cached, read-only)."""
+    out = dq_right_matrix(pose_to_dq(_small_motions(eps, seed, trials)))
     out.flags.writeable = False
     return out
 

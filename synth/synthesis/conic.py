@@ -16,6 +16,8 @@ from synth.algebra.dq import dot, dq_mul, normalize_dq, pose_to_dq, study_form
 from synth.errors import SynthesisError
 
 _ONE = np.eye(8)[0]
+_TS = np.array([np.inf, 0.0, 1.0])  # the poses' parameters (read-only)
+_TS.flags.writeable = False
 _CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
 
 
@@ -122,13 +124,12 @@ def conic(D, tol=1e-9) -> ConicData:
     D = np.asarray(D, float)
     D1, D2 = D[..., 1, :], D[..., 2, :]
     B = np.empty(D.shape[:-2] + (3,))  # B01, B02, B12
-    B[..., :2] = D[..., 1:, 4]
-    B[..., :2] /= 2
+    np.multiply(D[..., 1:, 4], 0.5, out=B[..., :2])
     B[..., 2] = study_form(D1, D2)
     if D.ndim == 2:
         check_conic_degeneracy(D, *B, tol)
     lam = B[..., 1::-1] / B[..., 2:]  # B02 / B12, B01 / B12: C(0) = lam1 D_1, C(1) = lam2 D_2 (docs/conic.md, section 2)
-    return ConicData(C=conic_member(D, lam), ts=np.array([np.inf, 0.0, 1.0]), B=B)
+    return ConicData(C=conic_member(D, lam), ts=_TS, B=B)
 
 
 def conic_member(D, lam) -> np.ndarray:
