@@ -29,8 +29,8 @@ from synth.algebra.anglelaw import angle_law
 from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
-from synth.algebra.dq import dot, pose_to_dq, translated
-from synth.synthesis.conic import Conditioning, conditioning, conic, relative_displacements_dq, to_world
+from synth.algebra.dq import dot, pose_to_dq
+from synth.synthesis.conic import Conditioning, condition_map, conditioning, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
 BRANCHES = np.array([[0, 1], [2, 3]])  # h1 h2 | k1 k2, base to coupler
@@ -108,8 +108,7 @@ def _factors(T, perturb=None) -> dict:
     Q = pose_to_dq(Tf)  # world frame (checks)
     # the conditioned poses (conic): translated by -centre, lengths divided by the scale (from Q, not from
     # the positions: the conic then passes through the poses as the checks see them)
-    Qc = translated(Q, -cond.centre[:, None])
-    Qc[..., 4:] /= cond.scale[:, None, None]
+    Qc = np.matmul(Q, condition_map(cond.scale, cond.centre))
     if perturb is not None:
         # T_i M moved to the conditioned frame is Tc_i M' with M's translation divided by the spread, i.e.
         # in spread units: the copies are products of conditioned poses and the given motions, with the
@@ -128,7 +127,7 @@ def _factors(T, perturb=None) -> dict:
     # Algorithm 1 loses digits when roots are close or nearly real: Newton on the product equations
     # (`polish`) restores them here rather than sending the set to the per-set path
     ok = ok.all(axis=1) & finite
-    redo = np.flatnonzero((residual > POLISH_ABOVE) & ok)
+    redo = ((residual > POLISH_ABOVE) & ok).nonzero()[0]
     if redo.size:
         H[redo] = polish(C[redo, None], H[redo])[0]
         residual[redo] = multiply_back(C[redo, None], H[redo]).max(axis=1)

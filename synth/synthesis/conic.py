@@ -11,11 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.algebra.algorithm1 import cross3
-from synth.algebra.dq import dot, dq_mul, normalize_dq, pose_to_dq, study_form
+from synth.algebra.dq import dot, dq_left_matrix, dq_mul, normalize_dq, pose_to_dq
 from synth.errors import SynthesisError
 
 _ONE = np.eye(8)[0]
+_SWAP = np.array([4, 5, 6, 7, 0, 1, 2, 3])  # p + eps q -> q + eps p
 _TS = np.array([np.inf, 0.0, 1.0])  # the poses' parameters (read-only)
 _TS.flags.writeable = False
 _CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
@@ -78,6 +78,27 @@ def world_map(L, c) -> np.ndarray:
     return W.reshape(Lc.shape[:-1] + (8, 8))
 
 
+def condition_map(L, c) -> np.ndarray:
+    """The matrices S (..., 8, 8) (row vectors: h S) moving poses as unit dual quaternions (..., 8) to
+    the conditioned frame of centre c (..., 3) and scale L (...): the translation by -c, then the dual
+    part divided by L, i.e. (1 + eps c / 2) h with q / L (`condition`)."""
+    g = np.empty(np.shape(L) + (4,))
+    g[..., 0] = 1.0
+    g[..., 1:] = c
+    g /= np.asarray(L, float)[..., None]  # (1, c) / L
+    S = g @ _CONDITION_GC
+    S += _WORLD_ONE
+    return S.reshape(g.shape[:-1] + (8, 8))
+
+
+def _condition_constants():
+    """(4, 64): S = (1, c) / L @ A + `_WORLD_ONE`, flattened (`condition_map`)."""
+    A = np.zeros((4, 8, 8))
+    A[0, 4:, 4:] = np.eye(4)
+    A[1:] = 0.5 * dq_left_matrix(np.eye(8)[5:])  # eps c_i / 2 e_i h
+    return A.reshape(4, 64)
+
+
 def _world_constants():
     """(4, 64) and (64,): W = (L, c) @ A + B, flattened (`world_map`)."""
     A = np.zeros((4, 8, 8))
@@ -91,6 +112,7 @@ def _world_constants():
 
 
 _WORLD_LC, _WORLD_ONE = _world_constants()
+_CONDITION_GC = _condition_constants()
 
 
 def relative_displacements(T):
@@ -125,7 +147,8 @@ def conic(D, tol=1e-9) -> ConicData:
     D1, D2 = D[..., 1, :], D[..., 2, :]
     B = np.empty(D.shape[:-2] + (3,))  # B01, B02, B12
     np.multiply(D[..., 1:, 4], 0.5, out=B[..., :2])
-    B[..., 2] = study_form(D1, D2)
+    B[..., 2] = dot(D1, D2.take(_SWAP, axis=-1))  # the Study form B(D_1, D_2) = (p1 . q2 + q1 . p2) / 2
+    B[..., 2] *= 0.5
     if D.ndim == 2:
         check_conic_degeneracy(D, *B, tol)
     lam = B[..., 1::-1] / B[..., 2:]  # B02 / B12, B01 / B12: C(0) = lam1 D_1, C(1) = lam2 D_2 (docs/conic.md, section 2)
@@ -139,15 +162,14 @@ def conic_member(D, lam) -> np.ndarray:
     Study quadric (planar or spherical poses, docs/planar.md). Returns (..., 3, 8)."""
     D = np.asarray(D, float)
     lam = np.asarray(lam, float)
-    l1, l2 = lam[..., 0, None], lam[..., 1, None]
-    D1, D2 = D[..., 1, :], D[..., 2, :]
-    batch = D.shape[:-2] if D.shape[:-2] == lam.shape[:-1] else np.broadcast_shapes(D.shape[:-2], lam.shape[:-1])
-    C = np.zeros(batch + (3, 8))
-    C[..., 2, 0] = 1.0
-    np.multiply(l1, D1, out=C[..., 0, :])
-    np.subtract(l2 * D2, C[..., 0, :], out=C[..., 1, :])
-    C[..., 1, 0] -= 1.0
+    C = np.matmul(_MEMBER_ROWS, lam[..., :, None] * D[..., 1:, :])  # l1 D_1, l2 D_2 - l1 D_1, 0
+    C += _MEMBER_CONSTANT  # + t (t - 1)
     return C
+
+
+_MEMBER_ROWS = np.array([[1.0, 0.0], [-1.0, 1.0], [0.0, 0.0]])
+_MEMBER_CONSTANT = np.zeros((3, 8))
+_MEMBER_CONSTANT[1, 0], _MEMBER_CONSTANT[2, 0] = -1.0, 1.0
 
 
 def check_conic_degeneracy(D, B01, B02, B12, tol):
