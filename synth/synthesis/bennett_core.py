@@ -135,7 +135,7 @@ def _factors(T, perturb=None) -> dict:
             & (residual <= MAX_RESIDUAL) & ~is_translation(H).any(axis=(1, 2)))
     conditioned = H.reshape(N, 4, 8)
     world = to_world(np.concatenate([conditioned, C], axis=1), cond)
-    return dict(finite=finite, Tf=Tf, Q=Q, centre=cond.centre, scale=cond.scale, B=B, roots=z, residual=residual,
+    return dict(finite=finite, Tf=Tf, Q=Q, centre=cond.centre, scale=cond.scale, B=B, residual=residual,
                 good=good, factors=world[:, :4], motion=world[:, 4:], conditioned=conditioned)
 
 
