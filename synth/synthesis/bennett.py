@@ -303,29 +303,36 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
     c, spread = position_spread(T)
     spread = max(float(spread), 1e-300)
     J = {j.name: j for j in linkage.joints}
-    order = ("h1", "h2", "k1", "k2")
-    Tp = perturbed_poses(T, eps, trials, seed) if solved is None or not np.all(solved["good"]) else None
-    out = solved if solved is not None else factor_sets(Tp)
-    F = []
-    for k in range(trials):
-        if out["good"][k]:
-            F.append(out["factors"][k])
-        else:
-            try:
-                H, K, *_ = _general_factors(Tp[k], [p.name for p in linkage.poses])
-            except SynthesisError:
-                return float("inf")
-            F.append(np.concatenate([H, K]))
-    F = np.array(F)  # (trials, 4, 8): h1 h2 k1 k2
-    b = np.sqrt(dot(F[..., 1:4], F[..., 1:4]))[..., None]
-    # lines (1 + trials, 4, 6): the linkage's, then the perturbed ones: direction, moment about c / spread
-    U = np.concatenate([[[J[n].direction for n in order]], -F[..., 1:4] / b])
-    M = np.concatenate([[[J[n].moment for n in order]], F[..., 5:8] / b])
-    L = np.concatenate([U, (M - cross3(c, U)) / spread], axis=-1)
-    new, ref = L[1:].reshape(trials, -1), L[0].reshape(-1)
-    swapped = L[1:, [2, 3, 0, 1]].reshape(trials, -1)  # branches may swap labels
-    d = np.minimum(np.abs(new - ref).max(axis=1), np.abs(swapped - ref).max(axis=1))
+    ref = np.array([(J[n].direction, J[n].moment) for n in ("h1", "h2", "k1", "k2")], float)  # (4, 2, 3)
+    if solved is not None and solved["good"].all():
+        F = solved["factors"]
+    else:
+        Tp = perturbed_poses(T, eps, trials, seed)
+        out = solved if solved is not None else factor_sets(Tp)
+        F = []
+        for k in range(trials):
+            if out["good"][k]:
+                F.append(out["factors"][k])
+            else:
+                try:
+                    H, K, *_ = _general_factors(Tp[k], [p.name for p in linkage.poses])
+                except SynthesisError:
+                    return float("inf")
+                F.append(np.concatenate([H, K]))
+        F = np.array(F)
+    # the perturbed lines (trials, 4, 2, 3) of the factors a + v + eps (q0 + w): u = -v / |v|, m = w / |v|
+    vw = F.reshape(trials, 4, 2, 4)[..., 1:]
+    lines = vw / (_LINE_SIGNS * np.sqrt(dot(vw[..., 0, :], vw[..., 0, :]))[..., None, None])
+    # their changes in both labellings (branches may swap), moments about c / spread (linear in the lines)
+    D = lines.take(_LABELLINGS, axis=1) - ref  # (trials, 2, 4, 2, 3)
+    D[..., 1, :] -= cross3(c, D[..., 0, :])
+    D[..., 1, :] /= spread
+    d = np.abs(D).reshape(trials, 2, 24).max(axis=2).min(axis=1)
     return float(d.max()) / eps
+
+
+_LINE_SIGNS = np.array([[-1.0], [1.0]])  # u = -v / b, m = w / b (`sensitivity`)
+_LABELLINGS = np.array([[0, 1, 2, 3], [2, 3, 0, 1]])  # h1 h2 k1 k2, and the branches swapped
 
 
 @lru_cache(maxsize=8)
