@@ -78,9 +78,9 @@ def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SA
     if T.shape != (3, 4, 4):
         raise InputError(f"a Bennett linkage needs exactly 3 poses (array of shape (3, 4, 4)), got {T.shape}")
     names = list(names) if names is not None else ["p0", "p1", "p2"]
-    if member is None and np.all(np.isfinite(T)):
+    if member is None:
         # the perturbed sets of the condition estimate (`sensitivity`) are factored in the same batch
-        # (the first half of the pipeline only)
+        # (the first half of the pipeline only); a set with NaN or inf is never good (the per-set path says so)
         out = solve(T[None], check_samples, perturb=_small_motion_matrices(SENSITIVITY_EPS, 0, 2))
         if out["good"][0]:
             return [linkage_from_solution(out, 0, T, names, check_samples, perturbed=out["extra"])]
