@@ -115,3 +115,21 @@ def test_checks_extent_equals_linkage_extent_sixbar():
     rng = np.random.default_rng(3)
     L = synth.sixbar(random_poses(rng, 4))
     assert extent(L) == pytest.approx(L.extent(), rel=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_perturbed_copies_in_the_batch_equal_the_perturbed_poses(seed):
+    """solve(perturb=) multiplies the conditioned poses by the small motions: the same factors as
+    `perturbed_poses` factored on their own, and the same axis distance as `axis_distance`."""
+    rng = np.random.default_rng(seed)
+    T = random_poses(rng, 3, scale=10 ** rng.uniform(-2, 2), offset=rng.normal(size=3) * 10)
+    out = bennett_core.solve(T[None], 0, perturb=bennett_mod._small_motion_matrices(1e-9, 0, 2))
+    ref = bennett_core.factor_sets(bennett_mod.perturbed_poses(T))
+    assert out["good"][0] and out["extra"]["good"].all() and ref["good"].all()
+    scale = max(1.0, float(np.abs(ref["factors"]).max()))
+    np.testing.assert_allclose(out["extra"]["factors"], ref["factors"], atol=1e-11 * scale)
+    U, M = out["lines"][..., 0, :], out["lines"][..., 1, :]
+    far = bennett_core.axis_distance(U, M, out["centre"])
+    assert out["axis_distance"][0] == pytest.approx(far[0], rel=1e-9, abs=1e-12 * scale)
+    L = bennett_mod.bennett(T)
+    assert bennett_mod.sensitivity(L, solved=out["extra"]) == pytest.approx(bennett_mod.sensitivity(L), rel=1e-3)

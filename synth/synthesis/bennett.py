@@ -17,7 +17,7 @@ from functools import lru_cache
 import numpy as np
 
 from synth.algebra.algorithm1 import cross3, index_pairs
-from synth.algebra.dq import dot
+from synth.algebra.dq import dot, dq_right_matrix, pose_to_dq
 from synth.algebra.factorize import factorize
 from synth.checks import (BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, pose_difference,
                           self_check)
@@ -78,12 +78,13 @@ def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SA
     if T.shape != (3, 4, 4):
         raise InputError(f"a Bennett linkage needs exactly 3 poses (array of shape (3, 4, 4)), got {T.shape}")
     names = list(names) if names is not None else ["p0", "p1", "p2"]
-    if member is None and np.all(np.isfinite(T)):
+    if member is None:
         # the perturbed sets of the condition estimate (`sensitivity`) are factored in the same batch
-        # (the first half of the pipeline only)
-        out = solve(T[None], check_samples, extra=perturbed_poses(T))
+        # (the first half of the pipeline only); a set with NaN or inf is never good (the per-set path says so)
+        out = solve(T[None], check_samples, perturb=_small_motion_matrices(SENSITIVITY_EPS, 0, 2))
         if out["good"][0]:
             return [linkage_from_solution(out, 0, T, names, check_samples, perturbed=out["extra"])]
+        return per_set_candidates(T, names, check_samples=check_samples, top=top, perturbed=out["extra"])
     return per_set_candidates(T, names, check_samples=check_samples, member=member, top=top)
 
 
@@ -278,7 +279,8 @@ def _near_relations(T, names, spread) -> list[tuple[int, str]]:
 def perturbed_poses(T, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int = 0) -> np.ndarray:
     """The poses (3, 4, 4) moved by ``trials`` deterministic random perturbations of relative size
     ``eps`` (each pose: a rotation of eps radians and a translation of eps pose spreads, in its own
-    frame), shape (trials, 3, 4, 4)."""
+    frame), shape (trials, 3, 4, 4). (`bennett_candidates` has `synth.synthesis.bennett_core.solve`
+    apply the same motions to the conditioned poses' dual quaternions, `_small_motion_matrices`.)"""
     T = np.asarray(T, float)
     M = _small_motions(eps, seed, trials).copy()  # (trials, 3, 4, 4), translations of unit length
     M[..., :3, 3] *= _spread(T)
@@ -301,29 +303,36 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
     c, spread = position_spread(T)
     spread = max(float(spread), 1e-300)
     J = {j.name: j for j in linkage.joints}
-    order = ("h1", "h2", "k1", "k2")
-    Tp = perturbed_poses(T, eps, trials, seed) if solved is None or not np.all(solved["good"]) else None
-    out = solved if solved is not None else factor_sets(Tp)
-    F = []
-    for k in range(trials):
-        if out["good"][k]:
-            F.append(out["factors"][k])
-        else:
-            try:
-                H, K, *_ = _general_factors(Tp[k], [p.name for p in linkage.poses])
-            except SynthesisError:
-                return float("inf")
-            F.append(np.concatenate([H, K]))
-    F = np.array(F)  # (trials, 4, 8): h1 h2 k1 k2
-    b = np.sqrt(dot(F[..., 1:4], F[..., 1:4]))[..., None]
-    # lines (1 + trials, 4, 6): the linkage's, then the perturbed ones: direction, moment about c / spread
-    U = np.concatenate([[[J[n].direction for n in order]], -F[..., 1:4] / b])
-    M = np.concatenate([[[J[n].moment for n in order]], F[..., 5:8] / b])
-    L = np.concatenate([U, (M - cross3(c, U)) / spread], axis=-1)
-    new, ref = L[1:].reshape(trials, -1), L[0].reshape(-1)
-    swapped = L[1:, [2, 3, 0, 1]].reshape(trials, -1)  # branches may swap labels
-    d = np.minimum(np.abs(new - ref).max(axis=1), np.abs(swapped - ref).max(axis=1))
+    ref = np.array([(J[n].direction, J[n].moment) for n in ("h1", "h2", "k1", "k2")], float)  # (4, 2, 3)
+    if solved is not None and solved["good"].all():
+        F = solved["factors"]
+    else:
+        Tp = perturbed_poses(T, eps, trials, seed)
+        out = solved if solved is not None else factor_sets(Tp)
+        F = []
+        for k in range(trials):
+            if out["good"][k]:
+                F.append(out["factors"][k])
+            else:
+                try:
+                    H, K, *_ = _general_factors(Tp[k], [p.name for p in linkage.poses])
+                except SynthesisError:
+                    return float("inf")
+                F.append(np.concatenate([H, K]))
+        F = np.array(F)
+    # the perturbed lines (trials, 4, 2, 3) of the factors a + v + eps (q0 + w): u = -v / |v|, m = w / |v|
+    vw = F.reshape(trials, 4, 2, 4)[..., 1:]
+    lines = vw / (_LINE_SIGNS * np.sqrt(dot(vw[..., 0, :], vw[..., 0, :]))[..., None, None])
+    # their changes in both labellings (branches may swap), moments about c / spread (linear in the lines)
+    D = lines.take(_LABELLINGS, axis=1) - ref  # (trials, 2, 4, 2, 3)
+    D[..., 1, :] -= cross3(c, D[..., 0, :])
+    D[..., 1, :] /= spread
+    d = np.abs(D).reshape(trials, 2, 24).max(axis=2).min(axis=1)
     return float(d.max()) / eps
+
+
+_LINE_SIGNS = np.array([[-1.0], [1.0]])  # u = -v / b, m = w / b (`sensitivity`)
+_LABELLINGS = np.array([[0, 1, 2, 3], [2, 3, 0, 1]])  # h1 h2 k1 k2, and the branches swapped
 
 
 @lru_cache(maxsize=8)
@@ -344,6 +353,15 @@ def _small_motions(eps: float, seed: int, trials: int) -> tuple:
         M[:3, 3] = v * (eps / np.linalg.norm(v))
         out.append(M)
     out = np.array(out).reshape(trials, 3, 4, 4)
+    out.flags.writeable = False
+    return out
+
+
+@lru_cache(maxsize=8)
+def _small_motion_matrices(eps: float, seed: int, trials: int) -> np.ndarray:
+    """The right-multiplication matrices (trials, 3, 8, 8) of `_small_motions` as unit dual quaternions,
+    translations in pose spreads (`synth.synthesis.bennett_core.solve`'s ``perturb``; cached, read-only)."""
+    out = dq_right_matrix(pose_to_dq(_small_motions(eps, seed, trials)))
     out.flags.writeable = False
     return out
 

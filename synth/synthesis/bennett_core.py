@@ -29,8 +29,8 @@ from synth.algebra.anglelaw import angle_law
 from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
-from synth.algebra.dq import dot, pose_to_dq, translated
-from synth.synthesis.conic import conditioning, conic, relative_displacements_dq, to_world
+from synth.algebra.dq import dot, pose_to_dq
+from synth.synthesis.conic import Conditioning, condition_map, conditioning, conic, relative_displacements_dq, to_world
 
 JOINTS = ("h1", "h2", "k1", "k2")
 BRANCHES = np.array([[0, 1], [2, 3]])  # h1 h2 | k1 k2, base to coupler
@@ -54,27 +54,31 @@ _LINE_SIGNS = np.array([[-1.0], [1.0]])  # u = -v / b, m = w / b
 _FLOOR = FLOOR_ULPS * EPS / ACCEPT_TOL
 
 
-def solve(T, check_samples: int, extra=None) -> dict:
+def solve(T, check_samples: int, perturb=None) -> dict:
     """The Bennett pipeline on poses T (N, 3, 4, 4), metres; returns a dict of arrays over N (see
     `synth.synthesis.bennett_batch.BennettBatch` for the fields) plus ``good`` (N,): the set was solved
     here and its self-check is well inside ACCEPT_TOL. Rows of sets that are not good hold garbage.
     Large batches run in chunks of CHUNK sets, whose temporaries stay in the CPU caches, with BLAS on
-    one thread from ONE_THREAD_MIN sets on (`synth.blas`, docs/architecture.md "Threads"). ``extra``
-    (M, 3, 4, 4): pose sets of which only the factorizations are wanted (the condition estimate's
-    perturbed sets), computed in the same batch: ``out["extra"]`` = {``good`` (M,) (the gates before
-    the self-check), ``factors`` (M, 4, 8)}."""
+    one thread from ONE_THREAD_MIN sets on (`synth.blas`, docs/architecture.md "Threads"). ``perturb``
+    (K, 3, 8, 8): the right-multiplication matrices (`synth.algebra.dq.dq_right_matrix`) of small motions,
+    one per copy and pose, translations in units of the pose spread (the condition estimate's
+    perturbations, `synth.synthesis.bennett.perturbed_poses`): every set with pose i moved to T_i M_ki is
+    also factored, in the same batch (the first half of the pipeline only, `_factors`):
+    ``out["extra"]`` = {``good`` (N K,) (the gates before the self-check), ``factors`` (N K, 4, 8)},
+    set by set."""
     T = np.asarray(T, float)
-    if extra is not None:
-        fac = _factors(np.concatenate([T, np.asarray(extra, float)]))
-        n = T.shape[0]
-        out = _solve(T, check_samples, {k: v[:n] for k, v in fac.items()})
-        out["extra"] = {"good": fac["good"][n:], "factors": fac["factors"][n:]}  # as `factor_sets`
-        return out
-    if T.shape[0] >= ONE_THREAD_MIN:
-        with one_blas_thread():
-            parts = [_solve(T[i : i + CHUNK], check_samples) for i in range(0, T.shape[0], CHUNK)]
-        return parts[0] if len(parts) == 1 else _concatenate(parts)
-    return _solve(T, check_samples)
+    with np.errstate(all="ignore"):  # (for `_factors` and `_solve`: rows of bad sets hold garbage)
+        if perturb is not None:
+            fac = _factors(T, perturb)
+            n = T.shape[0]
+            out = _solve(T, check_samples, {k: v[:n] for k, v in fac.items()})
+            out["extra"] = {"good": fac["good"][n:], "factors": fac["factors"][n:]}  # as `factor_sets`
+            return out
+        if T.shape[0] >= ONE_THREAD_MIN:
+            with one_blas_thread():
+                parts = [_solve(T[i : i + CHUNK], check_samples) for i in range(0, T.shape[0], CHUNK)]
+            return parts[0] if len(parts) == 1 else _concatenate(parts)
+        return _solve(T, check_samples)
 
 
 def _concatenate(parts: list):
@@ -87,79 +91,104 @@ def _concatenate(parts: list):
 def factor_sets(T) -> dict:
     """The two factorizations only, for pose sets T (M, 3, 4, 4): ``good`` (M,) (the gates that need no
     self-check) and ``factors`` (M, 4, 8) of h1 h2 k1 k2 in the world frame."""
-    fac = _factors(np.asarray(T, float))
+    with np.errstate(all="ignore"):
+        fac = _factors(np.asarray(T, float))
     return {"good": fac["good"], "factors": fac["factors"]}
 
 
-def _factors(T) -> dict:
+def _factors(T, perturb=None) -> dict:
     """The first half of the pipeline, arrays over the sets of T (N, 3, 4, 4): conic, norm roots,
     Algorithm 1 for both orders (polished where needed), the factors and C in the world frame, and
-    ``good``: the gates that need no self-check."""
-    N = T.shape[0]
+    ``good``: the gates that need no self-check. ``perturb`` (K, 3, 8, 8): as `solve`; the perturbed copies
+    follow the N sets (set by set) in the arrays over sets, except ``Tf`` and ``Q`` (the N sets only);
+    ``conditioned``: the factors in the conditioned frame. Call under ``np.errstate(all="ignore")``."""
     finite = np.isfinite(T).all(axis=(1, 2, 3))
-    with np.errstate(all="ignore"):
-        Tf = T if finite.all() else np.where(finite[:, None, None, None], T, _EYE4)
-        cond = conditioning(Tf)
-        Q = pose_to_dq(Tf)  # world frame (checks)
-        # the conditioned poses (conic): translated by -centre, lengths divided by the scale (from Q, not from
-        # the positions: the conic then passes through the poses as the checks see them)
-        Qc = translated(Q, -cond.centre[:, None])
-        Qc[..., 4:] /= cond.scale[:, None, None]
-        con = conic(relative_displacements_dq(Qc))
-        C, B = con.C, con.B  # (N, 3, 8), (N, 3)
-        z = norm_roots(norm_poly(C))  # (N, 2), Re z[0] <= Re z[1]
-        im, sep = root_conditioning(z)
-        H, ok, R = algorithm1(C[:, None], quadratics(z)[:, _ORDERS], remainders=True)  # (N, 2 branches, 2, 8)
-        residual = remainder_error(C[:, None], H, R).max(axis=1)  # the multiply-back error, up to rounding
-        # Algorithm 1 loses digits when roots are close or nearly real: Newton on the product equations
-        # (`polish`) restores them here rather than sending the set to the per-set path
-        ok = ok.all(axis=1) & finite
-        redo = np.flatnonzero((residual > POLISH_ABOVE) & ok)
-        if redo.size:
-            H[redo] = polish(C[redo, None], H[redo])[0]
-            residual[redo] = multiply_back(C[redo, None], H[redo]).max(axis=1)
-        good = (ok & (np.abs(B).min(axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
-                & (residual <= MAX_RESIDUAL) & ~is_translation(H).any(axis=(1, 2)))
-        world = to_world(np.concatenate([H.reshape(N, 4, 8), C], axis=1), cond)
-    return dict(finite=finite, Tf=Tf, Q=Q, centre=cond.centre, scale=cond.scale, B=B, roots=z, residual=residual,
-                good=good, factors=world[:, :4], motion=world[:, 4:])
+    Tf = T if finite.all() else np.where(finite[:, None, None, None], T, _EYE4)
+    cond = conditioning(Tf)
+    Q = pose_to_dq(Tf)  # world frame (checks)
+    # the conditioned poses (conic): translated by -centre, lengths divided by the scale (from Q, not from
+    # the positions: the conic then passes through the poses as the checks see them)
+    Qc = np.matmul(Q, condition_map(cond.scale, cond.centre))
+    if perturb is not None:
+        # T_i M moved to the conditioned frame is Tc_i M' with M's translation divided by the spread, i.e.
+        # in spread units: the copies are products of conditioned poses and the given motions, with the
+        # set's conditioning (the same world-frame factors up to rounding: the conic is unique)
+        Qc = np.concatenate([Qc, np.matmul(Qc[:, None, :, None, :], perturb).reshape(-1, 3, 8)])
+        rows = _copy_rows(T.shape[0], perturb.shape[0])
+        cond = Conditioning(centre=cond.centre.take(rows, axis=0), scale=cond.scale.take(rows))
+        finite = finite.take(rows)
+    N = Qc.shape[0]
+    con = conic(relative_displacements_dq(Qc))
+    C, B = con.C, con.B  # (N, 3, 8), (N, 3)
+    z = norm_roots(norm_poly(C))  # (N, 2), Re z[0] <= Re z[1]
+    im, sep = root_conditioning(z)
+    H, ok, R = algorithm1(C[:, None], quadratics(z)[:, _ORDERS], remainders=True)  # (N, 2 branches, 2, 8)
+    residual = remainder_error(C[:, None], H, R).max(axis=1)  # the multiply-back error, up to rounding
+    # Algorithm 1 loses digits when roots are close or nearly real: Newton on the product equations
+    # (`polish`) restores them here rather than sending the set to the per-set path
+    ok = ok.all(axis=1) & finite
+    redo = ((residual > POLISH_ABOVE) & ok).nonzero()[0]
+    if redo.size:
+        H[redo] = polish(C[redo, None], H[redo])[0]
+        residual[redo] = multiply_back(C[redo, None], H[redo]).max(axis=1)
+    good = (ok & (np.abs(B).min(axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
+            & (residual <= MAX_RESIDUAL) & ~is_translation(H).any(axis=(1, 2)))
+    conditioned = H.reshape(N, 4, 8)
+    world = to_world(np.concatenate([conditioned, C], axis=1), cond)
+    return dict(finite=finite, Tf=Tf, Q=Q, centre=cond.centre, scale=cond.scale, B=B, residual=residual,
+                good=good, factors=world[:, :4], motion=world[:, 4:], conditioned=conditioned)
+
+
+@functools.lru_cache(maxsize=16)
+def _copy_rows(N: int, K: int) -> np.ndarray:
+    """The set of each row of N sets followed by K copies of each, (N (1 + K),) (read-only, cached)."""
+    out = np.concatenate([np.arange(N), np.repeat(np.arange(N), K)])
+    out.flags.writeable = False
+    return out
 
 
 def _solve(T, check_samples: int, fac=None) -> dict:
     fac = _factors(T) if fac is None else fac
     N = T.shape[0]
     factors, motion, Q, centre, scale = fac["factors"], fac["motion"], fac["Q"], fac["centre"], fac["scale"]
-    with np.errstate(all="ignore"):
-        # the lines (N, 4, 2, 3) (direction u, moment m) and angle laws (N, 4, 2) (a, b) of the factors
-        # a + v + eps (q0 + w): b = |v|, u = -v / b, m = w / b (as `synth.synthesis.assemble`'s joints, to
-        # within an ulp of b: the 16-ulp allowance of `synth.checks.loop_bound`)
-        laws = np.empty((N, 4, 2))
-        laws[..., 0] = factors[..., 0]
-        vw = factors.reshape(N, 4, 2, 4)[..., 1:]
-        np.sqrt(dot(vw[..., 0, :], vw[..., 0, :]), out=laws[..., 1])
-        a, b = laws[..., 0], laws[..., 1]
-        lines = vw / (_LINE_SIGNS * b[..., None, None])
-        U, M = lines[..., 0, :], lines[..., 1, :]
-        pose_angles = angle_law(a[:, None, :], b[:, None, :], TS[:, None])  # (N, 3, 4); 0 at t = inf
-        loop = lines.take(LOOP, axis=1)
-        geo = loop_geometry(loop[..., 0, :], loop[..., 1, :])
-        # the linkage's length scale (`synth.checks.extent`): the RMS distance from their centroid of the
-        # tool positions (pose 0 twice: the reference) and the joint sites, the means of the feet of the
-        # common normals around the loop (each link carries two joints of the loop), one linear map
-        pts = np.concatenate([fac["Tf"][:, :, :3, 3], geo["feet"].reshape(N, 8, 3)], axis=1)
-        rel = np.matmul(_SITES, pts).reshape(N, 24)
-        length_scale = np.maximum(np.sqrt(dot(rel, rel) * 0.125), 1e-9)
-        # certified: closure and motion over the whole motion, the poses at their angles through the motion
-        bound = loop_bound(U, M, a, b, BRANCHES, motion)
-        errors = pose_bound(motion, TS[1:], Q[:, 1:3], Q[:, 0], bound)  # (pose 0: t = inf)
-        errors["closure_translation"], errors["closure_rotation"], errors["motion"] = (
-            bound["closure_translation"], bound["closure_rotation"], bound["motion"])
-        if check_samples > 0:
-            sampled = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
-            errors = {k: np.maximum(v, sampled[k]) for k, v in errors.items()}
-        far = axis_distance(U, M, centre)
-        rel = relative_error(fac["Tf"], scale, far, errors)
-        good = fac["good"] & ~geo["parallel"].any(axis=1) & (rel <= 0.1 * ACCEPT_TOL)
+    # the lines (N, 4, 2, 3) (direction u, moment m) and angle laws (N, 4, 2) (a, b) of the factors
+    # a + v + eps (q0 + w): b = |v|, u = -v / b, m = w / b (as `synth.synthesis.assemble`'s joints, to
+    # within an ulp of b: the 16-ulp allowance of `synth.checks.loop_bound`)
+    laws = np.empty((N, 4, 2))
+    laws[..., 0] = factors[..., 0]
+    vw = factors.reshape(N, 4, 2, 4)[..., 1:]
+    np.sqrt(dot(vw[..., 0, :], vw[..., 0, :]), out=laws[..., 1])
+    a, b = laws[..., 0], laws[..., 1]
+    lines = vw / (_LINE_SIGNS * b[..., None, None])
+    U, M = lines[..., 0, :], lines[..., 1, :]
+    pose_angles = angle_law(a[:, None, :], b[:, None, :], TS[:, None])  # (N, 3, 4); 0 at t = inf
+    loop = lines.take(LOOP, axis=1)
+    geo = loop_geometry(loop[..., 0, :], loop[..., 1, :])
+    # the linkage's length scale (`synth.checks.extent`): the RMS distance from their centroid of the
+    # tool positions (pose 0 twice: the reference) and the joint sites, the means of the feet of the
+    # common normals around the loop (each link carries two joints of the loop), one linear map
+    pts = np.concatenate([fac["Tf"][:, :, :3, 3], geo["feet"].reshape(N, 8, 3)], axis=1)
+    rel = np.matmul(_SITES, pts).reshape(N, 24)
+    length_scale = np.maximum(np.sqrt(dot(rel, rel) * 0.125), 1e-9)
+    # certified: closure and motion over the whole motion, the poses at their angles through the motion
+    bound = loop_bound(U, M, a, b, BRANCHES, motion)
+    errors = pose_bound(motion, TS[1:], Q[:, 1:3], Q[:, 0], bound)  # (pose 0: t = inf)
+    errors["closure_translation"], errors["closure_rotation"], errors["motion"] = (
+        bound["closure_translation"], bound["closure_rotation"], bound["motion"])
+    if check_samples > 0:
+        sampled = check_figures(STRUCTURE, U, M, a, b, pose_angles, Q[:, :3], Q[:, 0], motion, check_samples)
+        errors = {k: np.maximum(v, sampled[k]) for k, v in errors.items()}
+    # `axis_distance` from the conditioned factors a + v + eps (q0 + w_c): |m - c x u| = L |w_c| / |v|
+    # (`synth.synthesis.conic.to_world`), without the world frame's cancellation
+    wc = fac["conditioned"][..., 5:]
+    far = dot(wc, wc)
+    far /= b * b
+    far = np.sqrt(far.max(axis=1))
+    far *= scale
+    rel = relative_error(fac["Tf"], scale, far, errors)
+    good = fac["good"] & (rel <= 0.1 * ACCEPT_TOL)
+    if geo["some_parallel"]:
+        good &= ~geo["parallel"].any(axis=1)
     return dict(good=good, finite=fac["finite"], lines=lines, laws=laws, pose_angles=pose_angles, factors=factors,
                 motion=motion, study_form=fac["B"] * scale[:, None], centre=centre, scale=scale,
                 residual=fac["residual"], bennett=bennett_parameters(geo), dh=dh_rows(loop[..., 0, :], geo),
@@ -177,7 +206,8 @@ def relative_error(T, spread, far, errors) -> np.ndarray:
     spread (closure: to the axes' largest distance ``far`` from the centroid, `axis_distance`), plus a
     floor of FLOOR_ULPS ulps of the coordinates' magnitude (a pose 1e6 m from the origin is only known
     to ~1e-10 m)."""
-    floor = np.abs(T[:, :, :3, 3]).reshape(len(T), 3 * T.shape[1]).max(axis=1, initial=0.0) * _FLOOR
+    floor = np.abs(T[:, :, :3, 3]).max(axis=(1, 2), initial=0.0)
+    floor *= _FLOOR
     return np.maximum(np.maximum(errors["pose_translation"] / (spread + floor), errors["pose_rotation"]),
                       np.maximum(errors["closure_translation"] / (np.maximum(spread, far) + floor),
                                  errors["closure_rotation"]))
@@ -187,8 +217,9 @@ def loop_geometry(U, M) -> dict:
     """Geometry of consecutive axes around closed loops, lines U, M (N, J, 3) in loop order: for the pair
     (i, i+1 mod J) ``distance`` and signed ``twist`` (the angle from u_i to u_{i+1} about the common
     normal from i to i+1) (N, J), both as ``distance_twist`` (2, N, J), the feet ``foot_out`` (on i) and
-    ``foot_in`` (on i+1), both as ``feet`` (N, J, 2, 3), the unit ``normal`` (N, J, 3) and ``parallel``
-    (N, J). Parallel axes: the foot on i is its point nearest the origin."""
+    ``foot_in`` (on i+1), both as ``feet`` (N, J, 2, 3), the unit ``normal`` (N, J, 3), ``parallel``
+    (N, J) and ``some_parallel`` (bool: any of them). Parallel axes: the foot on i is its point nearest
+    the origin."""
     J = U.shape[-2]
     pair = _pair_index(J)  # (J, 2): i, i+1
     UU = U.take(pair, axis=-2)  # (N, J, 2, 3): u_i, u_{i+1}
@@ -219,7 +250,7 @@ def loop_geometry(U, M) -> dict:
                      np.where(nc > 1e-12, cr / np.where(nc > 1e-12, nc, 1.0), 0.0))
     twist = np.arctan2(dot(cr, n), dot(u1, u2), out=dt[1])
     return {"distance": dist, "twist": twist, "distance_twist": dt, "foot_out": feet[..., 0, :],
-            "foot_in": feet[..., 1, :], "feet": feet, "normal": n, "parallel": par}
+            "foot_in": feet[..., 1, :], "feet": feet, "normal": n, "parallel": par, "some_parallel": some_parallel}
 
 
 @functools.lru_cache(maxsize=None)
@@ -269,7 +300,7 @@ def bennett_parameters(geo) -> dict:
     dist, twist = geo["distance"], geo["twist"]  # (N, 4): a, b, a', b' and alpha, beta, alpha', beta'
     with np.errstate(all="ignore"):
         s = np.abs(np.sin(twist[:, :2]))
-        r = np.where(s > 1e-15, dist[:, :2] / s, np.inf)  # a / sin(alpha), b / sin(beta), >= 0
+        r = np.divide(dist[:, :2], s, out=np.full(s.shape, np.inf), where=s > 1e-15)  # a / sin(alpha), b / sin(beta)
         r0, r1 = r[:, 0], r[:, 1]
         res = np.abs(r0 - r1) / np.maximum(np.maximum(r0, r1), 1e-300)  # NaN when either is inf
         dt = np.abs(geo["distance_twist"])  # (2, N, 4): distances and |twists|

@@ -11,11 +11,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.algebra.algorithm1 import cross3
-from synth.algebra.dq import dot, dq_mul, normalize_dq, pose_to_dq, study_form
+from synth.algebra.dq import dot, dq_left_matrix, dq_mul, normalize_dq, pose_to_dq
 from synth.errors import SynthesisError
 
 _ONE = np.eye(8)[0]
+_SWAP = np.array([4, 5, 6, 7, 0, 1, 2, 3])  # p + eps q -> q + eps p
+_TS = np.array([np.inf, 0.0, 1.0])  # the poses' parameters (read-only)
+_TS.flags.writeable = False
 _CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
 
 
@@ -30,8 +32,8 @@ def position_spread(T) -> tuple[np.ndarray, np.ndarray]:
     pos = np.asarray(T, float)[..., :3, 3]
     k = pos.shape[-2]
     c = pos.sum(axis=-2) / k
-    rel = pos - c[..., None, :]
-    return c, np.sqrt(dot(rel, rel).sum(axis=-1) / k)
+    rel = (pos - c[..., None, :]).reshape(pos.shape[:-2] + (3 * k,))
+    return c, np.sqrt(dot(rel, rel) / k)
 
 
 def conditioning(T) -> Conditioning:
@@ -54,15 +56,63 @@ def condition(T) -> tuple[np.ndarray, Conditioning]:
 def to_world(h, cond: Conditioning):
     """Map dual quaternions h (..., 8) from conditioned to world coordinates: scale the dual part by L,
     then conjugate by the translation to the centroid (h -> tau h tau^-1 with tau = 1 - eps c / 2, which
-    adds vec(p) x c to the dual vector part). A batched ``cond`` (scale (B,), centre (B, 3)) applies to
-    the leading axis of h."""
-    h = np.array(h, float)
+    adds vec(p) x c to the dual vector part): one linear map h -> h W of each set (`world_map`). A
+    batched ``cond`` (scale (B,), centre (B, 3)) applies to the leading axis of h."""
+    h = np.asarray(h, float)
     L = np.asarray(cond.scale, float)
-    c = np.asarray(cond.centre, float)
-    extra = h.ndim - 1 - L.ndim
-    h[..., 4:] *= L.reshape(L.shape + (1,) * (extra + 1))
-    h[..., 5:8] += cross3(h[..., 1:4], c.reshape(c.shape[:-1] + (1,) * extra + (3,)))
-    return h
+    W = world_map(L, cond.centre)
+    extra = h.ndim - 1 - L.ndim  # axes of h between the sets and the coefficients
+    if extra == 0:
+        return np.matmul(h[..., None, :], W)[..., 0, :]
+    return np.matmul(h, W.reshape(L.shape + (1,) * (extra - 1) + (8, 8)))
+
+
+def world_map(L, c) -> np.ndarray:
+    """The matrices W (..., 8, 8) of `to_world` (row vectors: h_world = h W) for scales L (...) and
+    centres c (..., 3): diag(1, 1, 1, 1, L, L, L, L) plus vec(p) x c in the dual vector rows."""
+    Lc = np.empty(np.shape(L) + (4,))
+    Lc[..., 0] = L
+    Lc[..., 1:] = c
+    W = Lc @ _WORLD_LC
+    W += _WORLD_ONE
+    return W.reshape(Lc.shape[:-1] + (8, 8))
+
+
+def condition_map(L, c) -> np.ndarray:
+    """The matrices S (..., 8, 8) (row vectors: h S) moving poses as unit dual quaternions (..., 8) to
+    the conditioned frame of centre c (..., 3) and scale L (...): the translation by -c, then the dual
+    part divided by L, i.e. (1 + eps c / 2) h with q / L (`condition`)."""
+    g = np.empty(np.shape(L) + (4,))
+    g[..., 0] = 1.0
+    g[..., 1:] = c
+    g /= np.asarray(L, float)[..., None]  # (1, c) / L
+    S = g @ _CONDITION_GC
+    S += _WORLD_ONE
+    return S.reshape(g.shape[:-1] + (8, 8))
+
+
+def _condition_constants():
+    """(4, 64): S = (1, c) / L @ A + `_WORLD_ONE`, flattened (`condition_map`)."""
+    A = np.zeros((4, 8, 8))
+    A[0, 4:, 4:] = np.eye(4)
+    A[1:] = 0.5 * dq_left_matrix(np.eye(8)[5:])  # eps c_i / 2 e_i h
+    return A.reshape(4, 64)
+
+
+def _world_constants():
+    """(4, 64) and (64,): W = (L, c) @ A + B, flattened (`world_map`)."""
+    A = np.zeros((4, 8, 8))
+    A[0, 4:, 4:] = np.eye(4)
+    for j, k, i in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):  # (p x c)_i = p_j c_k - p_k c_j (vector axes 1..3)
+        A[1 + k, 1 + j, 5 + i] = 1.0
+        A[1 + j, 1 + k, 5 + i] = -1.0
+    B = np.zeros((8, 8))
+    B[:4, :4] = np.eye(4)
+    return A.reshape(4, 64), B.reshape(64)
+
+
+_WORLD_LC, _WORLD_ONE = _world_constants()
+_CONDITION_GC = _condition_constants()
 
 
 def relative_displacements(T):
@@ -96,13 +146,13 @@ def conic(D, tol=1e-9) -> ConicData:
     D = np.asarray(D, float)
     D1, D2 = D[..., 1, :], D[..., 2, :]
     B = np.empty(D.shape[:-2] + (3,))  # B01, B02, B12
-    B[..., :2] = D[..., 1:, 4]
-    B[..., :2] /= 2
-    B[..., 2] = study_form(D1, D2)
+    np.multiply(D[..., 1:, 4], 0.5, out=B[..., :2])
+    B[..., 2] = dot(D1, D2.take(_SWAP, axis=-1))  # the Study form B(D_1, D_2) = (p1 . q2 + q1 . p2) / 2
+    B[..., 2] *= 0.5
     if D.ndim == 2:
         check_conic_degeneracy(D, *B, tol)
     lam = B[..., 1::-1] / B[..., 2:]  # B02 / B12, B01 / B12: C(0) = lam1 D_1, C(1) = lam2 D_2 (docs/conic.md, section 2)
-    return ConicData(C=conic_member(D, lam), ts=np.array([np.inf, 0.0, 1.0]), B=B)
+    return ConicData(C=conic_member(D, lam), ts=_TS, B=B)
 
 
 def conic_member(D, lam) -> np.ndarray:
@@ -112,15 +162,14 @@ def conic_member(D, lam) -> np.ndarray:
     Study quadric (planar or spherical poses, docs/planar.md). Returns (..., 3, 8)."""
     D = np.asarray(D, float)
     lam = np.asarray(lam, float)
-    l1, l2 = lam[..., 0, None], lam[..., 1, None]
-    D1, D2 = D[..., 1, :], D[..., 2, :]
-    batch = D.shape[:-2] if D.shape[:-2] == lam.shape[:-1] else np.broadcast_shapes(D.shape[:-2], lam.shape[:-1])
-    C = np.zeros(batch + (3, 8))
-    C[..., 2, 0] = 1.0
-    np.multiply(l1, D1, out=C[..., 0, :])
-    np.subtract(l2 * D2, C[..., 0, :], out=C[..., 1, :])
-    C[..., 1, 0] -= 1.0
+    C = np.matmul(_MEMBER_ROWS, lam[..., :, None] * D[..., 1:, :])  # l1 D_1, l2 D_2 - l1 D_1, 0
+    C += _MEMBER_CONSTANT  # + t (t - 1)
     return C
+
+
+_MEMBER_ROWS = np.array([[1.0, 0.0], [-1.0, 1.0], [0.0, 0.0]])
+_MEMBER_CONSTANT = np.zeros((3, 8))
+_MEMBER_CONSTANT[1, 0], _MEMBER_CONSTANT[2, 0] = -1.0, 1.0
 
 
 def check_conic_degeneracy(D, B01, B02, B12, tol):
