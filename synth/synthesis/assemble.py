@@ -23,7 +23,7 @@ def pose_records(joints, poses, names, ts, angles=None) -> list[PoseRecord]:
     """One PoseRecord per pose (4x4 matrix, name, parameter t) with every joint's angle there
     (`synth.algebra.anglelaw.angle_law`, all poses and joints in one call; ``angles`` (poses, joints):
     these angle laws' values, when the caller has them already)."""
-    ts = [float(t) for t in ts]
+    ts = np.asarray(ts, float).tolist()
     if angles is None:
         law = np.array([(j.a, j.b, j.rate) for j in joints], float).reshape(-1, 3).T
         rate = law[2] if any(j.rate != 1 for j in joints) else 1

@@ -163,7 +163,8 @@ def linkage_from_solution(out: dict, i: int, T, names, check_samples: int, pertu
     figures = {k: float(v[i]) for k, v in out["errors"].items()}
     linkage.checks = as_checks(figures, check_samples, float(out["length_scale"][i]), bounded=True)
     linkage.info = _complete_info(linkage, info, out["study_form"][i] / scale, cond, out["bennett"], out["dh"],
-                                  float(out["relative_error"][i]), float(out["axis_distance"][i]), perturbed, row=i)
+                                  float(out["relative_error"][i]), float(out["axis_distance"][i]), perturbed, row=i,
+                                  frame=(out["centre"][i], scale, out["lines"][i]))
     return linkage
 
 
@@ -192,10 +193,11 @@ def _loop_lines(linkage, loop=LOOP_NAMES):
     return lines[None, :, 0], lines[None, :, 1]
 
 
-def _complete_info(linkage, info, B, cond, bp, dh, rel, far, perturbed=None, row: int = 0) -> dict:
+def _complete_info(linkage, info, B, cond, bp, dh, rel, far, perturbed=None, row: int = 0, frame=None) -> dict:
     """``info`` plus the Bennett parameters ``bp`` and DH table ``dh`` (dicts of arrays over sets, of
     which set ``row`` is this linkage's), relative self-check error and warnings; raises SynthesisError
-    when the self-check error ``rel`` exceeds ACCEPT_TOL (`_accept`)."""
+    when the self-check error ``rel`` exceeds ACCEPT_TOL (`_accept`). ``perturbed``, ``frame``: as
+    `sensitivity`'s ``solved`` and ``frame``."""
     info = dict(info)
     bp = {k: float(v[row]) for k, v in bp.items()}
     if not math.isfinite(bp["bennett_condition_residual"]):
@@ -203,7 +205,7 @@ def _complete_info(linkage, info, B, cond, bp, dh, rel, far, perturbed=None, row
     info["bennett"] = bp
     info["dh"] = _dh_list(LOOP_NAMES, dh, row)
     info["relative_error"] = _accept(linkage, cond, rel)
-    info["warnings"] = _warnings(linkage, [float(x) for x in B], cond, info, far, perturbed)
+    info["warnings"] = _warnings(linkage, np.asarray(B, float).tolist(), cond, info, far, perturbed, frame)
     return info
 
 
@@ -293,20 +295,26 @@ def _spread(T) -> float:
     return max(float(position_spread(T)[1]), 1e-300)
 
 
-def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int = 0, solved=None) -> float:
+def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int = 0, solved=None,
+                frame=None) -> float:
     """Condition estimate of the synthesis: the largest change of the joint axes (unit directions,
     and moments about the poses' centroid divided by the pose spread) per unit relative change of
     the poses, over the ``trials`` perturbations of `perturbed_poses`. Infinite when a perturbed input
     has no Bennett linkage. Deterministic (fixed seed). ``solved``: ``good`` and ``factors`` of the
-    perturbed sets (`synth.synthesis.bennett_core.factor_sets`; computed here when None)."""
-    T = np.array([p.matrix for p in linkage.poses])
-    c, spread = position_spread(T)
-    spread = max(float(spread), 1e-300)
-    J = {j.name: j for j in linkage.joints}
-    ref = np.array([(J[n].direction, J[n].moment) for n in ("h1", "h2", "k1", "k2")], float)  # (4, 2, 3)
+    perturbed sets (`synth.synthesis.bennett_core.factor_sets`; computed here when None). ``frame``:
+    (centroid (3,), spread > 0, lines (4, 2, 3) of h1 h2 k1 k2) of the linkage's poses and joints, when
+    at hand (`synth.synthesis.bennett_core.solve`'s centre, scale and lines)."""
+    if frame is None:
+        c, spread = position_spread(np.array([p.matrix for p in linkage.poses]))
+        spread = max(float(spread), 1e-300)
+        J = {j.name: j for j in linkage.joints}
+        ref = np.array([(J[n].direction, J[n].moment) for n in ("h1", "h2", "k1", "k2")], float)  # (4, 2, 3)
+    else:
+        c, spread, ref = frame
     if solved is not None and solved["good"].all():
         F = solved["factors"]
     else:
+        T = np.array([p.matrix for p in linkage.poses])
         Tp = perturbed_poses(T, eps, trials, seed)
         out = solved if solved is not None else factor_sets(Tp)
         F = []
@@ -406,11 +414,12 @@ def _general_factors(T, names):
     return H, K, C, con, cond, info
 
 
-def _warnings(linkage, B, cond, info, far, perturbed=None) -> list[str]:
+def _warnings(linkage, B, cond, info, far, perturbed=None, frame=None) -> list[str]:
     """Warnings for a valid result: axes far from the poses, and sensitivity to the poses. The condition
     estimate (`sensitivity`, two extra syntheses) runs only when a cheap indicator suggests trouble:
     axes more than 3 pose spreads away, a Study form value |B| < 1e-2 (nearly zero pitch), or norm
-    roots that are close or nearly real."""
+    roots that are close or nearly real. ``perturbed``, ``frame``: as `sensitivity`'s ``solved`` and
+    ``frame``."""
     out = []
     rel = info.get("relative_error", 0.0)
     if rel > ACCURATE:
@@ -422,13 +431,14 @@ def _warnings(linkage, B, cond, info, far, perturbed=None) -> list[str]:
         out.append(f"joint axes lie {far:.3g} pose spreads away from the poses: the poses are nearly "
                    "related by pure translations, the linkage is valid but impractically large")
     # the two norm roots a + ib are those of h1 and h2 (k2 and k1 repeat them)
-    (a1, b1), (a2, b2) = ((j.a, j.b) for j in map(linkage.joint, ("h1", "h2")))
+    h1, h2 = linkage.joint("h1"), linkage.joint("h2")
+    a1, b1, a2, b2 = h1.a, h1.b, h2.a, h2.b
     roots_close = math.hypot(a1 - a2, b1 - b2) < 1e-2 * max(1.0, abs(a1), abs(b1), abs(a2), abs(b2))
     nearly_real = min(b1, b2) < 1e-2 * max(1.0, abs(a1), abs(a2))
-    if far > 3 or min(abs(x) for x in B) < 1e-2 or roots_close or nearly_real:
+    if far > 3 or min(map(abs, B)) < 1e-2 or roots_close or nearly_real:
         kappa = info.get("condition_estimate")
         if kappa is None:
-            kappa = sensitivity(linkage, solved=perturbed)
+            kappa = sensitivity(linkage, solved=perturbed, frame=frame)
         info["condition_estimate"] = kappa
         if kappa > SENSITIVE:
             # orders of magnitude only: the text must not depend on rounding (batch and single paths agree)

@@ -103,7 +103,7 @@ def _factors(T, perturb=None) -> dict:
     follow the N sets (set by set) in the arrays over sets, except ``Tf`` and ``Q`` (the N sets only);
     ``conditioned``: the factors in the conditioned frame. Call under ``np.errstate(all="ignore")``."""
     finite = np.isfinite(T).all(axis=(1, 2, 3))
-    Tf = T if finite.all() else np.where(finite[:, None, None, None], T, _EYE4)
+    Tf = T if np.count_nonzero(finite) == finite.size else np.where(finite[:, None, None, None], T, _EYE4)
     cond = conditioning(Tf)
     Q = pose_to_dq(Tf)  # world frame (checks)
     # the conditioned poses (conic): translated by -centre, lengths divided by the scale (from Q, not from
@@ -229,7 +229,7 @@ def loop_geometry(U, M) -> dict:
     PP, cr = X[..., 0, :].take(pair, axis=-2), X[..., 1, :]  # p_i, p_{i+1}
     s2 = dot(cr, cr)
     par = s2 < 1e-24
-    some_parallel = bool(par.any())
+    some_parallel = np.count_nonzero(par) > 0  # (count_nonzero: a quarter of any()'s call overhead)
     d = PP[..., 1, :] - PP[..., 0, :]
     # feet of the common normal: p_i + k1 u_i, p_{i+1} + k2 u_{i+1} with k = ((d x u2) . cr, (d x u1) . cr) / |cr|^2
     k = dot(cross3(d[..., None, :], UU), cr[..., None, :]) / (
@@ -242,7 +242,7 @@ def loop_geometry(U, M) -> dict:
     dt = np.empty((2,) + s2.shape)  # distance, twist
     dist = np.sqrt(dot(dv, dv), out=dt[0])
     apart = dist > 1e-12
-    if apart.all():
+    if np.count_nonzero(apart) == apart.size:
         n = dv / dist[..., None]
     else:  # intersecting axes: the normal of their plane (0 when they also coincide)
         nc = np.sqrt(s2)[..., None]
