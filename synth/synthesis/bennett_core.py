@@ -30,7 +30,7 @@ from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
 from synth.algebra.dq import dot, pose_to_dq
-from synth.synthesis.conic import Conditioning, condition_map, conditioning, conic, relative_displacements_dq, to_world
+from synth.synthesis.conic import condition_map, conditioning, conic, relative_displacements_dq, world_map
 
 JOINTS = ("h1", "h2", "k1", "k2")
 BRANCHES = np.array([[0, 1], [2, 3]])  # h1 h2 | k1 k2, base to coupler
@@ -100,7 +100,8 @@ def _factors(T, perturb=None) -> dict:
     """The first half of the pipeline, arrays over the sets of T (N, 3, 4, 4): conic, norm roots,
     Algorithm 1 for both orders (polished where needed), the factors and C in the world frame, and
     ``good``: the gates that need no self-check. ``perturb`` (K, 3, 8, 8): as `solve`; the perturbed copies
-    follow the N sets (set by set) in the arrays over sets, except ``Tf`` and ``Q`` (the N sets only);
+    follow the N sets (set by set) in the arrays over sets, except ``Tf``, ``Q``, ``centre`` and ``scale``
+    (the N sets only);
     ``conditioned``: the factors in the conditioned frame. Call under ``np.errstate(all="ignore")``."""
     finite = np.isfinite(T).all(axis=(1, 2, 3))
     Tf = T if np.count_nonzero(finite) == finite.size else np.where(finite[:, None, None, None], T, _EYE4)
@@ -115,7 +116,6 @@ def _factors(T, perturb=None) -> dict:
         # set's conditioning (the same world-frame factors up to rounding: the conic is unique)
         Qc = np.concatenate([Qc, np.matmul(Qc[:, None, :, None, :], perturb).reshape(-1, 3, 8)])
         rows = _copy_rows(T.shape[0], perturb.shape[0])
-        cond = Conditioning(centre=cond.centre.take(rows, axis=0), scale=cond.scale.take(rows))
         finite = finite.take(rows)
     N = Qc.shape[0]
     con = conic(relative_displacements_dq(Qc))
@@ -134,7 +134,8 @@ def _factors(T, perturb=None) -> dict:
     good = (ok & (np.abs(B).min(axis=1) > MIN_B) & (im > MIN_IMAG) & (sep > MIN_SEPARATION)
             & (residual <= MAX_RESIDUAL) & ~is_translation(H).any(axis=(1, 2)))
     conditioned = H.reshape(N, 4, 8)
-    world = to_world(np.concatenate([conditioned, C], axis=1), cond)
+    W = world_map(cond.scale, cond.centre)  # (`to_world`), one per set of T, then per row
+    world = np.matmul(np.concatenate([conditioned, C], axis=1), W if perturb is None else W.take(rows, axis=0))
     return dict(finite=finite, Tf=Tf, Q=Q, centre=cond.centre, scale=cond.scale, B=B, residual=residual,
                 good=good, factors=world[:, :4], motion=world[:, 4:], conditioned=conditioned)
 
@@ -298,17 +299,18 @@ def bennett_parameters(geo) -> dict:
     a/sin(alpha), b/sin(beta) and the Bennett condition residual |a/sin(alpha)| - |b/sin(beta)| (relative;
     NaN when a twist vanishes)."""
     dist, twist = geo["distance"], geo["twist"]  # (N, 4): a, b, a', b' and alpha, beta, alpha', beta'
+    dt = np.abs(geo["distance_twist"])  # (2, N, 4): distances and |twists|
+    first = dt[..., :2]  # a, b and |alpha|, |beta|
     with np.errstate(all="ignore"):
-        s = np.abs(np.sin(twist[:, :2]))
+        s = np.sin(first[1])  # |sin(twist)| (|twist| <= pi)
         r = np.divide(dist[:, :2], s, out=np.full(s.shape, np.inf), where=s > 1e-15)  # a / sin(alpha), b / sin(beta)
         r0, r1 = r[:, 0], r[:, 1]
         res = np.abs(r0 - r1) / np.maximum(np.maximum(r0, r1), 1e-300)  # NaN when either is inf
-        dt = np.abs(geo["distance_twist"])  # (2, N, 4): distances and |twists|
-        mismatch = np.abs(dt[..., :2] - dt[..., 2:])
+        mismatch = np.abs(first - dt[..., 2:])
         mismatch = np.maximum(mismatch[..., 0], mismatch[..., 1])  # (2, N): lengths, twists
+        mismatch[0] /= np.maximum(np.maximum(first[0, :, 0], first[0, :, 1]), 1e-300)
     return {"a": dist[:, 0], "alpha": twist[:, 0], "b": dist[:, 1], "beta": twist[:, 1],
-            "opposite_length_mismatch": mismatch[0] / np.maximum(np.maximum(dist[:, 0], dist[:, 1]), 1e-300),
-            "opposite_twist_mismatch": mismatch[1],
+            "opposite_length_mismatch": mismatch[0], "opposite_twist_mismatch": mismatch[1],
             "a_over_sin_alpha": r0, "b_over_sin_beta": r1, "bennett_condition_residual": res}
 
 
