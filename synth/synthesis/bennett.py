@@ -311,7 +311,7 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
         ref = np.array([(J[n].direction, J[n].moment) for n in ("h1", "h2", "k1", "k2")], float)  # (4, 2, 3)
     else:
         c, spread, ref = frame
-    if solved is not None and solved["good"].all():
+    if solved is not None and np.count_nonzero(solved["good"]) == trials:
         F = solved["factors"]
     else:
         T = np.array([p.matrix for p in linkage.poses])
