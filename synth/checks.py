@@ -14,11 +14,10 @@ import numpy as np
 
 from synth.algebra.algorithm1 import cross3, identity
 from synth.algebra.anglelaw import half_angle
-from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq, qmul
+from synth.algebra.dq import dot, dq_mul, dq_right_matrix, dq_translation, pose_to_dq
 from synth.algebra.polynomial import evaluate, product_of_linear
 from synth.linkage import Linkage
 
-_CONJ4 = np.array([1.0, -1.0, -1.0, -1.0])
 _E0 = np.eye(8)[0]
 _EPS = float(np.finfo(float).eps)
 _ULPS16 = 16 * _EPS  # the rounding allowance of `loop_bound`
@@ -58,7 +57,7 @@ def _pose_difference(X):
     """`dq_pose_difference` of X[0] and X[1], X of shape (2, ..., 8)."""
     P = X[..., :4]
     n = dot(P, P)
-    d = qmul(P, X[..., 4:] * _CONJ4)[..., 1:] * (2.0 / n)[..., None]
+    d = dq_translation(X, n)
     d = d[0] - d[1]
     dt = np.sqrt(dot(d, d))
     u = P / np.sqrt(n)[..., None]
