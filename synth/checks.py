@@ -182,9 +182,10 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
     E = np.empty(P.shape)  # P_h - P_k, P_h - C
     np.subtract(P[:, 0], P[:, 1], out=E[:, 0])
     np.subtract(P[:, 0], motion, out=E[:, 1])
-    bh = b.take(h, axis=1)
-    z = np.empty(bh.shape, complex)  # (N, n)
-    z.real, z.imag = a.take(h, axis=1), bh
+    z = np.empty(a.shape, complex)  # (N, J) a + i b, then branch h's (N, n)
+    z.real, z.imag = a, b
+    z = z.take(h, axis=1)
+    bh = z.imag
     with np.errstate(all="ignore"):
         # |E(z_j)| <= sum_c |E_c| |z_j|^c (primal and dual part), divided by b_j prod_{m != j} |z_j - z_m|:
         # sum_j |rho_j| / b_j <= sum_c W_c |E_c|, W_c = sum_j |z_j|^c / (b_j prod_{m != j} |z_j - z_m|)
@@ -202,9 +203,12 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
         ed = e[..., 1] + _ULPS16 * np.maximum(Q, 1.0)
         # poses of a unit X and of Y = X - D, |D| <= (ep, ed): rotation <= 4 asin(ep), translation
         # <= 2 s (ed (1 + ep) + Q ep (3 - ep)) with s = 1 / (1 - ep)^2 >= 1 / |primal Y|^2
+        rot = 4.0 * np.arcsin(ep)
+        tra = (2.0 / (1.0 - ep) ** 2) * (ed * (1.0 + ep) + Q * ep * (3.0 - ep))
         near = ep < 0.5  # (NaN: False)
-        rot = np.where(near, 4.0 * np.arcsin(ep), np.inf)
-        tra = np.where(near, (2.0 / (1.0 - ep) ** 2) * (ed * (1.0 + ep) + Q * ep * (3.0 - ep)), np.inf)
+        if not near.all():
+            rot = np.where(near, rot, np.inf)
+            tra = np.where(near, tra, np.inf)
     return {"closure_translation": tra[:, 0], "closure_rotation": rot[:, 0], "motion": tra[:, 1] + rot[:, 1],
             "motion_translation": tra[:, 1], "motion_rotation": rot[:, 1]}
 

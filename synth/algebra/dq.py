@@ -38,7 +38,7 @@ def exact_array(x) -> np.ndarray:
 
 def zeros(shape, dtype) -> np.ndarray:
     """Zeros of ``dtype`` (float, or object filled with Fraction(0))."""
-    if np.dtype(dtype) == object:
+    if dtype is not _FLOAT and np.dtype(dtype) == object:
         return np.full(shape, Fraction(0), dtype=object)
     return np.zeros(shape, dtype)
 
