@@ -297,20 +297,26 @@ def pose_to_dq(T):
 def translated(h, v):
     """``translation_dq(v) h`` (the motion h, then the translation by v), (..., 8) and (..., 3), broadcast:
     p + eps (q - (v/2) p), one quaternion product (the dual-quaternion product with the translation's
-    zeros left out). h may be a quaternion p (..., 4) (a rotation, q = 0)."""
+    zeros left out, -1/2 folded into its structure constants). h may be a quaternion p (..., 4) (a
+    rotation, q = 0)."""
     h = np.asarray(h, float)
     v = np.asarray(v, float)
     p = h[..., :4]
-    v4 = np.zeros(v.shape[:-1] + (4,))
-    v4[..., 1:] = v
-    vp = qmul(v4, p)
+    if v.ndim > 2 and v.size > 48:  # one GEMM for the whole stack (as `_product`)
+        L = (v.reshape(-1, 3) @ _HALF_VECTOR).reshape(v.shape[:-1] + (4, 4))
+    else:
+        L = (v @ _HALF_VECTOR).reshape(v.shape[:-1] + (4, 4))
+    vp = _VECMAT(p, L)  # -(v/2) p
     out = np.empty(vp.shape[:-1] + (8,))
     out[..., :4] = p
     if h.shape[-1] == 8:
-        np.subtract(h[..., 4:], 0.5 * vp, out=out[..., 4:])
+        np.add(h[..., 4:], vp, out=out[..., 4:])
     else:
-        np.multiply(vp, -0.5, out=out[..., 4:])
+        out[..., 4:] = vp
     return out
+
+
+_HALF_VECTOR = -0.5 * _QT_FLAT[1:]  # (3, 16): -(v/2) p = p @ (v @ this) (4, 4) (exact: a power of two)
 
 
 _TRANSLATION = (2.0 * _QT * _CONJ_F[:4, None])[:, :, 1:].reshape(4, 12)  # 2 vec(p q~) = q @ (p @ this) (4, 3)
