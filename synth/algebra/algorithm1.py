@@ -18,7 +18,7 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dot, dq_inv, dq_left_matrix, dq_mul, dq_right_matrix, row_offsets
+from synth.algebra.dq import dot, dq_left_divide, dq_left_matrix, dq_mul, dq_right_matrix, row_offsets
 from synth.algebra.polynomial import divide_linear_right, divide_real_quadratic, poly_mul, product_of_linear
 
 GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D_k)|: the remainder is not invertible
@@ -262,14 +262,14 @@ def algorithm1(C, M, *, remainders: bool = False):
         ok = good if ok is None else ok & good
         if not good.all():
             r1 = np.where(good[..., None], r1, _ONE)
-        h = dq_mul(dq_inv(r1), r0)
+        h = dq_left_divide(r1, r0)
         np.negative(h, out=h)
         hs.append(h)
         D, rem = divide_linear_right(D, h, monic=monic)
         rs.append(rem)
     # the last remainder D = D1 t + D0 is linear with the leading coefficient of C: h_1 = -D1^{-1} D0
     # (the remainder of D mod M_1, whatever M_1); D1 = 1 exactly when C is monic
-    h = D[..., 0, :] if monic else dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])
+    h = D[..., 0, :] if monic else dq_left_divide(D[..., 1, :], D[..., 0, :])
     batch = np.broadcast_shapes(h.shape[:-1], M.shape[:-2]) if n == 1 else hs[0].shape[:-1]
     H = np.empty(batch + (n, 8))
     np.negative(h, out=H[..., 0, :])

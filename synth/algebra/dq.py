@@ -339,6 +339,28 @@ def dq_translation(h, pp=None):
     return d
 
 
+_DT_CONJ_LEFT = _dual_tensor(_QT) * _CONJ[:, None, None]  # (a~ b)_k = sum_ij a_i b_j this[i, j, k]
+_DT_CONJ_FLAT = _DT_CONJ_LEFT.reshape(8, 64)
+_DQ_CONJ_SPARSE = _sparse(_DT_CONJ_LEFT)
+
+
+def dq_left_divide(a, b):
+    """a^-1 b for dual quaternions (..., 8), broadcast, a invertible (primal part p != 0): the product
+    a~ b (the conjugate folded into the structure constants) divided by the dual number
+    a a~ = |p|^2 + eps 2 p.q, with 1/(x + eps y) = 1/x - eps y/x^2 (no inverse formed). dtype-generic
+    like `dq_mul`."""
+    a = as_array(a)
+    out = _product(a, b, _DT_CONJ_FLAT, _DQ_CONJ_SPARSE)
+    p = a[..., :4]
+    n = dot(p, p)[..., None]
+    out /= n
+    s = dot(p, a[..., 4:])[..., None]
+    s /= n
+    s += s  # 2 p.q / |p|^2
+    out[..., 4:] -= out[..., :4] * s
+    return out
+
+
 def dq_to_pose(h):
     """Dual quaternion(s) (..., 8) with p != 0 (Study condition assumed) to 4x4 pose(s)."""
     h = np.asarray(h, float)
