@@ -8,10 +8,13 @@ from synth.algebra.dq import (
     act_on_points,
     dq_conj,
     dq_inv,
+    dq_left_divide,
     dq_left_matrix,
     dq_mul,
     dq_norm,
     dq_to_pose,
+    dq_translation,
+    exact_array,
     matrix_to_quat,
     normalize_dq,
     plucker,
@@ -274,3 +277,24 @@ def test_rotation_about_line():
     assert Ts.shape == (3, 4, 4)
     assert np.allclose(Ts[0], np.eye(4))
     assert np.allclose(Ts[2], np.eye(4))
+
+
+def test_left_divide_is_the_inverse_times():
+    """a^-1 b without forming the inverse: exact on Fractions, to rounding on floats; a (a^-1 b) = b."""
+    rng = np.random.default_rng(4)
+    a, b = rng.normal(size=(2, 6, 8))
+    x = dq_left_divide(a, b)
+    assert np.allclose(x, dq_mul(dq_inv(a), b), rtol=0, atol=1e-12 * np.abs(x).max())
+    assert np.allclose(dq_mul(a, x), b, atol=1e-12)
+    ea, eb = exact_array(a[:2]), exact_array(b[:2])
+    assert np.all(dq_left_divide(ea, eb) == dq_mul(dq_inv(ea), eb))
+
+
+def test_dq_translation_matches_the_pose():
+    """2 vec(p q~) / |p|^2 at any scale of h, as dq_to_pose's translation."""
+    rng = np.random.default_rng(5)
+    T = dq_to_pose(normalize_dq(rng.normal(size=(7, 8)) * np.r_[1.0, 1, 1, 1, 0, 0, 0, 0]))
+    T[:, :3, 3] = rng.normal(size=(7, 3))
+    h = pose_to_dq(T) * rng.uniform(0.5, 3.0, size=(7, 1))
+    assert np.allclose(dq_translation(h), T[:, :3, 3], atol=1e-14)
+    assert np.allclose(dq_translation(h[None, :3].repeat(30, axis=0)), T[:3, :3, 3], atol=1e-14)  # (the GEMM path)

@@ -18,7 +18,7 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dot, dq_inv, dq_left_matrix, dq_mul, dq_right_matrix, row_offsets
+from synth.algebra.dq import dot, dq_left_divide, dq_left_matrix, dq_mul, dq_right_matrix, row_offsets
 from synth.algebra.polynomial import divide_linear_right, divide_real_quadratic, poly_mul, product_of_linear
 
 GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D_k)|: the remainder is not invertible
@@ -64,18 +64,19 @@ def norm_roots(N, newton: int = 2) -> np.ndarray:
     case) in batches of FERRARI_MIN_BATCH or more start from Ferrari's closed form, everything else (and
     quartics where Newton does not settle) from companion-matrix eigenvalues (batched
     ``numpy.linalg.eigvals``); then ``newton`` Newton steps on N. Real or repeated roots are not
-    detected here (see `root_conditioning`)."""
+    detected here (see `root_conditioning`). Degenerate polynomials (zero or non-finite leading
+    coefficient, vanishing derivative) give garbage roots and floating-point warnings: callers run
+    it under ``numpy.errstate(all="ignore")``, as every caller in the project does (one errstate per pipeline)."""
     N = np.asarray(N, float)
     batch, m = N.shape[:-1], N.shape[-1] - 1
     flat = N.reshape(-1, m + 1)
-    with np.errstate(all="ignore"):  # (for `_eig_upper` and `_newton` too)
-        if m == 4 and flat.shape[0] >= FERRARI_MIN_BATCH:
-            z, step = _newton(flat, _ferrari_upper(flat), max(newton, 1) + 1)
-            redo = ~(np.abs(step) <= 1e-10 * np.maximum(1.0, np.abs(z))).all(axis=-1) & np.isfinite(flat).all(axis=-1)
-            if redo.any():
-                z[redo] = _newton(flat[redo], _eig_upper(flat[redo]), newton)[0]
-        else:
-            z = _newton(flat, _eig_upper(flat), newton)[0]
+    if m == 4 and flat.shape[0] >= FERRARI_MIN_BATCH:
+        z, step = _newton(flat, _ferrari_upper(flat), max(newton, 1) + 1)
+        redo = ~(np.abs(step) <= 1e-10 * np.maximum(1.0, np.abs(z))).all(axis=-1) & np.isfinite(flat).all(axis=-1)
+        if redo.any():
+            z[redo] = _newton(flat[redo], _eig_upper(flat[redo]), newton)[0]
+    else:
+        z = _newton(flat, _eig_upper(flat), newton)[0]
     np.abs(z.imag, out=z.imag)  # (z is a fresh array) reflected into Im z >= 0
     key = z.imag * _TIE
     key += z.real
@@ -93,7 +94,7 @@ def _eig_upper(flat):
     coefficient). LAPACK returns the eigenvalues of a real matrix with each complex pair exactly
     conjugate, so after the reflection a pair is two equal values, adjacent after sorting, and every
     other sorted value takes each pair once (and, with real eigenvalues, m/2 - pairs of them). Called
-    under ``numpy.errstate(all="ignore")`` (`norm_roots`)."""
+    under ``numpy.errstate(all="ignore")`` (`norm_roots`' callers)."""
     B, m = flat.shape[0], flat.shape[-1] - 1
     comp = np.zeros((B, m, m))
     comp[:, 1:, :-1] = identity(m - 1)  # the subdiagonal
@@ -126,7 +127,7 @@ def _newton(flat, z, steps):
     value and derivative by Horner's scheme (elementwise on (B, r): no per-polynomial matrix products;
     the coefficients are copied once to complex arrays of z's shape, so no step casts or broadcasts).
     Where the steps end non-finite (a vanishing derivative), z keeps its start and the step is inf.
-    Returns (z, the last step). Called under ``numpy.errstate(all="ignore")`` (`norm_roots`)."""
+    Returns (z, the last step). Called under ``numpy.errstate(all="ignore")`` (`norm_roots`' callers)."""
     m = flat.shape[-1] - 1
     cols = np.empty((m + 1,) + z.shape, complex)  # cols[k] (B, r): the coefficient of t^k
     cols[...] = flat.T[:, :, None]
@@ -261,14 +262,14 @@ def algorithm1(C, M, *, remainders: bool = False):
         ok = good if ok is None else ok & good
         if not good.all():
             r1 = np.where(good[..., None], r1, _ONE)
-        h = dq_mul(dq_inv(r1), r0)
+        h = dq_left_divide(r1, r0)
         np.negative(h, out=h)
         hs.append(h)
         D, rem = divide_linear_right(D, h, monic=monic)
         rs.append(rem)
     # the last remainder D = D1 t + D0 is linear with the leading coefficient of C: h_1 = -D1^{-1} D0
     # (the remainder of D mod M_1, whatever M_1); D1 = 1 exactly when C is monic
-    h = D[..., 0, :] if monic else dq_mul(dq_inv(D[..., 1, :]), D[..., 0, :])
+    h = D[..., 0, :] if monic else dq_left_divide(D[..., 1, :], D[..., 0, :])
     batch = np.broadcast_shapes(h.shape[:-1], M.shape[:-2]) if n == 1 else hs[0].shape[:-1]
     H = np.empty(batch + (n, 8))
     np.negative(h, out=H[..., 0, :])
@@ -286,19 +287,19 @@ def remainder_error(C, H, R) -> np.ndarray:
     """Relative multiply-back error of the factorizations H (..., n, 8) of C (..., n+1, 8) from the
     remainders R of `algorithm1` (``remainders=True``): max |C - (t - h_1)...(t - h_n)| / max(1, max |C|)
     without forming the product (for n = 3, one quaternion product instead of five); inf where not
-    finite. Equals `multiply_back` up to rounding."""
+    finite. Equals `multiply_back` up to rounding. Non-finite input warns unless run under
+    ``numpy.errstate(all="ignore")``, as its callers do."""
     n = H.shape[-2]
-    with np.errstate(all="ignore"):
-        E = np.zeros(H.shape[:-2] + (1, 8)) if n < 2 else None  # (t^0..t^{n-2}) (broadcast against C below)
-        for p in range(1, n):  # (the last remainder is multiplied by the empty product 1)
-            term = (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
-                    if p + 1 < n else R[..., p - 1 : p, :])
-            if E is None:  # p = 1: all n - 1 coefficients (a fresh product for n > 2, never written for n = 2)
-                E = term
-            else:
-                E[..., : n - p, :] += term
-        scale = np.maximum(np.abs(C).max(axis=(-2, -1)), 1.0)
-        r = np.abs(E).max(axis=(-2, -1)) / scale
+    E = np.zeros(H.shape[:-2] + (1, 8)) if n < 2 else None  # (t^0..t^{n-2}) (broadcast against C below)
+    for p in range(1, n):  # (the last remainder is multiplied by the empty product 1)
+        term = (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
+                if p + 1 < n else R[..., p - 1 : p, :])
+        if E is None:  # p = 1: all n - 1 coefficients (a fresh product for n > 2, never written for n = 2)
+            E = term
+        else:
+            E[..., : n - p, :] += term
+    scale = np.maximum(np.abs(C).max(axis=(-2, -1)), 1.0)
+    r = np.abs(E).max(axis=(-2, -1)) / scale
     return np.where(np.isfinite(r), r, np.inf)
 
 

@@ -38,7 +38,7 @@ def exact_array(x) -> np.ndarray:
 
 def zeros(shape, dtype) -> np.ndarray:
     """Zeros of ``dtype`` (float, or object filled with Fraction(0))."""
-    if np.dtype(dtype) == object:
+    if dtype is not _FLOAT and np.dtype(dtype) == object:
         return np.full(shape, Fraction(0), dtype=object)
     return np.zeros(shape, dtype)
 
@@ -201,7 +201,7 @@ def _shepperd_map():
                                ((0, 2), (1, 3), 1), ((2, 0), (1, 3), 1), ((1, 2), (2, 3), 1), ((2, 1), (2, 3), 1)):
         A[i, j, a, b] += sg
         A[i, j, b, a] += sg
-    return A.reshape(9, 16), np.ones(16) * np.eye(4).reshape(16)
+    return 4.0 * A.reshape(9, 16), 4.0 * np.eye(4).reshape(16)  # (times 4: see `matrix_to_quat`)
 
 
 _SHEPPERD_A, _SHEPPERD_C = _shepperd_map()
@@ -210,19 +210,20 @@ _SHEPPERD_A, _SHEPPERD_C = _shepperd_map()
 def matrix_to_quat(R):
     """Unit quaternion (..., 4), w >= 0, of rotation matrices (..., 3, 3). Numerically stable for all
     angles (Shepperd's method): K = 4 q q^T is affine in R; the row of K with the largest diagonal
-    entry K_kk = 4 q_k^2 is 4 q_k q, divided by s = 2 sqrt(K_kk) = 4 |q_k| (and q_k = s / 4)."""
+    entry K_kk = 4 q_k^2 is 4 q_k q, divided by s = 2 sqrt(K_kk) = 4 |q_k| (and q_k = s / 4). Computed
+    as 4 K (exact: a power of two), whose row divided by sqrt(4 K_kk) = s is 4 q with 4 q_k = s, then
+    normalized: the same bits as from K, two operations fewer."""
     R = np.asarray(R, float)
     batch = R.shape[:-2]
     K = R.reshape(-1, 9) @ _SHEPPERD_A
-    K += _SHEPPERD_C  # (M, 16)
+    K += _SHEPPERD_C  # (M, 16): 4 K
     row = K[:, ::5].argmax(axis=1)
     row += row_offsets(K.shape[0], 4)[:, 0]  # row 4i + k of K as (4M, 4) = the flat index of q_k in q (M, 4)
-    q = K.reshape(-1, 4).take(row, axis=0)  # 4 q_k q
-    s = np.sqrt(q.reshape(-1).take(row))  # sqrt(K_kk) (q[i, k] = K_kk)
-    s *= 2.0  # 4 |q_k|
-    np.negative(s, out=s, where=q[:, 0] < 0)  # the sign giving w >= 0 (q_0 = K_k0 / s)
-    q /= s[:, None]
-    q.reshape(-1)[row] = 0.25 * s
+    q = K.reshape(-1, 4).take(row, axis=0)  # 16 q_k q
+    s = np.sqrt(q.reshape(-1).take(row))  # sqrt(4 K_kk) = 4 |q_k| (q[i, k] = 4 K_kk)
+    np.negative(s, out=s, where=q[:, 0] < 0)  # the sign giving w >= 0 (q_0 = 4 K_k0 / s)
+    q /= s[:, None]  # 4 q
+    q.reshape(-1)[row] = s
     q /= np.sqrt(dot(q, q))[:, None]
     return q.reshape(batch + (4,))
 
@@ -296,19 +297,67 @@ def pose_to_dq(T):
 def translated(h, v):
     """``translation_dq(v) h`` (the motion h, then the translation by v), (..., 8) and (..., 3), broadcast:
     p + eps (q - (v/2) p), one quaternion product (the dual-quaternion product with the translation's
-    zeros left out). h may be a quaternion p (..., 4) (a rotation, q = 0)."""
+    zeros left out, -1/2 folded into its structure constants). h may be a quaternion p (..., 4) (a
+    rotation, q = 0)."""
     h = np.asarray(h, float)
     v = np.asarray(v, float)
     p = h[..., :4]
-    v4 = np.zeros(v.shape[:-1] + (4,))
-    v4[..., 1:] = v
-    vp = qmul(v4, p)
+    if v.ndim > 2 and v.size > 48:  # one GEMM for the whole stack (as `_product`)
+        L = (v.reshape(-1, 3) @ _HALF_VECTOR).reshape(v.shape[:-1] + (4, 4))
+    else:
+        L = (v @ _HALF_VECTOR).reshape(v.shape[:-1] + (4, 4))
+    vp = _VECMAT(p, L)  # -(v/2) p
     out = np.empty(vp.shape[:-1] + (8,))
     out[..., :4] = p
     if h.shape[-1] == 8:
-        np.subtract(h[..., 4:], 0.5 * vp, out=out[..., 4:])
+        np.add(h[..., 4:], vp, out=out[..., 4:])
     else:
-        np.multiply(vp, -0.5, out=out[..., 4:])
+        out[..., 4:] = vp
+    return out
+
+
+_HALF_VECTOR = -0.5 * _QT_FLAT[1:]  # (3, 16): -(v/2) p = p @ (v @ this) (4, 4) (exact: a power of two)
+
+
+_TRANSLATION = (2.0 * _QT * _CONJ_F[:4, None])[:, :, 1:].reshape(4, 12)  # 2 vec(p q~) = q @ (p @ this) (4, 3)
+
+
+def dq_translation(h, pp=None):
+    """Translations (..., 3) of the poses of dual quaternions h (..., 8) (Study condition assumed, p != 0,
+    any scale): d = 2 vec(p q~) / |p|^2, as q times a (4, 3) matrix linear in p. ``pp``: |p|^2 (...,),
+    when the caller has it."""
+    h = np.asarray(h, float)
+    p = h[..., :4]
+    if pp is None:
+        pp = dot(p, p)
+    if p.ndim > 2 and p.size > 64:  # one GEMM for the whole stack (as `_product`)
+        L = (p.reshape(-1, 4) @ _TRANSLATION).reshape(p.shape[:-1] + (4, 3))
+    else:
+        L = (p @ _TRANSLATION).reshape(p.shape[:-1] + (4, 3))
+    d = _VECMAT(h[..., 4:], L)
+    d *= (1.0 / pp)[..., None]
+    return d
+
+
+_DT_CONJ_LEFT = _dual_tensor(_QT) * _CONJ[:, None, None]  # (a~ b)_k = sum_ij a_i b_j this[i, j, k]
+_DT_CONJ_FLAT = _DT_CONJ_LEFT.reshape(8, 64)
+_DQ_CONJ_SPARSE = _sparse(_DT_CONJ_LEFT)
+
+
+def dq_left_divide(a, b):
+    """a^-1 b for dual quaternions (..., 8), broadcast, a invertible (primal part p != 0): the product
+    a~ b (the conjugate folded into the structure constants) divided by the dual number
+    a a~ = |p|^2 + eps 2 p.q, with 1/(x + eps y) = 1/x - eps y/x^2 (no inverse formed). dtype-generic
+    like `dq_mul`."""
+    a = as_array(a)
+    out = _product(a, b, _DT_CONJ_FLAT, _DQ_CONJ_SPARSE)
+    p = a[..., :4]
+    n = dot(p, p)[..., None]
+    out /= n
+    s = dot(p, a[..., 4:])[..., None]
+    s /= n
+    s += s  # 2 p.q / |p|^2
+    out[..., 4:] -= out[..., :4] * s
     return out
 
 
