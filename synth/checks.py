@@ -167,8 +167,7 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
     on random sets 1% above the exact value at the median). Joints of rate 1 only (a joint of rate r is a repeated
     root, where no bound applies: such linkages are checked at samples, `check_figures`). Returns ``closure_translation``, ``closure_rotation``,
     ``motion`` (N,) (metres, radians; inf where no bound applies, e.g. repeated roots), with an
-    allowance of 16 ulps for rounding. Repeated or real roots warn (division by zero) unless run under
-    ``numpy.errstate(all="ignore")``, as `synth.synthesis.bennett_core` does."""
+    allowance of 16 ulps for rounding."""
     hk = np.asarray(branches)  # (2, n)
     h = hk[0]
     n = h.shape[0]
@@ -187,28 +186,29 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
     z.real, z.imag = a, b
     z = z.take(h, axis=1)
     bh = z.imag
-    # |E(z_j)| <= sum_c |E_c| |z_j|^c (primal and dual part), divided by b_j prod_{m != j} |z_j - z_m|:
-    # sum_j |rho_j| / b_j <= sum_c W_c |E_c|, W_c = sum_j |z_j|^c / (b_j prod_{m != j} |z_j - z_m|)
-    En = E.reshape(N, 2, n + 1, 2, 4)
-    En = np.sqrt(dot(En, En))  # |E_c| (N, 2, n+1, primal / dual)
-    gaps = np.abs((z[:, :, None] - z[:, None, :] + identity(n)).prod(axis=-1)) * bh  # (N, n)
-    W = np.matmul((1.0 / gaps)[:, None, :], np.abs(z)[..., None] ** _powers(n))  # (N, 1, n+1)
-    W[..., n] += 1.0  # |E_n|
-    e = np.matmul(W[:, None], En)[:, :, 0]  # (N, 2, primal / dual): |E_n| + sum_j |rho_j| / b_j
-    # with 16 ulps for the rounding of a forward-kinematics evaluation, so that the bound also covers
-    # sampled figures (`check_figures`); Q bounds the dual part of branch h's unit dual quaternion
-    Mh = M.take(h, axis=1)
-    Q = np.sqrt(dot(Mh, Mh)).sum(axis=-1, keepdims=True)
-    ep = e[..., 0] + _ULPS16
-    ed = e[..., 1] + _ULPS16 * np.maximum(Q, 1.0)
-    # poses of a unit X and of Y = X - D, |D| <= (ep, ed): rotation <= 4 asin(ep), translation
-    # <= 2 s (ed (1 + ep) + Q ep (3 - ep)) with s = 1 / (1 - ep)^2 >= 1 / |primal Y|^2
-    rot = 4.0 * np.arcsin(ep)
-    tra = (2.0 / (1.0 - ep) ** 2) * (ed * (1.0 + ep) + Q * ep * (3.0 - ep))
-    near = ep < 0.5  # (NaN: False)
-    if not near.all():
-        rot = np.where(near, rot, np.inf)
-        tra = np.where(near, tra, np.inf)
+    with np.errstate(all="ignore"):
+        # |E(z_j)| <= sum_c |E_c| |z_j|^c (primal and dual part), divided by b_j prod_{m != j} |z_j - z_m|:
+        # sum_j |rho_j| / b_j <= sum_c W_c |E_c|, W_c = sum_j |z_j|^c / (b_j prod_{m != j} |z_j - z_m|)
+        En = E.reshape(N, 2, n + 1, 2, 4)
+        En = np.sqrt(dot(En, En))  # |E_c| (N, 2, n+1, primal / dual)
+        gaps = np.abs((z[:, :, None] - z[:, None, :] + identity(n)).prod(axis=-1)) * bh  # (N, n)
+        W = np.matmul((1.0 / gaps)[:, None, :], np.abs(z)[..., None] ** _powers(n))  # (N, 1, n+1)
+        W[..., n] += 1.0  # |E_n|
+        e = np.matmul(W[:, None], En)[:, :, 0]  # (N, 2, primal / dual): |E_n| + sum_j |rho_j| / b_j
+        # with 16 ulps for the rounding of a forward-kinematics evaluation, so that the bound also covers
+        # sampled figures (`check_figures`); Q bounds the dual part of branch h's unit dual quaternion
+        Mh = M.take(h, axis=1)
+        Q = np.sqrt(dot(Mh, Mh)).sum(axis=-1, keepdims=True)
+        ep = e[..., 0] + _ULPS16
+        ed = e[..., 1] + _ULPS16 * np.maximum(Q, 1.0)
+        # poses of a unit X and of Y = X - D, |D| <= (ep, ed): rotation <= 4 asin(ep), translation
+        # <= 2 s (ed (1 + ep) + Q ep (3 - ep)) with s = 1 / (1 - ep)^2 >= 1 / |primal Y|^2
+        rot = 4.0 * np.arcsin(ep)
+        tra = (2.0 / (1.0 - ep) ** 2) * (ed * (1.0 + ep) + Q * ep * (3.0 - ep))
+        near = ep < 0.5  # (NaN: False)
+        if not near.all():
+            rot = np.where(near, rot, np.inf)
+            tra = np.where(near, tra, np.inf)
     return {"closure_translation": tra[:, 0], "closure_rotation": rot[:, 0], "motion": tra[:, 1] + rot[:, 1],
             "motion_translation": tra[:, 1], "motion_rotation": rot[:, 1]}
 

@@ -64,19 +64,18 @@ def norm_roots(N, newton: int = 2) -> np.ndarray:
     case) in batches of FERRARI_MIN_BATCH or more start from Ferrari's closed form, everything else (and
     quartics where Newton does not settle) from companion-matrix eigenvalues (batched
     ``numpy.linalg.eigvals``); then ``newton`` Newton steps on N. Real or repeated roots are not
-    detected here (see `root_conditioning`). Degenerate polynomials (zero or non-finite leading
-    coefficient, vanishing derivative) give garbage roots and floating-point warnings: callers run
-    it under ``numpy.errstate(all="ignore")``, as every caller in the project does (one errstate per pipeline)."""
+    detected here (see `root_conditioning`)."""
     N = np.asarray(N, float)
     batch, m = N.shape[:-1], N.shape[-1] - 1
     flat = N.reshape(-1, m + 1)
-    if m == 4 and flat.shape[0] >= FERRARI_MIN_BATCH:
-        z, step = _newton(flat, _ferrari_upper(flat), max(newton, 1) + 1)
-        redo = ~(np.abs(step) <= 1e-10 * np.maximum(1.0, np.abs(z))).all(axis=-1) & np.isfinite(flat).all(axis=-1)
-        if redo.any():
-            z[redo] = _newton(flat[redo], _eig_upper(flat[redo]), newton)[0]
-    else:
-        z = _newton(flat, _eig_upper(flat), newton)[0]
+    with np.errstate(all="ignore"):  # (for `_eig_upper` and `_newton` too)
+        if m == 4 and flat.shape[0] >= FERRARI_MIN_BATCH:
+            z, step = _newton(flat, _ferrari_upper(flat), max(newton, 1) + 1)
+            redo = ~(np.abs(step) <= 1e-10 * np.maximum(1.0, np.abs(z))).all(axis=-1) & np.isfinite(flat).all(axis=-1)
+            if redo.any():
+                z[redo] = _newton(flat[redo], _eig_upper(flat[redo]), newton)[0]
+        else:
+            z = _newton(flat, _eig_upper(flat), newton)[0]
     np.abs(z.imag, out=z.imag)  # (z is a fresh array) reflected into Im z >= 0
     key = z.imag * _TIE
     key += z.real
@@ -94,7 +93,7 @@ def _eig_upper(flat):
     coefficient). LAPACK returns the eigenvalues of a real matrix with each complex pair exactly
     conjugate, so after the reflection a pair is two equal values, adjacent after sorting, and every
     other sorted value takes each pair once (and, with real eigenvalues, m/2 - pairs of them). Called
-    under ``numpy.errstate(all="ignore")`` (`norm_roots`' callers)."""
+    under ``numpy.errstate(all="ignore")`` (`norm_roots`)."""
     B, m = flat.shape[0], flat.shape[-1] - 1
     comp = np.zeros((B, m, m))
     comp[:, 1:, :-1] = identity(m - 1)  # the subdiagonal
@@ -127,7 +126,7 @@ def _newton(flat, z, steps):
     value and derivative by Horner's scheme (elementwise on (B, r): no per-polynomial matrix products;
     the coefficients are copied once to complex arrays of z's shape, so no step casts or broadcasts).
     Where the steps end non-finite (a vanishing derivative), z keeps its start and the step is inf.
-    Returns (z, the last step). Called under ``numpy.errstate(all="ignore")`` (`norm_roots`' callers)."""
+    Returns (z, the last step). Called under ``numpy.errstate(all="ignore")`` (`norm_roots`)."""
     m = flat.shape[-1] - 1
     cols = np.empty((m + 1,) + z.shape, complex)  # cols[k] (B, r): the coefficient of t^k
     cols[...] = flat.T[:, :, None]
@@ -287,19 +286,19 @@ def remainder_error(C, H, R) -> np.ndarray:
     """Relative multiply-back error of the factorizations H (..., n, 8) of C (..., n+1, 8) from the
     remainders R of `algorithm1` (``remainders=True``): max |C - (t - h_1)...(t - h_n)| / max(1, max |C|)
     without forming the product (for n = 3, one quaternion product instead of five); inf where not
-    finite. Equals `multiply_back` up to rounding. Non-finite input warns unless run under
-    ``numpy.errstate(all="ignore")``, as its callers do."""
+    finite. Equals `multiply_back` up to rounding."""
     n = H.shape[-2]
-    E = np.zeros(H.shape[:-2] + (1, 8)) if n < 2 else None  # (t^0..t^{n-2}) (broadcast against C below)
-    for p in range(1, n):  # (the last remainder is multiplied by the empty product 1)
-        term = (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
-                if p + 1 < n else R[..., p - 1 : p, :])
-        if E is None:  # p = 1: all n - 1 coefficients (a fresh product for n > 2, never written for n = 2)
-            E = term
-        else:
-            E[..., : n - p, :] += term
-    scale = np.maximum(np.abs(C).max(axis=(-2, -1)), 1.0)
-    r = np.abs(E).max(axis=(-2, -1)) / scale
+    with np.errstate(all="ignore"):
+        E = np.zeros(H.shape[:-2] + (1, 8)) if n < 2 else None  # (t^0..t^{n-2}) (broadcast against C below)
+        for p in range(1, n):  # (the last remainder is multiplied by the empty product 1)
+            term = (poly_mul(R[..., p - 1 : p, :], product_of_linear(H[..., p + 1 :, :]))
+                    if p + 1 < n else R[..., p - 1 : p, :])
+            if E is None:  # p = 1: all n - 1 coefficients (a fresh product for n > 2, never written for n = 2)
+                E = term
+            else:
+                E[..., : n - p, :] += term
+        scale = np.maximum(np.abs(C).max(axis=(-2, -1)), 1.0)
+        r = np.abs(E).max(axis=(-2, -1)) / scale
     return np.where(np.isfinite(r), r, np.inf)
 
 

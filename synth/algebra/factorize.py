@@ -313,8 +313,7 @@ def factorize(C, *, validate=True) -> FactorResult:
     N = norm_poly(C)
     quads = None
     if C.shape[0] >= 2 and np.all(np.isfinite(N)):
-        with np.errstate(all="ignore"):  # (a real or repeated root: a vanishing derivative in Newton's step)
-            z = norm_roots(N)  # the simple, clearly non-real case: no clustering, no real pairs
+        z = norm_roots(N)  # the simple, clearly non-real case: no clustering, no real pairs
         im, _ = root_conditioning(z)
         if im > CLEAR_ROOTS and _isolated(z):
             key = sorted(range(len(z)), key=lambda i: (round(float(z[i].real), 9), float(z[i].imag)))
