@@ -18,7 +18,7 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dot, dq_left_divide, dq_left_matrix, dq_mul, dq_right_matrix, row_offsets
+from synth.algebra.dq import dot, dq_left_divide, dq_left_matrix, dq_right_matrix, row_offsets
 from synth.algebra.polynomial import divide_linear_right, divide_real_quadratic, poly_mul, product_of_linear
 
 GENERIC_TOL = 1e-9  # |primal(r1)| <= tol * max |primal(D_k)|: the remainder is not invertible

@@ -17,14 +17,14 @@ from functools import lru_cache
 import numpy as np
 
 from synth.algebra.algorithm1 import cross3, index_pairs
-from synth.algebra.dq import dot, dq_right_matrix, pose_to_dq
+from synth.algebra.dq import dq_right_matrix, pose_to_dq
 from synth.algebra.factorize import factorize
 from synth.checks import (BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, pose_difference,
                           self_check)
 from synth.errors import InputError, NotGenericError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
-from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, LOOP, TS, axis_distance, bennett_parameters,
-                                          dh_rows, factor_sets, loop_geometry, relative_error, solve)
+from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, TS, axis_distance, bennett_parameters,
+                                          dh_rows, factor_lines, factor_sets, loop_geometry, relative_error, solve)
 from synth.synthesis.conditioning import transmission_problem
 from synth.synthesis.conic import (Conditioning, condition, conditioning, conic, relative_displacements,
                                    position_spread, to_world)
@@ -328,9 +328,8 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
                     return float("inf")
                 F.append(np.concatenate([H, K]))
         F = np.array(F)
-    # the perturbed lines (trials, 4, 2, 3) of the factors a + v + eps (q0 + w): u = -v / |v|, m = w / |v|
-    vw = F.reshape(trials, 4, 2, 4)[..., 1:]
-    lines = vw / (_LINE_SIGNS * np.sqrt(dot(vw[..., 0, :], vw[..., 0, :]))[..., None, None])
+    # the perturbed lines (trials, 4, 2, 3)
+    lines = factor_lines(F)[0]
     # their changes in both labellings (branches may swap), moments about c / spread (linear in the lines)
     D = lines.take(_LABELLINGS, axis=1) - ref  # (trials, 2, 4, 2, 3)
     D[..., 1, :] -= cross3(c, D[..., 0, :])
@@ -339,7 +338,6 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
     return float(d.max()) / eps
 
 
-_LINE_SIGNS = np.array([[-1.0], [1.0]])  # u = -v / b, m = w / b (`sensitivity`)
 _LABELLINGS = np.array([[0, 1, 2, 3], [2, 3, 0, 1]])  # h1 h2 k1 k2, and the branches swapped
 
 

@@ -152,15 +152,8 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     fac = _factors(T) if fac is None else fac
     N = T.shape[0]
     factors, motion, Q, centre, scale = fac["factors"], fac["motion"], fac["Q"], fac["centre"], fac["scale"]
-    # the lines (N, 4, 2, 3) (direction u, moment m) and angle laws (N, 4, 2) (a, b) of the factors
-    # a + v + eps (q0 + w): b = |v|, u = -v / b, m = w / b (as `synth.synthesis.assemble`'s joints, to
-    # within an ulp of b: the 16-ulp allowance of `synth.checks.loop_bound`)
-    laws = np.empty((N, 4, 2))
-    laws[..., 0] = factors[..., 0]
-    vw = factors.reshape(N, 4, 2, 4)[..., 1:]
-    np.sqrt(dot(vw[..., 0, :], vw[..., 0, :]), out=laws[..., 1])
+    lines, laws = factor_lines(factors)  # (N, 4, 2, 3), (N, 4, 2): the joints of the linkage
     a, b = laws[..., 0], laws[..., 1]
-    lines = vw / (_LINE_SIGNS * b[..., None, None])
     U, M = lines[..., 0, :], lines[..., 1, :]
     pose_angles = angle_law(a[:, None, :], b[:, None, :], TS[:, None])  # (N, 3, 4); 0 at t = inf
     loop = lines.take(LOOP, axis=1)
@@ -194,6 +187,17 @@ def _solve(T, check_samples: int, fac=None) -> dict:
                 motion=motion, study_form=fac["B"] * scale[:, None], centre=centre, scale=scale,
                 residual=fac["residual"], bennett=bennett_parameters(geo), dh=dh_rows(loop[..., 0, :], geo),
                 errors=errors, relative_error=rel, axis_distance=far, length_scale=length_scale)
+
+
+def factor_lines(F) -> tuple[np.ndarray, np.ndarray]:
+    """Lines (..., 2, 3) (direction u, moment m) and angle laws (..., 2) (a, b) of the revolute factors
+    F (..., 8) = a + v + eps (q0 + w): b = |v|, u = -v / b, m = w / b (the joints the linkage gets, and
+    the ones `synth.checks.loop_bound` certifies)."""
+    laws = np.empty(F.shape[:-1] + (2,))
+    laws[..., 0] = F[..., 0]
+    vw = F.reshape(F.shape[:-1] + (2, 4))[..., 1:]
+    np.sqrt(dot(vw[..., 0, :], vw[..., 0, :]), out=laws[..., 1])
+    return vw / (_LINE_SIGNS * laws[..., 1, None, None]), laws
 
 
 def axis_distance(U, M, c) -> np.ndarray:
