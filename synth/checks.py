@@ -15,7 +15,7 @@ import numpy as np
 from synth.algebra.algorithm1 import cross3, identity
 from synth.algebra.anglelaw import half_angle
 from synth.algebra.dq import dot, dq_mul, dq_right_matrix, dq_translation, pose_to_dq
-from synth.algebra.polynomial import evaluate, product_of_linear
+from synth.algebra.polynomial import evaluate, exponents, product_of_linear
 from synth.linkage import Linkage
 
 _E0 = np.eye(8)[0]
@@ -192,7 +192,7 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
         En = E.reshape(N, 2, n + 1, 2, 4)
         En = np.sqrt(dot(En, En))  # |E_c| (N, 2, n+1, primal / dual)
         gaps = np.abs((z[:, :, None] - z[:, None, :] + identity(n)).prod(axis=-1)) * bh  # (N, n)
-        W = np.matmul((1.0 / gaps)[:, None, :], np.abs(z)[..., None] ** _powers(n))  # (N, 1, n+1)
+        W = np.matmul((1.0 / gaps)[:, None, :], np.abs(z)[..., None] ** exponents(n))  # (N, 1, n+1)
         W[..., n] += 1.0  # |E_n|
         e = np.matmul(W[:, None], En)[:, :, 0]  # (N, 2, primal / dual): |E_n| + sum_j |rho_j| / b_j
         # with 16 ulps for the rounding of a forward-kinematics evaluation, so that the bound also covers
@@ -211,14 +211,6 @@ def loop_bound(U, M, a, b, branches, motion) -> dict:
             tra = np.where(near, tra, np.inf)
     return {"closure_translation": tra[:, 0], "closure_rotation": rot[:, 0], "motion": tra[:, 1] + rot[:, 1],
             "motion_translation": tra[:, 1], "motion_rotation": rot[:, 1]}
-
-
-@functools.lru_cache(maxsize=8)
-def _powers(n: int) -> np.ndarray:
-    """The exponents 0 .. n as floats (read-only, cached)."""
-    out = np.arange(n + 1.0)
-    out.flags.writeable = False
-    return out
 
 
 def pose_bound(motion, ts, pose_dq, ref_dq, bound) -> dict:

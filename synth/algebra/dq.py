@@ -146,11 +146,16 @@ def _product(a, b, flat, sparse):
         terms[..., neg] = -terms[..., neg]
         return np.add.reduceat(terms, starts, axis=-1)
     n = a.shape[-1]
-    if a.ndim > 2 and a.size > 64:  # a stack of (k, n) matrices: one GEMM for all rather than one per matrix
-        L = (a.reshape(-1, n) @ flat).reshape(a.shape[:-1] + (n, n))
-    else:
-        L = (a @ flat).reshape(a.shape[:-1] + (n, n))
-    return _VECMAT(b, L)
+    return _VECMAT(b, _linear_matrices(a, flat, (n, n)))
+
+
+def _linear_matrices(x, T, shape) -> np.ndarray:
+    """The matrices ``x @ T`` (..., *shape) of rows x (..., k) and constants T (k, r c) (row vectors: a
+    product linear in x is ``y @ result``); a stack of rows (x.ndim > 2) as one GEMM rather than one
+    product per matrix."""
+    if x.ndim > 2 and x.size > 64:
+        return (x.reshape(-1, x.shape[-1]) @ T).reshape(x.shape[:-1] + shape)
+    return (x @ T).reshape(x.shape[:-1] + shape)
 
 
 def _matmul_vecmat(b, L):
@@ -271,21 +276,29 @@ def study_form(g, h):
     """Symmetric bilinear form B(g, h) = (p_g . q_h + p_h . q_g) / 2."""
     g = as_array(g)
     h = as_array(h)
-    return (dot(g[..., :4], h[..., 4:]) + dot(h[..., :4], g[..., 4:])) / 2
+    return dot(g, h.take(_SWAP, axis=-1)) / 2  # one dot with h's halves swapped (q_h + eps p_h)
+
+
+_SWAP = np.array([4, 5, 6, 7, 0, 1, 2, 3])  # p + eps q -> q + eps p
 
 
 def dq_inv(h):
     """Inverse (p must be nonzero): h~ / N(h) with 1/(a + eps b) = 1/a - eps b/a^2."""
     h = as_array(h)
-    p = h[..., :4]
-    a = dot(p, p)[..., None]
-    out = h * (_CONJ_F if h.dtype is _FLOAT else _CONJ)
-    out /= a
-    b = dot(p, h[..., 4:])[..., None]
-    b /= a
-    b += b  # 2 p.q / |p|^2
-    out[..., 4:] -= out[..., :4] * b
-    return out
+    return _over_norm(h * (_CONJ_F if h.dtype is _FLOAT else _CONJ), h)
+
+
+def _over_norm(x, a):
+    """x (..., 8) divided, in place, by the dual number a a~ = |p|^2 + eps 2 p.q of a (..., 8) (p != 0):
+    1/(u + eps w) = 1/u - eps w/u^2. Returns x."""
+    p = a[..., :4]
+    n = dot(p, p)[..., None]
+    x /= n
+    s = dot(p, a[..., 4:])[..., None]
+    s /= n
+    s += s  # 2 p.q / |p|^2
+    x[..., 4:] -= x[..., :4] * s
+    return x
 
 
 def pose_to_dq(T):
@@ -302,11 +315,7 @@ def translated(h, v):
     h = np.asarray(h, float)
     v = np.asarray(v, float)
     p = h[..., :4]
-    if v.ndim > 2 and v.size > 48:  # one GEMM for the whole stack (as `_product`)
-        L = (v.reshape(-1, 3) @ _HALF_VECTOR).reshape(v.shape[:-1] + (4, 4))
-    else:
-        L = (v @ _HALF_VECTOR).reshape(v.shape[:-1] + (4, 4))
-    vp = _VECMAT(p, L)  # -(v/2) p
+    vp = _VECMAT(p, _linear_matrices(v, _HALF_VECTOR, (4, 4)))  # -(v/2) p
     out = np.empty(vp.shape[:-1] + (8,))
     out[..., :4] = p
     if h.shape[-1] == 8:
@@ -330,11 +339,7 @@ def dq_translation(h, pp=None):
     p = h[..., :4]
     if pp is None:
         pp = dot(p, p)
-    if p.ndim > 2 and p.size > 64:  # one GEMM for the whole stack (as `_product`)
-        L = (p.reshape(-1, 4) @ _TRANSLATION).reshape(p.shape[:-1] + (4, 3))
-    else:
-        L = (p @ _TRANSLATION).reshape(p.shape[:-1] + (4, 3))
-    d = _VECMAT(h[..., 4:], L)
+    d = _VECMAT(h[..., 4:], _linear_matrices(p, _TRANSLATION, (4, 3)))
     d *= (1.0 / pp)[..., None]
     return d
 
@@ -350,15 +355,7 @@ def dq_left_divide(a, b):
     a a~ = |p|^2 + eps 2 p.q, with 1/(x + eps y) = 1/x - eps y/x^2 (no inverse formed). dtype-generic
     like `dq_mul`."""
     a = as_array(a)
-    out = _product(a, b, _DT_CONJ_FLAT, _DQ_CONJ_SPARSE)
-    p = a[..., :4]
-    n = dot(p, p)[..., None]
-    out /= n
-    s = dot(p, a[..., 4:])[..., None]
-    s /= n
-    s += s  # 2 p.q / |p|^2
-    out[..., 4:] -= out[..., :4] * s
-    return out
+    return _over_norm(_product(a, b, _DT_CONJ_FLAT, _DQ_CONJ_SPARSE), a)
 
 
 def dq_to_pose(h):
@@ -400,11 +397,23 @@ def normalize_dq(h):
 # ----------------------------------------------------------------- lines
 def plucker(h):
     """Plücker line (direction u, moment m) of a rotation h = a + v + eps w (v != 0):
-    u = -v/|v|, m = w/|v|. Returns arrays (..., 3), (..., 3)."""
-    h = np.asarray(h, float)
-    v, w = h[..., 1:4], h[..., 5:8]
-    nv = np.linalg.norm(v, axis=-1, keepdims=True)
-    return -v / nv, w / nv
+    u = -v/|v|, m = w/|v| (`factor_lines`). Returns arrays (..., 3), (..., 3)."""
+    lines = factor_lines(h)[0]
+    return lines[..., 0, :], lines[..., 1, :]
+
+
+def factor_lines(F) -> tuple[np.ndarray, np.ndarray]:
+    """Lines (..., 2, 3) (direction u, moment m) and angle laws (..., 2) (a, b) of the joints t - h of
+    the revolute factors F (..., 8), h = a + v + eps (q0 + w): b = |v|, u = -v / b, m = w / b."""
+    F = np.asarray(F, float)
+    laws = np.empty(F.shape[:-1] + (2,))
+    laws[..., 0] = F[..., 0]
+    vw = F.reshape(F.shape[:-1] + (2, 4))[..., 1:]
+    np.sqrt(dot(vw[..., 0, :], vw[..., 0, :]), out=laws[..., 1])
+    return vw / (_LINE_SIGNS * laws[..., 1, None, None]), laws
+
+
+_LINE_SIGNS = np.array([[-1.0], [1.0]])  # u = -v / b, m = w / b
 
 
 def rotation_about_line(u, m, theta):

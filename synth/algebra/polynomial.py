@@ -102,17 +102,17 @@ def evaluate(C, t):
     t = np.asarray(t, float)
     inf = np.isinf(t)
     some_inf = inf.any()
-    V = np.power((np.where(inf, 0.0, t) if some_inf else t)[..., None], _powers(C.shape[-2] - 1))  # (*S, n+1)
+    V = np.power((np.where(inf, 0.0, t) if some_inf else t)[..., None], exponents(C.shape[-2] - 1))  # (*S, n+1)
     if some_inf:
-        V[inf] = _powers(C.shape[-2] - 1) == C.shape[-2] - 1  # t^n / t^n at infinity: the leading coefficient
+        V[inf] = exponents(C.shape[-2] - 1) == C.shape[-2] - 1  # t^n / t^n at infinity: the leading coefficient
     if t.ndim > 1:  # S[:-1] are batch axes of the product: C's batch in front of them
         C = C.reshape(C.shape[:-2] + (1,) * (t.ndim - 1) + C.shape[-2:])
     return np.matmul(V, C)
 
 
 @functools.lru_cache(maxsize=16)
-def _powers(n: int) -> np.ndarray:
-    """The exponents 0 .. n as floats (read-only, cached)."""
+def exponents(n: int) -> np.ndarray:
+    """The exponents 0 .. n as floats (read-only, cached): ``t[..., None] ** exponents(n)`` are the powers of t."""
     out = np.arange(n + 1.0)
     out.flags.writeable = False
     return out

@@ -3,20 +3,20 @@ polynomial, following the "two branches, one weld" convention of docs/convention
 from __future__ import annotations
 
 import functools
-import math
 
 import numpy as np
 
 from synth.algebra.anglelaw import angle_law
+from synth.algebra.dq import factor_lines
 from synth.linkage import Joint, Linkage, PoseRecord
 
 
 def joint_from_factor(name: str, parent: str, child: str, h) -> Joint:
-    """Revolute joint t - h: Plücker line (u = -v/|v|, m = w/|v|) and angle law a = h0, b = |v|."""
-    h0, v1, v2, v3, _, w1, w2, w3 = map(float, h.tolist() if isinstance(h, np.ndarray) else h)
-    b = math.sqrt(v1 * v1 + v2 * v2 + v3 * v3)
-    return Joint(name=name, parent=parent, child=child, direction=np.array([-v1 / b, -v2 / b, -v3 / b]),
-                 moment=np.array([w1 / b, w2 / b, w3 / b]), a=h0, b=b)
+    """Revolute joint t - h: Plücker line (u = -v/|v|, m = w/|v|) and angle law a = h0, b = |v|
+    (`synth.algebra.dq.factor_lines`)."""
+    lines, laws = _joint_lines([h])
+    (a, b), = laws
+    return Joint(name=name, parent=parent, child=child, direction=lines[0, 0], moment=lines[0, 1], a=a, b=b)
 
 
 def pose_records(joints, poses, names, ts, angles=None) -> list[PoseRecord]:
@@ -60,16 +60,9 @@ def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None, rat
 
 def _joint_lines(factors) -> tuple:
     """(lines (J, 2, 3), angle laws [(a, b)] * J) of the joints t - h of the factors h (8,) (arrays or
-    sequences of numbers): `joint_from_factor` for all of them, the Plücker coordinates in one array."""
-    laws, lines = [], []
-    for h in factors:
-        if type(h) is not tuple:
-            h = h.tolist() if isinstance(h, np.ndarray) else tuple(map(float, h))
-        h0, v1, v2, v3, _, w1, w2, w3 = h
-        b = math.sqrt(v1 * v1 + v2 * v2 + v3 * v3)
-        laws.append((float(h0), b))
-        lines += (-v1 / b, -v2 / b, -v3 / b, w1 / b, w2 / b, w3 / b)
-    return np.array(lines, float).reshape(-1, 2, 3), laws
+    sequences of numbers, `synth.algebra.dq.factor_lines`)."""
+    lines, laws = factor_lines(np.array([np.asarray(h, float) for h in factors]))
+    return lines, laws.tolist()
 
 
 @functools.lru_cache(maxsize=None)

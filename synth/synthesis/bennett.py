@@ -17,14 +17,14 @@ from functools import lru_cache
 import numpy as np
 
 from synth.algebra.algorithm1 import cross3, index_pairs
-from synth.algebra.dq import dq_right_matrix, pose_to_dq
+from synth.algebra.dq import dq_right_matrix, factor_lines, pose_to_dq
 from synth.algebra.factorize import factorize
 from synth.checks import (BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, pose_difference,
                           self_check)
 from synth.errors import InputError, NotGenericError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, TS, axis_distance, bennett_parameters,
-                                          dh_rows, factor_lines, factor_sets, loop_geometry, relative_error, solve)
+                                          dh_rows, factor_sets, loop_geometry, relative_error, solve)
 from synth.synthesis.conditioning import transmission_problem
 from synth.synthesis.conic import (Conditioning, condition, conditioning, conic, relative_displacements,
                                    position_spread, to_world)

@@ -29,13 +29,12 @@ from synth.algebra.anglelaw import angle_law
 from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
-from synth.algebra.dq import dot, pose_to_dq
-from synth.synthesis.conic import condition_map, conditioning, conic, relative_displacements_dq, world_map
+from synth.algebra.dq import dot, factor_lines, pose_to_dq
+from synth.synthesis.conic import TS, condition_map, conditioning, conic, relative_displacements_dq, world_map
 
 JOINTS = ("h1", "h2", "k1", "k2")
 BRANCHES = np.array([[0, 1], [2, 3]])  # h1 h2 | k1 k2, base to coupler
 LOOP = np.array([0, 1, 3, 2])  # h1 -> h2 -> k2 -> k1 -> h1
-TS = np.array([np.inf, 0.0, 1.0])
 STRUCTURE = ((("base", "link_h1"), ("link_h1", "coupler"), ("base", "link_k1"), ("link_k1", "coupler_k")),
              "coupler", (("coupler", "coupler_k"),))
 ACCEPT_TOL = 1e-8  # largest relative self-check error accepted (see `relative_error`)
@@ -50,7 +49,6 @@ MAX_RESIDUAL = 5e-13  # multiply-back error above this after polishing: per-set 
 POLISH_ABOVE = 3e-14  # multiply-back error above this: polished (the world-frame bounds of `loop_bound` grow with it)
 _ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
 _EYE4 = np.eye(4)
-_LINE_SIGNS = np.array([[-1.0], [1.0]])  # u = -v / b, m = w / b
 _FLOOR = FLOOR_ULPS * EPS / ACCEPT_TOL
 
 
@@ -152,7 +150,8 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     fac = _factors(T) if fac is None else fac
     N = T.shape[0]
     factors, motion, Q, centre, scale = fac["factors"], fac["motion"], fac["Q"], fac["centre"], fac["scale"]
-    lines, laws = factor_lines(factors)  # (N, 4, 2, 3), (N, 4, 2): the joints of the linkage
+    # (N, 4, 2, 3), (N, 4, 2): the joints of the linkage, the ones `synth.checks.loop_bound` certifies
+    lines, laws = factor_lines(factors)
     a, b = laws[..., 0], laws[..., 1]
     U, M = lines[..., 0, :], lines[..., 1, :]
     pose_angles = angle_law(a[:, None, :], b[:, None, :], TS[:, None])  # (N, 3, 4); 0 at t = inf
@@ -187,17 +186,6 @@ def _solve(T, check_samples: int, fac=None) -> dict:
                 motion=motion, study_form=fac["B"] * scale[:, None], centre=centre, scale=scale,
                 residual=fac["residual"], bennett=bennett_parameters(geo), dh=dh_rows(loop[..., 0, :], geo),
                 errors=errors, relative_error=rel, axis_distance=far, length_scale=length_scale)
-
-
-def factor_lines(F) -> tuple[np.ndarray, np.ndarray]:
-    """Lines (..., 2, 3) (direction u, moment m) and angle laws (..., 2) (a, b) of the revolute factors
-    F (..., 8) = a + v + eps (q0 + w): b = |v|, u = -v / b, m = w / b (the joints the linkage gets, and
-    the ones `synth.checks.loop_bound` certifies)."""
-    laws = np.empty(F.shape[:-1] + (2,))
-    laws[..., 0] = F[..., 0]
-    vw = F.reshape(F.shape[:-1] + (2, 4))[..., 1:]
-    np.sqrt(dot(vw[..., 0, :], vw[..., 0, :]), out=laws[..., 1])
-    return vw / (_LINE_SIGNS * laws[..., 1, None, None]), laws
 
 
 def axis_distance(U, M, c) -> np.ndarray:

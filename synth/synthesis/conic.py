@@ -11,14 +11,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.algebra.dq import dot, dq_left_matrix, dq_mul, normalize_dq, pose_to_dq
+from synth.algebra.dq import dot, dq_conj, dq_left_matrix, dq_mul, normalize_dq, pose_to_dq, study_form
 from synth.errors import SynthesisError
 
 _ONE = np.eye(8)[0]
-_SWAP = np.array([4, 5, 6, 7, 0, 1, 2, 3])  # p + eps q -> q + eps p
-_TS = np.array([np.inf, 0.0, 1.0])  # the poses' parameters (read-only)
-_TS.flags.writeable = False
-_CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
+TS = np.array([np.inf, 0.0, 1.0])  # the parameters of the three poses on the conic (read-only)
+TS.flags.writeable = False
 
 
 @dataclass
@@ -122,7 +120,7 @@ def relative_displacements(T):
 
 def relative_displacements_dq(H):
     """`relative_displacements` of poses given as unit dual quaternions H (..., k, 8) (D_0 = 1 exactly)."""
-    H0inv = H[..., :1, :] * _CONJ  # unit: inverse = conjugate
+    H0inv = dq_conj(H[..., :1, :])  # unit: inverse = conjugate
     D = np.empty(H.shape)
     D[..., 0, :] = _ONE
     D[..., 1:, :] = normalize_dq(dq_mul(H[..., 1:, :], H0inv))
@@ -147,12 +145,11 @@ def conic(D, tol=1e-9) -> ConicData:
     D1, D2 = D[..., 1, :], D[..., 2, :]
     B = np.empty(D.shape[:-2] + (3,))  # B01, B02, B12
     np.multiply(D[..., 1:, 4], 0.5, out=B[..., :2])
-    B[..., 2] = dot(D1, D2.take(_SWAP, axis=-1))  # the Study form B(D_1, D_2) = (p1 . q2 + q1 . p2) / 2
-    B[..., 2] *= 0.5
+    B[..., 2] = study_form(D1, D2)
     if D.ndim == 2:
         check_conic_degeneracy(D, *B, tol)
     lam = B[..., 1::-1] / B[..., 2:]  # B02 / B12, B01 / B12: C(0) = lam1 D_1, C(1) = lam2 D_2 (docs/conic.md, section 2)
-    return ConicData(C=conic_member(D, lam), ts=_TS, B=B)
+    return ConicData(C=conic_member(D, lam), ts=TS, B=B)
 
 
 def conic_member(D, lam) -> np.ndarray:

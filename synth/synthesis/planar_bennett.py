@@ -28,7 +28,7 @@ from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, LOOP, axis_distance, bennett_parameters, dh_rows, loop_geometry,
                                           relative_error)
-from synth.synthesis.conic import conic_member, to_world
+from synth.synthesis.conic import TS, conic_member, to_world
 from synth.synthesis.planar import (ZeroPitch, axis_penalties, isogram_margin, isogram_penalty, study_forms,
                                     tracks_motion)
 from synth.synthesis.sixbar_loops import score_warnings
@@ -38,7 +38,6 @@ ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
 RESIDUAL_TOL = 1e-10  # multiply-back error above this: the member is invalid
 MAX_BUILT = 12  # members built and checked (and followed by continuation, `tracks_motion`) at most
 KAPPA_GOOD, COND_WEIGHT = 0.05, 3.0  # as the 6R score (docs/cubic.md, section 6)
-TS = (math.inf, 0.0, 1.0)
 LOOP_NAMES = ["h1", "h2", "k2", "k1"]
 MOTION = "C(t) = t (t - 1) - lambda1 (t - 1) D1 + lambda2 t D2 (D_i = T_i T_0^-1; C(0) = lambda1 D1, C(1) = lambda2 D2)"
 PART_KEYS = ("conditioning", "root_imag", "root_separation", "extent", "min_twist", "min_offset", "isogram",
