@@ -38,13 +38,12 @@ and returns a `PoseSet`. Conventions:
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from synth.algebra.dq import pose_to_dq
 from synth.errors import InputError
+from synth.task import PoseSet
 from synth.io.docload import MAX_FILE_BYTES, MAX_POSES, json_object_pairs, load_document, quote_text, read_source
 from synth.io.posespec import (ANGLE_UNITS, LENGTH_UNITS, PoseProblem, axis_angle_matrix, check_keys,
                                describe_value, is_point_spec, point_position, pose_from_spec, pose_matrix,
@@ -67,48 +66,6 @@ __all__ = [
 
 TOP_KEYS = ("units", "poses", "points")
 UNIT_KEYS = ("length", "angle")
-
-
-@dataclass
-class PoseSet:
-    """Validated poses. ``matrices`` (N, 4, 4) are in metres whatever the file's unit;
-    ``length_scale`` is metres per input length unit; ``source`` is the display name."""
-
-    names: list[str]
-    matrices: np.ndarray
-    length_unit: str = "m"
-    angle_unit: str = "rad"
-    length_scale: float = 1.0
-    source: str = "<poses>"
-    named: list[bool] = field(default_factory=list)  # which names were given in the file
-    kinds: list[str] = field(default_factory=list)  # "pose" or "point" (position only, docs/points.md); [] = poses
-
-    @property
-    def has_points(self) -> bool:
-        """Whether some item prescribes a position only (a point task)."""
-        return "point" in self.kinds
-
-    @property
-    def is_point(self) -> np.ndarray:
-        """(N,) bool: which items are points (their matrices carry the identity rotation)."""
-        return np.array([k == "point" for k in self.kinds] or [False] * len(self.names), bool)
-
-    def __len__(self) -> int:
-        return len(self.names)
-
-    @property
-    def positions(self) -> np.ndarray:
-        """(N, 3) positions in metres."""
-        return self.matrices[:, :3, 3]
-
-    @property
-    def rotations(self) -> np.ndarray:
-        """(N, 3, 3) rotation matrices."""
-        return self.matrices[:, :3, :3]
-
-    def dual_quaternions(self) -> np.ndarray:
-        """(N, 8) unit dual quaternions (docs/conventions.md), lengths in metres."""
-        return pose_to_dq(self.matrices)
 
 
 # ============================================================== the document
