@@ -12,6 +12,10 @@ import click
 from synth.io.names import check_package, check_robot_name, safe_robot_name
 from synth.io.streams import environment_error, silence_stderr, silence_stdout
 
+from . import signals
+
+signals.install()  # the CLI owns the process's signals: outputs being written are removed on ^C / SIGTERM
+
 
 def echo(msg: str = "") -> None:
     """Human-readable output goes to stderr (stdout is reserved for --json)."""
@@ -101,10 +105,17 @@ def _checked(check):
     return callback
 
 
+def nonempty_path(ctx, param, value):
+    """Click callback: an empty path (``-o ''``) is a usage error, never the working directory."""
+    if value is not None and not str(value).strip():
+        raise click.BadParameter("an empty path; name a directory")
+    return value
+
+
 def synthesis_options(func):
     """Options shared by the synthesis commands (bennett, sixbar, curve)."""
     opts = [
-        click.option("-o", "--out", "out", type=click.Path(file_okay=False),
+        click.option("-o", "--out", "out", type=click.Path(file_okay=False), callback=nonempty_path,
                      help="Output directory (linkage.urdf, linkage.json, meshes/). Without it nothing is written."),
         click.option("--name", callback=_checked(check_robot_name),
                      help="Robot name in the URDF (default: the pose file's stem)."),
@@ -160,27 +171,12 @@ def mesh_sizes(kwargs, length_scale: float) -> dict:
     return out
 
 
-MESH_SIZE_RANGE = (1e-6, 10.0)  # explicit mesh sizes, relative to the linkage's size (extent): a part
-# ten times the mechanism's size is a typo, not a design (e.g. --pin-length 100000 gave a 132 m mesh)
-
-
 def check_mesh_sizes(sizes: dict, extent: float, scale: float, unit: str) -> None:
-    """Refuse explicit mesh sizes (metres) that are absurd for a linkage of size ``extent`` (metres):
-    outside MESH_SIZE_RANGE times the extent the meshes cannot be built. Messages use the input unit."""
-    from synth.errors import InputError
+    """Refuse explicit mesh sizes (metres) that are absurd for a linkage of size ``extent`` (metres), in the
+    input unit (`synth.design.sizes.check_sizes`, shared with batch and the writer)."""
+    from synth.design.sizes import check_sizes
 
-    lo, hi = MESH_SIZE_RANGE
-    for key, v in sizes.items():
-        if key in ("clearance", "hole_clearance"):
-            if v > hi * extent:
-                raise InputError(f"--{key.replace('_', '-')} {v / scale:.6g} {unit} is out of range for a linkage "
-                                 f"of size {extent / scale:.3g} {unit}")
-            continue
-        if not (lo * extent <= v <= hi * extent):
-            raise InputError(
-                f"--{key.replace('_', '-')} {v / scale:.6g} {unit} is out of range for a linkage of size "
-                f"{extent / scale:.3g} {unit}: give a value between {lo * extent / scale:.3g} and "
-                f"{hi * extent / scale:.3g} {unit}")
+    check_sizes(sizes, extent, scale=scale, unit=unit)
 
 
 def default_robot_name(source: str) -> str:

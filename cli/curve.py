@@ -12,7 +12,7 @@ from synth.io.posespec import LENGTH_UNITS
 from synth.io.writer import check_output_target
 from synth.synthesis.curve import CurveSpec, spec_linkage
 
-from .common import debug_option, design_option_list, design_result, echo, emit_linkage, json_option, mesh_sizes, run_guarded
+from .common import debug_option, design_option_list, design_result, echo, emit_linkage, json_option, mesh_sizes, nonempty_path, run_guarded
 
 
 def design_options(func):
@@ -50,7 +50,7 @@ sliding joint"; no factorization), 2 bad input."""
 
 @click.command(epilog=EPILOG)
 @click.argument("spec", metavar="SPEC")
-@click.option("-o", "--out", "out", type=click.Path(file_okay=False),
+@click.option("-o", "--out", "out", type=click.Path(file_okay=False), callback=nonempty_path,
               help="Output directory (linkage.urdf, linkage.json, meshes/). Without it nothing is written.")
 @click.option("--units", type=click.Choice(list(UNITS)), default="m", show_default=True,
               help="Length unit of the spec (curve coordinates; dual parts of a motion).")

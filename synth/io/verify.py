@@ -44,7 +44,9 @@ from synth.algebra.anglelaw import angle_law, angle_law_inverse
 from synth.algebra.polynomial import pose_at
 from synth.io.continuation import continue_loop, crossing, law_angles
 from synth.io.frames import TWO_PI, invert_transform, pose_diff, wrap_angle
-from synth.io.readback import OutputFiles, angle_laws, angle_rates, mesh_path, read_files, solution_dirs
+from synth.io.posespec import describe_value
+from synth.io.readback import (OutputFiles, angle_laws, angle_rates, is_number, mesh_file_problem, mesh_path,
+                               read_files, solution_dirs)
 from synth.io.urdf import driver_limits
 from synth.synthesis.conditioning import transmission_ratio
 
@@ -240,18 +242,9 @@ class _Checker:
         self.figures["meshes"] = {"referenced": len(self.u.meshes), "good": good}
 
     def _mesh_problem(self, trimesh, path: Path, scale, spread) -> str:
-        raw = path.read_bytes()
-        if len(raw) < 84:
-            return "not an STL file"
-        n = int.from_bytes(raw[80:84], "little")
-        if len(raw) != 84 + 50 * n:
-            return "not a binary STL"
-        try:
-            mesh = trimesh.load(path, file_type="stl", force="mesh")
-        except Exception as e:  # noqa: BLE001 - any loader failure is a problem line
-            return f"does not load ({type(e).__name__}: {e})"
-        if len(mesh.faces) == 0:
-            return "has no triangles"
+        problem, mesh = mesh_file_problem(path)
+        if problem:
+            return problem
         if not mesh.is_watertight:
             return "is not watertight"
         vol = float(mesh.volume) * float(np.prod(scale))
@@ -346,8 +339,14 @@ class _Checker:
             if "t" not in rec or not isinstance(rec.get("joint_angles"), dict):
                 continue
             t = rec["t"]
+            if t is not None and not is_number(t):
+                self.fail(f"linkage.json: pose {i}: t is {describe_value(t)}, not a number")
+                return
             t = math.inf if t is None else float(t)
             for jn, v in rec["joint_angles"].items():
+                if not is_number(v):
+                    self.fail(f"linkage.json: pose {i}: joint angle {jn} is {describe_value(v)}, not a finite number")
+                    return
                 if jn in laws:
                     a, b = laws[jn]
                     th = float(angle_law(a, b, t, rates.get(jn, 1)))
@@ -457,6 +456,8 @@ class _Checker:
 
     # -------------------------------------------------------------- run
     def run(self):
+        if self.u.problems:  # a URDF that cannot be posed (a zero axis, a broken tree): nothing more to judge
+            return self.problems, self.figures
         self._scales()
         self.structure()
         # joints in the loops (those that move some closure pair relative to each other), driver

@@ -56,13 +56,14 @@ from synth.io.docload import json_object_pairs
 from synth.io.jsonout import linkage_document, plain
 from synth.io.names import check_robot_name, safe_robot_name
 from synth.io.poses import parse_pose_document
+from synth.design.sizes import check_sizes
 from synth.io.writer import check_output_target, write_output
 from synth.synthesis.bennett import bennett, check_transmission
 from synth.synthesis.points import MINIMUM, NEEDED, oriented_item, point_candidates
 
 KINDS = {"bennett": 3, "sixbar": 4}
 DEGREES = {"bennett": 2, "sixbar": 3}  # degree of the motion of a point task
-JOB_KEYS = ("id", "kind", "poses", "points", "units", "out", "name", "normalize", "force",
+JOB_KEYS = ("id", "kind", "poses", "points", "units", "quaternion_order", "out", "name", "normalize", "force",
             "pin_radius", "link_radius", "pin_length")
 MAX_LINE = 10 * 1024 * 1024
 
@@ -182,8 +183,9 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
         result["id"] = _echo_id(job.get("id"))
         _check_job(job)
         doc = {k: job[k] for k in ("poses", "points") if k in job}
-        if "units" in job:
-            doc["units"] = job["units"]
+        for key in ("units", "quaternion_order"):
+            if key in job:
+                doc[key] = job[key]
         kind = job["kind"]
         try:
             out_path = _out_path(job["out"], out_dir) if "out" in job else None
@@ -197,6 +199,8 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
             if "out" in job:
                 sizes = {k: float(job[k]) * ps.length_scale for k in ("pin_radius", "link_radius", "pin_length")
                          if k in job}
+                check_sizes(sizes, linkage.extent(), scale=ps.length_scale, unit=ps.length_unit,
+                            label=lambda key: repr(key))
                 name = job.get("name") or safe_robot_name(str(result["id"]) if result["id"] is not None else "")
                 write_output(linkage, out_path, robot_name=name, force=bool(job.get("force", False)), **sizes)
                 out = job["out"]
@@ -342,10 +346,31 @@ def _worker_init():
     sixbar synthesis once (bennett and the pose reader come with this module)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _worker_term)
+    die_with_parent()
     try:
         importlib.import_module("synth.synthesis.sixbar")
     except ImportError:
         pass
+
+
+_PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent() -> None:
+    """Have the kernel kill this process when its parent dies (Linux prctl PR_SET_PDEATHSIG; elsewhere
+    nothing). A worker's parent is the pool's fork server, which exits when the batch process does, even
+    on SIGKILL: no orphan keeps writing outputs. Exits at once if the parent is already gone."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
+        parent = os.getppid()
+        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        return
+    if os.getppid() != parent:  # the parent died before the prctl
+        os._exit(1)
 
 
 def _worker_term(signum, frame):

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.io.readback import Readback, cycle_parameters
-from synth.io.writer import atomic_write
+from synth.io.atomic import atomic_write
 from synth.tools.render import BASE_COLOR, default_view, link_colors
 
 DEFAULT_FRAMES = 120

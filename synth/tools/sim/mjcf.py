@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.errors import InputError
-from synth.io.writer import atomic_write
+from synth.io.atomic import atomic_write
 from synth.tools.sim import quat_wxyz
 
 DEFAULT_TIMESTEP = 5e-4
