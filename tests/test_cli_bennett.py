@@ -12,14 +12,10 @@ from click.testing import CliRunner
 from cli.main import mpsynth
 from synth.io.poses import load_poses
 
-from conftest import REPO, random_poses, write_pose_yaml
+from conftest import REPO, random_poses, write_pose_yaml, run
 
 FIXTURES = sorted(p for p in (REPO / "fixtures").glob("bennett_*") if p.suffix in (".yaml", ".json")
                   and "points" not in p.name)  # point tasks: tests/test_points.py
-
-
-def run(*args, input=None):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], input=input, catch_exceptions=False)
 
 
 def fk_check(out, pose_file, tol=1e-9):
