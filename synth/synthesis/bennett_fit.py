@@ -17,25 +17,23 @@ and stored in its `PoseRecord` (``error``, ``tolerance``, ``exact``) and in ``in
 from __future__ import annotations
 
 import itertools
-import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from synth.algebra.dq import dq_inv, dq_to_pose, normalize_dq, pose_to_dq
 from synth.blas import one_blas_thread
-from synth.checks import VERIFY_SAMPLES, pose_difference, self_check
+from synth.checks import VERIFY_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import ACCEPT_TOL
 from synth.synthesis.conditioning import transmission_problem
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import (ERRORS, Layout, MotionModel, homogeneous, item_errors, levenberg_marquardt, study_rows,
+from synth.synthesis.fit import (ERRORS, Layout, MotionModel, homogeneous, item_errors, levenberg_marquardt,
                                  task_arrays, _mul)
+from synth.synthesis.taskfit import FitSummary, annotate, item_kinds, tolerance_problem, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 
-__all__ = ["bennett_task", "hermite_conic", "regauge", "visits_in_order", "annotate", "FitSummary",
-           "MAX_TRIPLES", "KEEP", "GRID"]
+__all__ = ["bennett_task", "is_task", "hermite_conic", "regauge", "fit_motion", "MAX_TRIPLES", "KEEP", "GRID"]
 
 MAX_TRIPLES = 80  # seeds from triples of poses: all when there are at most this many, else a sample
 GRID = 48  # parameter samples per seed motion for projecting the items onto it
@@ -44,18 +42,6 @@ ITERATIONS = 40  # Jacobians per refinement, at most
 EXACT_WEIGHT = 1e3  # weight of exact rows when ranking seeds (conditioned units)
 FEASIBLE = 1e-10  # largest constraint violation of an accepted fit (conditioned units)
 DEGREE = 2
-
-
-@dataclass
-class FitSummary:
-    """What a task synthesis achieved: ``method`` ("exact", "hermite", "fit"), seeds tried and refined,
-    iterations, ``visit`` (item indices in the order the first driver visits them, from item 0 on)."""
-
-    method: str
-    seeds: int = 0
-    refined: int = 0
-    iterations: int = 0
-    visit: tuple = ()
 
 
 # ------------------------------------------------------------------ gauge
@@ -107,19 +93,6 @@ def _inv2(M):
     adj = np.stack([np.stack([M[..., 1, 1], -M[..., 0, 1]], -1), np.stack([-M[..., 1, 0], M[..., 0, 0]], -1)], -2)
     with np.errstate(all="ignore"):
         return adj / det[..., None, None]
-
-
-def visits_in_order(ts) -> bool:
-    """Whether parameters ``ts`` (t_0 = inf first) are visited in the listed order by a joint turning one
-    way through less than a turn: t_1 < t_2 < ... or t_1 > t_2 > ... (angle laws are monotonic in t)."""
-    d = np.diff(np.asarray(ts, float)[1:])
-    return bool(np.all(d > 0) or np.all(d < 0))
-
-
-def visiting_order(ts) -> tuple:
-    """Item indices in the order t increases from item 0 (at t = inf) on."""
-    rest = np.argsort(np.asarray(ts, float)[1:], kind="stable") + 1
-    return (0,) + tuple(int(i) for i in rest)
 
 
 # ------------------------------------------------------------------ seeds
@@ -207,7 +180,7 @@ def fit_motion(ps: PoseSet):
     Q = pose_to_dq(Tc)
     task = task_arrays(Q, Tc[:, :3, 3], ps.tolerance, ps.velocity, float(cond.scale))
     twists = _twists(ps, Tc, float(cond.scale))
-    coef, ref = _seeds(Q, task, _kinds(ps), twists)
+    coef, ref = _seeds(Q, task, item_kinds(ps), twists)
     phi = _project(coef, ref, task)
     gauge = _gauge_items(phi)
     with np.errstate(all="ignore"):
@@ -239,10 +212,6 @@ def fit_motion(ps: PoseSet):
     return coef[order], refs[order], np.mod(phi[order], np.pi), res.cost[order], res.violation[order], cond, summary
 
 
-def _kinds(ps: PoseSet) -> list[str]:
-    return list(ps.kinds) if ps.kinds else ["pose"] * len(ps)
-
-
 def _twists(ps: PoseSet, Tc, scale: float) -> dict:
     """{item: twist (6,) [w, velocity of the body point at the origin]} (conditioned) of items with a full
     prescribed velocity."""
@@ -269,6 +238,7 @@ def linkage_of(coef, ref, phi, cond: Conditioning, ps: PoseSet, info: dict):
     with np.errstate(divide="ignore"):
         ts = np.cos(phi) / np.sin(phi)
     ts[0] = np.inf
+    ts[phi == np.pi / 2] = 0.0  # (cos(pi/2) is not 0 in floating point)
     Tref = dq_to_pose(ref)
     Tref[:3, 3] = Tref[:3, 3] * cond.scale + cond.centre
     lk = two_branch_linkage("bennett", H, K, Cw, ps.matrices, ps.names, ts,
@@ -277,39 +247,6 @@ def linkage_of(coef, ref, phi, cond: Conditioning, ps: PoseSet, info: dict):
     lk.tool_ref = Tref
     del to_world
     return lk
-
-
-def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
-    """Measure every item's miss on the linkage (tool frame at the recorded joint angles), store it in
-    the pose records (``error``, ``tolerance``, ``exact``, ``kind``) and ``info["fit"]``; the self-check
-    (closure, transmission) as ``linkage.checks``. Returns whether every tolerance is met."""
-    kinds = _kinds(ps)
-    tol = np.zeros((len(ps), 2)) if ps.tolerance is None else np.asarray(ps.tolerance, float)
-    T = np.array([linkage.tool_pose(r.joint_angles) for r in linkage.poses])
-    dt, dr = pose_difference(T, ps.matrices)
-    point = np.array([k == "point" for k in kinds])
-    dr = np.where(point, 0.0, dr)
-    size = linkage.extent()
-    ok = []
-    for i, rec in enumerate(linkage.poses):
-        rec.kind = kinds[i]
-        rec.error = (float(dt[i]), float(dr[i]))
-        exact = bool(tol[i, 0] == 0 and (point[i] or tol[i, 1] == 0))
-        rec.exact, rec.tolerance = exact, (None if exact else (float(tol[i, 0]), float(tol[i, 1])))
-        lim_t = tol[i, 0] if tol[i, 0] > 0 else 1e-9 * size
-        lim_r = tol[i, 1] if tol[i, 1] > 0 else 1e-9
-        ok.append(bool(dt[i] <= lim_t * (1 + 1e-9) and dr[i] <= lim_r * (1 + 1e-9)))
-    rated = ~np.isinf(tol[:, 0])
-    names = [ps.names[i] for i in summary.visit] if summary.visit else None
-    linkage.info["fit"] = {
-        "method": summary.method, "seeds": summary.seeds, "refined": summary.refined,
-        "iterations": summary.iterations, "order": ps.order.value, "visit_order": names,
-        "rms_position_error": float(np.sqrt(np.mean(dt[rated] ** 2))) if rated.any() else 0.0,
-        "max_position_error": float(dt.max()),
-        "rms_angle_error": float(np.sqrt(np.mean(dr[~point] ** 2))) if (~point).any() else 0.0,
-        "max_angle_error": float(dr.max()), "within_tolerance": bool(all(ok)),
-        "failing": [i for i, good in enumerate(ok) if not good]}
-    return all(ok)
 
 
 def check_fitted(linkage) -> None:
@@ -326,13 +263,20 @@ def check_fitted(linkage) -> None:
     linkage.checks = checks
 
 
+def is_task(ps: PoseSet) -> bool:
+    """Whether a pose set needs `bennett_task` rather than the classic three-pose synthesis: tolerances,
+    velocities, a listed order or a count other than three poses."""
+    return (ps.tolerance is not None or ps.velocity is not None or ps.order is Order.LISTED or len(ps) != 3
+            or ps.has_points)
+
+
 def bennett_task(ps: PoseSet, top: int = 1, best_effort: bool = False) -> list:
     """Bennett linkages for a task (`synth.task.PoseSet`), best first (up to ``top``): exact for 3 poses
     or a Hermite pair, fitted for more (module docstring). Each has its items' misses recorded
     (`annotate`). SynthesisError when nothing meets the exact items and velocities, none follows the
     listed order, or (unless ``best_effort``) the best misses a tolerance (`tolerance_problem` names the
     items); InputError for a task that does not determine a Bennett motion."""
-    kinds = _kinds(ps)
+    kinds = item_kinds(ps)
     n_poses = sum(k != "point" for k in kinds)
     twists = ps.velocity is not None and np.any(~np.isnan(ps.velocity))
     if len(ps) == 3 and n_poses == 3 and not twists:
@@ -346,8 +290,9 @@ def bennett_task(ps: PoseSet, top: int = 1, best_effort: bool = False) -> list:
     elif len(ps) >= 3 and n_poses >= 3 or (n_poses >= 2 and twists and len(ps) >= 3):
         candidates, summary = _fitted(ps, top), None
     else:
-        raise InputError(f"{ps.source}: a Bennett linkage needs 3 or more poses, or 2 poses with a velocity "
-                         f"(got {n_poses} poses and {len(ps) - n_poses} points)")
+        got = f"{n_poses} poses" + (f" and {len(ps) - n_poses} points" if len(ps) > n_poses else "")
+        raise InputError(f"{ps.source}: a Bennett linkage needs 3 or more poses, or 2 poses with a velocity at "
+                         f"one of them, got {got}")
     results = []
     for lk in candidates:
         s = summary or lk.info.pop("_summary")
@@ -393,8 +338,10 @@ def _hermite(ps: PoseSet):
 
 def _fitted(ps: PoseSet, top: int) -> list:
     coef, ref, phi, cost, violation, cond, summary = fit_motion(ps)
-    out, why = [], None
+    out, why, taken = [], None, []
     for k in range(len(coef)):
+        if any(np.abs(coef[k] - coef[j]).max() <= 1e-6 * (1 + np.abs(coef[j]).max()) for j in taken):
+            continue  # the same motion from another seed
         if not violation[k] <= FEASIBLE:
             why = why or (f"the exact poses and velocities cannot all be met by a Bennett motion (best constraint "
                           f"violation {violation[k]:.1e}, relative)")
@@ -409,28 +356,9 @@ def _fitted(ps: PoseSet, top: int) -> list:
         lk.info["_summary"] = FitSummary("fit", summary.seeds, summary.refined, summary.iterations,
                                          visiting_order(ts))
         out.append(lk)
-        if len(out) >= max(top, 1) + 2:
+        taken.append(k)
+        if len(out) >= top:
             break
     if not out:
         raise SynthesisError(f"{ps.source}: {why or 'no Bennett motion fits the task'}")
     return out
-
-
-def tolerance_problem(linkage, ps: PoseSet) -> str:
-    """One line naming the items whose tolerance the linkage misses, by how much (input units)."""
-    parts = []
-    for i in linkage.info["fit"]["failing"]:
-        rec = linkage.poses[i]
-        tol = (0.0, 0.0) if rec.exact else rec.tolerance
-        parts.append(f"pose {i} ({rec.name!r}) missed by {_length(rec.error[0], ps)} / {_angle(rec.error[1], ps)} "
-                     f"(tolerance {_length(tol[0], ps)} / {_angle(tol[1], ps)})")
-    return ("tolerances not met at the best linkage found: " + "; ".join(parts) +
-            " (--best-effort writes it anyway)")
-
-
-def _length(x: float, ps: PoseSet) -> str:
-    return "free" if math.isinf(x) else f"{x / ps.length_scale:.4g} {ps.length_unit}"
-
-
-def _angle(x: float, ps: PoseSet) -> str:
-    return "free" if math.isinf(x) else f"{math.degrees(x):.4g} deg"
