@@ -28,7 +28,8 @@ ERRORS = 6  # per item: position error (3, spreads), rotation error 2 sin(angle/
 ROWS = ERRORS + 5  # and 5 velocity rows (components of the twist direction across the prescribed one)
 STEP = 1e-30  # complex step
 FEASIBLE_FLOOR = 1e-14  # constraint violation (conditioned units) counted as met
-NEARLY_FEASIBLE = 1e-8  # during the damped steps: cost-lowering steps may leave this much (`polish` ends)
+NEARLY_FEASIBLE = 1e-6  # during the damped steps: cost-lowering steps may leave this much (`polish` ends)
+CORRECTIONS = 2  # second-order corrections per trial step
 POLISH_STEPS = 4
 _DQ = structure_constants().reshape(64, 8).astype(float)
 _Q = structure_constants()[:4, :4, :4].reshape(16, 4).astype(float)
@@ -263,7 +264,8 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
     halves max |c| while that is above NEARLY_FEASIBLE (a filter: exact rows never trade against the cost);
     `polish` then meets c = 0 to rounding. ``fixed`` (S, P) bool: columns held, per seed. ``model``:
     ``rows(x) -> (r, c)`` and ``jacobians(x) -> (r, c, J_r, J_c)``. Stops after ``iterations`` Jacobians
-    or when every seed's step is below 1e-13 (relative): counted work only."""
+    or when every seed's step is below 1e-13 (relative) or its cost stops moving (1e-12, relative): counted
+    work only."""
     x = np.array(x0, float)
     fixed = np.broadcast_to(np.asarray(fixed, bool), x.shape)
     S, P = x.shape
@@ -289,7 +291,7 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
             K[:, idx, idx] = np.where(fixed, 1.0, H[:, idx, idx] + lam[:, None] * dH)
             xn = x + _solve(K, rhs)[:, :P]
             rn, cn = model.rows(xn)
-            if ne:  # second-order correction: back onto the constraints along A's rows
+            for _ in range(CORRECTIONS if ne else 0):  # second-order corrections: back onto c = 0 along A's rows
                 xn = xn - _min_norm(A, cn)
                 rn, cn = model.rows(xn)
             cost_n, viol_n = (rn * rn).sum(-1), np.abs(cn).max(-1, initial=0.0)
@@ -297,11 +299,12 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
             improves = (cost_n < cost) & (viol_n <= np.maximum(viol, NEARLY_FEASIBLE))
             ok = pending & np.isfinite(cost_n) & (improves | (restores & (viol > NEARLY_FEASIBLE)))
             step = np.max(np.abs(xn - x), axis=1)
+            flat = ok & (cost - cost_n <= 1e-12 * cost + 1e-28)  # the cost no longer moves
             x[ok] = xn[ok]
             cost, viol = np.where(ok, cost_n, cost), np.where(ok, viol_n, viol)
             lam = np.where(ok, np.maximum(lam / 3, 1e-12), np.where(pending, lam * 4, lam))
             small = step <= 1e-13 * (1 + np.max(np.abs(x), axis=1))
-            done |= pending & small & (viol <= NEARLY_FEASIBLE)
+            done |= pending & (small | flat) & (viol <= NEARLY_FEASIBLE)
             pending &= ~ok & ~done
             if not pending.any():
                 break
