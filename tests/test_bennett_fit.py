@@ -250,3 +250,30 @@ def test_top_writes_ranked_fits(tmp_path):
     assert r.exit_code == 0, r.output
     index = json.loads((out / "index.json").read_text())
     assert index["solutions"] and all((out / s["path"] / "linkage.json").exists() for s in index["solutions"])
+
+
+def test_batch_job_with_task_keys():
+    from synth.tools.batchjobs import run_job
+    import yaml
+
+    doc = yaml.safe_load((REPO / "fixtures" / "bennett_fit.yaml").read_text())
+    res = run_job((1, json.dumps({"id": "t", "kind": "bennett", **doc})))
+    assert res["ok"], res
+    assert res["fit"]["within_tolerance"] and res["fit"]["visit_order"][0] == "pick"
+    doc["tolerance"] = {"position": 0.001, "angle": 0.001}
+    res = run_job((2, json.dumps({"id": "u", "kind": "bennett", **doc})))
+    assert not res["ok"] and res["exit_code"] == 1 and "tolerances not met" in res["error"]
+
+
+def test_python_api_takes_arrays_or_a_task_file():
+    import synth
+
+    T, _ = sampled(21, 7, noise=1e-4, exact=(0,))
+    tol = np.tile([2e-3 * spread_of(T), 2e-3], (7, 1))
+    tol[0] = 0
+    lk = synth.bennett(T, tolerance=tol, order="listed")
+    assert lk.info["fit"]["within_tolerance"] and lk.poses[0].exact
+    fits = synth.fit(load_poses(REPO / "fixtures" / "bennett_fit.yaml"), top=2)
+    assert fits and fits[0].info["fit"]["order"] == "listed"
+    with pytest.raises(synth.InputError, match="order"):
+        synth.bennett(T, tolerance=tol, order="sorted")

@@ -292,6 +292,8 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
             xn = x + _solve(K, rhs)[:, :P]
             rn, cn = model.rows(xn)
             for _ in range(CORRECTIONS if ne else 0):  # second-order corrections: back onto c = 0 along A's rows
+                if np.abs(cn[pending]).max(initial=0.0) <= FEASIBLE_FLOOR:
+                    break
                 xn = xn - _min_norm(A, cn)
                 rn, cn = model.rows(xn)
             cost_n, viol_n = (rn * rn).sum(-1), np.abs(cn).max(-1, initial=0.0)

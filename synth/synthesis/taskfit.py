@@ -12,9 +12,10 @@ import numpy as np
 
 from synth.checks import pose_difference
 import json
-from synth.task import PoseSet
+from synth.errors import InputError
+from synth.task import Order, PoseSet
 
-__all__ = ["FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem", "error_rows",
+__all__ = ["make_task", "fit", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem", "error_rows",
            "item_kinds"]
 
 
@@ -116,3 +117,39 @@ def _length(x: float, ps: PoseSet) -> str:
 
 def _angle(x: float) -> str:
     return "free" if math.isinf(x) else f"{math.degrees(x):.4g} deg"
+
+
+def make_task(poses, names=None, tolerance=None, velocity=None, order=None) -> PoseSet:
+    """A `PoseSet` task from arrays: poses (N, 4, 4) metres, ``tolerance`` (2,) or (N, 2) [metres, radians]
+    (0 exact, inf free; None: all exact), ``velocity`` (N, 6) [w rad/s, v m/s] (NaN rows: none), ``order``
+    "any" or "listed". InputError on shapes and values."""
+    T = np.asarray(poses, float)
+    if T.ndim != 3 or T.shape[1:] != (4, 4) or not np.all(np.isfinite(T)):
+        raise InputError(f"poses must be a finite array of shape (N, 4, 4), got {T.shape}")
+    n = len(T)
+    names = list(names) if names is not None else [f"p{i}" for i in range(n)]
+    tol = None
+    if tolerance is not None:
+        tol = np.broadcast_to(np.asarray(tolerance, float), (n, 2)).copy()
+        if np.isnan(tol).any() or (tol < 0).any():
+            raise InputError("tolerance must be >= 0 (inf: free) for every pose")
+    vel = None
+    if velocity is not None:
+        vel = np.asarray(velocity, float).reshape(n, 6)
+    try:
+        order = Order(order or "any")
+    except ValueError:
+        raise InputError(f"order must be 'any' or 'listed', got {order!r}") from None
+    return PoseSet(names=names, matrices=T, tolerance=tol, velocity=vel, order=order, named=[True] * n)
+
+
+def fit(poses, names=None, *, tolerance=None, velocity=None, order=None, kind: str = "bennett", top: int = 1,
+        best_effort: bool = False):
+    """Linkages of ``kind`` ("bennett") for a task (a `PoseSet`, or arrays as `make_task`), best first
+    (a list of up to ``top``): exact, Hermite or fitted (docs/fit.md)."""
+    task = poses if isinstance(poses, PoseSet) else make_task(poses, names, tolerance, velocity, order)
+    if kind == "bennett":
+        from synth.synthesis.bennett_fit import bennett_task
+
+        return bennett_task(task, top=top, best_effort=best_effort)
+    raise InputError(f"synth.fit: kind {kind!r} is not available (allowed: 'bennett')")
