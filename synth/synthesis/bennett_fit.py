@@ -28,7 +28,7 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import ACCEPT_TOL
 from synth.synthesis.conditioning import transmission_problem
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import (ERRORS, Layout, MotionModel, homogeneous, item_errors, levenberg_marquardt,
+from synth.synthesis.fit import (ERRORS, Layout, MotionModel, homogeneous, levenberg_marquardt,
                                  task_arrays, _mul)
 from synth.synthesis.taskfit import FitSummary, annotate, item_kinds, tolerance_problem, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
