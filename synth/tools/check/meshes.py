@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.io.readback import mesh_path
+from synth.io.readback import mesh_file_problem, mesh_path
 
 
 class MeshChecks:
