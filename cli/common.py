@@ -282,22 +282,22 @@ def choose_buildable(candidates, ps, sizes: dict, *, limit: int, work: float, wh
 
 def design_solutions(linkages, ps, sizes: dict, *, quiet: bool, require_free: bool, what: str):
     """The physical design of every ranked solution (`--top`): designed in turn (progress on a terminal),
-    reordered collision-free first (full cycle, then task range), then the given order; with
-    ``require_free`` only the collision-free ones (SynthesisError naming the best when there is none;
-    ``what`` names the designs in it). Returns (linkages, DesignResults)."""
+    kept in the given (score) order, each with its collision report (#35: the ranking is the score's);
+    with ``require_free`` only the collision-free ones (SynthesisError naming the best when there is
+    none; ``what`` names the designs in it). Returns (linkages, DesignResults)."""
     from synth.design.search import collision_rank
     from synth.errors import SynthesisError
 
     results = [design_result(lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source,
                              require_free=False)
                for lk in progress(linkages, "collision-free design search: design", quiet)]
-    order = sorted(range(len(linkages)), key=lambda i: (collision_rank(results[i].collision), i))
-    pairs = [(linkages[i], results[i]) for i in order]
+    pairs = list(zip(linkages, results))
     if require_free:
         free = [(lk, r) for lk, r in pairs if r.collision.free]
         if not free:
+            best = min(pairs, key=lambda p: collision_rank(p[1].collision))[1]
             raise SynthesisError(f"{ps.source}: none of the {len(pairs)} best {what} is collision-free; the best: "
-                                 f"{collision_sentence(pairs[0][1].collision, ps.length_scale, ps.length_unit)}")
+                                 f"{collision_sentence(best.collision, ps.length_scale, ps.length_unit)}")
         pairs = free
     return [lk for lk, _ in pairs], [r for _, r in pairs]
 

@@ -74,7 +74,7 @@ def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_le
 
     The motion is factorized after multiplication by a real co-factor (Theorem 2); one extra rotation
     and Bennett flips then close the loops. Writes OUT/linkage.urdf, OUT/linkage.json and
-    OUT/meshes/*.stl (metres) when -o is given; prints a summary with the joint and link counts on
+    OUT/meshes/*.stl (millimetres; URDF and JSON in metres) when -o is given; prints a summary with the joint and link counts on
     stderr and, with --json, linkage.json on stdout."""
     scale = UNITS[units]
     parsed = load_spec(spec)

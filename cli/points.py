@@ -3,6 +3,8 @@ through prescribed points (docs/points.md). Called by cli/bennett.py and cli/six
 holds points."""
 from __future__ import annotations
 
+import math
+
 from synth.design.work import GAPS_PER_SECOND
 
 from .common import (add_collisions, choose_buildable, default_robot_name, design_solutions, echo, emit_linkage,
@@ -67,8 +69,8 @@ def _single(ps, linkages, *, out, name, force, package, sizes, quiet, as_json, r
         bp = linkage.info.get("bennett")
         if bp:
             scale, unit = ps.length_scale, ps.length_unit
-            echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {bp['alpha']:.6f} rad, "
-                 f"b = {fmt_len(bp['b'], scale, unit)}, beta = {bp['beta']:.6f} rad")
+            echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {math.degrees(bp['alpha']):.4f} deg, "
+                 f"b = {fmt_len(bp['b'], scale, unit)}, beta = {math.degrees(bp['beta']):.4f} deg")
         if linkage.info["chosen_points"]:
             pts = "; ".join(" ".join(f"{x / ps.length_scale:.6g}" for x in p) for p in linkage.info["chosen_points"])
             echo(f"  chosen points ({ps.length_unit}): {pts}")

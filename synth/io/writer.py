@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from synth.io.atomic import (MARKER, MANIFEST_FORMAT, STALE_AGE, _commit, atomic_directory,  # noqa: F401
+from synth.io.atomic import (MARKER, MANIFEST_FORMAT, STALE_AGE, atomic_directory,  # noqa: F401
                              atomic_write, check_file_target, check_output_target, check_path, is_mpsynth_output,
                              owned_files, remove_stale_temporaries)
 from synth.io.export import export

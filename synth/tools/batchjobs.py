@@ -49,17 +49,19 @@ import math
 import multiprocessing
 import os
 import signal
+import sys
 from pathlib import Path
 from typing import Any, Iterable, Iterator
 
 from synth.checks import VERIFY_SAMPLES
 from synth.design.choose import design_for
-from synth.errors import MpsynthError
+from synth.errors import InputError, MpsynthError
 from synth.io.docload import json_object_pairs
 from synth.io.jsonout import linkage_document, plain
 from synth.io.names import check_robot_name, safe_robot_name
 from synth.io.poses import parse_pose_document
 from synth.design.sizes import check_sizes
+from synth.io.atomic import check_path
 from synth.io.writer import check_output_target, write_output
 from synth.synthesis.bennett import bennett, check_transmission
 from synth.synthesis.points import MINIMUM, NEEDED, oriented_item, point_candidates
@@ -242,6 +244,10 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
 def _out_path(out: str, out_dir) -> str:
     """``out`` resolved under the base directory; _JobError when it is absolute or leaves it."""
     base = os.path.abspath(os.fspath(out_dir) if out_dir is not None else os.curdir)
+    try:
+        check_path(out, "'out'")
+    except InputError as e:
+        raise _JobError(str(e)) from None
     if "\x00" in out or os.path.isabs(out) or out.startswith("~"):
         raise _JobError(f"'out' {out!r}: must be a relative path under the output base directory {base}")
     path = os.path.normpath(os.path.join(base, out))
@@ -342,7 +348,7 @@ def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = Fa
     if chunksize is None:
         chunksize = max(1, min(16, (total or 64) // (jobs * 8)))
     ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
-    pool = ctx.Pool(processes=jobs, initializer=_worker_init)
+    pool = ctx.Pool(processes=jobs, initializer=_worker_init, initargs=(os.getpid(),))
     pending: collections.deque = collections.deque()
     try:
         for chunk in chunks(items, chunksize):
@@ -361,12 +367,34 @@ def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = Fa
         pool.join()
 
 
-def _worker_init():
+class _QuietWhenOrphaned:
+    """A worker's stderr that drops what is written once the batch process is gone (a result sent to a
+    dead parent is a BrokenPipeError traceback nobody asked for); else the real stream."""
+
+    def __init__(self, stream, parent: int):
+        self.stream, self.parent = stream, parent
+
+    def write(self, text):
+        try:
+            os.kill(self.parent, 0)
+        except ProcessLookupError:
+            return len(text)
+        except OSError:
+            pass
+        return self.stream.write(text)
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+
+def _worker_init(parent: int | None = None):
     """Workers ignore SIGINT (the parent handles ^C and terminates the pool) and pre-import the optional
     sixbar synthesis once (bennett and the pose reader come with this module)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _worker_term)
     die_with_parent()
+    if parent is not None and sys.stderr is not None:
+        sys.stderr = _QuietWhenOrphaned(sys.stderr, parent)
     try:
         importlib.import_module("synth.synthesis.sixbar")
     except ImportError:
