@@ -103,7 +103,7 @@ def test_library_sweep():
 
 # ------------------------------------------------------------------ the CLI (default: a few sets)
 @pytest.mark.parametrize("seed", [485, 1])
-def test_cli_sample(tmp_path, verifier, seed):
+def test_cli_sample(tmp_path, seed):
     """485 (near-translational): ratio 3e5, the check's continuation got stuck; now refused. 1 (mixed scale, far
     from the origin): verifies."""
     status, detail = judge(hard_set(seed, 3)[1], tmp_path, "bennett")

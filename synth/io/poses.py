@@ -47,7 +47,7 @@ from synth.task import PoseSet
 from synth.io.docload import MAX_FILE_BYTES, MAX_POSES, json_object_pairs, load_document, quote_text, read_source
 from synth.io.posespec import (ANGLE_UNITS, LENGTH_UNITS, PoseProblem, axis_angle_matrix, check_keys,
                                describe_value, is_point_spec, point_position, pose_from_spec, pose_matrix,
-                               quaternion_matrix, rpy_matrix)
+                               quaternion_matrix, rpy_matrix_exact)
 
 __all__ = [
     "PoseSet",
@@ -55,7 +55,7 @@ __all__ = [
     "parse_pose_document",
     "pose_from_spec",
     "quaternion_matrix",
-    "rpy_matrix",
+    "rpy_matrix_exact",
     "axis_angle_matrix",
     "json_object_pairs",
     "LENGTH_UNITS",

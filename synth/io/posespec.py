@@ -145,8 +145,9 @@ def quaternion_matrix(w: float, x: float, y: float, z: float) -> np.ndarray:
     return quat_to_matrix(np.array([w, x, y, z], float))
 
 
-def rpy_matrix(roll: float, pitch: float, yaw: float, unit: str = "rad") -> np.ndarray:
-    """URDF fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll); angles in ``unit``."""
+def rpy_matrix_exact(roll: float, pitch: float, yaw: float, unit: str = "rad") -> np.ndarray:
+    """URDF fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll); angles in ``unit``, exact for multiples
+    of 90 degrees (`synth.frames.rpy_matrix`: radians)."""
     sr, cr = _sincos(roll, unit)
     sp, cp = _sincos(pitch, unit)
     sy, cy = _sincos(yaw, unit)
@@ -270,7 +271,7 @@ def pose_matrix(spec: Any, length_scale: float, angle_unit: str, normalize: bool
             R = _parse_quaternion(val, normalize)
         elif key == "rpy":
             rpy = _vector(val, 3, "rpy")
-            R = rpy_matrix(*rpy, unit=angle_unit)
+            R = rpy_matrix_exact(*rpy, unit=angle_unit)
         elif key == "axis_angle":
             R = _parse_axis_angle(val, angle_unit)
         else:

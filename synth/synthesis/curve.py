@@ -18,7 +18,6 @@ at p0 (``linkage.info["markers"]``, written by the URDF exporter as link ``trace
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
