@@ -41,19 +41,28 @@ _CROSS_A, _CROSS_B = np.array([1, 2, 0, 2, 0, 1]), np.array([2, 0, 1, 1, 2, 0]) 
 
 # ----------------------------------------------------------------- vectors
 def cross(a, b) -> np.ndarray:
-    """Cross products a x b of 3-vectors (..., 3), broadcast (``numpy.cross`` costs ~15 us of overhead per
-    call, which dominates a single synthesis, and is 2-5x slower than componentwise products on large
-    broadcast batches): up to a few hundred vectors by one product of two index permutations (all six
-    a_j b_k at once), more component by component into the result."""
-    a = np.asarray(a, float)
-    b = np.asarray(b, float)
+    """Cross products a x b of 3-vectors (..., 3), broadcast, float (complex input stays complex: the
+    complex-step derivatives of `synth.synthesis.fit`). ``numpy.cross`` costs ~15 us of overhead per call,
+    which dominates a single synthesis, and is 2-5x slower than componentwise products on large broadcast
+    batches: up to a few hundred vectors by one product of two index permutations (all six a_j b_k at
+    once), more component by component into the result."""
+    a = _real_or_complex(a)
+    b = _real_or_complex(b)
     if a.size + b.size <= 3000:
         ab = a.take(_CROSS_A, -1) * b.take(_CROSS_B, -1)
         return ab[..., :3] - ab[..., 3:]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), np.result_type(a, b))
     for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
         np.subtract(a[..., j] * b[..., k], a[..., k] * b[..., j], out=out[..., i])
     return out
+
+
+def _real_or_complex(x) -> np.ndarray:
+    x = np.asarray(x)
+    return x if x.dtype is _FLOAT or x.dtype.kind == "c" else x.astype(float)
+
+
+_FLOAT = np.dtype(np.float64)
 
 
 def skew(v) -> np.ndarray:
