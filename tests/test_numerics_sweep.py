@@ -11,7 +11,8 @@ import math
 import numpy as np
 import pytest
 
-from synth.checks import dq_pose_difference, link_displacements
+from synth.algebra.geometry import dq_pose_difference
+from synth.checks import link_displacements
 from synth.errors import SynthesisError
 from synth.synthesis.bennett import bennett, check_transmission
 from synth.synthesis.conditioning import TRANSMISSION_LIMIT, transmission_ratio, transmission_ratios, worst_pair
