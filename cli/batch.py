@@ -14,6 +14,7 @@ from synth.tools import cluster
 from synth.tools.batchjobs import dumps, run_jobs, worker_count
 from synth.tools.resultstable import ResultsTable
 
+from . import signals
 from .common import debug_option, echo, nonempty_path, run_guarded
 from .streams import silence_stdout, terminate_as_exit
 
@@ -137,6 +138,7 @@ def batch(jobs_file, workers, out_dir, chunksize, full, scheduler, results_file,
                 workers = worker_count(1 if workers is None else workers, total)
                 where = f"-j {workers}"
                 results = run_jobs(lines, jobs=workers, chunksize=chunksize, full=full, total=total,
+                                   initializer=signals.batch_worker,
                                    out_dir=out_dir)
             else:
                 client = cluster.connect(scheduler.strip(), workers)

@@ -8,6 +8,7 @@ the main thread only.
 """
 from __future__ import annotations
 
+import contextlib
 import signal
 import sys
 import threading
@@ -68,8 +69,54 @@ class WriteGuard:
         act(signum)
 
 
+_PR_SET_PDEATHSIG = 1
+
+
+def batch_worker(parent: int) -> None:
+    """Initializer of `mpsynth batch -j N`'s pool workers: ^C is ignored (the batch process handles it
+    and terminates the pool), SIGTERM exits quietly, and the kernel kills the worker when its parent
+    (the pool's fork server, which exits with the batch process, even on SIGKILL) dies (Linux prctl
+    PR_SET_PDEATHSIG): no orphan keeps writing outputs. Then the library's `prepare_worker`."""
+    import ctypes
+    import ctypes.util
+    import os
+
+    from synth.tools.batchjobs import prepare_worker
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, lambda signum, frame: os._exit(128 + signum))
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
+        ppid = os.getppid()
+        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        if os.getppid() != ppid:  # the parent died before the prctl
+            os._exit(1)
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        pass
+    prepare_worker(parent)
+
+
+@contextlib.contextmanager
+def held():
+    """SIGINT/SIGTERM wait until the block is done, then go to the handlers installed before (main
+    thread only; elsewhere nothing is held)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending = []
+    saved = {s: signal.signal(s, lambda signum, frame: pending.append(signum)) for s in WriteGuard.SIGNALS}
+    try:
+        yield
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        for s in dict.fromkeys(pending):
+            signal.raise_signal(s)
+
+
 def install() -> None:
-    """Make `WriteGuard` the guard of every output the library writes in this process."""
+    """Make `WriteGuard` the guard of every output the library writes in this process, and `held` the
+    way signals wait during native module initialisations."""
     from synth.io import interrupts
 
-    interrupts.use(WriteGuard)
+    interrupts.use(WriteGuard, held=held)

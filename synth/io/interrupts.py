@@ -9,9 +9,13 @@ The library never installs signal handlers nor exits the process (docs/architect
 - ``act(signum)``: raise what the signal means (KeyboardInterrupt, SystemExit(128 + signum)).
 
 The default guard does nothing (a library user keeps Python's own signal behaviour); `cli` registers
-its guard with ``use(factory)`` (cli/signals.py).
+its guard with ``use(factory)`` (cli/signals.py). ``held()`` is the context in which signals must wait
+(a native module's initialisation that a KeyboardInterrupt would abort): nothing by default, the CLI's
+``use(..., held=...)`` defers SIGINT/SIGTERM to its end.
 """
 from __future__ import annotations
+
+import contextlib
 
 
 class NoGuard:
@@ -33,12 +37,21 @@ class NoGuard:
 
 
 _factory = NoGuard
+_held = contextlib.nullcontext
 
 
-def use(factory) -> None:
-    """Make ``factory()`` the guard of every later write (the CLI's signal guard)."""
-    global _factory
+def use(factory, held=None) -> None:
+    """Make ``factory()`` the guard of every later write (the CLI's signal guard) and ``held()`` (a
+    context manager) the way signals wait during a native module's initialisation."""
+    global _factory, _held
     _factory = factory
+    if held is not None:
+        _held = held
+
+
+def held():
+    """The registered context in which signals wait (see the module docstring)."""
+    return _held()
 
 
 def guard():

@@ -48,7 +48,6 @@ import json
 import math
 import multiprocessing
 import os
-import signal
 import sys
 from pathlib import Path
 from typing import Any, Iterable, Iterator
@@ -336,10 +335,11 @@ def worker_count(requested: int, total: int | None) -> int:
 
 
 def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = False,
-             total: int | None = None, out_dir=None) -> Iterator[dict]:
+             total: int | None = None, out_dir=None, initializer=None) -> Iterator[dict]:
     """Results of the jobs in ``lines``, in input order. ``lines``: an iterable of (line number, text)
     pairs (`synth.io.docload.read_lines`) or of text lines. ``jobs`` worker processes (the caller caps
-    it, `worker_count`)."""
+    it, `worker_count`), each set up by ``initializer(parent pid)`` (an importable function; default
+    `prepare_worker`)."""
     items = numbered(lines)
     if jobs <= 1:
         for item in items:
@@ -348,7 +348,7 @@ def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = Fa
     if chunksize is None:
         chunksize = max(1, min(16, (total or 64) // (jobs * 8)))
     ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
-    pool = ctx.Pool(processes=jobs, initializer=_worker_init, initargs=(os.getpid(),))
+    pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
     pending: collections.deque = collections.deque()
     try:
         for chunk in chunks(items, chunksize):
@@ -387,42 +387,17 @@ class _QuietWhenOrphaned:
         return getattr(self.stream, name)
 
 
-def _worker_init(parent: int | None = None):
-    """Workers ignore SIGINT (the parent handles ^C and terminates the pool) and pre-import the optional
-    sixbar synthesis once (bennett and the pose reader come with this module)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, _worker_term)
-    die_with_parent()
+def prepare_worker(parent: int | None = None) -> None:
+    """A pool worker's set-up: its stderr goes quiet once the batch process ``parent`` is gone, and the
+    optional sixbar synthesis is imported once (bennett and the pose reader come with this module). The
+    command line adds its signal policy (cli/signals.py `batch_worker`: ^C ignored, SIGTERM a quiet
+    exit, killed with its parent); the library installs no handler."""
     if parent is not None and sys.stderr is not None:
         sys.stderr = _QuietWhenOrphaned(sys.stderr, parent)
     try:
         importlib.import_module("synth.synthesis.sixbar")
     except ImportError:
         pass
-
-
-_PR_SET_PDEATHSIG = 1
-
-
-def die_with_parent() -> None:
-    """Have the kernel kill this process when its parent dies (Linux prctl PR_SET_PDEATHSIG; elsewhere
-    nothing). A worker's parent is the pool's fork server, which exits when the batch process does, even
-    on SIGKILL: no orphan keeps writing outputs. Exits at once if the parent is already gone."""
-    import ctypes
-    import ctypes.util
-
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
-        parent = os.getppid()
-        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
-    except (OSError, AttributeError):  # pragma: no cover - not Linux
-        return
-    if os.getppid() != parent:  # the parent died before the prctl
-        os._exit(1)
-
-
-def _worker_term(signum, frame):
-    os._exit(128 + signum)  # quietly: the parent reports the interruption
 
 
 def dumps(result: dict) -> str:
