@@ -5,7 +5,7 @@ import math
 
 import click
 
-from .common import choose_buildable, echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options
+from .common import Output, design_options, echo, emit, fmt_len, progress, run_guarded, synthesis_options
 
 
 @click.command(epilog="""\b
@@ -24,8 +24,7 @@ Example:
               help="Point tasks: write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
 @synthesis_options
 @run_guarded
-def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
-            require_collision_free, package, normalize, quiet, as_json, debug):
+def bennett(poses, member, top, **params):
     """Synthesize the spatial Bennett 4R linkage whose coupler passes through the three poses in
     POSES (YAML or JSON, '-' for stdin; see README for the format). With five points instead (a
     `points:` list, or poses with a position only; 3 or 4: the rest is chosen) the tool point passes
@@ -39,50 +38,26 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
     given: printable parts of a physical design (bars, hubs with bores, separate pins) and what it
     achieves (collision-free over the full cycle or the task range, or not); prints a summary on stderr
     and, with --json, linkage.json on stdout."""
-    from synth.synthesis.bennett import bennett_candidates, verify
-    from synth.errors import SynthesisError
     from synth.io.poses import load_poses
+    from synth.solve import SynthesisOptions, solve_bennett
 
-    from .points import point_count, run_point_task
+    from .points import emit_points, point_count
 
-    ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=normalize, points=point_count(2))
-    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
-                            clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
+    output = Output.of(params)
+    ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=params["normalize"], points=point_count(2))
+    lam = parse_numbers(member, 2, "--member") if member is not None and not ps.has_points else member
+    options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=lam)
+
+    def ready():
+        if output.dir:
+            from synth.io.writer import check_output_target
+
+            check_output_target(output.dir, output.force)  # refuse an unusable OUT before doing the work
+
+    result = solve_bennett(ps, options, ready=ready, progress=lambda items, label: progress(items, label, output.quiet))
     if ps.has_points:
-        if member is not None:
-            from synth.errors import InputError
-
-            raise InputError("--member selects among the quadratic motions through planar or spherical poses; a "
-                             "point task has no such family (use --top to see its ranked designs)")
-        return run_point_task(ps, 2, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-                              as_json=as_json, require_free=require_collision_free)
-    if top is not None:
-        from synth.errors import InputError
-
-        raise InputError("--top applies to point tasks only: three poses give one Bennett linkage")
-    if out:
-        from synth.io.writer import check_output_target
-
-        check_output_target(out, force)  # refuse an unusable OUT before doing the work
-    lam = parse_numbers(member, 2, "--member") if member is not None else None
-    result = None
-    try:
-        design = (out or as_json or require_collision_free) and lam is None
-        linkages = bennett_candidates(ps.matrices, ps.names, member=lam, top=BUILDABLE_CANDIDATES if design else 1)
-        for lk in linkages:
-            verify(lk)  # the self-check at VERIFY_SAMPLES parameters; refuses a failing linkage
-    except SynthesisError as e:  # name the file, like every input error
-        raise SynthesisError(f"{ps.source}: {e}") from e
-    linkage = linkages[0]
-    if len(linkages) > 1:  # members of a planar or spherical family: collision-free first
-        linkage, result = choose_buildable(linkages, ps, sizes, limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS,
-                                           what="members")
-    emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-         as_json=as_json, require_free=require_collision_free, result=result)
-
-
-BUILDABLE_CANDIDATES = 4  # planar/spherical default: the best-scored members designed, collision-free first
-BUILDABLE_SECONDS = 4.0  # CPU budget of those design searches (one four-bar search: well under a second)
+        return emit_points(result, ps, output, top)
+    emit_two_branch(result, ps, output)
 
 
 def parse_numbers(text: str, count: int, option: str) -> list[float]:
@@ -100,10 +75,10 @@ def parse_numbers(text: str, count: int, option: str) -> list[float]:
     return vals
 
 
-def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, require_free=False, result=None,
-         summary_line: str | None = None):
+def emit_two_branch(result, ps, output, summary_line: str | None = None):
     """Write, summarize and print a two-branch linkage (bennett, sixbar) read from the pose set ``ps``;
     ``summary_line``: one more line of the summary (printed only when everything succeeded)."""
+    linkage = result.linkage
 
     def details():
         if summary_line:
@@ -125,6 +100,4 @@ def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, requi
                  f"b = {fmt_len(bp['b'], scale, unit)}, beta = {math.degrees(bp['beta']):.4f} deg, "
                  f"a/sin(alpha) - b/sin(beta) relative {bp['bennett_condition_residual']:.1e}")
 
-    emit_linkage(linkage, source=ps.source, scale=ps.length_scale, unit=ps.length_unit, out=out, name=name,
-                 force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,
-                 require_free=require_free, result=result)
+    emit(result, output, details)

@@ -74,6 +74,6 @@ def test_default_kept_when_free_and_none_when_nothing_is(default):
     calls = []
     lk, res = choose_member(default, _stand_in({(0, 0, 0)}, calls))
     assert lk is default and res.collision.free and len(calls) == 1
-    lk, res = choose_member(default, _stand_in(set(), []), seconds=0.5)
+    lk, res = choose_member(default, _stand_in(set(), []), screen=3)
     assert lk is default and res is None and lk.info["darboux"]["member_choice"]["member"] == "default"
     del default.info["darboux"]["member_choice"]

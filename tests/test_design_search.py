@@ -201,7 +201,7 @@ def test_rank_buildable_falls_back_to_the_task_range_in_kinematic_order():
         rng = ranges[0]
         return SimpleNamespace(collision=SimpleNamespace(free=rng in free_over[lk], range=rng))
 
-    ranked = rank_buildable(["A", "B", "C"], design, limit=8, seconds=60.0)
+    ranked = rank_buildable(["A", "B", "C"], design, limit=8, screen=8, task_tries=8)
     assert calls == [("A", ("full",)), ("B", ("full",)), ("C", ("full",)), ("A", ("task",)), ("B", ("task",))]
     assert [lk for lk, _ in ranked] == ["B", "A"]
     assert [collision_rank(r.collision) for _, r in ranked] == [1, 2]

@@ -447,32 +447,28 @@ def collision_rank(report: CollisionReport) -> int:
     return 0 if report.free and report.range == "full" else (1 if report.free else 2)
 
 
-def rank_buildable(candidates, design, *, limit: int = 8, seconds: float = 6.0, first: float = 2.5,
-                   per_candidate: float = 1.2, reserve: float = 1.0) -> list[tuple]:
+def rank_buildable(candidates, design, *, limit: int = 8, screen: int = 3, task_tries: int = 2,
+                   first: float = 2.5, per_candidate: float = 1.2) -> list[tuple]:
     """Choose among candidate linkages (given best first by their kinematic score) collision-freedom first.
 
     ``design(linkage, ranges, full_seconds) -> DesignResult`` (`design_linkage`'s arguments). Phase 1: a
-    full-cycle-only search of at most ``first`` CPU seconds on the best-scored candidate and
-    ``per_candidate`` on each next one, in order, until one is free, ``limit`` were tried, or ``seconds -
-    reserve`` are spent (a free design is usually found within a second; the failures are what costs).
-    Phase 2, when none is free over the full cycle: the task-range search on the candidates in order
-    until one is free over it or ``seconds`` are spent (at least the first). Returns [(linkage,
-    DesignResult)] of the final designs sorted by (`collision_rank`, kinematic order): a phase-1 success
-    alone, else the phase-2 designs."""
-    t0 = time.process_time()
+    full-cycle-only search (capped at ``first`` on the best-scored candidate and ``per_candidate`` on
+    each next one) on the first ``min(screen, limit)`` candidates, in order, until one is free (a free
+    design is usually found quickly; the failures are what costs). Phase 2, when none is free over the
+    full cycle: the task-range search on the first ``min(task_tries, limit)`` candidates in order until
+    one is free over it. The work is counted in candidates, never in time: the same input gives the same
+    choice on a loaded machine. Returns [(linkage, DesignResult)] of the final designs sorted by
+    (`collision_rank`, kinematic order): a phase-1 success alone, else the phase-2 designs."""
     candidates = list(candidates)
-    for k, linkage in enumerate(candidates[:limit]):
-        cap = first if k == 0 else per_candidate
-        if k and time.process_time() - t0 + cap > seconds - reserve:
-            break
-        result = design(linkage, ("full",), cap)
+    for k, linkage in enumerate(candidates[:min(screen, limit)]):
+        result = design(linkage, ("full",), first if k == 0 else per_candidate)
         if collision_rank(result.collision) == 0:
             return [(linkage, result)]
     done = []
-    for k, linkage in enumerate(candidates[:limit]):
+    for k, linkage in enumerate(candidates[:max(1, min(task_tries, limit))]):
         result = design(linkage, ("task",), None)
         done.append((collision_rank(result.collision), k, linkage, result))
-        if done[-1][0] <= 1 or time.process_time() - t0 > seconds:
+        if done[-1][0] <= 1:
             break
     done.sort(key=lambda x: x[:2])
     return [(lk, r) for _, _, lk, r in done]
