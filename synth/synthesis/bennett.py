@@ -25,7 +25,7 @@ from synth.errors import InputError, NotGenericError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, TS, axis_distance, bennett_parameters,
                                           dh_rows, factor_sets, loop_geometry, relative_error, solve)
-from synth.synthesis.conditioning import transmission_problem
+from synth.synthesis.conditioning import TRANSMISSION_LIMIT, transmission_problem
 from synth.synthesis.conic import (Conditioning, condition, conditioning, conic, relative_displacements,
                                    position_spread, to_world)
 from synth.synthesis.planar import zero_pitch
@@ -84,9 +84,11 @@ def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SA
         # (the first half of the pipeline only); a set with NaN or inf is never good (the per-set path says so)
         out = solve(T[None], check_samples, perturb=_small_motion_matrices(SENSITIVITY_EPS, 0, 2))
         if out.good[0]:
-            linkages = [linkage_from_solution(out, 0, T, names, check_samples, perturbed=out.extra)]
-        else:
-            linkages = per_set_candidates(T, names, check_samples=check_samples, top=top, perturbed=out.extra)
+            linkage = linkage_from_solution(out, 0, T, names, check_samples, perturbed=out.extra)
+            if out.transmission[0] > TRANSMISSION_LIMIT:  # the gate of `verify` (the ratio at hand)
+                check_transmission(linkage)
+            return [linkage]
+        linkages = per_set_candidates(T, names, check_samples=check_samples, top=top, perturbed=out.extra)
     else:
         linkages = per_set_candidates(T, names, check_samples=check_samples, member=member, top=top)
     for lk in linkages:  # the gate of `verify` and of every entry point: a notebook gets what the CLI gives

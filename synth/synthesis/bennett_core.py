@@ -31,6 +31,7 @@ from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
 from synth.algebra.dq import dot, factor_lines, pose_to_dq
+from synth.synthesis.conditioning import pair_ratio
 from synth.synthesis.conic import TS, condition_map, conditioning, conic, relative_displacements_dq, world_map
 
 JOINTS = ("h1", "h2", "k1", "k2")
@@ -60,7 +61,9 @@ class Solved:
     inside ACCEPT_TOL (rows of other sets hold garbage); ``finite`` (N,): the poses were finite;
     ``bennett``, ``dh`` and ``errors``: dicts of arrays (`bennett_parameters`, `dh_rows`, the
     self-check figures); ``axis_distance`` (N,): the axes' largest distance from the centroid (m);
-    ``length_scale`` (N,): the linkage's extent (m); ``extra``: see `solve`'s ``perturb``."""
+    ``length_scale`` (N,): the linkage's extent (m); ``transmission`` (N,): the largest speed ratio of
+    two joints (`synth.synthesis.conditioning`: h1 and k2, h2 and k1 share their norm roots, so the ratio
+    of h1 and h2 is the largest); ``extra``: see `solve`'s ``perturb``."""
 
     good: np.ndarray
     finite: np.ndarray
@@ -79,6 +82,7 @@ class Solved:
     relative_error: np.ndarray
     axis_distance: np.ndarray
     length_scale: np.ndarray
+    transmission: np.ndarray
     extra: dict | None = None
 
 
@@ -216,7 +220,8 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     return Solved(good=good, finite=fac["finite"], lines=lines, laws=laws, pose_angles=pose_angles, factors=factors,
                 motion=motion, study_form=fac["B"] * scale[:, None], centre=centre, scale=scale,
                 residual=fac["residual"], bennett=bennett_parameters(geo), dh=dh_rows(loop[..., 0, :], geo),
-                errors=errors, relative_error=rel, axis_distance=far, length_scale=length_scale)
+                errors=errors, relative_error=rel, axis_distance=far, length_scale=length_scale,
+                transmission=pair_ratio(a[:, 0] - a[:, 1], np.abs(b[:, 0]), np.abs(b[:, 1])))
 
 
 def axis_distance(U, M, c) -> np.ndarray:
