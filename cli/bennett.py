@@ -21,10 +21,14 @@ Example:
                    "of quadratic motions through them (L1, L2 nonzero; default: the best-scored, collision-free "
                    "first). Write a negative first value as --member=-0.5,2.")
 @click.option("--top", type=click.IntRange(1, 1000), default=None,
-              help="Point tasks: write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
+              help="Point tasks and fits: write the N best designs to OUT/<id>/ with OUT/index.json and print the "
+                   "ranking.")
+@click.option("--best-effort", is_flag=True,
+              help="Fits: when the tolerances cannot be met, write the best linkage anyway (info.fit.within_tolerance "
+                   "false) instead of exiting 1.")
 @synthesis_options
 @run_guarded
-def bennett(poses, member, top, **params):
+def bennett(poses, member, top, best_effort, **params):
     """Synthesize the spatial Bennett 4R linkage whose coupler passes through the three poses in
     POSES (YAML or JSON, '-' for stdin; see README for the format). With five points instead (a
     `points:` list, or poses with a position only; 3 or 4: the rest is chosen) the tool point passes
@@ -41,12 +45,17 @@ def bennett(poses, member, top, **params):
     from synth.io.poses import load_poses
     from synth.solve import SynthesisOptions, solve_bennett
 
+    from synth.synthesis.bennett_fit import is_task
+
     from .points import emit_points, point_count
+    from .task import emit_task
 
     output = Output.of(params)
-    ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=params["normalize"], points=point_count(2))
-    lam = parse_numbers(member, 2, "--member") if member is not None and not ps.has_points else member
-    options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=lam)
+    ps = load_poses(poses, count=((2, None), "mpsynth bennett"), normalize=params["normalize"], points=point_count(2))
+    task = not ps.has_points and is_task(ps)
+    lam = parse_numbers(member, 2, "--member") if member is not None and not ps.has_points and not task else member
+    options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=lam,
+                               best_effort=best_effort)
 
     def ready():
         if output.dir:
@@ -57,6 +66,8 @@ def bennett(poses, member, top, **params):
     result = solve_bennett(ps, options, ready=ready, progress=lambda items, label: progress(items, label, output.quiet))
     if ps.has_points:
         return emit_points(result, ps, output, top)
+    if task:
+        return emit_task(result, ps, output, top)
     emit_two_branch(result, ps, output)
 
 

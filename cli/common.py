@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import click
 
 from synth.io.names import check_package, check_robot_name, safe_robot_name
-from synth.io.streams import environment_error, silence_stderr, silence_stdout
+from .streams import environment_error, silence_stderr, silence_stdout
 
 
 def echo(msg: str = "") -> None:

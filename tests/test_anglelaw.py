@@ -8,7 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from synth.algebra.anglelaw import angle_law, angle_law_inverse, driven_angle, half_angle
-from synth.algebra.dq import dq_mul, rotation_about_line
+from synth.algebra.dq import dq_mul
+from synth.algebra.geometry import rotation_about_line
 from synth.algebra.polynomial import pose_at
 from synth.errors import InputError
 
@@ -141,7 +142,7 @@ def test_rate_round_trips_through_linkage_json():
 
 
 def test_law_angles_and_follower_angles_honour_rates():
-    from synth.io.continuation import law_angles
+    from synth.tools.check.continuation import law_angles
     from synth.tools.trajectory import follower_angles
 
     lk = _darboux_chain()

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+from synth.design.choose import design_for
 from synth.design.search import collision_rank, rank_buildable
 from synth.errors import SynthesisError
 from synth.solve.options import check_mesh_sizes
@@ -52,10 +53,8 @@ class Designer:
         self.sizes, self.source, self.scale, self.unit = sizes, source, scale, unit
 
     def design(self, linkage, **search):
-        """The physical design of ``linkage`` (`synth.io.meshes.design_for`); ``search``: further arguments
-        of the design search (ranges, full_seconds, effort). InputError for sizes absurd for it."""
-        from synth.io.meshes import design_for
-
+        """The physical design of ``linkage`` (`synth.design.choose.design_for`); ``search``: further
+        arguments of the design search (ranges, full_work, effort, work). InputError for sizes absurd for it."""
         check_mesh_sizes(self.sizes, linkage.extent(), self.scale, self.unit)
         return design_for(linkage, **self.sizes, **search)
 
@@ -67,14 +66,14 @@ class Designer:
         if not result.collision.free:
             raise SynthesisError(f"{self.source}: {self.sentence(result)}")
 
-    def choose(self, candidates, *, limit: int, screen: int, task_tries: int, what: str):
-        """Design the best-scored ``candidates`` (best first) and keep the collision-free one first (full
-        cycle, then task range; `synth.design.search.rank_buildable`, at most ``screen`` full-cycle and
-        ``task_tries`` task-range searches), then the score. Returns (linkage, DesignResult);
+    def choose(self, candidates, *, limit: int, work: float, what: str):
+        """Design the best-scored ``candidates`` (best first, at most ``limit``) and keep the collision-free
+        one first (full cycle, then task range; `synth.design.search.rank_buildable` within ``work`` gap
+        evaluations, `synth.design.work`), then the score. Returns (linkage, DesignResult);
         ``linkage.info["design_choice"]`` says which candidate won; ``what``: the candidates' name in it."""
         candidates = list(candidates)
-        ranked = rank_buildable(candidates, lambda lk, ranges, full_seconds: self.design(
-            lk, ranges=ranges, full_seconds=full_seconds), limit=limit, screen=screen, task_tries=task_tries)
+        ranked = rank_buildable(candidates, lambda lk, ranges, full_work, spent: self.design(
+            lk, ranges=ranges, full_work=full_work, work=spent), limit=limit, work=work)
         linkage, result = ranked[0]
         k = next(i for i, c in enumerate(candidates) if c is linkage)
         linkage.info["design_choice"] = (f"candidate {k + 1} of the {min(len(candidates), limit)} best-scored {what}: "

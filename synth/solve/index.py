@@ -5,6 +5,7 @@ from __future__ import annotations
 
 SIXBAR_FORMAT = "mpsynth.sixbar-index/1"
 POINTS_FORMAT = "mpsynth.points-index/1"
+TASK_FORMAT = "mpsynth.task-index/1"
 SIXBAR_CHECKS = ("max_pose_error", "max_pose_translation_error", "max_pose_rotation_error", "max_closure_error",
                  "max_closure_translation_error", "max_closure_rotation_error", "max_motion_error")
 POINT_CHECKS = ("max_pose_error", "max_pose_translation_error", "max_closure_error")
@@ -54,6 +55,19 @@ def point_index(linkages, ids, ps) -> dict:
     return {"format": POINTS_FORMAT, "kind": linkages[0].kind, "task": "points", "poses": ps.source,
             "units": dict(UNITS), "input_length_unit": ps.length_unit, "input_length_scale": ps.length_scale,
             "score_rule": SCORE_RULE, "freedom": linkages[0].info["freedom"], "solutions": sols}
+
+
+def task_solution_id(rank: int, linkage) -> str:
+    """Directory name of a ranked fit: rank and kind."""
+    return f"{rank:02d}-{linkage.kind}"
+
+
+def task_index(linkages, ids, ps) -> dict:
+    """index.json of the ranked fits of a task file ``ps`` (docs/fit.md)."""
+    sols = [{"id": sid, "rank": r, "path": f"{sid}/", "fit": lk.info["fit"]}
+            for r, (sid, lk) in enumerate(zip(ids, linkages), start=1)]
+    return {"format": TASK_FORMAT, "kind": linkages[0].kind, "task": "poses", "poses": ps.source,
+            "units": dict(UNITS), "solutions": sols}
 
 
 def add_collisions(solutions: list, results, sentence) -> None:

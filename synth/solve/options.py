@@ -80,7 +80,8 @@ class SynthesisOptions:
     designs, ranked (`Result.solutions`, `Result.index`). ``member``: Bennett of planar or spherical
     poses (lambda1, lambda2); 6R: lambda1, or (t3, lambda1, lambda2, lambda3) for planar or spherical
     poses. ``family`` (1|2) and ``pair`` (1..9): 6R. ``method``: curves ("auto", "translation",
-    "rotation")."""
+    "rotation"). ``best_effort``: task fits (docs/fit.md): the best fit even when it misses a tolerance
+    (else SynthesisError)."""
 
     design: DesignOptions = field(default_factory=DesignOptions)
     physical: bool = False
@@ -89,6 +90,7 @@ class SynthesisOptions:
     family: int | None = None
     pair: int | None = None
     method: str = "auto"
+    best_effort: bool = False
 
     @property
     def wants_design(self) -> bool:

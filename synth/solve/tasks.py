@@ -14,16 +14,19 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from synth.checks import VERIFY_SAMPLES
+from synth.design.work import GAPS_PER_SECOND
 from synth.errors import InputError, SynthesisError
 from synth.solve.choose import Designer
-from synth.solve.index import add_collisions, point_index, point_solution_id, sixbar_index, sixbar_solution_id
+from synth.solve.index import (add_collisions, point_index, point_solution_id, sixbar_index, sixbar_solution_id,
+                               task_index, task_solution_id)
 from synth.solve.options import SynthesisOptions
 
-# default designs: the best-scored candidates designed, collision-free first (`Designer.choose`); the
-# counts replace CPU budgets (bennett 4 s, sixbar and points 7 s: about as many searches)
-BENNETT_CHOICE = dict(limit=4, screen=4, task_tries=3)  # members of a planar or spherical family (fast)
-SIXBAR_CHOICE = dict(limit=8, screen=3, task_tries=2)
-POINTS_CHOICE = dict(limit=4, screen=3, task_tries=2)
+# default designs: the best-scored candidates designed, collision-free first (`Designer.choose`), within
+# a budget of gap evaluations (`synth.design.work`: counted work, the same choice on a loaded machine)
+BENNETT_CHOICE = dict(limit=4, work=4.0 * GAPS_PER_SECOND)  # members of a planar or spherical family
+SIXBAR_CHOICE = dict(limit=8, work=7.0 * GAPS_PER_SECOND)
+POINTS_CHOICE = dict(limit=4, work=7.0 * GAPS_PER_SECOND)
+TASK_CHOICE = dict(limit=3, work=4.0 * GAPS_PER_SECOND)  # the best fits of a task file, within tolerance
 POINT_COMMAND = {2: "mpsynth bennett", 3: "mpsynth sixbar"}
 
 
@@ -103,8 +106,14 @@ def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: 
             raise InputError("--member selects among the quadratic motions through planar or spherical poses; a "
                              "point task has no such family (use --top to see its ranked designs)")
         return solve_points(ps, 2, options, progress=progress)
+    from synth.synthesis.bennett_fit import is_task
+
+    if is_task(ps):  # tolerances, velocities, an order or other than three poses (docs/fit.md)
+        if ready is not None:
+            ready()
+        return _solve_task(ps, designer, options, progress)
     if options.top is not None:
-        raise InputError("--top applies to point tasks only: three poses give one Bennett linkage")
+        raise InputError("--top applies to point tasks and fits only: three poses give one Bennett linkage")
     if ready is not None:
         ready()
     choose = options.wants_design and options.member is None
@@ -118,6 +127,24 @@ def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: 
     linkage, result = linkages[0], None
     if len(linkages) > 1:  # members of a planar or spherical family: collision-free first
         linkage, result = designer.choose(linkages, what="members", **BENNETT_CHOICE)
+    return _finish(linkage, result, designer, options)
+
+
+def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress) -> Result:
+    """A task file's Bennett linkage (exact, Hermite or fitted: `synth.synthesis.bennett_fit.bennett_task`;
+    ``options.best_effort``: the best fit even when a tolerance is missed); the best fits within tolerance
+    designed, collision-free first, or with ``top`` the N best ranked."""
+    from synth.synthesis.bennett_fit import bennett_task
+
+    want = options.top or (TASK_CHOICE["limit"] if options.wants_design else 1)
+    linkages = bennett_task(ps, top=want, best_effort=options.best_effort)
+    if options.top is not None:
+        return _ranked(linkages, designer, options, task_solution_id, lambda lks, ids: task_index(lks, ids, ps),
+                       "fits", progress)
+    linkage, result = linkages[0], None
+    within = [lk for lk in linkages if lk.info["fit"]["within_tolerance"]] or linkages
+    if options.wants_design and len(within) > 1:
+        linkage, result = designer.choose(within, what="fits", **TASK_CHOICE)
     return _finish(linkage, result, designer, options)
 
 
@@ -186,7 +213,8 @@ def solve_curve(spec, options: SynthesisOptions = SynthesisOptions(), *, scale: 
     each): the multi-loop linkage (`synth.synthesis.curve.spec_linkage`); a 7R Darboux loop gets the
     collision-free member of its family when a design is made (`synth.design.members.choose_member`)."""
     from synth.design.members import choose_member
-    from synth.synthesis.curve import CurveSpec, spec_linkage
+    from synth.synthesis.curve import spec_linkage
+    from synth.task import CurveSpec
 
     designer = Designer(options.design.sizes(scale), source, scale, unit)
     if ready is not None:
@@ -197,6 +225,6 @@ def solve_curve(spec, options: SynthesisOptions = SynthesisOptions(), *, scale: 
     linkage = spec_linkage(spec, scale=scale, method=options.method)
     result = None
     if "darboux" in linkage.info and options.wants_design:  # a collision-free member first
-        linkage, result = choose_member(linkage, lambda lk, ranges, full_seconds, effort: designer.design(
-            lk, ranges=ranges, full_seconds=full_seconds, effort=effort))
+        linkage, result = choose_member(linkage, lambda lk, ranges, full_work, effort, spent: designer.design(
+            lk, ranges=ranges, full_work=full_work, effort=effort, work=spent))
     return _finish(linkage, result, designer, options, notes=notes)

@@ -18,7 +18,6 @@ at p0 (``linkage.info["markers"]``, written by the URDF exporter as link ``trace
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
@@ -27,30 +26,18 @@ from synth.algebra.cofactor import CofactorResult, factorize_with_cofactor
 from synth.algebra.exact import real_divmod, real_root_count
 from synth.algebra.family import conjugate_pairs, separate_coincident
 from synth.algebra.flip import parallelogram_flip
+from synth.algebra.geometry import perpendicular_basis
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.darboux import DARBOUX_JOINTS, darboux_linkage
 from synth.linkage import Linkage
+from synth.task import CurveSpec
 from synth.algebra.realfactor import UnboundedMotionError, poly_text, real_gcd_exact, real_gcd_numeric
 
-MAX_DEGREE = 16  # of a curve component or a motion polynomial
 CHECK_SAMPLES = 200
 
 
 class UnboundedCurveError(SynthesisError):
     """w has a real zero (or deg x > deg w): the curve runs to infinity."""
-
-
-# ====================================================================== specs
-@dataclass
-class CurveSpec:
-    polys: list  # [x, y, z, w]: ascending coefficient lists (Fractions)
-    texts: list  # the source texts
-
-
-@dataclass
-class MotionSpec:
-    C: list  # rows of 8 Fractions (ascending)
-    text: str | None = None
 
 
 # ====================================================================== motions
@@ -325,9 +312,7 @@ def curve_plane(F):
         return None
     if sv[1] > tol:
         return Vt[2]
-    d = Vt[0]
-    e = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
-    return e / np.linalg.norm(e)
+    return perpendicular_basis(Vt[0])[0]
 
 
 def _rotation_cofactor(w, p0, normal, sign):
@@ -449,5 +434,4 @@ def spec_linkage(spec, *, scale: float = 1.0, method: str = "auto", m0=None) -> 
     return motion_linkage(spec.C, scale=scale, m0=m0, text=spec.text)
 
 
-__all__ = ["curve_linkage", "motion_linkage", "spec_linkage", "CurveSpec",
-           "MotionSpec", "UnboundedCurveError", "UnboundedMotionError", "trace_error"]
+__all__ = ["curve_linkage", "motion_linkage", "spec_linkage", "UnboundedCurveError", "UnboundedMotionError", "trace_error"]

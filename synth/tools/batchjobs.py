@@ -15,8 +15,11 @@ of, or besides, ``poses``; its result is the best-scored design. With ``out``
 linkage is written there (``synth.io.writer.write_output``: files of others in OUT are kept; robot name
 ``name``, else the id; missing parent directories are created, an unusable OUT is refused before the
 synthesis);
-mesh sizes are in the job's length unit. Unknown keys are an error (a typo must not be
-ignored silently).
+mesh sizes are in the job's length unit. A Bennett job may carry a task file's keys (docs/fit.md:
+``tolerance``, ``order``, ``constraints`` and per pose ``tolerance``, ``exact``, ``velocity``; then 2 or more
+poses, ``best_effort`` as the CLI's --best-effort); its result then has ``fit``. Unknown keys are an error (a typo must not be
+ignored silently). A job is solved by the entry point the CLI calls (`synth.solve`): the same gates and,
+with ``out``, the same choice of design.
 
 The result of a job is one JSON object::
 
@@ -62,7 +65,9 @@ from synth.synthesis.points import MINIMUM, NEEDED
 KINDS = {"bennett": 3, "sixbar": 4}
 DEGREES = {"bennett": 2, "sixbar": 3}  # degree of the motion of a point task
 SIZE_KEYS = ("pin_radius", "link_radius", "pin_length")
-JOB_KEYS = ("id", "kind", "poses", "points", "units", "out", "name", "normalize", "force", *SIZE_KEYS)
+TASK_KEYS = ("tolerance", "order", "constraints")  # a task file's keys (docs/fit.md), as in a pose file
+JOB_KEYS = ("id", "kind", "poses", "points", "units", "out", "name", "normalize", "force", *SIZE_KEYS,
+            "best_effort") + TASK_KEYS
 MAX_LINE = 10 * 1024 * 1024
 
 
@@ -142,6 +147,14 @@ def _check_job(job: dict) -> None:
                 raise _JobError(f"{key!r} must be a positive length in the job's unit")
 
 
+def _is_task_job(job: dict) -> bool:
+    """A job with a task file's keys (top-level tolerance or order, per-pose tolerance, exact or velocity)."""
+    if any(k in job for k in ("tolerance", "order")):
+        return True
+    items = [p for k in ("poses", "points") for p in (job.get(k) if isinstance(job.get(k), list) else [])]
+    return any(isinstance(p, dict) and any(k in p for k in ("tolerance", "exact", "velocity")) for p in items)
+
+
 def _synthesize(kind: str, ps, options: SynthesisOptions):
     """The job's Result: the entry point the CLI calls for the same task (`synth.solve`)."""
     if kind == "bennett" or ps.has_points:
@@ -175,7 +188,7 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
         job = parse_job(text)
         result["id"] = _echo_id(job.get("id"))
         _check_job(job)
-        doc = {k: job[k] for k in ("poses", "points") if k in job}
+        doc = {k: job[k] for k in ("poses", "points") + TASK_KEYS if k in job}
         if "units" in job:
             doc["units"] = job["units"]
         kind = job["kind"]
@@ -183,12 +196,14 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
             out_path = _out_path(job["out"], out_dir) if "out" in job else None
             if out_path is not None:
                 _prepare_out(out_path, bool(job.get("force", False)), created)
-            ps = parse_pose_document(doc, source="poses", count=(KINDS[kind], f"kind {kind!r}"),
-                                     normalize=bool(job.get("normalize", False)),
+            task = kind == "bennett" and _is_task_job(job)
+            ps = parse_pose_document(doc, source="poses", normalize=bool(job.get("normalize", False)),
+                                     count=((2, None) if task else KINDS[kind], f"kind {kind!r}"),
                                      points=((MINIMUM[DEGREES[kind]], NEEDED[DEGREES[kind]]), f"kind {kind!r}"))
             design = DesignOptions(**{k: float(job[k]) for k in SIZE_KEYS if k in job})
             design.sizes(ps.length_scale, label=repr)  # the job's names in the message
-            solved = _synthesize(kind, ps, SynthesisOptions(design=design, physical="out" in job))
+            solved = _synthesize(kind, ps, SynthesisOptions(design=design, physical="out" in job,
+                                                            best_effort=bool(job.get("best_effort", False))))
             linkage, out = solved.linkage, None
             if "out" in job:
                 name = job.get("name") or safe_robot_name(str(result["id"]) if result["id"] is not None else "")
@@ -253,6 +268,10 @@ def _success(kind: str, linkage, out, full: bool) -> dict:
     b = linkage.info.get("bennett")
     if b:
         res["bennett"] = plain({k: b[k] for k in ("a", "alpha", "b", "beta") if k in b})
+    f = linkage.info.get("fit")
+    if f:
+        res["fit"] = plain({k: f[k] for k in ("method", "within_tolerance", "max_position_error", "max_angle_error",
+                                              "rms_position_error", "rms_angle_error", "visit_order")})
     if full:
         res["linkage"] = linkage_document(linkage)
     return res

@@ -34,8 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.io.frames import invert_transform, rpy_from_matrix
-from synth.tools.sim import DriveProfile, SimulationError, Tracker, load_setup, quat_wxyz
+from synth.algebra.dq import matrix_to_quat
+from synth.algebra.geometry import invert_pose
+from synth.frames import rpy_from_matrix
+from synth.tools.sim import DriveProfile, SimulationError, Tracker, load_setup
 
 DEFAULT_TIMESTEP = 1e-3
 ITERATIONS = 3000
@@ -143,8 +145,26 @@ def _T(pos, orn, p) -> np.ndarray:
 
 
 def _pos_quat_xyzw(T):
-    w, x, y, z = quat_wxyz(T[:3, :3])
+    w, x, y, z = matrix_to_quat(T[:3, :3])
     return [float(v) for v in T[:3, 3]], [float(x), float(y), float(z), float(w)]
+
+
+def _weld_loops(p, cid, robot, setup, link_index) -> list:
+    """The loop closures as fixed constraints between the welded links (frames relative to each link's
+    centre-of-mass frame, as PyBullet places them); returns the constraint ids."""
+    F0 = setup.urdf.fk({})
+    constraints = []
+    for a, b in setup.closures:
+        ia, ib = link_index[a], link_index[b]
+        Ia = _T(*p.getDynamicsInfo(robot, ia, physicsClientId=cid)[3:5], p)
+        Ib = _T(*p.getDynamicsInfo(robot, ib, physicsClientId=cid)[3:5], p)
+        X = F0[a]  # the weld frame: link a's frame at all-zero angles
+        pa, qa = _pos_quat_xyzw(invert_pose(F0[a] @ Ia) @ X)
+        pb, qb = _pos_quat_xyzw(invert_pose(F0[b] @ Ib) @ X)
+        c = p.createConstraint(robot, ia, robot, ib, p.JOINT_FIXED, [0, 0, 0], pa, pb, qa, qb, physicsClientId=cid)
+        p.changeConstraint(c, maxForce=1e9, physicsClientId=cid)
+        constraints.append(c)
+    return constraints
 
 
 def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gravity: bool,
@@ -173,20 +193,7 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
                 a, b = tuple(pair)
                 if a in link_index and b in link_index:
                     p.setCollisionFilterPair(robot, robot, link_index[a], link_index[b], 0, physicsClientId=cid)
-        # loop closures: frames relative to each link's centre-of-mass frame
-        F0 = setup.urdf.fk({})
-        constraints = []
-        for a, b in setup.closures:
-            ia, ib = link_index[a], link_index[b]
-            Ia = _T(*p.getDynamicsInfo(robot, ia, physicsClientId=cid)[3:5], p)
-            Ib = _T(*p.getDynamicsInfo(robot, ib, physicsClientId=cid)[3:5], p)
-            X = F0[a]  # the weld frame: link a's frame at all-zero angles
-            pa, qa = _pos_quat_xyzw(invert_transform(F0[a] @ Ia) @ X)
-            pb, qb = _pos_quat_xyzw(invert_transform(F0[b] @ Ib) @ X)
-            c = p.createConstraint(robot, ia, robot, ib, p.JOINT_FIXED, [0, 0, 0], pa, pb, qa, qb,
-                                   physicsClientId=cid)
-            p.changeConstraint(c, maxForce=1e9, physicsClientId=cid)
-            constraints.append(c)
+        _weld_loops(p, cid, robot, setup, link_index)
         residual = residual_threshold(len(setup.closures), tight)
         p.setPhysicsEngineParameter(fixedTimeStep=timestep, numSolverIterations=ITERATIONS, numSubSteps=0, erp=ERP,
                                     solverResidualThreshold=residual, physicsClientId=cid)
