@@ -150,6 +150,9 @@ def design_option_list(unit: str) -> list:
         click.option("--hole-clearance", type=float,
                      help=f"Radial clearance in {unit} of each bore around its pin (default 0.2 mm, at most a tenth "
                           "of the pin radius)."),
+        click.option("--slenderness", type=float,
+                     help="Longest bar length over bar diameter, at most (default 25): default bars are made "
+                          "thick enough for this."),
         click.option("--require-collision-free", is_flag=True,
                      help="Exit 1 (nothing written) unless the design is collision-free."),
     ]
@@ -184,7 +187,7 @@ def design_options(params: dict):
 
     return DesignOptions(params.get("pin_radius"), params.get("link_radius"), params.get("pin_length"),
                          params.get("clearance"), params.get("hole_clearance"),
-                         params.get("require_collision_free", False))
+                         params.get("require_collision_free", False), params.get("slenderness"))
 
 
 def default_robot_name(source: str) -> str:
@@ -232,6 +235,7 @@ def emit(result, output: Output, details=None) -> None:
     ``details()``, a callable that echoes command-specific lines, and the collision sentence), then
     linkage.json on stdout with --json."""
     from synth.io.jsonout import linkage_document
+    from synth.io.printreport import print_notes
     from synth.io.writer import write_output
 
     linkage, design, scale, unit = result.linkage, result.design, result.scale, result.unit
@@ -249,6 +253,8 @@ def emit(result, output: Output, details=None) -> None:
             n_pin = sum(1 for f in files if f.name.startswith("pin_") and str(f).endswith(".stl"))
             n_mesh = sum(1 for f in files if str(f).endswith(".stl")) - n_pin
             echo(f"  wrote {output.dir}/: linkage.urdf, linkage.json, {n_mesh} link meshes and {n_pin} pins in meshes/")
+            for line in print_notes(output.dir):
+                echo(f"  print: {line}")
         elif not output.as_json:
             echo("  no files written (give -o OUT to write URDF, STL and JSON)")
     if output.as_json:

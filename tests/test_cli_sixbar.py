@@ -164,12 +164,13 @@ def test_coincident_poses_exit_1(tmp_path):
 
 
 def test_default_design_is_collision_free_first(default_run, top3_run):
-    """The default output is chosen collision-free first: the fixture's written design claims the full
-    cycle and linkage.json says how it was chosen; --top lists collision-free designs before the others."""
+    """The default output is chosen collision-free first: the fixture's written design claims to be free
+    (over the task range since its bars are at most 1:25 slender, issue 33; the full cycle with the thinner
+    bars before) and linkage.json says how it was chosen; --top lists collision-free designs before the others."""
     r, out = default_run
     assert r.exit_code == 0, r.output
     doc = json.loads((out / "linkage.json").read_text())
-    assert doc["collision"]["free"] and doc["collision"]["range"] == "full"
+    assert doc["collision"]["free"] and doc["collision"]["range"] in ("full", "task")
     assert "collision-free first" in doc["info"]["design_choice"]
     r, top = top3_run
     assert r.exit_code == 0, r.output

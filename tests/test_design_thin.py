@@ -10,6 +10,7 @@ import pytest
 
 from synth.design.choose import (THIN_MIN_BAR_RADIUS, THIN_SCALES, default_hole_clearance, default_sizes, design_for,
                                  thin_scales)
+from synth.design.sturdy import SLENDERNESS, slenderness_of
 from synth.io.poses import load_poses
 from synth.synthesis.bennett import bennett
 
@@ -49,23 +50,33 @@ def test_a_full_cycle_only_search_is_not_thinned(linkage):
     assert r.design.bar_radius == default_sizes(linkage)[1]
 
 
-def test_default_output_thins_the_bars_and_the_verifier_agrees(tmp_path):
-    """The shared verifier checks the claim when it is beside the repository (and fcl is installed)."""
+def test_slender_defaults_thin_the_bars(linkage):
+    """With bars as slender as before issue 33 (no slenderness limit), seed 22 collides at the default
+    radii and the design thins them."""
+    r = design_for(linkage, slenderness=1e9)
+    col, des = r.collision, r.design
+    thin = col.thinned
+    assert col.free and thin is not None and thin["scale"] in THIN_SCALES
+    assert des.bar_radius == pytest.approx(thin["bar_radius"]) == pytest.approx(thin["scale"] * thin["default_bar_radius"])
+    assert des.pin_radius == pytest.approx(thin["scale"] * thin["default_pin_radius"])
+    assert des.hole_clearance == pytest.approx(default_hole_clearance(des.pin_radius))  # the rule, kept
+    assert des.clearance == pytest.approx(0.25 * des.bar_radius)
+    assert thin["default_pairs"]
+
+
+def test_default_output_is_sturdy_free_and_the_verifier_agrees(tmp_path):
+    """Issue 33: the bars of the default output are at most 1:25 slender (here no thinning is needed);
+    the shared verifier checks the claim when it is beside the repository (and fcl is installed)."""
     out = tmp_path / "o"
     r = run("bennett", THIN, "-o", out)
     assert r.exit_code == 0, r.output
     line = next(x for x in r.output.splitlines() if "design:" in x)
-    assert line.strip().startswith("design: collision-free") and "bars thinned to radius" in line, line
-    assert "to clear link_" in line
+    assert line.strip().startswith("design: collision-free"), line
     doc = json.loads((out / "linkage.json").read_text())
     col, des = doc["collision"], doc["design"]
-    thin = col["thinned"]
-    assert col["free"] and thin["scale"] in THIN_SCALES
-    assert des["bar_radius"] == pytest.approx(thin["bar_radius"]) == pytest.approx(thin["scale"] * thin["default_bar_radius"])
-    assert des["pin_radius"] == pytest.approx(thin["scale"] * thin["default_pin_radius"])
-    assert des["hole_clearance"] == pytest.approx(default_hole_clearance(des["pin_radius"]))  # the rule, kept
-    assert des["clearance"] == pytest.approx(0.25 * des["bar_radius"])
-    assert thin["default_pairs"]
+    assert col["free"]
+    ps = load_poses(str(THIN))
+    assert slenderness_of(bennett(ps.matrices, ps.names), des["bar_radius"]) <= SLENDERNESS + 1e-9
     if importlib.util.find_spec("fcl") is None:
         return
     p = run_verifier(THIN, out, "--collisions", repr(col["clearance"]), "--collision-range", col["range"])

@@ -6,7 +6,8 @@ parallel part, cranked bars, in this order, until a design is free.
 (`synth.io.export`) write the finished `DesignResult`.
 
 Default sizes scale with ``linkage.extent()`` (E, the RMS spread of the joints' feet and tool
-positions): pin radius 0.02 E, bar radius 0.015 E, hub length 0.06 E (``--pin-length`` sets the hub
+positions): pin radius 0.02 E, bar radius 0.015 E (raised to keep every bar within the slenderness,
+`synth.design.sturdy`), hub length 0.06 E (``--pin-length`` sets the hub
 length: a joint's pin spans the hubs of its two links, so it is at least that long). The hole clearance
 defaults to 0.2 mm (a common 3D-printing fit), but at most a tenth of the pin radius for tiny linkages.
 """
@@ -20,6 +21,7 @@ from synth.design.layers import LAYER_NODES, layered_design, parallel_axis
 from synth.design.mixed import dominant_axis, mixed_design
 from synth.design.model import DesignResult
 from synth.design.search import design_linkage, natural_result
+from synth.design.sturdy import SLENDERNESS, bar_radius_for
 from synth.design.work import GAPS_PER_SECOND, Work
 from synth.errors import InputError
 
@@ -40,13 +42,15 @@ def _positive(name, v, allow_zero=False):
     return float(v)
 
 
-def default_sizes(linkage, pin_radius=None, link_radius=None, pin_length=None) -> tuple[float, float, float]:
-    """(pin_radius, bar radius, hub length) in metres: explicit values, or fractions of the extent.
+def default_sizes(linkage, pin_radius=None, link_radius=None, pin_length=None,
+                  slenderness: float = SLENDERNESS) -> tuple[float, float, float]:
+    """(pin_radius, bar radius, hub length) in metres: explicit values, or fractions of the extent (the
+    bar radius raised so no bar is more slender than ``slenderness``, `synth.design.sturdy`).
     ``pin_length`` is the hub length (see the module docstring)."""
     e = linkage.extent()
     sizes = (
         PIN_RADIUS * e if pin_radius is None else pin_radius,
-        LINK_RADIUS * e if link_radius is None else link_radius,
+        bar_radius_for(linkage, LINK_RADIUS * e, slenderness) if link_radius is None else link_radius,
         HUB_LENGTH * e if pin_length is None else pin_length,
     )
     return tuple(_positive(name, v) for name, v in zip(("pin radius", "link radius", "pin length"), sizes))
@@ -58,12 +62,14 @@ def default_hole_clearance(pin_radius: float) -> float:
 
 
 def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None,
-               clearance=None, thin=True, work: Work | None = None, **search) -> DesignResult:
+               clearance=None, thin=True, work: Work | None = None, slenderness: float = SLENDERNESS,
+               **search) -> DesignResult:
     """The physical design of ``linkage`` (`synth.design.search.design_linkage`) with the given or default
     sizes (metres; see `default_sizes`, `default_hole_clearance`; clearance None: the search's default);
     ``search``: further arguments of `design_linkage` (ranges, full_work, effort, seed); ``work``: a
     `synth.design.work.Work` that every search below charges (its limit, if any, stops them all).
     Every budget is counted work, never time: the same input gives the same design on any machine.
+    ``slenderness``: no default-sized or thinned bar is longer than this many diameters (`synth.design.sturdy`).
 
     Thinning (docs/design.md): when the search covered the task range and found no free design, and
     neither radius was given (``thin``), it is retried with the bar and pin radii of the default times
@@ -82,16 +88,19 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     bars, ``layers`` the levels of a layered design)."""
     check_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                      hole_clearance=hole_clearance, clearance=clearance), linkage.extent())
+    if not (isinstance(slenderness, (int, float)) and math.isfinite(slenderness) and slenderness > 0):
+        raise InputError(f"slenderness must be a positive ratio (bar length / diameter), got {slenderness!r}")
     work = Work() if work is None else work
     task = "task" in search.get("ranges", ("full", "task"))
     partly_planar = task and dominant_axis(linkage) is not None
     if partly_planar:  # straight bars in its planar part cross (as in a planar linkage): layers first
         natural = _design(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, search,
-                          natural=True)
+                          natural=True, slenderness=slenderness)
         first = mixed_design(linkage, natural, nodes=LAYER_NODES, work=work.part(LAYER_WORK))
         if first.collision.free:
             return first
-    result = _straight(linkage, (pin_radius, link_radius, pin_length), hole_clearance, clearance, thin, search, work)
+    result = _straight(linkage, (pin_radius, link_radius, pin_length), hole_clearance, clearance, thin,
+                       {**search, "slenderness": slenderness}, work)
     if result.collision.free or not task:
         return result
     if parallel_axis(linkage) is not None:
@@ -105,20 +114,24 @@ def _straight(linkage, sizes, hole_clearance, clearance, thin, search, work) -> 
     """`design_for` with straight bars: the default ``sizes`` (pin radius, link radius, pin length or
     None each), then thinner ones."""
     pin_radius, link_radius, pin_length = sizes
+    slenderness = search.pop("slenderness", SLENDERNESS)
     hub = default_sizes(linkage, pin_radius, link_radius, pin_length)[2]
-    result = _design(linkage, pin_radius, link_radius, hub, hole_clearance, clearance, {**search, "work": work})
+    result = _design(linkage, pin_radius, link_radius, hub, hole_clearance, clearance, {**search, "work": work},
+                     slenderness=slenderness)
     if (not thin or result.collision.free or pin_radius is not None or link_radius is not None
             or "task" not in search.get("ranges", ("full", "task")) or result.collision.work > THIN_FIRST_MAX):
         return result
-    pin0, bar0, _ = default_sizes(linkage)
+    pin0, bar0, _ = default_sizes(linkage, slenderness=slenderness)
+    bar_min = bar_radius_for(linkage, 0.0, slenderness)  # thinner bars stay within the slenderness
     budget = work.part(THIN_WORK)
     tried = None
     for s in thin_scales(bar0):
         if budget.spent:
             break
-        r = _design(linkage, s * pin0, s * bar0, hub, hole_clearance, clearance, {**search, "work": budget})
+        bar = max(s * bar0, bar_min)
+        r = _design(linkage, s * pin0, bar, hub, hole_clearance, clearance, {**search, "work": budget})
         if r.collision.free:
-            r.collision.thinned = {"scale": s, "pin_radius": s * pin0, "bar_radius": s * bar0,
+            r.collision.thinned = {"scale": s, "pin_radius": s * pin0, "bar_radius": bar,
                                    "default_pin_radius": pin0, "default_bar_radius": bar0,
                                    "default_pairs": [p["bodies"] for p in result.collision.pairs]}
             return r
@@ -150,10 +163,10 @@ def thin_scales(bar_radius: float) -> list[float]:
 
 
 def _design(linkage, pin_radius, link_radius, hub_length, hole_clearance, clearance, search,
-            natural=False) -> DesignResult:
+            natural=False, slenderness: float = SLENDERNESS) -> DesignResult:
     """`design_linkage` with the sizes resolved (defaults, validation); ``natural``: not searched, the
     natural stack with those sizes (`natural_result`)."""
-    pin_radius, link_radius, hub_length = default_sizes(linkage, pin_radius, link_radius, hub_length)
+    pin_radius, link_radius, hub_length = default_sizes(linkage, pin_radius, link_radius, hub_length, slenderness)
     hole = default_hole_clearance(pin_radius) if hole_clearance is None else _positive(
         "hole clearance", hole_clearance, allow_zero=True)
     if clearance is not None:

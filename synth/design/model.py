@@ -194,10 +194,15 @@ def straight_design(linkage, *, pin_radius: float, bar_radius: float, hub_length
     return design
 
 
+MIN_WALL = 1.2e-3  # metres: the wall around a bore, three perimeters of a 0.4 mm nozzle (issue 33)
+
+
 def hub_radius_for(pin_radius: float, bar_radius: float, hole_clearance: float) -> float:
-    """A hub's radius: the bar's, or the pin's bore (pin radius + hole clearance) with half a pin radius
-    of wall when that is larger (metres)."""
-    return max(bar_radius, pin_radius + hole_clearance + 0.5 * pin_radius)
+    """A hub's radius (metres): the bar's, or the pin's bore (pin radius + hole clearance) with a wall of
+    half a pin radius, at least `MIN_WALL` (but not over the pin's diameter: a linkage too small to print
+    keeps its proportions), when that is larger."""
+    wall = max(0.5 * pin_radius, min(MIN_WALL, 2.0 * pin_radius))
+    return max(bar_radius, pin_radius + hole_clearance + wall)
 
 
 def pins_for(linkage, design: PhysicalDesign) -> list[Pin]:

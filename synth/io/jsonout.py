@@ -7,7 +7,8 @@ rate * 2 atan2(b, t - a); ``rate`` written only when it is not 1), ``links`` (li
 (the linkage's kind-specific extras), ``design`` (the physical design: `PhysicalDesign.to_dict`, with
 every pin's length and mesh file: the bill of materials) and ``collision`` (what the design achieves:
 `CollisionReport.to_dict`) and ``stl`` (the STL files' unit, millimetres, with the URDF mesh scale 0.001,
-and the density behind the URDF's inertias). Lengths in metres, angles in radians. Only plain JSON types are written;
+and the density behind the URDF's inertias) and ``print`` (each part in its print orientation on the bed,
+its volume and mass: `synth.io.printreport`). Lengths in metres, angles in radians. Only plain JSON types are written;
 non-finite numbers become null.
 """
 from __future__ import annotations
@@ -21,6 +22,7 @@ import numpy as np
 
 from synth.io.meshes import DENSITY
 from synth.io.names import MESH_UNIT_SCALE, mesh_filename, pin_link_name
+from synth.io.printreport import print_section
 
 FORMAT = "mpsynth.linkage/1"
 
@@ -144,5 +146,7 @@ def write_json(doc: dict, path) -> Path:
 
 def write_linkage_json(job, directory: Path) -> list[Path]:
     """The ``json`` exporter (`synth.io.export`): ``linkage.json`` of ``job``'s linkage and design."""
-    write_json(linkage_document(job.linkage, job.result.design, job.result.collision), directory / "linkage.json")
+    doc = linkage_document(job.linkage, job.result.design, job.result.collision)
+    doc["print"] = print_section(job.solids)  # issue 33: each part on the bed (synth.io.printreport)
+    write_json(doc, directory / "linkage.json")
     return [Path("linkage.json")]

@@ -7,6 +7,7 @@ solutions (member, family, pair, top) and whether a physical design is to be mad
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -35,6 +36,7 @@ class DesignOptions:
     clearance: float | None = None
     hole_clearance: float | None = None
     require_collision_free: bool = False
+    slenderness: float | None = None  # longest bar / bar diameter at most (None: synth.design.sturdy's 25)
 
     def sizes(self, length_scale: float, label: Callable[[str], str] = option_label) -> dict:
         """The given sizes in metres (``length_scale``: metres per input unit), keyed as
@@ -50,6 +52,11 @@ class DesignOptions:
                 raise InputError(f"{label(key)} must be a {'non-negative' if zero_ok else 'positive'} "
                                  f"length, got {v}")
             out[key] = v * length_scale
+        if self.slenderness is not None:
+            if not (math.isfinite(self.slenderness) and self.slenderness > 0):
+                raise InputError(f"{label('slenderness')} must be a positive ratio (bar length / diameter), "
+                                 f"got {self.slenderness}")
+            out["slenderness"] = float(self.slenderness)  # a ratio: not scaled
         return out
 
 
@@ -59,6 +66,8 @@ def check_mesh_sizes(sizes: dict, extent: float, scale: float, unit: str) -> Non
     the input unit (``scale`` metres per ``unit``)."""
     lo, hi = MESH_SIZE_RANGE
     for key, v in sizes.items():
+        if key == "slenderness":  # a ratio, checked by DesignOptions.sizes
+            continue
         if key in GAPS:
             if v > hi * extent:
                 raise InputError(f"{option_label(key)} {v / scale:.6g} {unit} is out of range for a linkage "

@@ -1,0 +1,67 @@
+"""Collision-free rates with parts sized to be built (issue 33), before and after, in one script.
+
+    .venv/bin/python bench/bench_sturdy.py [--bennett 24] [--sixbar 26] [--repo PATH] [--slenderness 25]
+
+The seeded random solvable pose sets of bench/bench_design.py (Bennett: 3 poses, 6R: 4), minus the
+near-translational ones whose linkage is over `FAR` metres across (extent; the poses are ~1 m apart).
+Each linkage gets the library's design choice, `synth.design.choose.design_for` with its default sizes
+(full cycle first, then the task range; thinning, layering, cranks). Printed per kind: sets, certified
+free over the full cycle, free over the task range (full included), the slenderness of the written
+bars (longest bar length / bar diameter, max over sets), and the bore wall (min, mm).
+
+``--repo PATH`` imports ``synth`` from another checkout (e.g. main, for the "before" numbers); the
+sets are the same (same seeds, same synthesis there).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+FAR = 100.0  # metres: a linkage this large on poses ~1 m apart is a near-translational set
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--bennett", type=int, default=24)
+    ap.add_argument("--sixbar", type=int, default=26)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--repo", default=str(Path(__file__).resolve().parents[1]))
+    ap.add_argument("--slenderness", type=float, default=None, help="design_for's slenderness (when it has one)")
+    args = ap.parse_args(argv)
+    sys.path.insert(0, args.repo)
+    sys.path.insert(0, str(Path(args.repo) / "bench"))  # its bench_design puts its repo first on the path
+    import numpy as np
+    from bench_design import solvable_sets
+    from synth.design.choose import design_for
+
+    assert Path(sys.modules["synth"].__file__).resolve().is_relative_to(Path(args.repo).resolve())
+
+    extra = {} if args.slenderness is None else {"slenderness": args.slenderness}
+    for kind, count in (("bennett", args.bennett), ("sixbar", args.sixbar)):
+        if not count:
+            continue
+        full = task = n = 0
+        slender, wall = 0.0, np.inf
+        for seed, lk in solvable_sets(kind, count, args.seed):
+            if lk.extent() > FAR:
+                continue
+            n += 1
+            r = design_for(lk, **extra)
+            c, d = r.collision, r.design
+            full += bool(c.free and c.range == "full")
+            task += bool(c.free)
+            sites = lk.joint_sites()
+            lengths = [np.linalg.norm(sites[b] - sites[a]) for names in lk.links.values()
+                       for a, b in zip(names, names[1:])]
+            slender = max(slender, max(lengths) / (2 * d.bar_radius))
+            wall = min(wall, d.hub_radius - d.pin_radius - d.hole_clearance)
+            print(f"{kind} seed {seed}: {'full' if c.free and c.range == 'full' else 'task' if c.free else 'none'} "
+                  f"bar r {1e3 * d.bar_radius:.1f} mm, slenderness {max(lengths) / (2 * d.bar_radius):.1f}", flush=True)
+        print(f"{kind}: sets {n} (of {count}; over {FAR:g} m excluded)  full cycle {full}/{n}  task range {task}/{n}  "
+              f"max slenderness 1:{slender:.1f}  min bore wall {1e3 * wall:.2f} mm", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,134 @@
+"""The ``print`` section of linkage.json (issue 33): each part in its best print orientation on a
+printer's bed, its volume and mass.
+
+Print orientation of a closed mesh: a face of its convex hull down on the bed (flat, no support under
+it), the one giving the lowest part; then the footprint turned about the vertical to the smallest
+bounding rectangle (an edge of the footprint's outline along x). Pure numpy (no scipy: writing an
+output imports nothing heavy). ``extents`` (x, y, z) are that
+rectangle's sides (x >= y) and the height, in millimetres; ``fits_bed`` when they fit the bed
+(x, y, z; the part may turn 90 degrees on the bed). A part that does not fit fits at ``scale`` =
+min over axes of bed / extent (sorted sides against sorted bed sides), < 1.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from synth.io.names import MESH_UNIT_SCALE, mesh_filename
+from synth.io.solid import signed_volume
+
+BED = (220.0, 220.0, 250.0)  # mm: a common printer's build volume
+MATERIAL = ("PLA", 1.24)  # name, density g/cm^3
+
+
+@dataclass(frozen=True)
+class PrintPart:
+    """One part on the bed: ``mesh`` (relative path), ``extents`` (3,) mm in print orientation (x >= y,
+    z = height), ``fits_bed``, ``scale`` (<= 1: the uniform scale that makes it fit), ``volume`` mm^3,
+    ``mass`` g."""
+
+    mesh: str
+    extents: tuple[float, float, float]
+    fits_bed: bool
+    scale: float
+    volume: float
+    mass: float
+
+
+DIRECTIONS = 720  # footprint directions sampled for its outline (its extreme points)
+
+
+def _down_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Outward unit normals (k, 3) of the faces of the closed mesh that can lie on a flat bed: the faces
+    whose plane has the whole mesh on its inner side (faces of the convex hull), rounded duplicates removed."""
+    tri = vertices[faces]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = np.linalg.norm(n, axis=1)
+    keep = area > 1e-12 * max(area.max(), 1e-300)
+    n = n[keep] / area[keep, None]
+    n = np.unique(np.round(n, 9), axis=0)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    size = np.ptp(vertices, axis=0).max()
+    out = []
+    for chunk in np.array_split(n, max(1, len(n) // 512)):
+        proj = vertices @ chunk.T  # (v, c)
+        on = np.isclose(proj, proj.max(axis=0), atol=1e-9 * size, rtol=0).sum(axis=0) >= 3
+        out.append(chunk[on])
+    return np.concatenate(out)
+
+
+def print_orientation(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """A rotation R (3, 3) putting the closed mesh (vertices (n, 3), faces (m, 3)) in its print
+    orientation (rows of R: the bed's x, y and up in the mesh's frame): a face of its convex hull down,
+    lowest height; the footprint turned so that an edge of its outline (extreme points in `DIRECTIONS`
+    directions) runs along x, smallest bounding rectangle, x the longer side."""
+    normals = _down_faces(vertices, faces)
+    up = -normals[np.argmin(np.ptp(vertices @ normals.T, axis=0))]  # the face on the bed points down
+    e1 = np.cross(up, np.eye(3)[np.argmin(np.abs(up))])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(up, e1)
+    flat = vertices @ np.stack([e1, e2], axis=1)  # (n, 2) footprint
+    t = np.linspace(0, 2 * np.pi, DIRECTIONS, endpoint=False)
+    pts = flat[np.argmax(flat @ np.stack([np.cos(t), np.sin(t)]), axis=0)]  # outline, in angular order
+    edges = np.roll(pts, -1, axis=0) - pts
+    edges = edges[np.linalg.norm(edges, axis=1) > 0]
+    ang = np.arctan2(edges[:, 1], edges[:, 0])  # (k,) candidate directions of x
+    c, s = np.cos(ang), np.sin(ang)
+    x = pts @ np.stack([c, s])  # (m, k)
+    y = pts @ np.stack([-s, c])
+    k = np.argmin(np.ptp(x, axis=0) * np.ptp(y, axis=0))
+    ex = c[k] * e1 + s[k] * e2
+    ey = np.cross(up, ex)
+    if np.ptp(vertices @ ex) < np.ptp(vertices @ ey):
+        ex, ey = ey, -ex
+    return np.stack([ex, ey, up])
+
+
+def fit_scale(extents, bed=BED) -> float:
+    """The largest uniform scale (<= 1) at which a part of ``extents`` (x >= y, z) fits ``bed`` (mm),
+    turning 90 degrees about the vertical if needed."""
+    (x, y), z = sorted(extents[:2], reverse=True), extents[2]
+    bx, by = sorted(bed[:2], reverse=True)
+    return float(min(1.0, bx / x, by / y, bed[2] / z))
+
+
+def print_part(name: str, mesh, bed=BED, density: float = MATERIAL[1]) -> PrintPart:
+    """The `PrintPart` of the closed mesh ``mesh`` (`synth.io.solid.Solid`, metres) of URDF link ``name``."""
+    v = np.asarray(mesh.vertices, float) / MESH_UNIT_SCALE  # mm
+    R = print_orientation(v, np.asarray(mesh.faces))
+    ext = tuple(float(e) for e in np.ptp(v @ R.T, axis=0))
+    scale = fit_scale(ext, bed)
+    volume = float(signed_volume(mesh.triangles)) / MESH_UNIT_SCALE ** 3
+    return PrintPart(mesh_filename(name), ext, scale >= 1.0, scale, volume, volume * density * 1e-3)
+
+
+def print_section(solids: dict, bed=BED, material=MATERIAL) -> dict:
+    """The ``print`` section: ``bed`` (mm), ``material`` {name, density g/cm^3} and ``parts`` (one
+    `PrintPart` per solid of ``solids`` {URDF link: Solid}, as dicts; ``scale`` only when it does not fit)."""
+    parts = []
+    for name, mesh in solids.items():
+        p = print_part(name, mesh, bed, material[1])
+        d = {"mesh": p.mesh, "extents": list(p.extents), "fits_bed": p.fits_bed, "volume": p.volume,
+             "mass": p.mass}
+        if not p.fits_bed:
+            d["scale"] = p.scale
+        parts.append(d)
+    return {"bed": list(map(float, bed)), "material": {"name": material[0], "density": material[1]},
+            "parts": parts}
+
+
+def too_large(section: dict) -> list[str]:
+    """Sentences naming the parts of a ``print`` section that do not fit its bed, with the scale that
+    would make them fit (for the CLI's summary)."""
+    return [f"{p['mesh']} does not fit the {' x '.join(f'{b:g}' for b in section['bed'])} mm bed "
+            f"({' x '.join(f'{e:.0f}' for e in p['extents'])} mm): it fits at scale {p['scale']:.3g}"
+            for p in section["parts"] if not p["fits_bed"]]
+
+
+def print_notes(directory) -> list[str]:
+    """`too_large` of the ``print`` section of ``directory``/linkage.json (none when it has no such section)."""
+    doc = json.loads((Path(directory) / "linkage.json").read_text(encoding="utf-8"))
+    return too_large(doc["print"]) if "print" in doc else []
