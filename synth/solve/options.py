@@ -38,7 +38,7 @@ class DesignOptions:
 
     def sizes(self, length_scale: float, label: Callable[[str], str] = option_label) -> dict:
         """The given sizes in metres (``length_scale``: metres per input unit), keyed as
-        `synth.io.meshes.design_for`'s arguments; InputError (``label(key)`` naming the size) unless
+        `synth.design.choose.design_for`'s arguments; InputError (``label(key)`` naming the size) unless
         positive (clearances: non-negative) and below MAX_SIZE."""
         out = {}
         for key in SIZE_KEYS:
