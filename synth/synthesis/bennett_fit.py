@@ -302,8 +302,8 @@ def bennett_task(ps: PoseSet, top: int = 1, best_effort: bool = False) -> list:
             from synth.synthesis.bennett import verify
 
             verify(lk)
-        else:
-            check_fitted(lk)
+        elif s.method == "hermite":
+            check_fitted(lk)  # (fits are checked in `_fitted`)
         annotate(lk, ps, s)
         results.append(lk)
     if ps.order is Order.LISTED:

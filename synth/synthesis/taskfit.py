@@ -50,11 +50,13 @@ def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
     (closure, transmission) as ``linkage.checks``. Returns whether every tolerance is met."""
     kinds = item_kinds(ps)
     tol = np.zeros((len(ps), 2)) if ps.tolerance is None else np.asarray(ps.tolerance, float)
-    T = np.array([linkage.tool_pose(r.joint_angles) for r in linkage.poses])
+    angles = {j.name: np.array([r.joint_angles[j.name] for r in linkage.poses]) for j in linkage.joints}
+    T = linkage.tool_pose(angles)  # (N, 4, 4): every item at once
     dt, dr = pose_difference(T, ps.matrices)
     point = np.array([k == "point" for k in kinds])
     dr = np.where(point, 0.0, dr)
-    size = linkage.extent()
+    pos = ps.matrices[:, :3, 3]
+    size = max(float(np.sqrt(np.mean(np.sum((pos - pos.mean(0)) ** 2, 1)))), 1e-300)  # the items' spread
     ok = []
     for i, rec in enumerate(linkage.poses):
         rec.kind = kinds[i]
