@@ -53,6 +53,7 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator
 
 from synth.checks import VERIFY_SAMPLES
+from synth.design.choose import design_for
 from synth.errors import MpsynthError
 from synth.io.docload import json_object_pairs
 from synth.io.jsonout import linkage_document, plain
@@ -215,7 +216,8 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
                 sizes = {k: float(job[k]) * ps.length_scale for k in ("pin_radius", "link_radius", "pin_length")
                          if k in job}
                 name = job.get("name") or safe_robot_name(str(result["id"]) if result["id"] is not None else "")
-                write_output(linkage, out_path, robot_name=name, force=bool(job.get("force", False)), **sizes)
+                write_output(linkage, out_path, robot_name=name, result=design_for(linkage, **sizes),
+                             force=bool(job.get("force", False)))
                 out = job["out"]
         except MpsynthError as e:
             raise _JobError(str(e), e.exit_code) from None
