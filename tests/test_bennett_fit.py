@@ -176,6 +176,21 @@ def test_velocity_in_a_fit_is_met_exactly():
     assert lk.info["fit"]["max_position_error"] < 1e-9 * spread_of(T)
 
 
+def test_more_than_five_points_are_fitted_within_tolerance():
+    T, _ = sampled(31, 9, noise=1e-4, exact=(0,))
+    pts = T.copy()
+    pts[:, :3, :3] = np.eye(3)
+    tol = np.tile([2e-3 * spread_of(T), np.inf], (9, 1))
+    tol[0] = 0.0
+    ps = PoseSet(names=[f"q{i}" for i in range(9)], matrices=pts, kinds=["point"] * 9, tolerance=tol)
+    lk = bennett_task(ps)[0]
+    assert lk.info["fit"]["within_tolerance"] and lk.poses[0].error[0] < 1e-9 * spread_of(T)
+    for rec, target in zip(lk.poses, T):
+        assert rec.kind == "point" and np.allclose(rec.matrix[:3, 3], target[:3, 3], atol=0)
+        assert np.linalg.norm(lk.tool_pose(rec.joint_angles)[:3, 3] - target[:3, 3]) == pytest.approx(rec.error[0],
+                                                                                                    abs=1e-12)
+
+
 def test_random_poses_are_refused_with_the_failing_poses():
     T = random_poses(np.random.default_rng(5), 8)
     with pytest.raises(SynthesisError, match=r"tolerances not met at the best linkage found: pose \d"):
@@ -213,7 +228,7 @@ def verify(verifier, poses, out):
     return r.stdout.strip().splitlines()[-1]
 
 
-@pytest.mark.parametrize("name", ["bennett_fit", "bennett_hermite"])
+@pytest.mark.parametrize("name", ["bennett_fit", "bennett_hermite", "bennett_points_fit"])
 def test_fixture_end_to_end(name, tmp_path, verifier):
     fixture = REPO / "fixtures" / f"{name}.yaml"
     out = tmp_path / "out"
@@ -221,7 +236,7 @@ def test_fixture_end_to_end(name, tmp_path, verifier):
     assert r.exit_code == 0, r.output
     assert "position error" in r.output and "tolerance" in r.output
     doc = json.loads((out / "linkage.json").read_text())
-    ps = load_poses(fixture)
+    ps = load_poses(fixture, points=((3, None), "test"))
     for rec, tol in zip(doc["poses"], ps.tolerance if ps.tolerance is not None else [None] * len(ps)):
         assert "error" in rec
         assert rec.get("exact") is True or rec["tolerance"]["position"] == pytest.approx(tol[0])

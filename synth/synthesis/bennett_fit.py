@@ -20,7 +20,7 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dq_inv, dq_to_pose, dq_translation, normalize_dq, pose_to_dq
+from synth.algebra.dq import dq_inv, dq_to_pose, dq_translation, normalize_dq, pose_to_dq, translation_dq
 from synth.blas import one_blas_thread
 from synth.checks import VERIFY_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
@@ -35,6 +35,9 @@ from synth.task import Order, PoseSet
 
 __all__ = ["bennett_task", "is_task", "hermite_conic", "regauge", "fit_motion", "MAX_TRIPLES", "KEEP", "GRID"]
 
+POINTS_NEEDED = 5  # positions through which a quadratic motion has two free parameters (docs/points.md)
+MAX_SUBSETS = 40  # seeds from 5-subsets of the positions of a point task
+PARAMETER_SAMPLES = 24  # samples of the two free parameters per subset
 MAX_TRIPLES = 60  # seeds from triples of poses: all when there are at most this many, else a sample
 GRID = 48  # parameter samples per seed motion for projecting the items onto it
 KEEP = 4  # seeds refined by Levenberg-Marquardt
@@ -151,11 +154,39 @@ def _seeds(Q, task, kinds, velocity_twists):
                     refs.append(Q[a][None])
                 except SynthesisError:
                     pass
+    if not len(tri) and len(Q) >= POINTS_NEEDED:  # a point task: no triples of poses
+        c, r = _point_seeds(dq_translation(Q))
+        coefs.append(c)
+        refs.append(r)
     if not coefs:
-        raise SynthesisError("no seed motion: a Bennett fit needs three poses, or two with a velocity")
+        raise SynthesisError("no seed motion: a Bennett fit needs three poses, two with a velocity or six points")
     coef, ref = np.concatenate(coefs), np.concatenate(refs)
     ok = np.isfinite(coef).all((1, 2))
     return coef[ok], ref[ok]
+
+
+def _point_seeds(X):
+    """Seed motions through five of the items' positions X (N, 3) (conditioned): for each 5-subset (all,
+    or a seeded sample of MAX_SUBSETS), the quadratic
+    motions moving the subset's first position through the others at PARAMETER_SAMPLES
+    (`synth.synthesis.pointfit.point_motion`), conjugated to the frame: (coef (S, 2, 8), reference (S, 8),
+    the translation to the first position)."""
+    from synth.synthesis.pointfit import parameter_samples, point_motion
+
+    subsets = list(itertools.combinations(range(len(X)), POINTS_NEEDED))
+    if len(subsets) > MAX_SUBSETS:
+        pick = np.random.default_rng(0).choice(len(subsets), size=MAX_SUBSETS, replace=False)
+        subsets = [subsets[i] for i in sorted(pick)]
+    sub = np.array(subsets, int)  # (k, 5)
+    t = parameter_samples(PARAMETER_SAMPLES, 2)  # (m, 4)
+    k, m = len(sub), len(t)
+    rel = X[sub[:, 1:]] - X[sub[:, :1]]  # (k, 4, 3)
+    with np.errstate(all="ignore"):
+        C = point_motion(np.repeat(rel, m, axis=0), np.tile(t, (k, 1)), 2)  # (k m, 3, 8)
+    move = translation_dq(np.repeat(X[sub[:, 0]], m, axis=0))[:, None]  # (k m, 1, 8)
+    back = translation_dq(-np.repeat(X[sub[:, 0]], m, axis=0))[:, None]
+    coef = _mul(_mul(move, C[:, :2]), back)
+    return coef, move[:, 0]
 
 
 def _project(coef, ref, task):
@@ -203,8 +234,11 @@ def fit_motion(ps: PoseSet):
     keep = np.argsort(merit, kind="stable")[:KEEP]
     layout = Layout(DEGREE, len(T), gauge[keep])
     model = MotionModel(layout, task, ref[keep])
+    fixed = layout.fixed
+    if not (task.weight[:, 3:ERRORS].any() or task.exact[:, 3:].any()):  # positions only: the tool's
+        fixed[:, 8 * DEGREE:8 * DEGREE + 3] = True  # orientation at the reference is free, hold it
     with np.errstate(all="ignore"), one_blas_thread():
-        res = levenberg_marquardt(model, x0[keep], layout.fixed, ITERATIONS)
+        res = levenberg_marquardt(model, x0[keep], fixed, ITERATIONS)
     coef, x_ref, phi = layout.split(res.x)
     from synth.synthesis.fit import reference_pose
 
@@ -268,8 +302,9 @@ def check_fitted(linkage) -> None:
 def is_task(ps: PoseSet) -> bool:
     """Whether a pose set needs `bennett_task` rather than the classic three-pose synthesis: tolerances,
     velocities, a listed order or a count other than three poses."""
-    return (ps.tolerance is not None or ps.velocity is not None or ps.order is Order.LISTED or len(ps) != 3
-            or ps.has_points)
+    if ps.tolerance is not None or ps.velocity is not None or ps.order is Order.LISTED:
+        return True
+    return len(ps) > POINTS_NEEDED if ps.has_points else len(ps) != 3
 
 
 def bennett_task(ps: PoseSet, top: int = 1, best_effort: bool = False) -> list:
@@ -289,16 +324,23 @@ def bennett_task(ps: PoseSet, top: int = 1, best_effort: bool = False) -> list:
         candidates = out
     elif len(ps) == 2 and n_poses == 2 and twists:
         candidates, summary = [_hermite(ps)], None
-    elif len(ps) >= 3 and n_poses >= 3 or (n_poses >= 2 and twists and len(ps) >= 3):
+    elif n_poses < len(ps) and len(ps) <= POINTS_NEEDED:  # a point task (docs/points.md): exact as before
+        from synth.synthesis.points import oriented_item, point_candidates
+
+        oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
+        candidates = point_candidates(ps.positions, ps.names, degree=DEGREE, top=top, tool_rotation=rot,
+                                      oriented=oriented, check_samples=VERIFY_SAMPLES)
+        summary = FitSummary("exact", visit=visiting_order([r.t for r in candidates[0].poses]))
+    elif (len(ps) >= 3 and n_poses >= 3) or (n_poses >= 2 and twists and len(ps) >= 3) or len(ps) > POINTS_NEEDED:
         candidates, summary = _fitted(ps, top), None
     else:
         got = f"{n_poses} poses" + (f" and {len(ps) - n_poses} points" if len(ps) > n_poses else "")
-        raise InputError(f"{ps.source}: a Bennett linkage needs 3 or more poses, or 2 poses with a velocity at "
-                         f"one of them, got {got}")
+        raise InputError(f"{ps.source}: a Bennett linkage needs 3 or more poses, 2 poses with a velocity at one "
+                         f"of them, or 3 or more points, got {got}")
     results = []
     for lk in candidates:
         s = summary or lk.info.pop("_summary")
-        if s.method == "exact":
+        if s.method == "exact" and not ps.has_points:
             from synth.synthesis.bennett import verify
 
             verify(lk)

@@ -60,6 +60,9 @@ def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
     ok = []
     for i, rec in enumerate(linkage.poses):
         rec.kind = kinds[i]
+        if point[i]:  # the tool pose reached there, at the given position (docs/points.md)
+            rec.matrix = np.array(T[i])
+            rec.matrix[:3, 3] = ps.matrices[i, :3, 3]
         rec.error = (float(dt[i]), float(dr[i]))
         exact = bool(tol[i, 0] == 0 and (point[i] or tol[i, 1] == 0))
         rec.exact, rec.tolerance = exact, (None if exact else (float(tol[i, 0]), float(tol[i, 1])))
