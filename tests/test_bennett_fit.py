@@ -292,3 +292,33 @@ def test_python_api_takes_arrays_or_a_task_file():
     assert fits and fits[0].info["fit"]["order"] == "listed"
     with pytest.raises(synth.InputError, match="order"):
         synth.bennett(T, tolerance=tol, order="sorted")
+
+
+def test_hermite_velocity_at_the_second_pose_and_three_toleranced_poses(tmp_path):
+    C, Q0 = known_motion(41)
+    T = motion_poses(C, Q0, [0.0, 1.3])
+    h = 1e-6
+    Tp, Tm = motion_poses(C, Q0, [1.3 + h]), motion_poses(C, Q0, [1.3 - h])
+    W = (Tp[0, :3, :3] - Tm[0, :3, :3]) / (2 * h) @ T[1, :3, :3].T
+    w = 0.5 * np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]])
+    vel = np.full((2, 6), np.nan)
+    vel[1] = np.r_[w, (Tp[0, :3, 3] - Tm[0, :3, 3]) / (2 * h)]
+    lk = bennett_task(PoseSet(names=["a", "b"], matrices=T, velocity=vel))[0]
+    assert lk.info["fit"]["method"] == "hermite" and lk.poses[0].t == np.inf and lk.poses[1].t == 0.0
+    assert max(r.error[0] for r in lk.poses) < 1e-9 * spread_of(T)
+    # three poses with a tolerance: the exact synthesis, its (zero) misses recorded
+    T3 = random_poses(np.random.default_rng(8), 3)
+    lk = bennett_task(task(T3, (1e-3, 1e-3)))[0]
+    assert lk.info["fit"]["method"] == "exact" and all(r.error[0] < 1e-9 and not r.exact for r in lk.poses)
+
+
+def test_partial_velocity_constrains_its_half_only():
+    C, Q0 = known_motion(13)
+    phi = np.array([0.0, 2.8, 2.4, 2.0, 1.6, 1.2])
+    T = motion_poses(C, Q0, phi)
+    h = 1e-6
+    Tp, Tm = motion_poses(C, Q0, [2.4 + h]), motion_poses(C, Q0, [2.4 - h])
+    vel = np.full((6, 6), np.nan)
+    vel[2, 3:] = (Tp[0, :3, 3] - Tm[0, :3, 3]) / (2 * h)  # the tool origin's direction only
+    lk = bennett_task(task(T, (1e-3 * spread_of(T), 1e-3), velocity=vel))[0]
+    assert lk.info["fit"]["max_position_error"] < 1e-9 * spread_of(T)
