@@ -16,8 +16,8 @@ from synth.algebra.dq import dq_mul, dq_to_pose, normalize_dq, pose_to_dq
 from synth.errors import SynthesisError
 from synth.io.poses import load_poses
 from synth.synthesis.bennett import bennett
-from synth.synthesis.bennett_fit import bennett_task, hermite_conic, regauge, gauge_matrix
-from synth.synthesis.fit import homogeneous, study_rows, task_arrays, item_errors
+from synth.synthesis.bennett_fit import bennett_task, hermite_conic
+from synth.synthesis.fit import gauge_matrix, homogeneous, item_errors, regauge, study_rows, task_arrays
 from synth.synthesis.taskfit import error_rows, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 from tests.conftest import random_poses

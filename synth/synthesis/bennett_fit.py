@@ -20,82 +20,27 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dq_inv, dq_to_pose, dq_translation, normalize_dq, pose_to_dq, translation_dq
+from synth.algebra.dq import dq_to_pose, dq_translation, normalize_dq, pose_to_dq, translation_dq
 from synth.blas import one_blas_thread
-from synth.checks import VERIFY_SAMPLES, self_check
+from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
-from synth.synthesis.bennett_core import ACCEPT_TOL
-from synth.synthesis.conditioning import transmission_problem
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import (ERRORS, Layout, MotionModel, homogeneous, levenberg_marquardt,
-                                 task_arrays, _mul)
-from synth.synthesis.taskfit import FitSummary, annotate, item_kinds, tolerance_problem, visiting_order, visits_in_order
+from synth.synthesis.fit import (ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, MotionModel, gauge_items, gauge_matrix, inv2,
+                                 levenberg_marquardt, project, regauge, task_arrays, _mul)
+from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, tolerance_problem, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 
-__all__ = ["bennett_task", "is_task", "hermite_conic", "regauge", "fit_motion", "MAX_TRIPLES", "KEEP", "GRID"]
+__all__ = ["bennett_task", "is_task", "hermite_conic", "fit_motion", "linkage_of", "MAX_TRIPLES", "KEEP"]
 
 POINTS_NEEDED = 5  # positions through which a quadratic motion has two free parameters (docs/points.md)
 MAX_SUBSETS = 40  # seeds from 5-subsets of the positions of a point task
 PARAMETER_SAMPLES = 24  # samples of the two free parameters per subset
 MAX_TRIPLES = 60  # seeds from triples of poses: all when there are at most this many, else a sample
-GRID = 48  # parameter samples per seed motion for projecting the items onto it
 KEEP = 4  # seeds refined by Levenberg-Marquardt
 ITERATIONS = 40  # Jacobians per refinement, at most
-EXACT_WEIGHT = 1e3  # weight of exact rows when ranking seeds (conditioned units)
 FEASIBLE = 1e-10  # largest constraint violation of an accepted fit (conditioned units)
 DEGREE = 2
-
-
-# ------------------------------------------------------------------ gauge
-def gauge_matrix(phi) -> np.ndarray:
-    """M (..., 2, 2) mapping the homogeneous parameters (1, 0), (0, 1), (1, 1) to those of the items with
-    angles ``phi`` (..., 3) (up to scale): the reparametrization putting them at t = inf, 0, 1."""
-    w = np.stack([np.cos(phi), np.sin(phi)], -2)  # (..., 2, 3) columns
-    det = w[..., 0, 0] * w[..., 1, 1] - w[..., 0, 1] * w[..., 1, 0]  # 0: two items at one point (NaN out)
-    with np.errstate(all="ignore"):
-        alpha = (w[..., 0, 2] * w[..., 1, 1] - w[..., 1, 2] * w[..., 0, 1]) / det
-        beta = (w[..., 0, 0] * w[..., 1, 2] - w[..., 1, 0] * w[..., 0, 2]) / det
-    return w[..., :2] * np.stack([alpha, beta], -1)[..., None, :]
-
-
-GAUGE_ANGLES = np.array([0.0, np.pi / 3, 2 * np.pi / 3])  # where the gauge items are held (t = inf, +-1/sqrt 3)
-
-
-def _gauge_items(phi) -> np.ndarray:
-    """(S, 3): item 0 and the items a third and two thirds along the motion from it (cyclic order of the
-    angles phi (S, N) on the projective line), which `fit_motion` holds at GAUGE_ANGLES (spread evenly,
-    for well-conditioned coefficients)."""
-    N = phi.shape[1]
-    order = np.argsort(np.mod(phi - phi[:, :1], np.pi), axis=1, kind="stable")
-    return np.stack([order[:, 0], order[:, max(1, N // 3)], order[:, max(2, (2 * N) // 3)]], 1)
-
-
-def regauge(coef, ref, phi, M):
-    """The same motion in the parameter t' with homogeneous (u, v) = M (u', v'): coefficients (..., n, 8)
-    of the monic C'(t') = C(M(t')) lead^-1, reference lead Q and the items' new angles (..., N)."""
-    n = coef.shape[-2]
-    psi = (np.arange(n + 1) + 0.5) * (np.pi / (n + 1))
-    uv = M @ np.stack([np.cos(psi), np.sin(psi)])  # (..., 2, n+1)
-    rho, theta = np.hypot(uv[..., 0, :], uv[..., 1, :]), np.arctan2(uv[..., 1, :], uv[..., 0, :])
-    values = homogeneous(coef, theta) * (rho ** n)[..., None]  # (..., n+1, 8)
-    k = np.arange(n + 1)
-    basis = np.cos(psi)[:, None] ** k * np.sin(psi)[:, None] ** (n - k)
-    full = np.linalg.solve(basis, values)  # (..., n+1, 8): coefficients of C(M(.))
-    lead = full[..., n, :]
-    inv = dq_inv(lead)
-    new = _mul(full[..., :n, :], inv[..., None, :])
-    new_ref = normalize_dq(_mul(lead, ref))
-    w = _inv2(M) @ np.stack([np.cos(phi), np.sin(phi)], -2)
-    return new, new_ref, np.mod(np.arctan2(w[..., 1, :], w[..., 0, :]), np.pi)
-
-
-def _inv2(M):
-    """Inverses of 2x2 matrices (..., 2, 2) (NaN for singular ones)."""
-    det = M[..., 0, 0] * M[..., 1, 1] - M[..., 0, 1] * M[..., 1, 0]
-    adj = np.stack([np.stack([M[..., 1, 1], -M[..., 0, 1]], -1), np.stack([-M[..., 1, 0], M[..., 0, 0]], -1)], -2)
-    with np.errstate(all="ignore"):
-        return adj / det[..., None, None]
 
 
 # ------------------------------------------------------------------ seeds
@@ -189,20 +134,6 @@ def _point_seeds(X):
     return coef, move[:, 0]
 
 
-def _project(coef, ref, task):
-    """Each item's angle phi (S, N) on each seed motion: the nearest of GRID samples, by the weighted
-    squared position and angle misses (exact components weighted EXACT_WEIGHT; angles 8 (1 - |p . q|))."""
-    grid = (np.arange(GRID) + 0.5) * (np.pi / GRID)
-    with np.errstate(all="ignore"):
-        P = normalize_dq(_mul(homogeneous(coef, np.broadcast_to(grid, (len(coef), GRID))), ref[:, None]))
-        x = dq_translation(P)  # (S, G, 3)
-    w = task.weight[:, [0, 3]] + EXACT_WEIGHT * task.exact[:, [0, 3]]  # (N, 2): position, angle
-    d2 = ((x[:, :, None, :] - task.X) ** 2).sum(-1) * w[:, 0] ** 2
-    cos = np.abs(P[..., :4] @ task.Q[:, :4].T)  # |p . q|: (S, G, N)
-    d2 = d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1] ** 2
-    return grid[np.argmin(np.nan_to_num(d2, nan=np.inf), axis=1)]
-
-
 # ------------------------------------------------------------------ the fit
 def fit_motion(ps: PoseSet):
     """The refined motions of a task (at least three items): (coef (K, 2, 8), reference (K, 8), phi (K, N),
@@ -214,10 +145,10 @@ def fit_motion(ps: PoseSet):
     task = task_arrays(Q, Tc[:, :3, 3], ps.tolerance, ps.velocity, float(cond.scale))
     twists = _twists(ps, Tc, float(cond.scale))
     coef, ref = _seeds(Q, task, item_kinds(ps), twists)
-    phi = _project(coef, ref, task)
-    gauge = _gauge_items(phi)
+    phi = project(coef, ref, task)
+    gauge = gauge_items(phi)
     with np.errstate(all="ignore"):
-        M = gauge_matrix(np.take_along_axis(phi, gauge, 1)) @ _inv2(gauge_matrix(GAUGE_ANGLES))
+        M = gauge_matrix(np.take_along_axis(phi, gauge, 1)) @ inv2(gauge_matrix(GAUGE_ANGLES))
         coef, ref, phi = regauge(coef, ref, phi, M)
     np.put_along_axis(phi, gauge, GAUGE_ANGLES[None], 1)
     ok = np.isfinite(coef).all((1, 2)) & np.isfinite(ref).all(1) & np.isfinite(phi).all(1)
@@ -266,8 +197,7 @@ def _twists(ps: PoseSet, Tc, scale: float) -> dict:
 def linkage_of(coef, ref, phi, cond: Conditioning, ps: PoseSet, info: dict):
     """The Bennett linkage of a motion in the conditioned frame: C (coefficients (2, 8), monic), reference
     pose ``ref`` (8,) at t = inf (item 0, phi = 0) and the items' angles ``phi`` (N,) (t = cot phi)."""
-    from synth.synthesis.bennett import factor_conic
-    from synth.synthesis.conic import to_world
+    from synth.synthesis.bennett import LOOP_NAMES, bennett_parameters_of, dh_table, factor_conic
 
     C = np.concatenate([coef, np.eye(8)[:1]])
     H, K, Cw, residual = factor_conic(C, cond)
@@ -281,22 +211,9 @@ def linkage_of(coef, ref, phi, cond: Conditioning, ps: PoseSet, info: dict):
                             {**info, "factorization_residual": residual,
                              "conditioning": {"centre": np.asarray(cond.centre).tolist(), "scale": float(cond.scale)}})
     lk.tool_ref = Tref
-    del to_world
+    lk.info["bennett"] = bennett_parameters_of(lk)
+    lk.info["dh"] = dh_table(lk, LOOP_NAMES)
     return lk
-
-
-def check_fitted(linkage) -> None:
-    """SynthesisError when the fitted linkage does not close (relative error above ACCEPT_TOL over
-    VERIFY_SAMPLES parameters) or transmits badly (`synth.synthesis.conditioning.transmission_problem`)."""
-    why = transmission_problem(linkage)
-    if why:
-        raise SynthesisError(why)
-    checks = self_check(linkage, VERIFY_SAMPLES)
-    size = linkage.extent()
-    rel = max(checks["max_closure_translation_error"] / size, checks["max_closure_rotation_error"])
-    if not rel <= ACCEPT_TOL:
-        raise SynthesisError(f"the fitted linkage does not close to double precision (relative error {rel:.1e})")
-    linkage.checks = checks
 
 
 def is_task(ps: PoseSet) -> bool:

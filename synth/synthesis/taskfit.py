@@ -10,12 +10,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.checks import pose_difference
+from synth.checks import VERIFY_SAMPLES, pose_difference, self_check
 import json
-from synth.errors import InputError
+from synth.errors import InputError, SynthesisError
+from synth.synthesis.bennett_core import ACCEPT_TOL
+from synth.synthesis.conditioning import transmission_problem
 from synth.task import Order, PoseSet
 
-__all__ = ["make_task", "fit", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem", "error_rows",
+__all__ = ["make_task", "fit", "check_fitted", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem", "error_rows",
            "item_kinds"]
 
 
@@ -158,3 +160,17 @@ def fit(poses, names=None, *, tolerance=None, velocity=None, order=None, kind: s
 
         return bennett_task(task, top=top, best_effort=best_effort)
     raise InputError(f"synth.fit: kind {kind!r} is not available (allowed: 'bennett')")
+
+
+def check_fitted(linkage) -> None:
+    """SynthesisError when the fitted linkage does not close (relative error above ACCEPT_TOL over
+    VERIFY_SAMPLES parameters) or transmits badly (`synth.synthesis.conditioning.transmission_problem`)."""
+    why = transmission_problem(linkage)
+    if why:
+        raise SynthesisError(why)
+    checks = self_check(linkage, VERIFY_SAMPLES)
+    size = linkage.extent()
+    rel = max(checks["max_closure_translation_error"] / size, checks["max_closure_rotation_error"])
+    if not rel <= ACCEPT_TOL:
+        raise SynthesisError(f"the fitted linkage does not close to double precision (relative error {rel:.1e})")
+    linkage.checks = checks
