@@ -162,7 +162,8 @@ def fit_motion(ps: PoseSet):
     with np.errstate(all="ignore"):
         r, c = model.rows(x0)
     merit = np.nan_to_num((r * r).sum(-1) + EXACT_WEIGHT**2 * (c * c).sum(-1), nan=np.inf)
-    keep = np.argsort(merit, kind="stable")[:KEEP]
+    keep = np.lexsort((merit, ~_in_order(phi))) if ps.order is Order.LISTED else np.argsort(merit, kind="stable")
+    keep = keep[:KEEP]  # (the seeds whose items lie in the listed order first, when it is asked for)
     layout = Layout(DEGREE, len(T), gauge[keep])
     model = MotionModel(layout, task, ref[keep])
     fixed = layout.fixed
@@ -177,6 +178,12 @@ def fit_motion(ps: PoseSet):
     order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
     summary = FitSummary("fit", seeds=tried, refined=len(keep), iterations=res.iterations)
     return coef[order], refs[order], np.mod(phi[order], np.pi), res.cost[order], res.violation[order], cond, summary
+
+
+def _in_order(phi) -> np.ndarray:
+    """(S,) whether each seed's item angles phi (S, N) (item 0 at 0) visit the items in the listed order."""
+    d = np.diff(np.mod(phi[:, 1:], np.pi), axis=1)
+    return np.all(d > 0, axis=1) | np.all(d < 0, axis=1)
 
 
 def _twists(ps: PoseSet, Tc, scale: float) -> dict:
