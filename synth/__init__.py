@@ -34,8 +34,8 @@ __all__ = ["bennett", "fit", "sixbar", "bennett_points", "sixbar_points", "point
            "InputError", "SynthesisError"]
 
 _LAZY = {
-    "bennett": "synth.synthesis.bennett",
-    "fit": "synth.synthesis.taskfit",
+    "bennett": "synth.synthesis.tasks",
+    "fit": "synth.synthesis.tasks",
     "sixbar": "synth.synthesis.sixbar",
     "bennett_points": "synth.synthesis.points",
     "sixbar_points": "synth.synthesis.points",

@@ -20,14 +20,14 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dq_to_pose, dq_translation, normalize_dq, pose_to_dq, translation_dq
+from synth.algebra.dq import dq_mul, dq_to_pose, dq_translation, normalize_dq, pose_to_dq, translation_dq
 from synth.blas import one_blas_thread
 from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
 from synth.synthesis.fit import (ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, MotionModel, gauge_items, gauge_matrix, inv2,
-                                 levenberg_marquardt, project, regauge, task_arrays, _mul)
+                                 levenberg_marquardt, project, regauge, task_arrays)
 from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, tolerance_problem, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 
@@ -130,7 +130,7 @@ def _point_seeds(X):
         C = point_motion(np.repeat(rel, m, axis=0), np.tile(t, (k, 1)), 2)  # (k m, 3, 8)
     move = translation_dq(np.repeat(X[sub[:, 0]], m, axis=0))[:, None]  # (k m, 1, 8)
     back = translation_dq(-np.repeat(X[sub[:, 0]], m, axis=0))[:, None]
-    coef = _mul(_mul(move, C[:, :2]), back)
+    coef = dq_mul(dq_mul(move, C[:, :2]), back)
     return coef, move[:, 0]
 
 

@@ -17,7 +17,7 @@ from synth.synthesis.bennett_core import ACCEPT_TOL
 from synth.synthesis.conditioning import transmission_problem
 from synth.task import Order, PoseSet
 
-__all__ = ["make_task", "fit", "check_fitted", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem", "error_rows",
+__all__ = ["make_task", "check_fitted", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem", "error_rows",
            "item_kinds"]
 
 
@@ -148,18 +148,6 @@ def make_task(poses, names=None, tolerance=None, velocity=None, order=None) -> P
     except ValueError:
         raise InputError(f"order must be 'any' or 'listed', got {order!r}") from None
     return PoseSet(names=names, matrices=T, tolerance=tol, velocity=vel, order=order, named=[True] * n)
-
-
-def fit(poses, names=None, *, tolerance=None, velocity=None, order=None, kind: str = "bennett", top: int = 1,
-        best_effort: bool = False):
-    """Linkages of ``kind`` ("bennett") for a task (a `PoseSet`, or arrays as `make_task`), best first
-    (a list of up to ``top``): exact, Hermite or fitted (docs/fit.md)."""
-    task = poses if isinstance(poses, PoseSet) else make_task(poses, names, tolerance, velocity, order)
-    if kind == "bennett":
-        from synth.synthesis.bennett_fit import bennett_task
-
-        return bennett_task(task, top=top, best_effort=best_effort)
-    raise InputError(f"synth.fit: kind {kind!r} is not available (allowed: 'bennett')")
 
 
 def check_fitted(linkage) -> None:
