@@ -157,8 +157,7 @@ def check_fitted(linkage) -> None:
     if why:
         raise SynthesisError(why)
     checks = self_check(linkage, VERIFY_SAMPLES)
-    size = linkage.extent()
-    rel = max(checks["max_closure_translation_error"] / size, checks["max_closure_rotation_error"])
+    rel = max(checks["max_closure_translation_error"] / checks["length_scale"], checks["max_closure_rotation_error"])
     if not rel <= ACCEPT_TOL:
         raise SynthesisError(f"the fitted linkage does not close to double precision (relative error {rel:.1e})")
     linkage.checks = checks
