@@ -323,3 +323,16 @@ def test_partial_velocity_constrains_its_half_only():
     vel[2, 3:] = (Tp[0, :3, 3] - Tm[0, :3, 3]) / (2 * h)  # the tool origin's direction only
     lk = bennett_task(task(T, (1e-3 * spread_of(T), 1e-3), velocity=vel))[0]
     assert lk.info["fit"]["max_position_error"] < 1e-9 * spread_of(T)
+
+
+@pytest.mark.parametrize("positions", [[[0, 0, 0]] * 4, [[i, 0, 0] for i in range(4)]],
+                         ids=["coinciding", "translations"])
+def test_degenerate_tasks_exit_1_with_the_reason(tmp_path, positions):
+    import yaml
+
+    items = [{"position": p, "rpy": [0, 0, 0]} for p in positions]
+    f = tmp_path / "t.yaml"
+    f.write_text(yaml.safe_dump({"tolerance": {"position": 0.01, "angle": 0.01}, "poses": items}))
+    r = run("bennett", f, "-o", tmp_path / "o")
+    assert r.exit_code == 1 and not (tmp_path / "o").exists()
+    assert "every triple of poses is degenerate" in r.output and str(f) in r.output

@@ -107,6 +107,9 @@ def _seeds(Q, task, kinds, velocity_twists):
         raise SynthesisError("no seed motion: a Bennett fit needs three poses, two with a velocity or six points")
     coef, ref = np.concatenate(coefs), np.concatenate(refs)
     ok = np.isfinite(coef).all((1, 2))
+    if not ok.any():
+        raise SynthesisError("no seed motion: every triple of poses is degenerate (coinciding poses, or poses related "
+                             "by pure translations or by rotations about one axis); no Bennett motion fits them")
     return coef[ok], ref[ok]
 
 
@@ -232,6 +235,16 @@ def is_task(ps: PoseSet) -> bool:
 
 
 def bennett_task(ps: PoseSet, top: int = 1, best_effort: bool = False) -> list:
+    """`_bennett_task` with every refusal naming the task's source first."""
+    try:
+        return _bennett_task(ps, top, best_effort)
+    except SynthesisError as e:
+        if str(e).startswith(f"{ps.source}: "):
+            raise
+        raise SynthesisError(f"{ps.source}: {e}") from e
+
+
+def _bennett_task(ps: PoseSet, top: int, best_effort: bool) -> list:
     """Bennett linkages for a task (`synth.task.PoseSet`), best first (up to ``top``): exact for 3 poses
     or a Hermite pair, fitted for more (module docstring). Each has its items' misses recorded
     (`annotate`). SynthesisError when nothing meets the exact items and velocities, none follows the
