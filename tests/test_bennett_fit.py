@@ -37,6 +37,14 @@ def motion_poses(C, Q0, phi):
     return dq_to_pose(normalize_dq(dq_mul(homogeneous(C[:2][None], np.asarray(phi, float)[None])[0], Q0)))
 
 
+def twist_of(C, Q0, phi, h=1e-6):
+    """(w, v): angular velocity and velocity of the tool origin of the motion C(phi) Q0 along phi, by
+    central differences."""
+    T, Tp, Tm = (motion_poses(C, Q0, [phi + d])[0] for d in (0.0, h, -h))
+    W = (Tp[:3, :3] - Tm[:3, :3]) / (2 * h) @ T[:3, :3].T
+    return 0.5 * np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]]), (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
+
+
 def sampled(seed, n, noise=0.0, exact=(0,), spread=(0.15, 0.85)):
     """n poses of a known motion in listed order (phi decreasing from pi: the first at the reference),
     rotated by ``noise`` rad and moved by ``noise`` (relative to the position spread) about random axes, but
@@ -93,11 +101,7 @@ def test_regauge_keeps_the_motion_and_moves_the_parameters():
 def test_hermite_conic_meets_both_poses_and_the_tangent():
     C, Q0 = known_motion(4)
     T = motion_poses(C, Q0, [0.0, 1.1])
-    h = 1e-6
-    Tp, Tm = motion_poses(C, Q0, [h]), motion_poses(C, Q0, [-h])
-    W = (Tp[0, :3, :3] - Tm[0, :3, :3]) / (2 * h) @ T[0, :3, :3].T
-    w = 0.5 * np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]])
-    v = (Tp[0, :3, 3] - Tm[0, :3, 3]) / (2 * h)
+    w, v = twist_of(C, Q0, 0.0)
     Q = pose_to_dq(T)
     H = hermite_conic(Q[0], Q[1], np.r_[w, v - np.cross(w, T[0, :3, 3])] * 3.0)  # any positive multiple
     assert np.abs(study_rows(H[None, :2])).max() < 1e-12
@@ -166,12 +170,8 @@ def test_velocity_in_a_fit_is_met_exactly():
     C, Q0 = known_motion(12)
     phi = np.array([0.0, 2.8, 2.4, 2.0, 1.6, 1.2])
     T = motion_poses(C, Q0, phi)
-    h = 1e-6
-    Tp, Tm = motion_poses(C, Q0, [2.0 + h]), motion_poses(C, Q0, [2.0 - h])
-    W = (Tp[0, :3, :3] - Tm[0, :3, :3]) / (2 * h) @ T[3, :3, :3].T
-    w = 0.5 * np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]])
     vel = np.full((6, 6), np.nan)
-    vel[3] = -np.r_[w, (Tp[0, :3, 3] - Tm[0, :3, 3]) / (2 * h)]  # direction only (either sense)
+    vel[3] = -np.r_[twist_of(C, Q0, 2.0)]  # direction only (either sense)
     lk = bennett_task(task(T, (1e-3 * spread_of(T), 1e-3), velocity=vel))[0]
     assert lk.info["fit"]["max_position_error"] < 1e-9 * spread_of(T)
 
@@ -298,12 +298,8 @@ def test_python_api_takes_arrays_or_a_task_file():
 def test_hermite_velocity_at_the_second_pose_and_three_toleranced_poses(tmp_path):
     C, Q0 = known_motion(41)
     T = motion_poses(C, Q0, [0.0, 1.3])
-    h = 1e-6
-    Tp, Tm = motion_poses(C, Q0, [1.3 + h]), motion_poses(C, Q0, [1.3 - h])
-    W = (Tp[0, :3, :3] - Tm[0, :3, :3]) / (2 * h) @ T[1, :3, :3].T
-    w = 0.5 * np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]])
     vel = np.full((2, 6), np.nan)
-    vel[1] = np.r_[w, (Tp[0, :3, 3] - Tm[0, :3, 3]) / (2 * h)]
+    vel[1] = np.r_[twist_of(C, Q0, 1.3)]
     lk = bennett_task(PoseSet(names=["a", "b"], matrices=T, velocity=vel))[0]
     assert lk.info["fit"]["method"] == "hermite" and lk.poses[0].t == np.inf and lk.poses[1].t == 0.0
     assert max(r.error[0] for r in lk.poses) < 1e-9 * spread_of(T)
@@ -317,10 +313,8 @@ def test_partial_velocity_constrains_its_half_only():
     C, Q0 = known_motion(13)
     phi = np.array([0.0, 2.8, 2.4, 2.0, 1.6, 1.2])
     T = motion_poses(C, Q0, phi)
-    h = 1e-6
-    Tp, Tm = motion_poses(C, Q0, [2.4 + h]), motion_poses(C, Q0, [2.4 - h])
     vel = np.full((6, 6), np.nan)
-    vel[2, 3:] = (Tp[0, :3, 3] - Tm[0, :3, 3]) / (2 * h)  # the tool origin's direction only
+    vel[2, 3:] = twist_of(C, Q0, 2.4)[1]  # the tool origin's direction only
     lk = bennett_task(task(T, (1e-3 * spread_of(T), 1e-3), velocity=vel))[0]
     assert lk.info["fit"]["max_position_error"] < 1e-9 * spread_of(T)
 
