@@ -79,7 +79,7 @@ def test_sizes_are_validated_once_in_the_input_unit():
 
 def test_option_combinations_are_refused_by_the_library():
     ps = load_poses(str(FIX / "bennett_quat.yaml"), count=3)
-    with pytest.raises(InputError, match="--top applies to point tasks only"):
+    with pytest.raises(InputError, match="--top applies to point tasks and fits only"):
         solve_bennett(ps, SynthesisOptions(top=2))
     pts = load_poses(str(FIX / "bennett_points.yaml"), points=((3, 5), "mpsynth bennett"))
     with pytest.raises(InputError, match="--member selects among"):

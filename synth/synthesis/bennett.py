@@ -68,7 +68,7 @@ def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, memb
     four-bar (kind ``planar_4r`` / ``spherical_4r``): the best-scored member, or ``member`` =
     (lambda1, lambda2). Raises InputError (shape, NaN, a member for spatial poses)
     or SynthesisError (degenerate or non-real cases, with a plain-language reason). Tasks with
-    tolerances, velocities or more poses: `synth.synthesis.tasks.bennett` (``synth.bennett``)."""
+    tolerances, velocities or more poses: `synth.synthesis.tasks.fit` (``synth.fit``)."""
     return bennett_candidates(poses, names, check_samples=check_samples, member=member)[0]
 
 

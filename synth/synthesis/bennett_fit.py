@@ -26,7 +26,7 @@ from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import (ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, MotionModel, gauge_items, gauge_matrix, inv2,
+from synth.synthesis.fit import (reference_pose, ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, MotionModel, gauge_items, gauge_matrix, inv2,
                                  levenberg_marquardt, project, regauge, task_arrays)
 from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, tolerance_problem, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
@@ -37,6 +37,7 @@ POINTS_NEEDED = 5  # positions through which a quadratic motion has two free par
 MAX_SUBSETS = 40  # seeds from 5-subsets of the positions of a point task
 PARAMETER_SAMPLES = 24  # samples of the two free parameters per subset
 MAX_TRIPLES = 60  # seeds from triples of poses: all when there are at most this many, else a sample
+ROUNDS = 3  # batches of KEEP seeds refined at most, the next only when no refined seed meets the exact rows
 KEEP = 4  # seeds refined by Levenberg-Marquardt
 ITERATIONS = 40  # Jacobians per refinement, at most
 FEASIBLE = 1e-10  # largest constraint violation of an accepted fit (conditioned units)
@@ -165,21 +166,22 @@ def fit_motion(ps: PoseSet):
     with np.errstate(all="ignore"):
         r, c = model.rows(x0)
     merit = np.nan_to_num((r * r).sum(-1) + EXACT_WEIGHT**2 * (c * c).sum(-1), nan=np.inf)
-    keep = np.lexsort((merit, ~_in_order(phi))) if ps.order is Order.LISTED else np.argsort(merit, kind="stable")
-    keep = keep[:KEEP]  # (the seeds whose items lie in the listed order first, when it is asked for)
-    layout = Layout(DEGREE, len(T), gauge[keep])
-    model = MotionModel(layout, task, ref[keep])
-    fixed = layout.fixed
-    if not (task.weight[:, 3:ERRORS].any() or task.exact[:, 3:].any()):  # positions only: the tool's
-        fixed[:, 8 * DEGREE:8 * DEGREE + 3] = True  # orientation at the reference is free, hold it
-    with np.errstate(all="ignore"), one_blas_thread():
-        res = levenberg_marquardt(model, x0[keep], fixed, ITERATIONS)
+    ranked = np.lexsort((merit, ~_in_order(phi))) if ps.order is Order.LISTED else np.argsort(merit, kind="stable")
+    positions_only = not (task.weight[:, 3:ERRORS].any() or task.exact[:, 3:].any())
+    for start in range(0, min(len(ranked), ROUNDS * KEEP), KEEP):  # (listed order first, when asked for)
+        keep = ranked[start:start + KEEP]  # the next seeds, when none of these meets the exact rows
+        layout = Layout(DEGREE, len(T), gauge[keep])
+        fixed = layout.fixed
+        if positions_only:  # the tool's orientation at the reference is free: hold it
+            fixed[:, 8 * DEGREE:8 * DEGREE + 3] = True
+        with np.errstate(all="ignore"), one_blas_thread():
+            res = levenberg_marquardt(MotionModel(layout, task, ref[keep]), x0[keep], fixed, ITERATIONS)
+        if (res.violation <= FEASIBLE).any():
+            break
     coef, x_ref, phi = layout.split(res.x)
-    from synth.synthesis.fit import reference_pose
-
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
     order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
-    summary = FitSummary("fit", seeds=tried, refined=len(keep), iterations=res.iterations)
+    summary = FitSummary("fit", seeds=tried, refined=start + len(keep), iterations=res.iterations)
     return coef[order], refs[order], np.mod(phi[order], np.pi), res.cost[order], res.violation[order], cond, summary
 
 

@@ -144,10 +144,10 @@ def item_errors(coef, ref, phi, task: TaskArrays):
     angular velocity, v the velocity of the tool origin, along phi). coef (..., n, 8), ref (..., 8),
     phi (..., N); any float or complex dtype."""
     C, dC = homogeneous(coef, phi, derivative=True)
-    return pose_errors(C, dC, ref[..., None, :], task)
+    return motion_errors(C, dC, ref[..., None, :], task)
 
 
-def pose_errors(C, dC, ref, task: TaskArrays):
+def motion_errors(C, dC, ref, task: TaskArrays):
     """`item_errors` from the motion's values C (..., N, 8) and derivatives dC at the items and the reference
     ``ref`` (..., 1, 8) (broadcast)."""
     P = _mul(C, ref)
@@ -266,7 +266,7 @@ class MotionModel:
         sizes = [max(x.shape[1] for x in blk) for blk in blocks]
         Cs, dCs, refs = (np.concatenate([np.broadcast_to(blk[i], (S, k) + blk[i].shape[2:]).astype(complex)
                                          for blk, k in zip(blocks, sizes)], 1) for i in range(3))
-        E = pose_errors(Cs, dCs, refs, task)  # (S, directions, N, ROWS)
+        E = motion_errors(Cs, dCs, refs, task)  # (S, directions, N, ROWS)
         dE = E.imag / STEP
         E0 = E[:, -1].real
         dirs = dE.shape[1]
