@@ -97,17 +97,18 @@ def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: 
     """Three poses: the verified Bennett linkage (planar or spherical poses: the four-bar member given by
     ``options.member``, else the best-scored members designed, collision-free first); five points (a
     point task): `solve_points`. ``ready()``: called once the options are validated, before the work
-    (the CLI checks its output directory there); ``progress``: see `Designer.rank`."""
+    (the CLI checks its output directory there); ``progress``: see `Designer.rank`. Tasks (tolerances,
+    velocities, an order, more poses or more than five points): `_solve_task`."""
     from synth.synthesis.bennett import bennett_candidates, verify
 
+    from synth.synthesis.bennett_fit import is_task
+
     designer = _designer(ps, options)
-    if ps.has_points:
+    if ps.has_points and not is_task(ps):
         if options.member is not None:
             raise InputError("--member selects among the quadratic motions through planar or spherical poses; a "
                              "point task has no such family (use --top to see its ranked designs)")
         return solve_points(ps, 2, options, progress=progress)
-    from synth.synthesis.bennett_fit import is_task
-
     if is_task(ps):  # tolerances, velocities, an order or other than three poses (docs/fit.md)
         if ready is not None:
             ready()
