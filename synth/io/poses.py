@@ -44,6 +44,7 @@ import numpy as np
 
 from synth.errors import InputError
 from synth.task import PoseSet
+from synth.io.constraints import parse_constraints
 from synth.io.docload import MAX_FILE_BYTES, MAX_POSES, json_object_pairs, load_document, quote_text, read_source
 from synth.io.posespec import (ANGLE_UNITS, LENGTH_UNITS, PoseProblem, axis_angle_matrix, check_keys,
                                describe_value, is_point_spec, point_position, pose_from_spec, pose_matrix,
@@ -64,7 +65,7 @@ __all__ = [
     "MAX_POSES",
 ]
 
-TOP_KEYS = ("units", "poses", "points")
+TOP_KEYS = ("units", "poses", "points", "constraints")
 UNIT_KEYS = ("length", "angle")
 
 
@@ -197,6 +198,7 @@ def parse_pose_document(
         length_scale=scale,
         source=name,
         named=named,
+        constraints=parse_constraints(doc.get("constraints"), source=name, length_scale=scale),
     )
 
 
@@ -251,7 +253,8 @@ def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize,
         names.append(final)
         named.append(pname is not None)
     return PoseSet(names=names, matrices=mats, length_unit=length_unit, angle_unit=angle_unit, length_scale=scale,
-                   source=name, named=named, kinds=kinds)
+                   source=name, named=named, kinds=kinds,
+                   constraints=parse_constraints(doc.get("constraints"), source=name, length_scale=scale))
 
 
 def load_poses(source, *, count=None, normalize: bool = False, text: str | bytes | None = None,
