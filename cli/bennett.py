@@ -5,7 +5,8 @@ import math
 
 import click
 
-from .common import choose_buildable, echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options
+from .common import (choose_buildable, echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options,
+                     task_limits)
 
 
 @click.command(epilog="""\b
@@ -25,7 +26,7 @@ Example:
 @synthesis_options
 @run_guarded
 def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
-            require_collision_free, package, normalize, quiet, as_json, debug):
+            require_collision_free, driver, max_extent, package, normalize, quiet, as_json, debug):
     """Synthesize the spatial Bennett 4R linkage whose coupler passes through the three poses in
     POSES (YAML or JSON, '-' for stdin; see README for the format). With five points instead (a
     `points:` list, or poses with a position only; 3 or 4: the rest is chosen) the tool point passes
@@ -39,6 +40,7 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
     given: printable parts of a physical design (bars, hubs with bores, separate pins) and what it
     achieves (collision-free over the full cycle or the task range, or not); prints a summary on stderr
     and, with --json, linkage.json on stdout."""
+    from synth.design.constraints import admissible
     from synth.synthesis.bennett import bennett_candidates, verify
     from synth.errors import SynthesisError
     from synth.io.poses import load_poses
@@ -48,6 +50,7 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
     ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=normalize, points=point_count(2))
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                             clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
+    limits = task_limits(ps, driver, max_extent)
     if ps.has_points:
         if member is not None:
             from synth.errors import InputError
@@ -55,7 +58,7 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
             raise InputError("--member selects among the quadratic motions through planar or spherical poses; a "
                              "point task has no such family (use --top to see its ranked designs)")
         return run_point_task(ps, 2, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-                              as_json=as_json, require_free=require_collision_free)
+                              as_json=as_json, require_free=require_collision_free, limits=limits)
     if top is not None:
         from synth.errors import InputError
 
@@ -67,12 +70,14 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
     lam = parse_numbers(member, 2, "--member") if member is not None else None
     result = None
     try:
-        design = (out or as_json or require_collision_free) and lam is None
+        design = (out or as_json or require_collision_free or ps.constraints) and lam is None
         linkages = bennett_candidates(ps.matrices, ps.names, member=lam, top=BUILDABLE_CANDIDATES if design else 1)
         for lk in linkages:
             verify(lk)  # the self-check at VERIFY_SAMPLES parameters; refuses a failing linkage
     except SynthesisError as e:  # name the file, like every input error
         raise SynthesisError(f"{ps.source}: {e}") from e
+    linkages = admissible(linkages, ps.constraints, **limits, source=ps.source, scale=ps.length_scale,
+                          unit=ps.length_unit)
     linkage = linkages[0]
     if len(linkages) > 1:  # members of a planar or spherical family: collision-free first
         linkage, result = choose_buildable(linkages, ps, sizes, limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS,
@@ -127,4 +132,4 @@ def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, requi
 
     emit_linkage(linkage, source=ps.source, scale=ps.length_scale, unit=ps.length_unit, out=out, name=name,
                  force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,
-                 require_free=require_free, result=result)
+                 require_free=require_free, result=result, constraints=ps.constraints)

@@ -110,6 +110,7 @@ def synthesis_options(func):
                      help="Robot name in the URDF (default: the pose file's stem)."),
         click.option("--force", is_flag=True, help="Replace OUT even if it holds files not written by mpsynth."),
         *design_option_list("the input's length unit"),
+        *drive_option_list(),
         click.option("--package", callback=_checked(check_package),
                      help="Write mesh paths as package://PACKAGE/meshes/... (ROS package name: a-z, 0-9, _)."),
         click.option("--normalize", is_flag=True,
@@ -121,6 +122,30 @@ def synthesis_options(func):
     for opt in reversed(opts):
         func = opt(func)
     return func
+
+
+def drive_option_list() -> list:
+    """--driver and --max-extent (docs/drive.md)."""
+    return [
+        click.option("--driver", metavar="JOINT",
+                     help="The joint the motor turns (a joint on the base, default the first joint of the first "
+                          "branch, h1): it sets the task range, the drive report and the URDF limits."),
+        click.option("--max-extent", type=float,
+                     help="Refuse (exit 1) a linkage whose extent (RMS distance of its joint sites and tool "
+                          "positions from their centroid) exceeds this, in the input's length unit (default 100 x "
+                          "the spread of the task's positions; 'inf': no limit)."),
+    ]
+
+
+def task_limits(ps, driver, max_extent, scale: float | None = None) -> dict:
+    """The keyword arguments of `synth.design.constraints.admissible` for the pose set ``ps`` (None: a
+    spec without poses, lengths in ``scale`` metres per unit); --max-extent validated and in metres."""
+    from synth.errors import InputError
+
+    if max_extent is not None and not max_extent > 0:
+        raise InputError(f"--max-extent must be a positive length, got {max_extent}")
+    scale = ps.length_scale if ps is not None else scale
+    return dict(driver=driver, max_extent=None if max_extent is None else max_extent * scale)
 
 
 def design_option_list(unit: str) -> list:
@@ -271,13 +296,18 @@ def choose_buildable(candidates, ps, sizes: dict, *, limit: int, seconds: float,
     """Design the best-scored ``candidates`` (best first) and keep the collision-free one first (full cycle,
     then task range; `synth.design.search.rank_buildable`), then the score. Returns (linkage, DesignResult);
     ``linkage.info["design_choice"]`` says which candidate won; ``what``: the candidates' name in it."""
+    from synth.design.constraints import first_in_envelope
     from synth.design.search import rank_buildable
 
     candidates = list(candidates)
     ranked = rank_buildable(candidates, lambda lk, ranges, full_seconds: design_result(
         lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source, require_free=False,
         ranges=ranges, full_seconds=full_seconds), limit=limit, seconds=seconds)
-    linkage, result = ranked[0]
+    linkage, result = first_in_envelope(  # an envelope in the task file: the first design inside it
+        ranked, [c for c in candidates[:limit] if all(c is not lk for lk, _ in ranked)],
+        lambda lk: design_result(lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source,
+                                 require_free=False, ranges=("task",)),
+        ps.constraints, source=ps.source, scale=ps.length_scale, unit=ps.length_unit)
     k = next(i for i, c in enumerate(candidates) if c is linkage)
     linkage.info["design_choice"] = (f"candidate {k + 1} of the {min(len(candidates), limit)} best-scored {what}: "
                                      "collision-free first (full cycle, then task range), then the score")
@@ -297,6 +327,12 @@ def design_solutions(linkages, ps, sizes: dict, *, quiet: bool, require_free: bo
                for lk in progress(linkages, "collision-free design search: design", quiet)]
     order = sorted(range(len(linkages)), key=lambda i: (collision_rank(results[i].collision), i))
     pairs = [(linkages[i], results[i]) for i in order]
+    if ps.constraints is not None and ps.constraints.envelope is not None:  # only the designs inside it
+        from synth.design.constraints import envelope_violation, first_in_envelope
+
+        first_in_envelope(pairs, [], None, ps.constraints, source=ps.source, scale=ps.length_scale,
+                          unit=ps.length_unit)  # none inside: refused, naming the best
+        pairs = [(lk, r) for lk, r in pairs if envelope_violation(lk, r.design, ps.constraints) is None]
     if require_free:
         free = [(lk, r) for lk, r in pairs if r.collision.free]
         if not free:
@@ -322,27 +358,44 @@ def require_collision_free(result, *, source: str, scale: float, unit: str) -> N
 
 
 def emit_linkage(linkage, *, source, scale, unit, out, name, force, package, sizes, quiet, as_json,
-                 details=None, require_free=False, result=None):
+                 details=None, require_free=False, result=None, constraints=None):
     """The common ending of a synthesis command: design the physical linkage (when files are written,
     JSON printed or a collision-free design required) and write OUT (when given) first, so that a
     failure is the only line on stderr; then the summary on stderr (plus ``details()``, a callable that
     echoes command-specific lines, and the collision sentence), then linkage.json on stdout with --json.
-    ``result``: a design already made (`synth.design.search.DesignResult`), else one is made here."""
+    ``result``: a design already made (`synth.design.search.DesignResult`), else one is made here;
+    ``constraints``: the task's (`synth.task.Constraints`): a design leaving the envelope is refused."""
     from synth.io.jsonout import linkage_document
     from synth.io.writer import write_output
 
+    from synth.drive import drive_report
+
     files = None
+    drive = drive_report(linkage) if (out or as_json or not quiet) else None
     if result is None and (out or as_json or require_free):
         result = design_result(linkage, sizes, scale=scale, unit=unit, source=source, require_free=require_free)
     elif result is not None and require_free:
         require_collision_free(result, source=source, scale=scale, unit=unit)
+    if constraints is not None and constraints.envelope is not None:
+        from synth.design.constraints import first_in_envelope
+
+        if result is None:
+            result = design_result(linkage, sizes, scale=scale, unit=unit, source=source, require_free=require_free)
+        first_in_envelope([(linkage, result)], [], None, constraints, source=source, scale=scale, unit=unit)
     if out:
         files = write_output(linkage, out, robot_name=name or default_robot_name(source), force=force,
-                             package=package, result=result)
+                             package=package, result=result, drive=drive)
     if not quiet:
         print_linkage_summary(linkage, scale, unit)
         if details is not None:
             details()
+        echo(f"  drive: {drive.sentence()}")
+        if constraints is not None:
+            from synth.design.constraints import met_sentence
+
+            echo(f"  constraints: {met_sentence(linkage, result.design if result else None, constraints, scale, unit)}")
+        for w in drive.warnings:
+            echo(f"  warning: {w}")
         if result is not None:
             echo(f"  design: {collision_sentence(result.collision, scale, unit)}")
         if files is not None:
@@ -352,4 +405,4 @@ def emit_linkage(linkage, *, source, scale, unit, out, name, force, package, siz
         elif not as_json:
             echo("  no files written (give -o OUT to write URDF, STL and JSON)")
     if as_json:
-        print_json(linkage_document(linkage, *((result.design, result.collision) if result else ())))
+        print_json(linkage_document(linkage, *((result.design, result.collision) if result else (None, None)), drive))

@@ -12,11 +12,12 @@ from synth.io.posespec import LENGTH_UNITS
 from synth.io.writer import check_output_target
 from synth.synthesis.curve import CurveSpec, spec_linkage
 
-from .common import debug_option, design_option_list, design_result, echo, emit_linkage, json_option, mesh_sizes, run_guarded
+from .common import (debug_option, design_option_list, design_result, drive_option_list, echo, emit_linkage,
+                     json_option, mesh_sizes, run_guarded, task_limits)
 
 
 def design_options(func):
-    for opt in reversed(design_option_list("--units")):
+    for opt in reversed(design_option_list("--units") + drive_option_list()):
         func = opt(func)
     return func
 
@@ -67,7 +68,7 @@ sliding joint"; no factorization), 2 bad input."""
 @debug_option
 @run_guarded
 def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
-          require_collision_free, package, quiet, as_json, debug):
+          require_collision_free, driver, max_extent, package, quiet, as_json, debug):
     """Synthesize a linkage of revolute joints only (several Bennett loops) whose link `coupler`
     performs the rational motion of SPEC, or whose link `tracer` draws the rational curve of SPEC.
 
@@ -84,6 +85,10 @@ def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_le
     if method != "auto" and not isinstance(parsed, CurveSpec):
         echo("  note: --method applies to curves only; ignored for a motion")
     linkage = spec_linkage(parsed, scale=scale, method=method)
+    from synth.design.constraints import admissible
+
+    linkage = admissible([linkage], None, **task_limits(None, driver, max_extent, scale), source=spec, scale=scale,
+                         unit=units)[0]
     emit(linkage, source=spec, scale=scale, unit=units, out=out, name=name, force=force, package=package,
          sizes=sizes, quiet=quiet, as_json=as_json, require_free=require_collision_free)
 

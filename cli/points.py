@@ -29,8 +29,11 @@ def _design_line(lk) -> str:
             f"{p['min_twist'] * 57.29577951308232:.1f} deg, min offset {p['min_offset']:.3g} x spread)")
 
 
-def run_point_task(ps, degree: int, top, *, out, name, force, package, sizes, quiet, as_json, require_free):
-    """Synthesize, design, write and summarize a point task (``top``: None = the best design only)."""
+def run_point_task(ps, degree: int, top, *, out, name, force, package, sizes, quiet, as_json, require_free,
+                   limits=None):
+    """Synthesize, design, write and summarize a point task (``top``: None = the best design only;
+    ``limits``: `synth.design.constraints.admissible`'s driver and max_extent)."""
+    from synth.design.constraints import admissible
     from synth.checks import VERIFY_SAMPLES
     from synth.errors import InputError, SynthesisError
     from synth.synthesis.points import oriented_item, point_candidates
@@ -39,12 +42,14 @@ def run_point_task(ps, degree: int, top, *, out, name, force, package, sizes, qu
         oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
     except InputError as e:
         raise InputError(f"{ps.source}: {e}") from e
-    want = top or (BUILDABLE_CANDIDATES if (out or as_json or require_free) else 1)
+    want = top or (BUILDABLE_CANDIDATES if (out or as_json or require_free or ps.constraints) else 1)
     try:
         linkages = point_candidates(ps.positions, ps.names, degree=degree, top=want, tool_rotation=rot,
                                     oriented=oriented, check_samples=VERIFY_SAMPLES)
     except (SynthesisError, InputError) as e:
         raise type(e)(f"{ps.source}: {e}") from e
+    linkages = admissible(linkages, ps.constraints, **(limits or {}), source=ps.source, scale=ps.length_scale,
+                          unit=ps.length_unit)
     if top is None:
         _single(ps, linkages, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
                 as_json=as_json, require_free=require_free)
@@ -73,7 +78,7 @@ def _single(ps, linkages, *, out, name, force, package, sizes, quiet, as_json, r
 
     emit_linkage(linkage, source=ps.source, scale=ps.length_scale, unit=ps.length_unit, out=out, name=name,
                  force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,
-                 require_free=require_free, result=result)
+                 require_free=require_free, result=result, constraints=ps.constraints)
 
 
 def solution_id(rank: int, linkage) -> str:

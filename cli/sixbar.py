@@ -4,7 +4,7 @@ from __future__ import annotations
 import click
 
 from .common import (add_collisions, choose_buildable, default_robot_name, design_solutions, echo, mesh_sizes,
-                     print_json, run_guarded, synthesis_options)
+                     print_json, run_guarded, synthesis_options, task_limits)
 
 INDEX_FORMAT = "mpsynth.sixbar-index/1"
 
@@ -34,7 +34,7 @@ Examples:
 @synthesis_options
 @run_guarded
 def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_radius, pin_length, clearance,
-           hole_clearance, require_collision_free, package, normalize, quiet, as_json, debug):
+           hole_clearance, require_collision_free, driver, max_extent, package, normalize, quiet, as_json, debug):
     """Synthesize a spatial 6R linkage whose coupler passes through the four poses in POSES (YAML or
     JSON, '-' for stdin; see README for the format). With seven points instead (a `points:` list, or
     poses with a position only; 4 to 6: the rest is chosen) the tool point passes through them
@@ -53,6 +53,7 @@ def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_
         member = parse_member(member)
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                             clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
+    limits = task_limits(ps, driver, max_extent)
     if ps.has_points:
         if family is not None or member is not None or pair is not None:
             from synth.errors import InputError
@@ -60,13 +61,13 @@ def sixbar(poses, family, member, pair, top, out, name, force, pin_radius, link_
             raise InputError("--family, --member and --pair select among the cubics through four poses; a point "
                              "task has no families (use --top to see its ranked designs)")
         return run_point_task(ps, 3, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-                              as_json=as_json, require_free=require_collision_free)
+                              as_json=as_json, require_free=require_collision_free, limits=limits)
     if top is None:
         _single(ps, family, member, pair, out=out, name=name, force=force, package=package, sizes=sizes,
-                quiet=quiet, as_json=as_json, require_free=require_collision_free)
+                quiet=quiet, as_json=as_json, require_free=require_collision_free, limits=limits)
     else:
         _ranked(ps, family, member, pair, top, out=out, name=name, force=force, package=package, sizes=sizes,
-                quiet=quiet, as_json=as_json, require_free=require_collision_free)
+                quiet=quiet, as_json=as_json, require_free=require_collision_free, limits=limits)
 
 
 def parse_member(text: str):
@@ -101,26 +102,30 @@ BUILDABLE_CANDIDATES = 8  # default design: the best-scored candidates searched,
 BUILDABLE_SECONDS = 7.0  # CPU budget of those design searches (rank_buildable: 2.5 s on the first, 1.2 s on each next)
 
 
-def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json, require_free):
+def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json, require_free, limits):
     """The default design: with a physical design to make (files, --json, --require-collision-free) and no
     explicit --family/--member/--pair, the best-scored candidates are designed in turn and the first
     collision-free one (full cycle, then task range) wins (`synth.design.search.rank_buildable`); else the
     best-scored linkage."""
     from synth.checks import VERIFY_SAMPLES
+    from synth.design.constraints import admissible
     from synth.synthesis.sixbar import sixbar as synth_sixbar
     from synth.synthesis.sixbar import sixbar_candidates
 
     from .bennett import emit
 
     result = None
-    if (out or as_json or require_free) and family is None and member is None and pair is None:
+    where = dict(source=ps.source, scale=ps.length_scale, unit=ps.length_unit)
+    if (out or as_json or require_free or ps.constraints) and family is None and member is None and pair is None:
         candidates = sixbar_candidates(ps.matrices, ps.names, top=BUILDABLE_CANDIDATES, build=True,
                                        check_samples=VERIFY_SAMPLES)
+        candidates = admissible(candidates, ps.constraints, **limits, **where)
         linkage, result = choose_buildable(candidates, ps, sizes, limit=BUILDABLE_CANDIDATES,
                                            seconds=BUILDABLE_SECONDS, what="6R linkages")
     else:
         linkage = synth_sixbar(ps.matrices, ps.names, family=family, member=member, pair=pair,
                                check_samples=VERIFY_SAMPLES)
+        linkage = admissible([linkage], ps.constraints, **limits, **where)[0]
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
          as_json=as_json, require_free=require_free, result=result, summary_line=_design_line(linkage.info))
 
@@ -169,12 +174,16 @@ def ranking_table(doc) -> list[str]:
     return rows
 
 
-def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, quiet, as_json, require_free):
+def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, quiet, as_json, require_free,
+            limits):
     from synth.checks import VERIFY_SAMPLES
+    from synth.design.constraints import admissible
     from synth.synthesis.sixbar import sixbar_candidates
 
     linkages = sixbar_candidates(ps.matrices, ps.names, family=family, member=member, pair=pair, top=top,
                                  build=True, check_samples=VERIFY_SAMPLES)
+    linkages = admissible(linkages, ps.constraints, **limits, source=ps.source, scale=ps.length_scale,
+                          unit=ps.length_unit)
     results = None
     if out or as_json or require_free:  # the physical design of every solution, collision-free first
         linkages, results = design_solutions(linkages, ps, sizes, quiet=quiet, require_free=require_free,

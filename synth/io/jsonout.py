@@ -64,9 +64,10 @@ def stl_section() -> dict:
             "material": "aluminium", "masses": "URDF <inertial>: kg, kg m^2, solid parts of this density"}
 
 
-def linkage_document(linkage, design=None, collision=None) -> dict:
-    """The linkage.json document (a dict of plain JSON types); ``design`` (`PhysicalDesign`) and
-    ``collision`` (`CollisionReport`) add their sections when given."""
+def linkage_document(linkage, design=None, collision=None, drive=None) -> dict:
+    """The linkage.json document (a dict of plain JSON types); ``design`` (`PhysicalDesign`),
+    ``collision`` (`CollisionReport`) and ``drive`` (`synth.drive.DriveReport`) add their sections when
+    given."""
     doc = {
         "format": FORMAT,
         "kind": linkage.kind,
@@ -98,6 +99,8 @@ def linkage_document(linkage, design=None, collision=None) -> dict:
         doc["design"] = design_section(design)
     if collision is not None:
         doc["collision"] = collision if isinstance(collision, dict) else collision.to_dict()
+    if drive is not None:
+        doc["drive"] = drive if isinstance(drive, dict) else drive.to_dict()
     return plain(doc)
 
 

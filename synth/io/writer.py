@@ -36,6 +36,7 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
+from synth.drive import drive_report
 from synth.errors import InputError, OutputError
 from synth.io.jsonout import linkage_document, write_json
 from synth.io.names import check_package, check_robot_name
@@ -396,11 +397,11 @@ def atomic_directory(out_dir, force: bool = False):
 
 def write_linkage_files(linkage, directory, *, robot_name: str, package: str | None = None,
                         pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None, clearance=None,
-                        result=None) -> list[Path]:
+                        result=None, drive=None) -> list[Path]:
     """Write linkage.urdf, linkage.json, meshes/<link>.stl and meshes/pin_<joint>.stl into the existing
     ``directory`` (not atomic: use inside ``atomic_directory``, e.g. for ``OUT/<id>/`` layouts).
     ``result``: the `DesignResult` to write (default: `meshes.design_for` with the given sizes and
-    clearances, metres).
+    clearances, metres); ``drive``: the `synth.drive.DriveReport` (default: `drive_report`).
     Returns the paths written, relative to ``directory``."""
     check_robot_name(robot_name)
     check_package(package)
@@ -421,15 +422,16 @@ def write_linkage_files(linkage, directory, *, robot_name: str, package: str | N
     text = urdf.urdf_text(linkage, robot_name, mesh_dir="meshes", package=package, masses=mesh_inertials(meshes),
                      mesh_offsets=offsets, design=result.design, collision=result.collision)
     (directory / "linkage.urdf").write_text(text, encoding="utf-8")
-    write_json(linkage_document(linkage, result.design, result.collision), directory / "linkage.json")
+    drive = drive_report(linkage) if drive is None else drive
+    write_json(linkage_document(linkage, result.design, result.collision, drive), directory / "linkage.json")
     return [Path("linkage.urdf"), Path("linkage.json")] + written
 
 
 def write_output(linkage, out_dir, *, robot_name: str, force: bool = False, package: str | None = None,
                  pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None, clearance=None,
-                 result=None) -> list[Path]:
-    """Write OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/*.stl atomically; returns the final
-    paths. Raises InputError for an unusable OUT (see the module docstring) or bad sizes."""
+                 result=None, drive=None) -> list[Path]:
+    """Write OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/*.stl atomically (``result``, ``drive``: as
+    `write_linkage_files`); returns the final paths. Raises InputError for an unusable OUT (see the module docstring) or bad sizes."""
     default_sizes(linkage, pin_radius, link_radius, pin_length)  # fail on bad sizes before touching disk
     check_robot_name(robot_name)
     check_package(package)
@@ -437,7 +439,7 @@ def write_output(linkage, out_dir, *, robot_name: str, force: bool = False, pack
     with atomic_directory(out, force=force) as tmp:
         rel = write_linkage_files(linkage, tmp, robot_name=robot_name, package=package,
                                   pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
-                                  hole_clearance=hole_clearance, clearance=clearance, result=result)
+                                  hole_clearance=hole_clearance, clearance=clearance, result=result, drive=drive)
     return [out / r for r in rel]
 
 
