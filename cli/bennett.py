@@ -71,7 +71,8 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
     result = None
     try:
         design = (out or as_json or require_collision_free or ps.constraints) and lam is None
-        linkages = bennett_candidates(ps.matrices, ps.names, member=lam, top=BUILDABLE_CANDIDATES if design else 1)
+        want = (CONSTRAINED_CANDIDATES if ps.constraints else BUILDABLE_CANDIDATES) if design else 1
+        linkages = bennett_candidates(ps.matrices, ps.names, member=lam, top=want)
         for lk in linkages:
             verify(lk)  # the self-check at VERIFY_SAMPLES parameters; refuses a failing linkage
     except SynthesisError as e:  # name the file, like every input error
@@ -87,6 +88,7 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
 
 
 BUILDABLE_CANDIDATES = 4  # planar/spherical default: the best-scored members designed, collision-free first
+CONSTRAINED_CANDIDATES = 16  # with constraints in the task file: the members filtered by them first
 BUILDABLE_SECONDS = 4.0  # CPU budget of those design searches (one four-bar search: well under a second)
 
 

@@ -99,6 +99,7 @@ def _design_line(info) -> str:
 
 
 BUILDABLE_CANDIDATES = 8  # default design: the best-scored candidates searched, collision-free first
+CONSTRAINED_CANDIDATES = 32  # with constraints in the task file: the scored candidates filtered by them first
 BUILDABLE_SECONDS = 7.0  # CPU budget of those design searches (rank_buildable: 2.5 s on the first, 1.2 s on each next)
 
 
@@ -117,8 +118,8 @@ def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet
     result = None
     where = dict(source=ps.source, scale=ps.length_scale, unit=ps.length_unit)
     if (out or as_json or require_free or ps.constraints) and family is None and member is None and pair is None:
-        candidates = sixbar_candidates(ps.matrices, ps.names, top=BUILDABLE_CANDIDATES, build=True,
-                                       check_samples=VERIFY_SAMPLES)
+        candidates = sixbar_candidates(ps.matrices, ps.names, top=CONSTRAINED_CANDIDATES if ps.constraints else
+                                       BUILDABLE_CANDIDATES, build=True, check_samples=VERIFY_SAMPLES)
         candidates = admissible(candidates, ps.constraints, **limits, **where)
         linkage, result = choose_buildable(candidates, ps, sizes, limit=BUILDABLE_CANDIDATES,
                                            seconds=BUILDABLE_SECONDS, what="6R linkages")

@@ -24,7 +24,6 @@ import numpy as np
 from synth.algebra.algorithm1 import cross3
 from synth.algebra.anglelaw import angle_law_inverse, driven_angle, driven_speed, driven_speed_max
 from synth.errors import InputError
-from synth.checks import extent as extent_of
 from synth.linkage import Linkage
 
 __all__ = ["DeadPoint", "DriveReport", "driver_joint", "task_range", "with_driver", "base_joints",
@@ -137,8 +136,13 @@ def with_driver(linkage: Linkage, joint: str | None) -> Linkage:
 
 def task_range(linkage: Linkage, driver: str | None = None) -> tuple[str, float, float]:
     """(driver, start, end) radians: the shortest arc of the driver's angle (``driver``, default
-    `driver_joint`) that visits every pose (start in [0, 2 pi), end = start + span)."""
+    `driver_joint`) that visits every pose (start in [0, 2 pi), end = start + span); for a task whose
+    poses must be passed in the listed order (``info["fit"]["order"] == "listed"``) the arc from the
+    first pose through the others in that order, one way, when there is one."""
     driver = driver or driver_joint(linkage)
+    listed = listed_arc(linkage, driver)
+    if listed is not None:
+        return driver, *listed
     angles = sorted(float(p.joint_angles[driver]) % TWO_PI for p in linkage.poses)
     if len(angles) < 2:
         return driver, 0.0, TWO_PI
@@ -146,6 +150,25 @@ def task_range(linkage: Linkage, driver: str | None = None) -> tuple[str, float,
     g = int(np.argmax(gaps))
     start = angles[(g + 1) % len(angles)]
     return driver, start, start + TWO_PI - gaps[g]
+
+
+def listed_arc(linkage: Linkage, driver: str) -> tuple[float, float] | None:
+    """[start, end] of the driver's arc through the poses in the listed order (turning one way through
+    less than a turn, as ``../shared/docs/OUTPUT.md`` defines it), or None when the order is not
+    prescribed or no such arc exists."""
+    fit = linkage.info.get("fit")
+    if not isinstance(fit, dict) or fit.get("order") != "listed" or len(linkage.poses) < 2:
+        return None
+    theta = np.array([float(p.joint_angles[driver]) for p in linkage.poses])
+    for direction in (1.0, -1.0):
+        steps = np.mod(direction * np.diff(theta), TWO_PI)
+        if np.all(steps > 0) and steps.sum() < TWO_PI:
+            span = float(steps.sum())
+            first = float(np.mod(theta[0], TWO_PI))
+            lo = first if direction > 0 else first - span
+            shift = TWO_PI if lo < 0 else 0.0  # start in [0, 2 pi)
+            return lo + shift, lo + shift + span
+    return None
 
 
 # ----------------------------------------------------------------------------------------- speeds
@@ -184,9 +207,9 @@ def speed_ratio(linkage: Linkage, driver: str, lo: float, hi: float) -> tuple[np
 def loop_jacobian(linkage: Linkage, t, extent: float | None = None) -> np.ndarray:
     """(..., 6 L, J) loop-closure Jacobians at parameters t (...): per closure (a, b), the world twists
     (u, p x u / E) of the joints on the path base -> a minus those on base -> b (E: ``extent``, default
-    `synth.checks.extent`)."""
+    `Linkage.extent`)."""
     t = np.asarray(t, float)
-    E = extent_of(linkage) if extent is None else extent
+    E = linkage.extent() if extent is None else extent
     disp = linkage.displacements(linkage.angles_at(t))
     D = np.stack([np.broadcast_to(disp[j.parent], t.shape + (4, 4)) for j in linkage.joints], axis=-3)
     U = np.array([j.direction for j in linkage.joints])
@@ -266,7 +289,7 @@ def drive_report(linkage: Linkage) -> DriveReport:
     others = [k for k, n in enumerate(names) if n != driver and linkage.closures]
     k = max(others, key=lambda i: ratio[i]) if others else names.index(driver)
     t, phi = _cycle_samples(linkage, driver)
-    E = extent_of(linkage)
+    E = linkage.extent()
     cond = conditioning(linkage, t, E)
     # local minima of the sampled conditioning (cyclic) that may be singular or the worst of the task
     # range, refined between their neighbours
