@@ -10,7 +10,7 @@ import traceback
 import click
 
 from synth.io.names import check_package, check_robot_name, safe_robot_name
-from synth.io.streams import environment_error, silence_stderr, silence_stdout
+from .streams import environment_error, silence_stderr, silence_stdout
 
 
 def echo(msg: str = "") -> None:
@@ -280,10 +280,10 @@ def collision_sentence(report, scale: float, unit: str) -> str:
 
 
 def design_result(linkage, sizes: dict, *, scale: float, unit: str, source: str, require_free: bool, **search):
-    """The physical design of ``linkage`` (`synth.io.meshes.design_for`) with the sizes in metres;
+    """The physical design of ``linkage`` (`synth.design.choose.design_for`) with the sizes in metres;
     SynthesisError (exit 1) with the sentence when ``require_free`` and it is not collision-free;
-    ``search``: further arguments of the design search (ranges, full_seconds)."""
-    from synth.io.meshes import design_for
+    ``search``: further arguments of the design search (ranges, full_work, work)."""
+    from synth.design.choose import design_for
 
     check_mesh_sizes(sizes, linkage.extent(), scale, unit)
     result = design_for(linkage, **sizes, **search)
@@ -292,7 +292,7 @@ def design_result(linkage, sizes: dict, *, scale: float, unit: str, source: str,
     return result
 
 
-def choose_buildable(candidates, ps, sizes: dict, *, limit: int, seconds: float, what: str):
+def choose_buildable(candidates, ps, sizes: dict, *, limit: int, work: float, what: str):
     """Design the best-scored ``candidates`` (best first) and keep the collision-free one first (full cycle,
     then task range; `synth.design.search.rank_buildable`), then the score. Returns (linkage, DesignResult);
     ``linkage.info["design_choice"]`` says which candidate won; ``what``: the candidates' name in it."""
@@ -300,9 +300,9 @@ def choose_buildable(candidates, ps, sizes: dict, *, limit: int, seconds: float,
     from synth.design.search import rank_buildable
 
     candidates = list(candidates)
-    ranked = rank_buildable(candidates, lambda lk, ranges, full_seconds: design_result(
+    ranked = rank_buildable(candidates, lambda lk, ranges, full_work, spent: design_result(
         lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source, require_free=False,
-        ranges=ranges, full_seconds=full_seconds), limit=limit, seconds=seconds)
+        ranges=ranges, full_work=full_work, work=spent), limit=limit, work=work)
     linkage, result = first_in_envelope(  # an envelope in the task file: the first design inside it
         ranked, [c for c in candidates[:limit] if all(c is not lk for lk, _ in ranked)],
         lambda lk: design_result(lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source,
@@ -382,9 +382,11 @@ def emit_linkage(linkage, *, source, scale, unit, out, name, force, package, siz
         if result is None:
             result = design_result(linkage, sizes, scale=scale, unit=unit, source=source, require_free=require_free)
         first_in_envelope([(linkage, result)], [], None, constraints, source=source, scale=scale, unit=unit)
+    if result is not None and drive is not None:
+        result.drive = drive  # written as linkage.json's drive (computed once)
     if out:
         files = write_output(linkage, out, robot_name=name or default_robot_name(source), force=force,
-                             package=package, result=result, drive=drive)
+                             package=package, result=result)
     if not quiet:
         print_linkage_summary(linkage, scale, unit)
         if details is not None:

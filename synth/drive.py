@@ -206,7 +206,8 @@ def speed_ratio(linkage: Linkage, driver: str, lo: float, hi: float) -> tuple[np
 # ----------------------------------------------------------------------------------------- conditioning
 def loop_jacobian(linkage: Linkage, t, extent: float | None = None) -> np.ndarray:
     """(..., 6 L, J) loop-closure Jacobians at parameters t (...): per closure (a, b), the world twists
-    (u, p x u / E) of the joints on the path base -> a minus those on base -> b (E: ``extent``, default
+    (u, p x u / E) of the joints on the path base -> a minus those on base -> b, moments about the centre
+    of the task's positions (so that moving the whole task does not change them; E: ``extent``, default
     `Linkage.extent`)."""
     t = np.asarray(t, float)
     E = linkage.extent() if extent is None else extent
@@ -215,7 +216,8 @@ def loop_jacobian(linkage: Linkage, t, extent: float | None = None) -> np.ndarra
     U = np.array([j.direction for j in linkage.joints])
     P = np.array([j.point for j in linkage.joints])
     u = np.einsum("...jkl,jl->...jk", D[..., :3, :3], U)
-    p = np.einsum("...jkl,jl->...jk", D[..., :3, :3], P) + D[..., :3, 3]
+    centre = np.mean([r.matrix[:3, 3] for r in linkage.poses] + [linkage.tool_ref[:3, 3]], axis=0)
+    p = np.einsum("...jkl,jl->...jk", D[..., :3, :3], P) + D[..., :3, 3] - centre
     twists = np.concatenate([u, cross3(p, u) / E], axis=-1)  # (..., J, 6)
     J = np.einsum("lj,...jk->...lkj", _closure_signs(linkage), twists)  # (..., L, 6, J)
     return J.reshape(t.shape + (6 * len(linkage.closures), len(linkage.joints)))
