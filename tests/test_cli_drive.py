@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -29,8 +31,10 @@ SLOW = ["bennett_quat.yaml", "bennett_matrix.json", "bennett_planar.yaml", "benn
 
 @pytest.fixture
 def verifier():
-    """The shared verifier, or None when it is absent (its checks are then skipped, the rest still runs)."""
-    return VERIFIER if VERIFIER.exists() else None
+    """The shared verifier (``$MPSYNTH_VERIFIER``, default ../shared/tools/verify_output.py), or None when
+    it is absent (its checks are then skipped, the rest still runs)."""
+    path = Path(os.environ.get("MPSYNTH_VERIFIER", VERIFIER))
+    return path if path.is_file() else None
 
 
 def run(*args):
@@ -186,3 +190,46 @@ def test_max_extent_refuses_huge_near_planar_linkages(tmp_path):
     r = run("bennett", FIX / "bennett_mm_deg.yaml", "--max-extent", "100")
     assert r.exit_code == 1 and "more than --max-extent 100 mm" in r.output
     assert run("bennett", FIX / "bennett_mm_deg.yaml", "--max-extent", "-1").exit_code == 2
+
+
+def noisy_bennett_task(path, box=None):
+    """Seven poses sampled (seeded) from bennett_mm_deg's Bennett motion with 0.1 mm / 0.05 deg noise,
+    tolerance 0.5 mm / 0.3 deg; ``box`` (mm) as constraints.base. Returns the true linkage."""
+    import synth
+    from synth.frames import rpy_from_matrix
+
+    ps = load_poses(str(FIX / "bennett_mm_deg.yaml"))
+    lk = synth.bennett(ps.matrices, ps.names)
+    rng = np.random.default_rng(5)
+    poses = []
+    for t in (np.inf, -1.5, -0.6, 0.0, 0.5, 1.0, 2.2):
+        T = lk.tool_pose(lk.angles_at(t))
+        poses.append({"position": (T[:3, 3] * 1000 + rng.normal(size=3) * 0.1).round(4).tolist(),
+                      "rpy": (np.degrees(rpy_from_matrix(T[:3, :3])) + rng.normal(size=3) * 0.05).round(4).tolist()})
+    doc = {"units": {"length": "mm", "angle": "deg"}, "tolerance": {"position": 0.5, "angle": 0.3}, "poses": poses}
+    if box is not None:
+        doc["constraints"] = {"base": {"box": box}}
+    path.write_text(yaml.safe_dump(doc))
+    return lk
+
+
+@pytest.mark.parametrize("shift, ok", [(0.0, True), (300.0, False)])
+def test_noisy_bennett_task_with_a_mounting_box(shift, ok, tmp_path, verifier):
+    """A fitted Bennett linkage (7 noisy poses) whose ground axes must pass through a box around the true
+    solution's: met and verified (tolerances and base box); the box moved 300 mm away: exit 1 naming it."""
+    lk = noisy_bennett_task(tmp_path / "probe.yaml")
+    sites = lk.joint_sites()
+    P = np.array([sites["h1"], sites["k1"]]) * 1000 + shift
+    box = [(P.min(0) - 5).tolist(), (P.max(0) + 5).tolist()]
+    task = tmp_path / "noisy.yaml"
+    noisy_bennett_task(task, box)
+    out = tmp_path / "out"
+    r = run("bennett", task, "-o", out)
+    if not ok:
+        assert r.exit_code == 1 and re.search(r"constraints\.base: the axis of (h1|k1) misses the base box by", r.output)
+        assert not out.exists()
+        return
+    assert r.exit_code == 0, r.output
+    assert "constraints: met: base box" in r.output
+    if verifier is not None:
+        assert "base_box=checked" in verifier_notes(verifier, task, out)
