@@ -324,9 +324,9 @@ def drive_warnings(report: DriveReport) -> list[str]:
     lo, hi = (math.degrees(v) for v in report.range)
     if report.max_speed_ratio > SPEED_RATIO_WARN:
         out.append(f"poor drive: {report.max_speed_joint} turns {report.max_speed_ratio:.3g} times as fast as the "
-                   f"driver {report.driver} (at {math.degrees(report.max_speed_at):.1f} deg), so a motor on "
-                   f"{report.driver} gives it little torque there; try --driver with another joint on the base "
-                   "or another solution")
+                   f"driver {report.driver} (at {math.degrees(report.max_speed_at):.1f} deg): there it whips round "
+                   f"and a motor on {report.driver} needs {report.max_speed_ratio:.3g} times the torque of a load on "
+                   "it; try --driver with another joint on the base or another solution")
     if any(p.inside for p in report.dead_points):
         out.append(f"dead point: the linkage passes a singular configuration inside the task range "
                    f"({report.driver} from {lo:.1f} to {hi:.1f} deg), where it may stall or switch branches")

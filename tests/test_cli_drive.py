@@ -233,3 +233,9 @@ def test_noisy_bennett_task_with_a_mounting_box(shift, ok, tmp_path, verifier):
     assert "constraints: met: base box" in r.output
     if verifier is not None:
         assert "base_box=checked" in verifier_notes(verifier, task, out)
+
+
+@pytest.mark.slow
+def test_sixbar_driver_option_agrees_with_the_verifier(tmp_path, verifier):
+    drive = speed_ratio_agrees("sixbar_example.yaml", tmp_path, verifier, "--driver", "k1")
+    assert drive["driver"] == "k1"
