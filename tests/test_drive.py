@@ -110,3 +110,19 @@ def test_near_planar_bennett_warns_about_a_poor_drive():
     d = r.to_dict()
     assert set(d) == {"driver", "range", "max_speed_ratio", "max_speed_joint", "max_speed_at", "min_conditioning",
                       "min_conditioning_at", "dead_points", "warnings"}
+
+
+def test_listed_order_task_range_follows_the_listed_arc():
+    """With ``order: listed`` (info.fit.order) the task range is the arc from the first pose through the
+    others in the listed order, one way: for bennett_mm_deg's h1 angles (pick 0, via 276.6, place 50.8
+    deg) listed pick, place, via it is 0 -> 50.8 -> 276.6 (increasing); listed pick, via, place it runs
+    down from 360 through 276.6 to 50.8."""
+    lk = fixture_linkage("bennett_mm_deg.yaml")
+    th = {p.name: math.degrees(p.joint_angles["h1"]) % 360 for p in lk.poses}
+    lk.info["fit"] = {"order": "listed"}
+    lk.poses = [lk.poses[0], lk.poses[2], lk.poses[1]]
+    _, lo, hi = task_range(lk)
+    assert (math.degrees(lo), math.degrees(hi)) == (pytest.approx(0.0, abs=1e-9), pytest.approx(th["via"]))
+    lk.poses = [lk.poses[0], lk.poses[2], lk.poses[1]]
+    _, lo, hi = task_range(lk)
+    assert (math.degrees(lo), math.degrees(hi)) == (pytest.approx(th["place"]), pytest.approx(360.0))
