@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from synth.algebra.algorithm1 import cross3
+from synth.algebra.geometry import cross
 from synth.algebra.anglelaw import angle_law_inverse, driven_angle, driven_speed, driven_speed_max
 from synth.errors import InputError
 from synth.linkage import Linkage
@@ -218,7 +218,7 @@ def loop_jacobian(linkage: Linkage, t, extent: float | None = None) -> np.ndarra
     u = np.einsum("...jkl,jl->...jk", D[..., :3, :3], U)
     centre = np.mean([r.matrix[:3, 3] for r in linkage.poses] + [linkage.tool_ref[:3, 3]], axis=0)
     p = np.einsum("...jkl,jl->...jk", D[..., :3, :3], P) + D[..., :3, 3] - centre
-    twists = np.concatenate([u, cross3(p, u) / E], axis=-1)  # (..., J, 6)
+    twists = np.concatenate([u, cross(p, u) / E], axis=-1)  # (..., J, 6)
     J = np.einsum("lj,...jk->...lkj", _closure_signs(linkage), twists)  # (..., L, 6, J)
     return J.reshape(t.shape + (6 * len(linkage.closures), len(linkage.joints)))
 

@@ -26,14 +26,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.checks import extent as extent_of
+from synth.algebra.geometry import spread
 from synth.design.collision import even_samples, t_of_phi
 from synth.design.model import capsules
 from synth.design.search import task_phi_range
 from synth.drive import base_joints, driver_joint, speed_ratio, task_range, with_driver
 from synth.errors import SynthesisError
 from synth.linkage import Linkage
-from synth.synthesis.conic import position_spread
 from synth.task import Box, Constraints
 
 __all__ = ["Violation", "line_box_distance", "default_max_extent", "kinematic_violations", "admissible",
@@ -105,15 +104,15 @@ def default_max_extent(linkage: Linkage) -> float:
     """`EXTENT_FACTOR` times the spread of the task's positions (metres); inf when they coincide."""
     if len(linkage.poses) < 2:
         return math.inf
-    spread = float(position_spread(np.array([p.matrix for p in linkage.poses]))[1])
-    return EXTENT_FACTOR * spread if spread > 0 else math.inf
+    size = float(spread(np.array([p.matrix[:3, 3] for p in linkage.poses]))[1])
+    return EXTENT_FACTOR * size if size > 0 else math.inf
 
 
 def kinematic_violations(linkage: Linkage, constraints: Constraints | None,
                          max_extent: float | None = None) -> list[Violation]:
     """What ``linkage`` (driven by its `driver_joint`) violates of the constraints that need no physical
     design (base box, speed ratio) and of the extent limit (None: `default_max_extent`)."""
-    E = extent_of(linkage)
+    E = linkage.extent()
     limit = default_max_extent(linkage) if max_extent is None else max_extent
     out = []
     if E > limit:
@@ -151,7 +150,7 @@ def admissible(candidates, constraints: Constraints | None, *, driver: str | Non
         if driver is None and constraints is not None and constraints.max_speed_ratio is not None:
             variants += [with_driver(lk, j) for j in base_joints(lk) if j != driver_joint(lk)]
         scored = [(v, kinematic_violations(v, constraints, max_extent)) for v in variants]
-        E = extent_of(lk)
+        E = lk.extent()
         ok = [v for v, bad in scored if not bad]
         if ok:
             passed.append(ok[0])
@@ -175,7 +174,7 @@ def refusal(linkage: Linkage, violations: list[Violation], *, source: str = "", 
     hints = []
     if any(v.constraint == "max_extent" for v in violations):
         spread = default_max_extent(linkage) / EXTENT_FACTOR
-        times = f"{extent_of(linkage) / spread:.3g} x the task's spread: " if math.isfinite(spread) else ""
+        times = f"{linkage.extent() / spread:.3g} x the task's spread: " if math.isfinite(spread) else ""
         hints.append(f"({times}nearly degenerate poses, e.g. nearly planar or nearly spherical ones, give huge "
                      "linkages; make them exactly planar or spherical, move them apart, or raise --max-extent)")
     if any(v.constraint == "constraints.max_speed_ratio" for v in violations):
