@@ -27,7 +27,7 @@ from synth.errors import InputError
 from synth.linkage import Linkage
 
 __all__ = ["DeadPoint", "DriveReport", "driver_joint", "task_range", "with_driver", "base_joints",
-           "follower_angles", "speed_ratio", "loop_jacobian", "conditioning", "drive_report"]
+           "follower_angles", "speed_ratio", "loop_jacobian", "loop_conditioning", "drive_report"]
 
 TWO_PI = 2.0 * math.pi
 SPEED_RATIO_WARN = 10.0  # a joint turning this many times as fast as the driver is called poor
@@ -236,7 +236,7 @@ def _closure_signs(linkage: Linkage) -> np.ndarray:
     return signs
 
 
-def conditioning(linkage: Linkage, t, extent: float | None = None) -> np.ndarray:
+def loop_conditioning(linkage: Linkage, t, extent: float | None = None) -> np.ndarray:
     """(...) sigma_{n-1} / sigma_1 of `loop_jacobian` at parameters t (1 for a linkage without loops)."""
     n = len(linkage.joints)
     if not linkage.closures or n < 2 or 6 * len(linkage.closures) < n - 1:
@@ -262,7 +262,7 @@ def _refine_minima(linkage: Linkage, driver: str, lo: np.ndarray, hi: np.ndarray
     (driver angle, conditioning) of the minima."""
     d = linkage.joint(driver)
     g = (math.sqrt(5) - 1) / 2
-    f = lambda x: conditioning(linkage, d.parameter(np.mod(x, TWO_PI)), E)  # noqa: E731
+    f = lambda x: loop_conditioning(linkage, d.parameter(np.mod(x, TWO_PI)), E)  # noqa: E731
     x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
     f1, f2 = f(x1), f(x2)
     for _ in range(REFINE_STEPS):
@@ -292,7 +292,7 @@ def drive_report(linkage: Linkage) -> DriveReport:
     k = max(others, key=lambda i: ratio[i]) if others else names.index(driver)
     t, phi = _cycle_samples(linkage, driver)
     E = linkage.extent()
-    cond = conditioning(linkage, t, E)
+    cond = loop_conditioning(linkage, t, E)
     # local minima of the sampled conditioning (cyclic) that may be singular or the worst of the task
     # range, refined between their neighbours
     prev, nxt = np.roll(cond, 1), np.roll(cond, -1)
@@ -307,7 +307,7 @@ def drive_report(linkage: Linkage) -> DriveReport:
     # the worst conditioning over the task range: samples, refined minima and the ends
     ends = linkage.joint(driver).parameter(np.mod([lo, hi], TWO_PI))
     cand_phi = np.concatenate([phi, xm, np.mod([lo, hi], TWO_PI)])
-    cand = np.concatenate([cond, cm, conditioning(linkage, ends, E)])
+    cand = np.concatenate([cond, cm, loop_conditioning(linkage, ends, E)])
     inside = _in_arc(cand_phi, lo, hi)
     w = int(np.argmin(np.where(inside, cand, np.inf)))
     dead = [DeadPoint(float(lo + np.mod(x - lo, TWO_PI)), float(c), bool(_in_arc(x, lo, hi)))

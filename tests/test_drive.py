@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 import synth
 from synth.algebra.anglelaw import driven_speed, driven_speed_max
-from synth.drive import (base_joints, conditioning, drive_report, driver_joint, follower_angles, loop_jacobian,
-                         speed_ratio, task_range, with_driver)
+from synth.drive import (base_joints, drive_report, driver_joint, follower_angles, loop_jacobian,
+                         loop_conditioning, speed_ratio, task_range, with_driver)
 from synth.errors import InputError
 from synth.io.poses import load_poses
 
@@ -84,7 +84,7 @@ def test_loop_jacobian_annihilates_the_joint_rates():
     J = loop_jacobian(lk, t)
     rates = np.array([-2 * j.b / ((t - j.a) ** 2 + j.b ** 2) for j in lk.joints]).T  # (3, 4)
     assert np.abs(np.einsum("sij,sj->si", J, rates)).max() < 1e-9 * np.abs(rates).max()
-    c = conditioning(lk, t)
+    c = loop_conditioning(lk, t)
     assert np.all((c > 0) & (c <= 1))
 
 
