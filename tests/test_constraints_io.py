@@ -28,7 +28,7 @@ def test_absent_or_empty_is_none_and_point_tasks_carry_it():
 
 @pytest.mark.parametrize("section, words", [
     ("constraints: 3", "t.yaml: constraints must be a mapping"),
-    ("constraints: {bas: {box: [[0, 0, 0], [1, 1, 1]]}}", 'unknown key "bas" in constraints (did you mean "base"?)'),
+    ("constraints: {bas: {box: [[0, 0, 0], [1, 1, 1]]}}", 'unknown key "bas" in constraints (did you mean "base"?'),
     ("constraints: {base: {box: [[0, 0, 0]]}}", "constraints.base.box must be two corners"),
     ("constraints: {envelope: {box: [[0, 0, 0], [1, x, 2]]}}", "constraints.envelope.box[1][1] must be a number"),
     ("constraints: {envelope: {box: [[0, 0, 0], [1, 1]]}}", "constraints.envelope.box[1] must be a list of 3"),
