@@ -5,7 +5,7 @@ import math
 
 import click
 
-from .common import Output, design_options, echo, emit, fmt_len, progress, run_guarded, synthesis_options
+from .common import Output, design_options, drive_options, echo, emit, fmt_len, progress, run_guarded, synthesis_options
 
 
 @click.command(epilog="""\b
@@ -56,7 +56,7 @@ def bennett(poses, member, top, best_effort, **params):
     task = is_task(ps)
     lam = parse_numbers(member, 2, "--member") if member is not None and not ps.has_points and not task else member
     options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=lam,
-                               best_effort=best_effort)
+                               best_effort=best_effort, **drive_options(params))
 
     def ready():
         if output.dir:
