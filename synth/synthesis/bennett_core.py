@@ -19,6 +19,7 @@ theta(t) = 2 atan2(b, t - a).
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -81,9 +82,12 @@ def solve(T, check_samples: int, perturb=None) -> dict:
 
 
 def _concatenate(parts: list):
-    """Dicts (nested) of arrays over sets, joined along the set axis."""
+    """Dicts (nested) or dataclasses (`DHParameters`) of arrays over sets, joined along the set axis."""
     if isinstance(parts[0], dict):
         return {k: _concatenate([p[k] for p in parts]) for k in parts[0]}
+    if dataclasses.is_dataclass(parts[0]):
+        return type(parts[0])(**{f.name: _concatenate([getattr(p, f.name) for p in parts])
+                                 for f in dataclasses.fields(parts[0])})
     return np.concatenate(parts, axis=0)
 
 
@@ -160,13 +164,9 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     geo = ring_normals(loop[..., 0, :], loop[..., 1, :])
     # the linkage's length scale (`synth.linkage.Linkage.extent`) of the tool positions (pose 0 twice: the
     # reference) and the joint sites, the means of the feet of the common normals on either side (each
-    # link carries two joints of the loop)
-    pts = np.empty((N, 8, 3))
-    pts[:, :3] = fac["Tf"][:, :, :3, 3]
-    pts[:, 7] = pts[:, 0]
-    np.add(geo.feet[:, :, 0], geo.feet[:, _PREVIOUS, 1], out=pts[:, 3:7])
-    pts[:, 3:7] *= 0.5
-    length_scale = extent(pts)
+    # link carries two joints of the loop), less their centroid: one linear map of the positions and feet
+    pts = np.concatenate([fac["Tf"][:, :, :3, 3], geo.feet.reshape(N, 8, 3)], axis=1)
+    length_scale = extent(np.matmul(_SITES, pts), centred=True)
     # certified: closure and motion over the whole motion, the poses at their angles through the motion
     bound = loop_bound(U, M, a, b, BRANCHES, motion)
     errors = pose_bound(motion, TS[1:], Q[:, 1:3], Q[:, 0], bound)  # (pose 0: t = inf)
@@ -232,4 +232,20 @@ def bennett_parameters(geo) -> dict:
             "a_over_sin_alpha": r0, "b_over_sin_beta": r1, "bennett_condition_residual": res}
 
 
-_PREVIOUS = np.array([3, 0, 1, 2])  # the pair before each joint around the Bennett loop
+
+def _sites_map(J: int, P: int) -> np.ndarray:
+    """The linear map (P + J + 1, P + 2 J) from the tool positions of P poses and the feet (`ring_normals`:
+    pair i's foot on joint i, then on joint i+1) around a loop of J joints to the points of the length
+    scale less their centroid: the positions, the joint sites (the mean of the feet on either side of
+    each joint) and pose 0 again (the tool reference)."""
+    S = np.zeros((P + J + 1, P + 2 * J))
+    S[:P, :P] = np.eye(P)
+    S[P + J, 0] = 1.0
+    for i in range(J):
+        S[P + i, P + 2 * i] = S[P + i, P + 2 * ((i - 1) % J) + 1] = 0.5
+    out = S - S.mean(axis=0)
+    out.flags.writeable = False
+    return out
+
+
+_SITES = _sites_map(4, 3)  # the Bennett loop's length-scale map (`_solve`)
