@@ -2,7 +2,6 @@
 "Cranked bars"). Lengths in metres."""
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
