@@ -117,7 +117,8 @@ def test_batch_job_gets_the_entry_points_linkage():
 
     path = FIX / "bennett_quat.yaml"
     doc = {"kind": "bennett", "poses": [
-        {"position": [0, 0, 0], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}}, {"position": [1, 0, 0.5], "quaternion": {"w": 0.6, "x": 0, "y": 0, "z": 0.8}},
+        {"position": [0, 0, 0], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}},
+        {"position": [1, 0, 0.5], "quaternion": {"w": 0.6, "x": 0, "y": 0, "z": 0.8}},
         {"position": [0.25, 1, 0.2], "quaternion": {"w": 0.6, "x": 0.8, "y": 0, "z": 0}}]}
     res = run_job((1, json.dumps(doc)), full=True)
     assert res["ok"], res

@@ -8,8 +8,8 @@ import math
 from synth.design.choose import design_for
 from synth.design.constraints import envelope_violation, first_in_envelope
 from synth.design.search import collision_rank, rank_buildable
+from synth.design.sizes import check_sizes
 from synth.errors import SynthesisError
-from synth.solve.options import check_mesh_sizes
 
 
 def collision_sentence(report, scale: float, unit: str) -> str:
@@ -56,7 +56,7 @@ class Designer:
     def design(self, linkage, **search):
         """The physical design of ``linkage`` (`synth.design.choose.design_for`); ``search``: further
         arguments of the design search (ranges, full_work, effort, work). InputError for sizes absurd for it."""
-        check_mesh_sizes(self.sizes, linkage.extent(), self.scale, self.unit)
+        check_sizes(self.sizes, linkage.extent(), scale=self.scale, unit=self.unit)
         return design_for(linkage, **self.sizes, **search)
 
     def sentence(self, result) -> str:
