@@ -59,7 +59,9 @@ class SynthesisOptions:
     poses (lambda1, lambda2); 6R: lambda1, or (t3, lambda1, lambda2, lambda3) for planar or spherical
     poses. ``family`` (1|2) and ``pair`` (1..9): 6R. ``method``: curves ("auto", "translation",
     "rotation"). ``best_effort``: task fits (docs/fit.md): the best fit even when it misses a tolerance
-    (else SynthesisError)."""
+    (else SynthesisError). ``driver``: the joint the motor turns (a joint on the base; None: h1) and
+    ``max_extent``: the largest extent accepted, in the task's length unit (None: 100 x the task's
+    spread; docs/drive.md)."""
 
     design: DesignOptions = field(default_factory=DesignOptions)
     physical: bool = False
@@ -69,6 +71,8 @@ class SynthesisOptions:
     pair: int | None = None
     method: str = "auto"
     best_effort: bool = False
+    driver: str | None = None
+    max_extent: float | None = None
 
     @property
     def wants_design(self) -> bool:
