@@ -1,8 +1,8 @@
 """The ``print`` section of linkage.json (issue 33): each part in its best print orientation on a
 printer's bed, its volume and mass.
 
-Print orientation of a closed mesh: a face of its convex hull down on the bed (flat, no support under
-it), the one giving the lowest part; then the footprint turned about the vertical to the smallest
+Print orientation of a closed mesh: the lowest part over the mesh faces that can lie flat on the bed
+and `SPHERE` directions spread over the sphere (a flat face down when one gives the lowest part); then the footprint turned about the vertical to the smallest
 bounding rectangle (an edge of the footprint's outline along x). Pure numpy (no scipy: writing an
 output imports nothing heavy). ``extents`` (x, y, z) are that
 rectangle's sides (x >= y) and the height, in millimetres; ``fits_bed`` when they fit the bed
@@ -41,6 +41,18 @@ class PrintPart:
 DIRECTIONS = 720  # footprint directions sampled for its outline (its extreme points)
 
 
+SPHERE = 2000  # further down directions tried, spread over the sphere
+
+
+def sphere_directions(n: int) -> np.ndarray:
+    """``n`` unit vectors (n, 3) spread evenly over the sphere (Fibonacci lattice)."""
+    k = np.arange(n) + 0.5
+    z = 1 - 2 * k / n
+    phi = np.pi * (1 + 5 ** 0.5) * k
+    r = np.sqrt(1 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
 def _down_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Outward unit normals (k, 3) of the faces of the closed mesh that can lie on a flat bed: the faces
     whose plane has the whole mesh on its inner side (faces of the convex hull), rounded duplicates removed."""
@@ -62,10 +74,11 @@ def _down_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def print_orientation(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """A rotation R (3, 3) putting the closed mesh (vertices (n, 3), faces (m, 3)) in its print
-    orientation (rows of R: the bed's x, y and up in the mesh's frame): a face of its convex hull down,
-    lowest height; the footprint turned so that an edge of its outline (extreme points in `DIRECTIONS`
+    orientation (rows of R: the bed's x, y and up in the mesh's frame): the lowest height among the
+    mesh faces that can lie on the bed and `SPHERE` directions (a convex hull's face spanning several
+    primitives is not a mesh face; those directions come within about 2.5 degrees of it); the footprint turned so that an edge of its outline (extreme points in `DIRECTIONS`
     directions) runs along x, smallest bounding rectangle, x the longer side."""
-    normals = _down_faces(vertices, faces)
+    normals = np.concatenate([_down_faces(vertices, faces), sphere_directions(SPHERE)])
     up = -normals[np.argmin(np.ptp(vertices @ normals.T, axis=0))]  # the face on the bed points down
     e1 = np.cross(up, np.eye(3)[np.argmin(np.abs(up))])
     e1 /= np.linalg.norm(e1)
