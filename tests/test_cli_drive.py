@@ -121,7 +121,7 @@ def test_mount_fixture_meets_its_constraints(tmp_path, verifier):
     ("base", {"box": [[500, 500, 500], [600, 600, 600]]},
      r"constraints\.base: the axis of h1 misses the base box by [0-9.]+ mm; constraints\.base: the axis of k1"),
     ("envelope", {"box": [[-100, -100, -100], [100, 100, 100]]},
-     r"constraints\.envelope: link_\w+ leaves the envelope by [0-9.]+ mm"),
+     r"constraints\.envelope: \w+ leaves the envelope by [0-9.]+ mm"),
     ("max_speed_ratio", 2.5, r"constraints\.max_speed_ratio: k2 turns 2\.769 times as fast as k1 \(limit 2\.5"),
 ])
 def test_unmet_constraints_exit_1_naming_them(constraint, value, words, tmp_path):

@@ -39,11 +39,11 @@ def test_budget_and_its_parts_count_together():
 def test_a_slow_clock_changes_nothing(linkage, monkeypatch):
     """The thinning and crank budgets were CPU seconds: a clock that jumps 100 s per reading (a machine
     100 times too busy) would have stopped them at once. Counted, the same design comes out."""
-    first = design_for(linkage)
+    first = design_for(linkage, slenderness=1e9)  # bars as slender as before issue 33: thinning runs
     assert first.collision.thinned is not None  # the path that had a CPU budget was taken
     clock = iter(range(0, 10 ** 9, 100))
     monkeypatch.setattr(time, "process_time", lambda: float(next(clock)))
-    again = design_for(linkage)
+    again = design_for(linkage, slenderness=1e9)
     assert again.collision.to_dict() == first.collision.to_dict()
     assert again.design.to_dict() == first.design.to_dict()
     assert again.collision.work == first.collision.work > 0
@@ -53,10 +53,10 @@ def test_a_small_budget_stops_the_search_early(linkage):
     """A limit of 1e6 gap evaluations: the search stops within one move's evaluations past it (about 1e4
     for this linkage), with the same result on every run; unlimited, it does more (5.5e6)."""
     spent = Work(1e6)
-    small = design_for(linkage, work=spent, thin=False)
+    small = design_for(linkage, work=spent, thin=False, slenderness=1e9)
     assert 1e6 <= spent.done < 1.05e6 and small.collision.work == spent.done
-    again = design_for(linkage, work=Work(1e6), thin=False)
+    again = design_for(linkage, work=Work(1e6), thin=False, slenderness=1e9)
     assert again.collision.to_dict() == small.collision.to_dict()
     unlimited = Work()
-    design_for(linkage, work=unlimited, thin=False)
+    design_for(linkage, work=unlimited, thin=False, slenderness=1e9)
     assert unlimited.done > 5 * spent.done

@@ -330,6 +330,8 @@ def test_write_output_files(bennett, written):
     doc = json.loads((out / "linkage.json").read_text())
     from synth.drive import drive_report
 
+    printed = doc.pop("print")  # the parts on the bed (tests/test_printreport.py)
+    assert sorted(p["mesh"] for p in printed["parts"]) == sorted(f"meshes/{n}.stl" for n in GEOMETRIC | PINS)
     assert doc == linkage_document(bennett, result.design, result.collision, drive_report(bennett))
     assert doc["drive"]["driver"] == "h1" and doc["drive"]["max_speed_ratio"] > 0
     assert set(doc["design"]) >= {"pin_radius", "bar_radius", "hub_radius", "hub_length", "hole_clearance",
