@@ -4,6 +4,7 @@
     L = synth.bennett(poses)            # poses: (3, 4, 4) array, metres -> Linkage
     L = synth.sixbar(poses4)            # (4, 4, 4) -> the best 6R Linkage (options: family, member, pair)
                                         # planar/spherical poses: a four-bar / Watt six-bar (docs/planar.md)
+    L = synth.fourbar(poses)            # (k, 4, 4) coplanar, k >= 3 -> the best planar four-bar (docs/fourbar.md)
     L = synth.bennett_points(pts)       # (5, 3) points, metres -> Bennett Linkage whose tool point visits them
     L = synth.sixbar_points(pts7)       # (7, 3) -> the best 6R Linkage; synth.point_candidates(.., top=N): ranked
     R = synth.bennett_batch(many)       # (N, 3, 4, 4) -> BennettBatch: arrays over N, per-set status
@@ -27,13 +28,14 @@ from __future__ import annotations
 
 import importlib
 
-__all__ = ["bennett", "sixbar", "bennett_points", "sixbar_points", "point_candidates", "bennett_batch", "sweep",
+__all__ = ["bennett", "sixbar", "fourbar", "bennett_points", "sixbar_points", "point_candidates", "bennett_batch", "sweep",
            "factorize", "BennettBatch", "Linkage", "MpsynthError",
            "InputError", "SynthesisError"]
 
 _LAZY = {
     "bennett": "synth.synthesis.bennett",
     "sixbar": "synth.synthesis.sixbar",
+    "fourbar": "synth.synthesis.fourbar",
     "bennett_points": "synth.synthesis.points",
     "sixbar_points": "synth.synthesis.points",
     "point_candidates": "synth.synthesis.points",

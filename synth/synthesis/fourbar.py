@@ -62,6 +62,13 @@ def fourbar_candidates(T, names, *, top: int = 1, min_transmission_deg: float = 
     return out
 
 
+def fourbar(T, names=None, **options):
+    """The best planar four-bar through the poses T (k, 4, 4), metres (`fourbar_candidates` with ``top=1``;
+    ``options``: its keyword arguments)."""
+    names = list(names) if names is not None else [f"p{i}" for i in range(len(T))]
+    return fourbar_candidates(T, names, top=1, **options)[0]
+
+
 def weights(tol, scale: float) -> np.ndarray:
     """Per-pose weights (k, 2) of position (per pose spread) and angle: 1 / tolerance, 0 where free."""
     tc = np.asarray(tol, float) / np.array([scale, 1.0])

@@ -95,7 +95,7 @@ def rows_in_g(task: PlanarTask, w) -> np.ndarray:
     return np.concatenate([n, e[..., None]], -1)
 
 
-def _grid(task, grid) -> np.ndarray:
+def circle_point_grid(task, grid) -> np.ndarray:
     """Circle points (n^2, 2) on ``grid`` x ``grid`` about the centroid of the tool origins."""
     u, v = np.meshgrid(grid, grid, indexing="ij")
     return np.stack([u.ravel(), v.ravel()], -1) + task.qc.mean(axis=0)
@@ -103,7 +103,7 @@ def _grid(task, grid) -> np.ndarray:
 
 def three_pose_dyads(task: PlanarTask, grid=CIRCLE_GRID) -> Dyads:
     """Dyads of three poses: circle points on ``grid`` x ``grid``, centres the circumcentres."""
-    w = _grid(task, grid)
+    w = circle_point_grid(task, grid)
     rows = rows_in_g(task, w)  # (N, 2, 3)
     with np.errstate(all="ignore"):
         det = np.linalg.det(rows[..., :2])
@@ -188,17 +188,17 @@ def _polished(task, G, method) -> Dyads:
     w, _ = null_circle_points(rows_in_w(task, G))
     x = np.concatenate([G, w], -1)
     for _ in range(NEWTON_STEPS):
-        F, J = _equations(task, x)
+        F, J = dyad_equations(task, x)
         with np.errstate(all="ignore"):
             ok = np.abs(np.linalg.det(J)) > 1e-300
             step = np.linalg.solve(np.where(ok[:, None, None], J, np.eye(4)), F[..., None])[..., 0]
         x = x - np.where(ok[:, None], step, 0.0)
-    F, _ = _equations(task, x)
+    F, _ = dyad_equations(task, x)
     good = np.all(np.isfinite(x), axis=1) & (np.max(np.abs(F), axis=1, initial=0.0) <= EXACT_TOL)
     return _distinct(_dyads(task, x[good, :2], x[good, 2:], method))
 
 
-def _equations(task, x) -> tuple[np.ndarray, np.ndarray]:
+def dyad_equations(task, x) -> tuple[np.ndarray, np.ndarray]:
     """f_i (N, 4) of unknowns x = (G, w) (N, 4) and the Jacobian (N, 4, 4)."""
     G, w = x[:, :2], x[:, 2:]
     M = rows_in_w(task, G)[:, :4]  # (N, 4, 3)
@@ -222,11 +222,11 @@ def least_squares_dyads(task: PlanarTask, weights=None, grid=FIT_GRID, seeds: in
     in the circle fit (default 1)."""
     k = len(task.theta)
     wts = np.ones(k) if weights is None else np.asarray(weights, float)
-    w = _grid(task, grid)
+    w = circle_point_grid(task, grid)
     Z = moving_points(task, w)  # (N, k, 2)
     A = np.concatenate([2 * Z, np.ones(Z.shape[:-1] + (1,))], -1) * np.sqrt(wts)[:, None]
     b = np.sum(Z ** 2, -1) * np.sqrt(wts)
-    sol = _lstsq(A, b)
+    sol = batched_lstsq(A, b)
     G = sol[:, :2]
     _, err = circle_figures(task, G, w)
     n = len(grid)
@@ -240,7 +240,7 @@ def least_squares_dyads(task: PlanarTask, weights=None, grid=FIT_GRID, seeds: in
                                         f"{n} x {n} grid of circle points, Levenberg-Marquardt)"))
 
 
-def _lstsq(A, b) -> np.ndarray:
+def batched_lstsq(A, b) -> np.ndarray:
     """Batched least squares A x = b, A (N, k, 3), b (N, k), by QR."""
     Q, R = np.linalg.qr(A)
     return np.linalg.solve(R, np.einsum("nka,nk->na", Q, b)[..., None])[..., 0]
