@@ -205,7 +205,8 @@ def print_linkage_summary(linkage, scale: float, unit: str) -> None:
         d = j.direction + 0.0
         echo(f"  {j.name:6} ({p[0]:11.5g} {p[1]:11.5g} {p[2]:11.5g}) {unit:>3}  "
              f"({d[0]:8.5f} {d[1]:8.5f} {d[2]:8.5f})  {j.a + 0.0:.6g}, {j.b:.6g}"
-             + (f"  (rate {j.rate}: {j.rate} theta)" if j.rate != 1 else ""))
+             + (f"  (rate {j.rate}: {j.rate} theta)" if j.rate != 1 else "")
+             + ("  (then the four-bar loop law, docs/fourbar.md)" if j.law is not None else ""))
     echo("  (angle law a, b: the joint angle is theta(t) = 2 atan2(b, t - a) along the motion parameter t;"
          " theta = 0 at the first pose, t = inf)")
     for rec in linkage.poses:
@@ -353,3 +354,22 @@ def emit_linkage(linkage, *, source, scale, unit, out, name, force, package, siz
             echo("  no files written (give -o OUT to write URDF, STL and JSON)")
     if as_json:
         print_json(linkage_document(linkage, *((result.design, result.collision) if result else ())))
+
+
+def write_ranked(linkages, ids, results, doc, ps, *, out, name, force, package, quiet, as_json) -> None:
+    """The common ending of a ``--top N`` run: OUT/<id>/ for every solution plus OUT/index.json (``doc``) when
+    ``out`` is given, the closing line of the summary, and ``doc`` on stdout with --json."""
+    if out:
+        from synth.io.writer import write_solutions
+
+        base = name or default_robot_name(ps.source)
+        write_solutions(out, [(sid, lk, f"{base}_{sid.replace('-', '_')}", r) for lk, sid, r in zip(linkages, ids, results)],
+                        doc, force=force, package=package)
+        if not quiet:
+            echo(f"  wrote {out}/: index.json and {len(ids)} solution directories ({', '.join(ids)})")
+    elif not quiet and not as_json:
+        echo("  no files written (give -o OUT to write every design's URDF, STL and JSON)")
+    if as_json:
+        from synth.io.jsonout import plain
+
+        print_json(plain(doc))

@@ -5,8 +5,8 @@ import math
 
 import click
 
-from .common import (add_collisions, choose_buildable, default_robot_name, design_solutions, echo, emit_linkage,
-                     fmt_len, mesh_sizes, print_json, run_guarded, synthesis_options)
+from .common import (add_collisions, choose_buildable, design_solutions, echo, emit_linkage,
+                     fmt_len, mesh_sizes, run_guarded, synthesis_options, write_ranked)
 
 INDEX_FORMAT = "mpsynth.fourbar-index/1"
 BUILDABLE_CANDIDATES = 4  # default design: the best-ranked four-bars designed, collision-free first
@@ -113,17 +113,5 @@ def _ranked(ps, linkages, top, *, sizes, out, name, force, package, quiet, as_js
         for sol, lk in zip(doc["solutions"], linkages):
             echo(f"  {sol['id']}:" + design_line(lk, ps.length_scale, ps.length_unit)[1:]
                  + (f"; {sol['design_summary']}" if "design_summary" in sol else ""))
-    if out:
-        from synth.io.writer import write_solutions
-
-        base = name or default_robot_name(ps.source)
-        write_solutions(out, [(sid, lk, f"{base}_{sid.replace('-', '_')}", r)
-                              for lk, sid, r in zip(linkages, ids, results)], doc, force=force, package=package)
-        if not quiet:
-            echo(f"  wrote {out}/: index.json and {len(ids)} solution directories ({', '.join(ids)})")
-    elif not quiet and not as_json:
-        echo("  no files written (give -o OUT to write every design's URDF, STL and JSON)")
-    if as_json:
-        from synth.io.jsonout import plain
-
-        print_json(plain(doc))
+    write_ranked(linkages, ids, results, doc, ps, out=out, name=name, force=force, package=package, quiet=quiet,
+                 as_json=as_json)

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import click
 
-from .common import (add_collisions, choose_buildable, default_robot_name, design_solutions, echo, mesh_sizes,
-                     print_json, run_guarded, synthesis_options)
+from .common import (add_collisions, choose_buildable, design_solutions, echo, mesh_sizes,
+                     run_guarded, synthesis_options, write_ranked)
 
 INDEX_FORMAT = "mpsynth.sixbar-index/1"
 
@@ -191,17 +191,5 @@ def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, 
             echo(row)
         for sol in doc["solutions"] if results is not None else ():
             echo(f"  {sol['id']}: {sol['design_summary']}")
-    if out:
-        from synth.io.writer import write_solutions
-
-        base = name or default_robot_name(ps.source)
-        write_solutions(out, [(sid, lk, f"{base}_{sid.replace('-', '_')}", r) for lk, sid, r in zip(linkages, ids, results)],
-                        doc, force=force, package=package)
-        if not quiet:
-            echo(f"  wrote {out}/: index.json and {len(ids)} solution directories ({', '.join(ids)})")
-    elif not quiet and not as_json:
-        echo("  no files written (give -o OUT to write every design's URDF, STL and JSON)")
-    if as_json:
-        from synth.io.jsonout import plain
-
-        print_json(plain(doc))
+    write_ranked(linkages, ids, results, doc, ps, out=out, name=name, force=force, package=package, quiet=quiet,
+                 as_json=as_json)

@@ -80,6 +80,10 @@ def test_tools_on_a_fourbar(tmp_path):
     traj = json.loads((tmp_path / "traj.json").read_text())
     h2 = np.array(traj["angles"]["h2"])
     assert np.ptp(h2) > math.pi  # h2 turns fully against the crank (not a copy of h1)
+    t = np.array(traj["time"])
+    for j in ("h2", "k1", "k2"):  # the velocities are the angles' time derivatives
+        v, a = np.array(traj["velocities"][j]), np.array(traj["angles"][j])
+        assert np.allclose(np.gradient(a, t)[2:-2], v[2:-2], atol=2e-2 * np.abs(v).max())
     r = run("render", out, "--png", tmp_path / "f.png")
     assert r.exit_code == 0 and (tmp_path / "f.png").stat().st_size > 0
 
