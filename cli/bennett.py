@@ -5,6 +5,8 @@ import math
 
 import click
 
+from synth.design.work import GAPS_PER_SECOND
+
 from .common import choose_buildable, echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options
 
 
@@ -21,10 +23,14 @@ Example:
                    "of quadratic motions through them (L1, L2 nonzero; default: the best-scored, collision-free "
                    "first). Write a negative first value as --member=-0.5,2.")
 @click.option("--top", type=click.IntRange(1, 1000), default=None,
-              help="Point tasks: write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
+              help="Point tasks and fits: write the N best designs to OUT/<id>/ with OUT/index.json and print the "
+                   "ranking.")
+@click.option("--best-effort", is_flag=True,
+              help="Fits: when the tolerances cannot be met, write the best linkage anyway (info.fit.within_tolerance "
+                   "false) instead of exiting 1.")
 @synthesis_options
 @run_guarded
-def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
+def bennett(poses, member, top, best_effort, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
             require_collision_free, package, normalize, quiet, as_json, debug):
     """Synthesize the spatial Bennett 4R linkage whose coupler passes through the three poses in
     POSES (YAML or JSON, '-' for stdin; see README for the format). With five points instead (a
@@ -45,7 +51,9 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
 
     from .points import point_count, run_point_task
 
-    ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=normalize, points=point_count(2))
+    from synth.synthesis.bennett_fit import is_task
+
+    ps = load_poses(poses, count=((2, None), "mpsynth bennett"), normalize=normalize, points=point_count(2))
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                             clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
     if ps.has_points:
@@ -56,10 +64,19 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
                              "point task has no such family (use --top to see its ranked designs)")
         return run_point_task(ps, 2, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
                               as_json=as_json, require_free=require_collision_free)
+    if is_task(ps):  # tolerances, velocities, an order or other than three poses (docs/fit.md)
+        from .task import run_bennett_task
+
+        if out:
+            from synth.io.writer import check_output_target
+
+            check_output_target(out, force)
+        return run_bennett_task(ps, top, best_effort, out=out, name=name, force=force, package=package, sizes=sizes,
+                                quiet=quiet, as_json=as_json, require_free=require_collision_free)
     if top is not None:
         from synth.errors import InputError
 
-        raise InputError("--top applies to point tasks only: three poses give one Bennett linkage")
+        raise InputError("--top applies to point tasks and fits only: three poses give one Bennett linkage")
     if out:
         from synth.io.writer import check_output_target
 
@@ -75,14 +92,14 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
         raise SynthesisError(f"{ps.source}: {e}") from e
     linkage = linkages[0]
     if len(linkages) > 1:  # members of a planar or spherical family: collision-free first
-        linkage, result = choose_buildable(linkages, ps, sizes, limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS,
+        linkage, result = choose_buildable(linkages, ps, sizes, limit=BUILDABLE_CANDIDATES, work=BUILDABLE_WORK,
                                            what="members")
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
          as_json=as_json, require_free=require_collision_free, result=result)
 
 
 BUILDABLE_CANDIDATES = 4  # planar/spherical default: the best-scored members designed, collision-free first
-BUILDABLE_SECONDS = 4.0  # CPU budget of those design searches (one four-bar search: well under a second)
+BUILDABLE_WORK = 4.0 * GAPS_PER_SECOND  # gap evaluations of those design searches (synth.design.work)
 
 
 def parse_numbers(text: str, count: int, option: str) -> list[float]:

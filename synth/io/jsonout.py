@@ -20,6 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.io.meshes import DENSITY
+from synth.io.names import MESH_UNIT_SCALE, mesh_filename, pin_link_name
+
 FORMAT = "mpsynth.linkage/1"
 
 
@@ -46,8 +49,6 @@ def plain(obj, where: str = "document"):
 
 def design_section(design) -> dict:
     """The ``design`` section: `PhysicalDesign.to_dict` plus each pin's ``link`` and ``mesh`` file."""
-    from synth.io.urdf import mesh_filename, pin_link_name
-
     d = design.to_dict()
     for p in d["pins"]:
         p["link"] = pin_link_name(p["joint"])
@@ -58,9 +59,6 @@ def design_section(design) -> dict:
 def stl_section() -> dict:
     """The ``stl`` section: the STL files' length unit and URDF scale, and the density the URDF's masses
     and inertias assume (uniform solid parts)."""
-    from synth.io.meshes import DENSITY
-    from synth.io.urdf import MESH_UNIT_SCALE
-
     return {"length_unit": "mm", "urdf_scale": MESH_UNIT_SCALE, "density": DENSITY, "density_unit": "kg/m^3",
             "material": "aluminium", "masses": "URDF <inertial>: kg, kg m^2, solid parts of this density"}
 
@@ -75,7 +73,8 @@ def linkage_document(linkage, design=None, collision=None) -> dict:
         "poses": [
             {"name": p.name, "matrix": np.asarray(p.matrix, float), "t": p.t,
              "joint_angles": {k: float(v) for k, v in p.joint_angles.items()},
-             **({"kind": "point", "position": np.asarray(p.matrix, float)[:3, 3]} if p.kind == "point" else {})}
+             **({"kind": "point", "position": np.asarray(p.matrix, float)[:3, 3]} if p.kind == "point" else {}),
+             **_fit_fields(p)}
             for p in linkage.poses
         ],
         "joints": [
@@ -101,6 +100,18 @@ def linkage_document(linkage, design=None, collision=None) -> dict:
     if collision is not None:
         doc["collision"] = collision if isinstance(collision, dict) else collision.to_dict()
     return plain(doc)
+
+
+def _fit_fields(p) -> dict:
+    """A fitted pose's ``error`` and ``tolerance`` (metres, radians; null = unconstrained) or ``exact``."""
+    out = {}
+    if p.error is not None:
+        out["error"] = {"position": float(p.error[0]), "angle": float(p.error[1])}
+    if p.exact:
+        out["exact"] = True
+    elif p.tolerance is not None:
+        out["tolerance"] = {k: (float(v) if np.isfinite(v) else None) for k, v in zip(("position", "angle"), p.tolerance)}
+    return out
 
 
 def _dumps(obj, indent: int = 0) -> str:
@@ -131,3 +142,9 @@ def write_json(doc: dict, path) -> Path:
         fh.flush()
         os.fsync(fh.fileno())
     return path
+
+
+def write_linkage_json(job, directory: Path) -> list[Path]:
+    """The ``json`` exporter (`synth.io.export`): ``linkage.json`` of ``job``'s linkage and design."""
+    write_json(linkage_document(job.linkage, job.result.design, job.result.collision), directory / "linkage.json")
+    return [Path("linkage.json")]

@@ -55,7 +55,8 @@ def check_distinct(T, names, tol=COINCIDENT_TOL):
                              "three distinct poses are needed")
 
 
-def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None):
+def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None, tolerance=None,
+            velocity=None, order=None, best_effort: bool = False):
     """Synthesize the Bennett linkage whose coupler visits the three poses (shape (3, 4, 4), metres).
 
     ``check_samples``: number of parameters covering the real line at which the loop closure and the
@@ -66,7 +67,21 @@ def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, memb
     (docs/planar.md) have a family of quadratic motions through them and give a planar or spherical
     four-bar (kind ``planar_4r`` / ``spherical_4r``): the best-scored member, or ``member`` =
     (lambda1, lambda2). Raises InputError (shape, NaN, a member for spatial poses)
-    or SynthesisError (degenerate or non-real cases, with a plain-language reason)."""
+    or SynthesisError (degenerate or non-real cases, with a plain-language reason).
+
+    A task (docs/fit.md): ``poses`` a `synth.task.PoseSet` (as `synth.io.poses.load_poses` reads a task
+    file), or poses (N, 4, 4) with ``tolerance`` ((2,) or (N, 2) [metres, radians], 0 exact, inf free),
+    ``velocity`` ((N, 6) world twists [w, v], NaN rows: none) and/or ``order`` ("listed"): exact for three
+    poses or a Hermite pair, else fitted (`synth.synthesis.bennett_fit.bennett_task`; ``best_effort``
+    returns the best fit even when it misses a tolerance)."""
+    from synth.task import PoseSet
+
+    if isinstance(poses, PoseSet) or tolerance is not None or velocity is not None or order is not None:
+        from synth.synthesis.bennett_fit import bennett_task
+        from synth.synthesis.taskfit import make_task
+
+        task = poses if isinstance(poses, PoseSet) else make_task(poses, names, tolerance, velocity, order)
+        return bennett_task(task, best_effort=best_effort)[0]
     return bennett_candidates(poses, names, check_samples=check_samples, member=member)[0]
 
 
@@ -384,8 +399,21 @@ def _general_factors(T, names):
             raise SynthesisError(f"{close[0]}: the conic through them is numerically degenerate (poses "
                                  "1e-3 apart, relative, are needed); give three clearly distinct poses") from e
         raise
+    H, K, C, residual = factor_conic(con.C, cond)
+    info = {"factorization_residual": residual,
+            # the Study form is translation invariant and scales with length: report it in metres
+            "study_form": {k: float(v * cond.scale) for k, v in zip(("B01", "B02", "B12"), con.B)},
+            "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)}}
+    return H, K, C, con, cond, info
+
+
+def factor_conic(C, cond: Conditioning):
+    """Branches h = (h1, h2) and k = (k1, k2) (world frame, (2, 8) each) of a monic quadratic motion
+    polynomial C (3, 8) in the conditioned frame ``cond`` (`synth.algebra.factorize.factorize`; h1 carries
+    the norm root with the smaller real part), C in the world frame and the factorization residual.
+    SynthesisError when C has a real factor, a repeated norm factor or a translation factor."""
     try:
-        res = factorize(con.C, validate=False)
+        res = factorize(C, validate=False)
     except NotGenericError as e:
         raise SynthesisError(
             "the conic through the poses is degenerate (its motion has a real factor, e.g. a "
@@ -402,14 +430,7 @@ def _general_factors(T, names):
             raise SynthesisError(
                 "the relative screws of the poses have parallel axes: one factor of the motion is a "
                 "translation, so the linkage would need a prismatic joint (not supported)")
-    H = to_world(fh.factors, cond)
-    K = to_world(fk.factors, cond)
-    C = to_world(con.C, cond)
-    info = {"factorization_residual": max(fh.residual, fk.residual),
-            # the Study form is translation invariant and scales with length: report it in metres
-            "study_form": {k: float(v * cond.scale) for k, v in zip(("B01", "B02", "B12"), con.B)},
-            "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)}}
-    return H, K, C, con, cond, info
+    return to_world(fh.factors, cond), to_world(fk.factors, cond), to_world(C, cond), max(fh.residual, fk.residual)
 
 
 def _warnings(linkage, B, cond, info, far, perturbed=None, frame=None) -> list[str]:
