@@ -5,12 +5,14 @@ import math
 
 import click
 
+from synth.design.work import GAPS_PER_SECOND
+
 from .common import (add_collisions, choose_buildable, design_solutions, echo, emit_linkage,
                      fmt_len, mesh_sizes, run_guarded, synthesis_options, write_ranked)
 
 INDEX_FORMAT = "mpsynth.fourbar-index/1"
 BUILDABLE_CANDIDATES = 4  # default design: the best-ranked four-bars designed, collision-free first
-BUILDABLE_SECONDS = 4.0  # CPU budget of those design searches (one four-bar's layered search: well under a second)
+BUILDABLE_WORK = 4.0 * GAPS_PER_SECOND  # gap evaluations of those design searches (synth.design.work; rank_buildable)
 
 
 @click.command(epilog="""\b
@@ -64,10 +66,10 @@ def fourbar(poses, top, min_transmission, out, name, force, pin_radius, link_rad
     linkage = linkages[0]
     if design and len(linkages) > 1:
         linkage, result = choose_buildable(linkages, ps, sizes, limit=BUILDABLE_CANDIDATES,
-                                           seconds=BUILDABLE_SECONDS, what="four-bars")
+                                           work=BUILDABLE_WORK, what="four-bars")
     emit_linkage(linkage, source=ps.source, scale=ps.length_scale, unit=ps.length_unit, out=out, name=name,
                  force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json,
-                 details=lambda: echo(design_line(linkage, ps.length_scale, ps.length_unit)),
+                 details=lambda: details(linkage, ps),
                  require_free=require_collision_free, result=result)
 
 
@@ -81,9 +83,18 @@ def design_line(linkage, scale: float, unit: str) -> str:
             f"crank's task range {f['task_range_deg'][0]:.1f} .. {f['task_range_deg'][1]:.1f} deg")
     fit = linkage.info.get("fit")
     if fit:
-        line += (f"; fit: largest pose error {fmt_len(fit['max_error']['position'], scale, unit)}, "
-                 f"{math.degrees(fit['max_error']['angle']):.3g} deg")
+        line += (f"; largest pose error {fmt_len(fit['max_position_error'], scale, unit)}, "
+                 f"{math.degrees(fit['max_angle_error']):.3g} deg")
     return line
+
+
+def details(linkage, ps) -> None:
+    """The four-bar's lines of the summary: the design line, and a task's table of errors (`cli.task.print_fit`)."""
+    echo(design_line(linkage, ps.length_scale, ps.length_unit))
+    if "fit" in linkage.info:
+        from .task import print_fit
+
+        print_fit(linkage, ps)
 
 
 def index_document(linkages, ids, ps) -> dict:

@@ -192,8 +192,9 @@ def test_noisy_eight_pose_fit_within_tolerance():
     for rec in lk.poses:
         assert rec.error[0] <= 1e-4 and rec.error[1] <= 1e-3
     fit = lk.info["fit"]
-    assert fit["max_error"]["position"] == pytest.approx(max(r.error[0] for r in lk.poses))
-    assert 0.0 < fit["max_error"]["position"] < 5e-5  # noise up to 2e-5 m: a good fit is near it
+    assert fit["within_tolerance"] and fit["visit_order"] == NAMES[:8]
+    assert fit["max_position_error"] == pytest.approx(max(r.error[0] for r in lk.poses))
+    assert 0.0 < fit["max_position_error"] < 5e-5  # noise up to 2e-5 m: a good fit is near it
 
 
 def test_eight_poses_without_tolerance():
@@ -223,3 +224,14 @@ def test_document_round_trip():
     t = np.linspace(-5, 5, 41)
     for j in lk.joints:
         assert np.allclose(back.joint(j.name).angle(t), j.angle(t), atol=1e-15)
+
+
+def test_exact_task_with_tolerance_records_its_errors():
+    """Five poses with a task tolerance: met exactly, and every pose record says so (error and tolerance)."""
+    _, T, _, _ = task_poses(5)
+    lk = fourbar_candidates(T, NAMES[:5], tolerance=np.tile([1e-3, 1e-2], (5, 1)))[0]
+    assert lk.info["fit"]["method"] == "exact" and lk.info["fit"]["within_tolerance"]
+    for rec in lk.poses:
+        assert rec.error[0] < 1e-13 and rec.error[1] < 1e-12 and rec.tolerance == (1e-3, 1e-2)
+    doc = linkage_document(lk)
+    assert doc["poses"][2]["error"]["position"] < 1e-13 and doc["poses"][2]["tolerance"]["position"] == 1e-3

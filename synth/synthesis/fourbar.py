@@ -11,12 +11,13 @@ import math
 
 import numpy as np
 
-from synth.checks import VERIFY_SAMPLES, pose_difference, self_check
+from synth.checks import VERIFY_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.fourbar_build import fourbar_linkage
-from synth.synthesis.fourbar_dyads import task_dyads
+from synth.synthesis.fourbar_dyads import FIT_GRID, FIT_ITERATIONS, FIT_SEEDS, task_dyads
 from synth.synthesis.fourbar_plane import plane_of_motion
 from synth.synthesis.fourbar_rank import best_distinct, judge, pairs, rejection_counts
+from synth.synthesis.taskfit import FitSummary, annotate, make_task
 from synth.task import Order
 
 MIN_TRANSMISSION_DEG = 40.0  # default lower bound of the transmission angle over the task range
@@ -31,6 +32,8 @@ def fourbar_candidates(T, names, *, top: int = 1, min_transmission_deg: float = 
     coupler carries the tool through the poses T (k, 4, 4) (metres, k >= 3, coplanar: InputError naming the
     pose otherwise). k <= 5: exactly; more: least squares, within ``tolerance`` (k, 2) (metres, radians;
     0 = exact, inf = free; None = exact). ``order`` LISTED: the crank meets the poses in the listed order.
+    With a tolerance, or more than five poses, every pose record carries its miss and tolerance and
+    ``info.fit`` the fit's figures (`synth.synthesis.taskfit.annotate`).
     SynthesisError (with the count of candidates failing each criterion) when no four-bar qualifies."""
     T = np.asarray(T, float)
     k = len(T)
@@ -50,16 +53,28 @@ def fourbar_candidates(T, names, *, top: int = 1, min_transmission_deg: float = 
     chosen = best_distinct(fb, top)
     if not chosen:
         raise refusal(fb, dyads, k, math.radians(min_transmission_deg), tol is not None and tolerance is None)
+    ps = make_task(T, names, tolerance=tolerance, order=order.value) if (tolerance is not None or not exact) else None
     out = []
     for rank, n in enumerate(chosen, start=1):
         info = describe(task, fb, n, dyads.method, rank, len(fb), min_transmission_deg, listed)
         linkage = fourbar_linkage(task, fb, n, T, names, info)
         linkage.checks = self_check(linkage, check_samples)
         accept(linkage, task.scale, exact or tolerance is None)
-        if tol is not None:
-            record_errors(linkage, None if tolerance is None else np.asarray(tolerance, float).reshape(k, 2))
+        if ps is not None:  # each pose's miss, its tolerance, info.fit (`synth.synthesis.taskfit.annotate`)
+            summary = FitSummary("exact" if exact else "fit", seeds=0 if exact else len(FIT_GRID) ** 2,
+                                 refined=0 if exact else FIT_SEEDS, iterations=0 if exact else FIT_ITERATIONS,
+                                 visit=visit_order(fb, n))
+            annotate(linkage, ps, summary)
+            linkage.info["fit"]["dyads"] = dyads.method
         out.append(linkage)
     return out
+
+
+def visit_order(fb, n: int) -> tuple:
+    """Pose indices in the order the crank of four-bar n meets them from pose 0 on, turning the way of its
+    task range."""
+    theta = np.mod((fb.phi[n] - fb.phi[n, 0]) * np.sign(fb.task_range[n, 1] or 1.0), 2 * np.pi)
+    return tuple(int(i) for i in np.argsort(theta, kind="stable"))
 
 
 def fourbar(T, names=None, **options):
@@ -108,24 +123,6 @@ def accept(linkage, scale: float, exact: bool) -> None:
     if bad:
         raise SynthesisError(f"the four-bar's self-check failed (pose error {c['max_pose_error']:.3g}, closure error "
                              f"{c['max_closure_error']:.3g}): the pose set is numerically degenerate")
-
-
-def record_errors(linkage, tolerance) -> None:
-    """A fit's pose records: ``error`` (metres, radians: the tool frame's miss at the joint angles, by forward
-    kinematics) and ``tolerance`` or ``exact``; ``info.fit`` with the RMS and largest errors."""
-    errs = []
-    for i, rec in enumerate(linkage.poses):
-        dt, dr = pose_difference(linkage.tool_pose(rec.joint_angles), rec.matrix)
-        rec.error = (float(dt), float(dr))
-        tol = None if tolerance is None else tuple(float(x) for x in tolerance[i])
-        rec.exact = tol is None or tol == (0.0, 0.0)
-        rec.tolerance = None if rec.exact else tol
-        errs.append(rec.error)
-    e = np.array(errs)
-    linkage.info["fit"] = {"method": "least-squares dyads, each pose at the crank angle nearest to it",
-                           "rms_error": {"position": float(np.sqrt(np.mean(e[:, 0] ** 2))),
-                                         "angle": float(np.sqrt(np.mean(e[:, 1] ** 2)))},
-                           "max_error": {"position": float(e[:, 0].max()), "angle": float(e[:, 1].max())}}
 
 
 def refusal(fb, dyads, k: int, min_transmission: float, needs_tolerance: bool) -> SynthesisError:
