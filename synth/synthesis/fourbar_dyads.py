@@ -34,7 +34,9 @@ import numpy as np
 
 from synth.synthesis.fourbar_plane import PlanarTask
 
-CIRCLE_GRID = np.linspace(-2.5, 2.5, 15)  # 3 poses: circle points w (conditioned) on this grid squared
+CIRCLE_GRID = np.linspace(-2.5, 2.5, 13)  # 3 poses: circle points w (conditioned) on this grid squared
+POLE_RINGS = np.array([0.04, 0.08, 0.16, 0.32])  # and on rings of these radii about the poles (3 poses, fits),
+POLE_RING_POINTS = 12  # with this many points each
 CURVE_DIRECTIONS = 180  # 4 poses: lines through the pole sampling the centre-point curve
 FIT_GRID = np.linspace(-3.0, 3.0, 25)  # > 5 poses: circle points seeding the least-squares dyads
 FIT_SEEDS = 24  # local minima refined
@@ -102,8 +104,10 @@ def circle_point_grid(task, grid) -> np.ndarray:
 
 
 def three_pose_dyads(task: PlanarTask, grid=CIRCLE_GRID) -> Dyads:
-    """Dyads of three poses: circle points on ``grid`` x ``grid``, centres the circumcentres."""
-    w = circle_point_grid(task, grid)
+    """Dyads of three poses: circle points on ``grid`` x ``grid`` and on rings about the three poles (where the
+    circles are small: the short cranks of crank-rockers), centres the circumcentres."""
+    poles = [pole(task, j, i) for i, j in ((0, 1), (0, 2), (1, 2))]
+    w = np.concatenate([circle_point_grid(task, grid)] + [p + pole_rings() for p in poles if np.all(np.isfinite(p))])
     rows = rows_in_g(task, w)  # (N, 2, 3)
     with np.errstate(all="ignore"):
         det = np.linalg.det(rows[..., :2])
@@ -121,10 +125,14 @@ def null_circle_points(M) -> tuple[np.ndarray, np.ndarray]:
         return v[..., :2] / v[..., 2:], s[..., -1] / s[..., 0]
 
 
-def pole(task: PlanarTask, j: int) -> np.ndarray:
-    """The pole P_0j (2,): the point fixed by the displacement from pose 0 to pose j (conditioned)."""
-    q, R = task.qc, task.rotations[j]
-    return np.linalg.solve(np.eye(2) - R, q[j] - R @ q[0])
+def pole(task: PlanarTask, j: int, i: int = 0) -> np.ndarray:
+    """The circle point w (2,) at the pole P_ij: Z_i = Z_j, (R_i - R_j) w = q_j - q_i (conditioned; for i = 0
+    also the pole's position, Z_0 = w); NaN when poses i and j differ by a translation."""
+    R = task.rotations
+    A = R[i] - R[j]
+    if abs(np.linalg.det(A)) < 1e-24:
+        return np.full(2, np.nan)
+    return np.linalg.solve(A, task.qc[j] - task.qc[i])
 
 
 def centre_point_curve(task: PlanarTask, directions: int = CURVE_DIRECTIONS) -> Dyads:
@@ -189,13 +197,19 @@ def _polished(task, G, method) -> Dyads:
     x = np.concatenate([G, w], -1)
     for _ in range(NEWTON_STEPS):
         F, J = dyad_equations(task, x)
-        with np.errstate(all="ignore"):
-            ok = np.abs(np.linalg.det(J)) > 1e-300
-            step = np.linalg.solve(np.where(ok[:, None, None], J, np.eye(4)), F[..., None])[..., 0]
-        x = x - np.where(ok[:, None], step, 0.0)
+        x = x - solve_or_zero(J, F)
     F, _ = dyad_equations(task, x)
     good = np.all(np.isfinite(x), axis=1) & (np.max(np.abs(F), axis=1, initial=0.0) <= EXACT_TOL)
     return _distinct(_dyads(task, x[good, :2], x[good, 2:], method))
+
+
+def solve_or_zero(A, b) -> np.ndarray:
+    """Solutions x (N, n) of A x = b for a batch A (N, n, n), b (N, n); 0 where A is singular or not finite."""
+    with np.errstate(all="ignore"):
+        ok = np.all(np.isfinite(A), axis=(1, 2)) & np.all(np.isfinite(b), axis=1)
+        ok &= np.abs(np.linalg.det(np.where(ok[:, None, None], A, np.eye(A.shape[-1])))) > 1e-300
+        x = np.linalg.solve(np.where(ok[:, None, None], A, np.eye(A.shape[-1])), np.where(ok[:, None], b, 0.0)[..., None])
+    return np.where(ok[:, None], x[..., 0], 0.0)
 
 
 def dyad_equations(task, x) -> tuple[np.ndarray, np.ndarray]:
@@ -219,25 +233,40 @@ def _distinct(d: Dyads) -> Dyads:
 
 def least_squares_dyads(task: PlanarTask, weights=None, grid=FIT_GRID, seeds: int = FIT_SEEDS) -> Dyads:
     """Least-squares dyads of any number of poses (module docstring); ``weights`` (k,): each pose's weight
-    in the circle fit (default 1)."""
+    in the circle fit (default 1). Seeds: the ``seeds`` best local minima of the algebraic circle fit's error
+    on the grid of circle points, and the best point of the rings about each pole of consecutive poses."""
     k = len(task.theta)
     wts = np.ones(k) if weights is None else np.asarray(weights, float)
-    w = circle_point_grid(task, grid)
-    Z = moving_points(task, w)  # (N, k, 2)
-    A = np.concatenate([2 * Z, np.ones(Z.shape[:-1] + (1,))], -1) * np.sqrt(wts)[:, None]
-    b = np.sum(Z ** 2, -1) * np.sqrt(wts)
-    sol = batched_lstsq(A, b)
-    G = sol[:, :2]
-    _, err = circle_figures(task, G, w)
     n = len(grid)
-    e = err.reshape(n, n)
+    rings = [pole(task, i + 1, i) + pole_rings() for i in range(k - 1)]
+    rings = [r for r in rings if np.all(np.isfinite(r))]
+    w = np.concatenate([circle_point_grid(task, grid)] + rings)
+    G, err = algebraic_circles(task, w, wts)
+    e = err[:n * n].reshape(n, n)
     pad = np.pad(e, 1, constant_values=np.inf)
     local = (e <= pad[:-2, 1:-1]) & (e <= pad[2:, 1:-1]) & (e <= pad[1:-1, :-2]) & (e <= pad[1:-1, 2:])
     idx = np.flatnonzero(local.ravel())
     idx = idx[np.argsort(err[idx], kind="stable")][:seeds]
+    m = len(pole_rings())
+    idx = np.concatenate([idx, n * n + m * np.arange(len(rings)) + np.argmin(err[n * n:].reshape(-1, m), axis=1)])
     G, w = _levenberg_marquardt(task, G[idx], w[idx], wts)
-    return _distinct(_dyads(task, G, w, f"{k} poses: least-squares dyads ({len(idx)} seeds from a "
-                                        f"{n} x {n} grid of circle points, Levenberg-Marquardt)"))
+    return _distinct(_dyads(task, G, w, f"{k} poses: least-squares dyads ({len(idx)} seeds from a {n} x {n} grid of "
+                                        "circle points and rings about the poles, Levenberg-Marquardt)"))
+
+
+def pole_rings() -> np.ndarray:
+    """Offsets (m, 2) of the circle points on rings about a pole (POLE_RINGS, POLE_RING_POINTS)."""
+    z = POLE_RINGS[:, None] * np.exp(2j * np.pi * np.arange(POLE_RING_POINTS) / POLE_RING_POINTS)
+    return np.stack([z.real, z.imag], -1).reshape(-1, 2)
+
+
+def algebraic_circles(task: PlanarTask, w, wts) -> tuple[np.ndarray, np.ndarray]:
+    """Centres G (N, 2) of the weighted algebraic (Kasa) circle fits of the positions of circle points w (N, 2),
+    and the circles' RMS geometric error (N,)."""
+    Z = moving_points(task, w)  # (N, k, 2)
+    A = np.concatenate([2 * Z, np.ones(Z.shape[:-1] + (1,))], -1) * np.sqrt(wts)[:, None]
+    G = batched_lstsq(A, np.sum(Z ** 2, -1) * np.sqrt(wts))[:, :2]
+    return G, circle_figures(task, G, w)[1]
 
 
 def batched_lstsq(A, b) -> np.ndarray:
@@ -264,8 +293,7 @@ def _levenberg_marquardt(task, G, w, wts, iterations: int = FIT_ITERATIONS):
         J = np.concatenate([-unit, np.einsum("kab,nka->nkb", R, unit), -np.ones(res.shape + (1,))], -1) * sq[:, None]
         H = np.einsum("nka,nkb->nab", J, J)
         g = np.einsum("nka,nk->na", J, res)
-        step = np.linalg.solve(H + lam[:, None, None] * np.eye(5) * (1 + np.diagonal(H, axis1=1, axis2=2))[:, None],
-                               -g[..., None])[..., 0]
+        step = solve_or_zero(H + lam[:, None, None] * np.eye(5) * (1 + np.diagonal(H, axis1=1, axis2=2))[:, None], -g)
         trial = x + step
         res2, unit2 = residual(trial)
         better = np.sum(res2 ** 2, -1) < np.sum(res ** 2, -1)
