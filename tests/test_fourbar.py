@@ -235,3 +235,19 @@ def test_exact_task_with_tolerance_records_its_errors():
         assert rec.error[0] < 1e-13 and rec.error[1] < 1e-12 and rec.tolerance == (1e-3, 1e-2)
     doc = linkage_document(lk)
     assert doc["poses"][2]["error"]["position"] < 1e-13 and doc["poses"][2]["tolerance"]["position"] == 1e-3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("k", [3, 4, 5, 8])
+def test_random_crank_rocker_sweep(k):
+    """Tasks from 25 random crank-rockers (seeded; 8 poses: in-plane noise and a tolerance), listed order:
+    every one gives a four-bar, exact to rounding (closure always; poses for k <= 5)."""
+    for seed in range(25):
+        L = random_crank_rocker(np.random.default_rng(seed))
+        T = coupler_poses(L, np.linspace(0.3, 0.3 + math.radians(220 if k <= 5 else 250), k), plane_seed=seed)[0]
+        tol = None
+        if k == 8:
+            T, tol = noisy(T, np.random.default_rng(seed + 100), 2e-5, 2e-4), np.tile([1e-4, 1e-3], (8, 1))
+        lk = fourbar_candidates(T, NAMES[:k], order=Order.LISTED, tolerance=tol)[0]
+        assert lk.checks["max_closure_error"] < 1e-12
+        assert k == 8 or lk.checks["max_pose_error"] < 1e-11
