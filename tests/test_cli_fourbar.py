@@ -86,6 +86,16 @@ def test_tools_on_a_fourbar(tmp_path):
         assert np.allclose(np.gradient(a, t)[2:-2], v[2:-2], atol=2e-2 * np.abs(v).max())
     r = run("render", out, "--png", tmp_path / "f.png")
     assert r.exit_code == 0 and (tmp_path / "f.png").stat().st_size > 0
+    r = run("view", out, "-o", tmp_path / "f.html")
+    assert r.exit_code == 0 and (tmp_path / "f.html").stat().st_size > 0
+
+
+def test_simulate_follows_the_loop_law(tmp_path):
+    pytest.importorskip("mujoco")
+    out = tmp_path / "out"
+    assert run("fourbar", FIX5, "-o", out, "-q").exit_code == 0
+    r = run("simulate", out)  # every joint within --tol (1e-3 rad) of the loop law's exact motion
+    assert r.exit_code == 0, r.output
 
 
 def test_fit_fixture(tmp_path, verifier):
