@@ -39,6 +39,8 @@ def fourbar(poses, top, min_transmission, out, name, force, pin_radius, link_rad
     listed`, the transmission angle at least --min-transmission degrees over the task range, then compact
     first; the best (or --top N) is written as linkage.urdf, linkage.json and meshes/*.stl with a layered,
     collision-free design when one is found."""
+    import numpy as np
+
     from synth.errors import InputError, SynthesisError
     from synth.io.poses import load_poses
     from synth.synthesis.fourbar import fourbar_candidates
@@ -46,6 +48,11 @@ def fourbar(poses, top, min_transmission, out, name, force, pin_radius, link_rad
     ps = load_poses(poses, count=((3, None), "mpsynth fourbar"), normalize=normalize)
     if ps.has_points:
         raise InputError(f"{ps.source}: mpsynth fourbar needs poses (position and orientation), not points")
+    if ps.velocity is not None and np.isfinite(ps.velocity).any():
+        raise InputError(f"{ps.source}: mpsynth fourbar does not take pose velocities (yet); remove 'velocity' or use "
+                         "mpsynth bennett")
+    if ps.constraints is not None:
+        raise InputError(f"{ps.source}: mpsynth fourbar does not take 'constraints' (yet); remove them")
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                             clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
     if out:

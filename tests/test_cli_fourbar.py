@@ -131,3 +131,11 @@ def test_two_poses_exit_2(tmp_path):
     task.write_text(yaml_text(T))
     r = run("fourbar", task)
     assert r.exit_code == 2 and "3" in r.output
+
+
+def test_velocities_refused(tmp_path):
+    text = FIX5.read_text().replace("  - name: grip\n", "  - name: grip\n    velocity: {angular: [0, 0, 1]}\n")
+    task = tmp_path / "vel.yaml"
+    task.write_text(text)
+    r = run("fourbar", task)
+    assert r.exit_code == 2 and "does not take pose velocities" in r.output

@@ -251,3 +251,12 @@ def test_random_crank_rocker_sweep(k):
         lk = fourbar_candidates(T, NAMES[:k], order=Order.LISTED, tolerance=tol)[0]
         assert lk.checks["max_closure_error"] < 1e-12
         assert k == 8 or lk.checks["max_pose_error"] < 1e-11
+
+
+def test_python_api():
+    import synth
+
+    _, T, _, _ = task_poses(5)
+    lk = synth.fourbar(T, min_transmission_deg=45.0)
+    assert isinstance(lk, synth.Linkage) and lk.poses[3].name == "p3"
+    assert lk.info["fourbar"]["transmission_min_deg"] >= 45.0
