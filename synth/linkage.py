@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 
 from synth.algebra.anglelaw import angle_law, angle_law_inverse
-from synth.algebra.dq import common_normal_feet, rotation_about_line
 from synth.algebra.fourbar_loop import FourBarLaw
+from synth.algebra.geometry import extent, joint_sites, line_point, rotation_about_line
 
 
 @dataclass
@@ -46,7 +46,7 @@ class Joint:
     @property
     def point(self) -> np.ndarray:
         """Point of the axis closest to the world origin (metres)."""
-        return np.cross(self.direction, self.moment)
+        return line_point(self.direction, self.moment)
 
     def angle(self, t):
         """Joint angle (rad) at parameter t (scalar or array; +-inf gives 0), in [0, 2pi)."""
@@ -127,25 +127,18 @@ class Linkage:
     def joint_sites(self) -> dict[str, np.ndarray]:
         """A representative point on every joint axis (metres, reference configuration): the mean of
         the feet of the common normals to the neighbouring axes of the links carrying the joint (where
-        its pins are); for a joint that no link pairs, the axis point nearest the pose positions.
-        Unlike ``Joint.point`` (nearest the world origin) it stays near the mechanism wherever the
-        world origin is."""
-        feet: dict[str, list[np.ndarray]] = {j.name: [] for j in self.joints}
-        byname = {j.name: j for j in self.joints}
+        its pins are); for a joint that no link pairs, the axis point nearest the pose positions
+        (`synth.algebra.geometry.joint_sites`). Unlike ``Joint.point`` (nearest the world origin) it stays
+        near the mechanism wherever the world origin is."""
+        index = {j.name: i for i, j in enumerate(self.joints)}
+        pairs = []
         for names in self.links.values():
-            js = [byname[n] for n in names if n in byname]
-            for j1, j2 in zip(js, js[1:]):
-                f1, f2 = pair_feet(j1, j2)
-                feet[j1.name].append(f1)
-                feet[j2.name].append(f2)
-        centre = self._pose_centre()
-        out = {}
-        for j in self.joints:
-            if feet[j.name]:
-                out[j.name] = np.mean(feet[j.name], axis=0)
-            else:
-                out[j.name] = j.point + np.dot(centre - j.point, j.direction) * j.direction
-        return out
+            ids = [index[n] for n in names if n in index]
+            pairs += zip(ids, ids[1:])
+        U = np.array([j.direction for j in self.joints], float).reshape(-1, 3)
+        M = np.array([j.moment for j in self.joints], float).reshape(-1, 3)
+        sites = joint_sites(U, M, pairs, self._pose_centre())
+        return {j.name: sites[i] for i, j in enumerate(self.joints)}
 
     def _pose_centre(self) -> np.ndarray:
         pts = [p.matrix[:3, 3] for p in self.poses] + [self.tool_ref[:3, 3]]
@@ -158,21 +151,7 @@ class Linkage:
                 "links_with_duplicates": len(self.links), "loops": len(self.closures)}
 
     def extent(self) -> float:
-        """A length scale of the linkage: RMS distance of the joint sites (see ``joint_sites``) and the
-        tool positions from their centroid, at least 1e-9 m."""
+        """A length scale of the linkage (`synth.algebra.geometry.extent`): RMS distance of the joint sites
+        (see ``joint_sites``) and the tool positions from their centroid, at least 1e-9 m."""
         pts = list(self.joint_sites().values()) + [p.matrix[:3, 3] for p in self.poses]
-        pts = np.array(pts + [self.tool_ref[:3, 3]])
-        c = pts.mean(axis=0)
-        return float(max(np.sqrt(np.mean(np.sum((pts - c) ** 2, axis=1))), 1e-9))
-
-
-def pair_feet(j1: Joint, j2: Joint) -> tuple[np.ndarray, np.ndarray]:
-    """Feet of the common normal of two joint axes (on j1, on j2). Parallel axes have no unique common
-    normal: take the one through the midpoint of the two axis points nearest the origin."""
-    u1, u2 = j1.direction, j2.direction
-    if np.linalg.norm(np.cross(u1, u2)) < 1e-9:
-        mid = (j1.point + j2.point) / 2
-        f1 = j1.point + np.dot(mid - j1.point, u1) * u1
-        f2 = j2.point + np.dot(f1 - j2.point, u2) * u2
-        return f1, f2
-    return common_normal_feet(u1, j1.moment, u2, j2.moment)
+        return float(extent(np.array(pts + [self.tool_ref[:3, 3]], float)))

@@ -2,16 +2,12 @@
 tolerances, exact poses, Hermite pairs, the listed order, and the end-to-end CLI with the verifier."""
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from hypothesis import given, settings, strategies as st
 
-from cli.main import mpsynth
 from synth.algebra.dq import dq_mul, dq_to_pose, normalize_dq, pose_to_dq
 from synth.errors import SynthesisError
 from synth.io.poses import load_poses
@@ -20,7 +16,8 @@ from synth.synthesis.bennett_fit import bennett_task, hermite_conic, regauge, ga
 from synth.synthesis.fit import homogeneous, study_rows, task_arrays, item_errors
 from synth.synthesis.taskfit import error_rows, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
-from tests.conftest import random_poses
+
+from conftest import assert_verified, random_poses, run
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -195,26 +192,21 @@ def test_error_table_rows_in_input_units():
 
 
 # ------------------------------------------------------------------ CLI end to end
-def run(*args):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
-
-
-def verify(verifier, poses, out):
-    doc = json.loads((out / "linkage.json").read_text())
-    col = doc["collision"]
-    args = [str(poses), str(out)]
+def verify(poses, out):
+    """The shared verifier's last line on the output (with the collision claim when fcl is installed), or
+    None when it is absent."""
+    col = json.loads((out / "linkage.json").read_text())["collision"]
+    args = [poses, out]
     try:
         import fcl  # noqa: F401
         args += ["--collisions", repr(0.99 * col["clearance"]), "--collision-range", col["range"]]
     except ImportError:
         pass
-    r = subprocess.run([sys.executable, str(verifier), *args], capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stdout + r.stderr
-    return r.stdout.strip().splitlines()[-1]
+    return assert_verified(*args)
 
 
 @pytest.mark.parametrize("name", ["bennett_fit", "bennett_hermite"])
-def test_fixture_end_to_end(name, tmp_path, verifier):
+def test_fixture_end_to_end(name, tmp_path):
     fixture = REPO / "fixtures" / f"{name}.yaml"
     out = tmp_path / "out"
     r = run("bennett", fixture, "-o", out)
@@ -226,12 +218,13 @@ def test_fixture_end_to_end(name, tmp_path, verifier):
         assert "error" in rec
         assert rec.get("exact") is True or rec["tolerance"]["position"] == pytest.approx(tol[0])
     assert doc["info"]["fit"]["within_tolerance"]
-    line = verify(verifier, fixture, out)
-    assert ("order=listed" in line) == (name == "bennett_fit")
-    assert ("velocity_err" in line) == (name == "bennett_hermite")
+    line = verify(fixture, out)
+    if line is not None:
+        assert ("order=listed" in line) == (name == "bennett_fit")
+        assert ("velocity_err" in line) == (name == "bennett_hermite")
 
 
-def test_unmet_tolerances_exit_1_and_best_effort_writes(tmp_path, verifier):
+def test_unmet_tolerances_exit_1_and_best_effort_writes(tmp_path):
     text = (REPO / "fixtures" / "bennett_fit.yaml").read_text().replace(
         "tolerance: {position: 1.0, angle: 0.5}", "tolerance: {position: 0.01, angle: 0.005}")
     fixture = tmp_path / "tight.yaml"

@@ -92,29 +92,14 @@ def test_the_generic_path_is_taken_for_random_poses():
 
 
 @pytest.mark.parametrize("seed", range(10))
-def test_checks_extent_equals_linkage_extent(seed):
-    from synth.checks import extent
-
+def test_batch_length_scale_equals_linkage_extent(seed):
+    """The Bennett pipeline's length scale (from its ring of common normals) is `Linkage.extent`."""
     rng = np.random.default_rng(seed)
     T = random_poses(rng, 3, scale=10 ** rng.uniform(-2, 2), offset=rng.normal(size=3) * 10)
     L = bennett_mod.bennett(T, check_samples=4)
-    assert extent(L) == pytest.approx(L.extent(), rel=1e-12)
     assert L.checks["length_scale"] == pytest.approx(L.extent(), rel=1e-12)
-    # a joint no link pairs, and parallel axes
-    L.links = {"base": ["h1"], "coupler": ["h2", "k2"], "coupler_k": []}
-    assert extent(L) == pytest.approx(L.extent(), rel=1e-12)
-    L.joints[3].direction = L.joints[1].direction.copy()
-    L.joints[3].moment = L.joints[1].moment + np.cross([0.1, 0.2, 0.3], L.joints[1].direction)
-    assert extent(L) == pytest.approx(L.extent(), rel=1e-12)
-
-
-def test_checks_extent_equals_linkage_extent_sixbar():
-    import synth
-    from synth.checks import extent
-
-    rng = np.random.default_rng(3)
-    L = synth.sixbar(random_poses(rng, 4))
-    assert extent(L) == pytest.approx(L.extent(), rel=1e-12)
+    out = bennett_core.solve(T[None], 0)
+    assert out["length_scale"][0] == pytest.approx(L.extent(), rel=1e-12)
 
 
 @pytest.mark.parametrize("seed", range(8))

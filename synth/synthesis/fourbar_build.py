@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from synth.algebra.anglelaw import angle_law_inverse
-from synth.algebra.dq import rotation_about_line
 from synth.algebra.fourbar_loop import ROLES, FourBarLaw, loop_angles
+from synth.algebra.geometry import rotation_about_axis
 from synth.linkage import Joint, Linkage, PoseRecord
 from synth.synthesis.fourbar_plane import PlanarTask
 from synth.synthesis.fourbar_rank import FourBars, coupler_poses
@@ -68,11 +68,10 @@ def reference_displacement(task: PlanarTask, fb: FourBars, n: int) -> np.ndarray
     """World 4x4 displacement of the coupler from pose 0's plane position to the reference configuration
     (the identity, to rounding, for an exact task)."""
     tool, beta = coupler_poses(task, _row(fb, n), fb.phi[n:n + 1, :1])
-    R = rotation_about_line(task.normal, np.zeros(3), float(beta[0, 0]))
+    R = rotation_about_axis(task.normal, float(beta[0, 0]))
     D = np.eye(4)
-    D[:3, :3] = R[:3, :3]
-    x = task.to_world(tool[0, 0])  # where pose 0's tool origin goes
-    D[:3, 3] = x - R[:3, :3] @ task.origin
+    D[:3, :3] = R
+    D[:3, 3] = task.to_world(tool[0, 0]) - R @ task.origin  # pose 0's tool origin goes to tool[0, 0]
     return D
 
 

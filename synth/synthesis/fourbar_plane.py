@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from synth.algebra.geometry import spread as position_spread
 from synth.errors import InputError, SynthesisError
 
 COPLANAR_TOL = 1e-9  # |(R_i R_0^T - I) n| and |(p_i - p_0) . n| / spread above this: not a planar task
@@ -65,7 +66,7 @@ def plane_of_motion(T, names, source: str = "<poses>") -> PlanarTask:
     R = T[:, :3, :3] @ T[0, :3, :3].T  # relative rotations R_i R_0^T
     n = common_normal(R, source)
     p = T[:, :3, 3]
-    spread = max(float(np.sqrt(np.mean(np.sum((p - p.mean(axis=0)) ** 2, axis=1)))), 1e-300)
+    spread = max(float(position_spread(p)[1]), 1e-300)
     tilt = np.linalg.norm(R @ n - n, axis=1)
     off = np.abs((p - p[0]) @ n) / spread
     bad = np.flatnonzero((tilt > COPLANAR_TOL) | (off > COPLANAR_TOL))
@@ -89,7 +90,7 @@ def plane_of_motion(T, names, source: str = "<poses>") -> PlanarTask:
     Re1 = R @ e1
     theta = np.arctan2(Re1 @ e2, Re1 @ e1)
     theta[0] = 0.0
-    scale = float(np.sqrt(np.mean(np.sum((q - q.mean(axis=0)) ** 2, axis=1))))
+    scale = float(position_spread(np.concatenate([q, np.zeros((len(q), 1))], axis=1))[1])
     if not scale > 0:
         raise SynthesisError(f"{source}: the tool origin does not move: the poses are rotations about it, which one "
                              "revolute joint performs; choose a tool point off the rotation axis")

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.checks import pose_difference
+from synth.algebra.geometry import pose_difference
 import json
 from synth.errors import InputError
 from synth.task import Order, PoseSet
