@@ -64,7 +64,7 @@ def plane_of_motion(T, names, source: str = "<poses>") -> PlanarTask:
     the amounts; SynthesisError when the poses differ by translations only."""
     T = np.asarray(T, float)
     R = T[:, :3, :3] @ T[0, :3, :3].T  # relative rotations R_i R_0^T
-    n = common_normal(R, source)
+    n = plane_normal(R, source)
     p = T[:, :3, 3]
     spread = max(float(position_spread(p)[1]), 1e-300)
     tilt = np.linalg.norm(R @ n - n, axis=1)
@@ -97,7 +97,7 @@ def plane_of_motion(T, names, source: str = "<poses>") -> PlanarTask:
     return PlanarTask(p[0].copy(), e1, e2, n, q, theta, np.zeros(2), scale)
 
 
-def common_normal(R, source: str) -> np.ndarray:
+def plane_normal(R, source: str) -> np.ndarray:
     """The rotation axis (3,) shared by most relative rotations R (k, 3, 3) (R[0] = I): each rotation's own
     axis (the null vector of R_i - I) is tried, the one most rotations keep fixed wins (the first on ties),
     refined over those rotations by one SVD; sign: largest component positive. So one pose off the plane is
