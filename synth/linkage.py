@@ -18,6 +18,7 @@ Nothing here reads or writes files.
 """
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,6 +27,36 @@ import numpy as np
 from synth.algebra.anglelaw import angle_law, angle_law_inverse
 from synth.algebra.fourbar_loop import FourBarLaw
 from synth.algebra.geometry import extent, joint_sites, line_point, rotation_about_line
+
+
+class Kind(enum.StrEnum):
+    """What a linkage is; the values are linkage.json's ``kind`` strings."""
+
+    BENNETT = "bennett"  # spatial Bennett 4R (docs/conic.md)
+    SIXBAR = "6r"  # spatial 6R of a cubic motion (docs/cubic.md)
+    PLANAR_4R = "planar_4r"  # four-bar of planar poses (docs/planar.md)
+    SPHERICAL_4R = "spherical_4r"
+    PLANAR_SIXBAR = "planar_sixbar"  # Watt six-bar of planar poses (docs/planar.md)
+    SPHERICAL_SIXBAR = "spherical_sixbar"
+    MOTION = "motion"  # multi-loop linkage performing a rational motion (docs/exceptional.md)
+    CURVE = "curve"  # multi-loop linkage whose tracer draws a rational curve
+
+    @property
+    def label(self) -> str:
+        """The kind in words, for titles and summaries ("spatial 6R")."""
+        return KIND_LABELS.get(self, self.value)
+
+
+KIND_LABELS = {Kind.BENNETT: "Bennett 4R", Kind.SIXBAR: "spatial 6R", Kind.PLANAR_4R: "planar four-bar",
+               Kind.SPHERICAL_4R: "spherical four-bar", Kind.PLANAR_SIXBAR: "planar Watt six-bar",
+               Kind.SPHERICAL_SIXBAR: "spherical Watt six-bar"}
+_KINDS = {k.value: k for k in Kind}
+
+
+def kind_label(kind) -> str:
+    """`Kind.label` of a kind or its string; an unknown string (an output read back) as it is."""
+    k = _KINDS.get(kind)
+    return k.label if k is not None else str(kind)
 
 
 @dataclass
@@ -80,7 +111,7 @@ class PoseRecord:
 class Linkage:
     """A synthesized closed-loop linkage (one or several loops)."""
 
-    kind: str  # "bennett", "6r", "motion", "curve"
+    kind: Kind  # (a `Kind` value given as a string becomes the Kind; another string, read back, stays)
     joints: list[Joint]  # tree joints, in an order where every parent link precedes its child
     links: dict[str, list[str]]  # link name -> joints whose pins it carries (empty: no geometry)
     branches: list[list[str]]  # joint names of each serial branch, base to coupler
@@ -91,6 +122,9 @@ class Linkage:
     tool_link: str = "coupler"
     checks: dict[str, float] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)  # kind-specific extras, JSON-serializable
+
+    def __post_init__(self):
+        self.kind = _KINDS.get(self.kind, self.kind)
 
     # ------------------------------------------------------------------ queries
     def joint(self, name: str) -> Joint:

@@ -26,7 +26,7 @@ from synth.errors import InputError, NotGenericError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, TS, acceptance_error, axis_distance,
                                           bennett_parameters, factor_sets, solve)
-from synth.synthesis.conditioning import transmission_problem
+from synth.synthesis.conditioning import TRANSMISSION_LIMIT, transmission_problem
 from synth.synthesis.conic import (Conditioning, condition, conditioning, conic, relative_displacements,
                                    position_spread, to_world)
 from synth.synthesis.planar import zero_pitch
@@ -89,7 +89,8 @@ def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, memb
 def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None,
                        top: int = 1) -> list:
     """`bennett` as a list: the one Bennett linkage of spatial poses, or up to ``top`` members of the
-    family of planar or spherical poses, best score first (`synth.synthesis.planar_bennett.candidates`)."""
+    family of planar or spherical poses, best score first (`synth.synthesis.planar_bennett.candidates`).
+    SynthesisError when one fails the transmission gate (`check_transmission`), as `verify` would."""
     T = np.asarray(poses, float)
     if T.shape != (3, 4, 4):
         raise InputError(f"a Bennett linkage needs exactly 3 poses (array of shape (3, 4, 4)), got {T.shape}")
@@ -98,10 +99,17 @@ def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SA
         # the perturbed sets of the condition estimate (`sensitivity`) are factored in the same batch
         # (the first half of the pipeline only); a set with NaN or inf is never good (the per-set path says so)
         out = solve(T[None], check_samples, perturb=_small_motion_matrices(SENSITIVITY_EPS, 0, 2))
-        if out["good"][0]:
-            return [linkage_from_solution(out, 0, T, names, check_samples, perturbed=out["extra"])]
-        return per_set_candidates(T, names, check_samples=check_samples, top=top, perturbed=out["extra"])
-    return per_set_candidates(T, names, check_samples=check_samples, member=member, top=top)
+        if out.good[0]:
+            linkage = linkage_from_solution(out, 0, T, names, check_samples, perturbed=out.extra)
+            if out.transmission[0] > TRANSMISSION_LIMIT:  # the gate of `verify` (the ratio at hand)
+                check_transmission(linkage)
+            return [linkage]
+        linkages = per_set_candidates(T, names, check_samples=check_samples, top=top, perturbed=out.extra)
+    else:
+        linkages = per_set_candidates(T, names, check_samples=check_samples, member=member, top=top)
+    for lk in linkages:  # the gate of `verify` and of every entry point: a notebook gets what the CLI gives
+        check_transmission(lk)
+    return linkages
 
 
 def per_set_candidates(T, names, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None, top: int = 1,
@@ -164,23 +172,23 @@ def check_transmission(linkage) -> None:
         raise SynthesisError(why + _near_degenerate(T, [p.name for p in linkage.poses], _spread(T)))
 
 
-def linkage_from_solution(out: dict, i: int, T, names, check_samples: int, perturbed: dict | None = None):
+def linkage_from_solution(out, i: int, T, names, check_samples: int, perturbed: dict | None = None):
     """The `Linkage` of set i of a `synth.synthesis.bennett_core.solve` result (checks and info from
     its arrays). ``perturbed``: ``good`` and ``factors`` of `perturbed_poses` (T) (`factor_sets`), when
     at hand (`sensitivity` computes them otherwise)."""
-    F = out["factors"][i]
-    scale = float(out["scale"][i])
-    cond = Conditioning(centre=out["centre"][i], scale=scale)
-    info = {"factorization_residual": float(out["residual"][i]),
-            "study_form": dict(zip(("B01", "B02", "B12"), out["study_form"][i].tolist())),
-            "conditioning": {"centre": out["centre"][i].tolist(), "scale": scale}}
-    linkage = two_branch_linkage("bennett", F[:2], F[2:], out["motion"][i], T, names, TS, info,
-                                 angles=out["pose_angles"][i], lines=(out["lines"][i], out["laws"][i]))
-    figures = {k: float(v[i]) for k, v in out["errors"].items()}
-    linkage.checks = as_checks(figures, check_samples, float(out["length_scale"][i]), bounded=True)
-    linkage.info = _complete_info(linkage, info, out["study_form"][i] / scale, cond, out["bennett"], out["dh"],
-                                  float(out["relative_error"][i]), float(out["axis_distance"][i]), perturbed, row=i,
-                                  frame=(out["centre"][i], scale, out["lines"][i]))
+    F = out.factors[i]
+    scale = float(out.scale[i])
+    cond = Conditioning(centre=out.centre[i], scale=scale)
+    info = {"factorization_residual": float(out.residual[i]),
+            "study_form": dict(zip(("B01", "B02", "B12"), out.study_form[i].tolist())),
+            "conditioning": {"centre": out.centre[i].tolist(), "scale": scale}}
+    linkage = two_branch_linkage("bennett", F[:2], F[2:], out.motion[i], T, names, TS, info,
+                                 angles=out.pose_angles[i], lines=(out.lines[i], out.laws[i]))
+    figures = {k: float(v[i]) for k, v in out.errors.items()}
+    linkage.checks = as_checks(figures, check_samples, float(out.length_scale[i]), bounded=True)
+    linkage.info = _complete_info(linkage, info, out.study_form[i] / scale, cond, out.bennett, out.dh,
+                                  float(out.relative_error[i]), float(out.axis_distance[i]), perturbed, row=i,
+                                  frame=(out.centre[i], scale, out.lines[i]))
     return linkage
 
 

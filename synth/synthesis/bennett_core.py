@@ -19,6 +19,7 @@ theta(t) = 2 atan2(b, t - a).
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -31,6 +32,7 @@ from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
 from synth.algebra.dq import dot, factor_lines, pose_to_dq
 from synth.algebra.geometry import cross, dh_parameters, extent, ring_normals
+from synth.synthesis.conditioning import pair_ratio
 from synth.synthesis.conic import TS, condition_map, conditioning, conic, relative_displacements_dq, world_map
 
 JOINTS = ("h1", "h2", "k1", "k2")
@@ -53,10 +55,40 @@ _EYE4 = np.eye(4)
 _FLOOR = FLOOR_ULPS * EPS / ACCEPT_TOL
 
 
-def solve(T, check_samples: int, perturb=None) -> dict:
-    """The Bennett pipeline on poses T (N, 3, 4, 4), metres; returns a dict of arrays over N (see
-    `synth.synthesis.bennett_batch.BennettBatch` for the fields) plus ``good`` (N,): the set was solved
-    here and its self-check is well inside ACCEPT_TOL. Rows of sets that are not good hold garbage.
+@dataclasses.dataclass(slots=True)
+class Solved:
+    """`solve`'s arrays over N pose sets (see `synth.synthesis.bennett_batch.BennettBatch` for the
+    fields' shapes and conventions). ``good`` (N,): the set was solved here and its self-check is well
+    inside ACCEPT_TOL (rows of other sets hold garbage); ``finite`` (N,): the poses were finite;
+    ``bennett``, ``dh`` and ``errors``: dicts of arrays (`bennett_parameters`, `dh_rows`, the
+    self-check figures); ``axis_distance`` (N,): the axes' largest distance from the centroid (m);
+    ``length_scale`` (N,): the linkage's extent (m); ``transmission`` (N,): the largest speed ratio of
+    two joints (`synth.synthesis.conditioning`: h1 and k2, h2 and k1 share their norm roots, so the ratio
+    of h1 and h2 is the largest); ``extra``: see `solve`'s ``perturb``."""
+
+    good: np.ndarray
+    finite: np.ndarray
+    lines: np.ndarray
+    laws: np.ndarray
+    pose_angles: np.ndarray
+    factors: np.ndarray
+    motion: np.ndarray
+    study_form: np.ndarray
+    centre: np.ndarray
+    scale: np.ndarray
+    residual: np.ndarray
+    bennett: dict
+    dh: dict
+    errors: dict
+    relative_error: np.ndarray
+    axis_distance: np.ndarray
+    length_scale: np.ndarray
+    transmission: np.ndarray
+    extra: dict | None = None
+
+
+def solve(T, check_samples: int, perturb=None) -> Solved:
+    """The Bennett pipeline on poses T (N, 3, 4, 4), metres; returns the arrays over N (`Solved`). Rows of sets that are not good hold garbage.
     Large batches run in chunks of CHUNK sets, whose temporaries stay in the CPU caches, with BLAS on
     one thread from ONE_THREAD_MIN sets on (`synth.blas`, docs/architecture.md "Threads"). ``perturb``
     (K, 3, 8, 8): the right-multiplication matrices (`synth.algebra.dq.dq_right_matrix`) of small motions,
@@ -71,7 +103,7 @@ def solve(T, check_samples: int, perturb=None) -> dict:
             fac = _factors(T, perturb)
             n = T.shape[0]
             out = _solve(T, check_samples, {k: v[:n] for k, v in fac.items()})
-            out["extra"] = {"good": fac["good"][n:], "factors": fac["factors"][n:]}  # as `factor_sets`
+            out.extra = {"good": fac["good"][n:], "factors": fac["factors"][n:]}  # as `factor_sets`
             return out
         if T.shape[0] >= ONE_THREAD_MIN:
             with one_blas_thread():
@@ -81,7 +113,10 @@ def solve(T, check_samples: int, perturb=None) -> dict:
 
 
 def _concatenate(parts: list):
-    """Dicts (nested) of arrays over sets, joined along the set axis."""
+    """`Solved` (or dicts, nested, of arrays) over sets, joined along the set axis."""
+    if isinstance(parts[0], Solved):
+        return Solved(*(_concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(Solved)
+                        if f.name != "extra"))
     if isinstance(parts[0], dict):
         return {k: _concatenate([p[k] for p in parts]) for k in parts[0]}
     return np.concatenate(parts, axis=0)
@@ -186,11 +221,12 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     good = fac["good"] & (rel <= 0.1 * ACCEPT_TOL)
     if geo.some_parallel:
         good &= ~geo.parallel.any(axis=1)
-    return dict(good=good, finite=fac["finite"], lines=lines, laws=laws, pose_angles=pose_angles, factors=factors,
-                motion=motion, study_form=fac["B"] * scale[:, None], centre=centre, scale=scale,
-                residual=fac["residual"], bennett=bennett_parameters(geo),
-                dh=dh_parameters(loop[..., 0, :], normals=geo),
-                errors=errors, relative_error=rel, axis_distance=far, length_scale=length_scale)
+    return Solved(good=good, finite=fac["finite"], lines=lines, laws=laws, pose_angles=pose_angles, factors=factors,
+                  motion=motion, study_form=fac["B"] * scale[:, None], centre=centre, scale=scale,
+                  residual=fac["residual"], bennett=bennett_parameters(geo),
+                  dh=dh_parameters(loop[..., 0, :], normals=geo),
+                  errors=errors, relative_error=rel, axis_distance=far, length_scale=length_scale,
+                  transmission=pair_ratio(a[:, 0] - a[:, 1], np.abs(b[:, 0]), np.abs(b[:, 1])))
 
 
 def axis_distance(U, M, c) -> np.ndarray:
