@@ -36,7 +36,7 @@ import importlib
 
 __all__ = ["bennett", "fit", "sixbar", "fourbar", "bennett_points", "sixbar_points", "point_candidates", "bennett_batch", "sweep",
            "factorize", "BennettBatch", "Linkage", "Kind", "MpsynthError",
-           "solve_bennett", "solve_sixbar", "solve_points", "solve_curve", "SynthesisOptions", "DesignOptions", "Result",
+           "solve_bennett", "solve_sixbar", "solve_fourbar", "solve_points", "solve_curve", "SynthesisOptions", "DesignOptions", "Result",
            "InputError", "SynthesisError"]
 
 _LAZY = {
@@ -55,6 +55,7 @@ _LAZY = {
     "Kind": "synth.linkage",
     "solve_bennett": "synth.solve",
     "solve_sixbar": "synth.solve",
+    "solve_fourbar": "synth.solve",
     "solve_points": "synth.solve",
     "solve_curve": "synth.solve",
     "SynthesisOptions": "synth.solve",
