@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -260,3 +261,16 @@ def test_python_api():
     lk = synth.fourbar(T, min_transmission_deg=45.0)
     assert isinstance(lk, synth.Linkage) and lk.poses[3].name == "p3"
     assert lk.info["fourbar"]["transmission_min_deg"] >= 45.0
+
+
+def test_solve_fourbar_entry_point():
+    """`synth.solve.solve_fourbar`: the task's file name in refusals, --top's ranked index, no design unless asked."""
+    from synth.io.poses import load_poses
+    from synth.solve import SynthesisOptions, solve_fourbar
+
+    ps = load_poses(str(Path(__file__).resolve().parents[1] / "fixtures" / "fourbar_5.yaml"))
+    r = solve_fourbar(ps, SynthesisOptions(top=2))
+    assert r.index["format"] == "mpsynth.fourbar-index/1" and r.design is None
+    assert [s.id for s in r.solutions][:1] == ["01-fourbar"] and r.linkage is r.solutions[0].linkage
+    with pytest.raises(SynthesisError, match=r"fourbar_5.yaml: none of the"):
+        solve_fourbar(ps, min_transmission_deg=89.0)
