@@ -5,7 +5,7 @@ import math
 
 import click
 
-from .common import Output, design_options, echo, emit, fmt_len, progress, run_guarded, synthesis_options
+from .common import Output, design_options, drive_options, echo, emit, fmt_len, progress, run_guarded, synthesis_options
 
 
 @click.command(epilog="""\b
@@ -51,11 +51,12 @@ def bennett(poses, member, top, best_effort, **params):
     from .task import emit_task
 
     output = Output.of(params)
-    ps = load_poses(poses, count=((2, None), "mpsynth bennett"), normalize=params["normalize"], points=point_count(2))
-    task = not ps.has_points and is_task(ps)
+    ps = load_poses(poses, count=((2, None), "mpsynth bennett"), normalize=params["normalize"],
+                    points=((point_count(2)[0][0], None), "mpsynth bennett"))  # more than 5 points: fitted
+    task = is_task(ps)
     lam = parse_numbers(member, 2, "--member") if member is not None and not ps.has_points and not task else member
     options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=lam,
-                               best_effort=best_effort)
+                               best_effort=best_effort, **drive_options(params))
 
     def ready():
         if output.dir:
@@ -64,10 +65,10 @@ def bennett(poses, member, top, best_effort, **params):
             check_output_target(output.dir, output.force)  # refuse an unusable OUT before doing the work
 
     result = solve_bennett(ps, options, ready=ready, progress=lambda items, label: progress(items, label, output.quiet))
-    if ps.has_points:
-        return emit_points(result, ps, output, top)
     if task:
         return emit_task(result, ps, output, top)
+    if ps.has_points:
+        return emit_points(result, ps, output, top)
     emit_two_branch(result, ps, output)
 
 

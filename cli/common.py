@@ -122,6 +122,7 @@ def synthesis_options(func):
                      help="Robot name in the URDF (default: the pose file's stem)."),
         click.option("--force", is_flag=True, help="Replace OUT even if it holds files not written by mpsynth."),
         *design_option_list("the input's length unit"),
+        *drive_option_list(),
         click.option("--package", callback=_checked(check_package),
                      help="Write mesh paths as package://PACKAGE/meshes/... (ROS package name: a-z, 0-9, _)."),
         click.option("--normalize", is_flag=True,
@@ -176,6 +177,24 @@ class Output:
     def physical(self) -> bool:
         """Whether the physical design is needed: files are written or linkage.json printed."""
         return bool(self.dir or self.as_json)
+
+
+def drive_option_list() -> list:
+    """--driver and --max-extent (docs/drive.md)."""
+    return [
+        click.option("--driver", metavar="JOINT",
+                     help="The joint the motor turns (a joint on the base, default the first joint of the first "
+                          "branch, h1): it sets the task range, the drive report and the URDF limits."),
+        click.option("--max-extent", type=float,
+                     help="Refuse (exit 1) a linkage whose extent (RMS distance of its joint sites and tool "
+                          "positions from their centroid) exceeds this, in the input's length unit (default 100 x "
+                          "the spread of the task's positions; 'inf': no limit)."),
+    ]
+
+
+def drive_options(params: dict) -> dict:
+    """`synth.solve.SynthesisOptions`' driver and max_extent among click's ``params``."""
+    return dict(driver=params.get("driver"), max_extent=params.get("max_extent"))
 
 
 def design_options(params: dict):
@@ -243,6 +262,14 @@ def emit(result, output: Output, details=None) -> None:
         print_linkage_summary(linkage, scale, unit)
         if details is not None:
             details()
+        from synth.drive import drive_report
+
+        drive = result.drive if result.drive is not None else drive_report(linkage)
+        echo(f"  drive: {drive.sentence()}")
+        if result.constraints_met:
+            echo(f"  constraints: {result.constraints_met}")
+        for w in drive.warnings:
+            echo(f"  warning: {w}")
         if design is not None:
             echo(f"  design: {result.sentence()}")
         if files is not None:
@@ -252,7 +279,8 @@ def emit(result, output: Output, details=None) -> None:
         elif not output.as_json:
             echo("  no files written (give -o OUT to write URDF, STL and JSON)")
     if output.as_json:
-        print_json(linkage_document(linkage, *((design.design, design.collision) if design else ())))
+        print_json(linkage_document(linkage, *((design.design, design.collision) if design else (None, None)),
+                                    result.drive))
 
 
 def write_ranked(result, output: Output) -> None:

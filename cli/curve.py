@@ -10,11 +10,12 @@ from synth.io.curvespec import load_spec
 from synth.io.posespec import LENGTH_UNITS
 from synth.io.writer import check_output_target
 
-from .common import Output, debug_option, design_option_list, design_options, echo, emit, json_option, nonempty_path, run_guarded
+from .common import (Output, debug_option, design_option_list, design_options, drive_option_list, drive_options, echo,
+                     emit, json_option, nonempty_path, run_guarded)
 
 
 def _design_flags(func):
-    for opt in reversed(design_option_list("--units")):
+    for opt in reversed(design_option_list("--units") + drive_option_list()):
         func = opt(func)
     return func
 
@@ -76,7 +77,8 @@ def curve(spec, units, method, **params):
 
     output = Output.of(params)
     parsed = load_spec(spec)
-    options = SynthesisOptions(design=design_options(params), physical=output.physical, method=method)
+    options = SynthesisOptions(design=design_options(params), physical=output.physical, method=method,
+                               **drive_options(params))
 
     def ready():
         if output.dir:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from .common import Output, design_options, echo, finish_ranked, progress, run_guarded, synthesis_options
+from .common import Output, design_options, drive_options, echo, finish_ranked, progress, run_guarded, synthesis_options
 
 
 @click.command(epilog="""\b
@@ -50,7 +50,7 @@ def sixbar(poses, family, member, pair, top, **params):
     if member is not None and not ps.has_points:
         member = parse_member(member)
     options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=member,
-                               family=family, pair=pair)
+                               family=family, pair=pair, **drive_options(params))
     result = solve_sixbar(ps, options, progress=lambda items, label: progress(items, label, output.quiet))
     if ps.has_points:
         return emit_points(result, ps, output, top)

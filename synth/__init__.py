@@ -2,7 +2,7 @@
 
     import numpy as np, synth
     L = synth.bennett(poses)            # poses: (3, 4, 4) array, metres -> Linkage
-    L = synth.bennett(many, tolerance=(1e-3, 0.01), order="listed")  # (N, 4, 4): fitted (docs/fit.md)
+    Ls = synth.fit(many, tolerance=(1e-3, 0.01), order="listed")    # (N, 4, 4): fitted (docs/fit.md)
     Ls = synth.fit(load_poses("task.yaml"), top=3)                   # a task file's PoseSet -> best fits
     L = synth.sixbar(poses4)            # (4, 4, 4) -> the best 6R Linkage (options: family, member, pair)
                                         # planar/spherical poses: a four-bar / Watt six-bar (docs/planar.md)
@@ -41,7 +41,7 @@ __all__ = ["bennett", "fit", "sixbar", "fourbar", "bennett_points", "sixbar_poin
 
 _LAZY = {
     "bennett": "synth.synthesis.bennett",
-    "fit": "synth.synthesis.taskfit",
+    "fit": "synth.synthesis.tasks",
     "sixbar": "synth.synthesis.sixbar",
     "fourbar": "synth.synthesis.fourbar",
     "bennett_points": "synth.synthesis.points",

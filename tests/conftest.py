@@ -89,8 +89,8 @@ def random_poses(rng, n: int, scale: float = 1.0, offset=(0.0, 0.0, 0.0), near_p
 
 
 def write_pose_yaml(path: Path, T, names=None) -> Path:
-    """A pose file with 4x4 matrices in metres (exact repr of every float)."""
-    lines = ["poses:"]
+    """A pose file with 4x4 matrices in metres, said explicitly (exact repr of every float)."""
+    lines = ["units: {length: m}", "poses:"]
     for i, M in enumerate(T):
         name = names[i] if names else f"p{i}"
         rows = ", ".join("[" + ", ".join(repr(float(x)) for x in row) + "]" for row in M)

@@ -119,7 +119,7 @@ def test_a_rate_two_joint_in_the_self_check():
 
 def test_rate_round_trips_through_linkage_json():
     from synth.io.jsonout import linkage_document, plain
-    from synth.io.readback import angle_rates, linkage_from_document
+    from synth.io.linkagedoc import angle_rates, linkage_from_document
 
     lk = _darboux_chain()
     doc = plain(linkage_document(lk))

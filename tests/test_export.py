@@ -328,7 +328,10 @@ def test_write_output_files(bennett, written):
 
     result = design_for(bennett)
     doc = json.loads((out / "linkage.json").read_text())
-    assert doc == linkage_document(bennett, result.design, result.collision)
+    from synth.drive import drive_report
+
+    assert doc == linkage_document(bennett, result.design, result.collision, drive_report(bennett))
+    assert doc["drive"]["driver"] == "h1" and doc["drive"]["max_speed_ratio"] > 0
     assert set(doc["design"]) >= {"pin_radius", "bar_radius", "hub_radius", "hub_length", "hole_clearance",
                                   "clearance", "mounts", "bars", "pins"}
     assert {p["link"] for p in doc["design"]["pins"]} == PINS

@@ -99,7 +99,7 @@ def test_batch_length_scale_equals_linkage_extent(seed):
     L = bennett_mod.bennett(T, check_samples=4)
     assert L.checks["length_scale"] == pytest.approx(L.extent(), rel=1e-12)
     out = bennett_core.solve(T[None], 0)
-    assert out["length_scale"][0] == pytest.approx(L.extent(), rel=1e-12)
+    assert out.length_scale[0] == pytest.approx(L.extent(), rel=1e-12)
 
 
 @pytest.mark.parametrize("seed", range(8))

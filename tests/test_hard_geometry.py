@@ -307,6 +307,12 @@ def test_far_from_origin(offset, spread):
     assert not any("pose spreads away" in w for w in L.info["warnings"]), L.info["warnings"]
 
 
+def other_warnings(stderr: str) -> list[str]:
+    """The warning lines but the drive's (this random Bennett linkage's k1 turns 14.7 times as fast as h1,
+    wherever the poses are: a poor drive, rightly said)."""
+    return [line for line in stderr.splitlines() if "warning" in line and "poor drive" not in line]
+
+
 def test_far_cli_end_to_end(tmp_path):
     rng = np.random.default_rng(11)
     T = random_poses(rng, 3, scale=1.0, offset=(1e3, -2e3, 5e2))
@@ -314,7 +320,7 @@ def test_far_cli_end_to_end(tmp_path):
     out = tmp_path / "out"
     r = CliRunner().invoke(mpsynth, ["bennett", str(f), "-o", str(out)])
     assert r.exit_code == 0, r.stderr
-    assert "warning" not in r.stderr
+    assert not other_warnings(r.stderr)
     assert json.loads((out / "linkage.json").read_text())["checks"]["max_pose_error"] < 1e-9
 
 
@@ -335,7 +341,7 @@ def test_far_and_tiny_cli_end_to_end(tmp_path):
     out = tmp_path / "out"
     r = CliRunner().invoke(mpsynth, ["bennett", str(f), "-o", str(out)])
     assert r.exit_code == 0, r.stderr
-    assert "warning" not in r.stderr
+    assert not other_warnings(r.stderr)
     doc = json.loads((out / "linkage.json").read_text())
     assert doc["checks"]["max_pose_error"] < 1e-8
     import trimesh
@@ -357,6 +363,8 @@ def test_sensitive_result_warns_on_stderr(tmp_path):
     assert any("sensitive to the poses" in w for w in L.info["warnings"])
     f = write_pose_yaml(tmp_path / "sens.yaml", T)
     r = CliRunner().invoke(mpsynth, ["bennett", str(f), "-o", str(tmp_path / "out")])
+    assert r.exit_code == 1 and "more than --max-extent" in r.stderr  # 8300 x the poses' spread: refused
+    r = CliRunner().invoke(mpsynth, ["bennett", str(f), "-o", str(tmp_path / "out"), "--max-extent", "inf"])
     assert r.exit_code == 0, r.stderr
     assert "warning: the result is valid but sensitive to the poses" in r.stderr
     assert (tmp_path / "out" / "linkage.json").is_file()

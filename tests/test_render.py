@@ -14,7 +14,8 @@ from synth.errors import InputError
 from synth.io.writer import write_output
 from synth.design.choose import design_for
 from synth.io.poses import load_poses
-from synth.io.readback import angle_laws, cycle_parameters, mesh_path, phi_of, read_files, read_output
+from synth.io.linkagedoc import angle_laws
+from synth.io.readback import cycle_parameters, mesh_path, phi_of, read_files, read_output
 
 from conftest import REPO, run
 

@@ -50,7 +50,7 @@ def test_notebook_gets_the_clis_planar_member_and_design():
     res = solve_bennett(ps, SynthesisOptions(physical=True))
     assert res.linkage.kind == Kind.PLANAR_4R and res.design is not None
     assert "design_choice" in res.linkage.info and res.sentence().startswith(("collision-free", "NOT"))
-    doc = plain(linkage_document(res.linkage, res.design.design, res.design.collision))
+    doc = plain(linkage_document(res.linkage, res.design.design, res.design.collision, res.drive))
     _same(json.loads(json.dumps(doc)), _cli_json("bennett", path))
 
 
@@ -61,7 +61,7 @@ def test_library_applies_the_transmission_gate():
     T = hard_set(20, 3)[1]
     with pytest.raises(SynthesisError, match="transmission ratio"):
         synth.bennett(T)
-    ps = load_poses("x.yaml", text="poses:\n" + "".join(
+    ps = load_poses("x.yaml", text="units: {length: m}\nposes:\n" + "".join(
         f"  - matrix: {json.dumps(M.tolist())}\n" for M in T), count=3)
     with pytest.raises(SynthesisError, match=r"^x\.yaml: .*transmission ratio"):
         solve_bennett(ps)
@@ -79,7 +79,7 @@ def test_sizes_are_validated_once_in_the_input_unit():
 
 def test_option_combinations_are_refused_by_the_library():
     ps = load_poses(str(FIX / "bennett_quat.yaml"), count=3)
-    with pytest.raises(InputError, match="--top applies to point tasks only"):
+    with pytest.raises(InputError, match="--top applies to point tasks and fits only"):
         solve_bennett(ps, SynthesisOptions(top=2))
     pts = load_poses(str(FIX / "bennett_points.yaml"), points=((3, 5), "mpsynth bennett"))
     with pytest.raises(InputError, match="--member selects among"):
@@ -117,8 +117,9 @@ def test_batch_job_gets_the_entry_points_linkage():
 
     path = FIX / "bennett_quat.yaml"
     doc = {"kind": "bennett", "poses": [
-        {"position": [0, 0, 0], "quaternion": [1, 0, 0, 0]}, {"position": [1, 0, 0.5], "quaternion": [0.6, 0, 0, 0.8]},
-        {"position": [0.25, 1, 0.2], "quaternion": [0.6, 0.8, 0, 0]}]}
+        {"position": [0, 0, 0], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}},
+        {"position": [1, 0, 0.5], "quaternion": {"w": 0.6, "x": 0, "y": 0, "z": 0.8}},
+        {"position": [0.25, 1, 0.2], "quaternion": {"w": 0.6, "x": 0.8, "y": 0, "z": 0}}]}
     res = run_job((1, json.dumps(doc)), full=True)
     assert res["ok"], res
     ps = load_poses(str(path), count=3)

@@ -60,3 +60,24 @@ def driven_speed(a, b, ad, bd, phi, rate=1, driver_rate=1) -> np.ndarray:
     u = np.asarray(phi, float) / (2.0 * np.asarray(driver_rate, float))
     s, c = np.sin(u), np.cos(u)
     return np.multiply(np.divide(rate, driver_rate), b * bd / ((bd * c + (ad - a) * s) ** 2 + (b * s) ** 2))
+
+
+def driven_speed_max(a, b, ad, bd, phi0, phi1, rate=1, driver_rate=1) -> tuple[np.ndarray, np.ndarray]:
+    """The largest |`driven_speed`| over the driver's angles [phi0, phi1] (phi0 <= phi1, any real) and a
+    driver angle where it is reached, exactly: the denominator of `driven_speed` is the quadratic form
+    ``Q(u) = bd^2 c^2 + 2 bd (ad - a) c s + ((ad - a)^2 + b^2) s^2 = m + rho cos(2u - psi)``, smallest at
+    ``u* = (psi + pi) / 2 + k pi`` when one lies in the arc (there ``Q = m - rho = (b bd)^2 / (m + rho)``,
+    the determinant over the larger eigenvalue), else at an end. Broadcasts; (max, phi)."""
+    dr = np.asarray(driver_rate, float)
+    u0, u1 = np.asarray(phi0, float) / (2 * dr), np.asarray(phi1, float) / (2 * dr)
+    A, B, C = bd * bd, bd * (ad - a), (ad - a) ** 2 + b * b
+    m, x = (A + C) / 2, (A - C) / 2
+    rho, psi = np.hypot(x, B), np.arctan2(B, x)
+    star = (psi + np.pi) / 2
+    k = np.ceil((u0 - star) / np.pi)
+    inside = star + k * np.pi <= u1
+    q0, q1 = m + rho * np.cos(2 * u0 - psi), m + rho * np.cos(2 * u1 - psi)
+    u = np.where(inside, star + k * np.pi, np.where(q0 <= q1, u0, u1))
+    q = np.where(inside, (b * bd) ** 2 / (m + rho), np.minimum(q0, q1))  # m - rho = det / (m + rho), no cancellation
+    speed = np.abs(np.divide(rate, dr) * b * bd) / np.maximum(q, 1e-300)
+    return speed, 2 * dr * u

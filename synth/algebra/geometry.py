@@ -35,6 +35,7 @@ PARALLEL_TOL = 1e-9  # |u1 x u2| below this: parallel lines (see the module docs
 INTERSECT_TOL = 1e-12  # a common normal at most this long: intersecting lines (normal = u1 x u2 / |u1 x u2|)
 MIN_EXTENT = 1e-9  # `extent` is at least this
 _PARALLEL_TOL2 = PARALLEL_TOL * PARALLEL_TOL
+_FLOAT = np.dtype(np.float64)
 
 _CROSS_A, _CROSS_B = np.array([1, 2, 0, 2, 0, 1]), np.array([2, 0, 1, 1, 2, 0])  # a_j b_k, then a_k b_j
 
@@ -46,8 +47,12 @@ def cross(a, b) -> np.ndarray:
     which dominates a single synthesis, and is 2-5x slower than componentwise products on large broadcast
     batches: up to a few hundred vectors by one product of two index permutations (all six a_j b_k at
     once), more component by component into the result."""
-    a = _real_or_complex(a)
-    b = _real_or_complex(b)
+    a = np.asarray(a)
+    if a.dtype is not _FLOAT and a.dtype.kind != "c":
+        a = a.astype(float)
+    b = np.asarray(b)
+    if b.dtype is not _FLOAT and b.dtype.kind != "c":
+        b = b.astype(float)
     if a.size + b.size <= 3000:
         ab = a.take(_CROSS_A, -1) * b.take(_CROSS_B, -1)
         return ab[..., :3] - ab[..., 3:]
@@ -55,14 +60,6 @@ def cross(a, b) -> np.ndarray:
     for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
         np.subtract(a[..., j] * b[..., k], a[..., k] * b[..., j], out=out[..., i])
     return out
-
-
-def _real_or_complex(x) -> np.ndarray:
-    x = np.asarray(x)
-    return x if x.dtype is _FLOAT or x.dtype.kind == "c" else x.astype(float)
-
-
-_FLOAT = np.dtype(np.float64)
 
 
 def skew(v) -> np.ndarray:
@@ -173,7 +170,7 @@ def invert_pose(T) -> np.ndarray:
 
 
 # ----------------------------------------------------------------- pairs of lines
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class CommonNormals:
     """Common normals of pairs of lines (line 1, line 2), arrays over the pairs' batch shape (...)."""
 
@@ -234,7 +231,8 @@ def _normals(UU, PP, c) -> CommonNormals:
     k = dot(cross(d[..., None, :], UU), c[..., None, :]) / (np.where(par, 1.0, s2) if some_parallel else s2)[..., None]
     feet = PP + k[..., ::-1, None] * UU
     if some_parallel:  # through the midpoint of p1 and p2, projected onto each line
-        f1 = PP[..., 0, :] + (0.5 * dot(d, u1))[..., None] * u1
+        mid = 0.5 * (PP[..., 0, :] + PP[..., 1, :])
+        f1 = PP[..., 0, :] + dot(mid - PP[..., 0, :], u1)[..., None] * u1
         f2 = PP[..., 1, :] + dot(f1 - PP[..., 1, :], u2)[..., None] * u2
         feet = np.where(par[..., None, None], np.stack([f1, f2], axis=-2), feet)
     dv = feet[..., 1, :] - feet[..., 0, :]
@@ -253,7 +251,7 @@ def _normals(UU, PP, c) -> CommonNormals:
                          some_parallel=some_parallel)
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class DHParameters:
     """Denavit-Hartenberg parameters around closed loops, each (..., J): for joint i ``a``/``alpha`` to the
     next joint (distance; twist signed about the common normal from i to i+1), ``d`` the offset along axis
@@ -316,17 +314,24 @@ def _pair_index(J: int) -> np.ndarray:
 def spread(points):
     """(centroid (..., 3), RMS distance from it (...)) of points (..., k, 3)."""
     pts = np.asarray(points, float)
-    k = pts.shape[-2]
-    c = pts.sum(axis=-2) / k
-    rel = (pts - c[..., None, :]).reshape(pts.shape[:-2] + (3 * k,))
-    return c, np.sqrt(dot(rel, rel) / k)
+    c = np.add.reduce(pts, axis=-2) / pts.shape[-2]  # (the sum without ndarray.sum's Python wrapper)
+    return c, _rms(pts - c[..., None, :])
 
 
-def extent(points) -> np.ndarray:
+def _rms(rel) -> np.ndarray:
+    """sqrt(sum |rel_i|^2 / k) of vectors rel (..., k, 3)."""
+    k = rel.shape[-2]
+    rel = rel.reshape(rel.shape[:-2] + (3 * k,))
+    return np.sqrt(dot(rel, rel) / k)
+
+
+def extent(points, centred: bool = False) -> np.ndarray:
     """A length scale (...) of point sets (..., k, 3): their RMS distance from the centroid (`spread`),
-    at least MIN_EXTENT. A linkage's (`synth.linkage.Linkage.extent`) is that of its joint sites and tool
-    positions."""
-    return np.maximum(spread(points)[1], MIN_EXTENT)
+    at least MIN_EXTENT. ``centred``: the points are already relative to their centroid (a caller that
+    gets them from one linear map, as the Bennett pipeline does). A linkage's extent
+    (`synth.linkage.Linkage.extent`) is that of its joint sites and tool positions."""
+    pts = np.asarray(points, float)
+    return np.maximum(_rms(pts) if centred else spread(pts)[1], MIN_EXTENT)
 
 
 def joint_sites(U, M, pairs, centre) -> np.ndarray:

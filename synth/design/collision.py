@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from synth.algebra.anglelaw import driven_speed_max
 from synth.design.model import joint_links
 
 
@@ -78,23 +79,13 @@ def phi_of_t(t) -> np.ndarray:
 
 
 def rate_bound(linkage, phi0, phi1) -> np.ndarray:
-    """(J, n) upper bounds of |dtheta_j/dphi| over each interval [phi0[i], phi1[i]] (phi0 <= phi1)."""
+    """(J, n) upper bounds of |dtheta_j/dphi| over each interval [phi0[i], phi1[i]] (phi0 <= phi1): t = tan phi
+    is the parameter of a driver with angle law (0, 1) at angle pi - 2 phi (`driven_speed_max`)."""
     phi0, phi1 = np.asarray(phi0, float), np.asarray(phi1, float)
-    out = []
-    for j in linkage.joints:
-        a, b = j.a, j.b
-        A0 = (1 + a * a + b * b) / 2
-        C, S = (a * a + b * b - 1) / 2, -a
-        rho, psi = np.hypot(C, S), np.arctan2(S, C)
-
-        def Q(p):
-            return A0 + rho * np.cos(2 * p - psi)
-
-        star = (psi + np.pi) / 2  # minimisers: star + k pi
-        inside = np.ceil((phi0 - star) / np.pi) <= np.floor((phi1 - star) / np.pi)
-        qmin = np.where(inside, A0 - rho, np.minimum(Q(phi0), Q(phi1)))
-        out.append(2 * abs(b) * j.rate / np.maximum(qmin, 1e-300))
-    return np.array(out)
+    a = np.array([j.a for j in linkage.joints], float)[:, None]
+    b = np.array([j.b for j in linkage.joints], float)[:, None]
+    rate = np.array([j.rate for j in linkage.joints])[:, None]
+    return 2.0 * driven_speed_max(a, b, 0.0, 1.0, np.pi - 2 * phi1, np.pi - 2 * phi0, rate)[0]
 
 
 def even_samples(linkage, lo: float, hi: float, n: int, fine: int = 4096) -> np.ndarray:

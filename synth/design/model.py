@@ -257,7 +257,9 @@ class CollisionReport:
 
 @dataclass
 class DesignResult:
-    """A finished design: what the exporters write (`synth.io.export`)."""
+    """A finished design: what the exporters write (`synth.io.export`); ``drive``: the linkage's
+    `synth.drive.DriveReport` when already made (else the JSON exporter makes it)."""
 
     design: PhysicalDesign
     collision: CollisionReport
+    drive: object | None = None

@@ -26,6 +26,7 @@ from synth.design.collision import CapsuleSet, adjacent_pairs, bodies, certify, 
 from synth.design.coordinate import FULL, Scorer, mount_space, score, search_rounds, violation
 from synth.design.work import GAPS_PER_SECOND, Work
 from synth.design.model import Bar, CollisionReport, DesignResult, Mount, PhysicalDesign, Pin, hub_radius_for, joint_links
+from synth.drive import driver_joint, task_range  # noqa: F401  (task_range: also for the design's callers)
 
 TWO_PI = 2 * math.pi
 CLEARANCE_FRACTION = 0.25  # default clearance: this fraction of the bar radius
@@ -159,31 +160,6 @@ class Layout:
 
 
 # ----------------------------------------------------------------------------------------- ranges
-def driver_joint(linkage) -> str:
-    """The driving joint: the first joint on the tree path from ``base`` to the first closure's link
-    (the first joint of the first branch; what the exporters limit and the verifier drives)."""
-    link = linkage.closures[0][0] if linkage.closures else linkage.joints[-1].child
-    path = []
-    parents = {j.child: j for j in linkage.joints}
-    while link in parents:
-        path.append(parents[link].name)
-        link = parents[link].parent
-    return path[-1] if path else linkage.joints[0].name
-
-
-def task_range(linkage, driver: str | None = None) -> tuple[str, float, float]:
-    """(driver, start, end) radians: the shortest arc of the driver's angle (``driver``, default
-    `driver_joint`) that visits every pose (start in [0, 2 pi), end = start + span)."""
-    driver = driver or driver_joint(linkage)
-    angles = sorted(float(p.joint_angles[driver]) % TWO_PI for p in linkage.poses)
-    if len(angles) < 2:
-        return driver, 0.0, TWO_PI
-    gaps = [((angles[(i + 1) % len(angles)] - angles[i]) % TWO_PI) or TWO_PI for i in range(len(angles))]
-    g = int(np.argmax(gaps))
-    start = angles[(g + 1) % len(angles)]
-    return driver, start, start + TWO_PI - gaps[g]
-
-
 def phi_of_angle(joint, theta) -> float:
     """phi in (-pi/2, pi/2] where ``joint`` has angle theta (its angle law is a bijection of the cycle)."""
     th = float(theta) % TWO_PI

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.drive import drive_report
 from synth.io.meshes import DENSITY
 from synth.io.names import MESH_UNIT_SCALE, mesh_filename, pin_link_name
 
@@ -63,9 +64,10 @@ def stl_section() -> dict:
             "material": "aluminium", "masses": "URDF <inertial>: kg, kg m^2, solid parts of this density"}
 
 
-def linkage_document(linkage, design=None, collision=None) -> dict:
-    """The linkage.json document (a dict of plain JSON types); ``design`` (`PhysicalDesign`) and
-    ``collision`` (`CollisionReport`) add their sections when given."""
+def linkage_document(linkage, design=None, collision=None, drive=None) -> dict:
+    """The linkage.json document (a dict of plain JSON types); ``design`` (`PhysicalDesign`),
+    ``collision`` (`CollisionReport`) and ``drive`` (`synth.drive.DriveReport`) add their sections when
+    given."""
     doc = {
         "format": FORMAT,
         "kind": linkage.kind,
@@ -94,11 +96,16 @@ def linkage_document(linkage, design=None, collision=None) -> dict:
         "tool_ref": np.asarray(linkage.tool_ref, float),
         "info": dict(linkage.info),
     }
+    fit = linkage.info.get("fit")
+    if isinstance(fit, dict) and "within_tolerance" in fit:  # a task's result (docs/fit.md): said at the top too
+        doc["within_tolerance"] = bool(fit["within_tolerance"])
     doc["stl"] = stl_section()
     if design is not None:
         doc["design"] = design_section(design)
     if collision is not None:
         doc["collision"] = collision if isinstance(collision, dict) else collision.to_dict()
+    if drive is not None:
+        doc["drive"] = drive if isinstance(drive, dict) else drive.to_dict()
     return plain(doc)
 
 
@@ -146,5 +153,6 @@ def write_json(doc: dict, path) -> Path:
 
 def write_linkage_json(job, directory: Path) -> list[Path]:
     """The ``json`` exporter (`synth.io.export`): ``linkage.json`` of ``job``'s linkage and design."""
-    write_json(linkage_document(job.linkage, job.result.design, job.result.collision), directory / "linkage.json")
+    drive = job.result.drive if job.result.drive is not None else drive_report(job.linkage)
+    write_json(linkage_document(job.linkage, job.result.design, job.result.collision, drive), directory / "linkage.json")
     return [Path("linkage.json")]

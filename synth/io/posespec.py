@@ -360,3 +360,7 @@ def pose_from_spec(
         return pose_matrix(spec, LENGTH_UNITS[length_unit], angle_unit, normalize)
     except PoseProblem as e:
         raise InputError(str(e)) from None
+
+
+# the value checks under public names, for the other sections of a task file (synth.io.constraints)
+number, vector, matrix = _number, _vector, _matrix

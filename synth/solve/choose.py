@@ -6,9 +6,10 @@ from __future__ import annotations
 import math
 
 from synth.design.choose import design_for
+from synth.design.constraints import envelope_violation, first_in_envelope
 from synth.design.search import collision_rank, rank_buildable
+from synth.design.sizes import check_sizes
 from synth.errors import SynthesisError
-from synth.solve.options import check_mesh_sizes
 
 
 def collision_sentence(report, scale: float, unit: str) -> str:
@@ -55,7 +56,7 @@ class Designer:
     def design(self, linkage, **search):
         """The physical design of ``linkage`` (`synth.design.choose.design_for`); ``search``: further
         arguments of the design search (ranges, full_work, effort, work). InputError for sizes absurd for it."""
-        check_mesh_sizes(self.sizes, linkage.extent(), self.scale, self.unit)
+        check_sizes(self.sizes, linkage.extent(), scale=self.scale, unit=self.unit)
         return design_for(linkage, **self.sizes, **search)
 
     def sentence(self, result) -> str:
@@ -66,29 +67,38 @@ class Designer:
         if not result.collision.free:
             raise SynthesisError(f"{self.source}: {self.sentence(result)}")
 
-    def choose(self, candidates, *, limit: int, work: float, what: str):
+    def choose(self, candidates, *, limit: int, work: float, what: str, constraints=None):
         """Design the best-scored ``candidates`` (best first, at most ``limit``) and keep the collision-free
         one first (full cycle, then task range; `synth.design.search.rank_buildable` within ``work`` gap
-        evaluations, `synth.design.work`), then the score. Returns (linkage, DesignResult);
-        ``linkage.info["design_choice"]`` says which candidate won; ``what``: the candidates' name in it."""
+        evaluations, `synth.design.work`), then the score; with an envelope in ``constraints`` (the task's)
+        the first design inside it (`synth.design.constraints.first_in_envelope`). Returns (linkage,
+        DesignResult); ``linkage.info["design_choice"]`` says which candidate won; ``what``: the candidates'
+        name in it."""
         candidates = list(candidates)
         ranked = rank_buildable(candidates, lambda lk, ranges, full_work, spent: self.design(
             lk, ranges=ranges, full_work=full_work, work=spent), limit=limit, work=work)
-        linkage, result = ranked[0]
+        linkage, result = first_in_envelope(
+            ranked, [c for c in candidates[:limit] if all(c is not lk for lk, _ in ranked)],
+            lambda lk: self.design(lk, ranges=("task",)), constraints, source=self.source, scale=self.scale,
+            unit=self.unit)
         k = next(i for i, c in enumerate(candidates) if c is linkage)
         linkage.info["design_choice"] = (f"candidate {k + 1} of the {min(len(candidates), limit)} best-scored {what}: "
                                          "collision-free first (full cycle, then task range), then the score")
         return linkage, result
 
-    def rank(self, linkages, *, require_free: bool, what: str, progress=None):
+    def rank(self, linkages, *, require_free: bool, what: str, progress=None, constraints=None):
         """The physical design of every ranked solution (`--top`), kept in the given (score) order, each
         with its collision report (#35: the ranking is the score's); with ``require_free`` only the
         collision-free ones (SynthesisError naming the best when there is none; ``what`` names the
-        designs in it). ``progress(items, label)``: an iterable wrapper showing progress (None: none).
-        Returns (linkages, DesignResults)."""
+        designs in it); with an envelope in ``constraints`` only the designs inside it.
+        ``progress(items, label)``: an iterable wrapper showing progress (None: none). Returns
+        (linkages, DesignResults)."""
         items = linkages if progress is None else progress(linkages, "collision-free design search: design")
         results = [self.design(lk) for lk in items]
         pairs = list(zip(linkages, results))
+        if constraints is not None and constraints.envelope is not None:  # only the designs inside it
+            first_in_envelope(pairs, [], None, constraints, source=self.source, scale=self.scale, unit=self.unit)
+            pairs = [(lk, r) for lk, r in pairs if envelope_violation(lk, r.design, constraints) is None]
         if require_free:
             free = [(lk, r) for lk, r in pairs if r.collision.free]
             if not free:

@@ -1,8 +1,9 @@
 """What a synthesis is asked for: typed options shared by the CLI, batch jobs and notebooks.
 
 `DesignOptions` holds the physical-design sizes in the task's length unit (None: the defaults of
-`synth.io.meshes.default_sizes`) and whether a collision-free design is required; `sizes` validates and
-converts them to metres, in one place for every caller. `SynthesisOptions` holds the choice among
+`synth.design.choose.default_sizes`) and whether a collision-free design is required; `sizes` validates and
+converts them to metres, in one place for every caller (their bounds against the linkage's size:
+`synth.design.sizes.check_sizes`). `SynthesisOptions` holds the choice among
 solutions (member, family, pair, top) and whether a physical design is to be made.
 """
 from __future__ import annotations
@@ -10,18 +11,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable
 
+from synth.design.sizes import CLEARANCE_KEYS, option_label
+from synth.design.sizes import SIZE_KEYS as PART_KEYS
 from synth.errors import InputError
 
-SIZE_KEYS = ("pin_radius", "link_radius", "pin_length", "clearance", "hole_clearance")
-GAPS = ("clearance", "hole_clearance")  # may be 0; the other sizes must be positive
+SIZE_KEYS = PART_KEYS + CLEARANCE_KEYS
+GAPS = CLEARANCE_KEYS  # may be 0; the other sizes must be positive
 MAX_SIZE = 1e9  # in the input unit: larger is a typo
-MESH_SIZE_RANGE = (1e-6, 10.0)  # explicit mesh sizes, relative to the linkage's size (extent): a part
-# ten times the mechanism's size is a typo, not a design (e.g. --pin-length 100000 gave a 132 m mesh)
-
-
-def option_label(key: str) -> str:
-    """The CLI's name of a size: ``--pin-radius``."""
-    return f"--{key.replace('_', '-')}"
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,7 +34,7 @@ class DesignOptions:
 
     def sizes(self, length_scale: float, label: Callable[[str], str] = option_label) -> dict:
         """The given sizes in metres (``length_scale``: metres per input unit), keyed as
-        `synth.io.meshes.design_for`'s arguments; InputError (``label(key)`` naming the size) unless
+        `synth.design.choose.design_for`'s arguments; InputError (``label(key)`` naming the size) unless
         positive (clearances: non-negative) and below MAX_SIZE."""
         out = {}
         for key in SIZE_KEYS:
@@ -53,24 +49,6 @@ class DesignOptions:
         return out
 
 
-def check_mesh_sizes(sizes: dict, extent: float, scale: float, unit: str) -> None:
-    """Refuse explicit sizes (metres, `DesignOptions.sizes`) that are absurd for a linkage of size
-    ``extent`` (metres): outside MESH_SIZE_RANGE times the extent the meshes cannot be built. Messages use
-    the input unit (``scale`` metres per ``unit``)."""
-    lo, hi = MESH_SIZE_RANGE
-    for key, v in sizes.items():
-        if key in GAPS:
-            if v > hi * extent:
-                raise InputError(f"{option_label(key)} {v / scale:.6g} {unit} is out of range for a linkage "
-                                 f"of size {extent / scale:.3g} {unit}")
-            continue
-        if not (lo * extent <= v <= hi * extent):
-            raise InputError(
-                f"{option_label(key)} {v / scale:.6g} {unit} is out of range for a linkage of size "
-                f"{extent / scale:.3g} {unit}: give a value between {lo * extent / scale:.3g} and "
-                f"{hi * extent / scale:.3g} {unit}")
-
-
 @dataclass(frozen=True, slots=True)
 class SynthesisOptions:
     """The choice among solutions and what to make of the chosen one.
@@ -81,7 +59,9 @@ class SynthesisOptions:
     poses (lambda1, lambda2); 6R: lambda1, or (t3, lambda1, lambda2, lambda3) for planar or spherical
     poses. ``family`` (1|2) and ``pair`` (1..9): 6R. ``method``: curves ("auto", "translation",
     "rotation"). ``best_effort``: task fits (docs/fit.md): the best fit even when it misses a tolerance
-    (else SynthesisError)."""
+    (else SynthesisError). ``driver``: the joint the motor turns (a joint on the base; None: h1) and
+    ``max_extent``: the largest extent accepted, in the task's length unit (None: 100 x the task's
+    spread; docs/drive.md)."""
 
     design: DesignOptions = field(default_factory=DesignOptions)
     physical: bool = False
@@ -91,6 +71,8 @@ class SynthesisOptions:
     pair: int | None = None
     method: str = "auto"
     best_effort: bool = False
+    driver: str | None = None
+    max_extent: float | None = None
 
     @property
     def wants_design(self) -> bool:

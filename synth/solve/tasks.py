@@ -14,7 +14,9 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from synth.checks import VERIFY_SAMPLES
+from synth.design.constraints import admissible, first_in_envelope, met_sentence
 from synth.design.work import GAPS_PER_SECOND
+from synth.drive import drive_report
 from synth.errors import InputError, SynthesisError
 from synth.solve.choose import Designer
 from synth.solve.index import (add_collisions, fourbar_index, point_index, point_solution_id, sixbar_index,
@@ -28,6 +30,7 @@ SIXBAR_CHOICE = dict(limit=8, work=7.0 * GAPS_PER_SECOND)
 POINTS_CHOICE = dict(limit=4, work=7.0 * GAPS_PER_SECOND)
 TASK_CHOICE = dict(limit=3, work=4.0 * GAPS_PER_SECOND)  # the best fits of a task file, within tolerance
 FOURBAR_CHOICE = dict(limit=4, work=4.0 * GAPS_PER_SECOND)  # the best-ranked planar four-bars
+CONSTRAINED = 16  # with constraints in the task file: this many candidates filtered by them (sixbar: twice)
 POINT_COMMAND = {2: "mpsynth bennett", 3: "mpsynth sixbar"}
 
 
@@ -46,7 +49,7 @@ class Result:
     `synth.design.search.DesignResult` (None when no physical design was asked for); ``solutions`` and
     ``index`` (the index.json document): the ranked solutions of ``top`` (else [] and None);
     ``notes``: remarks on the options (e.g. one that does not apply); ``source``, ``scale`` (metres per
-    input unit), ``unit``: the task's, for messages."""
+    input unit), ``unit``: the task's, for messages; ``drive`` (docs/drive.md) and ``constraints_met``."""
 
     linkage: Any
     design: Any = None
@@ -56,6 +59,8 @@ class Result:
     source: str = "<poses>"
     scale: float = 1.0
     unit: str = "m"
+    drive: Any = None  # the chosen linkage's `synth.drive.DriveReport`
+    constraints_met: str | None = None  # what the design achieves of the task's constraints, in words
 
     def sentence(self, design=None) -> str:
         """What ``design`` (default: the chosen one's) achieves, in words, lengths in the input unit."""
@@ -68,21 +73,45 @@ def _designer(ps, options: SynthesisOptions) -> Designer:
     return Designer(options.design.sizes(ps.length_scale), ps.source, ps.length_scale, ps.length_unit)
 
 
-def _finish(linkage, result, designer: Designer, options: SynthesisOptions, **extra) -> Result:
-    """The chosen linkage's design (made when asked for and not made yet) and the collision gate."""
-    if result is None and options.wants_design:
+def _finish(linkage, result, designer: Designer, options: SynthesisOptions, constraints=None, **extra) -> Result:
+    """The chosen linkage's design (made when asked for, or for an envelope, and not made yet), the
+    collision gate, the envelope (`synth.design.constraints.first_in_envelope`) and the drive report."""
+    envelope = constraints is not None and constraints.envelope is not None
+    if result is None and (options.wants_design or envelope):
         result = designer.design(linkage)
     if result is not None and options.design.require_collision_free:
         designer.require_free(result)
-    return Result(linkage, result, source=designer.source, scale=designer.scale, unit=designer.unit, **extra)
+    if envelope:
+        first_in_envelope([(linkage, result)], [], None, constraints, source=designer.source, scale=designer.scale,
+                          unit=designer.unit)
+    drive = drive_report(linkage) if result is not None or constraints is not None else None  # (batch: no cost)
+    if result is not None:
+        result.drive = drive  # linkage.json's drive (synth.io.jsonout)
+    met = (met_sentence(linkage, result.design if result else None, constraints, designer.scale, designer.unit)
+           if constraints is not None else None)
+    return Result(linkage, result, source=designer.source, scale=designer.scale, unit=designer.unit, drive=drive,
+                  constraints_met=met, **extra)
 
 
-def _ranked(linkages, designer: Designer, options: SynthesisOptions, ident, index, what: str, progress) -> Result:
-    """The ``top`` ranked solutions: designed (collision-free first) when asked for, ids, index document."""
+def _admissible(linkages, designer: Designer, options: SynthesisOptions, constraints=None) -> list:
+    """The candidates that meet the task's constraints and the extent limit, each driven by
+    ``options.driver`` (`synth.design.constraints.admissible`; SynthesisError naming the violations)."""
+    if options.max_extent is not None and not options.max_extent > 0:
+        raise InputError(f"--max-extent must be a positive length, got {options.max_extent}")
+    limit = None if options.max_extent is None else options.max_extent * designer.scale
+    return admissible(linkages, constraints, driver=options.driver, max_extent=limit, source=designer.source,
+                      scale=designer.scale, unit=designer.unit)
+
+
+def _ranked(linkages, designer: Designer, options: SynthesisOptions, ident, index, what: str, progress,
+            constraints=None) -> Result:
+    """The ``top`` ranked solutions that meet the constraints: designed (collision-free first) when asked
+    for, ids, index document."""
     results = None
+    linkages = _admissible(linkages, designer, options, constraints)
     if options.wants_design:
         linkages, results = designer.rank(linkages, require_free=options.design.require_collision_free, what=what,
-                                          progress=progress)
+                                          progress=progress, constraints=constraints)
     ids = [ident(r, lk) for r, lk in enumerate(linkages, start=1)]
     doc = index(linkages, ids)
     if results is not None:
@@ -98,17 +127,18 @@ def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: 
     """Three poses: the verified Bennett linkage (planar or spherical poses: the four-bar member given by
     ``options.member``, else the best-scored members designed, collision-free first); five points (a
     point task): `solve_points`. ``ready()``: called once the options are validated, before the work
-    (the CLI checks its output directory there); ``progress``: see `Designer.rank`."""
+    (the CLI checks its output directory there); ``progress``: see `Designer.rank`. Tasks (tolerances,
+    velocities, an order, more poses or more than five points): `_solve_task`."""
     from synth.synthesis.bennett import bennett_candidates, verify
 
+    from synth.synthesis.bennett_fit import is_task
+
     designer = _designer(ps, options)
-    if ps.has_points:
+    if ps.has_points and not is_task(ps):
         if options.member is not None:
             raise InputError("--member selects among the quadratic motions through planar or spherical poses; a "
                              "point task has no such family (use --top to see its ranked designs)")
         return solve_points(ps, 2, options, progress=progress)
-    from synth.synthesis.bennett_fit import is_task
-
     if is_task(ps):  # tolerances, velocities, an order or other than three poses (docs/fit.md)
         if ready is not None:
             ready()
@@ -117,18 +147,19 @@ def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: 
         raise InputError("--top applies to point tasks and fits only: three poses give one Bennett linkage")
     if ready is not None:
         ready()
-    choose = options.wants_design and options.member is None
+    choose = (options.wants_design or ps.constraints is not None) and options.member is None
     try:
         linkages = bennett_candidates(ps.matrices, ps.names, member=options.member,
-                                      top=BENNETT_CHOICE["limit"] if choose else 1)
+                                      top=(CONSTRAINED if ps.constraints else BENNETT_CHOICE["limit"]) if choose else 1)
         for lk in linkages:
             verify(lk)  # the self-check at VERIFY_SAMPLES parameters; refuses a failing linkage
     except SynthesisError as e:  # name the file, like every input error
         raise SynthesisError(f"{ps.source}: {e}") from e
+    linkages = _admissible(linkages, designer, options, ps.constraints)
     linkage, result = linkages[0], None
-    if len(linkages) > 1:  # members of a planar or spherical family: collision-free first
-        linkage, result = designer.choose(linkages, what="members", **BENNETT_CHOICE)
-    return _finish(linkage, result, designer, options)
+    if len(linkages) > 1 and options.wants_design:  # members of a planar or spherical family: collision-free first
+        linkage, result = designer.choose(linkages, what="members", constraints=ps.constraints, **BENNETT_CHOICE)
+    return _finish(linkage, result, designer, options, ps.constraints)
 
 
 def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress) -> Result:
@@ -137,16 +168,17 @@ def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress) -> 
     designed, collision-free first, or with ``top`` the N best ranked."""
     from synth.synthesis.bennett_fit import bennett_task
 
-    want = options.top or (TASK_CHOICE["limit"] if options.wants_design else 1)
+    want = options.top or ((CONSTRAINED if ps.constraints else TASK_CHOICE["limit"]) if options.wants_design else 1)
     linkages = bennett_task(ps, top=want, best_effort=options.best_effort)
     if options.top is not None:
         return _ranked(linkages, designer, options, task_solution_id, lambda lks, ids: task_index(lks, ids, ps),
-                       "fits", progress)
+                       "fits", progress, ps.constraints)
+    linkages = _admissible(linkages, designer, options, ps.constraints)
     linkage, result = linkages[0], None
     within = [lk for lk in linkages if lk.info["fit"]["within_tolerance"]] or linkages
     if options.wants_design and len(within) > 1:
-        linkage, result = designer.choose(within, what="fits", **TASK_CHOICE)
-    return _finish(linkage, result, designer, options)
+        linkage, result = designer.choose(within, what="fits", constraints=ps.constraints, **TASK_CHOICE)
+    return _finish(linkage, result, designer, options, ps.constraints)
 
 
 def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress=None) -> Result:
@@ -166,13 +198,19 @@ def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress
         linkages = sixbar_candidates(ps.matrices, ps.names, **pick, top=options.top, build=True,
                                      check_samples=VERIFY_SAMPLES)
         return _ranked(linkages, designer, options, sixbar_solution_id, lambda lks, ids: sixbar_index(lks, ids, ps),
-                       "6R designs", progress)
-    if options.wants_design and not options.explicit:
-        candidates = sixbar_candidates(ps.matrices, ps.names, top=SIXBAR_CHOICE["limit"], build=True,
-                                       check_samples=VERIFY_SAMPLES)
-        linkage, result = designer.choose(candidates, what="6R linkages", **SIXBAR_CHOICE)
-        return _finish(linkage, result, designer, options)
-    return _finish(sixbar(ps.matrices, ps.names, **pick, check_samples=VERIFY_SAMPLES), None, designer, options)
+                       "6R designs", progress, ps.constraints)
+    if (options.wants_design or ps.constraints is not None) and not options.explicit:
+        candidates = sixbar_candidates(ps.matrices, ps.names, top=2 * CONSTRAINED if ps.constraints else
+                                       SIXBAR_CHOICE["limit"], build=True, check_samples=VERIFY_SAMPLES)
+        candidates = _admissible(candidates, designer, options, ps.constraints)
+        linkage, result = candidates[0], None
+        if options.wants_design:
+            linkage, result = designer.choose(candidates, what="6R linkages", constraints=ps.constraints,
+                                              **SIXBAR_CHOICE)
+        return _finish(linkage, result, designer, options, ps.constraints)
+    linkage = _admissible([sixbar(ps.matrices, ps.names, **pick, check_samples=VERIFY_SAMPLES)], designer, options,
+                          ps.constraints)[0]
+    return _finish(linkage, None, designer, options, ps.constraints)
 
 
 def solve_fourbar(ps, options: SynthesisOptions = SynthesisOptions(), *, min_transmission_deg: float = 40.0,
@@ -226,7 +264,8 @@ def solve_points(ps, degree: int, options: SynthesisOptions = SynthesisOptions()
         oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
     except InputError as e:
         raise InputError(f"{ps.source}: {e}") from e
-    want = options.top or (POINTS_CHOICE["limit"] if options.wants_design else 1)
+    want = options.top or ((CONSTRAINED if ps.constraints else POINTS_CHOICE["limit"]) if options.wants_design
+                           or ps.constraints else 1)
     try:
         linkages = point_candidates(ps.positions, ps.names, degree=degree, top=want, tool_rotation=rot,
                                     oriented=oriented, check_samples=VERIFY_SAMPLES)
@@ -234,11 +273,12 @@ def solve_points(ps, degree: int, options: SynthesisOptions = SynthesisOptions()
         raise type(e)(f"{ps.source}: {e}") from e
     if options.top is not None:
         return _ranked(linkages, designer, options, point_solution_id, lambda lks, ids: point_index(lks, ids, ps),
-                       "designs", progress)
+                       "designs", progress, ps.constraints)
+    linkages = _admissible(linkages, designer, options, ps.constraints)
     linkage, result = linkages[0], None
     if options.wants_design:
-        linkage, result = designer.choose(linkages, what="interpolants", **POINTS_CHOICE)
-    return _finish(linkage, result, designer, options)
+        linkage, result = designer.choose(linkages, what="interpolants", constraints=ps.constraints, **POINTS_CHOICE)
+    return _finish(linkage, result, designer, options, ps.constraints)
 
 
 def solve_curve(spec, options: SynthesisOptions = SynthesisOptions(), *, scale: float = 1.0, unit: str = "m",
@@ -256,7 +296,7 @@ def solve_curve(spec, options: SynthesisOptions = SynthesisOptions(), *, scale: 
     notes = []
     if options.method != "auto" and not isinstance(spec, CurveSpec):
         notes.append("--method applies to curves only; ignored for a motion")
-    linkage = spec_linkage(spec, scale=scale, method=options.method)
+    linkage = _admissible([spec_linkage(spec, scale=scale, method=options.method)], designer, options)[0]
     result = None
     if "darboux" in linkage.info and options.wants_design:  # a collision-free member first
         linkage, result = choose_member(linkage, lambda lk, ranges, full_work, effort, spent: designer.design(

@@ -31,7 +31,7 @@ from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
 from synth.algebra.dq import dot, factor_lines, pose_to_dq
-from synth.algebra.geometry import cross, dh_parameters, extent, ring_normals
+from synth.algebra.geometry import DHParameters, cross, dh_parameters, extent, ring_normals
 from synth.synthesis.conditioning import pair_ratio
 from synth.synthesis.conic import TS, condition_map, conditioning, conic, relative_displacements_dq, world_map
 
@@ -60,8 +60,8 @@ class Solved:
     """`solve`'s arrays over N pose sets (see `synth.synthesis.bennett_batch.BennettBatch` for the
     fields' shapes and conventions). ``good`` (N,): the set was solved here and its self-check is well
     inside ACCEPT_TOL (rows of other sets hold garbage); ``finite`` (N,): the poses were finite;
-    ``bennett``, ``dh`` and ``errors``: dicts of arrays (`bennett_parameters`, `dh_rows`, the
-    self-check figures); ``axis_distance`` (N,): the axes' largest distance from the centroid (m);
+    ``bennett`` and ``errors``: dicts of arrays (`bennett_parameters`, the self-check figures); ``dh``:
+    `synth.algebra.geometry.DHParameters` of the loop h1 h2 k2 k1; ``axis_distance`` (N,): the axes' largest distance from the centroid (m);
     ``length_scale`` (N,): the linkage's extent (m); ``transmission`` (N,): the largest speed ratio of
     two joints (`synth.synthesis.conditioning`: h1 and k2, h2 and k1 share their norm roots, so the ratio
     of h1 and h2 is the largest); ``extra``: see `solve`'s ``perturb``."""
@@ -78,7 +78,7 @@ class Solved:
     scale: np.ndarray
     residual: np.ndarray
     bennett: dict
-    dh: dict
+    dh: DHParameters
     errors: dict
     relative_error: np.ndarray
     axis_distance: np.ndarray
@@ -113,12 +113,16 @@ def solve(T, check_samples: int, perturb=None) -> Solved:
 
 
 def _concatenate(parts: list):
-    """`Solved` (or dicts, nested, of arrays) over sets, joined along the set axis."""
+    """`Solved`, dicts (nested) or other dataclasses (`DHParameters`) of arrays over sets, joined along the
+    set axis."""
     if isinstance(parts[0], Solved):
         return Solved(*(_concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(Solved)
                         if f.name != "extra"))
     if isinstance(parts[0], dict):
         return {k: _concatenate([p[k] for p in parts]) for k in parts[0]}
+    if dataclasses.is_dataclass(parts[0]):
+        return type(parts[0])(**{f.name: _concatenate([getattr(p, f.name) for p in parts])
+                                 for f in dataclasses.fields(parts[0])})
     return np.concatenate(parts, axis=0)
 
 
@@ -195,13 +199,9 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     geo = ring_normals(loop[..., 0, :], loop[..., 1, :])
     # the linkage's length scale (`synth.linkage.Linkage.extent`) of the tool positions (pose 0 twice: the
     # reference) and the joint sites, the means of the feet of the common normals on either side (each
-    # link carries two joints of the loop)
-    pts = np.empty((N, 8, 3))
-    pts[:, :3] = fac["Tf"][:, :, :3, 3]
-    pts[:, 7] = pts[:, 0]
-    np.add(geo.feet[:, :, 0], geo.feet[:, _PREVIOUS, 1], out=pts[:, 3:7])
-    pts[:, 3:7] *= 0.5
-    length_scale = extent(pts)
+    # link carries two joints of the loop), less their centroid: one linear map of the positions and feet
+    pts = np.concatenate([fac["Tf"][:, :, :3, 3], geo.feet.reshape(N, 8, 3)], axis=1)
+    length_scale = extent(np.matmul(_SITES, pts), centred=True)
     # certified: closure and motion over the whole motion, the poses at their angles through the motion
     bound = loop_bound(U, M, a, b, BRANCHES, motion)
     errors = pose_bound(motion, TS[1:], Q[:, 1:3], Q[:, 0], bound)  # (pose 0: t = inf)
@@ -268,4 +268,20 @@ def bennett_parameters(geo) -> dict:
             "a_over_sin_alpha": r0, "b_over_sin_beta": r1, "bennett_condition_residual": res}
 
 
-_PREVIOUS = np.array([3, 0, 1, 2])  # the pair before each joint around the Bennett loop
+
+def _sites_map(J: int, P: int) -> np.ndarray:
+    """The linear map (P + J + 1, P + 2 J) from the tool positions of P poses and the feet (`ring_normals`:
+    pair i's foot on joint i, then on joint i+1) around a loop of J joints to the points of the length
+    scale less their centroid: the positions, the joint sites (the mean of the feet on either side of
+    each joint) and pose 0 again (the tool reference)."""
+    S = np.zeros((P + J + 1, P + 2 * J))
+    S[:P, :P] = np.eye(P)
+    S[P + J, 0] = 1.0
+    for i in range(J):
+        S[P + i, P + 2 * i] = S[P + i, P + 2 * ((i - 1) % J) + 1] = 0.5
+    out = S - S.mean(axis=0)
+    out.flags.writeable = False
+    return out
+
+
+_SITES = _sites_map(4, 3)  # the Bennett loop's length-scale map (`_solve`)

@@ -26,17 +26,18 @@ def transmission_ratios(a, b) -> np.ndarray:
     not finite."""
     a = np.asarray(a, float)
     b = np.abs(np.asarray(b, float))
-    return pair_ratio(a[..., :, None] - a[..., None, :], b[..., :, None], b[..., None, :])
+    with np.errstate(all="ignore"):
+        return pair_ratio(a[..., :, None] - a[..., None, :], b[..., :, None], b[..., None, :])
 
 
 def pair_ratio(da, bi, bj) -> np.ndarray:
     """rho_ij of two joints (broadcast arrays): ``da`` = a_i - a_j, ``bi``, ``bj`` = |b_i|, |b_j|
-    (`transmission_ratios`; a Bennett linkage's two distinct norm roots give its largest ratio)."""
-    with np.errstate(all="ignore"):
-        s = da * da + bi * bi + bj * bj
-        near = np.sqrt(da * da + (bi - bj) ** 2) * np.sqrt(da * da + (bi + bj) ** 2)
-        rho = (s + near) / (2.0 * bi * bj)
-    return np.where(np.isfinite(rho) & (rho >= 1.0), rho, np.where(np.isfinite(rho), 1.0, np.inf))
+    (`transmission_ratios`; a Bennett linkage's two distinct norm roots give its largest ratio); at
+    least 1, inf where not finite. Call under ``np.errstate(all="ignore")`` (b = 0 divides by zero)."""
+    s = da * da + bi * bi + bj * bj
+    near = np.sqrt(da * da + (bi - bj) ** 2) * np.sqrt(da * da + (bi + bj) ** 2)
+    rho = (s + near) / (2.0 * bi * bj)
+    return np.where(rho >= 1.0, rho, np.where(rho != rho, np.inf, 1.0))  # NaN (0 / 0): inf
 
 
 def transmission_ratio(a, b) -> np.ndarray:

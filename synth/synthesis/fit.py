@@ -15,23 +15,29 @@ function with the same row/column structure can use it.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
-from synth.algebra.dq import structure_constants
+from synth.algebra.dq import dq_inv, dq_translation, normalize_dq, structure_constants
 from synth.algebra.geometry import cross
 
 __all__ = ["TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",
-           "homogeneous", "ERRORS", "ROWS"]
+           "homogeneous", "basis", "regauge", "gauge_matrix", "gauge_items", "inv2", "project", "GAUGE_ANGLES",
+           "ERRORS", "ROWS"]
 
 ERRORS = 6  # per item: position error (3, spreads), rotation error 2 sin(angle/2) axis (3)
 ROWS = ERRORS + 5  # and 5 velocity rows (components of the twist direction across the prescribed one)
 STEP = 1e-30  # complex step
+GRID = 48  # parameter samples per seed motion for projecting the items onto it (`project`)
+EXACT_WEIGHT = 1e3  # weight of exact rows when projecting and ranking seeds (conditioned units)
 FEASIBLE_FLOOR = 1e-14  # constraint violation (conditioned units) counted as met
 NEARLY_FEASIBLE = 1e-6  # during the damped steps: cost-lowering steps may leave this much (`polish_feasible` ends)
-CORRECTIONS = 2  # second-order corrections per trial step
+CORRECTIONS = 2  # second-order corrections per trial step, while the violation is above CORRECT_ABOVE
+CORRECT_ABOVE = 1e-9
 POLISH_STEPS = 4
+FLAT = 1e-10  # a relative decrease of the cost below this ends a seed's refinement
 _DQ = structure_constants().reshape(64, 8).astype(float)
 _Q = structure_constants()[:4, :4, :4].reshape(16, 4).astype(float)
 _CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
@@ -40,11 +46,8 @@ _CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
 def _product(a, b, table):
     """The bilinear product sum_ij a_i b_j table[i, j, :] of (..., k) arrays of any dtype (complex for complex
     steps), broadcast: the dual quaternion (``_DQ``) or quaternion (``_Q``) product."""
-    k = a.shape[-1]
-    if a.shape != b.shape:
-        shape = np.broadcast_shapes(a.shape, b.shape)
-        a, b = np.broadcast_to(a, shape), np.broadcast_to(b, shape)
-    return (a[..., :, None] * b[..., None, :]).reshape(a.shape[:-1] + (k * k,)) @ table
+    outer = a[..., :, None] * b[..., None, :]  # broadcast, a new contiguous array
+    return outer.reshape(outer.shape[:-2] + (-1,)) @ table
 
 
 def _mul(a, b):
@@ -105,14 +108,17 @@ def homogeneous(coef, phi, derivative: bool = False):
     (c_0 .. c_{n-1}) and angles ``phi`` (..., N); with ``derivative`` also dC/dphi."""
     n = coef.shape[-2]
     full = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], coef.shape[:-2] + (1, 8)).astype(coef.dtype)], -2)
+    b, db = basis(phi, n)
+    return (b @ full, db @ full) if derivative else b @ full
+
+
+def basis(phi, n: int):
+    """cos^k sin^(n-k) of phi (..., N) for k = 0 .. n, and their derivatives: two (..., N, n+1) arrays."""
     c, s = _powers(np.cos(phi), n + 1), _powers(np.sin(phi), n + 1)  # (..., N, n+2)
     k = np.arange(n + 1)
-    value = (c[..., k] * s[..., n - k]) @ full
-    if not derivative:
-        return value
     # d/dphi cos^k sin^(n-k) = -k cos^(k-1) sin^(n-k+1) + (n-k) cos^(k+1) sin^(n-k-1)
     d = -k * c[..., np.maximum(k - 1, 0)] * s[..., n - k + 1] + (n - k) * c[..., k + 1] * s[..., np.maximum(n - k - 1, 0)]
-    return value, d @ full
+    return c[..., k] * s[..., n - k], d
 
 
 def _powers(x, m: int):
@@ -138,7 +144,13 @@ def item_errors(coef, ref, phi, task: TaskArrays):
     angular velocity, v the velocity of the tool origin, along phi). coef (..., n, 8), ref (..., 8),
     phi (..., N); any float or complex dtype."""
     C, dC = homogeneous(coef, phi, derivative=True)
-    P = _mul(C, ref[..., None, :])
+    return motion_errors(C, dC, ref[..., None, :], task)
+
+
+def motion_errors(C, dC, ref, task: TaskArrays):
+    """`item_errors` from the motion's values C (..., N, 8) and derivatives dC at the items and the reference
+    ``ref`` (..., 1, 8) (broadcast)."""
+    P = _mul(C, ref)
     p, q = P[..., :4], P[..., 4:]
     x = 2.0 * _qmul(p, q * _CONJ[:4])[..., 1:] / _vdot(p, p)[..., None]  # translation (synth.algebra.dq)
     e = _qmul(p, task.Q[:, :4] * _CONJ[:4])  # rotation from the target to the prediction (times |p|)
@@ -162,11 +174,15 @@ def study_rows(coef):
     of C C~ (halved), sum_{j+k=m} p_j . q_k for m = 0 .. 2n-1 (c_n = 1). Returns (..., 2n)."""
     n = coef.shape[-2]
     p = np.concatenate([coef[..., :4], np.broadcast_to(np.eye(4)[0], coef.shape[:-2] + (1, 4))], -2)
-    q = coef[..., 4:]
-    pq = p[..., :, None, :] * q[..., None, :, :]  # (..., n+1, n, 4)
-    pq = pq.sum(-1)
+    pq = (p[..., :, None, :] * coef[..., None, :, 4:]).sum(-1)  # (..., n+1, n): p_j . q_k
+    return pq.reshape(pq.shape[:-2] + (-1,)) @ _study_sums(n)
+
+
+@functools.lru_cache(maxsize=4)
+def _study_sums(n: int) -> np.ndarray:
+    """(n+1) n x 2n 0/1 matrix summing p_j . q_k over j + k = m."""
     j, k = np.meshgrid(np.arange(n + 1), np.arange(n), indexing="ij")
-    return np.stack([pq[..., (j + k) == m].sum(-1) for m in range(2 * n)], -1)
+    return ((j + k).reshape(-1, 1) == np.arange(2 * n)).astype(float)
 
 
 @dataclass(frozen=True)
@@ -228,17 +244,45 @@ class MotionModel:
         return r, c
 
     def jacobians(self, x):
-        """(r, c, J_r, J_c) at x (S, P) by complex steps: one per coefficient / reference unknown and one
-        for all phi at once (each phi_i moves item i's rows only)."""
-        lay = self.layout
-        g = 8 * lay.n + 6
-        dirs = np.zeros((g + 1, lay.size))
-        dirs[np.arange(g), np.arange(g)] = 1.0
-        dirs[g, g:] = 1.0
-        X = x[:, None, :] + 1j * STEP * dirs
-        r, c = self.rows(X)
-        dr, dc = r.imag / STEP, c.imag / STEP  # (S, g+1, M)
-        S = x.shape[0]
+        """(r, c, J_r, J_c) at x (S, P). The rows depend on the coefficients only through C and dC at the
+        items, linearly (`basis`): complex steps in C (8), dC (8, with velocities), the reference (6) and
+        all phi at once (each phi_i moves item i's rows only), chained to the coefficients; the Study rows
+        by complex steps in the coefficients."""
+        lay, task = self.layout, self.task
+        n, g, S = lay.n, 8 * lay.n + 6, x.shape[0]
+        coef, x_ref, phi = lay.split(x)
+        b, db = basis(phi, n)
+        full = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], (S, 1, 8))], -2)
+        C, dC = b @ full, db @ full  # (S, N, 8)
+        ref = reference_pose(self.ref0, x_ref)[:, None, None, :]  # (S, 1, 1, 8)
+        vel = bool(task.exact[:, ERRORS:].any())
+        step = 1j * STEP * np.eye(8)[:, None, :]  # (8, 1, 8): one complex step per component
+        c_phi, dc_phi = homogeneous(coef, phi + 1j * STEP, derivative=True)
+        ref_steps = reference_pose(self.ref0[:, None], x_ref[:, None] + 1j * STEP * np.eye(6))[:, :, None, :]
+        blocks = [(C[:, None] + step, dC[:, None], ref)]  # d/dC
+        if vel:
+            blocks.append((C[:, None], dC[:, None] + step, ref))  # d/dC'
+        blocks += [(C[:, None], dC[:, None], ref_steps), (c_phi[:, None], dc_phi[:, None], ref)]  # reference, phi
+        sizes = [max(x.shape[1] for x in blk) for blk in blocks]
+        Cs, dCs, refs = (np.concatenate([np.broadcast_to(blk[i], (S, k) + blk[i].shape[2:]).astype(complex)
+                                         for blk, k in zip(blocks, sizes)], 1) for i in range(3))
+        E = motion_errors(Cs, dCs, refs, task)  # (S, directions, N, ROWS)
+        dE = E.imag / STEP
+        E0 = E[:, -1].real
+        dirs = dE.shape[1]
+        dE_coef = np.einsum("snk,sjnr->skjnr", b[..., :n], dE[:, :8])
+        if vel:
+            dE_coef = dE_coef + np.einsum("snk,sjnr->skjnr", db[..., :n], dE[:, 8:16])
+        dE_all = np.concatenate([dE_coef.reshape(S, 8 * n, *dE.shape[2:]), dE[:, dirs - 7:dirs - 1],
+                                 dE[:, dirs - 1:]], 1)  # (S, g+1, N, ROWS): coefficients, reference, phi
+        flat = dE_all.reshape(S, g + 1, -1)
+        dr = (dE_all * task.weight).reshape(S, g + 1, -1)[..., self.free]
+        kick = coef[:, None] + 1j * STEP * np.eye(8 * n).reshape(8 * n, n, 8)
+        dstudy = np.zeros((S, g + 1, 2 * n))
+        dstudy[:, :8 * n] = study_rows(kick).imag / STEP
+        dc = np.concatenate([flat[..., self.eq], dstudy], -1)
+        r = (E0 * task.weight).reshape(S, -1)[:, self.free]
+        c = np.concatenate([E0.reshape(S, -1)[:, self.eq], study_rows(coef)], -1)
         Jr = np.zeros((S, r.shape[-1], lay.size))
         Jc = np.zeros((S, c.shape[-1], lay.size))
         Jr[:, :, :g] = np.swapaxes(dr[:, :g], 1, 2)
@@ -248,7 +292,7 @@ class MotionModel:
         for J, d, owner in ((Jr, dr, rows_r), (Jc, dc, rows_c)):
             k = np.nonzero(owner >= 0)[0]
             J[:, k, g + owner[k]] = d[:, g, k]
-        return r[:, 0].real, c[:, 0].real, Jr, Jc
+        return r, c, Jr, Jc
 
 
 def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
@@ -259,7 +303,7 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
     halves max |c| while that is above NEARLY_FEASIBLE (a filter: exact rows never trade against the cost);
     `polish_feasible` then meets c = 0 to rounding. ``fixed`` (S, P) bool: columns held, per seed. ``model``:
     ``rows(x) -> (r, c)`` and ``jacobians(x) -> (r, c, J_r, J_c)``. Stops after ``iterations`` Jacobians
-    or when every seed's step is below 1e-13 (relative) or its cost stops moving (1e-12, relative): counted
+    or when every seed's step is below 1e-13 (relative) or its cost stops moving (FLAT, relative): counted
     work only."""
     x = np.array(x0, float)
     fixed = np.broadcast_to(np.asarray(fixed, bool), x.shape)
@@ -287,7 +331,7 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
             xn = x + _solve(K, rhs)[:, :P]
             rn, cn = model.rows(xn)
             for _ in range(CORRECTIONS if ne else 0):  # second-order corrections: back onto c = 0 along A's rows
-                if np.abs(cn[pending]).max(initial=0.0) <= FEASIBLE_FLOOR:
+                if np.abs(cn[pending]).max(initial=0.0) <= CORRECT_ABOVE:
                     break
                 xn = xn - _min_norm(A, cn)
                 rn, cn = model.rows(xn)
@@ -296,7 +340,7 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
             improves = (cost_n < cost) & (viol_n <= np.maximum(viol, NEARLY_FEASIBLE))
             ok = pending & np.isfinite(cost_n) & (improves | (restores & (viol > NEARLY_FEASIBLE)))
             step = np.max(np.abs(xn - x), axis=1)
-            flat = ok & (cost - cost_n <= 1e-12 * cost + 1e-28)  # the cost no longer moves
+            flat = ok & (cost - cost_n <= FLAT * cost + 1e-28)  # the cost no longer moves
             x[ok] = xn[ok]
             cost, viol = np.where(ok, cost_n, cost), np.where(ok, viol_n, viol)
             lam = np.where(ok, np.maximum(lam / 3, 1e-12), np.where(pending, lam * 4, lam))
@@ -352,3 +396,69 @@ def _solve(K, rhs):
             except np.linalg.LinAlgError:
                 pass
         return out
+
+
+# ------------------------------------------------------------------ gauge and seeds
+def gauge_matrix(phi) -> np.ndarray:
+    """M (..., 2, 2) mapping the homogeneous parameters (1, 0), (0, 1), (1, 1) to those of the items with
+    angles ``phi`` (..., 3) (up to scale): the reparametrization putting them at t = inf, 0, 1."""
+    w = np.stack([np.cos(phi), np.sin(phi)], -2)  # (..., 2, 3) columns
+    det = w[..., 0, 0] * w[..., 1, 1] - w[..., 0, 1] * w[..., 1, 0]  # 0: two items at one point (NaN out)
+    with np.errstate(all="ignore"):
+        alpha = (w[..., 0, 2] * w[..., 1, 1] - w[..., 1, 2] * w[..., 0, 1]) / det
+        beta = (w[..., 0, 0] * w[..., 1, 2] - w[..., 1, 0] * w[..., 0, 2]) / det
+    return w[..., :2] * np.stack([alpha, beta], -1)[..., None, :]
+
+
+GAUGE_ANGLES = np.array([0.0, np.pi / 3, 2 * np.pi / 3])  # where the gauge items are held (t = inf, +-1/sqrt 3)
+
+
+def gauge_items(phi) -> np.ndarray:
+    """(S, 3): item 0 and the items a third and two thirds along the motion from it (cyclic order of the
+    angles phi (S, N) on the projective line), which `fit_motion` holds at GAUGE_ANGLES (spread evenly,
+    for well-conditioned coefficients)."""
+    N = phi.shape[1]
+    order = np.argsort(np.mod(phi - phi[:, :1], np.pi), axis=1, kind="stable")
+    return np.stack([order[:, 0], order[:, max(1, N // 3)], order[:, max(2, (2 * N) // 3)]], 1)
+
+
+def regauge(coef, ref, phi, M):
+    """The same motion in the parameter t' with homogeneous (u, v) = M (u', v'): coefficients (..., n, 8)
+    of the monic C'(t') = C(M(t')) lead^-1, reference lead Q and the items' new angles (..., N)."""
+    n = coef.shape[-2]
+    psi = (np.arange(n + 1) + 0.5) * (np.pi / (n + 1))
+    uv = M @ np.stack([np.cos(psi), np.sin(psi)])  # (..., 2, n+1)
+    rho, theta = np.hypot(uv[..., 0, :], uv[..., 1, :]), np.arctan2(uv[..., 1, :], uv[..., 0, :])
+    values = homogeneous(coef, theta) * (rho ** n)[..., None]  # (..., n+1, 8)
+    k = np.arange(n + 1)
+    basis = np.cos(psi)[:, None] ** k * np.sin(psi)[:, None] ** (n - k)
+    full = np.linalg.solve(basis, values)  # (..., n+1, 8): coefficients of C(M(.))
+    lead = full[..., n, :]
+    inv = dq_inv(lead)
+    new = _mul(full[..., :n, :], inv[..., None, :])
+    new_ref = normalize_dq(_mul(lead, ref))
+    w = inv2(M) @ np.stack([np.cos(phi), np.sin(phi)], -2)
+    return new, new_ref, np.mod(np.arctan2(w[..., 1, :], w[..., 0, :]), np.pi)
+
+
+def inv2(M):
+    """Inverses of 2x2 matrices (..., 2, 2) (NaN for singular ones)."""
+    det = M[..., 0, 0] * M[..., 1, 1] - M[..., 0, 1] * M[..., 1, 0]
+    adj = np.stack([np.stack([M[..., 1, 1], -M[..., 0, 1]], -1), np.stack([-M[..., 1, 0], M[..., 0, 0]], -1)], -2)
+    with np.errstate(all="ignore"):
+        return adj / det[..., None, None]
+
+
+def project(coef, ref, task, grid: int = GRID, exact_weight: float = EXACT_WEIGHT):
+    """Each item's angle phi (S, N) on each seed motion (coef (S, n, 8), reference (S, 8)): the nearest of
+    ``grid`` samples, by the weighted squared position and angle misses (exact components weighted
+    ``exact_weight``; angles 8 (1 - |p . q|))."""
+    grid = (np.arange(grid) + 0.5) * (np.pi / grid)
+    with np.errstate(all="ignore"):
+        P = normalize_dq(_mul(homogeneous(coef, np.broadcast_to(grid, (len(coef), len(grid)))), ref[:, None]))
+        x = dq_translation(P)  # (S, G, 3)
+    w = task.weight[:, [0, 3]] + exact_weight * task.exact[:, [0, 3]]  # (N, 2): position, angle
+    d2 = ((x[:, :, None, :] - task.X) ** 2).sum(-1) * w[:, 0] ** 2
+    cos = np.abs(P[..., :4] @ task.Q[:, :4].T)  # |p . q|: (S, G, N)
+    d2 = d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1] ** 2
+    return grid[np.argmin(np.nan_to_num(d2, nan=np.inf), axis=1)]

@@ -52,7 +52,7 @@ def fourbar_candidates(T, names, *, top: int = 1, min_transmission_deg: float = 
                tolerance=tol)
     chosen = best_distinct(fb, top)
     if not chosen:
-        raise refusal(fb, dyads, k, math.radians(min_transmission_deg), tol is not None and tolerance is None)
+        raise no_fourbar(fb, dyads, k, math.radians(min_transmission_deg), tol is not None and tolerance is None)
     ps = make_task(T, names, tolerance=tolerance, order=order.value) if (tolerance is not None or not exact) else None
     out = []
     for rank, n in enumerate(chosen, start=1):
@@ -125,7 +125,7 @@ def accept(linkage, scale: float, exact: bool) -> None:
                              f"{c['max_closure_error']:.3g}): the pose set is numerically degenerate")
 
 
-def refusal(fb, dyads, k: int, min_transmission: float, needs_tolerance: bool) -> SynthesisError:
+def no_fourbar(fb, dyads, k: int, min_transmission: float, needs_tolerance: bool) -> SynthesisError:
     """The SynthesisError of a task without a qualifying four-bar: what failed, how often."""
     if len(fb) == 0:
         return SynthesisError(f"the {k} poses have {len(dyads)} dyad(s), too few for a four-bar "

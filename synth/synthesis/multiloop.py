@@ -29,7 +29,7 @@ from fractions import Fraction
 import numpy as np
 
 from synth.algebra.dq import factor_lines
-from synth.algebra.geometry import line_point, perpendicular_basis, ring_normals, spread
+from synth.algebra.geometry import line_point, perpendicular_basis, ring_normals
 from synth.synthesis.assemble import joint_from_factor
 from synth.errors import SynthesisError
 from synth.algebra.flip import bennett_flip, flip_residual, is_exact
@@ -242,7 +242,10 @@ def m0_candidates(hs, count: int = 24, seed: int = 0):
     hs = np.asarray(hs, float)
     rng = np.random.default_rng(seed)
     pts = _axis_points(hs)
-    c, size = spread(pts)
+    c = pts.mean(axis=0)
+    # the RMS spread of `synth.algebra.geometry.spread`, summed point by point: this rounding keeps the
+    # candidates (and fixtures/motion_darboux.yaml's design search, which follows them) as they were
+    size = np.sqrt(np.mean(np.sum((pts - c) ** 2, axis=1)))
     ab = np.array([norm_of(h) for h in hs])
     a_mean, b_mean = float(ab[:, 0].mean()), float(ab[:, 1].mean())
     scale = float(size) if size > 0 else max(1.0, float(np.max(np.abs(hs[:, 5:]))))

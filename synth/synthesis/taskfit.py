@@ -11,11 +11,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.algebra.geometry import pose_difference
+from synth.checks import VERIFY_SAMPLES, self_check
 import json
-from synth.errors import InputError
+from synth.errors import InputError, SynthesisError
+from synth.synthesis.bennett_core import ACCEPT_TOL
+from synth.synthesis.conditioning import transmission_problem
 from synth.task import Order, PoseSet
 
-__all__ = ["make_task", "fit", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem", "error_rows",
+__all__ = ["make_task", "check_fitted", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem", "error_rows",
            "item_kinds"]
 
 
@@ -50,14 +53,19 @@ def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
     (closure, transmission) as ``linkage.checks``. Returns whether every tolerance is met."""
     kinds = item_kinds(ps)
     tol = np.zeros((len(ps), 2)) if ps.tolerance is None else np.asarray(ps.tolerance, float)
-    T = np.array([linkage.tool_pose(r.joint_angles) for r in linkage.poses])
+    angles = {j.name: np.array([r.joint_angles[j.name] for r in linkage.poses]) for j in linkage.joints}
+    T = linkage.tool_pose(angles)  # (N, 4, 4): every item at once
     dt, dr = pose_difference(T, ps.matrices)
     point = np.array([k == "point" for k in kinds])
     dr = np.where(point, 0.0, dr)
-    size = linkage.extent()
+    pos = ps.matrices[:, :3, 3]
+    size = max(float(np.sqrt(np.mean(np.sum((pos - pos.mean(0)) ** 2, 1)))), 1e-300)  # the items' spread
     ok = []
     for i, rec in enumerate(linkage.poses):
         rec.kind = kinds[i]
+        if point[i]:  # the tool pose reached there, at the given position (docs/points.md)
+            rec.matrix = np.array(T[i])
+            rec.matrix[:3, 3] = ps.matrices[i, :3, 3]
         rec.error = (float(dt[i]), float(dr[i]))
         exact = bool(tol[i, 0] == 0 and (point[i] or tol[i, 1] == 0))
         rec.exact, rec.tolerance = exact, (None if exact else (float(tol[i, 0]), float(tol[i, 1])))
@@ -143,13 +151,14 @@ def make_task(poses, names=None, tolerance=None, velocity=None, order=None) -> P
     return PoseSet(names=names, matrices=T, tolerance=tol, velocity=vel, order=order, named=[True] * n)
 
 
-def fit(poses, names=None, *, tolerance=None, velocity=None, order=None, kind: str = "bennett", top: int = 1,
-        best_effort: bool = False):
-    """Linkages of ``kind`` ("bennett") for a task (a `PoseSet`, or arrays as `make_task`), best first
-    (a list of up to ``top``): exact, Hermite or fitted (docs/fit.md)."""
-    task = poses if isinstance(poses, PoseSet) else make_task(poses, names, tolerance, velocity, order)
-    if kind == "bennett":
-        from synth.synthesis.bennett_fit import bennett_task
-
-        return bennett_task(task, top=top, best_effort=best_effort)
-    raise InputError(f"synth.fit: kind {kind!r} is not available (allowed: 'bennett')")
+def check_fitted(linkage) -> None:
+    """SynthesisError when the fitted linkage does not close (relative error above ACCEPT_TOL over
+    VERIFY_SAMPLES parameters) or transmits badly (`synth.synthesis.conditioning.transmission_problem`)."""
+    why = transmission_problem(linkage)
+    if why:
+        raise SynthesisError(why)
+    checks = self_check(linkage, VERIFY_SAMPLES)
+    rel = max(checks["max_closure_translation_error"] / checks["length_scale"], checks["max_closure_rotation_error"])
+    if not rel <= ACCEPT_TOL:
+        raise SynthesisError(f"the fitted linkage does not close to double precision (relative error {rel:.1e})")
+    linkage.checks = checks

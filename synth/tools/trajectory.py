@@ -36,9 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.algebra.anglelaw import driven_angle, driven_speed
 from synth.algebra.dq import matrix_to_quat
-from synth.design.search import task_range
+from synth.drive import driver_joint, follower_angles, task_range  # noqa: F401  (follower_angles: the tool's API too)
 from synth.errors import InputError
 from synth.io.readback import Readback
 from synth.io.atomic import atomic_write
@@ -111,28 +110,6 @@ class Trajectory:
 
 
 # ----------------------------------------------------------------------------------------- angles
-def follower_angles(linkage: Linkage, driver: str, phi) -> tuple[np.ndarray, np.ndarray]:
-    """(angles, d angle / d phi), each (..., J) in the order of ``linkage.joints``, when ``driver`` is
-    at angle(s) ``phi`` (any real: whole turns of the driver give whole turns of every joint); every
-    joint is continued from 0 at phi = 0 (see the module docstring)."""
-    phi = np.asarray(phi, float)
-    d = linkage.joint(driver)
-    a = np.array([j.a for j in linkage.joints])
-    b = np.array([j.b for j in linkage.joints])
-    r = np.array([j.rate for j in linkage.joints])
-    ang = driven_angle(a, b, d.a, d.b, phi[..., None], r, d.rate, continued=True)
-    k = [j.name for j in linkage.joints].index(driver)
-    ang[..., k] = phi
-    dang = driven_speed(a, b, d.a, d.b, phi[..., None], r, d.rate)
-    dang[..., k] = 1.0
-    for i, j in enumerate(linkage.joints):  # a planar four-bar: the loop law of the crank's angle (docs/fourbar.md)
-        if j.law is not None:
-            if d.law is not None:
-                raise InputError(f"a planar four-bar is driven by its crank, not by {driver}")
-            ang[..., i], dang[..., i] = j.law.continued(ang[..., i]), j.law.speed(ang[..., i]) * dang[..., i]
-    return ang, dang
-
-
 def quintic(x):
     """Rest-to-rest profile s(x) = 10x^3 - 15x^4 + 6x^5 on [0, 1] and its derivative ds/dx."""
     x = np.clip(np.asarray(x, float), 0.0, 1.0)
@@ -189,7 +166,7 @@ def plan(rb: Readback, *, driver: str | None = None, rate: float = 100.0, durati
     "full" (one turn from the first pose) or "task" (the shortest arc through every task pose)."""
     lk = rb.linkage
     names = [j.name for j in lk.joints]
-    driver = driver or names[0]
+    driver = driver or driver_joint(lk)
     if driver not in names:
         raise InputError(f"--driver {driver}: no such joint (joints: {', '.join(names)})")
     if not abs(lk.joint(driver).b) > 0:

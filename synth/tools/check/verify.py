@@ -46,7 +46,8 @@ from synth.tools.check.continuation import continue_loop, crossing, law_angles
 from synth.algebra.geometry import invert_pose, pose_difference
 from synth.frames import TWO_PI, wrap_angle
 from synth.io.posespec import describe_value
-from synth.io.readback import OutputFiles, angle_laws, angle_rates, is_number, loop_laws, read_files, solution_dirs
+from synth.io.linkagedoc import angle_laws, angle_rates, is_number, loop_laws
+from synth.io.readback import OutputFiles, read_files, solution_dirs
 from synth.tools.check.meshes import MeshChecks
 from synth.tools.check.structure import StructureChecks, matrix_or_none
 from synth.synthesis.conditioning import transmission_ratio

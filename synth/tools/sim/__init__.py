@@ -39,7 +39,8 @@ from synth.algebra.geometry import invert_pose, pose_difference
 from synth.errors import InputError, MpsynthError
 from synth.frames import wrap_angle
 from synth.tools.check.continuation import law_angles
-from synth.io.readback import angle_laws, angle_rates, loop_laws, mesh_path, read_files
+from synth.io.linkagedoc import angle_laws, angle_rates, loop_laws
+from synth.io.readback import mesh_path, read_files
 
 ENGINES = ("pybullet", "mujoco")
 TWO_PI = 2.0 * math.pi

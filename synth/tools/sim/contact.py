@@ -14,7 +14,7 @@ import json
 import numpy as np
 
 from synth.design.model import PhysicalDesign, capsules
-from synth.io.readback import linkage_from_document
+from synth.io.linkagedoc import linkage_from_document
 from synth.io.names import pin_link_name
 
 
