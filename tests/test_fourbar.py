@@ -274,3 +274,16 @@ def test_solve_fourbar_entry_point():
     assert [s.id for s in r.solutions][:1] == ["01-fourbar"] and r.linkage is r.solutions[0].linkage
     with pytest.raises(SynthesisError, match=r"fourbar_5.yaml: none of the"):
         solve_fourbar(ps, min_transmission_deg=89.0)
+
+
+def test_drive_speed_ratio_follows_the_loop_law():
+    """linkage.json's drive: the speed ratios of h2, k1, k2 are the loop law's (not the crank's own law)."""
+    from synth.drive import follower_angles, speed_ratio
+
+    _, T, _, _ = task_poses(5)
+    lk = fourbar_candidates(T, NAMES[:5])[0]
+    ratio, _ = speed_ratio(lk, "h1", 0.0, 2 * math.pi)
+    phi = np.linspace(0.0, 2 * math.pi, 20001)
+    ang, _ = follower_angles(lk, "h1", phi)
+    numeric = np.max(np.abs(np.diff(ang, axis=0)), axis=0) / (phi[1] - phi[0])
+    assert np.allclose(ratio, numeric, rtol=1e-3) and ratio[1] > 1.0
