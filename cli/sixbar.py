@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from .common import Output, design_options, drive_options, echo, print_json, progress, run_guarded, synthesis_options, write_ranked
+from .common import Output, design_options, drive_options, echo, finish_ranked, progress, run_guarded, synthesis_options
 
 
 @click.command(epilog="""\b
@@ -118,13 +118,4 @@ def _ranked(result, ps, output, top: int) -> None:
             echo(row)
         for sol in doc["solutions"] if designed else ():
             echo(f"  {sol['id']}: {sol['design_summary']}")
-    if output.dir:
-        write_ranked(result, output)
-        if not output.quiet:
-            echo(f"  wrote {output.dir}/: index.json and {len(ids)} solution directories ({', '.join(ids)})")
-    elif not output.quiet and not output.as_json:
-        echo("  no files written (give -o OUT to write every design's URDF, STL and JSON)")
-    if output.as_json:
-        from synth.io.jsonout import plain
-
-        print_json(plain(doc))
+    finish_ranked(result, output)

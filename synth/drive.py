@@ -189,6 +189,11 @@ def follower_angles(linkage: Linkage, driver: str, phi) -> tuple[np.ndarray, np.
     ang[..., k] = phi
     dang = driven_speed(a, b, d.a, d.b, phi[..., None], r, d.rate)
     dang[..., k] = 1.0
+    for i, j in enumerate(linkage.joints):  # a planar four-bar: the loop law of the crank's angle (docs/fourbar.md)
+        if j.law is not None:
+            if d.law is not None:
+                raise InputError(f"a planar four-bar is driven by its crank, not by {driver}")
+            ang[..., i], dang[..., i] = j.law.continued(ang[..., i]), j.law.speed(ang[..., i]) * dang[..., i]
     return ang, dang
 
 
