@@ -74,7 +74,7 @@ def test_sizes_are_validated_once_in_the_input_unit():
     with pytest.raises(InputError, match="^'pin_length' must be a positive length, got 0"):
         DesignOptions(pin_length=0).sizes(1.0, label=repr)
     with pytest.raises(InputError, match="hole-clearance must be a non-negative"):
-        DesignOptions(hole_clearance=1e9).sizes(1.0)
+        DesignOptions(hole_clearance=float("inf")).sizes(1.0)  # absurd finite sizes: check_sizes
 
 
 def test_option_combinations_are_refused_by_the_library():

@@ -8,6 +8,7 @@ solutions (member, family, pair, top) and whether a physical design is to be mad
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -17,7 +18,6 @@ from synth.errors import InputError
 
 SIZE_KEYS = PART_KEYS + CLEARANCE_KEYS
 GAPS = CLEARANCE_KEYS  # may be 0; the other sizes must be positive
-MAX_SIZE = 1e9  # in the input unit: larger is a typo
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,14 +35,14 @@ class DesignOptions:
     def sizes(self, length_scale: float, label: Callable[[str], str] = option_label) -> dict:
         """The given sizes in metres (``length_scale``: metres per input unit), keyed as
         `synth.design.choose.design_for`'s arguments; InputError (``label(key)`` naming the size) unless
-        positive (clearances: non-negative) and below MAX_SIZE."""
+        positive (clearances: non-negative) and finite."""
         out = {}
         for key in SIZE_KEYS:
             v = getattr(self, key)
             if v is None:
                 continue
             zero_ok = key in GAPS
-            if not ((v > 0 or (zero_ok and v == 0)) and v < MAX_SIZE):
+            if not ((v > 0 or (zero_ok and v == 0)) and math.isfinite(v)):  # absurd sizes: `check_sizes`
                 raise InputError(f"{label(key)} must be a {'non-negative' if zero_ok else 'positive'} "
                                  f"length, got {v}")
             out[key] = v * length_scale
