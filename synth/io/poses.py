@@ -45,6 +45,8 @@ import numpy as np
 from synth.errors import InputError
 from synth.task import PoseSet
 from synth.io.docload import MAX_FILE_BYTES, MAX_POSES, json_object_pairs, load_document, quote_text, read_source
+from synth.io.constraints import parse_constraints
+from synth.io.taskspec import TOP_TASK_KEYS, task_fields
 from synth.io.posespec import (ANGLE_UNITS, LENGTH_UNITS, PoseProblem, axis_angle_matrix, check_keys,
                                describe_value, is_point_spec, point_position, pose_from_spec, pose_matrix,
                                quaternion_matrix, rpy_matrix)
@@ -64,7 +66,7 @@ __all__ = [
     "MAX_POSES",
 ]
 
-TOP_KEYS = ("units", "poses", "points")
+TOP_KEYS = ("units", "poses", "points") + TOP_TASK_KEYS
 UNIT_KEYS = ("length", "angle")
 
 
@@ -189,15 +191,18 @@ def parse_pose_document(
         names.append(final)
         named.append(pname is not None)
 
-    return PoseSet(
-        names=names,
-        matrices=mats,
-        length_unit=length_unit,
-        angle_unit=angle_unit,
-        length_scale=scale,
-        source=name,
-        named=named,
-    )
+    labels = [_pose_label(i, n if k else None) for i, (n, k) in enumerate(zip(names, named))]
+    return _with_task(doc, poses, ["pose"] * len(poses), labels, PoseSet(
+        names=names, matrices=mats, length_unit=length_unit, angle_unit=angle_unit, length_scale=scale,
+        source=name, named=named))
+
+
+def _with_task(doc, items, kinds, labels, ps: PoseSet) -> PoseSet:
+    """``ps`` with the task keys of ``doc`` (`synth.io.taskspec`: tolerance, velocity, order; constraints)."""
+    ps.tolerance, ps.velocity, ps.order = task_fields(doc, items, kinds, labels, ps.source, ps.length_scale,
+                                                      ps.angle_unit)
+    ps.constraints = parse_constraints(doc.get("constraints"), source=ps.source, length_scale=ps.length_scale)
+    return ps
 
 
 def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize, points) -> PoseSet:
@@ -225,7 +230,7 @@ def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize,
         lo, hi, _ = _count_spec(points)
         hint = f" (fewer than {hi}: the design search chooses the rest)" if hi is not None and lo < hi else ""
         raise InputError(f"{name}: {problem} for a point task{hint}")
-    names, named, kinds, first_with = [], [], [], {}
+    names, named, kinds, labels, first_with = [], [], [], [], {}
     mats = np.repeat(np.eye(4)[None], len(items), axis=0)
     for i, (key, spec) in enumerate(items):
         pname = spec.get("name") if isinstance(spec, dict) else None
@@ -250,8 +255,10 @@ def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize,
         first_with[final] = i
         names.append(final)
         named.append(pname is not None)
-    return PoseSet(names=names, matrices=mats, length_unit=length_unit, angle_unit=angle_unit, length_scale=scale,
-                   source=name, named=named, kinds=kinds)
+        labels.append(label)
+    return _with_task(doc, [spec for _, spec in items], kinds, labels, PoseSet(
+        names=names, matrices=mats, length_unit=length_unit, angle_unit=angle_unit, length_scale=scale,
+        source=name, named=named, kinds=kinds))
 
 
 def load_poses(source, *, count=None, normalize: bool = False, text: str | bytes | None = None,

@@ -32,7 +32,8 @@ UNIT_TOL = 1e-6  # quaternion length, orthonormality, last matrix row
 PROJECT_TOL = 1e-3  # how far from orthonormal --normalize may project
 
 ORIENTATION_KEYS = ("quaternion", "rpy", "axis_angle", "rotation")
-POSE_KEYS = ("name", "position") + ORIENTATION_KEYS + ("matrix",)
+TASK_ITEM_KEYS = ("tolerance", "exact", "velocity")  # read by synth.io.taskspec
+POSE_KEYS = ("name", "position") + ORIENTATION_KEYS + ("matrix",) + TASK_ITEM_KEYS
 QUAT_KEYS = ("w", "x", "y", "z")
 AXIS_ANGLE_KEYS = ("axis", "angle")
 
@@ -125,6 +126,9 @@ def _matrix(v: Any, n: int, what: str) -> np.ndarray:
             raise PoseProblem(f"{what} must be {shape}, but row {r} is {describe_value(row)}")
         rows.append([_number(x, f"{what}[{r}][{c}]") for c, x in enumerate(row)])
     return np.array(rows, dtype=float)
+
+
+number, vector = _number, _vector  # public names for synth.io.taskspec
 
 
 # ============================================================== rotations
@@ -287,7 +291,7 @@ def point_position(spec: Any, length_scale: float) -> np.ndarray:
     """The position (metres) of one point of a point task (docs/points.md): a list ``[x, y, z]`` or a
     mapping with ``position`` (and optionally ``name``) and no orientation. Raises `PoseProblem`."""
     if isinstance(spec, dict):
-        check_keys(spec, ("name", "position"), " of a point")
+        check_keys(spec, ("name", "position") + TASK_ITEM_KEYS, " of a point")
         if "position" not in spec:
             raise PoseProblem("missing 'position' (a list of 3 numbers)")
         spec = spec["position"]
