@@ -200,7 +200,7 @@ class CubicModel:
         return r, np.concatenate(g, -1)
 
     def jac(self, x):
-        from synth.synthesis.fit import fd_jacobian
+        from synth.synthesis.cubic_lm import fd_jacobian
 
         return fd_jacobian(self, x, self.colors, self.support)[1]
 

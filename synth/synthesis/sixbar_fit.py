@@ -32,7 +32,7 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import condition, to_world
 from synth.synthesis.cubic import PAIRS, PERMS
 from synth.synthesis.cubic_fit import CubicModel, seeds, targets, unpack
-from synth.synthesis.fit import levenberg_marquardt
+from synth.synthesis.cubic_lm import levenberg_marquardt
 from synth.synthesis.pointfit import parameter_separation
 from synth.synthesis.sixbar import LOOP, checks_pass, loop_dh
 from synth.synthesis.sixbar_loops import factor_members, loop_geometry, score_loops, score_warnings
