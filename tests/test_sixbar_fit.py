@@ -1,5 +1,5 @@
 """6R synthesis for over-determined tasks: fits of cubic motions (synth.synthesis.sixbar_fit), Hermite
-interpolation (synth.synthesis.sixbar_hermite), the task dispatch and the CLI (docs/fit.md). Poses come
+interpolation (synth.synthesis.sixbar_hermite), the task dispatch and the CLI (docs/sixbar_fit.md). Poses come
 from known 6R motions (tests/sixbar_motions.py), seeded."""
 from __future__ import annotations
 

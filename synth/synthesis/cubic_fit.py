@@ -1,4 +1,4 @@
-"""The cubic motion model of 6R fits (docs/fit.md): parametrization, residuals, seeds.
+"""The cubic motion model of 6R fits (docs/sixbar_fit.md): parametrization, residuals, seeds.
 
 Model (conditioned frame: origin at the poses' centroid, unit = their RMS spread): the tool pose at
 the angle theta of the projective parameter line (t = tan theta) is

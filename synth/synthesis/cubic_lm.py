@@ -1,5 +1,5 @@
 """Generic batched least squares with equality constraints, for fitting motion polynomials of any degree
-to over-determined tasks (docs/fit.md).
+to over-determined tasks (docs/sixbar_fit.md).
 
 A problem is a pair of callables over a batch of B parameter vectors x (B, P):
 

@@ -1,4 +1,4 @@
-"""Spatial 6R linkages fitted to over-determined tasks (docs/fit.md): five or more poses, each exact or
+"""Spatial 6R linkages fitted to over-determined tasks (docs/sixbar_fit.md): five or more poses, each exact or
 within a tolerance, optionally with the direction of the tool's velocity, optionally in listed order.
 
 Pipeline (conditioned frame, `synth.synthesis.cubic_fit`): seeds from exact sub-solutions (quadruples

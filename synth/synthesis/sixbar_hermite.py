@@ -1,5 +1,5 @@
 """6R linkages through two poses with the tool's velocity prescribed at each (Hermite interpolation,
-docs/fit.md).
+docs/sixbar_fit.md).
 
 In the kinematic image space (conditioned frame, displacements relative to pose 0) the two poses are
 the points 1 and D1 of the Study quadric S and the velocities give the tangents W0 = Xi0 (the twist at
