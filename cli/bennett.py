@@ -21,10 +21,14 @@ Example:
                    "of quadratic motions through them (L1, L2 nonzero; default: the best-scored, collision-free "
                    "first). Write a negative first value as --member=-0.5,2.")
 @click.option("--top", type=click.IntRange(1, 1000), default=None,
-              help="Point tasks: write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
+              help="Point tasks and fits: write the N best designs to OUT/<id>/ with OUT/index.json and print the "
+                   "ranking.")
+@click.option("--best-effort", is_flag=True,
+              help="Fits: when the tolerances cannot be met, write the best linkage anyway (info.fit.within_tolerance "
+                   "false) instead of exiting 1.")
 @synthesis_options
 @run_guarded
-def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
+def bennett(poses, member, top, best_effort, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
             require_collision_free, package, normalize, quiet, as_json, debug):
     """Synthesize the spatial Bennett 4R linkage whose coupler passes through the three poses in
     POSES (YAML or JSON, '-' for stdin; see README for the format). With five points instead (a
@@ -45,7 +49,9 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
 
     from .points import point_count, run_point_task
 
-    ps = load_poses(poses, count=(3, "mpsynth bennett"), normalize=normalize, points=point_count(2))
+    from synth.synthesis.bennett_fit import is_task
+
+    ps = load_poses(poses, count=((2, None), "mpsynth bennett"), normalize=normalize, points=point_count(2))
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                             clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
     if ps.has_points:
@@ -56,10 +62,19 @@ def bennett(poses, member, top, out, name, force, pin_radius, link_radius, pin_l
                              "point task has no such family (use --top to see its ranked designs)")
         return run_point_task(ps, 2, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
                               as_json=as_json, require_free=require_collision_free)
+    if is_task(ps):  # tolerances, velocities, an order or other than three poses (docs/fit.md)
+        from .task import run_bennett_task
+
+        if out:
+            from synth.io.writer import check_output_target
+
+            check_output_target(out, force)
+        return run_bennett_task(ps, top, best_effort, out=out, name=name, force=force, package=package, sizes=sizes,
+                                quiet=quiet, as_json=as_json, require_free=require_collision_free)
     if top is not None:
         from synth.errors import InputError
 
-        raise InputError("--top applies to point tasks only: three poses give one Bennett linkage")
+        raise InputError("--top applies to point tasks and fits only: three poses give one Bennett linkage")
     if out:
         from synth.io.writer import check_output_target
 

@@ -64,6 +64,9 @@ class PoseRecord:
     t: float
     joint_angles: dict[str, float]
     kind: str = "pose"  # "point": only the tool frame's origin was prescribed (docs/points.md)
+    error: tuple[float, float] | None = None  # (metres, radians): the tool frame's miss at joint_angles (fits)
+    tolerance: tuple[float, float] | None = None  # (metres, radians), inf = free; None: exact or no task tolerance
+    exact: bool = False  # a pose of a fit that is met to machine precision
 
 
 @dataclass

@@ -288,7 +288,7 @@ def test_cli_bad_points(tmp_path, text, code, msg):
 
 def test_cli_top_needs_points():
     r = run("bennett", REPO / "fixtures" / "bennett_quat.yaml", "--top", "2")
-    assert r.exit_code == 2 and "point tasks only" in r.output
+    assert r.exit_code == 2 and "point tasks and fits only" in r.output
 
 
 def test_batch_and_api_accept_points():

@@ -74,7 +74,8 @@ def linkage_document(linkage, design=None, collision=None) -> dict:
         "poses": [
             {"name": p.name, "matrix": np.asarray(p.matrix, float), "t": p.t,
              "joint_angles": {k: float(v) for k, v in p.joint_angles.items()},
-             **({"kind": "point", "position": np.asarray(p.matrix, float)[:3, 3]} if p.kind == "point" else {})}
+             **({"kind": "point", "position": np.asarray(p.matrix, float)[:3, 3]} if p.kind == "point" else {}),
+             **_fit_fields(p)}
             for p in linkage.poses
         ],
         "joints": [
@@ -99,6 +100,18 @@ def linkage_document(linkage, design=None, collision=None) -> dict:
     if collision is not None:
         doc["collision"] = collision if isinstance(collision, dict) else collision.to_dict()
     return plain(doc)
+
+
+def _fit_fields(p) -> dict:
+    """A fitted pose's ``error`` and ``tolerance`` (metres, radians; null = unconstrained) or ``exact``."""
+    out = {}
+    if p.error is not None:
+        out["error"] = {"position": float(p.error[0]), "angle": float(p.error[1])}
+    if p.exact:
+        out["exact"] = True
+    elif p.tolerance is not None:
+        out["tolerance"] = {k: (float(v) if np.isfinite(v) else None) for k, v in zip(("position", "angle"), p.tolerance)}
+    return out
 
 
 def _dumps(obj, indent: int = 0) -> str:

@@ -384,8 +384,21 @@ def _general_factors(T, names):
             raise SynthesisError(f"{close[0]}: the conic through them is numerically degenerate (poses "
                                  "1e-3 apart, relative, are needed); give three clearly distinct poses") from e
         raise
+    H, K, C, residual = factor_conic(con.C, cond)
+    info = {"factorization_residual": residual,
+            # the Study form is translation invariant and scales with length: report it in metres
+            "study_form": {k: float(v * cond.scale) for k, v in zip(("B01", "B02", "B12"), con.B)},
+            "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)}}
+    return H, K, C, con, cond, info
+
+
+def factor_conic(C, cond: Conditioning):
+    """Branches h = (h1, h2) and k = (k1, k2) (world frame, (2, 8) each) of a monic quadratic motion
+    polynomial C (3, 8) in the conditioned frame ``cond`` (`synth.algebra.factorize.factorize`; h1 carries
+    the norm root with the smaller real part), C in the world frame and the factorization residual.
+    SynthesisError when C has a real factor, a repeated norm factor or a translation factor."""
     try:
-        res = factorize(con.C, validate=False)
+        res = factorize(C, validate=False)
     except NotGenericError as e:
         raise SynthesisError(
             "the conic through the poses is degenerate (its motion has a real factor, e.g. a "
@@ -402,14 +415,7 @@ def _general_factors(T, names):
             raise SynthesisError(
                 "the relative screws of the poses have parallel axes: one factor of the motion is a "
                 "translation, so the linkage would need a prismatic joint (not supported)")
-    H = to_world(fh.factors, cond)
-    K = to_world(fk.factors, cond)
-    C = to_world(con.C, cond)
-    info = {"factorization_residual": max(fh.residual, fk.residual),
-            # the Study form is translation invariant and scales with length: report it in metres
-            "study_form": {k: float(v * cond.scale) for k, v in zip(("B01", "B02", "B12"), con.B)},
-            "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)}}
-    return H, K, C, con, cond, info
+    return to_world(fh.factors, cond), to_world(fk.factors, cond), to_world(C, cond), max(fh.residual, fk.residual)
 
 
 def _warnings(linkage, B, cond, info, far, perturbed=None, frame=None) -> list[str]:

@@ -1,0 +1,354 @@
+"""Least-squares fits of motion polynomials of any degree n to a task (docs/fit.md).
+
+The motion is ``P(phi) = C(phi) Q`` with ``C(phi) = sum_k c_k cos^k(phi) sin^(n-k)(phi)`` the monic motion
+polynomial C(t) = t^n + c_{n-1} t^{n-1} + ... + c_0 evaluated in homogeneous form at t = cot(phi)
+(phi = 0 is t = inf, where C = 1 and the tool is at its reference pose Q), dual quaternions (8,) in the
+layout of `synth.algebra.dq` (pose r - (eps/2) d r), everything in the task's conditioned frame
+(`synth.synthesis.conic.condition`: lengths in pose spreads). The unknowns of one seed (`Layout`):
+the coefficients c_0 .. c_{n-1} (8 n), a correction of the reference pose (rotation vector-ish w/2 and
+translation, 6) and the item parameters phi_i (N; three of them fixed to remove the reparametrizations
+t -> (a t + b) / (c t + d)). Equality constraints: the Study condition (2 n dual parts of C C~), the
+exact components of items and the direction of prescribed velocities; the other components are
+weighted residuals (error / tolerance). `levenberg_marquardt` solves this for a batch of seeds at once
+(KKT steps, Jacobians by complex steps), and is generic: any model given as a batched residual
+function with the same row/column structure can use it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.algebra.dq import structure_constants
+
+__all__ = ["TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",
+           "homogeneous", "ERRORS", "ROWS"]
+
+ERRORS = 6  # per item: position error (3, spreads), rotation error 2 sin(angle/2) axis (3)
+ROWS = ERRORS + 5  # and 5 velocity rows (components of the twist direction across the prescribed one)
+STEP = 1e-30  # complex step
+FEASIBLE_FLOOR = 1e-14  # constraint violation (conditioned units) counted as met
+NEARLY_FEASIBLE = 1e-8  # during the damped steps: cost-lowering steps may leave this much (`polish` ends)
+POLISH_STEPS = 4
+_DQ = structure_constants().reshape(64, 8).astype(float)
+_Q = structure_constants()[:4, :4, :4].reshape(16, 4).astype(float)
+_CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
+
+
+def _product(a, b, table):
+    """The bilinear product sum_ij a_i b_j table[i, j, :] of (..., k) arrays of any dtype (complex for complex
+    steps), broadcast: the dual quaternion (``_DQ``) or quaternion (``_Q``) product."""
+    k = a.shape[-1]
+    if a.shape != b.shape:
+        shape = np.broadcast_shapes(a.shape, b.shape)
+        a, b = np.broadcast_to(a, shape), np.broadcast_to(b, shape)
+    return (a[..., :, None] * b[..., None, :]).reshape(a.shape[:-1] + (k * k,)) @ table
+
+
+def _mul(a, b):
+    return _product(a, b, _DQ)
+
+
+def _qmul(a, b):
+    return _product(a, b, _Q)
+
+
+def _cross(a, b):
+    """a x b of (..., 3) arrays of any dtype: the vector part of the product of pure quaternions."""
+    pad = np.zeros(a.shape[:-1] + (1,), a.dtype)
+    return _qmul(np.concatenate([pad, a], -1), np.concatenate([np.zeros(b.shape[:-1] + (1,), b.dtype), b], -1))[..., 1:]
+
+
+def _vdot(a, b):
+    return (a * b).sum(axis=-1)
+
+
+@dataclass(frozen=True)
+class TaskArrays:
+    """A task in the conditioned frame: target poses ``Q`` (N, 8) (unit), positions ``X`` (N, 3),
+    ``weight`` (N, ROWS) (1 / tolerance of free residual rows, 0 for rows that do not count), ``exact``
+    (N, ROWS) bool (equality rows), ``perp`` (N, 5, 6) (rows spanning the complement of a prescribed
+    twist direction [w, v], zero rows where there is none)."""
+
+    Q: np.ndarray
+    X: np.ndarray
+    weight: np.ndarray
+    exact: np.ndarray
+    perp: np.ndarray
+
+
+def task_arrays(Q, X, tolerance, velocity, scale: float) -> TaskArrays:
+    """TaskArrays of targets Q (N, 8), X (N, 3) (conditioned, lengths / ``scale``), ``tolerance`` (N, 2)
+    [metres, radians] (None: all exact) and ``velocity`` (N, 6) [w rad/s, v m/s] (NaN: not given)."""
+    n = len(Q)
+    tol = np.zeros((n, 2)) if tolerance is None else np.asarray(tolerance, float).copy()
+    tol[:, 0] /= scale
+    tol_rows = np.repeat(tol, 3, axis=1)  # (N, 6)
+    weight = np.zeros((n, ROWS))
+    exact = np.zeros((n, ROWS), bool)
+    exact[:, :ERRORS] = tol_rows == 0
+    free = np.isfinite(tol_rows) & (tol_rows > 0)
+    weight[:, :ERRORS][free] = 1.0 / tol_rows[free]
+    perp = np.zeros((n, 5, 6))
+    if velocity is not None:
+        for i, v in enumerate(np.asarray(velocity, float)):
+            given = ~np.isnan(v)
+            if not given.any():
+                continue
+            g = np.where(given, v, 0.0)
+            g[3:] /= scale
+            basis = np.linalg.svd(np.eye(6)[given] - np.outer(g[given] / np.linalg.norm(g), g / np.linalg.norm(g)))[2]
+            k = int(given.sum()) - 1
+            perp[i, :k] = basis[:k] * given  # rows across g within the given components
+            exact[i, ERRORS:ERRORS + k] = True
+    return TaskArrays(Q=np.asarray(Q, float), X=np.asarray(X, float), weight=weight, exact=exact, perp=perp)
+
+
+def homogeneous(coef, phi, derivative: bool = False):
+    """C(phi) (..., N, 8) = sum_k c_k cos^k sin^(n-k) with c_n = 1, coefficients ``coef`` (..., n, 8)
+    (c_0 .. c_{n-1}) and angles ``phi`` (..., N); with ``derivative`` also dC/dphi."""
+    n = coef.shape[-2]
+    full = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], coef.shape[:-2] + (1, 8)).astype(coef.dtype)], -2)
+    c, s = _powers(np.cos(phi), n + 1), _powers(np.sin(phi), n + 1)  # (..., N, n+2)
+    k = np.arange(n + 1)
+    value = (c[..., k] * s[..., n - k]) @ full
+    if not derivative:
+        return value
+    # d/dphi cos^k sin^(n-k) = -k cos^(k-1) sin^(n-k+1) + (n-k) cos^(k+1) sin^(n-k-1)
+    d = -k * c[..., np.maximum(k - 1, 0)] * s[..., n - k + 1] + (n - k) * c[..., k + 1] * s[..., np.maximum(n - k - 1, 0)]
+    return value, d @ full
+
+
+def _powers(x, m: int):
+    """x^0 .. x^m (..., m+1) by products (exact for complex steps)."""
+    out = np.empty(x.shape + (m + 1,), x.dtype)
+    out[..., 0] = 1.0
+    for j in range(1, m + 1):
+        out[..., j] = out[..., j - 1] * x
+    return out
+
+
+def reference_pose(ref0, x_ref):
+    """The seed's reference pose ref0 (..., 8) corrected by x_ref (..., 6) = (w, dp): first the rotation
+    (1, w/2), then the translation by dp, both before ref0 (world frame)."""
+    r = np.concatenate([np.ones(x_ref.shape[:-1] + (1,), x_ref.dtype), 0.5 * x_ref[..., :3]], -1)
+    dp = np.concatenate([np.zeros(x_ref.shape[:-1] + (1,), x_ref.dtype), -0.5 * x_ref[..., 3:]], -1)
+    return _mul(np.concatenate([r, _qmul(dp, r)], -1), ref0)
+
+
+def item_errors(coef, ref, phi, task: TaskArrays):
+    """Rows (..., N, ROWS) of the items: position error (predicted - target, conditioned), rotation error
+    2 sin(angle / 2) times its axis, and the prescribed-twist rows ``perp @ [w, v] / |[w, v]|`` (w the
+    angular velocity, v the velocity of the tool origin, along phi). coef (..., n, 8), ref (..., 8),
+    phi (..., N); any float or complex dtype."""
+    C, dC = homogeneous(coef, phi, derivative=True)
+    P = _mul(C, ref[..., None, :])
+    p, q = P[..., :4], P[..., 4:]
+    x = 2.0 * _qmul(p, q * _CONJ[:4])[..., 1:] / _vdot(p, p)[..., None]  # translation (synth.algebra.dq)
+    e = _qmul(p, task.Q[:, :4] * _CONJ[:4])  # rotation from the target to the prediction (times |p|)
+    sign = np.where(e[..., :1].real < 0, -1.0, 1.0)
+    rot = 2.0 * sign * e[..., 1:] / np.sqrt(_vdot(e, e))[..., None]
+    out = [x - task.X, rot]
+    if task.exact[:, ERRORS:].any():
+        # C' C~: vector parts (w, -(velocity of the body point at the origin)) times |C|^2 / 2
+        tw = _mul(dC, C * _CONJ)
+        w = tw[..., 1:4]
+        z = np.concatenate([w, _cross(w, x) - tw[..., 5:8]], -1)
+        z = z / np.sqrt(_vdot(z, z))[..., None]
+        out.append((task.perp @ z[..., None])[..., 0])
+    else:
+        out.append(np.zeros(x.shape[:-1] + (5,), x.dtype))
+    return np.concatenate(out, -1)
+
+
+def study_rows(coef):
+    """The Study condition of the monic C with coefficients c_0 .. c_{n-1} (..., n, 8): the 2n dual parts
+    of C C~ (halved), sum_{j+k=m} p_j . q_k for m = 0 .. 2n-1 (c_n = 1). Returns (..., 2n)."""
+    n = coef.shape[-2]
+    p = np.concatenate([coef[..., :4], np.broadcast_to(np.eye(4)[0], coef.shape[:-2] + (1, 4))], -2)
+    q = coef[..., 4:]
+    pq = p[..., :, None, :] * q[..., None, :, :]  # (..., n+1, n, 4)
+    pq = pq.sum(-1)
+    j, k = np.meshgrid(np.arange(n + 1), np.arange(n), indexing="ij")
+    return np.stack([pq[..., (j + k) == m].sum(-1) for m in range(2 * n)], -1)
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Unknowns of one seed of a degree-n fit of N items: x = [c_0..c_{n-1} (8 n), w, dp (6), phi (N)].
+    ``gauge`` (S, 3): per seed, the items whose phi is held fixed (the reparametrizations)."""
+
+    n: int
+    items: int
+    gauge: np.ndarray
+
+    @property
+    def size(self) -> int:
+        return 8 * self.n + 6 + self.items
+
+    @property
+    def fixed(self) -> np.ndarray:
+        """(S, P) bool: the columns held fixed."""
+        g = np.asarray(self.gauge, int)
+        f = np.zeros((len(g), self.size), bool)
+        f[np.arange(len(g))[:, None], 8 * self.n + 6 + g] = True
+        return f
+
+    def split(self, x):
+        n = self.n
+        return x[..., :8 * n].reshape(x.shape[:-1] + (n, 8)), x[..., 8 * n:8 * n + 6], x[..., 8 * n + 6:]
+
+    def join(self, coef, x_ref, phi):
+        return np.concatenate([coef.reshape(coef.shape[:-2] + (8 * self.n,)), x_ref, phi], -1)
+
+
+@dataclass
+class LMResult:
+    """Per seed: ``x`` (S, P), ``cost`` (S,) (sum of squared weighted residuals), ``violation`` (S,)
+    (max |constraint|), ``iterations`` (int, the same for all: counted work)."""
+
+    x: np.ndarray
+    cost: np.ndarray
+    violation: np.ndarray
+    iterations: int
+
+
+class MotionModel:
+    """The rows of a motion fit (`item_errors`, `study_rows`) as (residuals, constraints) of x."""
+
+    def __init__(self, layout: Layout, task: TaskArrays, ref0):
+        self.layout, self.task, self.ref0 = layout, task, np.asarray(ref0, float)
+        self.free = (task.weight != 0).ravel()
+        self.eq = task.exact.ravel()
+
+    def rows(self, x):
+        """(residuals (..., M), constraints (..., E)) at x (..., P); leading axes broadcast with ref0's."""
+        coef, x_ref, phi = self.layout.split(x)
+        ref = reference_pose(self.ref0.reshape(self.ref0.shape[:1] + (1,) * (x.ndim - 2) + (8,)), x_ref)
+        e = item_errors(coef, ref, phi, self.task)
+        flat = e.reshape(e.shape[:-2] + (-1,))
+        r = (e * self.task.weight).reshape(flat.shape)[..., self.free]
+        c = np.concatenate([flat[..., self.eq], study_rows(coef)], -1)
+        return r, c
+
+    def jacobians(self, x):
+        """(r, c, J_r, J_c) at x (S, P) by complex steps: one per coefficient / reference unknown and one
+        for all phi at once (each phi_i moves item i's rows only)."""
+        lay = self.layout
+        g = 8 * lay.n + 6
+        dirs = np.zeros((g + 1, lay.size))
+        dirs[np.arange(g), np.arange(g)] = 1.0
+        dirs[g, g:] = 1.0
+        X = x[:, None, :] + 1j * STEP * dirs
+        r, c = self.rows(X)
+        dr, dc = r.imag / STEP, c.imag / STEP  # (S, g+1, M)
+        S = x.shape[0]
+        Jr = np.zeros((S, r.shape[-1], lay.size))
+        Jc = np.zeros((S, c.shape[-1], lay.size))
+        Jr[:, :, :g] = np.swapaxes(dr[:, :g], 1, 2)
+        Jc[:, :, :g] = np.swapaxes(dc[:, :g], 1, 2)
+        item_r = np.repeat(np.arange(lay.items), ROWS)
+        rows_r, rows_c = item_r[self.free], np.concatenate([item_r[self.eq], np.full(2 * lay.n, -1)])
+        for J, d, owner in ((Jr, dr, rows_r), (Jc, dc, rows_c)):
+            k = np.nonzero(owner >= 0)[0]
+            J[:, k, g + owner[k]] = d[:, g, k]
+        return r[:, 0].real, c[:, 0].real, Jr, Jc
+
+
+def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
+    """Minimize |r(x)|^2 subject to c(x) = 0 for a batch of seeds x0 (S, P) by damped Gauss-Newton steps on
+    the KKT system [[J^T J + lam D, A^T], [A, 0]] [dx; mu] = [-J^T r; -c] (D = diag(J^T J) + 1e-12), each
+    followed by a second-order correction back onto c = 0 (min-norm along A's rows). A step is accepted
+    (lam / 3, else lam * 4) when it lowers |r|^2 and keeps max |c| below max(NEARLY_FEASIBLE, its value), or
+    halves max |c| while that is above NEARLY_FEASIBLE (a filter: exact rows never trade against the cost);
+    `polish` then meets c = 0 to rounding. ``fixed`` (S, P) bool: columns held, per seed. ``model``:
+    ``rows(x) -> (r, c)`` and ``jacobians(x) -> (r, c, J_r, J_c)``. Stops after ``iterations`` Jacobians
+    or when every seed's step is below 1e-13 (relative): counted work only."""
+    x = np.array(x0, float)
+    fixed = np.broadcast_to(np.asarray(fixed, bool), x.shape)
+    S, P = x.shape
+    lam = np.full(S, 1e-3)
+    done = np.zeros(S, bool)
+    it = 0
+    r, c, Jr, Jc = model.jacobians(x)
+    cost, viol = (r * r).sum(-1), np.abs(c).max(-1, initial=0.0)
+    idx = np.arange(P)
+    for it in range(1, iterations + 1):
+        J, A = _held(Jr, fixed), _held(Jc, fixed)
+        H = np.swapaxes(J, 1, 2) @ J
+        g = (np.swapaxes(J, 1, 2) @ r[..., None])[..., 0]
+        ne = A.shape[1]
+        K = np.zeros((S, P + ne, P + ne))
+        K[:, :P, :P] = H
+        K[:, :P, P:] = np.swapaxes(A, 1, 2)
+        K[:, P:, :P] = A
+        rhs = np.concatenate([-g, -c], -1)
+        dH = np.where(fixed, 1.0, H[:, idx, idx] + 1e-12)
+        pending = ~done
+        for _ in range(8):  # damping tries per Jacobian
+            K[:, idx, idx] = np.where(fixed, 1.0, H[:, idx, idx] + lam[:, None] * dH)
+            xn = x + _solve(K, rhs)[:, :P]
+            rn, cn = model.rows(xn)
+            if ne:  # second-order correction: back onto the constraints along A's rows
+                xn = xn - _min_norm(A, cn)
+                rn, cn = model.rows(xn)
+            cost_n, viol_n = (rn * rn).sum(-1), np.abs(cn).max(-1, initial=0.0)
+            restores = viol_n <= 0.5 * viol  # feasibility progress, any cost (far from c = 0)
+            improves = (cost_n < cost) & (viol_n <= np.maximum(viol, NEARLY_FEASIBLE))
+            ok = pending & np.isfinite(cost_n) & (improves | (restores & (viol > NEARLY_FEASIBLE)))
+            step = np.max(np.abs(xn - x), axis=1)
+            x[ok] = xn[ok]
+            cost, viol = np.where(ok, cost_n, cost), np.where(ok, viol_n, viol)
+            lam = np.where(ok, np.maximum(lam / 3, 1e-12), np.where(pending, lam * 4, lam))
+            small = step <= 1e-13 * (1 + np.max(np.abs(x), axis=1))
+            done |= pending & small & (viol <= NEARLY_FEASIBLE)
+            pending &= ~ok & ~done
+            if not pending.any():
+                break
+        if done.all():
+            break
+        r, c, Jr, Jc = model.jacobians(x)
+    x = polish(model, x, fixed)
+    r, c = model.rows(x)
+    return LMResult(x=x, cost=(r * r).sum(-1), violation=np.abs(c).max(-1, initial=0.0), iterations=it)
+
+
+def _held(J, fixed):
+    """J (S, M, P) with the held columns zeroed."""
+    return np.where(fixed[:, None, :], 0.0, J)
+
+
+def _min_norm(A, c):
+    """The least-norm dx (S, P) with A dx = c (A (S, E, P))."""
+    if not A.shape[1]:
+        return np.zeros((A.shape[0], A.shape[2]))
+    return (np.swapaxes(A, 1, 2) @ _solve(A @ np.swapaxes(A, 1, 2), c)[..., None])[..., 0]
+
+
+def polish(model, x, fixed, steps: int = POLISH_STEPS):
+    """Newton steps onto c(x) = 0 (min-norm along the constraint Jacobian's rows, held columns fixed), for
+    the exact rows' last digits after the damped steps (which keep them only below NEARLY_FEASIBLE).
+    Counted steps."""
+    for _ in range(steps):
+        _, c, _, Jc = model.jacobians(x)
+        if not c.shape[-1] or np.abs(c).max() <= FEASIBLE_FLOOR:
+            break
+        xn = x - _min_norm(_held(Jc, fixed), c)
+        cn = model.rows(xn)[1]
+        better = np.abs(cn).max(-1) < np.abs(c).max(-1)
+        x[better] = xn[better]
+    return x
+
+
+def _solve(K, rhs):
+    """Batched solve; a singular system (a degenerate seed) gives a zero step."""
+    try:
+        return np.linalg.solve(K, rhs[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        out = np.zeros_like(rhs)
+        for s in range(len(K)):
+            try:
+                out[s] = np.linalg.solve(K[s], rhs[s])
+            except np.linalg.LinAlgError:
+                pass
+        return out

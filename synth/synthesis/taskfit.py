@@ -1,0 +1,118 @@
+"""What a task synthesis achieved, for any kind of linkage (docs/fit.md): each item's miss measured on the
+linkage (`annotate`: the tool frame at the recorded joint angles, into the pose records and
+``info["fit"]``), the order in which the first driver visits the items, the summary table and the one-line
+refusal when tolerances are not met. Used by the Bennett and 6R task syntheses.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.checks import pose_difference
+import json
+from synth.task import PoseSet
+
+__all__ = ["FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem", "error_rows",
+           "item_kinds"]
+
+
+@dataclass
+class FitSummary:
+    """What a task synthesis achieved: ``method`` ("exact", "hermite", "fit"), seeds tried and refined,
+    iterations, ``visit`` (item indices in the order the first driver visits them, from item 0 on)."""
+
+    method: str
+    seeds: int = 0
+    refined: int = 0
+    iterations: int = 0
+    visit: tuple = ()
+
+
+def visits_in_order(ts) -> bool:
+    """Whether parameters ``ts`` (t_0 = inf first) are visited in the listed order by a joint turning one
+    way through less than a turn: t_1 < t_2 < ... or t_1 > t_2 > ... (angle laws are monotonic in t)."""
+    d = np.diff(np.asarray(ts, float)[1:])
+    return bool(np.all(d > 0) or np.all(d < 0))
+
+
+def visiting_order(ts) -> tuple:
+    """Item indices in the order t increases from item 0 (at t = inf) on."""
+    rest = np.argsort(np.asarray(ts, float)[1:], kind="stable") + 1
+    return (0,) + tuple(int(i) for i in rest)
+
+
+def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
+    """Measure every item's miss on the linkage (tool frame at the recorded joint angles), store it in
+    the pose records (``error``, ``tolerance``, ``exact``, ``kind``) and ``info["fit"]``; the self-check
+    (closure, transmission) as ``linkage.checks``. Returns whether every tolerance is met."""
+    kinds = item_kinds(ps)
+    tol = np.zeros((len(ps), 2)) if ps.tolerance is None else np.asarray(ps.tolerance, float)
+    T = np.array([linkage.tool_pose(r.joint_angles) for r in linkage.poses])
+    dt, dr = pose_difference(T, ps.matrices)
+    point = np.array([k == "point" for k in kinds])
+    dr = np.where(point, 0.0, dr)
+    size = linkage.extent()
+    ok = []
+    for i, rec in enumerate(linkage.poses):
+        rec.kind = kinds[i]
+        rec.error = (float(dt[i]), float(dr[i]))
+        exact = bool(tol[i, 0] == 0 and (point[i] or tol[i, 1] == 0))
+        rec.exact, rec.tolerance = exact, (None if exact else (float(tol[i, 0]), float(tol[i, 1])))
+        lim_t = tol[i, 0] if tol[i, 0] > 0 else 1e-9 * size
+        lim_r = tol[i, 1] if tol[i, 1] > 0 else 1e-9
+        ok.append(bool(dt[i] <= lim_t * (1 + 1e-9) and dr[i] <= lim_r * (1 + 1e-9)))
+    rated = ~np.isinf(tol[:, 0])
+    names = [ps.names[i] for i in summary.visit] if summary.visit else None
+    linkage.info["fit"] = {
+        "method": summary.method, "seeds": summary.seeds, "refined": summary.refined,
+        "iterations": summary.iterations, "order": ps.order.value, "visit_order": names,
+        "rms_position_error": float(np.sqrt(np.mean(dt[rated] ** 2))) if rated.any() else 0.0,
+        "max_position_error": float(dt.max()),
+        "rms_angle_error": float(np.sqrt(np.mean(dr[~point] ** 2))) if (~point).any() else 0.0,
+        "max_angle_error": float(dr.max()), "within_tolerance": bool(all(ok)),
+        "failing": [i for i, good in enumerate(ok) if not good]}
+    return all(ok)
+
+
+def item_kinds(ps: PoseSet) -> list[str]:
+    """"pose" or "point" for each item of the task."""
+    return list(ps.kinds) if ps.kinds else ["pose"] * len(ps)
+
+
+def error_rows(linkage, ps: PoseSet) -> list[tuple[str, str, str, str]]:
+    """The summary table: (item, position error, angle error, tolerance) in the input's units (angles in
+    degrees) for every item of an annotated linkage."""
+    rows = []
+    for i, rec in enumerate(linkage.poses):
+        err = rec.error or (0.0, 0.0)
+        angle = "-" if rec.kind == "point" else _angle(err[1])
+        if rec.exact:
+            tol = "exact"
+        elif rec.tolerance is None:
+            tol = "exact"
+        else:
+            tol = f"{_length(rec.tolerance[0], ps)} / " + ("-" if rec.kind == "point" else _angle(rec.tolerance[1]))
+        rows.append((f"{i} {rec.name}", _length(err[0], ps), angle, tol))
+    return rows
+
+
+def tolerance_problem(linkage, ps: PoseSet) -> str:
+    """One line naming the items whose tolerance the linkage misses, by how much (input units)."""
+    parts = []
+    for i in linkage.info["fit"]["failing"]:
+        rec = linkage.poses[i]
+        tol = (0.0, 0.0) if rec.exact else rec.tolerance
+        parts.append(f"{rec.kind} {i} ({json.dumps(rec.name, ensure_ascii=False)}) missed by {_length(rec.error[0], ps)} / {_angle(rec.error[1])} "
+                     f"(tolerance {_length(tol[0], ps)} / {_angle(tol[1])})")
+    return ("tolerances not met at the best linkage found: " + "; ".join(parts) +
+            " (--best-effort writes it anyway)")
+
+
+def _length(x: float, ps: PoseSet) -> str:
+    return "free" if math.isinf(x) else f"{x / ps.length_scale:.4g} {ps.length_unit}"
+
+
+def _angle(x: float) -> str:
+    return "free" if math.isinf(x) else f"{math.degrees(x):.4g} deg"
