@@ -32,7 +32,8 @@ Examples:
 @click.option("--top", type=click.IntRange(1, 1000), default=None,
               help="Write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
 @click.option("--best-effort", is_flag=True,
-              help="A fit that misses a tolerance: write the best linkage anyway (linkage.json: within_tolerance false).")
+              help="Fits: when the tolerances cannot be met, write the best linkage anyway (info.fit.within_tolerance "
+                   "false) instead of exiting 1.")
 @synthesis_options
 @run_guarded
 def sixbar(poses, family, member, pair, top, best_effort, out, name, force, pin_radius, link_radius, pin_length,
@@ -50,15 +51,7 @@ def sixbar(poses, family, member, pair, top, best_effort, out, name, force, pin_
 
     from .points import point_count, run_point_task
 
-    from synth.synthesis.sixbar_task import task_kind
-
     ps = load_poses(poses, count=((2, None), "mpsynth sixbar"), normalize=normalize, points=point_count(3))
-    kind = "points" if ps.has_points else task_kind(ps)
-    if kind in ("hermite", "fit") and (family is not None or member is not None or pair is not None):
-        from synth.errors import InputError
-
-        raise InputError("--family, --member and --pair select among the cubics through four exact poses; a "
-                         f"{kind} task ranks its own designs (use --top to see them)")
     if member is not None and not ps.has_points:
         member = parse_member(member)
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
@@ -71,10 +64,19 @@ def sixbar(poses, family, member, pair, top, best_effort, out, name, force, pin_
                              "task has no families (use --top to see its ranked designs)")
         return run_point_task(ps, 3, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
                               as_json=as_json, require_free=require_collision_free)
-    opts = dict(out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json,
-                require_free=require_collision_free)
-    if kind in ("hermite", "fit"):
-        return _task(ps, top, best_effort, **opts)
+    from synth.synthesis.sixbar_task import is_task
+
+    if is_task(ps):  # tolerances, velocities, a listed order or other than four poses (docs/sixbar_fit.md)
+        from synth.errors import InputError
+        from synth.synthesis.sixbar_task import sixbar_task
+
+        from .task import run_task
+
+        if family is not None or member is not None or pair is not None:
+            raise InputError("--family, --member and --pair select among the cubics through four exact poses; a task "
+                             "with tolerances, velocities or another count ranks its own designs (use --top)")
+        return run_task(ps, top, best_effort, sixbar_task, out=out, name=name, force=force, package=package,
+                        sizes=sizes, quiet=quiet, as_json=as_json, require_free=require_collision_free)
     if top is None:
         _single(ps, family, member, pair, out=out, name=name, force=force, package=package, sizes=sizes,
                 quiet=quiet, as_json=as_json, require_free=require_collision_free)
@@ -100,12 +102,6 @@ def parse_member(text: str):
 
 def _design_line(info) -> str:
     p = info["score_parts"]
-    if info.get("task") in ("fit", "hermite"):
-        fit = info["fit"]
-        what = ("Hermite 6R design (family {}, member nu = {:.6g})".format(info["family"], info["member"])
-                if info["task"] == "hermite" else "fitted 6R design")
-        return (f"  {what}, pair {info['pair']}; score {info['score']:.3g} (conditioning {p['conditioning']:.3g}, "
-                f"extent {p['extent']:.3g} x spread); visits the poses in the order {fit['order']}")
     if isinstance(info.get("family"), dict):  # a planar or spherical Watt six-bar (docs/planar.md)
         m = info["member"]
         return (f"  {info['family']['kind']} Watt six-bar (7 joints): member t3 = {m['t3']:.6g}, lambda = "
@@ -121,20 +117,7 @@ BUILDABLE_CANDIDATES = 8  # default design: the best-scored candidates searched,
 BUILDABLE_SECONDS = 7.0  # CPU budget of those design searches (rank_buildable: 2.5 s on the first, 1.2 s on each next)
 
 
-def _task(ps, top, best_effort, **opts):
-    """A Hermite or fit task (`synth.synthesis.sixbar_task`): the default design as `_single`, --top as `_ranked`."""
-    from synth.checks import VERIFY_SAMPLES
-    from synth.synthesis.sixbar_task import sixbar_task
-
-    if top is not None:
-        linkages = sixbar_task(ps, top=top, best_effort=best_effort, check_samples=VERIFY_SAMPLES)
-        return _ranked(ps, None, None, None, top, linkages=linkages, **opts)
-    candidates = sixbar_task(ps, top=BUILDABLE_CANDIDATES, best_effort=best_effort, check_samples=VERIFY_SAMPLES)
-    _single(ps, None, None, None, candidates=candidates, **opts)
-
-
-def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json, require_free,
-            candidates=None):
+def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json, require_free):
     """The default design: with a physical design to make (files, --json, --require-collision-free) and no
     explicit --family/--member/--pair, the best-scored candidates are designed in turn and the first
     collision-free one (full cycle, then task range) wins (`synth.design.search.rank_buildable`); else the
@@ -146,12 +129,9 @@ def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet
     from .bennett import emit
 
     result = None
-    if candidates is not None and not (out or as_json or require_free):
-        linkage = candidates[0]
-    elif (out or as_json or require_free) and family is None and member is None and pair is None:
-        if candidates is None:
-            candidates = sixbar_candidates(ps.matrices, ps.names, top=BUILDABLE_CANDIDATES, build=True,
-                                           check_samples=VERIFY_SAMPLES)
+    if (out or as_json or require_free) and family is None and member is None and pair is None:
+        candidates = sixbar_candidates(ps.matrices, ps.names, top=BUILDABLE_CANDIDATES, build=True,
+                                       check_samples=VERIFY_SAMPLES)
         linkage, result = choose_buildable(candidates, ps, sizes, limit=BUILDABLE_CANDIDATES,
                                            seconds=BUILDABLE_SECONDS, what="6R linkages")
     else:
@@ -165,8 +145,6 @@ def solution_id(rank: int, linkage) -> str:
     """Directory name of a ranked solution: rank, family and pair (the member is in index.json)."""
     if isinstance(linkage.info.get("family"), dict):  # planar or spherical: the chain
         return f"{rank:02d}-{linkage.info['family']['kind']}-c{linkage.info['chain']}"
-    if linkage.info.get("task") == "fit":
-        return f"{rank:02d}-fit-p{linkage.info['pair']}"
     return f"{rank:02d}-f{linkage.info['family']}-p{linkage.info['pair']}"
 
 
@@ -177,9 +155,8 @@ def index_document(linkages, ids, source: str, length_scale: float, length_unit:
     for rank, (lk, sid) in enumerate(zip(linkages, ids), start=1):
         c = lk.checks
         sols.append({
-            "id": sid, "rank": rank, "path": f"{sid}/", "family": lk.info.get("family"),
-            "member": lk.info.get("member"), "pair": lk.info.get("pair", lk.info.get("chain")), "t3": lk.info.get("t3"),
-            "score": lk.info["score"],
+            "id": sid, "rank": rank, "path": f"{sid}/", "family": lk.info["family"], "member": lk.info["member"],
+            "pair": lk.info.get("pair", lk.info.get("chain")), "t3": lk.info["t3"], "score": lk.info["score"],
             "score_parts": lk.info["score_parts"],
             "checks": {k: c[k] for k in ("max_pose_error", "max_pose_translation_error", "max_pose_rotation_error",
                                          "max_closure_error", "max_closure_translation_error",
@@ -199,8 +176,6 @@ def ranking_table(doc) -> list[str]:
         fam, mem = s["family"], s["member"]
         if isinstance(fam, dict):  # planar or spherical: the kind's initial and the member's four numbers
             fam, mem = fam["kind"][0], ",".join(f"{v:.3g}" for v in mem.values())
-        elif fam is None:  # a fit: no family or member
-            fam, mem = "-", "-"
         else:
             mem = f"{mem:.6g}"
         rows.append(f"  {s['rank']:>4} {s['id']:12} {fam:>3} {mem:>12} {s['pair']:>4} "
@@ -210,14 +185,12 @@ def ranking_table(doc) -> list[str]:
     return rows
 
 
-def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, quiet, as_json, require_free,
-            linkages=None):
+def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, quiet, as_json, require_free):
     from synth.checks import VERIFY_SAMPLES
     from synth.synthesis.sixbar import sixbar_candidates
 
-    if linkages is None:
-        linkages = sixbar_candidates(ps.matrices, ps.names, family=family, member=member, pair=pair, top=top,
-                                     build=True, check_samples=VERIFY_SAMPLES)
+    linkages = sixbar_candidates(ps.matrices, ps.names, family=family, member=member, pair=pair, top=top,
+                                 build=True, check_samples=VERIFY_SAMPLES)
     results = None
     if out or as_json or require_free:  # the physical design of every solution, collision-free first
         linkages, results = design_solutions(linkages, ps, sizes, quiet=quiet, require_free=require_free,

@@ -11,12 +11,22 @@ BUILDABLE_SECONDS = 4.0
 INDEX_FORMAT = "mpsynth.task-index/1"
 
 
-def run_bennett_task(ps, top, best_effort, *, out, name, force, package, sizes, quiet, as_json, require_free):
+def run_bennett_task(ps, top, best_effort, **kw):
     """Synthesize (exact, Hermite or fit), design, write and summarize a Bennett task."""
     from synth.synthesis.bennett_fit import bennett_task
 
+    return run_task(ps, top, best_effort, bennett_task, **kw)
+
+
+def run_task(ps, top, best_effort, synthesize, *, out, name, force, package, sizes, quiet, as_json, require_free):
+    """Synthesize a task with the library entry ``synthesize(ps, top=, best_effort=)`` (`bennett_task`,
+    `sixbar_task`), design, write and summarize it."""
     design = bool(out or as_json or require_free)
-    linkages = bennett_task(ps, top=top or (BUILDABLE_CANDIDATES if design else 1), best_effort=best_effort)
+    if out:
+        from synth.io.writer import check_output_target
+
+        check_output_target(out, force)
+    linkages = synthesize(ps, top=top or (BUILDABLE_CANDIDATES if design else 1), best_effort=best_effort)
     if top is not None:
         return _ranked(ps, linkages, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
                        as_json=as_json, require_free=require_free)

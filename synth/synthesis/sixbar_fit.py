@@ -1,267 +1,184 @@
-"""Spatial 6R linkages fitted to over-determined tasks (docs/sixbar_fit.md): five or more poses, each exact or
-within a tolerance, optionally with the direction of the tool's velocity, optionally in listed order.
+"""Spatial 6R linkages fitted to over-determined tasks (docs/sixbar_fit.md): five or more poses, each exact
+or within a tolerance, optionally with the direction of the tool's velocity.
 
-Pipeline (conditioned frame, `synth.synthesis.cubic_fit`): seeds from exact sub-solutions (quadruples
-with pose 0, scanned members of both cubic families through each, the other poses placed on them) ->
-batched Levenberg-Marquardt over all seeds (`synth.synthesis.fit`, the cubic as three revolute factors so
-that the Study condition holds throughout, pose parameters as unknowns, exact poses and velocities as
-hard constraints made exact by a final projection) -> the best distinct fits refined further -> every
-factorization of each fitted cubic and its 9 loops scored like the exact 6R scan
-(`synth.synthesis.sixbar_loops.score_loops`, the pose parameters' separation in place of t3's) -> the
-best candidates built (`synth.synthesis.assemble.two_branch_linkage`), self-checked, best first: fits
-within every tolerance (and in listed order when asked) first, then the engineering score.
+Pipeline (conditioned frame): seeds from exact sub-solutions (`synth.synthesis.cubic_fit`: quadruples with
+pose 0, the best-fitting members of both cubic families through each) -> the degree-generic batched fit of
+`synth.synthesis.fit` with n = 3 (coefficients of the monic cubic, Study condition, exact poses and
+velocities as equality constraints; STAGE1 iterations on all seeds, then STAGE2 on the KEEP_FITS best) ->
+every factorization of each distinct feasible cubic and its 9 loops scored like the exact 6R scan
+(`synth.synthesis.sixbar_loops.score_loops`, the separation of the pose parameters in place of t3's) ->
+candidates (fit, loop pair), best cost first and then score, built into linkages
+(`synth.synthesis.assemble.two_branch_linkage`, factors polished) and checked (closure, transmission:
+`synth.synthesis.bennett_fit.check_fitted`).
 
-Conventions: pose 0 is at t = inf (all joint angles 0); ``linkage.poses[i].matrix`` is the pose the
-linkage reaches (the target itself for exact poses), ``linkage.info["fit"]`` holds the targets' misses.
-The poses are visited in the cyclic order of their parameters t_i (every joint angle is monotone in t),
-reported as ``info["fit"]["order"]``.
+Conventions as for Bennett fits (`synth.synthesis.bennett_fit.linkage_of`): pose 0 is at t = inf (all joint
+angles 0); the records hold the target poses and the joint angles at the fitted parameters; ``tool_ref``
+is the tool pose reached at t = inf; the misses are measured on the linkage (`synth.synthesis.taskfit.annotate`).
 """
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
 from synth.algebra import algorithm1 as a1
-from synth.algebra.dq import dq_to_pose, normalize_dq
-from synth.algebra.polynomial import pose_at, product_of_linear
+from synth.algebra.dq import dq_to_pose, normalize_dq, pose_to_dq
 from synth.blas import one_blas_thread
-from synth.checks import DEFAULT_CHECK_SAMPLES, pose_difference, self_check
 from synth.errors import SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
+from synth.synthesis.bennett_fit import FEASIBLE, check_fitted
 from synth.synthesis.conic import condition, to_world
 from synth.synthesis.cubic import PAIRS, PERMS
-from synth.synthesis.cubic_fit import CubicModel, seeds, targets, unpack
-from synth.synthesis.cubic_lm import levenberg_marquardt
+from synth.synthesis.cubic_fit import seeds
+from synth.synthesis.fit import Layout, MotionModel, levenberg_marquardt, reference_pose, task_arrays
 from synth.synthesis.pointfit import parameter_separation
-from synth.synthesis.sixbar import LOOP, checks_pass, loop_dh
+from synth.synthesis.sixbar import LOOP, loop_dh
 from synth.synthesis.sixbar_loops import factor_members, loop_geometry, score_loops, score_warnings
+from synth.synthesis.taskfit import FitSummary, visiting_order, visits_in_order
+from synth.task import Order, PoseSet
 
-__all__ = ["CubicFit", "fit_cubics", "fit_candidates", "visiting_order", "in_listed_order", "tolerance_failure"]
+__all__ = ["CubicFits", "fit_cubics", "fit_candidates", "STAGE1", "STAGE2", "KEEP_FITS"]
 
-STAGE1 = 12  # LM iterations on every seed
-KEEP_FITS = 6  # distinct best fits refined further
-STAGE2 = 200  # LM iterations on those
-DISTINCT = 1e-6  # fits closer than this in relative cost and parameters are one fit
-MAX_ATTEMPTS = 8  # candidates built and checked before giving up
-SLACK = 1e-9  # relative slack on a tolerance (rounding of the world-frame errors)
-
-
-@dataclass
-class CubicFit:
-    """One fitted cubic motion: factors H (3, 8) and tool pose X0 (8,) at t = inf (conditioned frame),
-    pose parameters ts (n,) (ts[0] = inf), the LM cost, and the world-frame misses of the targets:
-    errors (n, 2) [metres, radians], ratio (n,) = the larger error / tolerance (0 for exact poses)."""
-
-    H: np.ndarray
-    X0: np.ndarray
-    ts: np.ndarray
-    cost: float
-    errors: np.ndarray
-    ratio: np.ndarray
-    hard: float
-
-    @property
-    def within(self) -> bool:
-        return bool(np.all(self.ratio <= 1 + SLACK))
+DEGREE = 3
+STAGE1 = 8  # Jacobians on every seed
+KEEP_FITS = 6  # best seeds refined further
+STAGE2 = 60  # Jacobians on those, at most
+DISTINCT = 1e-6  # relative coefficient distance below which two fits are one motion
+MAX_BUILT = 12  # candidates built before giving up
 
 
-def visiting_order(ts) -> list[int]:
-    """The order in which the first driver, turning with increasing t from pose 0 (t = inf), meets the
-    poses: 0, then the others by increasing parameter."""
-    ts = np.asarray(ts, float)
-    return [0] + (np.argsort(ts[1:], kind="stable") + 1).tolist()
+class CubicFits:
+    """Refined cubic motions of a task, best first (feasible, then cost): coef (K, 3, 8), reference poses
+    ref (K, 8) at t = inf, angles phi (K, N) (t = cot phi, phi_0 = 0), cost (K,), violation (K,), the
+    conditioning and a `FitSummary` (seeds, refined, iterations)."""
+
+    def __init__(self, coef, ref, phi, cost, violation, cond, summary):
+        self.coef, self.ref, self.phi, self.cost, self.violation = coef, ref, phi, cost, violation
+        self.cond, self.summary = cond, summary
+
+    def ts(self, k: int) -> np.ndarray:
+        """Pose parameters t (N,) of fit k: t = cot phi, t_0 = inf."""
+        phi = self.phi[k]
+        with np.errstate(divide="ignore"):
+            ts = np.cos(phi) / np.sin(phi)
+        ts[0] = np.inf
+        ts[phi == np.pi / 2] = 0.0
+        return ts
 
 
-def in_listed_order(ts) -> bool:
-    """Whether the driver, turning one way through less than a turn from pose 0, meets the poses in the
-    listed order: ts[1:] strictly increasing or strictly decreasing."""
-    d = np.diff(np.asarray(ts, float)[1:])
-    return bool(np.all(d > 0) or np.all(d < 0))
+def _refine(task, ref, x0, gauge, iterations):
+    layout = Layout(DEGREE, task.Q.shape[0], gauge)
+    with np.errstate(all="ignore"):
+        return layout, levenberg_marquardt(MotionModel(layout, task, ref), x0, layout.fixed, iterations)
 
 
-def _errors(T, ts, targets_w, tol):
-    """World misses (n, 2) and ratios (n,) of the poses reached (T (n, 4, 4)) against the targets."""
-    dt, dr = pose_difference(T, targets_w)
-    err = np.stack([dt, dr], -1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(tol > 0, err / np.where(tol > 0, tol, 1.0), 0.0)
-    ratio = np.where(np.isinf(tol), 0.0, ratio)
-    return err, ratio.max(-1)
-
-
-def fit_cubics(poses, tolerance=None, velocity=None):
-    """Fitted cubic motions through world poses (n, 4, 4) (metres) with tolerances (n, 2) [m, rad]
-    (0: exact, inf: free; None: all exact) and velocities (n, 6) (NaN rows: none), best cost first.
-    Returns (fits, conditioning, stats dict: seeds, quadruples, iterations). SynthesisError when no seed
-    exists (every sampled quadruple degenerate or oval)."""
-    T = np.asarray(poses, float)
-    n = len(T)
-    tol = np.zeros((n, 2)) if tolerance is None else np.asarray(tolerance, float)
+def fit_cubics(ps: PoseSet) -> CubicFits:
+    """Fitted cubic motions of a task (module docstring). SynthesisError when no quadruple of the poses
+    gives a seed (every one degenerate or oval)."""
+    T = np.asarray(ps.matrices, float)
     Tc, cond = condition(T)
-    tg = targets(Tc, float(cond.scale), tol, velocity)
-    model = CubicModel(tg)
+    Q = pose_to_dq(Tc)
+    task = task_arrays(Q, Tc[:, :3, 3], ps.tolerance, ps.velocity, float(cond.scale))
+    coef, ref, phi, gauge, quads = seeds(Q, task)
+    if not len(coef):
+        raise SynthesisError(f"{ps.source}: no quadruple of the poses with pose 0 spans a real family of cubic "
+                             "motions (each is degenerate or oval): no 6R motion to start a fit from")
     with one_blas_thread():
-        x0, quads = seeds(tg, Tc)
-        if not len(x0):
-            raise SynthesisError("no quadruple of the poses (with pose 0) spans a real family of cubic motions "
-                                 "(every one is degenerate or oval): no 6R motion to start a fit from")
-        first = levenberg_marquardt(model, x0, jac=model.jac, iterations=STAGE1, polish=False)
-        best = _distinct(first.x, first.cost + 1e8 * first.hard ** 2, KEEP_FITS)
-        res = levenberg_marquardt(model, first.x[best], jac=model.jac, iterations=STAGE2)
-    fits = [_fit_of(model, x, c, h, cond, T, tol) for x, c, h in zip(res.x, res.cost, res.hard)]
-    fits.sort(key=lambda f: (not f.within, f.cost))
-    stats = {"seeds": int(len(x0)), "quadruples": int(quads), "refined": int(len(best)),
-             "iterations": int(first.iterations + res.iterations)}
-    return fits, cond, stats
+        layout = Layout(DEGREE, len(T), gauge)
+        x0 = layout.join(coef, np.zeros((len(coef), 6)), phi)
+        _, first = _refine(task, ref, x0, gauge, STAGE1)
+        merit = np.nan_to_num(first.cost + 1e6 * first.violation, nan=np.inf)
+        keep = np.argsort(merit, kind="stable")[:KEEP_FITS]
+        layout, res = _refine(task, ref[keep], first.x[keep], gauge[keep], STAGE2)
+    c, x_ref, ph = layout.split(res.x)
+    refs = normalize_dq(reference_pose(ref[keep], x_ref))
+    order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
+    summary = FitSummary("fit", seeds=len(coef), refined=len(keep), iterations=first.iterations + res.iterations)
+    return CubicFits(c[order], refs[order], np.mod(ph[order], np.pi), res.cost[order], res.violation[order], cond,
+                     summary)
 
 
-def _distinct(x, cost, k):
-    """Indices of the k best rows by cost, skipping near duplicates."""
-    out = []
-    for i in np.argsort(cost, kind="stable").tolist():
-        if not np.isfinite(cost[i]):
+def _distinct(fits: CubicFits, listed: bool) -> list[int]:
+    """Indices of the feasible fits, one per motion (with ``listed``: only those visiting the poses in the
+    listed order, `synth.synthesis.taskfit.visits_in_order`)."""
+    taken = []
+    for k in range(len(fits.coef)):
+        if not fits.violation[k] <= FEASIBLE or not np.isfinite(fits.coef[k]).all():
             continue
-        if any(abs(cost[i] - cost[j]) <= DISTINCT * max(cost[j], 1e-30)
-               and np.max(np.abs(x[i] - x[j])) < 1e-4 for j in out):
+        if listed and not visits_in_order(fits.ts(k)):
             continue
-        out.append(i)
-        if len(out) == k:
-            break
-    return np.array(out or [0], int)
+        if any(np.abs(fits.coef[k] - fits.coef[j]).max() <= DISTINCT * (1 + np.abs(fits.coef[j]).max()) for j in taken):
+            continue
+        taken.append(k)
+    return taken
 
 
-def _fit_of(model, x, cost, hard, cond, T, tol) -> CubicFit:
-    H, X0, theta = unpack(x[None], model.tg.n)
-    ts = np.tan(theta[0])
-    ts[0] = np.inf
-    Tw = _reached(H[0], X0[0], ts, cond)
-    err, ratio = _errors(Tw, ts, T, tol)
-    return CubicFit(H=H[0], X0=X0[0], ts=ts, cost=float(cost), errors=err, ratio=ratio, hard=float(hard))
-
-
-def _reached(H, X0, ts, cond):
-    """World poses (n, 4, 4) reached at the parameters ts by the conditioned model (H, X0)."""
-    Cw = to_world(product_of_linear(H), cond)
-    ref = _world_pose(X0, cond)
-    return pose_at(Cw, ts) @ ref
-
-
-def _world_pose(X0, cond):
-    """World 4x4 of a conditioned pose (dual quaternion)."""
-    P = dq_to_pose(normalize_dq(X0))
-    P[:3, 3] = P[:3, 3] * cond.scale + cond.centre
-    return P
-
-
-# ============================================================================ candidates and linkages
-def _scored(fits):
-    """Factor and score every fit's loops (one batch): MemberFactors, parts, valid (F, 9), score (F, 9)."""
-    C = np.stack([product_of_linear(f.H) for f in fits])
+def _scored(fits: CubicFits, idx):
+    """Factor and score the loops of the fits ``idx`` in one batch: (MemberFactors, parts, valid, score)."""
+    C = np.concatenate([fits.coef[idx], np.broadcast_to(np.eye(8)[0], (len(idx), 1, 8))], 1)
+    tsep = np.array([parameter_separation(fits.ts(k)[1:]) for k in idx], float)
     with np.errstate(all="ignore"):
         mf = factor_members(C, polish=True)
         im, sep = a1.root_conditioning(mf.roots)
-        geo = loop_geometry(mf)
-        tsep = np.array([parameter_separation(f.ts[1:]) for f in fits], float)
-        finite = np.isfinite(C).all((-2, -1))
-        parts, valid, score = score_loops(im, sep, ("parameter_separation", tsep), geo, mf.residual, mf.ok,
-                                          finite, PAIRS)
+        parts, valid, score = score_loops(im, sep, ("parameter_separation", tsep), loop_geometry(mf), mf.residual,
+                                          mf.ok, np.isfinite(C).all((-2, -1)), PAIRS)
     return mf, parts, valid, score
 
 
-def fit_candidates(poses, names, tolerance=None, velocity=None, *, listed: bool = False, top: int | None = None,
-                   best_effort: bool = False, check_samples: int = DEFAULT_CHECK_SAMPLES):
-    """Built, self-checked 6R linkages fitted to the task, best first (within tolerance, listed order when
-    ``listed``, then the engineering score), at most ``top``. SynthesisError when no fit meets the
-    tolerances (the failing poses and by how much at the best fit; with ``best_effort`` the best fits are
-    returned with ``info["fit"]["within_tolerance"] = False``), none is in listed order, or none builds."""
-    T = np.asarray(poses, float)
-    tol = np.zeros((len(T), 2)) if tolerance is None else np.asarray(tolerance, float)
-    fits, cond, stats = fit_cubics(T, tol, velocity)
-    usable = [f for f in fits if f.hard <= 1e-9 and np.all(np.isfinite(f.errors))]
-    if not usable:
-        raise SynthesisError("the fit cannot meet the exact poses and velocities together: no cubic 6R motion "
-                             "passes through them (best constraint residual "
-                             f"{min(f.hard for f in fits):.2g})")
-    if not best_effort and not any(f.within for f in usable):
-        raise SynthesisError(tolerance_failure(usable[0], names, tol))
-    pool = usable if best_effort else [f for f in usable if f.within]
-    if listed:
-        ordered = [f for f in pool if in_listed_order(f.ts)]
-        if not ordered:
-            raise SynthesisError(f"order: listed, but none of the {len(pool)} fitted 6R motions visits the poses in "
-                                 f"the listed order (the best visits them as {visiting_order(pool[0].ts)})")
-        pool = ordered
-    mf, parts, valid, score = _scored(pool)
-    rank = [(not pool[i].within, -score[i, k], pool[i].cost, i, k) for i, k in zip(*np.nonzero(valid))]
+def fit_candidates(ps: PoseSet, top: int = 1) -> list:
+    """Built and checked 6R linkages of the fitted motions (best cost first, then the engineering score of
+    the loop; with ``order: listed`` only motions visiting the poses in that order), at most ``top``, each
+    with ``info["_summary"]`` (its `FitSummary`) for `synth.synthesis.taskfit.annotate`. SynthesisError
+    with the reason when none."""
+    fits = fit_cubics(ps)
+    idx = _distinct(fits, ps.order is Order.LISTED)
+    if not idx and _distinct(fits, False):
+        k = _distinct(fits, False)[0]
+        raise SynthesisError(f"{ps.source}: order: listed, but none of the fitted 6R motions visits the poses in "
+                             f"the listed order (the best visits {', '.join(ps.names[i] for i in visiting_order(fits.ts(k)))})")
+    if not idx:
+        raise SynthesisError(f"{ps.source}: the exact poses and velocities cannot all be met by a cubic 6R motion "
+                             f"(best constraint violation {np.nanmin(fits.violation):.1e}, conditioned units)")
+    mf, parts, valid, score = _scored(fits, idx)
+    rank = sorted((fits.cost[k], -score[j, p], j, p) for j, k in enumerate(idx) for p in np.nonzero(valid[j])[0])
     if not rank:
-        raise SynthesisError("every fitted cubic motion has a nearly real or repeated norm factor or a translation "
-                             "factor: no 6R linkage of it (the poses are close to a degenerate configuration)")
-    out, tried = [], 0
-    for *_, i, k in sorted(rank):
-        lk = _build(pool[i], mf, parts, score, i, k, cond, T, names, tol, stats, check_samples)
-        tried += 1
-        if checks_pass(lk, float(cond.scale)):
-            out.append(lk)
-            if top and len(out) >= top:
-                break
-        elif tried >= MAX_ATTEMPTS and not out:
+        raise SynthesisError(f"{ps.source}: every fitted cubic motion has a nearly real or repeated norm factor or a "
+                             "translation factor: no 6R linkage of it")
+    out, why = [], None
+    for _, _, j, p in rank[:MAX_BUILT]:
+        try:
+            lk = _linkage(fits, idx[j], mf, j, int(p), parts, score, ps)
+            check_fitted(lk)
+        except SynthesisError as e:
+            why = why or str(e)
+            continue
+        out.append(lk)
+        if len(out) >= top:
             break
     if not out:
-        raise SynthesisError("the fitted 6R candidates do not pass the self-check (poses reached, closure): the "
-                             "fit is numerically degenerate")
+        raise SynthesisError(f"{ps.source}: {why}")
     return out
 
 
-def tolerance_failure(fit: CubicFit, names, tol) -> str:
-    """One line naming the poses whose tolerance the best fit misses, and by how much."""
-    bad = np.nonzero(fit.ratio > 1 + SLACK)[0]
-    parts = [f"{i} ({names[i]!r}): {fit.errors[i, 0]:.3g} m / {np.degrees(fit.errors[i, 1]):.3g} deg, "
-             f"{fit.ratio[i]:.3g} x its tolerance" for i in bad[:6].tolist()]
-    more = f" and {len(bad) - 6} more" if len(bad) > 6 else ""
-    return (f"no cubic 6R motion meets the tolerances: at the best fit pose{'s' if len(bad) > 1 else ''} "
-            + "; ".join(parts) + more + " (loosen those tolerances, drop those poses, or use --best-effort)")
-
-
-def _build(fit, mf, parts, score, i, k, cond, T, names, tol, stats, check_samples):
-    """The world-frame Linkage of loop pair k of fit i, factors polished, with info["fit"]."""
-    C = product_of_linear(fit.H)
-    oh, ok_ = PAIRS[k]
-    HK, _ = a1.polish(C, np.stack([mf.H[i, oh], mf.H[i, ok_]]))
+def _linkage(fits: CubicFits, k, mf, j, p, parts, score, ps: PoseSet):
+    """The 6R linkage of loop pair p (0..8) of fit k (row j of the scored batch), world frame."""
+    C = np.concatenate([fits.coef[k], np.eye(8)[:1]])
+    oh, ok_ = PAIRS[p]
+    HK, _ = a1.polish(C, np.stack([mf.H[j, oh], mf.H[j, ok_]]))
     res = float(np.max(np.maximum(a1.multiply_back(C, HK), a1.study_violation(HK))))
+    cond = fits.cond
     W = to_world(np.concatenate([HK[0], HK[1], C]), cond)
-    H, K, Cw = W[:3], W[3:6], W[6:]
-    ref = _world_pose(fit.X0, cond)
-    reached = pose_at(Cw, fit.ts) @ ref
-    reached[0] = ref
-    exact = np.all(tol == 0, -1)
-    reached[exact] = T[exact]  # exact poses: the targets (met to rounding; the self-check measures it)
-    err, ratio = _errors(reached, fit.ts, T, tol)
-    p = {key: float(v[i, k]) for key, v in parts.items()}
-    info = {"task": "fit", "pair": int(k + 1), "score": float(score[i, k]), "score_parts": p,
+    ts = fits.ts(k)
+    pp = {key: float(v[j, p]) for key, v in parts.items()}
+    info = {"task": "fit", "pair": p + 1, "score": float(score[j, p]), "score_parts": pp,
             "orders": {"h": PERMS[oh].tolist(), "k": PERMS[ok_].tolist()},
-            "norm_roots": [[float(z.real), float(z.imag)] for z in mf.roots[i]],
-            "factorization_residual": res, "parameters": [None if np.isinf(t) else float(t) for t in fit.ts],
-            "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)},
-            "fit": fit_info(err, ratio, tol, names, fit, stats)}
-    lk = two_branch_linkage("6r", H, K, Cw, reached, names, fit.ts, info)
+            "norm_roots": [[float(z.real), float(z.imag)] for z in mf.roots[j]], "factorization_residual": res,
+            "parameters": [None if np.isinf(t) else float(t) for t in ts],
+            "conditioning": {"centre": np.asarray(cond.centre).tolist(), "scale": float(cond.scale)}}
+    lk = two_branch_linkage("6r", W[:3], W[3:6], W[6:], ps.matrices, ps.names, ts, info)
+    ref = dq_to_pose(fits.ref[k])
+    ref[:3, 3] = ref[:3, 3] * cond.scale + cond.centre
+    lk.tool_ref = ref
     lk.info["dh"] = loop_dh(lk, LOOP)
-    lk.info["warnings"] = score_warnings(p, "motion")
-    lk.checks = self_check(lk, check_samples)
+    lk.info["warnings"] = score_warnings(pp, "motion")
+    s = fits.summary
+    lk.info["_summary"] = FitSummary("fit", s.seeds, s.refined, s.iterations, visiting_order(ts))
     return lk
-
-
-def fit_info(err, ratio, tol, names, fit, stats) -> dict:
-    """info["fit"]: method, RMS and max errors of the toleranced poses, per-pose misses, seeds, order."""
-    soft = ~np.all(tol == 0, -1)
-    e = err[soft] if soft.any() else np.zeros((1, 2))
-    return {"method": "cubic motion C = (t-h1)(t-h2)(t-h3) fitted by batched Levenberg-Marquardt from exact "
-                      "quadruple sub-solutions (exact poses and velocities as constraints)",
-            "rms_error": {"position": float(np.sqrt(np.mean(e[:, 0] ** 2))),
-                          "angle": float(np.sqrt(np.mean(e[:, 1] ** 2)))},
-            "max_error": {"position": float(e[:, 0].max()), "angle": float(e[:, 1].max())},
-            "within_tolerance": bool(np.all(ratio <= 1 + SLACK)),
-            "order": visiting_order(fit.ts), "listed_order": in_listed_order(fit.ts),
-            "poses": [{"name": nm, "error": {"position": float(a), "angle": float(b)}, "ratio": float(r)}
-                      for nm, (a, b), r in zip(names, err.tolist(), ratio.tolist())],
-            **stats}
