@@ -131,6 +131,32 @@ def random_sets(n, seed=2):
     return np.array([random_poses(rng, 3, scale=0.2) for _ in range(n)])
 
 
+def print_ceiling(n: int) -> None:
+    """Print one client's ceiling (jobs/s) on a fresh cluster."""
+    with tempfile.TemporaryDirectory(prefix="bench_cluster-") as tmp:
+        cl = Cluster(Path(tmp))
+        try:
+            print(f"one client's ceiling: {ceiling(cl, Path(tmp), n):,.0f} jobs/s ({n:,} malformed lines)")
+        finally:
+            cl.stop()
+
+
+def local_rows(phases, jobs: Path, tmp: Path, n: int) -> list[tuple]:
+    """The rows of the runs on this machine: ``batch -j 2`` (pool) and ``--scheduler local``."""
+    rows = []
+    if "pool" in phases:
+        wall, _ = mpsynth(["batch", jobs, "-j", 2], tmp / "r_pool.jsonl")
+        rows.append((f"`-j 2` (multiprocessing pool), {n:,} jobs", wall, n / wall, "-", None))
+    if "local" in phases:
+        with open(jobs) as f:
+            (tmp / "one.jsonl").write_text(f.readline())
+        w1, _ = mpsynth(["batch", tmp / "one.jsonl", "--scheduler", "local"], tmp / "r_one.jsonl")
+        wall, _ = mpsynth(["batch", jobs, "--scheduler", "local"], tmp / "r_local.jsonl")
+        rows.append((f"`--scheduler local` (LocalCluster, 2 workers; start-up {w1:.1f} s included)", wall,
+                     n / wall, "-", None))
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--jobs", type=int, default=100_000)
@@ -143,12 +169,7 @@ def main():
     a = ap.parse_args()
     phases = set(a.phases.split(","))
     if a.ceiling_only:
-        with tempfile.TemporaryDirectory(prefix="bench_cluster-") as tmp:
-            cl = Cluster(Path(tmp))
-            try:
-                print(f"one client's ceiling: {ceiling(cl, Path(tmp), a.jobs):,.0f} jobs/s ({a.jobs:,} malformed lines)")
-            finally:
-                cl.stop()
+        print_ceiling(a.jobs)
         return
     rows = []
     load0 = os.getloadavg()
@@ -169,17 +190,7 @@ def main():
         list(run_jobs(first))
         cpu_job = (time.process_time() - t) / len(first)
 
-        if "pool" in phases:
-            wall, _ = mpsynth(["batch", jobs, "-j", 2], tmp / "r_pool.jsonl")
-            rows.append((f"`-j 2` (multiprocessing pool), {n:,} jobs", wall, n / wall, "-", None))
-
-        if "local" in phases:
-            with open(jobs) as f:
-                (tmp / "one.jsonl").write_text(f.readline())
-            w1, _ = mpsynth(["batch", tmp / "one.jsonl", "--scheduler", "local"], tmp / "r_one.jsonl")
-            wall, _ = mpsynth(["batch", jobs, "--scheduler", "local"], tmp / "r_local.jsonl")
-            rows.append((f"`--scheduler local` (LocalCluster, 2 workers; start-up {w1:.1f} s included)", wall,
-                         n / wall, "-", None))
+        rows += local_rows(phases, jobs, tmp, n)
         if "cluster" not in phases:
             cl = None
             print("\n".join(f"{r[0]}: {r[1]:.1f} s, {r[2]:,.0f} jobs/s" for r in rows))
@@ -215,38 +226,51 @@ def main():
         same = all(f.read_bytes() == files[0].read_bytes() for f in files)
         assert same, "the result files differ"
         ok = sum('"ok":true' in s for s in open(files[0]))
-    load1 = os.getloadavg()
+    fig = {"n": n, "ok": ok, "first": len(first), "cpu_job": cpu_job, "chunks": a.chunks, "overhead": ow,
+           "pool": pw, "ceiling": top, "sets": len(P), "sweep_cluster": sw, "sweep_here": hw, "load0": load0,
+           "load1": os.getloadavg()}
+    text = report(rows, fig)
+    print(text)
+    if a.markdown:
+        save_section(a.markdown, text)
+
+
+def report(rows, f: dict) -> str:
+    """The Markdown section of the results: the runs' table and the overhead, ceiling and sweep figures."""
+    load0, load1, n = f["load0"], f["load1"], f["n"]
     lines = [f"## Dask cluster: `bench/bench_cluster.py` (issue 21)", "",
              f"- {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; Python {platform.python_version()}, "
              f"numpy {np.__version__}; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}",
              f"- Load average (1/5/15 min) before {load0[0]:.2f}, {load0[1]:.2f}, {load0[2]:.2f}, after "
              f"{load1[0]:.2f}, {load1[1]:.2f}, {load1[2]:.2f}",
-             f"- {n:,} random Bennett jobs (JSON lines, mm/deg, {ok:,} ok); the result files of the runs are "
+             f"- {n:,} random Bennett jobs (JSON lines, mm/deg, {f['ok']:,} ok); the result files of the runs are "
              "byte-identical", "",
              "| run | wall | jobs/s | jobs/s per worker | CPU per job |", "|---|---|---|---|---|"]
     for name, wall, rate, per, cpu in rows:
         lines.append(f"| {name} | {wall:.1f} s | {rate:,.0f} | {per if per == '-' else f'{per:,.0f}'} | "
                      f"{'-' if cpu is None else f'{cpu * 1e3:.2f} ms'} |")
-    lines += ["", f"CPU per job in one process (`run_jobs`, {len(first):,} of the jobs): {cpu_job * 1e3:.2f} ms.", "",
+    chunks = f["chunks"]
+    lines += ["", f"CPU per job in one process (`run_jobs`, {f['first']:,} of the jobs): {f['cpu_job'] * 1e3:.2f} ms.", "",
               "| overhead | per chunk |", "|---|---|",
-              f"| Dask scheduler + 2 workers, {a.chunks:,} chunks of one blank line (`run_jobs_on`, connected client) "
-              f"| {ow / a.chunks * 1e3:.2f} ms |",
-              f"| multiprocessing pool (`run_jobs(jobs=2)`, pool start included), the same | {pw / a.chunks * 1e3:.2f} ms |", "",
-              f"| one client's ceiling: {n:,} malformed lines (no work), chunks of 256, on the cluster | {top:,.0f} jobs/s |",
+              f"| Dask scheduler + 2 workers, {chunks:,} chunks of one blank line (`run_jobs_on`, connected client) "
+              f"| {f['overhead'] / chunks * 1e3:.2f} ms |",
+              f"| multiprocessing pool (`run_jobs(jobs=2)`, pool start included), the same | {f['pool'] / chunks * 1e3:.2f} ms |", "",
+              f"| one client's ceiling: {n:,} malformed lines (no work), chunks of 256, on the cluster | {f['ceiling']:,.0f} jobs/s |",
               "", "| `synth.sweep` (bennett_batch over chunks of 5,000 pose arrays) | sets/s |", "|---|---|",
-              f"| on the cluster (2 workers), {len(P):,} sets | {len(P) / sw:,.0f} |",
-              f"| in this process | {len(P) / hw:,.0f} |"]
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if a.markdown:
-        old = a.markdown.read_text() if a.markdown.exists() else ""
-        block = f"{MARK_BEGIN}\n{text}{MARK_END}\n"
-        if MARK_BEGIN in old and MARK_END in old:
-            new = old[:old.index(MARK_BEGIN)] + block + old[old.index(MARK_END) + len(MARK_END) + 1:]
-        else:
-            new = old.rstrip("\n") + "\n\n" + block
-        a.markdown.write_text(new)
+              f"| on the cluster (2 workers), {f['sets']:,} sets | {f['sets'] / f['sweep_cluster']:,.0f} |",
+              f"| in this process | {f['sets'] / f['sweep_here']:,.0f} |"]
+    return "\n".join(lines) + "\n"
 
+
+def save_section(path: Path, text: str) -> None:
+    """Write ``text`` into ``path`` between the markers (replacing the previous section), or append it."""
+    old = path.read_text() if path.exists() else ""
+    block = f"{MARK_BEGIN}\n{text}{MARK_END}\n"
+    if MARK_BEGIN in old and MARK_END in old:
+        new = old[:old.index(MARK_BEGIN)] + block + old[old.index(MARK_END) + len(MARK_END) + 1:]
+    else:
+        new = old.rstrip("\n") + "\n\n" + block
+    path.write_text(new)
 
 if __name__ == "__main__":
     main()

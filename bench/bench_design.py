@@ -93,8 +93,8 @@ def run_ours(kind: str, sets, effort: float = 1.0) -> list[dict]:
 
 def run_sixbar_default(sets, effort: float = 1.0) -> list[dict]:
     """What `mpsynth sixbar -o OUT` writes: the best-scored candidates designed in turn, collision-free
-    first (`synth.design.search.rank_buildable`, the CLI's limit and CPU budget)."""
-    from cli.sixbar import BUILDABLE_CANDIDATES, BUILDABLE_SECONDS
+    first (`synth.design.search.rank_buildable`, the CLI's limit and work budget)."""
+    from cli.sixbar import BUILDABLE_CANDIDATES, BUILDABLE_WORK
     from synth.design.search import rank_buildable
     from synth.synthesis.sixbar import sixbar_candidates
 
@@ -102,9 +102,9 @@ def run_sixbar_default(sets, effort: float = 1.0) -> list[dict]:
     for s, _ in sets:
         t = time.process_time()
         cands = sixbar_candidates(random_poses(np.random.default_rng(s), 4), top=BUILDABLE_CANDIDATES, build=True)
-        ranked = rank_buildable(cands, lambda lk, ranges, full_seconds: design_linkage(
-            lk, **default_sizes(lk), effort=effort, ranges=ranges, full_seconds=full_seconds),
-            limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS)
+        ranked = rank_buildable(cands, lambda lk, ranges, full_work, work: design_linkage(
+            lk, **default_sizes(lk), effort=effort, ranges=ranges, full_work=full_work, work=work),
+            limit=BUILDABLE_CANDIDATES, work=BUILDABLE_WORK)
         r = ranked[0][1].collision
         rows.append({"seed": s, "seconds": time.process_time() - t, "designed": len(ranked),
                      "result": ("full" if r.range == "full" else "task") if r.free else "none",

@@ -328,6 +328,42 @@ def fmt_time(s):
     return f"{s:.2f} s"
 
 
+def batch_row(rng, q: bool) -> tuple:
+    """The bennett_batch row: N = 10,000 random sets, (name, label, per second median, best, per CPU s)."""
+    import synth
+
+    N = 10_000
+    P = np.array([random_poses(rng, 3) for _ in range(N)])
+    batch_times, batch_cpu = [], []
+    for _ in range(2 if q else 5):
+        c0, t0 = time.process_time(), time.perf_counter()
+        R = synth.bennett_batch(P)
+        batch_times.append(time.perf_counter() - t0)
+        batch_cpu.append(time.process_time() - c0)
+    bt = statistics.median(batch_times)
+    return ("batch", f"bennett_batch, N = {N:,} (ok: {int(R.ok.sum()):,})", N / bt, N / min(batch_times),
+            N / statistics.median(batch_cpu))
+
+
+def cli_rows(fixture: Path, q: bool) -> list[tuple]:
+    """The command-line rows: cold --help, a cold `mpsynth bennett` writing files, its peak memory, --json."""
+    mpsynth = Path(sys.executable).parent / "mpsynth"
+    rows = [("cold_help", "cold `mpsynth --help`", *cold([mpsynth, "--help"], 5 if q else 15), None)]
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = 3 if q else 9
+        outs = iter(range(1000))
+        cmd = lambda: [mpsynth, "bennett", fixture, "-o", Path(tmp) / f"out{next(outs)}", "-q"]  # noqa: E731
+        times = []
+        for _ in range(runs):
+            times.append(cold(cmd(), 1)[0])
+        rows.append(("cold_bennett", "cold `mpsynth bennett fixture -o OUT` (URDF+STL)", statistics.median(times),
+                     min(times), None))
+        rows.append(("peak_memory", "peak memory of that run (max RSS)", peak_memory(cmd()), None, None))
+        rows.append(("cold_json", "cold `mpsynth bennett fixture --json` (no files)",
+                     *cold([mpsynth, "bennett", fixture, "--json", "-q"], 3 if q else 9), None))
+    return rows
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--rl-python", help="a Python interpreter in which rational_linkages is importable")
@@ -370,33 +406,9 @@ def main(argv=None):
     except ImportError:
         print("synth.sixbar not available: skipped", flush=True)
 
-    N = 10_000
-    P = np.array([random_poses(rng, 3) for _ in range(N)])
-    batch_times, batch_cpu = [], []
-    for _ in range(2 if q else 5):
-        c0, t0 = time.process_time(), time.perf_counter()
-        R = synth.bennett_batch(P)
-        batch_times.append(time.perf_counter() - t0)
-        batch_cpu.append(time.process_time() - c0)
-    bt = statistics.median(batch_times)
-    rows.append(("batch", f"bennett_batch, N = {N:,} (ok: {int(R.ok.sum()):,})", N / bt, N / min(batch_times),
-                 N / statistics.median(batch_cpu)))
-
-    mpsynth = Path(sys.executable).parent / "mpsynth"
+    rows.append(batch_row(rng, q))
     fixture = REPO / "fixtures" / "bennett_mm_deg.yaml"
-    rows.append(("cold_help", "cold `mpsynth --help`", *cold([mpsynth, "--help"], 5 if q else 15), None))
-    with tempfile.TemporaryDirectory() as tmp:
-        runs = 3 if q else 9
-        outs = iter(range(1000))
-        cmd = lambda: [mpsynth, "bennett", fixture, "-o", Path(tmp) / f"out{next(outs)}", "-q"]  # noqa: E731
-        times = []
-        for _ in range(runs):
-            times.append(cold(cmd(), 1)[0])
-        rows.append(("cold_bennett", "cold `mpsynth bennett fixture -o OUT` (URDF+STL)", statistics.median(times),
-                     min(times), None))
-        rows.append(("peak_memory", "peak memory of that run (max RSS)", peak_memory(cmd()), None, None))
-        rows.append(("cold_json", "cold `mpsynth bennett fixture --json` (no files)",
-                     *cold([mpsynth, "bennett", fixture, "--json", "-q"], 3 if q else 9), None))
+    rows += cli_rows(fixture, q)
     heavy = sorted(imported_modules(["bennett", str(fixture), "--json", "-q"])
                    & {"trimesh", "scipy", "sympy", "matplotlib", "yourdfpy", "networkx"})
 

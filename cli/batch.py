@@ -15,7 +15,7 @@ from synth.tools.batchjobs import dumps, run_jobs, worker_count
 from synth.tools.resultstable import ResultsTable
 
 from .common import debug_option, echo, run_guarded
-from synth.io.streams import silence_stdout, terminate_as_exit
+from .streams import silence_stdout, terminate_as_exit
 
 
 class Progress:

@@ -5,6 +5,8 @@ import math
 
 import click
 
+from synth.design.work import GAPS_PER_SECOND
+
 from .common import choose_buildable, echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options
 
 
@@ -90,14 +92,14 @@ def bennett(poses, member, top, best_effort, out, name, force, pin_radius, link_
         raise SynthesisError(f"{ps.source}: {e}") from e
     linkage = linkages[0]
     if len(linkages) > 1:  # members of a planar or spherical family: collision-free first
-        linkage, result = choose_buildable(linkages, ps, sizes, limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS,
+        linkage, result = choose_buildable(linkages, ps, sizes, limit=BUILDABLE_CANDIDATES, work=BUILDABLE_WORK,
                                            what="members")
     emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
          as_json=as_json, require_free=require_collision_free, result=result)
 
 
 BUILDABLE_CANDIDATES = 4  # planar/spherical default: the best-scored members designed, collision-free first
-BUILDABLE_SECONDS = 4.0  # CPU budget of those design searches (one four-bar search: well under a second)
+BUILDABLE_WORK = 4.0 * GAPS_PER_SECOND  # gap evaluations of those design searches (synth.design.work)
 
 
 def parse_numbers(text: str, count: int, option: str) -> list[float]:

@@ -1,4 +1,4 @@
-"""`mpsynth check OUT [--poses POSES]`: verify an output directory (`synth.io.verify`)."""
+"""`mpsynth check OUT [--poses POSES]`: verify an output directory (`synth.tools.check.verify`)."""
 from __future__ import annotations
 
 import sys
@@ -7,7 +7,7 @@ import click
 
 from synth.errors import InputError
 from synth.io.poses import load_poses
-from synth.io.verify import check_tree
+from synth.tools.check.verify import check_tree
 
 from .common import debug_option, echo, json_option, print_json, run_guarded
 

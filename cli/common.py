@@ -10,7 +10,7 @@ import traceback
 import click
 
 from synth.io.names import check_package, check_robot_name, safe_robot_name
-from synth.io.streams import environment_error, silence_stderr, silence_stdout
+from .streams import environment_error, silence_stderr, silence_stdout
 
 
 def echo(msg: str = "") -> None:
@@ -255,10 +255,10 @@ def collision_sentence(report, scale: float, unit: str) -> str:
 
 
 def design_result(linkage, sizes: dict, *, scale: float, unit: str, source: str, require_free: bool, **search):
-    """The physical design of ``linkage`` (`synth.io.meshes.design_for`) with the sizes in metres;
+    """The physical design of ``linkage`` (`synth.design.choose.design_for`) with the sizes in metres;
     SynthesisError (exit 1) with the sentence when ``require_free`` and it is not collision-free;
-    ``search``: further arguments of the design search (ranges, full_seconds)."""
-    from synth.io.meshes import design_for
+    ``search``: further arguments of the design search (ranges, full_work, work)."""
+    from synth.design.choose import design_for
 
     check_mesh_sizes(sizes, linkage.extent(), scale, unit)
     result = design_for(linkage, **sizes, **search)
@@ -267,16 +267,16 @@ def design_result(linkage, sizes: dict, *, scale: float, unit: str, source: str,
     return result
 
 
-def choose_buildable(candidates, ps, sizes: dict, *, limit: int, seconds: float, what: str):
+def choose_buildable(candidates, ps, sizes: dict, *, limit: int, work: float, what: str):
     """Design the best-scored ``candidates`` (best first) and keep the collision-free one first (full cycle,
     then task range; `synth.design.search.rank_buildable`), then the score. Returns (linkage, DesignResult);
     ``linkage.info["design_choice"]`` says which candidate won; ``what``: the candidates' name in it."""
     from synth.design.search import rank_buildable
 
     candidates = list(candidates)
-    ranked = rank_buildable(candidates, lambda lk, ranges, full_seconds: design_result(
+    ranked = rank_buildable(candidates, lambda lk, ranges, full_work, spent: design_result(
         lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source, require_free=False,
-        ranges=ranges, full_seconds=full_seconds), limit=limit, seconds=seconds)
+        ranges=ranges, full_work=full_work, work=spent), limit=limit, work=work)
     linkage, result = ranked[0]
     k = next(i for i, c in enumerate(candidates) if c is linkage)
     linkage.info["design_choice"] = (f"candidate {k + 1} of the {min(len(candidates), limit)} best-scored {what}: "

@@ -10,7 +10,8 @@ from synth.design.members import choose_member
 from synth.io.curvespec import load_spec
 from synth.io.posespec import LENGTH_UNITS
 from synth.io.writer import check_output_target
-from synth.synthesis.curve import CurveSpec, spec_linkage
+from synth.synthesis.curve import spec_linkage
+from synth.task import CurveSpec
 
 from .common import debug_option, design_option_list, design_result, echo, emit_linkage, json_option, mesh_sizes, run_guarded
 
@@ -122,9 +123,9 @@ def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quie
 
     result = None
     if "darboux" in linkage.info and (out or as_json or require_free):  # a collision-free member first
-        linkage, result = choose_member(linkage, lambda lk, ranges, full_seconds, effort: design_result(
+        linkage, result = choose_member(linkage, lambda lk, ranges, full_work, effort, spent: design_result(
             lk, sizes, scale=scale, unit=unit, source=source, require_free=False, ranges=ranges,
-            full_seconds=full_seconds, effort=effort))
+            full_work=full_work, effort=effort, work=spent))
     emit_linkage(linkage, source=source, scale=scale, unit=unit, out=out, name=name, force=force,
                  package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,
                  require_free=require_free, result=result)

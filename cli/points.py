@@ -3,13 +3,15 @@ through prescribed points (docs/points.md). Called by cli/bennett.py and cli/six
 holds points."""
 from __future__ import annotations
 
+from synth.design.work import GAPS_PER_SECOND
+
 from .common import (add_collisions, choose_buildable, default_robot_name, design_solutions, echo, emit_linkage,
                      fmt_len, print_json)
 
 INDEX_FORMAT = "mpsynth.points-index/1"
 COMMAND = {2: "mpsynth bennett", 3: "mpsynth sixbar"}
 BUILDABLE_CANDIDATES = 4  # default design: the best-scored candidates designed, collision-free first
-BUILDABLE_SECONDS = 7.0
+BUILDABLE_WORK = 7.0 * GAPS_PER_SECOND  # gap evaluations (synth.design.work)
 
 
 def point_count(degree: int):
@@ -57,7 +59,7 @@ def _single(ps, linkages, *, out, name, force, package, sizes, quiet, as_json, r
     result = None
     linkage = linkages[0]
     if out or as_json or require_free:
-        linkage, result = choose_buildable(linkages, ps, sizes, limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS,
+        linkage, result = choose_buildable(linkages, ps, sizes, limit=BUILDABLE_CANDIDATES, work=BUILDABLE_WORK,
                                            what="interpolants")
 
     def details():

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import click
 
+from synth.design.work import GAPS_PER_SECOND
+
 from .common import (add_collisions, choose_buildable, default_robot_name, design_solutions, echo, mesh_sizes,
                      print_json, run_guarded, synthesis_options)
 
@@ -114,7 +116,7 @@ def _design_line(info) -> str:
 
 
 BUILDABLE_CANDIDATES = 8  # default design: the best-scored candidates searched, collision-free first
-BUILDABLE_SECONDS = 7.0  # CPU budget of those design searches (rank_buildable: 2.5 s on the first, 1.2 s on each next)
+BUILDABLE_WORK = 7.0 * GAPS_PER_SECOND  # gap evaluations of those design searches (synth.design.work; rank_buildable)
 
 
 def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json, require_free):
@@ -133,7 +135,7 @@ def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet
         candidates = sixbar_candidates(ps.matrices, ps.names, top=BUILDABLE_CANDIDATES, build=True,
                                        check_samples=VERIFY_SAMPLES)
         linkage, result = choose_buildable(candidates, ps, sizes, limit=BUILDABLE_CANDIDATES,
-                                           seconds=BUILDABLE_SECONDS, what="6R linkages")
+                                           work=BUILDABLE_WORK, what="6R linkages")
     else:
         linkage = synth_sixbar(ps.matrices, ps.names, family=family, member=member, pair=pair,
                                check_samples=VERIFY_SAMPLES)

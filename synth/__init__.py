@@ -2,6 +2,8 @@
 
     import numpy as np, synth
     L = synth.bennett(poses)            # poses: (3, 4, 4) array, metres -> Linkage
+    L = synth.bennett(many, tolerance=(1e-3, 0.01), order="listed")  # (N, 4, 4): fitted (docs/fit.md)
+    Ls = synth.fit(load_poses("task.yaml"), top=3)                   # a task file's PoseSet -> best fits
     L = synth.sixbar(poses4)            # (4, 4, 4) -> the best 6R Linkage (options: family, member, pair)
                                         # planar/spherical poses: a four-bar / Watt six-bar (docs/planar.md)
     L = synth.bennett_points(pts)       # (5, 3) points, metres -> Bennett Linkage whose tool point visits them
@@ -27,12 +29,13 @@ from __future__ import annotations
 
 import importlib
 
-__all__ = ["bennett", "sixbar", "bennett_points", "sixbar_points", "point_candidates", "bennett_batch", "sweep",
+__all__ = ["bennett", "fit", "sixbar", "bennett_points", "sixbar_points", "point_candidates", "bennett_batch", "sweep",
            "factorize", "BennettBatch", "Linkage", "MpsynthError",
            "InputError", "SynthesisError"]
 
 _LAZY = {
     "bennett": "synth.synthesis.bennett",
+    "fit": "synth.synthesis.taskfit",
     "sixbar": "synth.synthesis.sixbar",
     "bennett_points": "synth.synthesis.points",
     "sixbar_points": "synth.synthesis.points",

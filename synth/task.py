@@ -21,7 +21,9 @@ import numpy as np
 
 from synth.algebra.dq import pose_to_dq
 
-__all__ = ["Order", "Box", "Constraints", "PoseSet"]
+__all__ = ["Order", "Box", "Constraints", "PoseSet", "CurveSpec", "MotionSpec", "MAX_DEGREE"]
+
+MAX_DEGREE = 16  # of a curve component or a motion polynomial (`mpsynth curve`)
 
 
 class Order(str, enum.Enum):
@@ -94,3 +96,19 @@ class PoseSet:
     def dual_quaternions(self) -> np.ndarray:
         """(N, 8) unit dual quaternions (docs/conventions.md), lengths in metres."""
         return pose_to_dq(self.matrices)
+
+
+@dataclass
+class CurveSpec:
+    """A curve task (`mpsynth curve`): a point of the tool draws the rational curve [x, y, z] / w."""
+
+    polys: list  # [x, y, z, w]: ascending coefficient lists (Fractions)
+    texts: list  # the source texts
+
+
+@dataclass
+class MotionSpec:
+    """A motion task (`mpsynth curve`): the tool follows the rational motion of the polynomial C."""
+
+    C: list  # rows of 8 Fractions (ascending)
+    text: str | None = None

@@ -123,7 +123,7 @@ def judge(T, work: Path, command: str, use_verifier: bool = True) -> tuple[str, 
     """Run `mpsynth COMMAND POSES -o OUT` in-process; ("ok"|"refused"|"defect", detail)."""
     from cli.main import mpsynth
     from synth.io.poses import load_poses
-    from synth.io.verify import check_tree
+    from synth.tools.check.verify import check_tree
 
     work.mkdir(parents=True, exist_ok=True)
     poses = write_pose_yaml(work / "poses.yaml", T)

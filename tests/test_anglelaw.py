@@ -141,7 +141,7 @@ def test_rate_round_trips_through_linkage_json():
 
 
 def test_law_angles_and_follower_angles_honour_rates():
-    from synth.io.continuation import law_angles
+    from synth.tools.check.continuation import law_angles
     from synth.tools.trajectory import follower_angles
 
     lk = _darboux_chain()

@@ -7,20 +7,14 @@ import sys
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from cli.main import mpsynth
 from synth.errors import InputError
 from synth.io.docload import open_lines, read_lines
 from synth.synthesis.bennett import bennett
 from synth.synthesis.conditioning import TRANSMISSION_LIMIT, worst_pair
 from synth.tools.batchjobs import run_job, run_jobs
 
-from conftest import REPO, random_poses
-
-
-def run(*args, input=None):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], input=input, catch_exceptions=False)
+from conftest import REPO, random_poses, run
 
 
 def matrix_specs(T):

@@ -8,23 +8,16 @@ import shutil
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from cli.main import mpsynth
 from linkage_fixtures import move_urdf_axis
-from synth.io.continuation import continue_loop, law_angles
+from synth.tools.check.continuation import continue_loop, law_angles
 from synth.io.urdfmodel import read_urdf
-from synth.io.verify import check_output
+from synth.tools.check.verify import check_output
 
-from conftest import REPO
+from conftest import REPO, run
 
 BENNETT = REPO / "fixtures" / "bennett_quat.yaml"
 SIXBAR = REPO / "fixtures" / "sixbar_example.yaml"
-
-
-def run(*args):
-    """Click >= 8.2 keeps result.stdout and result.stderr apart."""
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
 
 
 @pytest.fixture(scope="module")

@@ -12,15 +12,11 @@ from click.testing import CliRunner
 from cli.main import mpsynth
 from synth.io.poses import load_poses
 
-from conftest import REPO, random_poses, write_pose_yaml
+from conftest import REPO, random_poses, write_pose_yaml, run
 
 TASKS = ("bennett_fit", "bennett_hermite")  # fits and Hermite pairs: tests/test_bennett_fit.py
 FIXTURES = sorted(p for p in (REPO / "fixtures").glob("bennett_*") if p.suffix in (".yaml", ".json")
                   and "points" not in p.name and p.stem not in TASKS)  # point tasks: tests/test_points.py
-
-
-def run(*args, input=None):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], input=input, catch_exceptions=False)
 
 
 def fk_check(out, pose_file, tol=1e-9):

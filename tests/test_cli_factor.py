@@ -9,12 +9,10 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from cli.main import mpsynth
 from synth.algebra.polynomial import product_of_linear
 
-from conftest import REPO
+from conftest import REPO, run
 
 EX_A = "(t - i - eps j)(t - 1 - 2j - eps(3i + k))"
 EX_A_ROWS = [[0, 1, 0, 2, -5, 0, 0, 0], [-1, -1, -2, 0, 0, -3, -1, -1], [1, 0, 0, 0, 0, 0, 0, 0]]
@@ -22,12 +20,8 @@ EXC = "(t-1)*(t-j) - eps*((i+k)*t - 2*k)"
 FLIP = "(t - 2k - eps i)(t - j - eps k)"
 
 
-def run(*args, input=None):
-    return CliRunner().invoke(mpsynth, ["factor", *map(str, args)], input=input, catch_exceptions=False)
-
-
 def run_json(*args, input=None):
-    r = run(*args, "--json", input=input)
+    r = run("factor", *args, "--json", input=input)
     assert r.exit_code == 0, r.output
     return json.loads(r.stdout)
 
@@ -38,7 +32,7 @@ def frac(x):
 
 # ------------------------------------------------------------------ table
 def test_table_output():
-    r = run("--expr", EX_A)
+    r = run("factor", "--expr", EX_A)
     assert r.exit_code == 0, r.output
     out = r.stdout
     assert "degree 2, generic" in out
@@ -57,7 +51,7 @@ def test_table_output():
 
 
 def test_table_translation_factors():
-    r = run("--expr", EXC)
+    r = run("factor", "--expr", EXC)
     assert r.exit_code == 0, r.output
     assert "NOT generic" in r.stdout
     assert r.stdout.count("translation") >= 2
@@ -66,7 +60,7 @@ def test_table_translation_factors():
 
 
 def test_table_exact():
-    r = run("--expr", EX_A, "--exact")
+    r = run("factor", "--expr", EX_A, "--exact")
     assert r.exit_code == 0, r.output
     assert "(exact arithmetic)" in r.stdout
     assert "1 + 4/3 i + 4/3 j - 2/3 k + eps(13/9 i - 5/9 j + 16/9 k)" in r.stdout
@@ -77,7 +71,7 @@ def test_printed_factors_parse_back():
     """The h column is in the expression language: the factors multiply back to C."""
     from synth.algebra.expr import parse_polynomial
 
-    r = run("--expr", FLIP, "--exact")
+    r = run("factor", "--expr", FLIP, "--exact")
     assert r.exit_code == 0
     rows = [ln for ln in r.stdout.splitlines() if ln[:1].isdigit()]
     hs = {}
@@ -205,7 +199,7 @@ def test_decimal_input_exact():
 
 # ------------------------------------------------------------------ exit codes
 def test_exit_1_no_factorization():
-    r = run("--expr", "t^2 + 1 + eps(i + 2j t)")
+    r = run("factor", "--expr", "t^2 + 1 + eps(i + 2j t)")
     assert r.exit_code == 1
     assert r.stdout == ""
     lines = r.stderr.strip().splitlines()
@@ -225,22 +219,22 @@ def test_circular_translation_reports_its_family():
     assert np.allclose(fam["base_factors"], [[0, 0, 0, 1, 0, 0, -1.5, 0], [0, 0, 0, -1, 0, 0, -1.5, 0]])
     vals = np.random.default_rng(1).normal(size=(20, 2)) * 5
     assert np.max(family_residual({**fam, "factors": fam["base_factors"]}, vals)) < 1e-14
-    r = run("--expr", "t^2 + 1 + eps(3i + 3j t)")
+    r = run("factor", "--expr", "t^2 + 1 + eps(3i + 3j t)")
     assert r.exit_code == 0 and "a continuum of factorizations (2 real parameters)" in r.stdout
 
 
 def test_exit_1_exact_unavailable():
-    r = run("--expr", "(t - i - eps j)(t - 1 - 2j - eps(3i + k)) + 0", "--exact")
+    r = run("factor", "--expr", "(t - i - eps j)(t - 1 - 2j - eps(3i + k)) + 0", "--exact")
     assert r.exit_code == 0
     # N(C) irreducible over Q (docs/algorithm1.md, example D)
     rows = [["15/53", 0, 0, "20/53", "5/53", "-15/106", "10/53", "-15/212"],
             ["-38/53", "40/53", 0, "-20/53", 0, "15/212", "-29/53", "83/212"],
             [1, 0, 0, 0, 0, 0, 0, 0]]
-    r = run("-", "--exact", input=json.dumps({"coefficients": rows}))
+    r = run("factor", "-", "--exact", input=json.dumps({"coefficients": rows}))
     assert r.exit_code == 1
     assert "does not factor over the rationals" in r.stderr and "drop --exact" in r.stderr
     # numerically the same input factors
-    assert run("-", input=json.dumps({"coefficients": rows})).exit_code == 0
+    assert run("factor", "-", input=json.dumps({"coefficients": rows})).exit_code == 0
 
 
 @pytest.mark.parametrize("args,input,message", [
@@ -273,7 +267,7 @@ def test_exit_1_exact_unavailable():
     (["/nonexistent/poly.yaml"], None, "no such file"),
 ])
 def test_exit_2_bad_input(args, input, message):
-    r = run(*args, input=input)
+    r = run("factor", *args, input=input)
     assert r.exit_code == 2, (r.exit_code, r.output)
     assert message in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
@@ -283,10 +277,10 @@ def test_exit_2_bad_input(args, input, message):
 def test_exit_2_invalid_json_file(tmp_path):
     p = tmp_path / "bad.json"
     p.write_text('{"coefficients": [[0,1,0,0,0,0,0,0], [1,0,0,0,0,0,0,0]],}')
-    r = run(p)
+    r = run("factor", p)
     assert r.exit_code == 2 and "invalid JSON" in r.stderr
     p.write_text('{"expression": "t - i", "expression": "t - j"}')
-    r = run(p)
+    r = run("factor", p)
     assert r.exit_code == 2 and "duplicate key" in r.stderr
 
 
@@ -295,14 +289,14 @@ def test_refuses_large_files(tmp_path):
     with open(p, "wb") as fh:
         fh.seek(10 * 1024 * 1024 + 10)
         fh.write(b"\n")
-    r = run(p)
+    r = run("factor", p)
     assert r.exit_code == 2 and "10 MB" in r.stderr
-    r = run("-", input="#" * (10 * 1024 * 1024 + 5))
+    r = run("factor", "-", input="#" * (10 * 1024 * 1024 + 5))
     assert r.exit_code == 2 and "10 MB" in r.stderr
 
 
 def test_help_has_example():
-    r = run("--help")
+    r = run("factor", "--help")
     assert r.exit_code == 0
     assert "Example" in r.output and "mpsynth factor --expr" in r.output
     assert "--exact" in r.output and "--json" in r.output

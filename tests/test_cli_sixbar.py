@@ -8,11 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from cli.main import mpsynth
-
-from conftest import write_pose_yaml
+from conftest import write_pose_yaml, run
 from test_cubic import e_poses
 from test_sixbar import random_poses
 
@@ -43,10 +40,6 @@ def top3_run(example, tmp_path_factory):
     """(result, OUT) of `mpsynth sixbar EXAMPLE --top 3 -o OUT` with its ranking table, built once."""
     out = tmp_path_factory.mktemp("sixbar") / "top"
     return run("sixbar", example, "--top", "3", "-o", out), out
-
-
-def run(*args, input=None):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], input=input, catch_exceptions=False)
 
 
 def verify(poses, *outs):

@@ -13,7 +13,6 @@ import time
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 distributed = pytest.importorskip("distributed")
 pq = pytest.importorskip("pyarrow.parquet")
@@ -23,7 +22,7 @@ from synth.tools.batchjobs import run_jobs  # noqa: E402
 from synth.tools.cluster import quiet_logs, run_jobs_on  # noqa: E402
 from synth.tools.sweep import sixbar_chunk, sweep  # noqa: E402
 
-from conftest import REPO, random_poses  # noqa: E402
+from conftest import REPO, random_poses, run  # noqa: E402
 from test_batchjobs import make_jobs, matrix_specs  # noqa: E402
 
 START_TIMEOUT = 90.0  # seconds for the scheduler and the workers to come up (a loaded 2-CPU machine)
@@ -120,10 +119,6 @@ def cluster(tmp_path_factory, request):
     c.wait(client, 2)
     c.client = client
     return c
-
-
-def run(*args, input=None):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], input=input, catch_exceptions=False)
 
 
 @pytest.fixture(scope="module")

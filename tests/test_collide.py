@@ -8,20 +8,14 @@ import shutil
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from cli.main import mpsynth
 from synth.synthesis.bennett import bennett
 from synth.tools.collide import cyclic_runs, candidate_pairs
 from synth.io.writer import write_output
 from synth.io.poses import load_poses
 from synth.io.readback import read_output
 
-from conftest import REPO
-
-
-def run(*args):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
+from conftest import REPO, run
 
 
 def needs_fcl():
@@ -38,8 +32,8 @@ def straight(linkage, **sizes):
     """The straight design (mounts at the feet of the common normals) with the default sizes: these
     tests are about the collision tool, not about what the design search finds."""
     from synth.design.model import straight_design
-    from synth.design.search import CollisionReport, DesignResult
-    from synth.io.meshes import default_hole_clearance, default_sizes
+    from synth.design.model import CollisionReport, DesignResult
+    from synth.design.choose import default_hole_clearance, default_sizes
 
     pin_radius, bar_radius, hub_length = default_sizes(linkage, **sizes)
     design = straight_design(linkage, pin_radius=pin_radius, bar_radius=bar_radius, hub_length=hub_length,

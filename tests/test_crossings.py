@@ -1,4 +1,4 @@
-"""`mpsynth check` through branch crossings (synth/io/continuation.py, docs/exceptional.md section 6): a 7R
+"""`mpsynth check` through branch crossings (synth/tools/check/continuation.py, docs/exceptional.md section 6): a 7R
 Darboux member with six singular configurations, where the continuation used to leave the motion for another
 branch at 45 degrees, is followed on its laws' motion and the crossing reported; a wrong angle law or a moved
 axis still fails."""
@@ -14,8 +14,8 @@ from click.testing import CliRunner
 from cli.main import mpsynth
 from linkage_fixtures import move_urdf_axis
 from synth.algebra.expr import parse_polynomial
-from synth.io.continuation import continue_loop, law_angles
-from synth.io.meshes import design_for
+from synth.tools.check.continuation import continue_loop, law_angles
+from synth.design.choose import design_for
 from synth.io.urdfmodel import read_urdf
 from synth.io.writer import write_output
 from synth.synthesis.darboux import darboux_linkage
@@ -31,7 +31,7 @@ def member_out(tmp_path_factory):
     lk = darboux_linkage(C, turn=5 * np.pi / 8, shift=(-0.51, 0.0), info={"motion": {}}, check_samples=40)
     assert len(lk.info["darboux"]["singular_t"]) == 6
     out = tmp_path_factory.mktemp("cross") / "d7"
-    write_output(lk, out, robot_name="d7", result=design_for(lk, ranges=("full",), full_seconds=1.0))
+    write_output(lk, out, robot_name="d7", result=design_for(lk, ranges=("full",), full_work=1e7))
     return out
 
 

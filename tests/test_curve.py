@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from synth.io.curvespec import parse_real_polynomial, parse_spec
-from synth.synthesis.curve import (CurveSpec, MotionSpec, UnboundedCurveError, curve_linkage, motion_linkage,
+from synth.task import CurveSpec, MotionSpec
+from synth.synthesis.curve import (UnboundedCurveError, curve_linkage, motion_linkage,
                                    trace_error)
 from synth.algebra.dq import dq_to_pose
 from synth.errors import InputError
@@ -170,9 +171,10 @@ def test_export_writes_the_tracer_frame(ellipse, tmp_path):
     """URDF: link `tracer` on `coupler` by a fixed joint; FK at all-zero angles puts it at p0 and
     every loop closure pair is a <gazebo> weld; linkage.json has kind, closures, links, curve."""
     from synth.io.writer import write_output
+    from synth.design.choose import design_for
 
     out = tmp_path / "ell"
-    write_output(ellipse, out, robot_name="ellipse")
+    write_output(ellipse, out, robot_name="ellipse", result=design_for(ellipse))
     root = ET.parse(out / "linkage.urdf").getroot()
     joints = {j.get("name"): j for j in root.findall("joint")}
     tj = joints["tracer_mount"]

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from synth.algebra.expr import parse_polynomial
-from synth.design.members import SHIFT, choose_member, design_size, member_grid
+from synth.design.members import SCREEN_CAP, SHIFT, choose_member, design_size, member_grid
 from synth.design.model import straight_design
-from synth.design.search import CollisionReport, DesignResult
+from synth.design.model import CollisionReport, DesignResult
 from synth.synthesis.darboux import darboux_linkage
 
 GENERAL = "(t^2 + 1)*(t - k) + eps*(i + k/2 - (j + k/2)*t)*(t - k)"  # fixtures/motion_darboux_general.yaml
@@ -33,7 +33,8 @@ def test_grid_is_deterministic_default_first():
 def _stand_in(free_keys, calls):
     """A design search that finds a free design exactly for the members (turn index k of pi/8, shift
     direction) in ``free_keys``; the design is the straight one, so its size is the member's own."""
-    def design(lk, ranges, full_seconds, effort):
+    def design(lk, ranges, full_work, effort, work):
+        work.charge(full_work)  # as a search that spends its cap
         m = lk.info["darboux"]["member"]
         s = np.sign(np.round(m["shift"], 9)).astype(int)
         key = (round(m["turn"] / (math.pi / 8)), int(s[0]), int(s[1]))
@@ -74,6 +75,8 @@ def test_default_kept_when_free_and_none_when_nothing_is(default):
     calls = []
     lk, res = choose_member(default, _stand_in({(0, 0, 0)}, calls))
     assert lk is default and res.collision.free and len(calls) == 1
-    lk, res = choose_member(default, _stand_in(set(), []), seconds=0.5)
+    calls = []
+    lk, res = choose_member(default, _stand_in(set(), calls), work=2 * SCREEN_CAP)
     assert lk is default and res is None and lk.info["darboux"]["member_choice"]["member"] == "default"
+    assert len(calls) == 1 + 3  # the default, then members until the counted budget is spent (not the clock)
     del default.info["darboux"]["member_choice"]

@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 
 from synth.design.cranks import crank_bars, crank_direction
-from synth.design.search import CollisionReport, DesignResult, Layout
-from synth.io.meshes import design_for, design_solids
+from synth.design.model import CollisionReport, DesignResult
+from synth.design.search import Layout
+from synth.design.choose import design_for
+from synth.io.meshes import design_solids
 from synth.io.poses import load_poses
 from synth.io.writer import write_output
 from synth.synthesis.bennett import bennett

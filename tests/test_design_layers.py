@@ -14,8 +14,9 @@ from click.testing import CliRunner
 
 from cli.main import mpsynth
 from synth.design.layers import layered_design, level_pitch, parallel_axis
-from synth.design.search import CollisionReport, DesignResult
-from synth.io.meshes import design_for, design_solids
+from synth.design.model import CollisionReport, DesignResult
+from synth.design.choose import design_for
+from synth.io.meshes import design_solids
 from synth.io.poses import load_poses
 from synth.synthesis.bennett import bennett
 
@@ -52,7 +53,7 @@ def test_a_four_bar_in_layers_is_certified_free(four_bar, tmp_path, verifier):
     stuck = DesignResult(d, CollisionReport(free=False, range="full", clearance=d.clearance, min_distance=-1.0,
                                             driver="h1", driver_range=(0.0, 2 * math.pi),
                                             pairs=[{"bodies": ["link_h1", "link_k1"]}]))
-    result = layered_design(four_bar, stuck, seconds=30)
+    result = layered_design(four_bar, stuck)
     r = result.collision
     assert r.free and r.certified and r.range == "full" and r.layers >= 2
     u = parallel_axis(four_bar)

@@ -17,7 +17,7 @@ from cli.main import mpsynth
 from synth.algebra.expr import parse_polynomial
 from synth.design.layers import stack_geometry
 from synth.design.mixed import dominant_axis
-from synth.io.meshes import design_for
+from synth.design.choose import design_for
 from synth.synthesis.curve import motion_linkage
 from synth.synthesis.multiloop import choose_m0, ladder_linkage, m0_candidates
 

@@ -177,10 +177,10 @@ def test_rank_buildable_puts_collision_free_first(fixture_bennett):
     one that is free over the full cycle; the search stops there (the third is not designed)."""
     calls = []
 
-    def design(lk, ranges, full_seconds):
+    def design(lk, ranges, full_work, work):
         calls.append(ranges)
         clearance = 10 * lk.extent() if len(calls) == 1 else None
-        return design_linkage(lk, **sizes(lk), clearance=clearance, ranges=ranges, full_seconds=full_seconds)
+        return design_linkage(lk, **sizes(lk), clearance=clearance, ranges=ranges, full_work=full_work, work=work)
 
     ranked = rank_buildable([fixture_bennett, fixture_bennett, fixture_bennett], design)
     assert calls == [("full",), ("full",)]
@@ -196,12 +196,12 @@ def test_rank_buildable_falls_back_to_the_task_range_in_kinematic_order():
     free_over = {"A": set(), "B": {"task"}, "C": {"task"}}
     calls = []
 
-    def design(lk, ranges, full_seconds):
+    def design(lk, ranges, full_work, work):
         calls.append((lk, ranges))
         rng = ranges[0]
         return SimpleNamespace(collision=SimpleNamespace(free=rng in free_over[lk], range=rng))
 
-    ranked = rank_buildable(["A", "B", "C"], design, limit=8, seconds=60.0)
+    ranked = rank_buildable(["A", "B", "C"], design, limit=8, work=1e9)
     assert calls == [("A", ("full",)), ("B", ("full",)), ("C", ("full",)), ("A", ("task",)), ("B", ("task",))]
     assert [lk for lk, _ in ranked] == ["B", "A"]
     assert [collision_rank(r.collision) for _, r in ranked] == [1, 2]

@@ -11,18 +11,14 @@ import pytest
 from click.testing import CliRunner
 
 from cli.main import mpsynth
-from synth.io.meshes import (THIN_MIN_BAR_RADIUS, THIN_SCALES, default_hole_clearance, default_sizes, design_for,
-                             thin_scales)
+from synth.design.choose import (THIN_MIN_BAR_RADIUS, THIN_SCALES, default_hole_clearance, default_sizes, design_for,
+                                 thin_scales)
 from synth.io.poses import load_poses
 from synth.synthesis.bennett import bennett
 
-from conftest import REPO
+from conftest import REPO, run
 
 THIN = REPO / "tests" / "data" / "bennett_thin.yaml"  # bench seed 22: collides at the default radii
-
-
-def run(*args):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +47,7 @@ def test_explicit_radii_are_kept_and_the_message_says_what_to_change(linkage):
 
 def test_a_full_cycle_only_search_is_not_thinned(linkage):
     """rank_buildable's quick full-cycle pass: its failure is no reason to thin (the task range may work)."""
-    r = design_for(linkage, ranges=("full",), full_seconds=0.3)
+    r = design_for(linkage, ranges=("full",), full_work=3e6)
     assert r.collision.thinned is None
     assert r.design.bar_radius == default_sizes(linkage)[1]
 

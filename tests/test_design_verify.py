@@ -1,30 +1,21 @@
 """End-to-end: the collision claim in linkage.json holds for the independent verifier (fcl on the written
-meshes, same clearance, same range). Active once the exporter writes the searched design
-(synth.io.meshes.design_for)."""
+meshes, same clearance, same range): the exporter writes the searched design (synth.design.choose.design_for)."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
-from conftest import REPO, random_poses, write_pose_yaml
+from conftest import REPO, random_poses, run_python, write_pose_yaml
 
-meshes = pytest.importorskip("synth.io.meshes")
-pytestmark = pytest.mark.skipif(not hasattr(meshes, "design_for"), reason="the exporter does not write designs yet")
 pytest.importorskip("fcl")
-
-
-def run(*args):
-    return subprocess.run([sys.executable, *map(str, args)], capture_output=True, text=True, cwd=REPO, timeout=600)
 
 
 def check_claim(verifier, poses, out):
     c = json.loads((out / "linkage.json").read_text())["collision"]
     assert c["free"] and c["certified"], c
-    r = run(verifier, poses, out, "--steps", "90", "--collisions", repr(c["clearance"]),
+    r = run_python(verifier, poses, out, "--steps", "90", "--collisions", repr(c["clearance"]),
             "--collision-range", c["range"])
     assert r.returncode == 0, r.stdout + r.stderr
 
@@ -36,7 +27,7 @@ def check_claim(verifier, poses, out):
 def test_fixture_claim_holds(tmp_path, verifier, command, fixture):
     poses = REPO / "fixtures" / fixture
     out = tmp_path / "out"
-    r = run("-m", "cli.main", command, poses, "-o", out, "-q")
+    r = run_python("-m", "cli.main", command, poses, "-o", out, "-q")
     assert r.returncode == 0, r.stderr
     check_claim(verifier, poses, out)
 
@@ -47,7 +38,7 @@ def claim_on_random_set(tmp_path, verifier, command, seed):
     n = 3 if command == "bennett" else 4
     poses = write_pose_yaml(tmp_path / "poses.yaml", random_poses(np.random.default_rng(seed), n))
     out = tmp_path / "out"
-    r = run("-m", "cli.main", command, poses, "-o", out, "-q")
+    r = run_python("-m", "cli.main", command, poses, "-o", out, "-q")
     if r.returncode == 1:
         pytest.skip(f"seed {seed}: no real linkage ({r.stderr.strip()})")
     assert r.returncode == 0, r.stderr

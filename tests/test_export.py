@@ -25,9 +25,10 @@ from synth.io.writer import atomic_directory, write_output  # noqa: E402
 from synth.io.jsonout import linkage_document  # noqa: E402
 from synth.io.urdf import urdf_text  # noqa: E402
 from synth.io import writer as writer_mod  # noqa: E402
-from synth.io.frames import rpy_from_matrix, rpy_matrix  # noqa: E402
+from synth.frames import rpy_from_matrix, rpy_matrix  # noqa: E402
 from synth.io.jsonout import FORMAT, plain, write_json  # noqa: E402
-from synth.io.meshes import default_sizes, link_meshes, mesh_inertials  # noqa: E402
+from synth.design.choose import default_sizes, design_for  # noqa: E402
+from synth.io.meshes import link_meshes, mesh_inertials  # noqa: E402
 from synth.linkage import Joint, Linkage  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -43,8 +44,13 @@ def bennett():
 
 
 @pytest.fixture(scope="module")
-def meshes(bennett):
-    return link_meshes(bennett)
+def design(bennett):
+    return design_for(bennett).design
+
+
+@pytest.fixture(scope="module")
+def meshes(bennett, design):
+    return link_meshes(bennett, design)
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +61,7 @@ def masses(meshes):
 @pytest.fixture(scope="module")
 def written(bennett, tmp_path_factory):
     out = tmp_path_factory.mktemp("written") / "OUT"
-    paths = write_output(bennett, out, robot_name="bennett")
+    paths = write_output(bennett, out, robot_name="bennett", result=design_for(bennett))
     return out, paths
 
 
@@ -104,7 +110,7 @@ def test_rpy_round_trip_random_and_degenerate():
     assert worst < 4e-15
 
 
-def test_tool_mount_reproduces_tool_ref_through_urdf(bennett, masses):
+def test_tool_mount_reproduces_tool_ref_through_urdf(bennett, design, masses):
     """The URDF's own FK (yourdfpy) at all-zero angles gives tool_ref to 1e-12, for random and
     near-gimbal-lock / near-180-degree tool orientations."""
     import copy
@@ -119,7 +125,7 @@ def test_tool_mount_reproduces_tool_ref_through_urdf(bennett, masses):
         T = np.eye(4)
         T[:3, :3], T[:3, 3] = R, rng.normal(size=3)
         lk.tool_ref = T
-        model = load_urdf(urdf_text(lk, "t", masses=masses))
+        model = load_urdf(urdf_text(lk, "t", design, masses))
         assert np.max(np.abs(fk(model, {}) - T)) < 1e-12
 
 
@@ -137,8 +143,7 @@ def test_meshes_in_link_frame_cover_joint_feet(bennett, meshes):
     """The middle between a link's two mounts (where the design attaches it to its axes) lies inside its
     mesh (in link frame); the mounts themselves lie on the axes, in the bores, outside."""
     from synth.design.model import axis_point
-    from synth.io.frames import link_origins
-    from synth.io.meshes import design_for
+    from synth.frames import link_origins
 
     design = design_for(bennett).design
     origins = link_origins(bennett)
@@ -156,8 +161,8 @@ def test_mesh_sizes_default_and_override(bennett):
     e = bennett.extent()
     assert default_sizes(bennett) == pytest.approx((0.02 * e, 0.015 * e, 0.06 * e))
     assert default_sizes(bennett, 0.01, 0.005, 0.05) == (0.01, 0.005, 0.05)
-    thin = link_meshes(bennett, pin_radius=0.01, link_radius=0.005, pin_length=0.05)
-    thick = link_meshes(bennett)
+    thin = link_meshes(bennett, design_for(bennett, pin_radius=0.01, link_radius=0.005, pin_length=0.05).design)
+    thick = link_meshes(bennett, design_for(bennett).design)
     for name in GEOMETRIC:
         assert 0 < thin[name].volume < thick[name].volume
     for bad in (0, -1.0, float("nan"), float("inf"), "x"):
@@ -188,13 +193,13 @@ def test_meshes_degenerate_axis_pairs(monkeypatch, manifold):
     if not manifold:
         monkeypatch.setattr(meshes_mod, "have_manifold", lambda: False)
     from synth.design.model import straight_design
-    from synth.io.meshes import default_hole_clearance, default_sizes
+    from synth.design.choose import default_hole_clearance, default_sizes
 
     lk = _odd_linkage()
     pin_radius, bar_radius, hub_length = default_sizes(lk)
     design = straight_design(lk, pin_radius=pin_radius, bar_radius=bar_radius, hub_length=hub_length,
                              hole_clearance=default_hole_clearance(pin_radius))
-    out = link_meshes(lk, design=design)  # (not a mechanism: the straight design, no search)
+    out = link_meshes(lk, design)  # (not a mechanism: the straight design, no search)
     assert set(out) == {"base", "a", "c", "d", "pin_j1", "pin_j2", "pin_j3", "pin_j4"}
     for name, mesh in out.items():
         assert mesh.is_watertight and mesh.volume > 0, name
@@ -203,8 +208,8 @@ def test_meshes_degenerate_axis_pairs(monkeypatch, manifold):
 
 
 # ------------------------------------------------------------------ URDF
-def test_urdf_structure(bennett, masses):
-    root = ET.fromstring(urdf_text(bennett, 'name <&"> x', masses=masses))
+def test_urdf_structure(bennett, design, masses):
+    root = ET.fromstring(urdf_text(bennett, 'name <&"> x', design, masses))
     assert root.get("name") == 'name <&"> x'
     links = {l.get("name"): l for l in root.findall("link")}
     assert set(links) == GEOMETRIC | PINS | {"coupler_k", "tool"}
@@ -245,18 +250,18 @@ def test_urdf_structure(bennett, masses):
             assert link.find("visual") is None
 
 
-def test_urdf_package_paths(bennett, masses):
-    root = ET.fromstring(urdf_text(bennett, "b", package="my_robot", masses=masses))
+def test_urdf_package_paths(bennett, design, masses):
+    root = ET.fromstring(urdf_text(bennett, "b", design, masses, package="my_robot"))
     names = {m.get("filename") for m in root.iter("mesh")}
     assert names == {f"package://my_robot/meshes/{n}.stl" for n in GEOMETRIC | PINS}
 
 
-def test_urdf_several_closures_are_numbered(bennett, masses):
+def test_urdf_several_closures_are_numbered(bennett, design, masses):
     import copy
 
     lk = copy.copy(bennett)
     lk.closures = [("coupler", "coupler_k"), ("link_h1", "link_k1")]
-    root = ET.fromstring(urdf_text(lk, "b", masses=masses))
+    root = ET.fromstring(urdf_text(lk, "b", design, masses))
     assert [g.find("joint").get("name") for g in root.findall("gazebo")] == ["loop_closure", "loop_closure_2"]
 
 
@@ -319,7 +324,6 @@ def test_write_output_files(bennett, written):
     assert paths[:2] == [out / "linkage.urdf", out / "linkage.json"]
     assert sorted(p.name for p in paths[2:]) == sorted(f"{n}.stl" for n in GEOMETRIC | PINS)
     assert all(p.is_file() for p in paths)
-    from synth.io.meshes import design_for
 
     result = design_for(bennett)
     doc = json.loads((out / "linkage.json").read_text())
@@ -346,7 +350,7 @@ def test_exception_mid_write_leaves_nothing(bennett, tmp_path, monkeypatch):
 
     monkeypatch.setattr(urdf_mod, "urdf_text", boom)
     with pytest.raises(RuntimeError, match="boom"):
-        write_output(bennett, tmp_path / "OUT", robot_name="b")
+        write_output(bennett, tmp_path / "OUT", robot_name="b", result=design_for(bennett))
     assert entries(tmp_path) == set()
 
 
@@ -354,25 +358,25 @@ def test_exception_mid_write_keeps_previous_output(bennett, tmp_path, monkeypatc
     import synth.io.urdf as urdf_mod
 
     out = tmp_path / "OUT"
-    write_output(bennett, out, robot_name="first")
+    write_output(bennett, out, robot_name="first", result=design_for(bennett))
     before = (out / "linkage.urdf").read_text()
     monkeypatch.setattr(urdf_mod, "urdf_text", lambda *a, **k: 1 / 0)
     with pytest.raises(ZeroDivisionError):
-        write_output(bennett, out, robot_name="second")
+        write_output(bennett, out, robot_name="second", result=design_for(bennett))
     assert (out / "linkage.urdf").read_text() == before
     assert entries(tmp_path) == {"OUT"}
 
 
 def test_replace_mpsynth_output(bennett, tmp_path):
     out = tmp_path / "OUT"
-    write_output(bennett, out, robot_name="first")
+    write_output(bennett, out, robot_name="first", result=design_for(bennett))
     (out / "notes.txt").write_text("the user's")
     (out / "meshes" / "link_h1.stl").write_text("stale mesh of the old run")
     (out / "meshes" / "link_gone.stl").write_text("")  # pretend the old run wrote a link this one does not
     doc = json.loads((out / writer_mod.MARKER).read_text())
     doc["files"].append("meshes/link_gone.stl")
     (out / writer_mod.MARKER).write_text(json.dumps(doc))
-    write_output(bennett, out, robot_name="second")
+    write_output(bennett, out, robot_name="second", result=design_for(bennett))
     assert 'name="second"' in (out / "linkage.urdf").read_text()
     assert (out / "notes.txt").read_text() == "the user's"  # not mpsynth's: kept
     assert (out / "meshes" / "link_h1.stl").read_bytes().startswith(b"solid") or \
@@ -382,7 +386,7 @@ def test_replace_mpsynth_output(bennett, tmp_path):
     assert entries(tmp_path) == {"OUT"}
     # an output of an earlier version is recognised by linkage.json's format, without the manifest
     (out / writer_mod.MARKER).unlink()
-    write_output(bennett, out, robot_name="third")
+    write_output(bennett, out, robot_name="third", result=design_for(bennett))
     assert 'name="third"' in (out / "linkage.urdf").read_text()
     assert (out / "notes.txt").read_text() == "the user's"
 
@@ -392,24 +396,24 @@ def test_foreign_directory_refused_unless_forced(bennett, tmp_path):
     out.mkdir()
     (out / "thesis.tex").write_text("precious")
     with pytest.raises(InputError, match="not written by mpsynth") as e:
-        write_output(bennett, out, robot_name="b")
+        write_output(bennett, out, robot_name="b", result=design_for(bennett))
     assert str(out) in str(e.value) and "\n" not in str(e.value)
     assert (out / "thesis.tex").read_text() == "precious"
     assert entries(tmp_path) == {"OUT"}
-    write_output(bennett, out, robot_name="b", force=True)  # --force writes beside, never deletes
+    write_output(bennett, out, robot_name="b", force=True, result=design_for(bennett))  # --force writes beside, never deletes
     assert (out / "thesis.tex").read_text() == "precious" and (out / "linkage.urdf").is_file()
     assert entries(tmp_path) == {"OUT"}
 
 
 def test_empty_directory_and_file_targets(bennett, tmp_path):
     (tmp_path / "EMPTY").mkdir()
-    write_output(bennett, tmp_path / "EMPTY", robot_name="b")
+    write_output(bennett, tmp_path / "EMPTY", robot_name="b", result=design_for(bennett))
     assert (tmp_path / "EMPTY" / "linkage.json").is_file()
     (tmp_path / "FILE").write_text("x")
     with pytest.raises(InputError, match="FILE"):
-        write_output(bennett, tmp_path / "FILE", robot_name="b")
+        write_output(bennett, tmp_path / "FILE", robot_name="b", result=design_for(bennett))
     assert (tmp_path / "FILE").read_text() == "x"
-    write_output(bennett, tmp_path / "FILE", robot_name="b", force=True)
+    write_output(bennett, tmp_path / "FILE", robot_name="b", force=True, result=design_for(bennett))
     assert (tmp_path / "FILE" / "linkage.urdf").is_file()
     assert entries(tmp_path) == {"EMPTY", "FILE"}
 
@@ -417,11 +421,11 @@ def test_empty_directory_and_file_targets(bennett, tmp_path):
 def test_missing_or_bad_parent(bennett, tmp_path):
     missing = tmp_path / "no" / "such"
     with pytest.raises(InputError, match="does not exist") as e:
-        write_output(bennett, missing / "OUT", robot_name="b")
+        write_output(bennett, missing / "OUT", robot_name="b", result=design_for(bennett))
     assert str(missing) in str(e.value) and "\n" not in str(e.value)
     (tmp_path / "plain").write_text("")
     with pytest.raises(InputError, match="not a directory"):
-        write_output(bennett, tmp_path / "plain" / "OUT", robot_name="b")
+        write_output(bennett, tmp_path / "plain" / "OUT", robot_name="b", result=design_for(bennett))
 
 
 @pytest.mark.skipif(hasattr(os, "geteuid") and os.geteuid() == 0, reason="root may write to read-only dirs")
@@ -431,7 +435,7 @@ def test_read_only_parent(bennett, tmp_path):
     ro.chmod(0o555)
     try:
         with pytest.raises(InputError, match="not writable"):
-            write_output(bennett, ro / "OUT", robot_name="b")
+            write_output(bennett, ro / "OUT", robot_name="b", result=design_for(bennett))
     finally:
         ro.chmod(0o755)
 
@@ -441,7 +445,7 @@ def test_unwritable_parent_simulated(bennett, tmp_path, monkeypatch):
     real_access = os.access
     monkeypatch.setattr(os, "access", lambda p, mode, **k: False if Path(p) == tmp_path else real_access(p, mode, **k))
     with pytest.raises(InputError, match="not writable") as e:
-        write_output(bennett, tmp_path / "OUT", robot_name="b")
+        write_output(bennett, tmp_path / "OUT", robot_name="b", result=design_for(bennett))
     assert str(tmp_path) in str(e.value)
     monkeypatch.setattr(os, "access", real_access)
 
@@ -450,7 +454,7 @@ def test_unwritable_parent_simulated(bennett, tmp_path, monkeypatch):
 
     monkeypatch.setattr(writer_mod.tempfile, "mkdtemp", no_mkdtemp)
     with pytest.raises(InputError, match="Read-only file system") as e:
-        write_output(bennett, tmp_path / "OUT", robot_name="b")
+        write_output(bennett, tmp_path / "OUT", robot_name="b", result=design_for(bennett))
     assert str(tmp_path) in str(e.value) and "\n" not in str(e.value)
     assert entries(tmp_path) == set()
 
@@ -511,12 +515,14 @@ def test_sigint_subprocess_exit_status(tmp_path):
         sys.path.insert(0, {str(REPO / 'tests')!r})
         from linkage_fixtures import bennett_linkage
         import synth.io.urdf as urdf_mod
+        from synth.design.choose import design_for
         from synth.io.writer import write_output
         def slow(*a, **k):
             print("ready", flush=True)
             time.sleep(30)
         urdf_mod.urdf_text = slow
-        write_output(bennett_linkage(), {str(tmp_path / 'OUT')!r}, robot_name="b")
+        lk = bennett_linkage()
+        write_output(lk, {str(tmp_path / 'OUT')!r}, robot_name="b", result=design_for(lk))
     """)
     proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             cwd=REPO, text=True)
@@ -569,7 +575,7 @@ def test_welded_duplicate_shares_the_coupler_mass(tmp_path):
     from synth.io.writer import write_output
 
     out = tmp_path / "o"
-    write_output(bennett_linkage(), out, robot_name="b")
+    write_output(bennett_linkage(), out, robot_name="b", result=design_for(bennett_linkage()))
     root = ET.parse(out / "linkage.urdf").getroot()
     mass = {l.get("name"): float(l.find("inertial/mass").get("value")) for l in root.findall("link")}
     assert mass["coupler_k"] == pytest.approx(mass["coupler"]) and mass["coupler"] > 1e-3

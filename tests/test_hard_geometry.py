@@ -319,7 +319,7 @@ def test_far_cli_end_to_end(tmp_path):
 
 
 def test_default_mesh_size_follows_the_linkage_not_the_origin():
-    from synth.io.meshes import default_sizes
+    from synth.design.choose import default_sizes
 
     rng = np.random.default_rng(11)
     T = random_poses(rng, 3)

@@ -7,15 +7,11 @@ import json
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from cli.main import mpsynth
 from synth.algebra.flip import bennett_flip, flip_residual
 from synth.algebra.flip_report import flip_report
 
-
-def run(*args):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
+from conftest import run
 
 
 def rotation(rng):

@@ -21,10 +21,11 @@ from linkage_fixtures import bennett_linkage  # noqa: E402
 import synth  # noqa: E402
 from synth.io import meshes as meshes_mod  # noqa: E402
 from synth.io.writer import write_output  # noqa: E402
-from synth.io.frames import link_origins  # noqa: E402
+from synth.design.choose import design_for  # noqa: E402
+from synth.frames import link_origins  # noqa: E402
 from synth.io.solid import (Solid, axis_rotation, concatenate, cylinder, mass_properties,  # noqa: E402
                                 read_stl_triangles, signed_volume, stl_bytes, surface_defect, union, weld)
-from synth.io.urdf import MESH_UNIT_SCALE  # noqa: E402
+from synth.io.names import MESH_UNIT_SCALE  # noqa: E402
 from synth.io.poses import load_poses  # noqa: E402
 
 trimesh = pytest.importorskip("trimesh")
@@ -148,10 +149,10 @@ def test_design_solids_lie_inside_their_capsules(name):
     mesh within the pin's capsule: the collision search's capsules bound the written solids from
     outside. Each mesh is one closed solid whose mass properties agree with trimesh's."""
     from synth.design.model import capsules
-    from synth.io.urdf import pin_link_name
+    from synth.io.names import pin_link_name
 
     lk = LINKAGES[name]
-    result = meshes_mod.design_for(lk)
+    result = design_for(lk)
     solids = meshes_mod.design_solids(lk, result.design)
     origins = link_origins(lk)
     assert set(solids) == ({n for n in lk.link_names if lk.links.get(n)}
@@ -178,7 +179,7 @@ def test_bores_run_through_the_hubs(name):
     wall (between bore and hub radius) is inside; the bore of the link that turns on the pin is wider
     than the pin by the hole clearance, the carrier's bore fits it."""
     lk = LINKAGES[name]
-    design = meshes_mod.design_for(lk).design
+    design = design_for(lk).design
     solids = meshes_mod.design_solids(lk, design)
     origins = link_origins(lk)
     carriers = {p.joint: p.carrier for p in design.pins}
@@ -233,7 +234,7 @@ def test_stl_file_is_trimeshs_stl_of_the_centred_mm_mesh(name):
     """Byte layout as trimesh's exporter writes it (corners and count bit-equal, normals to float32
     rounding); trimesh reads each file as a watertight volume of the same size; the offset is the
     bounding-box centre."""
-    for link, solid in meshes_mod.link_solids(LINKAGES[name]).items():
+    for link, solid in meshes_mod.design_solids(LINKAGES[name], design_for(LINKAGES[name]).design).items():
         data, offset = meshes_mod.stl_file(solid)
         assert np.array_equal(offset, solid.bounds.mean(axis=0))
         mm = trimesh.Trimesh((solid.vertices - offset) * (1.0 / MESH_UNIT_SCALE), solid.faces, process=False)
@@ -270,9 +271,10 @@ def test_written_output_matches_its_stl_files(tmp_path):
 
     lk = LINKAGES["bennett_mm_deg"]
     out = tmp_path / "OUT"
-    write_output(lk, out, robot_name="t")
+    result = design_for(lk)
+    write_output(lk, out, robot_name="t", result=result)
     robot = ET.parse(out / "linkage.urdf").getroot()
-    masses = meshes_mod.mesh_inertials(meshes_mod.link_solids(lk))
+    masses = meshes_mod.mesh_inertials(meshes_mod.design_solids(lk, result.design))
     seen = 0
     for link in robot.findall("link"):
         vis = link.find("visual")
@@ -341,7 +343,7 @@ def test_cranked_bars_and_shifted_mounts(name):
     from synth.design.model import axis_point, capsules, pins_for
 
     lk = LINKAGES[name]
-    design = meshes_mod.design_for(lk).design
+    design = design_for(lk).design
     e = lk.extent()
     rng = np.random.default_rng(3)
     for m in design.mounts:

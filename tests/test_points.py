@@ -8,12 +8,10 @@ import sys
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import synth
-from cli.main import mpsynth
 from synth.algebra import algorithm1 as a1
 from synth.algebra.dq import act_on_points
 from synth.algebra.polynomial import evaluate, norm_poly, study_residual
@@ -23,11 +21,7 @@ from synth.synthesis.bennett import bennett
 from synth.synthesis.pointfit import parameter_samples, point_motion, scan
 from synth.synthesis.points import bennett_points, point_candidates, sixbar_points
 
-from conftest import REPO, VERIFIER, random_poses
-
-
-def run(*args, input=None):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], input=input, catch_exceptions=False)
+from conftest import REPO, VERIFIER, random_poses, run
 
 
 def verify(points_file, out):

@@ -19,27 +19,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from synth.design.choose import design_for
 from synth.errors import InputError, OutputError
 from synth.io import writer as writer_mod
 from synth.io.docload import open_lines, read_lines
 from synth.io.names import check_package, check_robot_name, safe_robot_name
 from synth.tools.batchjobs import run_job, worker_count
 
-from conftest import REPO, random_poses
+from conftest import REPO, random_poses, run_process
 
 FIXTURE = REPO / "fixtures" / "bennett_mm_deg.yaml"
 POSES3 = [{"position": [0, 0, 0], "quaternion": [1, 0, 0, 0]},
           {"position": [1, 0, 0.5], "quaternion": [0.6, 0, 0, 0.8]},
           {"position": [0.25, 1, 0.2], "quaternion": [0.6, 0.8, 0, 0]}]
-
-
-def cli(args, cwd, input=None, stdin=None, stdout=subprocess.PIPE, timeout=120):
-    """Run `python -m cli.main ARGS` from this worktree: (exit code, stdout, stderr) as text."""
-    env = dict(os.environ, PYTHONPATH=str(REPO))
-    p = subprocess.run([sys.executable, "-m", "cli.main", *map(str, args)], cwd=cwd, env=env, input=input,
-                       stdin=stdin, stdout=stdout, stderr=subprocess.PIPE, timeout=timeout)
-    out = p.stdout.decode("utf-8", "replace") if isinstance(p.stdout, bytes) else (p.stdout or "")
-    return p.returncode, out, p.stderr.decode("utf-8", "replace")
 
 
 def one_line_error(code, err, expected=(2,)):
@@ -63,14 +55,14 @@ def bennett():
 
 def test_rerun_keeps_user_files_beside_the_output(tmp_path):
     """notes, a CAD folder and simulate's linkage.mjcf.xml survive a second run without --force."""
-    code, _, err = cli(["bennett", FIXTURE, "-o", "out", "-q"], tmp_path)
+    code, _, err = run_process(["bennett", FIXTURE, "-o", "out", "-q"], tmp_path)
     assert code == 0, err
     out = tmp_path / "out"
     (out / "notes.txt").write_text("mine")
     (out / "cad").mkdir()
     (out / "cad" / "part.step").write_text("solid")
     (out / "linkage.mjcf.xml").write_text("<mujoco/>")
-    code, _, err = cli(["bennett", FIXTURE, "-o", "out", "-q", "--name", "again"], tmp_path)
+    code, _, err = run_process(["bennett", FIXTURE, "-o", "out", "-q", "--name", "again"], tmp_path)
     assert code == 0, err
     assert (out / "notes.txt").read_text() == "mine" and (out / "cad" / "part.step").read_text() == "solid"
     assert (out / "linkage.mjcf.xml").read_text() == "<mujoco/>"
@@ -83,30 +75,30 @@ def test_rerun_keeps_user_files_beside_the_output(tmp_path):
 def test_thesis_beside_an_old_style_output_is_kept(tmp_path, bennett):
     """A directory of an earlier version (mpsynth linkage.json, no manifest): only mpsynth's files move."""
     out = tmp_path / "OUT"
-    writer_mod.write_output(bennett, out, robot_name="a")
+    writer_mod.write_output(bennett, out, robot_name="a", result=design_for(bennett))
     (out / writer_mod.MARKER).unlink()
     (out / "thesis.tex").write_text("years of work")
-    writer_mod.write_output(bennett, out, robot_name="b")
+    writer_mod.write_output(bennett, out, robot_name="b", result=design_for(bennett))
     assert (out / "thesis.tex").read_text() == "years of work"
 
 
 def test_force_into_the_working_directory_deletes_nothing(tmp_path):
     (tmp_path / "jobs.jsonl").write_text("keep")
     (tmp_path / "linkage.urdf").write_text("the user's own URDF")
-    code, _, err = cli(["bennett", FIXTURE, "-o", ".", "-q"], tmp_path)
+    code, _, err = run_process(["bennett", FIXTURE, "-o", ".", "-q"], tmp_path)
     one_line_error(code, err)  # foreign directory: refused without --force
     assert (tmp_path / "linkage.urdf").read_text() == "the user's own URDF"
-    code, _, err = cli(["bennett", FIXTURE, "-o", ".", "-q", "--force"], tmp_path)
+    code, _, err = run_process(["bennett", FIXTURE, "-o", ".", "-q", "--force"], tmp_path)
     assert code == 0, err
     assert (tmp_path / "jobs.jsonl").read_text() == "keep" and "<robot" in (tmp_path / "linkage.urdf").read_text()
 
 
 def test_a_users_file_where_mpsynth_would_write_is_refused_without_force(tmp_path, bennett):
     out = tmp_path / "OUT"
-    writer_mod.write_output(bennett, out, robot_name="a")
+    writer_mod.write_output(bennett, out, robot_name="a", result=design_for(bennett))
     names = json.loads((out / writer_mod.MARKER).read_text())["files"]
     (out / "meshes" / "mine.stl").write_text("user mesh")  # not listed: kept, never replaced
-    writer_mod.write_output(bennett, out, robot_name="b")
+    writer_mod.write_output(bennett, out, robot_name="b", result=design_for(bennett))
     assert (out / "meshes" / "mine.stl").read_text() == "user mesh"
     assert json.loads((out / writer_mod.MARKER).read_text())["files"] == names
 
@@ -116,7 +108,7 @@ def test_batch_out_dot_with_force_keeps_the_working_directory(tmp_path):
              job(id="d", out="jobs.jsonl", force=True), job(id="e", out="results.jsonl", force=True)]
     (tmp_path / "jobs.jsonl").write_text("\n".join(lines) + "\n")
     with open(tmp_path / "results.jsonl", "wb") as fh:
-        code, _, err = cli(["batch", "jobs.jsonl", "-q"], tmp_path, stdout=fh)
+        code, _, err = run_process(["batch", "jobs.jsonl", "-q"], tmp_path, stdout=fh)
     assert code == 1, err  # the jobs failed, the batch did not lie about it
     results = [json.loads(s) for s in (tmp_path / "results.jsonl").read_text().splitlines()]
     assert [(r["id"], r["ok"], r["exit_code"]) for r in results] == [(k, False, 2) for k in "abcde"]
@@ -127,7 +119,7 @@ def test_batch_out_dot_with_force_keeps_the_working_directory(tmp_path):
 
 def test_out_of_range_id_is_one_result_and_echoed_as_text(tmp_path):
     text = job(id=1).replace('"id": 1', '"id": 1e400') + "\n" + job(id="next") + "\n"
-    code, out, err = cli(["batch", "-", "-q"], tmp_path, input=text.encode())
+    code, out, err = run_process(["batch", "-", "-q"], tmp_path, input=text.encode())
     assert code == 0, err
     res = [json.loads(s) for s in out.splitlines()]
     assert [(r["id"], r["line"], r["ok"]) for r in res] == [("1e400", 1, True), ("next", 2, True)]
@@ -135,7 +127,7 @@ def test_out_of_range_id_is_one_result_and_echoed_as_text(tmp_path):
 
 def test_cr_inside_a_line_does_not_split_it(tmp_path):
     text = '{"id": "a\r", "kind":\r "bennett"}\n' + job(id="b") + "\r\n" + job(id="c") + "\n"
-    code, out, err = cli(["batch", "-", "-q"], tmp_path, input=text.encode())
+    code, out, err = run_process(["batch", "-", "-q"], tmp_path, input=text.encode())
     res = [json.loads(s) for s in out.splitlines()]
     assert [r["line"] for r in res] == [1, 2, 3] and [r["ok"] for r in res] == [False, True, True], out
     assert res[1]["id"] == "b" and res[2]["id"] == "c" and code == 1
@@ -169,7 +161,7 @@ def test_workers_are_capped_by_jobs_and_cpus(tmp_path):
     assert worker_count(1024, 2) <= 2 and worker_count(64, None) <= (os.cpu_count() or 1)
     assert worker_count(0, 1) == 1 and worker_count(1, 0) == 1
     (tmp_path / "j.jsonl").write_text(job(id=1) + "\n" + job(id=2) + "\n")
-    code, out, err = cli(["batch", "j.jsonl", "-j", "1024"], tmp_path)
+    code, out, err = run_process(["batch", "j.jsonl", "-j", "1024"], tmp_path)
     assert code == 0 and len(out.splitlines()) == 2 and err.rstrip().endswith("-j 2)"), err
 
 
@@ -210,9 +202,9 @@ def test_endless_devices_are_refused_and_dev_null_is_empty(tmp_path, device):
         pytest.skip(f"no {device}")
     with pytest.raises(InputError, match="is a device"):
         open_lines(device)
-    code, _, err = cli(["batch", device], tmp_path, timeout=30)
+    code, _, err = run_process(["batch", device], tmp_path, timeout=30)
     one_line_error(code, err)
-    code, out, err = cli(["batch", os.devnull, "-q"], tmp_path, timeout=30)
+    code, out, err = run_process(["batch", os.devnull, "-q"], tmp_path, timeout=30)
     assert code == 0 and out == "" and err == ""
 
 
@@ -233,7 +225,7 @@ def test_a_pipe_is_read_lazily_and_never_counted(tmp_path):
 
 def test_an_11_mb_line_is_a_failed_result_and_the_batch_goes_on(tmp_path):
     (tmp_path / "j.jsonl").write_bytes(b'{"id": "' + b"x" * (11 << 20) + b'"}\n' + job(id="ok").encode() + b"\n")
-    code, out, err = cli(["batch", "j.jsonl", "-q"], tmp_path)
+    code, out, err = run_process(["batch", "j.jsonl", "-q"], tmp_path)
     res = [json.loads(s) for s in out.splitlines()]
     assert code == 1 and [(r["line"], r["ok"]) for r in res] == [(1, False), (2, True)]
     assert "10 MB" in res[0]["error"]
@@ -254,7 +246,7 @@ def test_closed_stdin(tmp_path, args):
 def test_stdout_on_a_full_device(tmp_path, args):
     (tmp_path / "j.jsonl").write_text(job(id=1) + "\n")
     with open("/dev/full", "wb") as full:
-        code, _, err = cli(args, tmp_path, stdout=full)
+        code, _, err = run_process(args, tmp_path, stdout=full)
     one_line_error(code, err)
     assert "No space left" in err
 
@@ -271,7 +263,7 @@ def test_closed_stdout(tmp_path, args, how):
 
 @pytest.mark.skipif(not os.path.exists("/dev/null"), reason="needs /dev/null")
 def test_force_never_replaces_a_device(tmp_path):
-    code, _, err = cli(["bennett", FIXTURE, "-q", "-o", "/dev/null", "--force"], tmp_path)
+    code, _, err = run_process(["bennett", FIXTURE, "-q", "-o", "/dev/null", "--force"], tmp_path)
     one_line_error(code, err)
     assert "special file" in err and Path("/dev/null").is_char_device()
 
@@ -284,7 +276,7 @@ def test_disk_full_while_writing_leaves_nothing(tmp_path, bennett, monkeypatch):
 
     monkeypatch.setattr(urdf_mod, "urdf_text", full)
     with pytest.raises(OutputError, match="No space left on device"):
-        writer_mod.write_output(bennett, tmp_path / "OUT", robot_name="b")
+        writer_mod.write_output(bennett, tmp_path / "OUT", robot_name="b", result=design_for(bennett))
     assert os.listdir(tmp_path) == []
 
 
@@ -302,11 +294,11 @@ def test_disk_full_on_a_real_small_file_system(tmp_path):
         pytest.skip("mounting a tmpfs is not permitted here")
     try:
         (disk / "keep.txt").write_text("mine")
-        code, _, err = cli(["bennett", FIXTURE, "-o", disk / "out", "-q"], tmp_path)
+        code, _, err = run_process(["bennett", FIXTURE, "-o", disk / "out", "-q"], tmp_path)
         one_line_error(code, err)
         assert os.listdir(disk) == ["keep.txt"]  # nothing partial, no temporary directory
         (tmp_path / "j.jsonl").write_text(job(id=1, out="a/b") + "\n" + job(id=2) + "\n")
-        code, out, err = cli(["batch", "j.jsonl", "-q", "--out-dir", disk], tmp_path)
+        code, out, err = run_process(["batch", "j.jsonl", "-q", "--out-dir", disk], tmp_path)
         res = [json.loads(s) for s in out.splitlines()]
         assert code == 1 and [(r["ok"], r.get("exit_code")) for r in res] == [(False, 2), (True, None)], out
         assert "No space left" in res[0]["error"] and os.listdir(disk) == ["keep.txt"]
@@ -341,7 +333,7 @@ def test_names_module():
 def test_non_utf8_pose_file_name_gives_a_valid_default_name(tmp_path):
     name = os.fsdecode(b"poses\xff")
     shutil.copy(FIXTURE, tmp_path / (name + ".yaml"))
-    code, _, err = cli(["bennett", name + ".yaml", "-o", "out", "-q"], tmp_path)
+    code, _, err = run_process(["bennett", name + ".yaml", "-o", "out", "-q"], tmp_path)
     assert code == 0, err
     assert '<robot name="poses' in (tmp_path / "out" / "linkage.urdf").read_text(encoding="utf-8")
 
@@ -368,7 +360,7 @@ def test_stale_temporaries_of_dead_writers_are_removed(tmp_path, bennett):
     alive.mkdir()
     other = tmp_path / f".OTHER.mpsynth-tmp-{dead_pid}-abc"  # another OUT's: not ours to judge now
     other.mkdir()
-    writer_mod.write_output(bennett, tmp_path / "OUT", robot_name="b")
+    writer_mod.write_output(bennett, tmp_path / "OUT", robot_name="b", result=design_for(bennett))
     assert sorted(os.listdir(tmp_path)) == sorted(["OUT", alive.name, other.name])
 
 
@@ -440,7 +432,7 @@ def sweep(tmp_path: Path, seed: int, n: int, workers: int = 1):
     (work / "keep.txt").write_text("keep")
     lines = hostile_lines(rng, n)
     (work / "jobs.jsonl").write_bytes(b"\n".join(lines) + b"\n")
-    code, out, err = cli(["batch", "jobs.jsonl", "-q", "-j", workers], work, timeout=600)
+    code, out, err = run_process(["batch", "jobs.jsonl", "-q", "-j", workers], work, timeout=600)
     assert code in (0, 1) and "Traceback" not in err and err == "", err
     res = [json.loads(s) for s in out.splitlines()]
     assert [r["line"] for r in res] == list(range(1, n + 1))
@@ -479,13 +471,13 @@ def _kill_during_write(cwd: Path, delay: float, sig=signal.SIGKILL) -> int:
 def _killed_then_rerun(tmp_path: Path, delays) -> None:
     """SIGKILL writers at the given delays into their write phase, beside a user's file in OUT; a clean
     run afterwards leaves a complete OUT, the user's file, and no temporary directory."""
-    code, _, err = cli(["bennett", FIXTURE, "-o", "out", "-q"], tmp_path)
+    code, _, err = run_process(["bennett", FIXTURE, "-o", "out", "-q"], tmp_path)
     assert code == 0, err
     (tmp_path / "out" / "notes.txt").write_text("mine")
     for d in delays:
         _kill_during_write(tmp_path, d)
         assert (tmp_path / "out" / "notes.txt").read_text() == "mine"
-    code, _, err = cli(["bennett", FIXTURE, "-o", "out", "-q"], tmp_path)
+    code, _, err = run_process(["bennett", FIXTURE, "-o", "out", "-q"], tmp_path)
     assert code == 0, err
     assert os.listdir(tmp_path) == ["out"]  # the killed writers' temporary directories are gone
     out = tmp_path / "out"

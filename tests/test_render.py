@@ -8,27 +8,22 @@ import shutil
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from cli.main import mpsynth
 from synth.synthesis.bennett import bennett
 from synth.errors import InputError
 from synth.io.writer import write_output
+from synth.design.choose import design_for
 from synth.io.poses import load_poses
 from synth.io.readback import angle_laws, cycle_parameters, mesh_path, phi_of, read_files, read_output
 
-from conftest import REPO
-
-
-def run(*args):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
+from conftest import REPO, run
 
 
 @pytest.fixture(scope="module")
 def out_quat(tmp_path_factory):
     ps = load_poses(str(REPO / "fixtures" / "bennett_quat.yaml"))
     out = tmp_path_factory.mktemp("render") / "bennett_quat"
-    write_output(bennett(ps.matrices, ps.names), out, robot_name="bennett_quat")
+    write_output(bennett(ps.matrices, ps.names), out, robot_name="bennett_quat", result=design_for(bennett(ps.matrices, ps.names)))
     return out
 
 

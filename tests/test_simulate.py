@@ -8,18 +8,11 @@ import os
 import xml.etree.ElementTree as ET
 
 import pytest
-from click.testing import CliRunner
 
-from cli.main import mpsynth
-
-from conftest import REPO
+from conftest import REPO, run
 
 BENNETT = REPO / "fixtures" / "bennett_quat.yaml"
 SIXBAR = REPO / "fixtures" / "sixbar_example.yaml"
-
-
-def run(*args):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
 
 
 def needs(engine):

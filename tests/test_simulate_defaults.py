@@ -6,17 +6,11 @@ import importlib.util
 import json
 
 import pytest
-from click.testing import CliRunner
 
-from cli.main import mpsynth
 from synth.tools.sim.pybullet_sim import residual_threshold
 from synth.tools.sim.run import advice, default_seconds
 
-from conftest import REPO
-
-
-def run(*args):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
+from conftest import REPO, run
 
 
 def test_default_seconds_grow_with_the_loops():

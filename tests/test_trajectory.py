@@ -8,12 +8,11 @@ import math
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cli.main import mpsynth
-from synth.design.search import CollisionReport, task_range
+from synth.design.model import CollisionReport
+from synth.design.search import task_range
 from synth.io.poses import load_poses
 from synth.io.readback import read_output
 from synth.io.urdf import driver_limits
@@ -22,15 +21,11 @@ from synth.synthesis.bennett import bennett
 from synth.synthesis.sixbar import sixbar
 from synth.tools.trajectory import follower_angles, plan, quintic
 
-from conftest import REPO
+from conftest import REPO, run
 from linkage_fixtures import bennett_linkage
 from test_design_export import straight_result
 
 TWO_PI = 2 * math.pi
-
-
-def run(*args):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
 
 
 @pytest.fixture(scope="module")

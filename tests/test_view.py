@@ -9,26 +9,21 @@ import subprocess
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from cli.main import mpsynth
 from synth.synthesis.bennett import bennett
 from synth.io.writer import write_output
+from synth.design.choose import design_for
 from synth.io.poses import load_poses
 from synth.io.readback import read_output
 
-from conftest import REPO
-
-
-def run(*args):
-    return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
+from conftest import REPO, run
 
 
 @pytest.fixture(scope="module")
 def out_quat(tmp_path_factory):
     ps = load_poses(str(REPO / "fixtures" / "bennett_quat.yaml"))
     out = tmp_path_factory.mktemp("view") / "bennett_quat"
-    write_output(bennett(ps.matrices, ps.names), out, robot_name="bennett_quat")
+    write_output(bennett(ps.matrices, ps.names), out, robot_name="bennett_quat", result=design_for(bennett(ps.matrices, ps.names)))
     return out
 
 
@@ -82,7 +77,7 @@ def test_page_carries_the_meshes_and_the_motion(page, out_quat):
 
 def test_viewer_script_parses():
     node = shutil.which("node")
-    from synth.tools.viewer import VIEWER_JS
+    from synth.tools.viewer_page import VIEWER_JS
 
     assert "requestAnimationFrame" in VIEWER_JS and "getContext(\"webgl\"" in VIEWER_JS
     if node:  # syntax check with node when it is there

@@ -6,12 +6,12 @@ entries, and certified round by round. Lengths in metres, angles (phi) in radian
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from synth.design.collision import body_motion, even_samples, pair_distances, pair_distances_at, world_ends
+from synth.design.work import Work
 
 FULL = (-math.pi / 2, math.pi / 2)  # phi of the whole cycle
 SEARCH_DTYPE = np.float32  # the search's sampled gaps (the certificate: float64)
@@ -20,9 +20,11 @@ ROUNDS = 4  # search rounds, each adding the samples where the last certificate 
 
 class Scorer:
     """Sampled capsule gaps of batches of candidates X (N, D) over the full cycle and the task range at
-    once (task samples are flagged in ``is_task``); ``to_offsets(X)`` gives their end offsets (N, E)."""
+    once (task samples are flagged in ``is_task``); ``to_offsets(X)`` gives their end offsets (N, E).
+    Every gap evaluated is charged to ``work`` (`synth.design.work.Work`), which the searches check."""
 
-    def __init__(self, layout: Layout, full_samples: int, task_samples: int, task: tuple[float, float], to_offsets):
+    def __init__(self, layout: Layout, full_samples: int, task_samples: int, task: tuple[float, float], to_offsets,
+                 work: Work | None = None):
         lk = layout.linkage
         pf = even_samples(lk, *FULL, full_samples)
         pt = even_samples(lk, *task, task_samples)
@@ -34,6 +36,7 @@ class Scorer:
         Q, U = world_ends(layout.cs, body_motion(lk, self.phis))
         self.Q, self.U = Q.astype(SEARCH_DTYPE), U.astype(SEARCH_DTYPE)
         self.evaluations = 0
+        self.work = Work() if work is None else work
 
     def add_samples(self, phis) -> None:
         """Sample the motion at ``phis`` too (where a certificate found a gap the samples missed)."""
@@ -51,10 +54,12 @@ class Scorer:
     def full(self, X) -> np.ndarray:
         """(N, P, K) gaps at every sample."""
         self.evaluations += len(X)
+        self.work.charge(len(X) * self.Q.shape[2] * self.Q.shape[3])  # N x P x K
         return pair_distances(self.layout.cs, self.Q, self.U, self.offsets(X))
 
     def at(self, X, pidx, kidx) -> np.ndarray:
         """(N, L) gaps at chosen (pair, sample) entries."""
+        self.work.charge(len(X) * len(pidx))
         return pair_distances_at(self.layout.cs, self.Q, self.U, self.offsets(X), pidx, kidx)
 
 
@@ -139,12 +144,10 @@ class _Critical:
         return pk[:, 0], pk[:, 1]
 
 
-def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, iterations, tries=2,
-             deadline=math.inf):
+def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, iterations, tries=2):
     """Coordinate moves of ``space`` from each start (rows of X). Moves are screened on the critical
     entries; the best per start is evaluated fully and taken when it improves; after ``tries`` failures
-    (or when no move passes the screen) the step halves. Stops early once the CPU clock passes
-    ``deadline`` (process_time seconds)."""
+    (or when no move passes the screen) the step halves. Stops early once ``scorer.work`` is spent."""
     n, D = X.shape
     nm = len(space.col)
     crit = _Critical(mask, cap=4 * scorer.Q.shape[2] + 64)
@@ -155,7 +158,7 @@ def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, i
     stall = np.zeros(n, int)
     rows_m = np.arange(nm)
     for _ in range(iterations):
-        if (step < step_min).all() or time.process_time() > deadline:
+        if (step < step_min).all() or scorer.work.spent:
             break
         C = np.repeat(X[None], nm, axis=0)  # (moves, n, D)
         moved = X[:, space.col].T * space.mul[:, None] + space.add[:, None] * step[None]
@@ -184,19 +187,20 @@ def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, i
     return X, best
 
 
-def search_rounds(scorer, space, X, mask, target, scale, *, effort, deadline, certify_best):
+def search_rounds(scorer, space, X, mask, target, scale, *, effort, certify_best):
     """Search rounds from the starts X: improve; when the best is feasible at the samples, certify it
     (``certify_best(x) -> cert``); where the certificate fails, sample there too and go on (`ROUNDS`).
     A round that finds nothing feasible is repeated only while it still reduces the violation by a
-    fifth. Returns (x, cert) of a certified design or None, and (X, best) of the last round."""
+    fifth; none starts once ``scorer.work`` is spent. Returns (x, cert) of a certified design or None,
+    and (X, best) of the last round."""
     step0 = 0.25 * scale
     previous = -math.inf
     last = None
     for _ in range(ROUNDS):
-        if time.process_time() > deadline:
+        if scorer.work.spent:
             break
         X, best = improve(scorer, space, mask(), target, X, step0=step0, step_min=0.01 * scale,
-                           iterations=int(40 * effort), deadline=deadline)
+                           iterations=int(40 * effort))
         last = (X, best)
         i = int(np.argmax(best))
         if best[i] < 1e5:  # nothing feasible: another round only while it still gains (a fifth)

@@ -8,6 +8,7 @@ import time
 import numpy as np
 
 from synth.design.coordinate import FULL, Scorer, crank_space, search_rounds
+from synth.design.work import Work
 from synth.design.search import (CLEARANCE_FRACTION, FULL_SAMPLES, SAFETY, SEARCH_MERGED, SPREADS, TASK_SAMPLES,
                                  DesignResult, Layout, certify_layout, cranked_result, sizes_of, task_phi_range)
 
@@ -26,14 +27,15 @@ def crank_direction(u, d) -> np.ndarray:
 
 
 def crank_bars(linkage, result: DesignResult, *, seed: int = 0, effort: float = 1.0,
-               seconds: float | None = None) -> DesignResult:
+               work: Work | None = None) -> DesignResult:
     """Cranked bars for a design that straight bars could not make free (docs/design.md).
 
     The mounts and pins of ``result.design`` stay; every bar of a body in ``result.collision.pairs``
     becomes a polyline mount -> via -> via -> mount, the via points at `CRANK_FRACTIONS` of the straight
     bar moved by w along `crank_direction`, and the offsets w are searched (the same coordinate search,
     scorer and certificate as the mounts, over ``result.collision.range``). Returns the cranked design
-    when it is certified free, else ``result`` unchanged. ``seconds``: CPU budget (None: no limit)."""
+    when it is certified free, else ``result`` unchanged. ``work``: the budget of gap evaluations
+    (`synth.design.work.Work`; None: no limit)."""
     t0 = time.process_time()
     old = result.design
     if result.collision.free or not result.collision.pairs:
@@ -62,16 +64,15 @@ def crank_bars(linkage, result: DesignResult, *, seed: int = 0, effort: float = 
     target = max(old.clearance, 0.25 * CLEARANCE_FRACTION * old.bar_radius) * (1 + SAFETY)
     effort = effort * min(1.0, (6 / J) ** 2)
     scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task,
-                     lambda W: search.end_offsets(np.broadcast_to(S, (len(W), len(S))), W))
+                     lambda W: search.end_offsets(np.broadcast_to(S, (len(W), len(S))), W), work)
     rng = np.random.default_rng(seed)
     n_starts = max(2, int(4 * effort))
     # straight bars, then random cranks of up to a few bar thicknesses to half the extent
     X = np.concatenate([np.zeros((1, V)), rng.uniform(-1, 1, size=(n_starts - 1, V))
                         * rng.choice(SPREADS, size=(n_starts - 1, 1)) * 0.5 * scale])
-    deadline = t0 + (math.inf if seconds is None else seconds)
     found, _ = search_rounds(scorer, crank_space(V, scale), X,
                        lambda: np.ones(len(scorer.phis), bool) if rng_phi == FULL else scorer.is_task,
-                       target, scale, effort=effort, deadline=deadline,
+                       target, scale, effort=effort,
                        certify_best=lambda w: certify_layout(exact, S, rng_phi, old.clearance, w))
     if found is None:
         result.collision.message += " (cranked bars of the colliding links were searched too)"

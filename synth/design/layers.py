@@ -19,17 +19,20 @@ with scipy's HiGHS (`scipy.optimize.milp`) within a time limit. Lengths in metre
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from synth.design.collision import adjacent_pairs, body_motion, even_samples
 from synth.design.coordinate import FULL
-from synth.design.model import joint_links
-from synth.design.search import SAFETY, DesignResult, Layout, certify_layout, cranked_result, sizes_of, task_phi_range
+from synth.design.model import DesignResult, joint_links
+from synth.design.search import SAFETY, Layout, certify_layout, cranked_result, sizes_of, task_phi_range
 
 PIECES = 2  # pieces per bar (each on its own level)
 SAMPLES_PER_JOINT = 160  # samples of the motion per joint for the constraints
 MARGIN = 1.0  # the in-plane reach of a constraint, times (hub radius + bar radius + clearance)
+LAYER_NODES = 20_000  # branch-and-bound nodes of the layering programme (HiGHS' node limit: counted work, not
+# time; fixtures/motion_elliptic.yaml's programme needs 2,755, about 8 CPU s: the limit stands for about a minute)
 
 
 def parallel_axis(linkage, tol: float = 1e-9) -> np.ndarray | None:
@@ -88,7 +91,7 @@ class _Programme:
         self.row({a_lo: 1, b_hi: -1, y: big}, 1)  # y = 0: a above b
         self.row({b_lo: 1, a_hi: -1, y: -big}, 1 - big)  # y = 1: b above a
 
-    def solve(self, cost, top, seconds):
+    def solve(self, cost, top, nodes):
         # imported here, not at the top: scipy.optimize costs about half a second (more than a whole Bennett
         # run) and only a planar linkage that straight bars cannot free needs it (as Dask for batch runs)
         from scipy.optimize import Bounds, LinearConstraint, milp
@@ -107,13 +110,106 @@ class _Programme:
         for k, v in cost.items():
             c[k] = v
         res = milp(c=c, constraints=LinearConstraint(A, self.lo, self.hi), integrality=integrality,
-                   bounds=Bounds(lb, ub), options={"time_limit": max(0.1, seconds)})
+                   bounds=Bounds(lb, ub), options={"node_limit": int(nodes)})
         return None if res.x is None else res.x
 
 
-def layer_levels(linkage, u, rng_phi, reach, seconds, keep=None, exits=()):
-    """{(link, a, b): [level per piece]} of a layering over phi in ``rng_phi`` (None when none was found in
-    ``seconds``); ``reach``: the in-plane distance below which two parts interact (metres). ``keep``: the
+@dataclass
+class _Layering:
+    """The layering programme of `layer_levels` under construction: the programme ``P``, the bars (link,
+    a, b) with their in-plane ``ends`` over the samples, the joints with their links ``jl`` and in-plane
+    tracks ``jxy``, the variables (``z``: level per bar piece, ``col``: a joint's column [lo, hi]), the
+    adjacency ``adj(a, b)`` of bodies, the in-plane ``reach`` and the big-M constant ``big``."""
+
+    P: object
+    bars: list
+    ends: list
+    joints: list
+    jl: dict
+    jxy: dict
+    z: dict
+    col: dict
+    adj: object
+    reach: float
+    big: float
+
+    def clear_of(self, link, j) -> bool:
+        """Whether the bar of ``link`` need not keep clear of the column of joint ``j``."""
+        return link in self.jl[j] or all(self.adj(link, x) for x in self.jl[j])
+
+
+def _piece(s):
+    """The piece (0 .. PIECES - 1) of a bar at the fractions ``s`` along it."""
+    return np.minimum((s * PIECES).astype(int), PIECES - 1)
+
+
+def _hub_rows(L: _Layering, hub: dict) -> None:
+    """Each hub covers the level of its bar's end piece and lies in its joint's column; the two hubs of a
+    joint are stacked."""
+    P = L.P
+    for i, (link, a, b) in enumerate(L.bars):
+        for j, h in ((a, 0), (b, PIECES - 1)):
+            lo, hi = hub[(link, j)]
+            P.row({lo: 1, L.z[(i, h)]: -1}, hi=0)  # the hub covers the level of its bar's piece
+            P.row({hi: 1, L.z[(i, h)]: -1}, lo=0)
+    for j in L.joints:
+        for link in L.jl[j]:
+            lo, hi = hub[(link, j)]
+            P.row({hi: 1, lo: -1}, lo=0)
+            P.row({L.col[j][0]: 1, lo: -1}, hi=0)
+            P.row({L.col[j][1]: 1, hi: -1}, lo=0)
+        if len(L.jl[j]) == 2:
+            P.apart(*hub[(L.jl[j][0], j)], *hub[(L.jl[j][1], j)], L.big)  # stacked hubs
+
+
+def _bar_rows(L: _Layering, i: int) -> None:
+    """Bar ``i`` apart from what it passes: a piece over a joint's column, the pieces of the later bars it
+    crosses or comes near, and the steps between its pieces (the same rows, in the same order, as one
+    programme: the same input gives the same layering)."""
+    P, z, big, reach = L.P, L.z, L.big, L.reach
+    link = L.bars[i][0]
+    p0, p1 = L.ends[i]
+    for j in L.joints:  # a piece over a joint's column
+        if L.clear_of(link, j):
+            continue
+        d, s = _point_segment(p0, p1, L.jxy[j])
+        for h in set(_piece(s[d < reach]).tolist()):
+            P.apart(z[(i, h)], z[(i, h)], *L.col[j], big)
+    for k in range(i + 1, len(L.bars)):  # crossing pieces
+        if L.adj(link, L.bars[k][0]):
+            continue
+        q0, q1 = L.ends[k]
+        hit, s, t = _crossings(p0, p1, q0, q1)
+        near = [(_piece(s[hit]), _piece(t[hit]))]  # (piece of bar i, piece of bar k) where they meet
+        for x, first, on_i in ((p0, True, False), (p1, False, False), (q0, True, True), (q1, False, True)):
+            d, r = _point_segment(*((p0, p1) if on_i else (q0, q1)), x)  # an end near the other bar
+            end = np.full(int((d < reach).sum()), 0 if first else PIECES - 1)
+            near.append((_piece(r[d < reach]), end) if on_i else (end, _piece(r[d < reach])))
+        for hs, hk in near:
+            for h, g in set(zip(hs.tolist(), hk.tolist())):
+                P.apart(z[(i, h)], z[(i, h)], z[(k, g)], z[(k, g)], big)
+    for h in range(1, PIECES):  # the step between two pieces
+        lo, hi = P.var(), P.var()
+        for g in (h - 1, h):
+            P.row({lo: 1, z[(i, g)]: -1}, hi=0)
+            P.row({hi: 1, z[(i, g)]: -1}, lo=0)
+        rp = p0 + (h / PIECES) * (p1 - p0)
+        for j in L.joints:
+            if L.clear_of(link, j):
+                continue
+            if (np.linalg.norm(L.jxy[j] - rp, axis=-1) < reach).any():
+                P.apart(lo, hi, *L.col[j], big)
+        for k, (other, c, e) in enumerate(L.bars):
+            if L.adj(link, other):
+                continue
+            d, s = _point_segment(L.ends[k][0], L.ends[k][1], rp)
+            for g in set(_piece(s[d < reach]).tolist()):
+                P.apart(lo, hi, z[(k, g)], z[(k, g)], big)
+
+
+def layer_levels(linkage, u, rng_phi, reach, nodes, keep=None, exits=()):
+    """{(link, a, b): [level per piece]} of a layering over phi in ``rng_phi`` (None when none was found
+    within ``nodes`` branch-and-bound nodes of the programme: counted work, not time); ``reach``: the in-plane distance below which two parts interact (metres). ``keep``: the
     joints layered (default: all; a partly planar linkage layers its joints parallel to ``u`` and the
     bars between two of them, `synth.design.mixed`). ``exits``: joints (of ``keep``) where a bar leaves
     the stack along the axis to a joint not kept (a riser): the joint's column then reaches the top or
@@ -145,77 +241,26 @@ def layer_levels(linkage, u, rng_phi, reach, seconds, keep=None, exits=()):
     col = {j: (P.var(), P.var()) for j in joints}  # the column of a joint: [lo, hi]
     hub = {(link, j): (P.var(), P.var()) for j in joints for link in jl[j]}
     levels = len(z)  # levels 0 .. levels: enough for one level per piece
-    big = levels + 1.0
-    for i, (link, a, b) in enumerate(bars):
-        for j, h in ((a, 0), (b, PIECES - 1)):
-            lo, hi = hub[(link, j)]
-            P.row({lo: 1, z[(i, h)]: -1}, hi=0)  # the hub covers the level of its bar's piece
-            P.row({hi: 1, z[(i, h)]: -1}, lo=0)
-    for j in joints:
-        for link in jl[j]:
-            lo, hi = hub[(link, j)]
-            P.row({hi: 1, lo: -1}, lo=0)
-            P.row({col[j][0]: 1, lo: -1}, hi=0)
-            P.row({col[j][1]: 1, hi: -1}, lo=0)
-        if len(jl[j]) == 2:
-            P.apart(*hub[(jl[j][0], j)], *hub[(jl[j][1], j)], big)  # stacked hubs
-
-    def piece(s):
-        return np.minimum((s * PIECES).astype(int), PIECES - 1)
-
-    for i, (link, a, b) in enumerate(bars):
-        p0, p1 = ends[i]
-        for j in joints:  # a piece over a joint's column
-            if link in jl[j] or all(adj(link, x) for x in jl[j]):
-                continue
-            d, s = _point_segment(p0, p1, jxy[j])
-            for h in set(piece(s[d < reach]).tolist()):
-                P.apart(z[(i, h)], z[(i, h)], *col[j], big)
-        for k in range(i + 1, len(bars)):  # crossing pieces
-            if adj(link, bars[k][0]):
-                continue
-            q0, q1 = ends[k]
-            hit, s, t = _crossings(p0, p1, q0, q1)
-            near = [(piece(s[hit]), piece(t[hit]))]  # (piece of bar i, piece of bar k) where they meet
-            for x, first, on_i in ((p0, True, False), (p1, False, False), (q0, True, True), (q1, False, True)):
-                d, r = _point_segment(*((p0, p1) if on_i else (q0, q1)), x)  # an end near the other bar
-                end = np.full(int((d < reach).sum()), 0 if first else PIECES - 1)
-                near.append((piece(r[d < reach]), end) if on_i else (end, piece(r[d < reach])))
-            for hs, hk in near:
-                for h, g in set(zip(hs.tolist(), hk.tolist())):
-                    P.apart(z[(i, h)], z[(i, h)], z[(k, g)], z[(k, g)], big)
-        for h in range(1, PIECES):  # the step between two pieces
-            lo, hi = P.var(), P.var()
-            for g in (h - 1, h):
-                P.row({lo: 1, z[(i, g)]: -1}, hi=0)
-                P.row({hi: 1, z[(i, g)]: -1}, lo=0)
-            rp = p0 + (h / PIECES) * (p1 - p0)
-            for j in joints:
-                if link in jl[j] or all(adj(link, x) for x in jl[j]):
-                    continue
-                if (np.linalg.norm(jxy[j] - rp, axis=-1) < reach).any():
-                    P.apart(lo, hi, *col[j], big)
-            for k, (other, c, e) in enumerate(bars):
-                if adj(link, other):
-                    continue
-                d, s = _point_segment(ends[k][0], ends[k][1], rp)
-                for g in set(piece(s[d < reach]).tolist()):
-                    P.apart(lo, hi, z[(k, g)], z[(k, g)], big)
+    L = _Layering(P, bars, ends, joints, jl, jxy, z, col, adj, reach, big=levels + 1.0)
+    _hub_rows(L, hub)
+    for i in range(len(bars)):
+        _bar_rows(L, i)
     for n, j in enumerate(joints):  # two columns that meet (bodies that share no joint): apart
         for k in joints[n + 1:]:
             if all(adj(x, y) for x in jl[j] for y in jl[k]):
                 continue
             if (np.linalg.norm(jxy[j] - jxy[k], axis=-1) < reach).any():
-                P.apart(*col[j], *col[k], big)
+                P.apart(*col[j], *col[k], L.big)
     top = P.var()
     for v in z.values():
         P.row({top: 1, v: -1}, lo=0)
     side = {}
+    big = L.big
     for j in exits:  # the riser at j: the column reaches the top (y = 0) or the bottom (y = 1)
         y = side[j] = P.var(binary=True)
         P.row({col[j][1]: 1, top: -1, y: big}, lo=0)
         P.row({col[j][0]: 1, y: big}, hi=big)
-    x = P.solve({top: 1.0}, levels, seconds)
+    x = P.solve({top: 1.0}, levels, nodes)
     if x is None:
         return None
     out = {bar: [int(round(x[z[(i, h)]])) for h in range(PIECES)] for i, bar in enumerate(bars)}
@@ -296,10 +341,10 @@ def height_offsets(layout: Layout, heights: dict, u) -> tuple[np.ndarray, np.nda
     return S, dS
 
 
-def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> DesignResult:
+def layered_design(linkage, result: DesignResult, *, nodes: int = LAYER_NODES) -> DesignResult:
     """A certified layered design of a planar linkage (docs/design.md, "Layers"), or ``result`` unchanged
-    when the axes are not all parallel, no layering is found within ``seconds`` (CPU, the programme's
-    time limit), or it does not certify. Keeps the sizes of ``result.design``; the pitch of the levels
+    when the axes are not all parallel, no layering is found within ``nodes`` (the programme's
+    branch-and-bound nodes), or it does not certify. Keeps the sizes of ``result.design``; the pitch of the levels
     (`pitch`) keeps a bar clear of the hubs one level up or down."""
     t0 = time.process_time()
     u = parallel_axis(linkage)
@@ -308,7 +353,7 @@ def layered_design(linkage, result: DesignResult, *, seconds: float = 10.0) -> D
         return result
     rng_phi = FULL if result.collision.range == "full" else task_phi_range(linkage)
     reach = MARGIN * (old.hub_radius + old.bar_radius + old.clearance)
-    levels = layer_levels(linkage, u, rng_phi, reach, seconds)
+    levels = layer_levels(linkage, u, rng_phi, reach, nodes)
     if levels is None:
         result.collision.message += " (no layering of the planar linkage was found either)"
         return result

@@ -4,8 +4,8 @@ The 7R loop of a general Darboux motion (`synth.synthesis.darboux`) is one membe
 parallel axes k1 k2 k3 may turn about the segment direction d (``turn``) and the 3R chain's h1, h2 may move
 in their family (``shift`` s, h1 - eps s, h2 + eps s). The default member (turn 0, s = 0) is kept when its
 design is collision-free over the full cycle; otherwise `choose_member` screens the members of `member_grid`
-in order with a quick full-cycle design search each (`SCREEN_EFFORT`, `SCREEN_CAP` CPU seconds), within
-`SECONDS` of CPU or until `WANT` free ones are found, and picks among the free ones the one with the fewest
+in order with a quick full-cycle design search each (`SCREEN_EFFORT`, at most `SCREEN_CAP` gap evaluations,
+`synth.design.work`), within `SCREEN_WORK` in all or until `WANT` free ones are found, and picks among the free ones the one with the fewest
 singular configurations (`synth.synthesis.darboux.singular_parameters`: fewer branch crossings for a built
 linkage to be guided through), then the most compact design (RMS spread of its solids' end points); its screen design (certified like
 any other) is the one written.
@@ -14,20 +14,20 @@ Lengths in metres, angles in radians.
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 
 from synth.design.model import capsules
 from synth.design.search import collision_rank
+from synth.design.work import GAPS_PER_SECOND, Work
 from synth.synthesis.darboux import add_singular, darboux_member
 
 TURNS = tuple(k * math.pi / 8 for k in (0, 1, 2, 3, 5, 6, 7))  # pi / 2: two degrees of freedom, refused
 SHIFTS = ((0.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (1.0, 0.0), (0.0, -1.0))  # directions e1, e2 of the 3R family
 SHIFT = 0.75  # length of a shift, times the default member's extent
-FIRST_CAP = 1.5  # CPU seconds of the full-cycle search on the default member
-SCREEN_EFFORT, SCREEN_CAP = 0.2, 0.25  # quick full-cycle searches of the other members
-SECONDS = 5.0  # CPU budget of the screen
+FIRST_CAP = 1.5 * GAPS_PER_SECOND  # gap evaluations of the full-cycle search on the default member
+SCREEN_EFFORT, SCREEN_CAP = 0.2, 0.25 * GAPS_PER_SECOND  # quick full-cycle searches of the other members
+SCREEN_WORK = 5.0 * GAPS_PER_SECOND  # the budget of the screen
 WANT = 2  # free members to compare before stopping the screen
 
 
@@ -43,25 +43,26 @@ def design_size(linkage, design) -> float:
     return float(np.sqrt(np.mean(np.sum((pts - pts.mean(axis=0)) ** 2, axis=1))))
 
 
-def choose_member(linkage, design, *, seconds: float = SECONDS, want: int = WANT):
+def choose_member(linkage, design, *, work: float = SCREEN_WORK, want: int = WANT):
     """(linkage, DesignResult or None): ``linkage`` (a `darboux_linkage`) and its full-cycle design when
     that is collision-free; else the preferred collision-free member (module docstring) with its design,
     ``info["darboux"]["member_choice"]`` saying why; else ``linkage`` and None (the caller designs it as
-    usual: task range, thinner and cranked bars). ``design(linkage, ranges, full_seconds, effort) ->
-    DesignResult`` (`synth.design.search.design_linkage`'s arguments)."""
-    first = design(linkage, ("full",), FIRST_CAP, 1.0)
+    usual: task range, thinner and cranked bars). ``design(linkage, ranges, full_work, effort, work) ->
+    DesignResult`` (`synth.design.search.design_linkage`'s arguments; ``work``: the `Work` every search
+    charges); ``work`` here: the screen's budget of gap evaluations."""
+    first = design(linkage, ("full",), FIRST_CAP, 1.0, Work())
     if collision_rank(first.collision) == 0:
         return linkage, first
-    t0 = time.process_time()
+    spent = Work()
     free, tried = [], 0
     for turn, shift in member_grid(linkage.extent())[1:]:
-        if len(free) >= want or time.process_time() - t0 > seconds:
+        if len(free) >= want or spent.done > work:
             break
         lk = darboux_member(linkage, turn, shift, singular=False, check_samples=20)
         if lk is None:
             continue
         tried += 1
-        result = design(lk, ("full",), SCREEN_CAP, SCREEN_EFFORT)
+        result = design(lk, ("full",), SCREEN_CAP, SCREEN_EFFORT, spent)
         if collision_rank(result.collision) == 0:
             free.append((turn, shift, lk, result))
     if not free:

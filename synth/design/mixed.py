@@ -12,8 +12,9 @@ from dataclasses import replace
 import numpy as np
 
 from synth.design.coordinate import FULL, Scorer, Space, score, search_rounds, violation
-from synth.design.layers import MARGIN, height_offsets, layer_levels, level_pitch, stack_geometry
+from synth.design.layers import LAYER_NODES, MARGIN, height_offsets, layer_levels, level_pitch, stack_geometry
 from synth.design.model import joint_links
+from synth.design.work import Work
 from synth.design.search import (CLEARANCE_FRACTION, FULL_SAMPLES, SAFETY, SEARCH_MERGED, SPREADS, TASK_SAMPLES,
                                  DesignResult, Layout, certify_layout, cranked_result, sizes_of, task_phi_range)
 
@@ -100,12 +101,13 @@ def _space(Js, R, gmin, scale) -> Space:
     return Space(np.array(col), np.array(add, float), np.array(mul, float), lo, size)
 
 
-def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: int = 0,
-                 effort: float = 1.0) -> DesignResult:
+def mixed_design(linkage, result: DesignResult, *, nodes: int = LAYER_NODES, work: Work | None = None,
+                 seed: int = 0, effort: float = 1.0) -> DesignResult:
     """A certified design of a partly planar linkage (`dominant_axis`): the parallel part layered, the
     rest searched around it; ``result`` unchanged when it is free, the linkage is not partly planar, no
-    layering or no certified design is found. ``seconds``: CPU budget of the layering programme and of
-    the search each. Keeps the sizes of ``result.design``."""
+    layering or no certified design is found. ``nodes``: the layering programme's budget of
+    branch-and-bound nodes; ``work``: the search's budget of gap evaluations (`synth.design.work.Work`;
+    None: no limit). Keeps the sizes of ``result.design``."""
     t0 = time.process_time()
     found = None if result.collision.free else dominant_axis(linkage)
     if found is None:
@@ -118,7 +120,7 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
               if (a in keep) != (b in keep)]  # bars from the stack to another joint
     exits = sorted({a if a in keep else b for _, a, b in risers})
     for attempt in ((exits, ()) if exits else ((),)):  # risers out of the stack, else straight bars
-        found = _attempt(linkage, result, u, keep, attempt, rng_phi, reach, seconds, seed, effort)
+        found = _attempt(linkage, result, u, keep, attempt, rng_phi, reach, (nodes, work), seed, effort)
         if found is not None:
             found.collision.seconds = result.collision.seconds + time.process_time() - t0
             return found
@@ -126,11 +128,12 @@ def mixed_design(linkage, result: DesignResult, *, seconds: float = 30.0, seed: 
     return result
 
 
-def _attempt(linkage, result, u, keep, exits, rng_phi, reach, seconds, seed, effort):
+def _attempt(linkage, result, u, keep, exits, rng_phi, reach, budget, seed, effort):
     """`mixed_design` with risers at ``exits`` (none: straight bars from the stack); None when no
-    layering or no certified design is found."""
+    layering or no certified design is found. ``budget``: (nodes, work) as `mixed_design`'s."""
     old = result.design
-    levels = layer_levels(linkage, u, rng_phi, reach, seconds, keep=keep, exits=exits)
+    nodes, work = budget
+    levels = layer_levels(linkage, u, rng_phi, reach, nodes, keep=keep, exits=exits)
     if levels is None:
         return None
     heights, cranks, crank_heights, outward = stack_geometry(linkage, levels, u, level_pitch(old), keep=keep)
@@ -152,7 +155,7 @@ def _attempt(linkage, result, u, keep, exits, rng_phi, reach, seconds, seed, eff
         S, W = stack.offsets(X)
         return search.end_offsets(S, W)
 
-    scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, to_offsets)
+    scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, to_offsets, work)
     space = _space(Js, R, gmin, scale)
     rng = np.random.default_rng(seed)
     n = int(effort * 16 * Js) + 8
@@ -174,7 +177,7 @@ def _attempt(linkage, result, u, keep, exits, rng_phi, reach, seconds, seed, eff
         return certify_layout(exact, S[0], rng_phi, old.clearance, W[0])
 
     found, _ = search_rounds(scorer, space, X0[starts].copy(), lambda: mask, target, scale, effort=effort,
-                             deadline=time.process_time() + seconds, certify_best=certify_best)
+                             certify_best=certify_best)
     if found is None:
         return None
     x, cert = found

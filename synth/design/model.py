@@ -209,3 +209,54 @@ def pins_for(linkage, design: PhysicalDesign) -> list[Pin]:
         h = design.hub_length / 2
         pins.append(Pin(joint, min(offs) - h, max(offs) + h, links[0]))
     return pins
+
+
+@dataclass
+class CollisionReport:
+    """What the design achieves. Lengths in metres, angles in radians.
+
+    ``free``: no two bodies that share no joint come closer than ``clearance`` over ``range``
+    ("full": the whole cycle; "task": the arc of the driving joint ``driver`` from ``driver_range[0]``
+    to ``driver_range[1]`` (increasing, may exceed 2 pi) that visits every task pose);
+    ``min_distance``: the certified smallest gap over that range (a lower bound; negative: the solids
+    may overlap) when ``certified``, else the smallest sampled gap; ``sampled_min_distance``: the
+    smallest gap seen at the samples; ``thinned``: when the
+    default bar and pin radii collided and thinner ones are used, {"scale": of the defaults,
+    "default_pin_radius", "default_bar_radius": metres, "default_pairs": the bodies that collided at
+    the defaults}; ``pairs``: the offending body pairs when not free ({"bodies":
+    [a, b], "min_distance": d, "driver_angles": [lo, hi]}, the closest first); ``message``: a sentence on what to change
+    when not free; ``seconds``: CPU time of the search, ``work``: its gap evaluations (`synth.design.work`)."""
+
+    free: bool
+    range: str
+    clearance: float
+    min_distance: float
+    driver: str
+    driver_range: tuple[float, float]
+    certified: bool = False
+    pairs: list[dict] = field(default_factory=list)
+    message: str = ""
+    sampled_min_distance: float = float("nan")
+    seconds: float = 0.0
+    work: int = 0  # gap evaluations of the search (synth.design.work); neither it nor seconds is written
+    thinned: dict | None = None  # set by synth.design.choose.design_for when the default sizes collided
+    cranked: list | None = None  # [[link, joint a, joint b], ...]: the cranked bars (crank_bars, layered_design)
+    layers: int | None = None  # levels used by a layered design (synth.design.layers)
+
+    def to_dict(self) -> dict:
+        return {"free": self.free, "range": self.range, "clearance": self.clearance,
+                "min_distance": self.min_distance, "driver": self.driver,
+                "driver_range": [float(self.driver_range[0]), float(self.driver_range[1])],
+                "certified": self.certified, "pairs": self.pairs, "message": self.message,
+                "sampled_min_distance": self.sampled_min_distance,  # (not ``seconds``: outputs are reproducible)
+                **({"thinned": self.thinned} if self.thinned else {}),
+                **({"cranked": self.cranked} if self.cranked else {}),
+                **({"layers": self.layers} if self.layers else {})}
+
+
+@dataclass
+class DesignResult:
+    """A finished design: what the exporters write (`synth.io.export`)."""
+
+    design: PhysicalDesign
+    collision: CollisionReport

@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from synth.design.collision import CapsuleSet, adjacent_pairs, bodies, certify, phi_of_t, t_of_phi
 from synth.design.coordinate import FULL, Scorer, mount_space, score, search_rounds, violation
-from synth.design.model import Bar, Mount, PhysicalDesign, Pin, hub_radius_for, joint_links
+from synth.design.work import GAPS_PER_SECOND, Work
+from synth.design.model import Bar, CollisionReport, DesignResult, Mount, PhysicalDesign, Pin, hub_radius_for, joint_links
 
 TWO_PI = 2 * math.pi
 CLEARANCE_FRACTION = 0.25  # default clearance: this fraction of the bar radius
@@ -34,55 +34,6 @@ FULL_SAMPLES, TASK_SAMPLES = 24, 12  # search samples per joint, full cycle and 
 ATTEMPTS = 2  # independent sets of starts per range
 SPREADS = (0.25, 0.5, 1.0, 2.0)  # scales (times the extent) of the random stack centres
 SEARCH_MERGED = True  # the search scores merged hub+pin capsules (fewer pairs), the certificate the exact ones
-
-
-@dataclass
-class CollisionReport:
-    """What the design achieves. Lengths in metres, angles in radians.
-
-    ``free``: no two bodies that share no joint come closer than ``clearance`` over ``range``
-    ("full": the whole cycle; "task": the arc of the driving joint ``driver`` from ``driver_range[0]``
-    to ``driver_range[1]`` (increasing, may exceed 2 pi) that visits every task pose);
-    ``min_distance``: the certified smallest gap over that range (a lower bound; negative: the solids
-    may overlap) when ``certified``, else the smallest sampled gap; ``sampled_min_distance``: the
-    smallest gap seen at the samples; ``thinned``: when the
-    default bar and pin radii collided and thinner ones are used, {"scale": of the defaults,
-    "default_pin_radius", "default_bar_radius": metres, "default_pairs": the bodies that collided at
-    the defaults}; ``pairs``: the offending body pairs when not free ({"bodies":
-    [a, b], "min_distance": d, "driver_angles": [lo, hi]}, the closest first); ``message``: a sentence on what to change
-    when not free; ``seconds``: time of the search."""
-
-    free: bool
-    range: str
-    clearance: float
-    min_distance: float
-    driver: str
-    driver_range: tuple[float, float]
-    certified: bool = False
-    pairs: list[dict] = field(default_factory=list)
-    message: str = ""
-    sampled_min_distance: float = float("nan")
-    seconds: float = 0.0
-    thinned: dict | None = None  # set by synth.io.meshes.design_for when the default sizes collided
-    cranked: list | None = None  # [[link, joint a, joint b], ...]: the cranked bars (crank_bars, layered_design)
-    layers: int | None = None  # levels used by a layered design (synth.design.layers)
-
-
-    def to_dict(self) -> dict:
-        return {"free": self.free, "range": self.range, "clearance": self.clearance,
-                "min_distance": self.min_distance, "driver": self.driver,
-                "driver_range": [float(self.driver_range[0]), float(self.driver_range[1])],
-                "certified": self.certified, "pairs": self.pairs, "message": self.message,
-                "sampled_min_distance": self.sampled_min_distance,  # (not ``seconds``: outputs are reproducible)
-                **({"thinned": self.thinned} if self.thinned else {}),
-                **({"cranked": self.cranked} if self.cranked else {}),
-                **({"layers": self.layers} if self.layers else {})}
-
-
-@dataclass
-class DesignResult:
-    design: PhysicalDesign
-    collision: CollisionReport
 
 
 # ----------------------------------------------------------------------------------------- layout
@@ -257,30 +208,25 @@ def task_phi_range(linkage) -> tuple[float, float]:
 def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
                    hole_clearance: float = 0.0, clearance: float | None = None, seed: int = 0,
                    effort: float = 1.0, ranges: tuple[str, ...] = ("full", "task"),
-                   full_seconds: float | None = None, seconds: float | None = None) -> DesignResult:
+                   full_work: float | None = None, work: Work | None = None) -> DesignResult:
     """A collision-free physical design for ``linkage`` (full cycle if found, else task range) and its
     certified `CollisionReport`; the most compact one found. Lengths in metres. ``clearance`` defaults
     to ``CLEARANCE_FRACTION`` times the bar radius; ``effort`` scales the number of candidates.
     ``ranges``: the ranges tried, in order (("full",): a quick full-cycle-only search, whose failure is
-    reported as not free over the full cycle; ("task",): the task range only). ``full_seconds``: a CPU
-    budget of the full-cycle search (checked between its rounds; None: no limit); ``seconds``: a CPU
-    budget of the whole search (checked between moves; None: no limit; the certificate of the last
-    candidate is made even when it is spent)."""
-
+    reported as not free over the full cycle; ("task",): the task range only). ``full_work``: a budget
+    of gap evaluations (`synth.design.work`) for the full-cycle search (None: no limit); ``work``: the
+    budget of the whole search, charged with every evaluation (checked between moves; None: no limit;
+    the certificate of the last candidate is made even when it is spent). The report's ``work`` counts
+    the evaluations of this search; its ``seconds`` the CPU time (information only: nothing depends on it)."""
     t0 = time.process_time()
+    budget = Work() if work is None else work
+    start = budget.done
     sizes = resolved_sizes(pin_radius, bar_radius, hub_length, hole_clearance, clearance)
     clearance, hub_radius = sizes["clearance"], sizes["hub_radius"]
     search = Layout(linkage, merged=SEARCH_MERGED, **sizes)
     exact = Layout(linkage, merged=False, **sizes)
     if not len(exact.cs.pairs):  # every two bodies share a joint: nothing can collide
-        S = exact.natural_offsets()
-        driver = driver_joint(linkage)
-        design = exact.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
-                              hole_clearance=hole_clearance, clearance=clearance)
-        report = CollisionReport(free=True, range="full", clearance=clearance, min_distance=math.inf,
-                                 driver=driver, driver_range=(0.0, TWO_PI), certified=True,
-                                 sampled_min_distance=math.inf, seconds=time.process_time() - t0)
-        return DesignResult(design, report)
+        return _natural_free(linkage, exact, sizes, hole_clearance)
     scale = linkage.extent()
     task = task_phi_range(linkage)
     J = len(search.joints)
@@ -292,19 +238,10 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     def to_S(X):
         return search.mount_offsets(X[:, :J], X[:, J:2 * J], X[:, 2 * J:])
 
-    scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, lambda X: search.end_offsets(to_S(X)))
+    scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, lambda X: search.end_offsets(to_S(X)), budget)
     space = mount_space(J, gmin, scale)
 
-    # initial population: every order of the natural stack, then random stacks
-    n_orders = min(2 ** J, 64)
-    orders = np.array([[1 - 2 * ((k >> i) & 1) for i in range(J)] for k in range(n_orders)], float)
-    n_rand = int(effort * 32 * J)
-    sigma0 = np.concatenate([orders, rng.choice([-1.0, 1.0], size=(n_rand, J))])
-    spread = rng.choice(SPREADS, size=(n_rand, 1)) * scale
-    c0 = np.concatenate([np.zeros((n_orders, J)), rng.uniform(-1, 1, size=(n_rand, J)) * spread])
-    g0 = np.concatenate([np.full((n_orders, J), gmin),
-                         gmin * (1 + rng.exponential(0.5, size=(n_rand, J)) * (rng.random((n_rand, J)) < 0.3))])
-    X0 = np.concatenate([c0, sigma0, g0], axis=1)
+    X0 = initial_stacks(rng, J, int(effort * 32 * J), gmin, scale)
     coarse = np.zeros(len(scorer.phis), bool)
     coarse[::3] = True
     pk = np.nonzero(np.ones((len(search.cs.pairs), len(scorer.phis)), bool) & coarse[None])
@@ -315,20 +252,20 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     result, last = None, None
     n_starts = max(2, int(4 * effort))
     ranges = _ranges(ranges, task)
-    end = t0 + (math.inf if seconds is None else seconds)
+    full = budget.part(None if full_work is None else full_work - (budget.done - start))  # the screen counts
     for rname, rng_phi, attempt in [(r, p, a) for r, p in ranges for a in range(ATTEMPTS)]:
-        if rname == "full" and full_seconds is not None and time.process_time() - t0 > full_seconds:
-            continue
-        if time.process_time() > end:
+        if budget.spent:
             break
-        deadline = min(end, t0 + full_seconds) if rname == "full" and full_seconds is not None else end
+        scorer.work = full if rname == "full" else budget
+        if scorer.work.spent:  # the full-cycle budget: on to the task range
+            continue
         mask0 = np.ones(coarse.sum(), bool) if rname == "full" else coarse_task
         ranked = np.argsort(-score(violation(d0, target, mask0), size0), kind="stable")
         starts = ranked[attempt * n_starts:(attempt + 1) * n_starts]
         found, tried = search_rounds(
             scorer, space, X0[starts].copy(),
             lambda: np.ones(len(scorer.phis), bool) if rname == "full" else scorer.is_task,
-            target, scale, effort=effort, deadline=deadline,
+            target, scale, effort=effort,
             certify_best=lambda x: certify_layout(exact, to_S(x[None])[0], rng_phi, clearance))
         last = tried or last
         if found is not None:
@@ -344,8 +281,32 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     design = exact.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
                           hole_clearance=hole_clearance, clearance=clearance)
     report = report_for(linkage, exact, rname, cert, clearance)
-    report.seconds = time.process_time() - t0
+    report.seconds, report.work = time.process_time() - t0, budget.done - start
     return DesignResult(design, report)
+
+
+def _natural_free(linkage, layout: Layout, sizes: dict, hole_clearance: float) -> DesignResult:
+    """The natural stack of a linkage in which every two bodies share a joint: free over the full cycle."""
+    design = layout.design(layout.natural_offsets(), pin_radius=sizes["pin_radius"], bar_radius=sizes["bar_radius"],
+                           hub_radius=sizes["hub_radius"], hole_clearance=hole_clearance, clearance=sizes["clearance"])
+    report = CollisionReport(free=True, range="full", clearance=sizes["clearance"], min_distance=math.inf,
+                             driver=driver_joint(linkage), driver_range=(0.0, TWO_PI), certified=True,
+                             sampled_min_distance=math.inf)
+    return DesignResult(design, report)
+
+
+def initial_stacks(rng, J: int, n_rand: int, gmin: float, scale: float) -> np.ndarray:
+    """The starts of the mount search, rows X = [c | sigma | g] (N, 3J): every order of the natural stack
+    (up to 64), then ``n_rand`` random stacks (centres spread by `SPREADS` times ``scale``, gaps from
+    ``gmin`` up), drawn from ``rng`` in a fixed order (the same seed, the same starts)."""
+    n_orders = min(2 ** J, 64)
+    orders = np.array([[1 - 2 * ((k >> i) & 1) for i in range(J)] for k in range(n_orders)], float)
+    sigma0 = np.concatenate([orders, rng.choice([-1.0, 1.0], size=(n_rand, J))])
+    spread = rng.choice(SPREADS, size=(n_rand, 1)) * scale
+    c0 = np.concatenate([np.zeros((n_orders, J)), rng.uniform(-1, 1, size=(n_rand, J)) * spread])
+    g0 = np.concatenate([np.full((n_orders, J), gmin),
+                         gmin * (1 + rng.exponential(0.5, size=(n_rand, J)) * (rng.random((n_rand, J)) < 0.3))])
+    return np.concatenate([c0, sigma0, g0], axis=1)
 
 
 def natural_result(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
@@ -447,32 +408,33 @@ def collision_rank(report: CollisionReport) -> int:
     return 0 if report.free and report.range == "full" else (1 if report.free else 2)
 
 
-def rank_buildable(candidates, design, *, limit: int = 8, seconds: float = 6.0, first: float = 2.5,
-                   per_candidate: float = 1.2, reserve: float = 1.0) -> list[tuple]:
+def rank_buildable(candidates, design, *, limit: int = 8, work: float = 6.0 * GAPS_PER_SECOND,
+                   first: float = 2.5 * GAPS_PER_SECOND, per_candidate: float = 1.2 * GAPS_PER_SECOND,
+                   reserve: float = 1.0 * GAPS_PER_SECOND) -> list[tuple]:
     """Choose among candidate linkages (given best first by their kinematic score) collision-freedom first.
 
-    ``design(linkage, ranges, full_seconds) -> DesignResult`` (`design_linkage`'s arguments). Phase 1: a
-    full-cycle-only search of at most ``first`` CPU seconds on the best-scored candidate and
-    ``per_candidate`` on each next one, in order, until one is free, ``limit`` were tried, or ``seconds -
-    reserve`` are spent (a free design is usually found within a second; the failures are what costs).
-    Phase 2, when none is free over the full cycle: the task-range search on the candidates in order
-    until one is free over it or ``seconds`` are spent (at least the first). Returns [(linkage,
-    DesignResult)] of the final designs sorted by (`collision_rank`, kinematic order): a phase-1 success
-    alone, else the phase-2 designs."""
-    t0 = time.process_time()
+    ``design(linkage, ranges, full_work, work) -> DesignResult`` (`design_linkage`'s arguments; ``work``:
+    the `Work` every search charges). Budgets in gap evaluations (`synth.design.work`). Phase 1: a
+    full-cycle-only search of at most ``first`` on the best-scored candidate and ``per_candidate`` on
+    each next one, in order, until one is free, ``limit`` were tried, or ``work - reserve`` are spent (a
+    free design is usually found soon; the failures are what costs). Phase 2, when none is free over the
+    full cycle: the task-range search on the candidates in order until one is free over it or ``work``
+    is spent (at least the first). Returns [(linkage, DesignResult)] of the final designs sorted by
+    (`collision_rank`, kinematic order): a phase-1 success alone, else the phase-2 designs."""
+    spent = Work()
     candidates = list(candidates)
     for k, linkage in enumerate(candidates[:limit]):
         cap = first if k == 0 else per_candidate
-        if k and time.process_time() - t0 + cap > seconds - reserve:
+        if k and spent.done + cap > work - reserve:
             break
-        result = design(linkage, ("full",), cap)
+        result = design(linkage, ("full",), cap, spent)
         if collision_rank(result.collision) == 0:
             return [(linkage, result)]
     done = []
     for k, linkage in enumerate(candidates[:limit]):
-        result = design(linkage, ("task",), None)
+        result = design(linkage, ("task",), None, spent)
         done.append((collision_rank(result.collision), k, linkage, result))
-        if done[-1][0] <= 1 or time.process_time() - t0 > seconds:
+        if done[-1][0] <= 1 or spent.done > work:
             break
     done.sort(key=lambda x: x[:2])
     return [(lk, r) for _, _, lk, r in done]

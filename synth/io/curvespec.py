@@ -16,7 +16,7 @@ import numpy as np
 from synth.algebra.expr import parse_polynomial
 from synth.errors import InputError
 from synth.io.docload import load_document, read_source
-from synth.synthesis.curve import MAX_DEGREE, CurveSpec, MotionSpec
+from synth.task import MAX_DEGREE, CurveSpec, MotionSpec
 
 SPEC_KEYS = ("curve", "motion")
 

@@ -19,6 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.io.meshes import DENSITY
+from synth.io.names import MESH_UNIT_SCALE, mesh_filename, pin_link_name
+
 FORMAT = "mpsynth.linkage/1"
 
 
@@ -45,8 +48,6 @@ def plain(obj, where: str = "document"):
 
 def design_section(design) -> dict:
     """The ``design`` section: `PhysicalDesign.to_dict` plus each pin's ``link`` and ``mesh`` file."""
-    from synth.io.urdf import mesh_filename, pin_link_name
-
     d = design.to_dict()
     for p in d["pins"]:
         p["link"] = pin_link_name(p["joint"])
@@ -57,9 +58,6 @@ def design_section(design) -> dict:
 def stl_section() -> dict:
     """The ``stl`` section: the STL files' length unit and URDF scale, and the density the URDF's masses
     and inertias assume (uniform solid parts)."""
-    from synth.io.meshes import DENSITY
-    from synth.io.urdf import MESH_UNIT_SCALE
-
     return {"length_unit": "mm", "urdf_scale": MESH_UNIT_SCALE, "density": DENSITY, "density_unit": "kg/m^3",
             "material": "aluminium", "masses": "URDF <inertial>: kg, kg m^2, solid parts of this density"}
 
@@ -142,3 +140,9 @@ def write_json(doc: dict, path) -> Path:
         fh.flush()
         os.fsync(fh.fileno())
     return path
+
+
+def write_linkage_json(job, directory: Path) -> list[Path]:
+    """The ``json`` exporter (`synth.io.export`): ``linkage.json`` of ``job``'s linkage and design."""
+    write_json(linkage_document(job.linkage, job.result.design, job.result.collision), directory / "linkage.json")
+    return [Path("linkage.json")]

@@ -1,5 +1,6 @@
-"""Validation of the names mpsynth writes into its output: the URDF robot name (``--name``) and the
-ROS package of the mesh URIs (``--package``, ``package://PACKAGE/meshes/...``)."""
+"""The names and units of the files in an output directory (the pin links and mesh files, the STL unit),
+and the validation of the names mpsynth writes into its output: the URDF robot name (``--name``) and
+the ROS package of the mesh URIs (``--package``, ``package://PACKAGE/meshes/...``)."""
 from __future__ import annotations
 
 import re
@@ -9,6 +10,19 @@ from synth.errors import InputError
 
 PACKAGE_RE = re.compile(r"[a-z][a-z0-9_]*\Z")  # ROS REP 144 package name
 MAX_NAME = 200
+MESH_UNIT_SCALE = 0.001  # metres per STL unit (STL files are written in millimetres)
+PIN_PREFIX = "pin_"
+
+
+def pin_link_name(joint: str) -> str:
+    """The URDF link of the pin of ``joint``."""
+    return f"{PIN_PREFIX}{joint}"
+
+
+def mesh_filename(link: str, mesh_dir: str = "meshes", package: str | None = None) -> str:
+    """The mesh file of ``link`` as the URDF names it: ``meshes/<link>.stl`` or ``package://PACKAGE/...``."""
+    rel = f"{mesh_dir.strip('/')}/{link}.stl" if mesh_dir else f"{link}.stl"
+    return f"package://{package}/{rel}" if package else rel
 
 
 def _bad_char(text: str) -> str | None:

@@ -19,7 +19,7 @@ import numpy as np
 from synth.algebra.dq import matrix_to_quat, quat_to_matrix
 from synth.errors import InputError
 from synth.io.docload import clean_text, quote_text
-from synth.io.frames import rpy_from_sincos, skew
+from synth.frames import rpy_from_sincos, skew
 
 #: metres per unit
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}

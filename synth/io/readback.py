@@ -1,7 +1,7 @@
 """The one reader of an output directory (docs/conventions.md): the linkage, its link frames, meshes and poses.
 
 ``read_files(OUT)`` parses linkage.json (plain JSON) and linkage.urdf (`synth.io.urdfmodel`) without
-judging them: `mpsynth check` (`synth.io.verify`) and `mpsynth simulate` start from it.
+judging them: `mpsynth check` (`synth.tools.check.verify`) and `mpsynth simulate` start from it.
 ``read_output(OUT)`` rebuilds a `synth.linkage.Linkage` from ``OUT/linkage.json`` (joint lines, angle
 laws, link tree, closures, poses, tool frame) and takes from ``OUT/linkage.urdf`` what only the URDF
 holds: the link frames at the reference configuration, the mesh files with their scale and visual

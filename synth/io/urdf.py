@@ -7,7 +7,7 @@
   that range (shifted by whole turns to hold 0, the first pose), so that simulators stay inside it;
 - each pin of the physical design is a link ``pin_<joint>`` (frame at the pin's midpoint) fixed to its
   carrier link by the joint ``pin_<joint>_mount``, with visual and collision mesh ``meshes/pin_<joint>.stl``;
-- link frames are translated copies of the world frame (see frames.py), so a joint's origin is the
+- link frames are translated copies of the world frame (see synth/frames.py), so a joint's origin is the
   difference of the child's and parent's frame origins with rpy "0 0 0", and its axis is the joint's
   world direction at the reference configuration;
 - link ``tool`` hangs on ``linkage.tool_link`` by the fixed joint ``tool_mount``;
@@ -24,20 +24,21 @@ All floats are written with ``repr`` (shortest round-trip form), so the file is 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 import xml.etree.ElementTree as ET
-
-MESH_UNIT_SCALE = 0.001  # metres per STL unit (STL files are written in millimetres)
-_MESH_SCALE = f"{MESH_UNIT_SCALE!r} {MESH_UNIT_SCALE!r} {MESH_UNIT_SCALE!r}"
 
 import numpy as np
 
-from synth.io.frames import link_origins, rpy_from_matrix, tool_mount_origin
+from synth.design.model import axis_point
+from synth.frames import link_origins, rpy_from_matrix, tool_mount_origin
+from synth.io.names import MESH_UNIT_SCALE, PIN_PREFIX, mesh_filename, pin_link_name
+
+_MESH_SCALE = f"{MESH_UNIT_SCALE!r} {MESH_UNIT_SCALE!r} {MESH_UNIT_SCALE!r}"
 
 TINY_MASS = 1e-6
 TINY_INERTIA = 1e-9
 TOOL_LINK = "tool"
 TOOL_JOINT = "tool_mount"
-PIN_PREFIX = "pin_"
 LIMIT_EFFORT = 1000.0  # N m: a bound for planners and simulators, not a property of the linkage
 LIMIT_VELOCITY = 10.0  # rad/s
 
@@ -57,11 +58,6 @@ def _vec(v) -> str:
     return " ".join(_f(x) for x in v)
 
 
-def pin_link_name(joint: str) -> str:
-    """The URDF link of the pin of ``joint``."""
-    return f"{PIN_PREFIX}{joint}"
-
-
 def driver_limits(collision) -> tuple[str, float, float] | None:
     """(driver joint, lower, upper) radians for a task-range collision claim (a `CollisionReport` or its
     dict), shifted by whole turns so that 0 (the first pose) lies inside; None for a full-cycle claim."""
@@ -78,11 +74,6 @@ def driver_limits(collision) -> tuple[str, float, float] | None:
 def closure_names(n: int) -> list[str]:
     """Names of the loop-closure welds: loop_closure, loop_closure_2, ..."""
     return ["loop_closure"] + [f"loop_closure_{i}" for i in range(2, n + 1)]
-
-
-def mesh_filename(link: str, mesh_dir: str = "meshes", package: str | None = None) -> str:
-    rel = f"{mesh_dir.strip('/')}/{link}.stl" if mesh_dir else f"{link}.stl"
-    return f"package://{package}/{rel}" if package else rel
 
 
 def _inertial(parent, mass, com, inertia):
@@ -140,8 +131,6 @@ def _mesh_geometry(link, n, fn, offset):
 
 def _pin_frames(linkage, design, origins) -> dict:
     """{pin link: (carrier link, (3,) origin of the pin frame in the carrier's frame)}."""
-    from synth.design.model import axis_point
-
     out = {}
     for p in design.pins:
         if p.carrier not in origins:
@@ -151,36 +140,50 @@ def _pin_frames(linkage, design, origins) -> dict:
     return out
 
 
-def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str | None = None,
-              masses: dict | None = None, mesh_offsets: dict | None = None, design=None, collision=None) -> str:
-    """The URDF document (str, with XML declaration) of ``linkage``.
+def urdf_text(linkage, robot_name: str, design, masses: dict, *, mesh_dir: str = "meshes", package: str | None = None,
+              mesh_offsets: dict | None = None, collision=None) -> str:
+    """The URDF document (str, with XML declaration) of ``linkage`` with its finished physical design.
 
-    ``masses``: {link: (mass kg, centre of mass (3,) in the link frame, 3x3 inertia about the centre
-    of mass)} for the links with geometry, as returned by ``meshes.mesh_inertials``; when None it is
-    computed from ``meshes.link_solids(linkage)`` with default sizes and aluminium density. Links
-    with geometry are those with a non-empty joint list in ``linkage.links``. ``mesh_offsets``:
-    {link: (3,) position (metres, link frame) of the STL file's origin}; the writer stores each STL
-    about its own centre so that single-precision STL coordinates stay accurate far from the origin.
-    ``design``: the `PhysicalDesign` whose pins become links ``pin_<joint>`` (None: `meshes.design_for`'s);
-    ``collision``: its collision claim (`CollisionReport` or dict), for the driver's limits."""
+    ``design``: the `PhysicalDesign` whose pins become links ``pin_<joint>``; ``masses``: {link: (mass kg,
+    centre of mass (3,) in the link frame, 3x3 inertia about the centre of mass)} for the links with
+    geometry and the pins, as returned by ``meshes.mesh_inertials``. Links with geometry are those with a
+    non-empty joint list in ``linkage.links``. ``mesh_offsets``: {link: (3,) position (metres, link frame)
+    of the STL file's origin}; the writer stores each STL about its own centre so that single-precision
+    STL coordinates stay accurate far from the origin. ``collision``: the design's collision claim
+    (`CollisionReport` or dict), for the driver's limits."""
     origins = link_origins(linkage)
-    names = list(origins)
+    geometric = [n for n in origins if linkage.links.get(n)]
+    pins = _pin_frames(linkage, design, origins)
+    _check_names(linkage, origins, pins, geometric, masses)
+    masses = _share_welded_masses(linkage, masses, origins, geometric)
+
+    robot = ET.Element("robot", name=str(robot_name))
+    robot.append(ET.Comment(
+        " written by mpsynth: a closed-loop linkage cut into a tree (docs/conventions.md, 'two branches, one weld');"
+        " the fixed joints in the gazebo elements weld the cut links back together "))
+    for n in list(origins) + list(pins):
+        link = ET.SubElement(robot, "link", name=n)
+        if n in masses:
+            _inertial(link, *masses[n])
+        if n in geometric or n in pins:
+            _mesh_geometry(link, n, mesh_filename(n, mesh_dir, package), (mesh_offsets or {}).get(n, np.zeros(3)))
+        elif n not in masses:
+            _inertial(link, TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
+    tool = ET.SubElement(robot, "link", name=TOOL_LINK)
+    _inertial(tool, TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
+    _joints(robot, linkage, origins, pins, driver_limits(collision))
+    ET.indent(robot, space="  ")
+    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
+
+
+def _check_names(linkage, origins, pins, geometric, masses) -> None:
+    """ValueError for a reserved or clashing link name, a closure naming an unknown link, a missing mass."""
     if TOOL_LINK in origins:
         raise ValueError(f"link name {TOOL_LINK!r} is reserved for the tool frame")
     for a, b in linkage.closures:
         for link in (a, b):
             if link not in origins:
                 raise ValueError(f"closure ({a}, {b}) names unknown link {link!r}")
-    geometric = [n for n in names if linkage.links.get(n)]
-    if design is None or masses is None:
-        from synth.io.meshes import design_for, design_solids, mesh_inertials
-
-        if design is None:
-            result = design_for(linkage)
-            design, collision = result.design, (result.collision if collision is None else collision)
-        if masses is None:
-            masses = mesh_inertials(design_solids(linkage, design))
-    pins = _pin_frames(linkage, design, origins)
     for n in pins:
         if n in origins or n == TOOL_LINK:
             raise ValueError(f"pin link {n!r} clashes with a link name")
@@ -188,28 +191,10 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
         if n not in masses:
             raise ValueError(f"no mass properties for link {n!r}")
 
-    masses = _share_welded_masses(linkage, masses, origins, geometric)
 
-    robot = ET.Element("robot", name=str(robot_name))
-    robot.append(ET.Comment(
-        " written by mpsynth: a closed-loop linkage cut into a tree (docs/conventions.md, 'two branches, one weld');"
-        " the fixed joints in the gazebo elements weld the cut links back together "))
-    for n in names:
-        link = ET.SubElement(robot, "link", name=n)
-        if n in masses:
-            _inertial(link, *masses[n])
-        if n in geometric:
-            _mesh_geometry(link, n, mesh_filename(n, mesh_dir, package), (mesh_offsets or {}).get(n, np.zeros(3)))
-        elif n not in masses:
-            _inertial(link, TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
-    for n in pins:
-        link = ET.SubElement(robot, "link", name=n)
-        _inertial(link, *masses[n])
-        _mesh_geometry(link, n, mesh_filename(n, mesh_dir, package), (mesh_offsets or {}).get(n, np.zeros(3)))
-    tool = ET.SubElement(robot, "link", name=TOOL_LINK)
-    _inertial(tool, TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
-
-    limits = driver_limits(collision)
+def _joints(robot, linkage, origins, pins, limits) -> None:
+    """The URDF joints: the linkage's (``continuous``, the driver ``revolute`` within ``limits`` of a
+    task-range claim), the pin and tool mounts, the markers' mounts and the loop-closure welds."""
     for j in linkage.joints:
         limited = limits is not None and limits[0] == j.name
         el = ET.SubElement(robot, "joint", name=j.name, type="revolute" if limited else "continuous")
@@ -246,5 +231,11 @@ def urdf_text(linkage, robot_name: str, mesh_dir: str = "meshes", package: str |
         ET.SubElement(el, "parent").text = a
         ET.SubElement(el, "child").text = b
 
-    ET.indent(robot, space="  ")
-    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
+
+def write_urdf(job, directory: Path) -> list[Path]:
+    """The ``urdf`` exporter (`synth.io.export`): ``linkage.urdf`` of ``job``'s linkage and design."""
+    r = job.result
+    text = urdf_text(job.linkage, job.robot_name, r.design, job.masses, mesh_dir="meshes", package=job.package,
+                     mesh_offsets=job.mesh_offsets, collision=r.collision)
+    (directory / "linkage.urdf").write_text(text, encoding="utf-8")
+    return [Path("linkage.urdf")]

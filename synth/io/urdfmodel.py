@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.errors import InputError
-from synth.io.frames import axis_rotations, rpy_matrix
+from synth.frames import axis_rotations, rpy_matrix
 
 
 @dataclass
@@ -163,6 +163,28 @@ def read_urdf(path) -> UrdfModel:
     if root.tag != "robot":
         raise InputError(f"{path}: root element is <{root.tag}>, expected <robot>")
     problems: list[str] = []
+    links, meshes, inertials = _read_links(root, problems)
+    joints: dict[str, UJoint] = {}
+    parent_joint: dict[str, str] = {}
+    for el in root.findall("joint"):
+        j = _read_joint(el, links, joints, problems)
+        if j is None:
+            continue
+        if j.child in parent_joint:
+            problems.append(f"URDF: link {j.child} has two parents (joints {parent_joint[j.child]} and {j.name})")
+            continue
+        parent_joint[j.child] = j.name
+        joints[j.name] = j
+    roots = [lk for lk in links if lk not in parent_joint]
+    if roots != ["base"]:
+        problems.append(f"URDF: root link(s) {roots}, expected exactly ['base']")
+    order = _tree_order(links, joints, problems)
+    return UrdfModel(root.get("name", ""), links, joints, _read_closures(root, problems), meshes, problems, order,
+                     inertials, parent_joint)
+
+
+def _read_links(root, problems: list) -> tuple[list[str], list[UMesh], dict]:
+    """(link names, meshes of their visuals and collisions, {link: (mass, origin 4x4, inertia 3x3)})."""
     links: list[str] = []
     meshes: list[UMesh] = []
     inertials: dict = {}
@@ -189,59 +211,65 @@ def read_urdf(path) -> UrdfModel:
                                     _colour(part.find("material"), materials, name, problems)))
         inertial = el.find("inertial")
         if inertial is not None:
-            mass_el, I_el = inertial.find("mass"), inertial.find("inertia")
-            mass = _floats(mass_el.get("value") if mass_el is not None else None, 1, f"mass of link {name}", problems)
-            keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
-            vals = _floats(" ".join(I_el.get(k, "0") for k in keys) if I_el is not None else None, 6,
-                           f"inertia of link {name}", problems)
-            if mass is not None and vals is not None:
-                ixx, ixy, ixz, iyy, iyz, izz = vals
-                I = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-                inertials[name] = (mass[0], _origin(inertial.find("origin"), f"inertial origin of link {name}",
-                                                    problems), I)
-    joints: dict[str, UJoint] = {}
-    parent_joint: dict[str, str] = {}
-    for el in root.findall("joint"):
-        name, kind = _unique_name(el, "joint", joints, problems), el.get("type")
-        if name is None:
-            continue
-        p, c = el.find("parent"), el.find("child")
-        parent = p.get("link") if p is not None else None
-        child = c.get("link") if c is not None else None
-        if not parent or not child:
-            problems.append(f"URDF: joint {name} lacks a parent or child link")
-            continue
-        bad = [lk for lk in (parent, child) if lk not in links]
-        if bad:
-            problems.append(f"URDF: joint {name} names missing link(s) {', '.join(bad)}")
-            continue
-        if kind not in ("revolute", "continuous", "prismatic", "fixed"):
-            problems.append(f"URDF: joint {name} has type {kind!r} (expected continuous, revolute or fixed)")
-            continue
-        n_before = len(problems)
-        T = _origin(el.find("origin"), f"origin of joint {name}", problems)
-        a = el.find("axis")
-        axis = _floats(a.get("xyz", "1 0 0") if a is not None else "1 0 0", 3, f"axis of joint {name}", problems)
-        if axis is None or len(problems) > n_before:
-            continue
-        axis = np.array(axis)
-        if kind != "fixed" and not np.linalg.norm(axis) > 0:
-            problems.append(f"URDF: joint {name} has a zero axis")
-            continue
-        limit = None
-        lim = el.find("limit")
-        if kind == "revolute" and lim is not None:
-            limit = (float(lim.get("lower", "0")), float(lim.get("upper", "0")))
-        if child in parent_joint:
-            problems.append(f"URDF: link {child} has two parents (joints {parent_joint[child]} and {name})")
-            continue
-        parent_joint[child] = name
-        unit = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > 0 else axis
-        joints[name] = UJoint(name, kind, parent, child, T, unit, axis, limit)
-    roots = [lk for lk in links if lk not in parent_joint]
-    if roots != ["base"]:
-        problems.append(f"URDF: root link(s) {roots}, expected exactly ['base']")
-    # topological order from base; links not reached hang in a cycle or under another root
+            value = _inertial(inertial, name, problems)
+            if value is not None:
+                inertials[name] = value
+    return links, meshes, inertials
+
+
+def _inertial(inertial, name: str, problems: list) -> tuple | None:
+    """(mass, origin 4x4, inertia 3x3) of an <inertial> of link ``name``, or None (a problem noted)."""
+    mass_el, I_el = inertial.find("mass"), inertial.find("inertia")
+    mass = _floats(mass_el.get("value") if mass_el is not None else None, 1, f"mass of link {name}", problems)
+    keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    vals = _floats(" ".join(I_el.get(k, "0") for k in keys) if I_el is not None else None, 6,
+                   f"inertia of link {name}", problems)
+    if mass is None or vals is None:
+        return None
+    ixx, ixy, ixz, iyy, iyz, izz = vals
+    I = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    return mass[0], _origin(inertial.find("origin"), f"inertial origin of link {name}", problems), I
+
+
+def _read_joint(el, links: list, joints: dict, problems: list) -> UJoint | None:
+    """The `UJoint` of a <joint> element, or None (a problem noted) when it cannot be one."""
+    name, kind = _unique_name(el, "joint", joints, problems), el.get("type")
+    if name is None:
+        return None
+    p, c = el.find("parent"), el.find("child")
+    parent = p.get("link") if p is not None else None
+    child = c.get("link") if c is not None else None
+    if not parent or not child:
+        problems.append(f"URDF: joint {name} lacks a parent or child link")
+        return None
+    bad = [lk for lk in (parent, child) if lk not in links]
+    if bad:
+        problems.append(f"URDF: joint {name} names missing link(s) {', '.join(bad)}")
+        return None
+    if kind not in ("revolute", "continuous", "prismatic", "fixed"):
+        problems.append(f"URDF: joint {name} has type {kind!r} (expected continuous, revolute or fixed)")
+        return None
+    n_before = len(problems)
+    T = _origin(el.find("origin"), f"origin of joint {name}", problems)
+    a = el.find("axis")
+    axis = _floats(a.get("xyz", "1 0 0") if a is not None else "1 0 0", 3, f"axis of joint {name}", problems)
+    if axis is None or len(problems) > n_before:
+        return None
+    axis = np.array(axis)
+    if kind != "fixed" and not np.linalg.norm(axis) > 0:
+        problems.append(f"URDF: joint {name} has a zero axis")
+        return None
+    limit = None
+    lim = el.find("limit")
+    if kind == "revolute" and lim is not None:
+        limit = (float(lim.get("lower", "0")), float(lim.get("upper", "0")))
+    unit = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > 0 else axis
+    return UJoint(name, kind, parent, child, T, unit, axis, limit)
+
+
+def _tree_order(links: list, joints: dict, problems: list) -> list[str]:
+    """The joints in topological order from base; links not reached (in a cycle or under another root)
+    are a problem."""
     order, reached, frontier = [], {"base"}, ["base"]
     children: dict[str, list[str]] = {}
     for jn, j in joints.items():
@@ -257,6 +285,11 @@ def read_urdf(path) -> UrdfModel:
     lost = [lk for lk in links if lk not in reached]
     if lost and "base" in links:
         problems.append(f"URDF: link(s) {', '.join(lost)} not connected to base")
+    return order
+
+
+def _read_closures(root, problems: list) -> list[tuple[str, str, str]]:
+    """(name, parent, child) of every fixed <gazebo> joint: the loop-closure welds."""
     closures = []
     for g in root.findall("gazebo"):
         for el in g.findall("joint"):
@@ -267,8 +300,7 @@ def read_urdf(path) -> UrdfModel:
                 problems.append(f"URDF: <gazebo> joint {el.get('name')} lacks <parent> or <child>")
                 continue
             closures.append((el.get("name") or "", p.text.strip(), c.text.strip()))
-    return UrdfModel(root.get("name", ""), links, joints, closures, meshes, problems, order, inertials,
-                     parent_joint)
+    return closures
 
 
 def _unique_name(el, what: str, seen, problems: list) -> str | None:

@@ -20,7 +20,7 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dq_inv, dq_to_pose, normalize_dq, pose_to_dq
+from synth.algebra.dq import dq_inv, dq_to_pose, dq_translation, normalize_dq, pose_to_dq
 from synth.blas import one_blas_thread
 from synth.checks import VERIFY_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
@@ -28,16 +28,16 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import ACCEPT_TOL
 from synth.synthesis.conditioning import transmission_problem
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import (ERRORS, Layout, MotionModel, homogeneous, item_errors, levenberg_marquardt,
+from synth.synthesis.fit import (ERRORS, Layout, MotionModel, homogeneous, levenberg_marquardt,
                                  task_arrays, _mul)
 from synth.synthesis.taskfit import FitSummary, annotate, item_kinds, tolerance_problem, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 
 __all__ = ["bennett_task", "is_task", "hermite_conic", "regauge", "fit_motion", "MAX_TRIPLES", "KEEP", "GRID"]
 
-MAX_TRIPLES = 80  # seeds from triples of poses: all when there are at most this many, else a sample
+MAX_TRIPLES = 60  # seeds from triples of poses: all when there are at most this many, else a sample
 GRID = 48  # parameter samples per seed motion for projecting the items onto it
-KEEP = 6  # seeds refined by Levenberg-Marquardt
+KEEP = 4  # seeds refined by Levenberg-Marquardt
 ITERATIONS = 40  # Jacobians per refinement, at most
 EXACT_WEIGHT = 1e3  # weight of exact rows when ranking seeds (conditioned units)
 FEASIBLE = 1e-10  # largest constraint violation of an accepted fit (conditioned units)
@@ -159,15 +159,17 @@ def _seeds(Q, task, kinds, velocity_twists):
 
 
 def _project(coef, ref, task):
-    """Each item's angle phi (S, N) on each seed motion: the best of GRID samples (weighted error)."""
+    """Each item's angle phi (S, N) on each seed motion: the nearest of GRID samples, by the weighted
+    squared position and angle misses (exact components weighted EXACT_WEIGHT; angles 8 (1 - |p . q|))."""
     grid = (np.arange(GRID) + 0.5) * (np.pi / GRID)
-    N = len(task.Q)
-    phi = np.broadcast_to(grid[None, :, None], (len(coef), GRID, N))
     with np.errstate(all="ignore"):
-        e = item_errors(coef[:, None], ref[:, None], phi, task)  # (S, G, N, ROWS)
-    w = task.weight + EXACT_WEIGHT * task.exact
-    cost = np.nan_to_num(((e * w) ** 2).sum(-1), nan=np.inf)
-    return grid[np.argmin(cost, axis=1)]
+        P = normalize_dq(_mul(homogeneous(coef, np.broadcast_to(grid, (len(coef), GRID))), ref[:, None]))
+        x = dq_translation(P)  # (S, G, 3)
+    w = task.weight[:, [0, 3]] + EXACT_WEIGHT * task.exact[:, [0, 3]]  # (N, 2): position, angle
+    d2 = ((x[:, :, None, :] - task.X) ** 2).sum(-1) * w[:, 0] ** 2
+    cos = np.abs(P[..., :4] @ task.Q[:, :4].T)  # |p . q|: (S, G, N)
+    d2 = d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1] ** 2
+    return grid[np.argmin(np.nan_to_num(d2, nan=np.inf), axis=1)]
 
 
 # ------------------------------------------------------------------ the fit
@@ -300,8 +302,8 @@ def bennett_task(ps: PoseSet, top: int = 1, best_effort: bool = False) -> list:
             from synth.synthesis.bennett import verify
 
             verify(lk)
-        else:
-            check_fitted(lk)
+        elif s.method == "hermite":
+            check_fitted(lk)  # (fits are checked in `_fitted`)
         annotate(lk, ps, s)
         results.append(lk)
     if ps.order is Order.LISTED:

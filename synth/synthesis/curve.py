@@ -30,27 +30,14 @@ from synth.algebra.flip import parallelogram_flip
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.darboux import DARBOUX_JOINTS, darboux_linkage
 from synth.linkage import Linkage
+from synth.task import CurveSpec
 from synth.algebra.realfactor import UnboundedMotionError, poly_text, real_gcd_exact, real_gcd_numeric
 
-MAX_DEGREE = 16  # of a curve component or a motion polynomial
 CHECK_SAMPLES = 200
 
 
 class UnboundedCurveError(SynthesisError):
     """w has a real zero (or deg x > deg w): the curve runs to infinity."""
-
-
-# ====================================================================== specs
-@dataclass
-class CurveSpec:
-    polys: list  # [x, y, z, w]: ascending coefficient lists (Fractions)
-    texts: list  # the source texts
-
-
-@dataclass
-class MotionSpec:
-    C: list  # rows of 8 Fractions (ascending)
-    text: str | None = None
 
 
 # ====================================================================== motions
@@ -449,5 +436,4 @@ def spec_linkage(spec, *, scale: float = 1.0, method: str = "auto", m0=None) -> 
     return motion_linkage(spec.C, scale=scale, m0=m0, text=spec.text)
 
 
-__all__ = ["curve_linkage", "motion_linkage", "spec_linkage", "CurveSpec",
-           "MotionSpec", "UnboundedCurveError", "UnboundedMotionError", "trace_error"]
+__all__ = ["curve_linkage", "motion_linkage", "spec_linkage", "UnboundedCurveError", "UnboundedMotionError", "trace_error"]

@@ -15,6 +15,7 @@ function with the same row/column structure can use it.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,8 +29,11 @@ ERRORS = 6  # per item: position error (3, spreads), rotation error 2 sin(angle/
 ROWS = ERRORS + 5  # and 5 velocity rows (components of the twist direction across the prescribed one)
 STEP = 1e-30  # complex step
 FEASIBLE_FLOOR = 1e-14  # constraint violation (conditioned units) counted as met
-NEARLY_FEASIBLE = 1e-8  # during the damped steps: cost-lowering steps may leave this much (`polish` ends)
+NEARLY_FEASIBLE = 1e-6  # during the damped steps: cost-lowering steps may leave this much (`polish` ends)
+CORRECTIONS = 2  # second-order corrections per trial step, while the violation is above CORRECT_ABOVE
+CORRECT_ABOVE = 1e-9
 POLISH_STEPS = 4
+FLAT = 1e-10  # a relative decrease of the cost below this ends a seed's refinement
 _DQ = structure_constants().reshape(64, 8).astype(float)
 _Q = structure_constants()[:4, :4, :4].reshape(16, 4).astype(float)
 _CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
@@ -38,11 +42,8 @@ _CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
 def _product(a, b, table):
     """The bilinear product sum_ij a_i b_j table[i, j, :] of (..., k) arrays of any dtype (complex for complex
     steps), broadcast: the dual quaternion (``_DQ``) or quaternion (``_Q``) product."""
-    k = a.shape[-1]
-    if a.shape != b.shape:
-        shape = np.broadcast_shapes(a.shape, b.shape)
-        a, b = np.broadcast_to(a, shape), np.broadcast_to(b, shape)
-    return (a[..., :, None] * b[..., None, :]).reshape(a.shape[:-1] + (k * k,)) @ table
+    outer = a[..., :, None] * b[..., None, :]  # broadcast, a new contiguous array
+    return outer.reshape(outer.shape[:-2] + (-1,)) @ table
 
 
 def _mul(a, b):
@@ -109,14 +110,17 @@ def homogeneous(coef, phi, derivative: bool = False):
     (c_0 .. c_{n-1}) and angles ``phi`` (..., N); with ``derivative`` also dC/dphi."""
     n = coef.shape[-2]
     full = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], coef.shape[:-2] + (1, 8)).astype(coef.dtype)], -2)
+    b, db = basis(phi, n)
+    return (b @ full, db @ full) if derivative else b @ full
+
+
+def basis(phi, n: int):
+    """cos^k sin^(n-k) of phi (..., N) for k = 0 .. n, and their derivatives: two (..., N, n+1) arrays."""
     c, s = _powers(np.cos(phi), n + 1), _powers(np.sin(phi), n + 1)  # (..., N, n+2)
     k = np.arange(n + 1)
-    value = (c[..., k] * s[..., n - k]) @ full
-    if not derivative:
-        return value
     # d/dphi cos^k sin^(n-k) = -k cos^(k-1) sin^(n-k+1) + (n-k) cos^(k+1) sin^(n-k-1)
     d = -k * c[..., np.maximum(k - 1, 0)] * s[..., n - k + 1] + (n - k) * c[..., k + 1] * s[..., np.maximum(n - k - 1, 0)]
-    return value, d @ full
+    return c[..., k] * s[..., n - k], d
 
 
 def _powers(x, m: int):
@@ -142,7 +146,13 @@ def item_errors(coef, ref, phi, task: TaskArrays):
     angular velocity, v the velocity of the tool origin, along phi). coef (..., n, 8), ref (..., 8),
     phi (..., N); any float or complex dtype."""
     C, dC = homogeneous(coef, phi, derivative=True)
-    P = _mul(C, ref[..., None, :])
+    return pose_errors(C, dC, ref[..., None, :], task)
+
+
+def pose_errors(C, dC, ref, task: TaskArrays):
+    """`item_errors` from the motion's values C (..., N, 8) and derivatives dC at the items and the reference
+    ``ref`` (..., 1, 8) (broadcast)."""
+    P = _mul(C, ref)
     p, q = P[..., :4], P[..., 4:]
     x = 2.0 * _qmul(p, q * _CONJ[:4])[..., 1:] / _vdot(p, p)[..., None]  # translation (synth.algebra.dq)
     e = _qmul(p, task.Q[:, :4] * _CONJ[:4])  # rotation from the target to the prediction (times |p|)
@@ -166,11 +176,15 @@ def study_rows(coef):
     of C C~ (halved), sum_{j+k=m} p_j . q_k for m = 0 .. 2n-1 (c_n = 1). Returns (..., 2n)."""
     n = coef.shape[-2]
     p = np.concatenate([coef[..., :4], np.broadcast_to(np.eye(4)[0], coef.shape[:-2] + (1, 4))], -2)
-    q = coef[..., 4:]
-    pq = p[..., :, None, :] * q[..., None, :, :]  # (..., n+1, n, 4)
-    pq = pq.sum(-1)
+    pq = (p[..., :, None, :] * coef[..., None, :, 4:]).sum(-1)  # (..., n+1, n): p_j . q_k
+    return pq.reshape(pq.shape[:-2] + (-1,)) @ _study_sums(n)
+
+
+@functools.lru_cache(maxsize=4)
+def _study_sums(n: int) -> np.ndarray:
+    """(n+1) n x 2n 0/1 matrix summing p_j . q_k over j + k = m."""
     j, k = np.meshgrid(np.arange(n + 1), np.arange(n), indexing="ij")
-    return np.stack([pq[..., (j + k) == m].sum(-1) for m in range(2 * n)], -1)
+    return ((j + k).reshape(-1, 1) == np.arange(2 * n)).astype(float)
 
 
 @dataclass(frozen=True)
@@ -232,17 +246,45 @@ class MotionModel:
         return r, c
 
     def jacobians(self, x):
-        """(r, c, J_r, J_c) at x (S, P) by complex steps: one per coefficient / reference unknown and one
-        for all phi at once (each phi_i moves item i's rows only)."""
-        lay = self.layout
-        g = 8 * lay.n + 6
-        dirs = np.zeros((g + 1, lay.size))
-        dirs[np.arange(g), np.arange(g)] = 1.0
-        dirs[g, g:] = 1.0
-        X = x[:, None, :] + 1j * STEP * dirs
-        r, c = self.rows(X)
-        dr, dc = r.imag / STEP, c.imag / STEP  # (S, g+1, M)
-        S = x.shape[0]
+        """(r, c, J_r, J_c) at x (S, P). The rows depend on the coefficients only through C and dC at the
+        items, linearly (`basis`): complex steps in C (8), dC (8, with velocities), the reference (6) and
+        all phi at once (each phi_i moves item i's rows only), chained to the coefficients; the Study rows
+        by complex steps in the coefficients."""
+        lay, task = self.layout, self.task
+        n, g, S = lay.n, 8 * lay.n + 6, x.shape[0]
+        coef, x_ref, phi = lay.split(x)
+        b, db = basis(phi, n)
+        full = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], (S, 1, 8))], -2)
+        C, dC = b @ full, db @ full  # (S, N, 8)
+        ref = reference_pose(self.ref0, x_ref)[:, None, None, :]  # (S, 1, 1, 8)
+        vel = bool(task.exact[:, ERRORS:].any())
+        step = 1j * STEP * np.eye(8)[:, None, :]  # (8, 1, 8): one complex step per component
+        c_phi, dc_phi = homogeneous(coef, phi + 1j * STEP, derivative=True)
+        ref_steps = reference_pose(self.ref0[:, None], x_ref[:, None] + 1j * STEP * np.eye(6))[:, :, None, :]
+        blocks = [(C[:, None] + step, dC[:, None], ref)]  # d/dC
+        if vel:
+            blocks.append((C[:, None], dC[:, None] + step, ref))  # d/dC'
+        blocks += [(C[:, None], dC[:, None], ref_steps), (c_phi[:, None], dc_phi[:, None], ref)]  # reference, phi
+        sizes = [max(x.shape[1] for x in blk) for blk in blocks]
+        Cs, dCs, refs = (np.concatenate([np.broadcast_to(blk[i], (S, k) + blk[i].shape[2:]).astype(complex)
+                                         for blk, k in zip(blocks, sizes)], 1) for i in range(3))
+        E = pose_errors(Cs, dCs, refs, task)  # (S, directions, N, ROWS)
+        dE = E.imag / STEP
+        E0 = E[:, -1].real
+        dirs = dE.shape[1]
+        dE_coef = np.einsum("snk,sjnr->skjnr", b[..., :n], dE[:, :8])
+        if vel:
+            dE_coef = dE_coef + np.einsum("snk,sjnr->skjnr", db[..., :n], dE[:, 8:16])
+        dE_all = np.concatenate([dE_coef.reshape(S, 8 * n, *dE.shape[2:]), dE[:, dirs - 7:dirs - 1],
+                                 dE[:, dirs - 1:]], 1)  # (S, g+1, N, ROWS): coefficients, reference, phi
+        flat = dE_all.reshape(S, g + 1, -1)
+        dr = (dE_all * task.weight).reshape(S, g + 1, -1)[..., self.free]
+        kick = coef[:, None] + 1j * STEP * np.eye(8 * n).reshape(8 * n, n, 8)
+        dstudy = np.zeros((S, g + 1, 2 * n))
+        dstudy[:, :8 * n] = study_rows(kick).imag / STEP
+        dc = np.concatenate([flat[..., self.eq], dstudy], -1)
+        r = (E0 * task.weight).reshape(S, -1)[:, self.free]
+        c = np.concatenate([E0.reshape(S, -1)[:, self.eq], study_rows(coef)], -1)
         Jr = np.zeros((S, r.shape[-1], lay.size))
         Jc = np.zeros((S, c.shape[-1], lay.size))
         Jr[:, :, :g] = np.swapaxes(dr[:, :g], 1, 2)
@@ -252,7 +294,7 @@ class MotionModel:
         for J, d, owner in ((Jr, dr, rows_r), (Jc, dc, rows_c)):
             k = np.nonzero(owner >= 0)[0]
             J[:, k, g + owner[k]] = d[:, g, k]
-        return r[:, 0].real, c[:, 0].real, Jr, Jc
+        return r, c, Jr, Jc
 
 
 def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
@@ -263,7 +305,8 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
     halves max |c| while that is above NEARLY_FEASIBLE (a filter: exact rows never trade against the cost);
     `polish` then meets c = 0 to rounding. ``fixed`` (S, P) bool: columns held, per seed. ``model``:
     ``rows(x) -> (r, c)`` and ``jacobians(x) -> (r, c, J_r, J_c)``. Stops after ``iterations`` Jacobians
-    or when every seed's step is below 1e-13 (relative): counted work only."""
+    or when every seed's step is below 1e-13 (relative) or its cost stops moving (FLAT, relative): counted
+    work only."""
     x = np.array(x0, float)
     fixed = np.broadcast_to(np.asarray(fixed, bool), x.shape)
     S, P = x.shape
@@ -289,7 +332,9 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
             K[:, idx, idx] = np.where(fixed, 1.0, H[:, idx, idx] + lam[:, None] * dH)
             xn = x + _solve(K, rhs)[:, :P]
             rn, cn = model.rows(xn)
-            if ne:  # second-order correction: back onto the constraints along A's rows
+            for _ in range(CORRECTIONS if ne else 0):  # second-order corrections: back onto c = 0 along A's rows
+                if np.abs(cn[pending]).max(initial=0.0) <= CORRECT_ABOVE:
+                    break
                 xn = xn - _min_norm(A, cn)
                 rn, cn = model.rows(xn)
             cost_n, viol_n = (rn * rn).sum(-1), np.abs(cn).max(-1, initial=0.0)
@@ -297,11 +342,12 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
             improves = (cost_n < cost) & (viol_n <= np.maximum(viol, NEARLY_FEASIBLE))
             ok = pending & np.isfinite(cost_n) & (improves | (restores & (viol > NEARLY_FEASIBLE)))
             step = np.max(np.abs(xn - x), axis=1)
+            flat = ok & (cost - cost_n <= FLAT * cost + 1e-28)  # the cost no longer moves
             x[ok] = xn[ok]
             cost, viol = np.where(ok, cost_n, cost), np.where(ok, viol_n, viol)
             lam = np.where(ok, np.maximum(lam / 3, 1e-12), np.where(pending, lam * 4, lam))
             small = step <= 1e-13 * (1 + np.max(np.abs(x), axis=1))
-            done |= pending & small & (viol <= NEARLY_FEASIBLE)
+            done |= pending & (small | flat) & (viol <= NEARLY_FEASIBLE)
             pending &= ~ok & ~done
             if not pending.any():
                 break

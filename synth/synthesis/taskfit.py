@@ -12,11 +12,11 @@ import numpy as np
 
 from synth.checks import pose_difference
 import json
-from synth.errors import SynthesisError
+from synth.errors import InputError, SynthesisError
 from synth.task import Order, PoseSet
 
-__all__ = ["FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem", "error_rows",
-           "item_kinds", "select"]
+__all__ = ["make_task", "fit", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem",
+           "error_rows", "item_kinds", "select"]
 
 
 @dataclass
@@ -50,11 +50,13 @@ def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
     (closure, transmission) as ``linkage.checks``. Returns whether every tolerance is met."""
     kinds = item_kinds(ps)
     tol = np.zeros((len(ps), 2)) if ps.tolerance is None else np.asarray(ps.tolerance, float)
-    T = np.array([linkage.tool_pose(r.joint_angles) for r in linkage.poses])
+    angles = {j.name: np.array([r.joint_angles[j.name] for r in linkage.poses]) for j in linkage.joints}
+    T = linkage.tool_pose(angles)  # (N, 4, 4): every item at once
     dt, dr = pose_difference(T, ps.matrices)
     point = np.array([k == "point" for k in kinds])
     dr = np.where(point, 0.0, dr)
-    size = linkage.extent()
+    pos = ps.matrices[:, :3, 3]
+    size = max(float(np.sqrt(np.mean(np.sum((pos - pos.mean(0)) ** 2, 1)))), 1e-300)  # the items' spread
     ok = []
     for i, rec in enumerate(linkage.poses):
         rec.kind = kinds[i]
@@ -134,3 +136,43 @@ def _length(x: float, ps: PoseSet) -> str:
 
 def _angle(x: float) -> str:
     return "free" if math.isinf(x) else f"{math.degrees(x):.4g} deg"
+
+
+def make_task(poses, names=None, tolerance=None, velocity=None, order=None) -> PoseSet:
+    """A `PoseSet` task from arrays: poses (N, 4, 4) metres, ``tolerance`` (2,) or (N, 2) [metres, radians]
+    (0 exact, inf free; None: all exact), ``velocity`` (N, 6) [w rad/s, v m/s] (NaN rows: none), ``order``
+    "any" or "listed". InputError on shapes and values."""
+    T = np.asarray(poses, float)
+    if T.ndim != 3 or T.shape[1:] != (4, 4) or not np.all(np.isfinite(T)):
+        raise InputError(f"poses must be a finite array of shape (N, 4, 4), got {T.shape}")
+    n = len(T)
+    names = list(names) if names is not None else [f"p{i}" for i in range(n)]
+    tol = None
+    if tolerance is not None:
+        tol = np.broadcast_to(np.asarray(tolerance, float), (n, 2)).copy()
+        if np.isnan(tol).any() or (tol < 0).any():
+            raise InputError("tolerance must be >= 0 (inf: free) for every pose")
+    vel = None
+    if velocity is not None:
+        vel = np.asarray(velocity, float).reshape(n, 6)
+    try:
+        order = Order(order or "any")
+    except ValueError:
+        raise InputError(f"order must be 'any' or 'listed', got {order!r}") from None
+    return PoseSet(names=names, matrices=T, tolerance=tol, velocity=vel, order=order, named=[True] * n)
+
+
+def fit(poses, names=None, *, tolerance=None, velocity=None, order=None, kind: str = "bennett", top: int = 1,
+        best_effort: bool = False):
+    """Linkages of ``kind`` ("bennett" or "6r") for a task (a `PoseSet`, or arrays as `make_task`), best first
+    (a list of up to ``top``): exact, Hermite or fitted (docs/fit.md, docs/sixbar_fit.md)."""
+    task = poses if isinstance(poses, PoseSet) else make_task(poses, names, tolerance, velocity, order)
+    if kind == "bennett":
+        from synth.synthesis.bennett_fit import bennett_task
+
+        return bennett_task(task, top=top, best_effort=best_effort)
+    if kind == "6r":
+        from synth.synthesis.sixbar_task import sixbar_task
+
+        return sixbar_task(task, top=top, best_effort=best_effort)
+    raise InputError(f"synth.fit: kind {kind!r} is not available (allowed: 'bennett', '6r')")

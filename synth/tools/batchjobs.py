@@ -15,7 +15,9 @@ of, or besides, ``poses``; its result is the best-scored design. With ``out``
 linkage is written there (``synth.io.writer.write_output``: files of others in OUT are kept; robot name
 ``name``, else the id; missing parent directories are created, an unusable OUT is refused before the
 synthesis);
-mesh sizes are in the job's length unit. Unknown keys are an error (a typo must not be
+mesh sizes are in the job's length unit. A Bennett job may carry a task file's keys (docs/fit.md:
+``tolerance``, ``order``, ``constraints`` and per pose ``tolerance``, ``exact``, ``velocity``; then 2 or more
+poses, ``best_effort`` as the CLI's --best-effort); its result then has ``fit``. Unknown keys are an error (a typo must not be
 ignored silently).
 
 The result of a job is one JSON object::
@@ -51,6 +53,7 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator
 
 from synth.checks import VERIFY_SAMPLES
+from synth.design.choose import design_for
 from synth.errors import MpsynthError
 from synth.io.docload import json_object_pairs
 from synth.io.jsonout import linkage_document, plain
@@ -62,8 +65,9 @@ from synth.synthesis.points import MINIMUM, NEEDED, oriented_item, point_candida
 
 KINDS = {"bennett": 3, "sixbar": 4}
 DEGREES = {"bennett": 2, "sixbar": 3}  # degree of the motion of a point task
+TASK_KEYS = ("tolerance", "order", "constraints")  # a task file's keys (docs/fit.md), as in a pose file
 JOB_KEYS = ("id", "kind", "poses", "points", "units", "out", "name", "normalize", "force",
-            "pin_radius", "link_radius", "pin_length")
+            "pin_radius", "link_radius", "pin_length", "best_effort") + TASK_KEYS
 MAX_LINE = 10 * 1024 * 1024
 
 
@@ -143,6 +147,14 @@ def _check_job(job: dict) -> None:
                 raise _JobError(f"{key!r} must be a positive length in the job's unit")
 
 
+def _is_task_job(job: dict) -> bool:
+    """A job with a task file's keys (top-level tolerance or order, per-pose tolerance, exact or velocity)."""
+    if any(k in job for k in ("tolerance", "order")):
+        return True
+    items = [p for k in ("poses", "points") for p in (job.get(k) if isinstance(job.get(k), list) else [])]
+    return any(isinstance(p, dict) and any(k in p for k in ("tolerance", "exact", "velocity")) for p in items)
+
+
 def _synthesize(kind: str, ps):
     if ps.has_points:  # a point task (docs/points.md): the best-scored design
         oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
@@ -181,7 +193,7 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
         job = parse_job(text)
         result["id"] = _echo_id(job.get("id"))
         _check_job(job)
-        doc = {k: job[k] for k in ("poses", "points") if k in job}
+        doc = {k: job[k] for k in ("poses", "points") + TASK_KEYS if k in job}
         if "units" in job:
             doc["units"] = job["units"]
         kind = job["kind"]
@@ -189,16 +201,23 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
             out_path = _out_path(job["out"], out_dir) if "out" in job else None
             if out_path is not None:
                 _prepare_out(out_path, bool(job.get("force", False)), created)
-            ps = parse_pose_document(doc, source="poses", count=(KINDS[kind], f"kind {kind!r}"),
-                                     normalize=bool(job.get("normalize", False)),
+            task = kind == "bennett" and _is_task_job(job)
+            ps = parse_pose_document(doc, source="poses", normalize=bool(job.get("normalize", False)),
+                                     count=((2, None) if task else KINDS[kind], f"kind {kind!r}"),
                                      points=((MINIMUM[DEGREES[kind]], NEEDED[DEGREES[kind]]), f"kind {kind!r}"))
-            linkage = _synthesize(kind, ps)
+            if task:  # tolerances, velocities, an order (docs/fit.md): exact, Hermite or fitted
+                from synth.synthesis.bennett_fit import bennett_task
+
+                linkage = bennett_task(ps, best_effort=bool(job.get("best_effort", False)))[0]
+            else:
+                linkage = _synthesize(kind, ps)
             out = None
             if "out" in job:
                 sizes = {k: float(job[k]) * ps.length_scale for k in ("pin_radius", "link_radius", "pin_length")
                          if k in job}
                 name = job.get("name") or safe_robot_name(str(result["id"]) if result["id"] is not None else "")
-                write_output(linkage, out_path, robot_name=name, force=bool(job.get("force", False)), **sizes)
+                write_output(linkage, out_path, robot_name=name, result=design_for(linkage, **sizes),
+                             force=bool(job.get("force", False)))
                 out = job["out"]
         except MpsynthError as e:
             raise _JobError(str(e), e.exit_code) from None
@@ -258,6 +277,10 @@ def _success(kind: str, linkage, out, full: bool) -> dict:
     b = linkage.info.get("bennett")
     if b:
         res["bennett"] = plain({k: b[k] for k in ("a", "alpha", "b", "beta") if k in b})
+    f = linkage.info.get("fit")
+    if f:
+        res["fit"] = plain({k: f[k] for k in ("method", "within_tolerance", "max_position_error", "max_angle_error",
+                                              "rms_position_error", "rms_angle_error", "visit_order")})
     if full:
         res["linkage"] = linkage_document(linkage)
     return res

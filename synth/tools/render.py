@@ -124,9 +124,31 @@ class Scene:
         self.eye = _eye(elev, azim)
         self.light = _light_direction(elev, azim)
 
-        # the box of the whole motion at one scale on every axis (not a cube: a flat or long mechanism
-        # then fills the frame), with a small margin
-        c = self.centre
+        self._box(lo, hi, elev)
+
+        self.mesh = Poly3DCollection(np.zeros((0, 3, 3)), linewidths=0.25, zorder=1)
+        ax.add_collection3d(self.mesh)
+        dyn = [self.mesh]
+        # the tool hangs on the tool link: a dotted line from that link's mesh centre to the tool frame
+        tl = lk.tool_link
+        self.mount_local = (np.asarray(meshes[tl].centroid, float) if tl in meshes else None)
+        (self.mount,) = ax.plot([], [], [], color=COUPLER_COLOR, lw=1.6, ls=(0, (1.5, 1.5)), zorder=2)
+        (path_line,) = ax.plot(*self.tool_path.T, color="0.45", lw=1.0, ls=(0, (4, 2)), zorder=2)
+        dyn += [self.mount, path_line]
+        dyn += self._labels(lk, poses, meshes, elev, azim)
+        self._titles(rb, lk, colors, title)
+        # blitting: the axes (panes, grid, ticks) and titles are drawn once; a frame redraws only the
+        # artists that move or change, in zorder, over that background
+        self.dynamic = sorted(dyn, key=lambda a: a.get_zorder())
+        for a in self.dynamic + [self.caption]:
+            a.set_animated(True)
+        self.canvas.draw()
+        self.background = self.canvas.copy_from_bbox(self.fig.bbox)
+
+    def _box(self, lo, hi, elev) -> None:
+        """The box of the whole motion at one scale on every axis (not a cube: a flat or long mechanism
+        then fills the frame), with a small margin; axis labels and light panes."""
+        ax, c = self.ax, self.centre
         ext = np.maximum((hi - lo) / 2, 0.08 * self.half) * 1.04
         ax.set_xlim(c[0] - ext[0], c[0] + ext[0])
         ax.set_ylim(c[1] - ext[1], c[1] + ext[1])
@@ -145,15 +167,10 @@ class Scene:
             axis._axinfo["grid"]["color"] = (0.88, 0.88, 0.9, 1.0)
             axis._axinfo["grid"]["linewidth"] = 0.5
 
-        self.mesh = Poly3DCollection(np.zeros((0, 3, 3)), linewidths=0.25, zorder=1)
-        ax.add_collection3d(self.mesh)
-        dyn = [self.mesh]
-        # the tool hangs on the tool link: a dotted line from that link's mesh centre to the tool frame
-        tl = lk.tool_link
-        self.mount_local = (np.asarray(meshes[tl].centroid, float) if tl in meshes else None)
-        (self.mount,) = ax.plot([], [], [], color=COUPLER_COLOR, lw=1.6, ls=(0, (1.5, 1.5)), zorder=2)
-        (path_line,) = ax.plot(*self.tool_path.T, color="0.45", lw=1.0, ls=(0, (4, 2)), zorder=2)
-        dyn += [self.mount, path_line]
+    def _labels(self, lk, poses, meshes, elev, azim) -> list:
+        """The task poses (short RGB axes and their names), the tool frame's axes and the joint names at
+        their pins (moving with the joint's child link): the artists that move."""
+        ax, dyn = self.ax, []
         from matplotlib import patheffects
 
         halo = patheffects.withStroke(linewidth=2.5, foreground="white")
@@ -178,6 +195,10 @@ class Scene:
                           fontstyle="italic", path_effects=[halo])
             self.joint_labels.append((txt, j.child, p))
             dyn.append(txt)
+        return dyn
+
+    def _titles(self, rb, lk, colors, title) -> None:
+        """The legend of the links, the title, the caption line and the key to the axes."""
         from matplotlib.patches import Patch
 
         handles = [Patch(facecolor=colors[n], edgecolor="none", label=n) for n in self.links]
@@ -188,13 +209,6 @@ class Scene:
         self.caption = self.fig.text(0.5, 0.905, "", ha="center", fontsize=9, color="0.3")
         self.fig.text(0.01, 0.012, "tool frame: long axes; task poses: short axes (x red, y green, z blue); "
                       "grey dashes: tool path", fontsize=7, color="0.4")
-        # blitting: the axes (panes, grid, ticks) and titles are drawn once; a frame redraws only the
-        # artists that move or change, in zorder, over that background
-        self.dynamic = sorted(dyn, key=lambda a: a.get_zorder())
-        for a in self.dynamic + [self.caption]:
-            a.set_animated(True)
-        self.canvas.draw()
-        self.background = self.canvas.copy_from_bbox(self.fig.bbox)
 
     def _axes_lines(self, T, length, lw, zorder):
         lines = []

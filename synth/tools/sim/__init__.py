@@ -23,7 +23,7 @@ What every engine does (the closed-loop convention of docs/conventions.md):
   with a position motor, paced for an even joint-space speed of the whole linkage (`DriveProfile`);
 - after every step compare each other joint with the exact motion: the driver's actual angle gives the
   motion parameter t = a + b cot(phi/2) of its angle law theta(t) = 2 atan2(b, t - a), which gives
-  every joint's exact angle (`synth.io.continuation.law_angles`); and measure the gap of every weld (the engine's
+  every joint's exact angle (`synth.tools.check.continuation.law_angles`); and measure the gap of every weld (the engine's
   own world frames of the two welded links against their relative pose at all-zero angles).
 """
 from __future__ import annotations
@@ -36,8 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from synth.errors import InputError, MpsynthError
-from synth.io.continuation import law_angles
-from synth.io.frames import invert_transform, pose_diff, wrap_angle
+from synth.tools.check.continuation import law_angles
+from synth.frames import invert_transform, pose_diff, wrap_angle
 from synth.io.readback import angle_laws, angle_rates, mesh_path, read_files
 
 ENGINES = ("pybullet", "mujoco")

@@ -15,7 +15,7 @@ import numpy as np
 
 from synth.design.model import PhysicalDesign, capsules
 from synth.io.readback import linkage_from_document
-from synth.io.urdf import pin_link_name
+from synth.io.names import pin_link_name
 
 
 def contact_capsules(setup) -> dict | None:

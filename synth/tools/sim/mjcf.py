@@ -47,6 +47,60 @@ def _v(v) -> str:
     return " ".join(_f(x) for x in v)
 
 
+def _mesh_assets(setup, asset, mesh_base) -> dict:
+    """The <mesh> assets, one per (file, scale): {(path, scale): asset name}."""
+    mesh_names = {}
+    for m in setup.urdf.meshes:
+        path = setup.mesh_path(m.filename)
+        key = (str(path), tuple(m.scale))
+        if key in mesh_names:
+            continue
+        name = f"mesh_{m.link}" if f"mesh_{m.link}" not in mesh_names.values() else f"mesh_{m.link}_{len(mesh_names)}"
+        mesh_names[key] = name
+        file = os.path.relpath(path, mesh_base) if mesh_base is not None else str(path)
+        ET.SubElement(asset, "mesh", name=name, file=file, scale=_v(m.scale))
+    return mesh_names
+
+
+def _body(setup, parent_el, link, T, joint, mesh_names, caps):
+    """The <body> of ``link`` in ``parent_el`` at pose ``T`` (None: the world's), with its inertial, its
+    hinge ``joint`` (None: welded), its mesh geoms and, with ``caps``, the design's capsules as the
+    colliding geoms."""
+    attrs = {"name": link}
+    if T is not None:
+        attrs.update(pos=_v(T[:3, 3]), quat=_v(quat_wxyz(T[:3, :3])))
+    b = ET.SubElement(parent_el, "body", **attrs)
+    if link in setup.inertials:
+        mass, Ti, I = setup.inertials[link]
+        quat, diag = principal_inertia(Ti[:3, :3] @ I @ Ti[:3, :3].T)
+        ET.SubElement(b, "inertial", pos=_v(Ti[:3, 3]), quat=_v(quat), mass=_f(mass), diaginertia=_v(diag))
+    else:
+        ET.SubElement(b, "inertial", pos="0 0 0", mass="1e-06", diaginertia="1e-09 1e-09 1e-09")
+    if joint is not None:
+        extra = {}
+        if joint.name == setup.driver and tuple(setup.drive_range) != (0.0, 2 * math.pi):
+            extra["range"] = _v(setup.drive_range)  # the task range of a task-range design
+        ET.SubElement(b, "joint", name=joint.name, type="hinge", pos="0 0 0", axis=_v(joint.axis), **extra)
+    seen = set()
+    for m in setup.urdf.meshes:
+        if m.link != link:
+            continue
+        key = (str(setup.mesh_path(m.filename)), tuple(m.scale))
+        if (key, m.origin.tobytes()) in seen:  # visual and collision share one geom
+            continue
+        seen.add((key, m.origin.tobytes()))
+        ET.SubElement(b, "geom", type="mesh", mesh=mesh_names[key], pos=_v(m.origin[:3, 3]),
+                      quat=_v(quat_wxyz(m.origin[:3, :3])), rgba=_rgba(link),
+                      **({"contype": "0", "conaffinity": "0"} if caps is not None else {}))
+    for p0, p1, r in (caps or {}).get(link, []):  # --contacts: the design's capsules collide
+        if np.linalg.norm(p1 - p0) > 1e-9 * r:
+            ET.SubElement(b, "geom", type="capsule", fromto=_v(list(p0) + list(p1)), size=_f(r), group="3",
+                          rgba="0 0 0 0", mass="0")
+        else:
+            ET.SubElement(b, "geom", type="sphere", pos=_v(p0), size=_f(r), group="3", rgba="0 0 0 0", mass="0")
+    return b
+
+
 def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, mesh_base: Path | None = None,
               kp: float | None = None, kv: float | None = None, contacts: bool = False) -> str:
     """The MJCF document. Mesh files are written relative to ``mesh_base`` (the directory of the MJCF
@@ -69,56 +123,12 @@ def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, me
     ET.SubElement(root, "option", timestep=_f(dt), gravity=_v([0, 0, -9.81 if gravity else 0.0]),
                   integrator="implicitfast", solver="Newton", iterations=str(ITERATIONS), tolerance="1e-12",
                   ls_iterations="50")
-    asset = ET.SubElement(root, "asset")
-    mesh_names = {}
-    for m in u.meshes:
-        path = setup.mesh_path(m.filename)
-        key = (str(path), tuple(m.scale))
-        if key in mesh_names:
-            continue
-        name = f"mesh_{m.link}" if f"mesh_{m.link}" not in mesh_names.values() else f"mesh_{m.link}_{len(mesh_names)}"
-        mesh_names[key] = name
-        file = os.path.relpath(path, mesh_base) if mesh_base is not None else str(path)
-        ET.SubElement(asset, "mesh", name=name, file=file, scale=_v(m.scale))
-
+    mesh_names = _mesh_assets(setup, ET.SubElement(root, "asset"), mesh_base)
     world = ET.SubElement(root, "worldbody")
     bodies = {}
 
     def add_body(parent_el, link, T, joint=None):
-        attrs = {"name": link}
-        if T is not None:
-            attrs.update(pos=_v(T[:3, 3]), quat=_v(quat_wxyz(T[:3, :3])))
-        b = ET.SubElement(parent_el, "body", **attrs)
-        if link in setup.inertials:
-            mass, Ti, I = setup.inertials[link]
-            quat, diag = principal_inertia(Ti[:3, :3] @ I @ Ti[:3, :3].T)
-            ET.SubElement(b, "inertial", pos=_v(Ti[:3, 3]), quat=_v(quat), mass=_f(mass), diaginertia=_v(diag))
-        else:
-            ET.SubElement(b, "inertial", pos="0 0 0", mass="1e-06", diaginertia="1e-09 1e-09 1e-09")
-        if joint is not None:
-            extra = {}
-            if joint.name == setup.driver and tuple(setup.drive_range) != (0.0, 2 * math.pi):
-                extra["range"] = _v(setup.drive_range)  # the task range of a task-range design
-            ET.SubElement(b, "joint", name=joint.name, type="hinge", pos="0 0 0", axis=_v(joint.axis), **extra)
-        seen = set()
-        for m in u.meshes:
-            if m.link != link:
-                continue
-            key = (str(setup.mesh_path(m.filename)), tuple(m.scale))
-            if (key, m.origin.tobytes()) in seen:  # visual and collision share one geom
-                continue
-            seen.add((key, m.origin.tobytes()))
-            ET.SubElement(b, "geom", type="mesh", mesh=mesh_names[key], pos=_v(m.origin[:3, 3]),
-                          quat=_v(quat_wxyz(m.origin[:3, :3])), rgba=_rgba(link),
-                          **({"contype": "0", "conaffinity": "0"} if caps is not None else {}))
-        for p0, p1, r in (caps or {}).get(link, []):  # --contacts: the design's capsules collide
-            if np.linalg.norm(p1 - p0) > 1e-9 * r:
-                ET.SubElement(b, "geom", type="capsule", fromto=_v(list(p0) + list(p1)), size=_f(r), group="3",
-                              rgba="0 0 0 0", mass="0")
-            else:
-                ET.SubElement(b, "geom", type="sphere", pos=_v(p0), size=_f(r), group="3", rgba="0 0 0 0", mass="0")
-        bodies[link] = b
-        return b
+        bodies[link] = _body(setup, parent_el, link, T, joint, mesh_names, caps)
 
     add_body(world, "base", None)
     for jn in u.order:

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.io.frames import invert_transform, rpy_from_matrix
+from synth.frames import invert_transform, rpy_from_matrix
 from synth.tools.sim import DriveProfile, SimulationError, Tracker, load_setup, quat_wxyz
 
 DEFAULT_TIMESTEP = 1e-3
@@ -147,6 +147,24 @@ def _pos_quat_xyzw(T):
     return [float(v) for v in T[:3, 3]], [float(x), float(y), float(z), float(w)]
 
 
+def _weld_loops(p, cid, robot, setup, link_index) -> list:
+    """The loop closures as fixed constraints between the welded links (frames relative to each link's
+    centre-of-mass frame, as PyBullet places them); returns the constraint ids."""
+    F0 = setup.urdf.fk({})
+    constraints = []
+    for a, b in setup.closures:
+        ia, ib = link_index[a], link_index[b]
+        Ia = _T(*p.getDynamicsInfo(robot, ia, physicsClientId=cid)[3:5], p)
+        Ib = _T(*p.getDynamicsInfo(robot, ib, physicsClientId=cid)[3:5], p)
+        X = F0[a]  # the weld frame: link a's frame at all-zero angles
+        pa, qa = _pos_quat_xyzw(invert_transform(F0[a] @ Ia) @ X)
+        pb, qb = _pos_quat_xyzw(invert_transform(F0[b] @ Ib) @ X)
+        c = p.createConstraint(robot, ia, robot, ib, p.JOINT_FIXED, [0, 0, 0], pa, pb, qa, qb, physicsClientId=cid)
+        p.changeConstraint(c, maxForce=1e9, physicsClientId=cid)
+        constraints.append(c)
+    return constraints
+
+
 def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gravity: bool,
                         contacts: bool = False, tight: bool = False) -> dict:
     """The PyBullet run itself (call it in a child process only); ``tight``: see `residual_threshold`."""
@@ -173,20 +191,7 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
                 a, b = tuple(pair)
                 if a in link_index and b in link_index:
                     p.setCollisionFilterPair(robot, robot, link_index[a], link_index[b], 0, physicsClientId=cid)
-        # loop closures: frames relative to each link's centre-of-mass frame
-        F0 = setup.urdf.fk({})
-        constraints = []
-        for a, b in setup.closures:
-            ia, ib = link_index[a], link_index[b]
-            Ia = _T(*p.getDynamicsInfo(robot, ia, physicsClientId=cid)[3:5], p)
-            Ib = _T(*p.getDynamicsInfo(robot, ib, physicsClientId=cid)[3:5], p)
-            X = F0[a]  # the weld frame: link a's frame at all-zero angles
-            pa, qa = _pos_quat_xyzw(invert_transform(F0[a] @ Ia) @ X)
-            pb, qb = _pos_quat_xyzw(invert_transform(F0[b] @ Ib) @ X)
-            c = p.createConstraint(robot, ia, robot, ib, p.JOINT_FIXED, [0, 0, 0], pa, pb, qa, qb,
-                                   physicsClientId=cid)
-            p.changeConstraint(c, maxForce=1e9, physicsClientId=cid)
-            constraints.append(c)
+        _weld_loops(p, cid, robot, setup, link_index)
         residual = residual_threshold(len(setup.closures), tight)
         p.setPhysicsEngineParameter(fixedTimeStep=timestep, numSolverIterations=ITERATIONS, numSubSteps=0, erp=ERP,
                                     solverResidualThreshold=residual, physicsClientId=cid)

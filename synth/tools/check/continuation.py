@@ -13,7 +13,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from synth.algebra.anglelaw import driven_angle
-from synth.io.frames import TWO_PI, invert_transform, wrap_angle
+from synth.frames import TWO_PI, invert_transform, wrap_angle
 from synth.io.urdfmodel import UrdfModel
 
 
@@ -140,92 +140,104 @@ def continue_loop(u: UrdfModel, closures, driver: str, others: list[str], *, ste
     ``accepted``/``rejected`` step counts, ``max_residual`` (of accepted points), ``crossings`` (dicts:
     ``angle`` of the rank drop, its ``conditioning``, the ``deviation`` re-seeded away, rad) and, when
     stuck, the ``angle`` and ``stuck_residual``."""
-    F0 = u.fk({})
-    refs = [invert_transform(F0[a]) @ F0[b] for a, b in closures]
-    all_j = [driver] + list(others)
-    h_max = TWO_PI / steps
-    h_min = TWO_PI * min_step
-    target = 1e-3 / max(1.0, ratio / 100.0)
+    return _Continuation(u, closures, driver, others, length=length, tol=tol, ratio=ratio, guide=guide,
+                         guide_tol=guide_tol, singular=singular).run(steps, min_step)
 
-    def fun_at(phi):
+
+class _Continuation:
+    """The loops, tolerances and guide of one `continue_loop` (its docstring has the meaning of each)."""
+
+    def __init__(self, u: UrdfModel, closures, driver: str, others, *, length, tol, ratio, guide, guide_tol,
+                 singular):
+        F0 = u.fk({})
+        self.u, self.closures, self.driver, self.others = u, closures, driver, list(others)
+        self.refs = [invert_transform(F0[a]) @ F0[b] for a, b in closures]
+        self.length, self.tol, self.guide, self.guide_tol, self.singular = length, tol, guide, guide_tol, singular
+        self.target = 1e-3 / max(1.0, ratio / 100.0)
+
+    def fun_at(self, phi):
+        """x -> (loop residual, Jacobian) with the driver at ``phi``."""
         def f(x):
-            cfg = {driver: phi, **dict(zip(others, x))}
-            return loop_residual(u, closures, refs, cfg, others, length)
+            cfg = {self.driver: phi, **dict(zip(self.others, x))}
+            return loop_residual(self.u, self.closures, self.refs, cfg, self.others, self.length)
         return f
 
-    def tangent(phi, x):
-        cfg = {driver: phi, **dict(zip(others, x))}
-        _, J = loop_residual(u, closures, refs, cfg, all_j, length)
-        if J is None or not others:
-            return np.zeros(len(others))
+    def tangent(self, phi, x):
+        """d(others)/d(driver) at (phi, x), from the loop Jacobian."""
+        cfg = {self.driver: phi, **dict(zip(self.others, x))}
+        _, J = loop_residual(self.u, self.closures, self.refs, cfg, [self.driver] + self.others, self.length)
+        if J is None or not self.others:
+            return np.zeros(len(self.others))
         return np.linalg.lstsq(J[:, 1:], -J[:, 0], rcond=1e-10)[0]
 
-    def polished_guide(phi_a, phi_b, x_near):
+    def polished_guide(self, phi_a, phi_b, x_near):
         """The guide's configuration at phi_b polished, when a rank drop of the laws lies in [phi_a, phi_b]
         and it closes the loops next to the guide: (x, crossing record), else None."""
-        g = np.asarray(guide(phi_b), float)
-        cond, at = law_conditioning(u, closures, refs, driver, others, guide, phi_a, phi_b, length)
-        if cond > singular:
+        g = np.asarray(self.guide(phi_b), float)
+        cond, at = law_conditioning(self.u, self.closures, self.refs, self.driver, self.others, self.guide,
+                                    phi_a, phi_b, self.length)
+        if cond > self.singular:
             return None
-        xg, res = _gauss_newton(fun_at(phi_b), g, tol, target=target)
-        if not (res <= tol and np.all(np.isfinite(xg)) and _wrapped(xg - g).max(initial=0.0) <= guide_tol):
+        xg, res = _gauss_newton(self.fun_at(phi_b), g, self.tol, target=self.target)
+        if not (res <= self.tol and np.all(np.isfinite(xg))
+                and _wrapped(xg - g).max(initial=0.0) <= self.guide_tol):
             return None
         xg = xg - TWO_PI * np.round((xg - x_near) / TWO_PI)  # keep the path continuous
         return xg, {"angle": at, "conditioning": cond,
                     "deviation": float(_wrapped(x_near - g).max(initial=0.0))}
 
-    phi, h = 0.0, h_max
-    x = np.zeros(len(others))
-    path = [np.concatenate([[0.0], x])]
-    accepted = rejected = 0
-    worst = float(np.linalg.norm(fun_at(0.0)(x)[0]))
-    stuck_res = 0.0
-    crossings = []
-    last_on = 0.0  # the last driver angle where the path agreed with the guide
-    while phi < TWO_PI - 1e-13:
-        step = min(h, TWO_PI - phi)
-        guess = x + step * tangent(phi, x)
-        xn, res = _gauss_newton(fun_at(phi + step), guess, tol, target=target)
-        jump = float(np.abs(xn - guess).max()) if len(xn) else 0.0
-        if res <= tol and jump <= 0.25 * h_max + 1e-12 and np.all(np.isfinite(xn)):
-            phi += step
-            x = xn
-            if guide is not None and len(x):
-                if _wrapped(x - np.asarray(guide(phi), float)).max() > guide_tol:
-                    got = polished_guide(last_on, phi, x)
-                    if got is None:
-                        guide = None  # off the laws away from a rank drop: no more guiding
-                    else:
-                        x, rec = got
-                        crossings.append(rec)
-                if guide is not None:
-                    last_on = phi
-            worst = max(worst, res)
-            path.append(np.concatenate([[phi], x]))
-            accepted += 1
-            h = min(h_max, 1.5 * step)
-        else:
-            rejected += 1
-            stuck_res = res
-            if step <= h_min:
-                got = None
-                if guide is not None and len(x):  # stuck at a crossing: re-seed past it
-                    phi_b = min(phi + h_max, TWO_PI)
-                    got = polished_guide(last_on, phi_b, x)
-                if got is None:
-                    return {"followed": phi / TWO_PI, "path": path, "accepted": accepted, "rejected": rejected,
-                            "max_residual": worst, "crossings": crossings, "angle": phi,
-                            "stuck_residual": stuck_res}
-                x, rec = got
-                crossings.append(rec)
-                phi = last_on = phi_b
+    def run(self, steps: int, min_step: float) -> dict:
+        """The continuation through a full turn (`continue_loop`'s result)."""
+        h_max, h_min = TWO_PI / steps, TWO_PI * min_step
+        phi, h = 0.0, h_max
+        x = np.zeros(len(self.others))
+        path = [np.concatenate([[0.0], x])]
+        accepted = rejected = 0
+        worst = float(np.linalg.norm(self.fun_at(0.0)(x)[0]))
+        crossings = []
+        last_on = 0.0  # the last driver angle where the path agreed with the guide
+        while phi < TWO_PI - 1e-13:
+            step = min(h, TWO_PI - phi)
+            guess = x + step * self.tangent(phi, x)
+            xn, res = _gauss_newton(self.fun_at(phi + step), guess, self.tol, target=self.target)
+            jump = float(np.abs(xn - guess).max()) if len(xn) else 0.0
+            if res <= self.tol and jump <= 0.25 * h_max + 1e-12 and np.all(np.isfinite(xn)):
+                phi += step
+                x = xn
+                if self.guide is not None and len(x):
+                    if _wrapped(x - np.asarray(self.guide(phi), float)).max() > self.guide_tol:
+                        got = self.polished_guide(last_on, phi, x)
+                        if got is None:
+                            self.guide = None  # off the laws away from a rank drop: no more guiding
+                        else:
+                            x, rec = got
+                            crossings.append(rec)
+                    if self.guide is not None:
+                        last_on = phi
+                worst = max(worst, res)
                 path.append(np.concatenate([[phi], x]))
                 accepted += 1
-                h = h_max
+                h = min(h_max, 1.5 * step)
                 continue
-            h = step / 2
-    return {"followed": 1.0, "path": path, "accepted": accepted, "rejected": rejected, "max_residual": worst,
-            "crossings": crossings, "angle": TWO_PI, "stuck_residual": 0.0}
+            rejected += 1
+            if step > h_min:
+                h = step / 2
+                continue
+            got = None
+            if self.guide is not None and len(x):  # stuck at a crossing: re-seed past it
+                phi_b = min(phi + h_max, TWO_PI)
+                got = self.polished_guide(last_on, phi_b, x)
+            if got is None:
+                return {"followed": phi / TWO_PI, "path": path, "accepted": accepted, "rejected": rejected,
+                        "max_residual": worst, "crossings": crossings, "angle": phi, "stuck_residual": res}
+            x, rec = got
+            crossings.append(rec)
+            phi = last_on = phi_b
+            path.append(np.concatenate([[phi], x]))
+            accepted += 1
+            h = h_max
+        return {"followed": 1.0, "path": path, "accepted": accepted, "rejected": rejected, "max_residual": worst,
+                "crossings": crossings, "angle": TWO_PI, "stuck_residual": 0.0}
 
 
 def _wrapped(d):

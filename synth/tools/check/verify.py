@@ -3,7 +3,7 @@
 Nothing here trusts the synthesis code: OUT is read by the one reader of output directories
 (`synth.io.readback.read_files`: the URDF into our own small model, `synth.io.urdfmodel`, forward
 kinematics by 4x4 products; linkage.json as plain JSON), meshes are loaded with trimesh from the files,
-the independent continuation is `synth.io.continuation`. The checks, each adding one line per problem:
+the independent continuation is `synth.tools.check.continuation`. The checks, each adding one line per problem:
 
 1. structure: one root ``base``, unique names, one parent per link, no cycle, joints name existing
    links, the ``<gazebo><joint type="fixed">`` welds (named ``loop_closure``, ``loop_closure_2``, ...)
@@ -23,7 +23,7 @@ the independent continuation is `synth.io.continuation`. The checks, each adding
    grown on success); it must complete the turn, come back to all-zero, and agree with the angle laws
    (both within the continuation's tolerance below). The laws guide it only at branch crossings: where
    it leaves them next to a configuration of the laws whose loop Jacobian loses rank, it re-seeds on the
-   laws' configuration when that closes the loops (`synth.io.continuation.continue_loop`, ``guide``),
+   laws' configuration when that closes the loops (`synth.tools.check.continuation.continue_loop`, ``guide``),
    and the crossing is reported (``branch_crossings_deg``; docs/exceptional.md, section 6).
 
 Tolerances: with L the linkage's size (RMS spread of joint feet and tool positions) and A the largest
@@ -36,21 +36,21 @@ joints, `synth.synthesis.conditioning`) exceeds 1e3. Figures of every measuremen
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
 from synth.algebra.anglelaw import angle_law, angle_law_inverse
 from synth.algebra.polynomial import pose_at
-from synth.io.continuation import continue_loop, crossing, law_angles
-from synth.io.frames import TWO_PI, invert_transform, pose_diff, wrap_angle
-from synth.io.readback import OutputFiles, angle_laws, angle_rates, mesh_path, read_files, solution_dirs
-from synth.io.urdf import driver_limits
+from synth.tools.check.continuation import continue_loop, crossing, law_angles
+from synth.frames import TWO_PI, invert_transform, pose_diff, wrap_angle
+from synth.io.readback import OutputFiles, angle_laws, angle_rates, read_files, solution_dirs
+from synth.tools.check.meshes import MeshChecks
+from synth.tools.check.structure import StructureChecks, matrix_or_none
 from synth.synthesis.conditioning import transmission_ratio
 
 
 # ----------------------------------------------------------------------------- checker
-class _Checker:
+class _Checker(StructureChecks, MeshChecks):
     def __init__(self, output: OutputFiles, poses=None, rtol: float = 1e-8, steps: int = 360,
                  samples: int = 720, meshes: bool = True):
         self.o = output
@@ -89,7 +89,7 @@ class _Checker:
         F0 = self.u.fk({})
         pts = [F0[j.child][:3, 3] for j in self.u.joints.values() if j.kind != "fixed"]
         for p in self._json_poses():
-            M = _matrix(p.get("matrix"))
+            M = matrix_or_none(p.get("matrix"))
             if M is not None:
                 pts.append(M[:3, 3])
         if "tool" in F0:
@@ -103,164 +103,6 @@ class _Checker:
         self.tol_ang = self.rtol + 1e-13 * A / L
         self.figures["length_scale"] = L
         self.figures["tolerance"] = {"length": self.tol_len, "angle": self.tol_ang}
-
-    # -------------------------------------------------------------- 1. structure
-    def structure(self):
-        u, doc = self.u, self.doc
-        fmt = doc.get("format")
-        if not (isinstance(fmt, str) and fmt.startswith("mpsynth.linkage/")):
-            self.fail(f"linkage.json: format is {fmt!r}, expected 'mpsynth.linkage/1'")
-        units = doc.get("units")
-        if units != {"length": "m", "angle": "rad"}:
-            self.fail(f"linkage.json: units are {units!r}, expected metres and radians")
-        if not u.closures:
-            self.fail("URDF: no loop closure (<gazebo><joint type=\"fixed\">)")
-        names = [c[0] for c in u.closures]
-        expected = ["loop_closure"] + [f"loop_closure_{i}" for i in range(2, len(names) + 1)]
-        if names != expected[:len(names)]:
-            self.fail(f"URDF: loop closures are named {names}, expected {expected}")
-        pairs = [[c[1], c[2]] for c in u.closures]
-        jc = doc.get("closures")
-        if not isinstance(jc, list) or [list(c) for c in jc if isinstance(c, (list, tuple))] != pairs:
-            self.fail(f"linkage.json closures {jc} differ from the URDF's welds {pairs}")
-        for _, a, b in u.closures:
-            for lk in (a, b):
-                if lk not in u.links:
-                    self.fail(f"URDF: loop closure names missing link {lk}")
-        self.closures = [(a, b) for _, a, b in u.closures if a in u.links and b in u.links]
-        # json joints vs URDF joints
-        jj = self._json_joints()
-        if not jj:
-            self.fail("linkage.json: no joints")
-        for j in jj:
-            uj = u.joints.get(j["name"])
-            if uj is None:
-                self.fail(f"URDF: no joint {j['name']} (listed in linkage.json)")
-                continue
-            if uj.kind not in ("continuous", "revolute"):
-                self.fail(f"URDF: joint {uj.name} is {uj.kind}, expected continuous")
-            elif uj.limit is not None and uj.limit[1] - uj.limit[0] < TWO_PI - 1e-9:
-                claim = _task_limits(doc)  # a task-range collision claim limits its driver to that range
-                if claim is None or claim[0] != uj.name:
-                    self.fail(f"URDF: joint {uj.name} is limited to [{uj.limit[0]:.4g}, {uj.limit[1]:.4g}] "
-                              "but turns through a full cycle")
-                elif max(abs(uj.limit[0] - claim[1]), abs(uj.limit[1] - claim[2])) > 1e-9:
-                    self.fail(f"URDF: joint {uj.name} is limited to [{uj.limit[0]:.4g}, {uj.limit[1]:.4g}], "
-                              f"linkage.json's task-range collision claim to [{claim[1]:.4g}, {claim[2]:.4g}]")
-            for key in ("parent", "child"):
-                if key in j and j[key] != getattr(uj, key):
-                    self.fail(f"joint {uj.name}: {key} is {getattr(uj, key)} in the URDF, {j[key]} in linkage.json")
-        moving = [jn for jn, j in u.joints.items() if j.kind != "fixed"]
-        unlisted = [jn for jn in moving if jn not in {j["name"] for j in jj}]
-        if unlisted:
-            self.fail(f"URDF joint(s) {', '.join(unlisted)} missing from linkage.json")
-        # branches: chains from base
-        br = doc.get("branches")
-        if not isinstance(br, list) or not br:
-            self.fail("linkage.json: no branches")
-        else:
-            for b in br:
-                if not isinstance(b, list) or not all(n in u.joints for n in b):
-                    self.fail(f"linkage.json branch {b} names joints missing from the URDF")
-                    continue
-                link = "base"
-                for n in b:
-                    if u.joints[n].parent != link:
-                        self.fail(f"linkage.json branch {b} is not a chain from base (at {n})")
-                        break
-                    link = u.joints[n].child
-        # tool link
-        if self._json_poses() or self.poses_file:
-            tool_link = self.doc.get("tool_link", "coupler")
-            if "tool" not in u.links:
-                self.fail("URDF: no link tool (the task frame)")
-            else:
-                jn = u.parent_joint.get("tool")
-                if jn is None or u.joints[jn].kind != "fixed":
-                    self.fail("URDF: link tool does not hang on a fixed joint")
-                elif u.joints[jn].parent != tool_link:
-                    self.fail(f"URDF: link tool hangs on {u.joints[jn].parent}, expected {tool_link}")
-        # axes: world Plücker lines at all-zero angles vs linkage.json
-        F0 = u.fk({})
-        worst = 0.0
-        for j in jj:
-            uj = u.joints.get(j["name"])
-            line = j.get("line") if isinstance(j.get("line"), dict) else {}
-            d, m = _vector(line.get("direction")), _vector(line.get("moment"))
-            if uj is None or uj.kind == "fixed" or uj.child not in F0:
-                continue
-            if d is None or m is None:
-                self.fail(f"linkage.json: joint {uj.name} has no line (direction, moment)")
-                continue
-            Fj = F0[uj.parent] @ uj.origin
-            du = Fj[:3, :3] @ uj.axis
-            mu = np.cross(Fj[:3, 3], du)
-            err = max(float(np.linalg.norm(du - d)), float(np.linalg.norm(mu - m)) / self.L)
-            worst = max(worst, err)
-            if err > 10 * self.tol_ang:
-                self.fail(f"joint {uj.name}: URDF axis differs from linkage.json's line by {err:.3g} "
-                          "(direction + moment / size)")
-        self.figures["axis_mismatch"] = worst
-
-    # -------------------------------------------------------------- 2. meshes
-    def meshes(self):
-        import trimesh
-
-        if not self.u.meshes:
-            self.fail("URDF: references no meshes")
-        good, seen = 0, {}
-        F0 = self.u.fk({})
-        origins = np.array([F0[j.child][:3, 3] for j in self.u.joints.values() if j.kind != "fixed"]
-                           or [np.zeros(3)])
-        spread = float(max(np.ptp(origins, axis=0).max(), self.L))
-        for m in self.u.meshes:
-            fn = m.filename
-            where = f"mesh {fn} (link {m.link} {m.tag})"
-            p = mesh_path(fn, self.o.path)
-            if p is None:
-                self.fail(f"{where}: not a path relative to the URDF")
-                continue
-            if not p.is_file():
-                self.fail(f"{where}: file not found")
-                continue
-            key = (str(p), tuple(m.scale))
-            if key not in seen:
-                seen[key] = self._mesh_problem(trimesh, p, m.scale, spread)
-            if seen[key]:
-                self.fail(f"{where}: {seen[key]}")
-            else:
-                good += 1
-        # links that carry joints should have geometry
-        links = self.doc.get("links")
-        if isinstance(links, dict):
-            with_mesh = {m.link for m in self.u.meshes}
-            for lk, js in links.items():
-                if js and lk in self.u.links and lk not in with_mesh:
-                    self.fail(f"URDF: link {lk} carries joints {js} but has no mesh")
-        self.figures["meshes"] = {"referenced": len(self.u.meshes), "good": good}
-
-    def _mesh_problem(self, trimesh, path: Path, scale, spread) -> str:
-        raw = path.read_bytes()
-        if len(raw) < 84:
-            return "not an STL file"
-        n = int.from_bytes(raw[80:84], "little")
-        if len(raw) != 84 + 50 * n:
-            return "not a binary STL"
-        try:
-            mesh = trimesh.load(path, file_type="stl", force="mesh")
-        except Exception as e:  # noqa: BLE001 - any loader failure is a problem line
-            return f"does not load ({type(e).__name__}: {e})"
-        if len(mesh.faces) == 0:
-            return "has no triangles"
-        if not mesh.is_watertight:
-            return "is not watertight"
-        vol = float(mesh.volume) * float(np.prod(scale))
-        if not (vol > 0 and mesh.is_winding_consistent):
-            return f"is not a solid of positive volume (volume {vol:.3g} m^3)"
-        size = float(np.linalg.norm(mesh.extents * np.abs(scale)))
-        if size > 100 * spread or size < 1e-4 * spread:
-            return f"is {size:.3g} m across for a linkage {spread:.3g} m across (wrong unit or scale?)"
-        return ""
 
     # -------------------------------------------------------------- 3. poses
     def poses(self):
@@ -290,7 +132,7 @@ class _Checker:
                 self.fail(f"linkage.json: pose {i} ({name}) lacks angles for {', '.join(missing)}")
             cfg = {k: float(v) for k, v in ang.items() if isinstance(v, (int, float))}
             F = u.fk(cfg)
-            M = _matrix(rec.get("matrix"))
+            M = matrix_or_none(rec.get("matrix"))
             if "tool" in F:
                 if M is None:
                     self.fail(f"linkage.json: pose {i} ({name}) has no 4x4 matrix")
@@ -503,31 +345,3 @@ def check_tree(out, poses=None, **kw) -> dict:
         problems += [f"{sid}: {p}" for p in r["problems"]]
         figures[sid] = r["figures"]
     return {"ok": not problems, "problems": problems, "figures": figures}
-
-
-# ----------------------------------------------------------------------------- helpers
-def _matrix(v):
-    try:
-        M = np.array(v, float)
-    except (TypeError, ValueError):
-        return None
-    return M if M.shape == (4, 4) and np.all(np.isfinite(M)) else None
-
-
-def _vector(v):
-    try:
-        x = np.array(v, float)
-    except (TypeError, ValueError):
-        return None
-    return x if x.shape == (3,) and np.all(np.isfinite(x)) else None
-
-
-def _task_limits(doc: dict):
-    """(driver, lower, upper) that a task-range collision claim in linkage.json puts on its driver
-    (`synth.io.urdf.driver_limits`), or None."""
-    c = doc.get("collision")
-    try:
-        return driver_limits(c) if isinstance(c, dict) else None
-    except (KeyError, TypeError, ValueError):
-        return None
-

@@ -1,0 +1,162 @@
+"""The choice of a linkage's physical design (docs/design.md): the sizes (defaults scaled to the linkage,
+or given), then the collision-free search with straight bars, thinner bars and pins, a layering of the
+parallel part, cranked bars, in this order, until a design is free.
+
+``design_for(linkage, ...) -> DesignResult`` is what the commands and the batch jobs call; the exporters
+(`synth.io.export`) write the finished `DesignResult`.
+
+Default sizes scale with ``linkage.extent()`` (E, the RMS spread of the joints' feet and tool
+positions): pin radius 0.02 E, bar radius 0.015 E, hub length 0.06 E (``--pin-length`` sets the hub
+length: a joint's pin spans the hubs of its two links, so it is at least that long). The hole clearance
+defaults to 0.2 mm (a common 3D-printing fit), but at most a tenth of the pin radius for tiny linkages.
+"""
+from __future__ import annotations
+
+import math
+
+from synth.design.cranks import crank_bars
+from synth.design.layers import LAYER_NODES, layered_design, parallel_axis
+from synth.design.mixed import dominant_axis, mixed_design
+from synth.design.model import DesignResult
+from synth.design.search import design_linkage, natural_result
+from synth.design.work import GAPS_PER_SECOND, Work
+from synth.errors import InputError
+
+PIN_RADIUS = 0.02  # times linkage.extent()
+LINK_RADIUS = 0.015
+HUB_LENGTH = 0.06
+HOLE_CLEARANCE = 2e-4  # metres (0.2 mm) ...
+HOLE_CLEARANCE_MAX_FRACTION = 0.1  # ... but at most this fraction of the pin radius
+
+
+def _positive(name, v, allow_zero=False):
+    try:
+        ok = math.isfinite(float(v)) and (float(v) > 0 or (allow_zero and float(v) == 0))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise InputError(f"{name} must be a {'non-negative' if allow_zero else 'positive'} length in metres, got {v!r}")
+    return float(v)
+
+
+def default_sizes(linkage, pin_radius=None, link_radius=None, pin_length=None) -> tuple[float, float, float]:
+    """(pin_radius, bar radius, hub length) in metres: explicit values, or fractions of the extent.
+    ``pin_length`` is the hub length (see the module docstring)."""
+    e = linkage.extent()
+    sizes = (
+        PIN_RADIUS * e if pin_radius is None else pin_radius,
+        LINK_RADIUS * e if link_radius is None else link_radius,
+        HUB_LENGTH * e if pin_length is None else pin_length,
+    )
+    return tuple(_positive(name, v) for name, v in zip(("pin radius", "link radius", "pin length"), sizes))
+
+
+def default_hole_clearance(pin_radius: float) -> float:
+    """Radial clearance of a bore around its pin (metres): 0.2 mm, at most a tenth of the pin radius."""
+    return min(HOLE_CLEARANCE, HOLE_CLEARANCE_MAX_FRACTION * pin_radius)
+
+
+def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None,
+               clearance=None, thin=True, work: Work | None = None, **search) -> DesignResult:
+    """The physical design of ``linkage`` (`synth.design.search.design_linkage`) with the given or default
+    sizes (metres; see `default_sizes`, `default_hole_clearance`; clearance None: the search's default);
+    ``search``: further arguments of `design_linkage` (ranges, full_work, effort, seed); ``work``: a
+    `synth.design.work.Work` that every search below charges (its limit, if any, stops them all).
+    Every budget is counted work, never time: the same input gives the same design on any machine.
+
+    Thinning (docs/design.md): when the search covered the task range and found no free design, and
+    neither radius was given (``thin``), it is retried with the bar and pin radii of the default times
+    `thin_scales` (hole clearance by its rule, default clearance with the bar) within `THIN_WORK` gap
+    evaluations in all (none when the first search took over `THIN_FIRST_MAX`); the first free design is
+    returned, its report's ``thinned`` saying so; else the default-size result.
+
+    A partly planar linkage (`synth.design.mixed.dominant_axis`) gets, before all that, its parallel part
+    layered and the rest searched around it (`synth.design.mixed.mixed_design`, within `LAYER_NODES` of
+    the layering programme and `LAYER_WORK`); the rest follows only when that finds nothing (docs/design.md).
+
+    Then, when that is still not free and the search covered the task range (docs/design.md): a planar
+    linkage (every axis parallel) gets a layered design (`synth.design.layers.layered_design`, within
+    `LAYER_NODES`), any other one cranked bars for the colliding bodies (`synth.design.cranks.crank_bars`,
+    within `CRANK_WORK`); a certified free result replaces it (its report's ``cranked`` names the cranked
+    bars, ``layers`` the levels of a layered design)."""
+    work = Work() if work is None else work
+    task = "task" in search.get("ranges", ("full", "task"))
+    partly_planar = task and dominant_axis(linkage) is not None
+    if partly_planar:  # straight bars in its planar part cross (as in a planar linkage): layers first
+        natural = _design(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, search,
+                          natural=True)
+        first = mixed_design(linkage, natural, nodes=LAYER_NODES, work=work.part(LAYER_WORK))
+        if first.collision.free:
+            return first
+    result = _straight(linkage, (pin_radius, link_radius, pin_length), hole_clearance, clearance, thin, search, work)
+    if result.collision.free or not task:
+        return result
+    if parallel_axis(linkage) is not None:
+        return layered_design(linkage, result, nodes=LAYER_NODES)
+    if partly_planar:
+        result.collision.message += " (a layering of its parallel joints was searched too)"
+    return crank_bars(linkage, result, work=work.part(CRANK_WORK))
+
+
+def _straight(linkage, sizes, hole_clearance, clearance, thin, search, work) -> DesignResult:
+    """`design_for` with straight bars: the default ``sizes`` (pin radius, link radius, pin length or
+    None each), then thinner ones."""
+    pin_radius, link_radius, pin_length = sizes
+    hub = default_sizes(linkage, pin_radius, link_radius, pin_length)[2]
+    result = _design(linkage, pin_radius, link_radius, hub, hole_clearance, clearance, {**search, "work": work})
+    if (not thin or result.collision.free or pin_radius is not None or link_radius is not None
+            or "task" not in search.get("ranges", ("full", "task")) or result.collision.work > THIN_FIRST_MAX):
+        return result
+    pin0, bar0, _ = default_sizes(linkage)
+    budget = work.part(THIN_WORK)
+    tried = None
+    for s in thin_scales(bar0):
+        if budget.spent:
+            break
+        r = _design(linkage, s * pin0, s * bar0, hub, hole_clearance, clearance, {**search, "work": budget})
+        if r.collision.free:
+            r.collision.thinned = {"scale": s, "pin_radius": s * pin0, "bar_radius": s * bar0,
+                                   "default_pin_radius": pin0, "default_bar_radius": bar0,
+                                   "default_pairs": [p["bodies"] for p in result.collision.pairs]}
+            return r
+        tried = s
+    if tried is not None:
+        result.collision.message += f" (the search tried bars and pins down to {tried:g} x the default radii too)"
+    return result
+
+
+# budgets in gap evaluations (synth.design.work; they were CPU seconds: X s -> X * GAPS_PER_SECOND)
+CRANK_WORK = 1.0 * GAPS_PER_SECOND  # the crank search after the straight bars failed
+LAYER_WORK = 60.0 * GAPS_PER_SECOND  # the search around the layered part of a partly planar linkage
+THIN_SCALES = (0.5, 0.25)  # bar and pin radii tried, times the defaults, when the defaults collide
+THIN_MIN_BAR_RADIUS = 4e-4  # metres: a bar 0.8 mm thick, two extrusion widths of a 0.4 mm nozzle
+THIN_WORK = 1.0 * GAPS_PER_SECOND  # all the retries together (each search stops when it is spent)
+THIN_FIRST_MAX = 2.0 * GAPS_PER_SECOND  # no retry after a first search this costly: a retry's fixed costs
+# (screening the starts, the certificate) scale like the first search's, so it would overrun its budget
+
+
+def thin_scales(bar_radius: float) -> list[float]:
+    """The scales of the default sizes retried when they collide: `THIN_SCALES`, each raised so the bar
+    radius stays at least `THIN_MIN_BAR_RADIUS` (never above the default), without repeats (docs/design.md)."""
+    out = []
+    for s in THIN_SCALES:
+        s = max(s, min(1.0, THIN_MIN_BAR_RADIUS / bar_radius))
+        if s < 1.0 and (not out or s < out[-1]):
+            out.append(s)
+    return out
+
+
+def _design(linkage, pin_radius, link_radius, hub_length, hole_clearance, clearance, search,
+            natural=False) -> DesignResult:
+    """`design_linkage` with the sizes resolved (defaults, validation); ``natural``: not searched, the
+    natural stack with those sizes (`natural_result`)."""
+    pin_radius, link_radius, hub_length = default_sizes(linkage, pin_radius, link_radius, hub_length)
+    hole = default_hole_clearance(pin_radius) if hole_clearance is None else _positive(
+        "hole clearance", hole_clearance, allow_zero=True)
+    if clearance is not None:
+        clearance = _positive("clearance", clearance, allow_zero=True)
+    if natural:
+        return natural_result(linkage, pin_radius=pin_radius, bar_radius=link_radius, hub_length=hub_length,
+                              hole_clearance=hole, clearance=clearance)
+    return design_linkage(linkage, pin_radius=pin_radius, bar_radius=link_radius, hub_length=hub_length,
+                          hole_clearance=hole, clearance=clearance, **search)
