@@ -3,11 +3,13 @@
 `synth.synthesis.taskfit`); this module designs, writes and prints."""
 from __future__ import annotations
 
+from synth.design.work import GAPS_PER_SECOND
+
 from .common import (add_collisions, choose_buildable, default_robot_name, design_solutions, echo, emit_linkage,
                      print_json)
 
 BUILDABLE_CANDIDATES = 3  # default design: the best fits designed, collision-free first (within tolerance)
-BUILDABLE_SECONDS = 4.0
+BUILDABLE_WORK = 4.0 * GAPS_PER_SECOND  # gap evaluations of those design searches (synth.design.work)
 INDEX_FORMAT = "mpsynth.task-index/1"
 
 
@@ -33,7 +35,7 @@ def run_task(ps, top, best_effort, synthesize, *, out, name, force, package, siz
     linkage, result = linkages[0], None
     within = [lk for lk in linkages if lk.info["fit"]["within_tolerance"]] or linkages
     if design and len(within) > 1:
-        linkage, result = choose_buildable(within, ps, sizes, limit=BUILDABLE_CANDIDATES, seconds=BUILDABLE_SECONDS,
+        linkage, result = choose_buildable(within, ps, sizes, limit=BUILDABLE_CANDIDATES, work=BUILDABLE_WORK,
                                            what="fits")
     emit_linkage(linkage, source=ps.source, scale=ps.length_scale, unit=ps.length_unit, out=out, name=name,
                  force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json,
