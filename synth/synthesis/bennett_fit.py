@@ -30,7 +30,7 @@ from synth.synthesis.conditioning import transmission_problem
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
 from synth.synthesis.fit import (ERRORS, Layout, MotionModel, homogeneous, levenberg_marquardt,
                                  task_arrays, _mul)
-from synth.synthesis.taskfit import FitSummary, annotate, item_kinds, tolerance_problem, visiting_order, visits_in_order
+from synth.synthesis.taskfit import FitSummary, annotate, item_kinds, select, visiting_order
 from synth.task import Order, PoseSet
 
 __all__ = ["bennett_task", "is_task", "hermite_conic", "regauge", "fit_motion", "MAX_TRIPLES", "KEEP", "GRID"]
@@ -306,16 +306,7 @@ def bennett_task(ps: PoseSet, top: int = 1, best_effort: bool = False) -> list:
             check_fitted(lk)  # (fits are checked in `_fitted`)
         annotate(lk, ps, s)
         results.append(lk)
-    if ps.order is Order.LISTED:
-        listed = [lk for lk in results if visits_in_order([r.t for r in lk.poses])]
-        if not listed:
-            raise SynthesisError(f"{ps.source}: no Bennett linkage found visits the poses in the listed order (the "
-                                 f"best visits {', '.join(results[0].info['fit']['visit_order'])})")
-        results = listed
-    results.sort(key=lambda lk: not lk.info["fit"]["within_tolerance"])
-    if not results[0].info["fit"]["within_tolerance"] and not best_effort:
-        raise SynthesisError(f"{ps.source}: {tolerance_problem(results[0], ps)}")
-    return results[:top]
+    return select(results, ps, top, best_effort, "Bennett")
 
 
 def _hermite(ps: PoseSet):
