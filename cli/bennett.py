@@ -53,10 +53,11 @@ def bennett(poses, member, top, best_effort, out, name, force, pin_radius, link_
 
     from synth.synthesis.bennett_fit import is_task
 
-    ps = load_poses(poses, count=((2, None), "mpsynth bennett"), normalize=normalize, points=point_count(2))
+    ps = load_poses(poses, count=((2, None), "mpsynth bennett"), normalize=normalize,
+                    points=((point_count(2)[0][0], None), "mpsynth bennett"))  # more than 5: fitted
     sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
                             clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
-    if ps.has_points:
+    if ps.has_points and not is_task(ps):
         if member is not None:
             from synth.errors import InputError
 

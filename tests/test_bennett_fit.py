@@ -16,8 +16,8 @@ from synth.algebra.dq import dq_mul, dq_to_pose, normalize_dq, pose_to_dq
 from synth.errors import SynthesisError
 from synth.io.poses import load_poses
 from synth.synthesis.bennett import bennett
-from synth.synthesis.bennett_fit import bennett_task, hermite_conic, regauge, gauge_matrix
-from synth.synthesis.fit import homogeneous, study_rows, task_arrays, item_errors
+from synth.synthesis.bennett_fit import bennett_task, hermite_conic
+from synth.synthesis.fit import gauge_matrix, homogeneous, item_errors, regauge, study_rows, task_arrays
 from synth.synthesis.taskfit import error_rows, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 from tests.conftest import random_poses
@@ -35,6 +35,14 @@ def known_motion(seed):
 def motion_poses(C, Q0, phi):
     """Poses (N, 4, 4) of the motion C(phi) Q0 (phi = 0: the reference)."""
     return dq_to_pose(normalize_dq(dq_mul(homogeneous(C[:2][None], np.asarray(phi, float)[None])[0], Q0)))
+
+
+def twist_of(C, Q0, phi, h=1e-6):
+    """(w, v): angular velocity and velocity of the tool origin of the motion C(phi) Q0 along phi, by
+    central differences."""
+    T, Tp, Tm = (motion_poses(C, Q0, [phi + d])[0] for d in (0.0, h, -h))
+    W = (Tp[:3, :3] - Tm[:3, :3]) / (2 * h) @ T[:3, :3].T
+    return 0.5 * np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]]), (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
 
 
 def sampled(seed, n, noise=0.0, exact=(0,), spread=(0.15, 0.85)):
@@ -93,11 +101,7 @@ def test_regauge_keeps_the_motion_and_moves_the_parameters():
 def test_hermite_conic_meets_both_poses_and_the_tangent():
     C, Q0 = known_motion(4)
     T = motion_poses(C, Q0, [0.0, 1.1])
-    h = 1e-6
-    Tp, Tm = motion_poses(C, Q0, [h]), motion_poses(C, Q0, [-h])
-    W = (Tp[0, :3, :3] - Tm[0, :3, :3]) / (2 * h) @ T[0, :3, :3].T
-    w = 0.5 * np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]])
-    v = (Tp[0, :3, 3] - Tm[0, :3, 3]) / (2 * h)
+    w, v = twist_of(C, Q0, 0.0)
     Q = pose_to_dq(T)
     H = hermite_conic(Q[0], Q[1], np.r_[w, v - np.cross(w, T[0, :3, 3])] * 3.0)  # any positive multiple
     assert np.abs(study_rows(H[None, :2])).max() < 1e-12
@@ -166,14 +170,25 @@ def test_velocity_in_a_fit_is_met_exactly():
     C, Q0 = known_motion(12)
     phi = np.array([0.0, 2.8, 2.4, 2.0, 1.6, 1.2])
     T = motion_poses(C, Q0, phi)
-    h = 1e-6
-    Tp, Tm = motion_poses(C, Q0, [2.0 + h]), motion_poses(C, Q0, [2.0 - h])
-    W = (Tp[0, :3, :3] - Tm[0, :3, :3]) / (2 * h) @ T[3, :3, :3].T
-    w = 0.5 * np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]])
     vel = np.full((6, 6), np.nan)
-    vel[3] = -np.r_[w, (Tp[0, :3, 3] - Tm[0, :3, 3]) / (2 * h)]  # direction only (either sense)
+    vel[3] = -np.r_[twist_of(C, Q0, 2.0)]  # direction only (either sense)
     lk = bennett_task(task(T, (1e-3 * spread_of(T), 1e-3), velocity=vel))[0]
     assert lk.info["fit"]["max_position_error"] < 1e-9 * spread_of(T)
+
+
+def test_more_than_five_points_are_fitted_within_tolerance():
+    T, _ = sampled(31, 9, noise=1e-4, exact=(0,))
+    pts = T.copy()
+    pts[:, :3, :3] = np.eye(3)
+    tol = np.tile([2e-3 * spread_of(T), np.inf], (9, 1))
+    tol[0] = 0.0
+    ps = PoseSet(names=[f"q{i}" for i in range(9)], matrices=pts, kinds=["point"] * 9, tolerance=tol)
+    lk = bennett_task(ps)[0]
+    assert lk.info["fit"]["within_tolerance"] and lk.poses[0].error[0] < 1e-9 * spread_of(T)
+    for rec, target in zip(lk.poses, T):
+        assert rec.kind == "point" and np.allclose(rec.matrix[:3, 3], target[:3, 3], atol=0)
+        assert np.linalg.norm(lk.tool_pose(rec.joint_angles)[:3, 3] - target[:3, 3]) == pytest.approx(rec.error[0],
+                                                                                                    abs=1e-12)
 
 
 def test_random_poses_are_refused_with_the_failing_poses():
@@ -213,7 +228,7 @@ def verify(verifier, poses, out):
     return r.stdout.strip().splitlines()[-1]
 
 
-@pytest.mark.parametrize("name", ["bennett_fit", "bennett_hermite"])
+@pytest.mark.parametrize("name", ["bennett_fit", "bennett_hermite", "bennett_points_fit"])
 def test_fixture_end_to_end(name, tmp_path, verifier):
     fixture = REPO / "fixtures" / f"{name}.yaml"
     out = tmp_path / "out"
@@ -221,7 +236,7 @@ def test_fixture_end_to_end(name, tmp_path, verifier):
     assert r.exit_code == 0, r.output
     assert "position error" in r.output and "tolerance" in r.output
     doc = json.loads((out / "linkage.json").read_text())
-    ps = load_poses(fixture)
+    ps = load_poses(fixture, points=((3, None), "test"))
     for rec, tol in zip(doc["poses"], ps.tolerance if ps.tolerance is not None else [None] * len(ps)):
         assert "error" in rec
         assert rec.get("exact") is True or rec["tolerance"]["position"] == pytest.approx(tol[0])
@@ -231,7 +246,7 @@ def test_fixture_end_to_end(name, tmp_path, verifier):
     assert ("velocity_err" in line) == (name == "bennett_hermite")
 
 
-def test_unmet_tolerances_exit_1_and_best_effort_writes(tmp_path, verifier):
+def test_unmet_tolerances_exit_1_and_best_effort_writes(tmp_path):
     text = (REPO / "fixtures" / "bennett_fit.yaml").read_text().replace(
         "tolerance: {position: 1.0, angle: 0.5}", "tolerance: {position: 0.01, angle: 0.005}")
     fixture = tmp_path / "tight.yaml"
@@ -241,7 +256,8 @@ def test_unmet_tolerances_exit_1_and_best_effort_writes(tmp_path, verifier):
     assert r.exit_code == 1 and not out.exists()
     assert "tolerances not met" in r.output and "mm /" in r.output and len(r.output.strip().splitlines()) == 1
     r = run("bennett", fixture, "-o", out, "--best-effort", "-q")
-    assert r.exit_code == 0 and json.loads((out / "linkage.json").read_text())["info"]["fit"]["within_tolerance"] is False
+    doc = json.loads((out / "linkage.json").read_text())
+    assert r.exit_code == 0 and doc["within_tolerance"] is False and doc["info"]["fit"]["within_tolerance"] is False
 
 
 def test_top_writes_ranked_fits(tmp_path):
@@ -277,3 +293,40 @@ def test_python_api_takes_arrays_or_a_task_file():
     assert fits and fits[0].info["fit"]["order"] == "listed"
     with pytest.raises(synth.InputError, match="order"):
         synth.bennett(T, tolerance=tol, order="sorted")
+
+
+def test_hermite_velocity_at_the_second_pose_and_three_toleranced_poses(tmp_path):
+    C, Q0 = known_motion(41)
+    T = motion_poses(C, Q0, [0.0, 1.3])
+    vel = np.full((2, 6), np.nan)
+    vel[1] = np.r_[twist_of(C, Q0, 1.3)]
+    lk = bennett_task(PoseSet(names=["a", "b"], matrices=T, velocity=vel))[0]
+    assert lk.info["fit"]["method"] == "hermite" and lk.poses[0].t == np.inf and lk.poses[1].t == 0.0
+    assert max(r.error[0] for r in lk.poses) < 1e-9 * spread_of(T)
+    # three poses with a tolerance: the exact synthesis, its (zero) misses recorded
+    T3 = random_poses(np.random.default_rng(8), 3)
+    lk = bennett_task(task(T3, (1e-3, 1e-3)))[0]
+    assert lk.info["fit"]["method"] == "exact" and all(r.error[0] < 1e-9 and not r.exact for r in lk.poses)
+
+
+def test_partial_velocity_constrains_its_half_only():
+    C, Q0 = known_motion(13)
+    phi = np.array([0.0, 2.8, 2.4, 2.0, 1.6, 1.2])
+    T = motion_poses(C, Q0, phi)
+    vel = np.full((6, 6), np.nan)
+    vel[2, 3:] = twist_of(C, Q0, 2.4)[1]  # the tool origin's direction only
+    lk = bennett_task(task(T, (1e-3 * spread_of(T), 1e-3), velocity=vel))[0]
+    assert lk.info["fit"]["max_position_error"] < 1e-9 * spread_of(T)
+
+
+@pytest.mark.parametrize("positions", [[[0, 0, 0]] * 4, [[i, 0, 0] for i in range(4)]],
+                         ids=["coinciding", "translations"])
+def test_degenerate_tasks_exit_1_with_the_reason(tmp_path, positions):
+    import yaml
+
+    items = [{"position": p, "rpy": [0, 0, 0]} for p in positions]
+    f = tmp_path / "t.yaml"
+    f.write_text(yaml.safe_dump({"tolerance": {"position": 0.01, "angle": 0.01}, "poses": items}))
+    r = run("bennett", f, "-o", tmp_path / "o")
+    assert r.exit_code == 1 and not (tmp_path / "o").exists()
+    assert "every triple of poses is degenerate" in r.output and str(f) in r.output

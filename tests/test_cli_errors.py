@@ -166,7 +166,7 @@ ROWS = {
     "missing-poses": (_file("p.yaml", "units: {length: mm}\n"), 2, ["p.yaml", "missing 'poses'"]),
     "poses-not-a-list": (_file("p.yaml", "poses: 3\n"), 2, ["p.yaml", "'poses' must be a list"]),
     "too-few-poses": (_file("p.yaml", doc(POSE_A, POSE_B)), 2,
-                      ["p.yaml", "needs 3 or more poses, or 2 poses with a velocity at one of them, got 2 poses"]),
+                      ["p.yaml", "needs 3 or more poses, 2 poses with a velocity at one of them, or 3 or more points, got 2 poses"]),
     # four exact poses over-determine a Bennett motion: fitted, and refused when they are not on one
     "four-exact-poses": (_file("p.yaml", doc(POSE_A, POSE_B, POSE_C, "{position: [1, 1, 1], rpy: [1, 0, 0]}")),
                          1, ["p.yaml", "the exact poses and velocities cannot all be met by a Bennett motion"]),
@@ -346,12 +346,12 @@ def test_debug_shows_the_traceback(tmp_path):
                        text=True, timeout=120, stdin=subprocess.DEVNULL)
     assert r.returncode == 2 and r.stdout == ""
     assert "Traceback (most recent call last)" in r.stderr and "InputError" in r.stderr
-    assert r.stderr.splitlines()[-1] == "mpsynth: p.yaml: a Bennett linkage needs 3 or more poses, or 2 poses with a velocity at one of them, got 2 poses"
+    assert r.stderr.splitlines()[-1] == "mpsynth: p.yaml: a Bennett linkage needs 3 or more poses, 2 poses with a velocity at one of them, or 3 or more points, got 2 poses"
     assert not (tmp_path / "out").exists()
     # without --debug: the same line alone
     r = subprocess.run(CMD + ["bennett", "p.yaml", "-o", "out"], cwd=tmp_path, capture_output=True, text=True,
                        timeout=120, stdin=subprocess.DEVNULL)
-    assert r.returncode == 2 and r.stderr == "mpsynth: p.yaml: a Bennett linkage needs 3 or more poses, or 2 poses with a velocity at one of them, got 2 poses\n"
+    assert r.returncode == 2 and r.stderr == "mpsynth: p.yaml: a Bennett linkage needs 3 or more poses, 2 poses with a velocity at one of them, or 3 or more points, got 2 poses\n"
 
 
 # ------------------------------------------------------------------ code injection

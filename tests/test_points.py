@@ -266,7 +266,7 @@ def test_cli_known_random_points_verify(tmp_path):
 
 
 @pytest.mark.parametrize("text, code, msg", [
-    ("points: [[0,0,0],[1,0,0]]", 2, "needs between 3 and 5 points, got 2"),
+    ("points: [[0,0,0],[1,0,0]]", 2, "needs at least 3 points, got 2"),  # (more than 5: fitted, docs/fit.md)
     ("points: [[0,0,0],[1,0,0],[2,0,0],[3,0,0],[4,0,0]]", 1, "collinear"),
     ("points: [[0,0,0],[1,0,.nan],[2,1,0],[3,0,1],[4,0,0]]", 2, "not finite"),
     ("poses: [{position: [0,0,0], rpy: [0,0,0]}, {position: [1,0,0], rpy: [0,0,1]}, {position: [1,1,0]}]", 2,

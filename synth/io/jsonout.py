@@ -92,6 +92,9 @@ def linkage_document(linkage, design=None, collision=None) -> dict:
         "tool_ref": np.asarray(linkage.tool_ref, float),
         "info": dict(linkage.info),
     }
+    fit = linkage.info.get("fit")
+    if isinstance(fit, dict) and "within_tolerance" in fit:  # a task's result (docs/fit.md): said at the top too
+        doc["within_tolerance"] = bool(fit["within_tolerance"])
     doc["stl"] = stl_section()
     if design is not None:
         doc["design"] = design_section(design)

@@ -55,8 +55,7 @@ def check_distinct(T, names, tol=COINCIDENT_TOL):
                              "three distinct poses are needed")
 
 
-def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None, tolerance=None,
-            velocity=None, order=None, best_effort: bool = False):
+def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None):
     """Synthesize the Bennett linkage whose coupler visits the three poses (shape (3, 4, 4), metres).
 
     ``check_samples``: number of parameters covering the real line at which the loop closure and the
@@ -67,21 +66,8 @@ def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, memb
     (docs/planar.md) have a family of quadratic motions through them and give a planar or spherical
     four-bar (kind ``planar_4r`` / ``spherical_4r``): the best-scored member, or ``member`` =
     (lambda1, lambda2). Raises InputError (shape, NaN, a member for spatial poses)
-    or SynthesisError (degenerate or non-real cases, with a plain-language reason).
-
-    A task (docs/fit.md): ``poses`` a `synth.task.PoseSet` (as `synth.io.poses.load_poses` reads a task
-    file), or poses (N, 4, 4) with ``tolerance`` ((2,) or (N, 2) [metres, radians], 0 exact, inf free),
-    ``velocity`` ((N, 6) world twists [w, v], NaN rows: none) and/or ``order`` ("listed"): exact for three
-    poses or a Hermite pair, else fitted (`synth.synthesis.bennett_fit.bennett_task`; ``best_effort``
-    returns the best fit even when it misses a tolerance)."""
-    from synth.task import PoseSet
-
-    if isinstance(poses, PoseSet) or tolerance is not None or velocity is not None or order is not None:
-        from synth.synthesis.bennett_fit import bennett_task
-        from synth.synthesis.taskfit import make_task
-
-        task = poses if isinstance(poses, PoseSet) else make_task(poses, names, tolerance, velocity, order)
-        return bennett_task(task, best_effort=best_effort)[0]
+    or SynthesisError (degenerate or non-real cases, with a plain-language reason). Tasks with
+    tolerances, velocities or more poses: `synth.synthesis.tasks.bennett` (``synth.bennett``)."""
     return bennett_candidates(poses, names, check_samples=check_samples, member=member)[0]
 
 

@@ -20,79 +20,27 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dq_inv, dq_to_pose, dq_translation, normalize_dq, pose_to_dq
+from synth.algebra.dq import dq_mul, dq_to_pose, dq_translation, normalize_dq, pose_to_dq, translation_dq
 from synth.blas import one_blas_thread
-from synth.checks import VERIFY_SAMPLES, self_check
+from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
-from synth.synthesis.bennett_core import ACCEPT_TOL
-from synth.synthesis.conditioning import transmission_problem
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import (ERRORS, Layout, MotionModel, homogeneous, levenberg_marquardt,
-                                 task_arrays, _mul)
-from synth.synthesis.taskfit import FitSummary, annotate, item_kinds, select, visiting_order
+from synth.synthesis.fit import (ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, MotionModel, gauge_items, gauge_matrix, inv2,
+                                 levenberg_marquardt, project, regauge, task_arrays)
+from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, select, visiting_order
 from synth.task import Order, PoseSet
 
-__all__ = ["bennett_task", "is_task", "hermite_conic", "regauge", "fit_motion", "MAX_TRIPLES", "KEEP", "GRID"]
+__all__ = ["bennett_task", "is_task", "hermite_conic", "fit_motion", "linkage_of", "MAX_TRIPLES", "KEEP"]
 
+POINTS_NEEDED = 5  # positions through which a quadratic motion has two free parameters (docs/points.md)
+MAX_SUBSETS = 40  # seeds from 5-subsets of the positions of a point task
+PARAMETER_SAMPLES = 24  # samples of the two free parameters per subset
 MAX_TRIPLES = 60  # seeds from triples of poses: all when there are at most this many, else a sample
-GRID = 48  # parameter samples per seed motion for projecting the items onto it
 KEEP = 4  # seeds refined by Levenberg-Marquardt
 ITERATIONS = 40  # Jacobians per refinement, at most
-EXACT_WEIGHT = 1e3  # weight of exact rows when ranking seeds (conditioned units)
 FEASIBLE = 1e-10  # largest constraint violation of an accepted fit (conditioned units)
 DEGREE = 2
-
-
-# ------------------------------------------------------------------ gauge
-def gauge_matrix(phi) -> np.ndarray:
-    """M (..., 2, 2) mapping the homogeneous parameters (1, 0), (0, 1), (1, 1) to those of the items with
-    angles ``phi`` (..., 3) (up to scale): the reparametrization putting them at t = inf, 0, 1."""
-    w = np.stack([np.cos(phi), np.sin(phi)], -2)  # (..., 2, 3) columns
-    det = w[..., 0, 0] * w[..., 1, 1] - w[..., 0, 1] * w[..., 1, 0]  # 0: two items at one point (NaN out)
-    with np.errstate(all="ignore"):
-        alpha = (w[..., 0, 2] * w[..., 1, 1] - w[..., 1, 2] * w[..., 0, 1]) / det
-        beta = (w[..., 0, 0] * w[..., 1, 2] - w[..., 1, 0] * w[..., 0, 2]) / det
-    return w[..., :2] * np.stack([alpha, beta], -1)[..., None, :]
-
-
-GAUGE_ANGLES = np.array([0.0, np.pi / 3, 2 * np.pi / 3])  # where the gauge items are held (t = inf, +-1/sqrt 3)
-
-
-def _gauge_items(phi) -> np.ndarray:
-    """(S, 3): item 0 and the items a third and two thirds along the motion from it (cyclic order of the
-    angles phi (S, N) on the projective line), which `fit_motion` holds at GAUGE_ANGLES (spread evenly,
-    for well-conditioned coefficients)."""
-    N = phi.shape[1]
-    order = np.argsort(np.mod(phi - phi[:, :1], np.pi), axis=1, kind="stable")
-    return np.stack([order[:, 0], order[:, max(1, N // 3)], order[:, max(2, (2 * N) // 3)]], 1)
-
-
-def regauge(coef, ref, phi, M):
-    """The same motion in the parameter t' with homogeneous (u, v) = M (u', v'): coefficients (..., n, 8)
-    of the monic C'(t') = C(M(t')) lead^-1, reference lead Q and the items' new angles (..., N)."""
-    n = coef.shape[-2]
-    psi = (np.arange(n + 1) + 0.5) * (np.pi / (n + 1))
-    uv = M @ np.stack([np.cos(psi), np.sin(psi)])  # (..., 2, n+1)
-    rho, theta = np.hypot(uv[..., 0, :], uv[..., 1, :]), np.arctan2(uv[..., 1, :], uv[..., 0, :])
-    values = homogeneous(coef, theta) * (rho ** n)[..., None]  # (..., n+1, 8)
-    k = np.arange(n + 1)
-    basis = np.cos(psi)[:, None] ** k * np.sin(psi)[:, None] ** (n - k)
-    full = np.linalg.solve(basis, values)  # (..., n+1, 8): coefficients of C(M(.))
-    lead = full[..., n, :]
-    inv = dq_inv(lead)
-    new = _mul(full[..., :n, :], inv[..., None, :])
-    new_ref = normalize_dq(_mul(lead, ref))
-    w = _inv2(M) @ np.stack([np.cos(phi), np.sin(phi)], -2)
-    return new, new_ref, np.mod(np.arctan2(w[..., 1, :], w[..., 0, :]), np.pi)
-
-
-def _inv2(M):
-    """Inverses of 2x2 matrices (..., 2, 2) (NaN for singular ones)."""
-    det = M[..., 0, 0] * M[..., 1, 1] - M[..., 0, 1] * M[..., 1, 0]
-    adj = np.stack([np.stack([M[..., 1, 1], -M[..., 0, 1]], -1), np.stack([-M[..., 1, 0], M[..., 0, 0]], -1)], -2)
-    with np.errstate(all="ignore"):
-        return adj / det[..., None, None]
 
 
 # ------------------------------------------------------------------ seeds
@@ -151,25 +99,42 @@ def _seeds(Q, task, kinds, velocity_twists):
                     refs.append(Q[a][None])
                 except SynthesisError:
                     pass
+    if not len(tri) and len(Q) >= POINTS_NEEDED:  # a point task: no triples of poses
+        c, r = _point_seeds(dq_translation(Q))
+        coefs.append(c)
+        refs.append(r)
     if not coefs:
-        raise SynthesisError("no seed motion: a Bennett fit needs three poses, or two with a velocity")
+        raise SynthesisError("no seed motion: a Bennett fit needs three poses, two with a velocity or six points")
     coef, ref = np.concatenate(coefs), np.concatenate(refs)
     ok = np.isfinite(coef).all((1, 2))
+    if not ok.any():
+        raise SynthesisError("no seed motion: every triple of poses is degenerate (coinciding poses, or poses related "
+                             "by pure translations or by rotations about one axis); no Bennett motion fits them")
     return coef[ok], ref[ok]
 
 
-def _project(coef, ref, task):
-    """Each item's angle phi (S, N) on each seed motion: the nearest of GRID samples, by the weighted
-    squared position and angle misses (exact components weighted EXACT_WEIGHT; angles 8 (1 - |p . q|))."""
-    grid = (np.arange(GRID) + 0.5) * (np.pi / GRID)
+def _point_seeds(X):
+    """Seed motions through five of the items' positions X (N, 3) (conditioned): for each 5-subset (all,
+    or a seeded sample of MAX_SUBSETS), the quadratic
+    motions moving the subset's first position through the others at PARAMETER_SAMPLES
+    (`synth.synthesis.pointfit.point_motion`), conjugated to the frame: (coef (S, 2, 8), reference (S, 8),
+    the translation to the first position)."""
+    from synth.synthesis.pointfit import parameter_samples, point_motion
+
+    subsets = list(itertools.combinations(range(len(X)), POINTS_NEEDED))
+    if len(subsets) > MAX_SUBSETS:
+        pick = np.random.default_rng(0).choice(len(subsets), size=MAX_SUBSETS, replace=False)
+        subsets = [subsets[i] for i in sorted(pick)]
+    sub = np.array(subsets, int)  # (k, 5)
+    t = parameter_samples(PARAMETER_SAMPLES, 2)  # (m, 4)
+    k, m = len(sub), len(t)
+    rel = X[sub[:, 1:]] - X[sub[:, :1]]  # (k, 4, 3)
     with np.errstate(all="ignore"):
-        P = normalize_dq(_mul(homogeneous(coef, np.broadcast_to(grid, (len(coef), GRID))), ref[:, None]))
-        x = dq_translation(P)  # (S, G, 3)
-    w = task.weight[:, [0, 3]] + EXACT_WEIGHT * task.exact[:, [0, 3]]  # (N, 2): position, angle
-    d2 = ((x[:, :, None, :] - task.X) ** 2).sum(-1) * w[:, 0] ** 2
-    cos = np.abs(P[..., :4] @ task.Q[:, :4].T)  # |p . q|: (S, G, N)
-    d2 = d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1] ** 2
-    return grid[np.argmin(np.nan_to_num(d2, nan=np.inf), axis=1)]
+        C = point_motion(np.repeat(rel, m, axis=0), np.tile(t, (k, 1)), 2)  # (k m, 3, 8)
+    move = translation_dq(np.repeat(X[sub[:, 0]], m, axis=0))[:, None]  # (k m, 1, 8)
+    back = translation_dq(-np.repeat(X[sub[:, 0]], m, axis=0))[:, None]
+    coef = dq_mul(dq_mul(move, C[:, :2]), back)
+    return coef, move[:, 0]
 
 
 # ------------------------------------------------------------------ the fit
@@ -183,10 +148,10 @@ def fit_motion(ps: PoseSet):
     task = task_arrays(Q, Tc[:, :3, 3], ps.tolerance, ps.velocity, float(cond.scale))
     twists = _twists(ps, Tc, float(cond.scale))
     coef, ref = _seeds(Q, task, item_kinds(ps), twists)
-    phi = _project(coef, ref, task)
-    gauge = _gauge_items(phi)
+    phi = project(coef, ref, task)
+    gauge = gauge_items(phi)
     with np.errstate(all="ignore"):
-        M = gauge_matrix(np.take_along_axis(phi, gauge, 1)) @ _inv2(gauge_matrix(GAUGE_ANGLES))
+        M = gauge_matrix(np.take_along_axis(phi, gauge, 1)) @ inv2(gauge_matrix(GAUGE_ANGLES))
         coef, ref, phi = regauge(coef, ref, phi, M)
     np.put_along_axis(phi, gauge, GAUGE_ANGLES[None], 1)
     ok = np.isfinite(coef).all((1, 2)) & np.isfinite(ref).all(1) & np.isfinite(phi).all(1)
@@ -200,11 +165,15 @@ def fit_motion(ps: PoseSet):
     with np.errstate(all="ignore"):
         r, c = model.rows(x0)
     merit = np.nan_to_num((r * r).sum(-1) + EXACT_WEIGHT**2 * (c * c).sum(-1), nan=np.inf)
-    keep = np.argsort(merit, kind="stable")[:KEEP]
+    keep = np.lexsort((merit, ~_in_order(phi))) if ps.order is Order.LISTED else np.argsort(merit, kind="stable")
+    keep = keep[:KEEP]  # (the seeds whose items lie in the listed order first, when it is asked for)
     layout = Layout(DEGREE, len(T), gauge[keep])
     model = MotionModel(layout, task, ref[keep])
+    fixed = layout.fixed
+    if not (task.weight[:, 3:ERRORS].any() or task.exact[:, 3:].any()):  # positions only: the tool's
+        fixed[:, 8 * DEGREE:8 * DEGREE + 3] = True  # orientation at the reference is free, hold it
     with np.errstate(all="ignore"), one_blas_thread():
-        res = levenberg_marquardt(model, x0[keep], layout.fixed, ITERATIONS)
+        res = levenberg_marquardt(model, x0[keep], fixed, ITERATIONS)
     coef, x_ref, phi = layout.split(res.x)
     from synth.synthesis.fit import reference_pose
 
@@ -212,6 +181,12 @@ def fit_motion(ps: PoseSet):
     order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
     summary = FitSummary("fit", seeds=tried, refined=len(keep), iterations=res.iterations)
     return coef[order], refs[order], np.mod(phi[order], np.pi), res.cost[order], res.violation[order], cond, summary
+
+
+def _in_order(phi) -> np.ndarray:
+    """(S,) whether each seed's item angles phi (S, N) (item 0 at 0) visit the items in the listed order."""
+    d = np.diff(np.mod(phi[:, 1:], np.pi), axis=1)
+    return np.all(d > 0, axis=1) | np.all(d < 0, axis=1)
 
 
 def _twists(ps: PoseSet, Tc, scale: float) -> dict:
@@ -232,8 +207,7 @@ def _twists(ps: PoseSet, Tc, scale: float) -> dict:
 def linkage_of(coef, ref, phi, cond: Conditioning, ps: PoseSet, info: dict):
     """The Bennett linkage of a motion in the conditioned frame: C (coefficients (2, 8), monic), reference
     pose ``ref`` (8,) at t = inf (item 0, phi = 0) and the items' angles ``phi`` (N,) (t = cot phi)."""
-    from synth.synthesis.bennett import factor_conic
-    from synth.synthesis.conic import to_world
+    from synth.synthesis.bennett import LOOP_NAMES, bennett_parameters_of, dh_table, factor_conic
 
     C = np.concatenate([coef, np.eye(8)[:1]])
     H, K, Cw, residual = factor_conic(C, cond)
@@ -247,32 +221,30 @@ def linkage_of(coef, ref, phi, cond: Conditioning, ps: PoseSet, info: dict):
                             {**info, "factorization_residual": residual,
                              "conditioning": {"centre": np.asarray(cond.centre).tolist(), "scale": float(cond.scale)}})
     lk.tool_ref = Tref
-    del to_world
+    lk.info["bennett"] = bennett_parameters_of(lk)
+    lk.info["dh"] = dh_table(lk, LOOP_NAMES)
     return lk
-
-
-def check_fitted(linkage) -> None:
-    """SynthesisError when the fitted linkage does not close (relative error above ACCEPT_TOL over
-    VERIFY_SAMPLES parameters) or transmits badly (`synth.synthesis.conditioning.transmission_problem`)."""
-    why = transmission_problem(linkage)
-    if why:
-        raise SynthesisError(why)
-    checks = self_check(linkage, VERIFY_SAMPLES)
-    size = linkage.extent()
-    rel = max(checks["max_closure_translation_error"] / size, checks["max_closure_rotation_error"])
-    if not rel <= ACCEPT_TOL:
-        raise SynthesisError(f"the fitted linkage does not close to double precision (relative error {rel:.1e})")
-    linkage.checks = checks
 
 
 def is_task(ps: PoseSet) -> bool:
     """Whether a pose set needs `bennett_task` rather than the classic three-pose synthesis: tolerances,
     velocities, a listed order or a count other than three poses."""
-    return (ps.tolerance is not None or ps.velocity is not None or ps.order is Order.LISTED or len(ps) != 3
-            or ps.has_points)
+    if ps.tolerance is not None or ps.velocity is not None or ps.order is Order.LISTED:
+        return True
+    return len(ps) > POINTS_NEEDED if ps.has_points else len(ps) != 3
 
 
 def bennett_task(ps: PoseSet, top: int = 1, best_effort: bool = False) -> list:
+    """`_bennett_task` with every refusal naming the task's source first."""
+    try:
+        return _bennett_task(ps, top, best_effort)
+    except SynthesisError as e:
+        if str(e).startswith(f"{ps.source}: "):
+            raise
+        raise SynthesisError(f"{ps.source}: {e}") from e
+
+
+def _bennett_task(ps: PoseSet, top: int, best_effort: bool) -> list:
     """Bennett linkages for a task (`synth.task.PoseSet`), best first (up to ``top``): exact for 3 poses
     or a Hermite pair, fitted for more (module docstring). Each has its items' misses recorded
     (`annotate`). SynthesisError when nothing meets the exact items and velocities, none follows the
@@ -289,16 +261,23 @@ def bennett_task(ps: PoseSet, top: int = 1, best_effort: bool = False) -> list:
         candidates = out
     elif len(ps) == 2 and n_poses == 2 and twists:
         candidates, summary = [_hermite(ps)], None
-    elif len(ps) >= 3 and n_poses >= 3 or (n_poses >= 2 and twists and len(ps) >= 3):
+    elif n_poses < len(ps) and len(ps) <= POINTS_NEEDED:  # a point task (docs/points.md): exact as before
+        from synth.synthesis.points import oriented_item, point_candidates
+
+        oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
+        candidates = point_candidates(ps.positions, ps.names, degree=DEGREE, top=top, tool_rotation=rot,
+                                      oriented=oriented, check_samples=VERIFY_SAMPLES)
+        summary = FitSummary("exact", visit=visiting_order([r.t for r in candidates[0].poses]))
+    elif (len(ps) >= 3 and n_poses >= 3) or (n_poses >= 2 and twists and len(ps) >= 3) or len(ps) > POINTS_NEEDED:
         candidates, summary = _fitted(ps, top), None
     else:
         got = f"{n_poses} poses" + (f" and {len(ps) - n_poses} points" if len(ps) > n_poses else "")
-        raise InputError(f"{ps.source}: a Bennett linkage needs 3 or more poses, or 2 poses with a velocity at "
-                         f"one of them, got {got}")
+        raise InputError(f"{ps.source}: a Bennett linkage needs 3 or more poses, 2 poses with a velocity at one "
+                         f"of them, or 3 or more points, got {got}")
     results = []
     for lk in candidates:
         s = summary or lk.info.pop("_summary")
-        if s.method == "exact":
+        if s.method == "exact" and not ps.has_points:
             from synth.synthesis.bennett import verify
 
             verify(lk)

@@ -9,7 +9,7 @@ every factorization of each distinct feasible cubic and its 9 loops scored like 
 (`synth.synthesis.sixbar_loops.score_loops`, the separation of the pose parameters in place of t3's) ->
 candidates (fit, loop pair), best cost first and then score, built into linkages
 (`synth.synthesis.assemble.two_branch_linkage`, factors polished) and checked (closure, transmission:
-`synth.synthesis.bennett_fit.check_fitted`).
+`synth.synthesis.taskfit.check_fitted`).
 
 Conventions as for Bennett fits (`synth.synthesis.bennett_fit.linkage_of`): pose 0 is at t = inf (all joint
 angles 0); the records hold the target poses and the joint angles at the fitted parameters; ``tool_ref``
@@ -24,7 +24,7 @@ from synth.algebra.dq import dq_to_pose, normalize_dq, pose_to_dq
 from synth.blas import one_blas_thread
 from synth.errors import SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
-from synth.synthesis.bennett_fit import FEASIBLE, check_fitted
+from synth.synthesis.bennett_fit import FEASIBLE
 from synth.synthesis.conic import condition, to_world
 from synth.synthesis.cubic import PAIRS, PERMS
 from synth.synthesis.cubic_fit import seeds
@@ -32,7 +32,7 @@ from synth.synthesis.fit import Layout, MotionModel, levenberg_marquardt, refere
 from synth.synthesis.pointfit import parameter_separation
 from synth.synthesis.sixbar import LOOP, loop_dh
 from synth.synthesis.sixbar_loops import factor_members, loop_geometry, score_loops, score_warnings
-from synth.synthesis.taskfit import FitSummary, visiting_order, visits_in_order
+from synth.synthesis.taskfit import FitSummary, check_fitted, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 
 __all__ = ["CubicFits", "fit_cubics", "fit_candidates", "STAGE1", "STAGE2", "KEEP_FITS"]

@@ -10,12 +10,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.checks import pose_difference
+from synth.checks import VERIFY_SAMPLES, pose_difference, self_check
 import json
 from synth.errors import InputError, SynthesisError
+from synth.synthesis.bennett_core import ACCEPT_TOL
+from synth.synthesis.conditioning import transmission_problem
 from synth.task import Order, PoseSet
 
-__all__ = ["make_task", "fit", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem",
+__all__ = ["make_task", "check_fitted", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem",
            "error_rows", "item_kinds", "select"]
 
 
@@ -60,6 +62,9 @@ def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
     ok = []
     for i, rec in enumerate(linkage.poses):
         rec.kind = kinds[i]
+        if point[i]:  # the tool pose reached there, at the given position (docs/points.md)
+            rec.matrix = np.array(T[i])
+            rec.matrix[:3, 3] = ps.matrices[i, :3, 3]
         rec.error = (float(dt[i]), float(dr[i]))
         exact = bool(tol[i, 0] == 0 and (point[i] or tol[i, 1] == 0))
         rec.exact, rec.tolerance = exact, (None if exact else (float(tol[i, 0]), float(tol[i, 1])))
@@ -162,17 +167,14 @@ def make_task(poses, names=None, tolerance=None, velocity=None, order=None) -> P
     return PoseSet(names=names, matrices=T, tolerance=tol, velocity=vel, order=order, named=[True] * n)
 
 
-def fit(poses, names=None, *, tolerance=None, velocity=None, order=None, kind: str = "bennett", top: int = 1,
-        best_effort: bool = False):
-    """Linkages of ``kind`` ("bennett" or "6r") for a task (a `PoseSet`, or arrays as `make_task`), best first
-    (a list of up to ``top``): exact, Hermite or fitted (docs/fit.md, docs/sixbar_fit.md)."""
-    task = poses if isinstance(poses, PoseSet) else make_task(poses, names, tolerance, velocity, order)
-    if kind == "bennett":
-        from synth.synthesis.bennett_fit import bennett_task
-
-        return bennett_task(task, top=top, best_effort=best_effort)
-    if kind == "6r":
-        from synth.synthesis.sixbar_task import sixbar_task
-
-        return sixbar_task(task, top=top, best_effort=best_effort)
-    raise InputError(f"synth.fit: kind {kind!r} is not available (allowed: 'bennett', '6r')")
+def check_fitted(linkage) -> None:
+    """SynthesisError when the fitted linkage does not close (relative error above ACCEPT_TOL over
+    VERIFY_SAMPLES parameters) or transmits badly (`synth.synthesis.conditioning.transmission_problem`)."""
+    why = transmission_problem(linkage)
+    if why:
+        raise SynthesisError(why)
+    checks = self_check(linkage, VERIFY_SAMPLES)
+    rel = max(checks["max_closure_translation_error"] / checks["length_scale"], checks["max_closure_rotation_error"])
+    if not rel <= ACCEPT_TOL:
+        raise SynthesisError(f"the fitted linkage does not close to double precision (relative error {rel:.1e})")
+    linkage.checks = checks
