@@ -56,12 +56,17 @@ class CubicFits:
 
     def ts(self, k: int) -> np.ndarray:
         """Pose parameters t (N,) of fit k: t = cot phi, t_0 = inf."""
-        phi = self.phi[k]
-        with np.errstate(divide="ignore"):
-            ts = np.cos(phi) / np.sin(phi)
-        ts[0] = np.inf
-        ts[phi == np.pi / 2] = 0.0
-        return ts
+        return _cot(self.phi[k])
+
+
+def _cot(phi) -> np.ndarray:
+    """t = cot phi (N,) of the poses' angles, t_0 = inf (pose 0 at phi = 0)."""
+    phi = np.mod(phi, np.pi)
+    with np.errstate(divide="ignore"):
+        ts = np.cos(phi) / np.sin(phi)
+    ts[0] = np.inf
+    ts[phi == np.pi / 2] = 0.0
+    return ts
 
 
 def _refine(task, ref, x0, gauge, iterations):
@@ -86,7 +91,11 @@ def fit_cubics(ps: PoseSet) -> CubicFits:
         x0 = layout.join(coef, np.zeros((len(coef), 6)), phi)
         _, first = _refine(task, ref, x0, gauge, STAGE1)
         merit = np.nan_to_num(first.cost + 1e6 * first.violation, nan=np.inf)
-        keep = np.argsort(merit, kind="stable")[:KEEP_FITS]
+        keep = np.argsort(merit, kind="stable")
+        if ps.order is Order.LISTED:  # the seeds that visit the poses in the listed order first
+            listed = np.array([visits_in_order(_cot(p)) for p in layout.split(first.x)[2]])
+            keep = keep[np.argsort(~listed[keep], kind="stable")]
+        keep = keep[:KEEP_FITS]
         layout, res = _refine(task, ref[keep], first.x[keep], gauge[keep], STAGE2)
     c, x_ref, ph = layout.split(res.x)
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
