@@ -258,3 +258,21 @@ def run(*args):
     from cli.main import mpsynth
 
     return CliRunner().invoke(mpsynth, [str(a) for a in args], catch_exceptions=False)
+
+
+def test_batch_job_and_python_api_take_6r_tasks():
+    import yaml
+
+    import synth
+    from synth.tools.batchjobs import run_job
+
+    doc = yaml.safe_load((ROOT / "fixtures" / "sixbar_hermite.yaml").read_text())
+    res = run_job((1, json.dumps({"id": "h", "kind": "sixbar", **doc})))
+    assert res["ok"], res
+    assert res["fit"]["method"] == "hermite" and res["fit"]["within_tolerance"]
+    rng = np.random.default_rng(3)
+    C, X0 = random_motion(rng)
+    T = poses_at(C, X0, TS8)
+    lk = synth.sixbar(T, tolerance=(1e-3 * spread(T), 1e-2), order="listed")
+    assert lk.kind == "6r" and lk.info["fit"]["method"] == "fit" and lk.info["fit"]["within_tolerance"]
+    assert synth.fit(T, tolerance=(1e-3 * spread(T), 1e-2), kind="6r", top=2)[0].kind == "6r"
