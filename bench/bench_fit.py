@@ -35,6 +35,7 @@ TARGETS = {"fit_10": 20e-3, "fit_50": 100e-3, "cli_fit": 2.0}
 def task_sets(n: int, sets: int):
     """``sets`` tasks of n poses each (PoseSet), seeded."""
     from synth.algebra.dq import dq_mul, dq_to_pose, normalize_dq, pose_to_dq
+    from synth.errors import SynthesisError
     from synth.synthesis.bennett import bennett
     from synth.synthesis.fit import homogeneous
     from synth.task import Order, PoseSet
@@ -43,7 +44,12 @@ def task_sets(n: int, sets: int):
     out = []
     for s in range(sets):
         rng = np.random.default_rng(100 + s)
-        L = bennett(random_poses(rng, 3))
+        while True:  # a linkage the synthesis accepts (its transmission)
+            try:
+                L = bennett(random_poses(rng, 3))
+                break
+            except SynthesisError:
+                continue
         phi = np.pi * (1 - np.r_[0.0, np.sort(rng.uniform(0.15, 0.85, n - 1))])
         T = dq_to_pose(normalize_dq(dq_mul(homogeneous(L.motion[:2][None], phi[None])[0], pose_to_dq(L.tool_ref))))
         spread = float(np.sqrt(np.mean(np.sum((T[:, :3, 3] - T[:, :3, 3].mean(0)) ** 2, 1))))

@@ -17,7 +17,7 @@ default synthesis <= 4 ms (100x rational-linkages' 6R pipeline), one member's 9 
   ... 200        the same with the CLI's 200-sample self-check (check_samples=VERIFY_SAMPLES)
   one member     6 factorizations (Newton-polished) + 9 loops + their scores, world frame,
                  poses already prepared: the scan's code on a batch of one member
-                 (synth.synthesis.sixbar.one_member_loops)
+                 (synth.synthesis.sixbar_member.one_member_loops)
   ... unscored   the same without the scores                      (one_member_loops(score=False))
   ... + prepare  the same from the raw poses                      (one_member_loops(problem=None))
 """
@@ -35,7 +35,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from synth.checks import self_check  # noqa: E402
 from synth.errors import SynthesisError  # noqa: E402
-from synth.synthesis.sixbar import build_linkage, one_member_loops, prepare, scan, sixbar  # noqa: E402
+from synth.synthesis.sixbar import build_linkage, prepare, scan, sixbar  # noqa: E402
+from synth.synthesis.sixbar_member import one_member_loops  # noqa: E402
 
 
 def timed(fn, repeat):

@@ -250,7 +250,7 @@ def run_rl(python, rng, sets3, sets4, repeat, timeout):
     affect both sides alike; the first ``sets3`` / ``sets4`` sets that rational-linkages synthesizes count."""
     import synth
     from synth.errors import SynthesisError
-    from synth.synthesis.sixbar import one_member_loops
+    from synth.synthesis.sixbar_member import one_member_loops
 
     # candidates: more than needed. 6R: the example of its documentation (MotionInterpolation), then random
     # sets (on which it rarely succeeds)
@@ -391,7 +391,7 @@ def main(argv=None):
     cubics = [random_cubic(rng) for _ in range(20)]
     rows.append(("factor_cubic", "synth.factorize(random cubic), all 6", *per_call(factorize, cubics, 10 if q else 50)))
     try:
-        from synth.synthesis.sixbar import one_member_loops
+        from synth.synthesis.sixbar_member import one_member_loops
 
         six = sixbar_sets(rng, 5 if q else 10)
         rows.append(("sixbar", "synth.sixbar(poses) (default: scan, best candidate built and self-checked)", *per_call(synth.sixbar, [s[0] for s in six], 2 if q else 5)))

@@ -5,9 +5,7 @@ import math
 
 import click
 
-from synth.design.work import GAPS_PER_SECOND
-
-from .common import choose_buildable, echo, emit_linkage, fmt_len, mesh_sizes, run_guarded, synthesis_options
+from .common import Output, design_options, echo, emit, fmt_len, progress, run_guarded, synthesis_options
 
 
 @click.command(epilog="""\b
@@ -30,8 +28,7 @@ Example:
                    "false) instead of exiting 1.")
 @synthesis_options
 @run_guarded
-def bennett(poses, member, top, best_effort, out, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
-            require_collision_free, package, normalize, quiet, as_json, debug):
+def bennett(poses, member, top, best_effort, **params):
     """Synthesize the spatial Bennett 4R linkage whose coupler passes through the three poses in
     POSES (YAML or JSON, '-' for stdin; see README for the format). With five points instead (a
     `points:` list, or poses with a position only; 3 or 4: the rest is chosen) the tool point passes
@@ -45,62 +42,34 @@ def bennett(poses, member, top, best_effort, out, name, force, pin_radius, link_
     given: printable parts of a physical design (bars, hubs with bores, separate pins) and what it
     achieves (collision-free over the full cycle or the task range, or not); prints a summary on stderr
     and, with --json, linkage.json on stdout."""
-    from synth.synthesis.bennett import bennett_candidates, verify
-    from synth.errors import SynthesisError
     from synth.io.poses import load_poses
-
-    from .points import point_count, run_point_task
+    from synth.solve import SynthesisOptions, solve_bennett
 
     from synth.synthesis.bennett_fit import is_task
 
-    ps = load_poses(poses, count=((2, None), "mpsynth bennett"), normalize=normalize,
-                    points=((point_count(2)[0][0], None), "mpsynth bennett"))  # more than 5: fitted
-    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
-                            clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
-    if ps.has_points and not is_task(ps):
-        if member is not None:
-            from synth.errors import InputError
+    from .points import emit_points, point_count
+    from .task import emit_task
 
-            raise InputError("--member selects among the quadratic motions through planar or spherical poses; a "
-                             "point task has no such family (use --top to see its ranked designs)")
-        return run_point_task(ps, 2, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-                              as_json=as_json, require_free=require_collision_free)
-    if is_task(ps):  # tolerances, velocities, an order or other than three poses (docs/fit.md)
-        from .task import run_bennett_task
+    output = Output.of(params)
+    ps = load_poses(poses, count=((2, None), "mpsynth bennett"), normalize=params["normalize"],
+                    points=((point_count(2)[0][0], None), "mpsynth bennett"))  # more than 5 points: fitted
+    task = is_task(ps)
+    lam = parse_numbers(member, 2, "--member") if member is not None and not ps.has_points and not task else member
+    options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=lam,
+                               best_effort=best_effort)
 
-        if out:
+    def ready():
+        if output.dir:
             from synth.io.writer import check_output_target
 
-            check_output_target(out, force)
-        return run_bennett_task(ps, top, best_effort, out=out, name=name, force=force, package=package, sizes=sizes,
-                                quiet=quiet, as_json=as_json, require_free=require_collision_free)
-    if top is not None:
-        from synth.errors import InputError
+            check_output_target(output.dir, output.force)  # refuse an unusable OUT before doing the work
 
-        raise InputError("--top applies to point tasks and fits only: three poses give one Bennett linkage")
-    if out:
-        from synth.io.writer import check_output_target
-
-        check_output_target(out, force)  # refuse an unusable OUT before doing the work
-    lam = parse_numbers(member, 2, "--member") if member is not None else None
-    result = None
-    try:
-        design = (out or as_json or require_collision_free) and lam is None
-        linkages = bennett_candidates(ps.matrices, ps.names, member=lam, top=BUILDABLE_CANDIDATES if design else 1)
-        for lk in linkages:
-            verify(lk)  # the self-check at VERIFY_SAMPLES parameters; refuses a failing linkage
-    except SynthesisError as e:  # name the file, like every input error
-        raise SynthesisError(f"{ps.source}: {e}") from e
-    linkage = linkages[0]
-    if len(linkages) > 1:  # members of a planar or spherical family: collision-free first
-        linkage, result = choose_buildable(linkages, ps, sizes, limit=BUILDABLE_CANDIDATES, work=BUILDABLE_WORK,
-                                           what="members")
-    emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-         as_json=as_json, require_free=require_collision_free, result=result)
-
-
-BUILDABLE_CANDIDATES = 4  # planar/spherical default: the best-scored members designed, collision-free first
-BUILDABLE_WORK = 4.0 * GAPS_PER_SECOND  # gap evaluations of those design searches (synth.design.work)
+    result = solve_bennett(ps, options, ready=ready, progress=lambda items, label: progress(items, label, output.quiet))
+    if task:
+        return emit_task(result, ps, output, top)
+    if ps.has_points:
+        return emit_points(result, ps, output, top)
+    emit_two_branch(result, ps, output)
 
 
 def parse_numbers(text: str, count: int, option: str) -> list[float]:
@@ -118,10 +87,10 @@ def parse_numbers(text: str, count: int, option: str) -> list[float]:
     return vals
 
 
-def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, require_free=False, result=None,
-         summary_line: str | None = None):
+def emit_two_branch(result, ps, output, summary_line: str | None = None):
     """Write, summarize and print a two-branch linkage (bennett, sixbar) read from the pose set ``ps``;
     ``summary_line``: one more line of the summary (printed only when everything succeeded)."""
+    linkage = result.linkage
 
     def details():
         if summary_line:
@@ -143,6 +112,4 @@ def emit(linkage, ps, *, out, name, force, package, sizes, quiet, as_json, requi
                  f"b = {fmt_len(bp['b'], scale, unit)}, beta = {math.degrees(bp['beta']):.4f} deg, "
                  f"a/sin(alpha) - b/sin(beta) relative {bp['bennett_condition_residual']:.1e}")
 
-    emit_linkage(linkage, source=ps.source, scale=ps.length_scale, unit=ps.length_unit, out=out, name=name,
-                 force=force, package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,
-                 require_free=require_free, result=result)
+    emit(result, output, details)

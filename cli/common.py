@@ -6,6 +6,7 @@ import functools
 import json
 import sys
 import traceback
+from dataclasses import dataclass
 
 import click
 
@@ -143,44 +144,36 @@ def design_option_list(unit: str) -> list:
     ]
 
 
-def mesh_sizes(kwargs, length_scale: float) -> dict:
-    """Mesh size and clearance options converted from the input's length unit to metres (sizes validated
-    positive, clearances non-negative)."""
-    from synth.errors import InputError
+@dataclass(frozen=True)
+class Output:
+    """Where and how a command reports: OUT directory (None: nothing written), robot name, --force,
+    --package, --quiet, --json."""
 
-    out = {}
-    for key in ("pin_radius", "link_radius", "pin_length", "clearance", "hole_clearance"):
-        v = kwargs.get(key)
-        if v is not None:
-            zero_ok = key in ("clearance", "hole_clearance")
-            if not ((v > 0 or (zero_ok and v == 0)) and v < 1e9):
-                raise InputError(f"--{key.replace('_', '-')} must be a {'non-negative' if zero_ok else 'positive'} "
-                                 f"length, got {v}")
-            out[key] = v * length_scale
-    return out
+    dir: str | None = None
+    name: str | None = None
+    force: bool = False
+    package: str | None = None
+    quiet: bool = False
+    as_json: bool = False
+
+    @classmethod
+    def of(cls, params: dict) -> "Output":
+        return cls(params.get("out"), params.get("name"), params.get("force", False), params.get("package"),
+                   params.get("quiet", False), params.get("as_json", False))
+
+    @property
+    def physical(self) -> bool:
+        """Whether the physical design is needed: files are written or linkage.json printed."""
+        return bool(self.dir or self.as_json)
 
 
-MESH_SIZE_RANGE = (1e-6, 10.0)  # explicit mesh sizes, relative to the linkage's size (extent): a part
-# ten times the mechanism's size is a typo, not a design (e.g. --pin-length 100000 gave a 132 m mesh)
+def design_options(params: dict):
+    """The `synth.solve.DesignOptions` of the design options among click's ``params``."""
+    from synth.solve import DesignOptions
 
-
-def check_mesh_sizes(sizes: dict, extent: float, scale: float, unit: str) -> None:
-    """Refuse explicit mesh sizes (metres) that are absurd for a linkage of size ``extent`` (metres):
-    outside MESH_SIZE_RANGE times the extent the meshes cannot be built. Messages use the input unit."""
-    from synth.errors import InputError
-
-    lo, hi = MESH_SIZE_RANGE
-    for key, v in sizes.items():
-        if key in ("clearance", "hole_clearance"):
-            if v > hi * extent:
-                raise InputError(f"--{key.replace('_', '-')} {v / scale:.6g} {unit} is out of range for a linkage "
-                                 f"of size {extent / scale:.3g} {unit}")
-            continue
-        if not (lo * extent <= v <= hi * extent):
-            raise InputError(
-                f"--{key.replace('_', '-')} {v / scale:.6g} {unit} is out of range for a linkage of size "
-                f"{extent / scale:.3g} {unit}: give a value between {lo * extent / scale:.3g} and "
-                f"{hi * extent / scale:.3g} {unit}")
+    return DesignOptions(params.get("pin_radius"), params.get("link_radius"), params.get("pin_length"),
+                         params.get("clearance"), params.get("hole_clearance"),
+                         params.get("require_collision_free", False))
 
 
 def default_robot_name(source: str) -> str:
@@ -222,134 +215,39 @@ def print_linkage_summary(linkage, scale: float, unit: str) -> None:
         echo(f"  warning: {w}")
 
 
-def collision_sentence(report, scale: float, unit: str) -> str:
-    """What the design achieves, in words (lengths in the input unit, driver angles in degrees)."""
-    import math
-
-    def length(x):
-        return f"{x / scale:.3g} {unit}"
-
-    lo, hi = (math.degrees(v) for v in report.driver_range)
-    if report.free:
-        where = ("over the full cycle" if report.range == "full" else
-                 f"over the task range ({report.driver} from {lo:.1f} to {hi:.1f} deg)")
-        thin = report.thinned
-        if thin:
-            clear = " / ".join(" and ".join(p) for p in thin["default_pairs"][:2]) or "colliding bodies"
-            where += (f" (bars thinned to radius {length(thin['bar_radius'])}, pins to {length(thin['pin_radius'])}: "
-                      f"{thin['scale']:g} x the defaults {length(thin['default_bar_radius'])}, "
-                      f"{length(thin['default_pin_radius'])}, to clear {clear})")
-        return f"collision-free {where}, clearance {length(report.clearance)}, min gap {length(report.min_distance)}"
-    if report.pairs:
-        p = report.pairs[0]
-        a, b = p["bodies"]
-        d = float(p["min_distance"])
-        what = "collide" if d < 0 else f"come within {length(d)} (clearance {length(report.clearance)})"
-        at = ""
-        if p.get("driver_angles"):
-            at = (f" at {report.driver} from {math.degrees(p['driver_angles'][0]):.1f} to "
-                  f"{math.degrees(p['driver_angles'][1]):.1f} deg")
-        more = f" (and {len(report.pairs) - 1} more pair(s))" if len(report.pairs) > 1 else ""
-        return f"NOT collision-free: {a} and {b} {what}{at}{more}" + (f"; {report.message}" if report.message else "")
-    return f"NOT collision-free: {report.message or 'no collision-free design was found'}"
-
-
-def design_result(linkage, sizes: dict, *, scale: float, unit: str, source: str, require_free: bool, **search):
-    """The physical design of ``linkage`` (`synth.design.choose.design_for`) with the sizes in metres;
-    SynthesisError (exit 1) with the sentence when ``require_free`` and it is not collision-free;
-    ``search``: further arguments of the design search (ranges, full_work, work)."""
-    from synth.design.choose import design_for
-
-    check_mesh_sizes(sizes, linkage.extent(), scale, unit)
-    result = design_for(linkage, **sizes, **search)
-    if require_free:
-        require_collision_free(result, source=source, scale=scale, unit=unit)
-    return result
-
-
-def choose_buildable(candidates, ps, sizes: dict, *, limit: int, work: float, what: str):
-    """Design the best-scored ``candidates`` (best first) and keep the collision-free one first (full cycle,
-    then task range; `synth.design.search.rank_buildable`), then the score. Returns (linkage, DesignResult);
-    ``linkage.info["design_choice"]`` says which candidate won; ``what``: the candidates' name in it."""
-    from synth.design.search import rank_buildable
-
-    candidates = list(candidates)
-    ranked = rank_buildable(candidates, lambda lk, ranges, full_work, spent: design_result(
-        lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source, require_free=False,
-        ranges=ranges, full_work=full_work, work=spent), limit=limit, work=work)
-    linkage, result = ranked[0]
-    k = next(i for i, c in enumerate(candidates) if c is linkage)
-    linkage.info["design_choice"] = (f"candidate {k + 1} of the {min(len(candidates), limit)} best-scored {what}: "
-                                     "collision-free first (full cycle, then task range), then the score")
-    return linkage, result
-
-
-def design_solutions(linkages, ps, sizes: dict, *, quiet: bool, require_free: bool, what: str):
-    """The physical design of every ranked solution (`--top`): designed in turn (progress on a terminal),
-    reordered collision-free first (full cycle, then task range), then the given order; with
-    ``require_free`` only the collision-free ones (SynthesisError naming the best when there is none;
-    ``what`` names the designs in it). Returns (linkages, DesignResults)."""
-    from synth.design.search import collision_rank
-    from synth.errors import SynthesisError
-
-    results = [design_result(lk, sizes, scale=ps.length_scale, unit=ps.length_unit, source=ps.source,
-                             require_free=False)
-               for lk in progress(linkages, "collision-free design search: design", quiet)]
-    order = sorted(range(len(linkages)), key=lambda i: (collision_rank(results[i].collision), i))
-    pairs = [(linkages[i], results[i]) for i in order]
-    if require_free:
-        free = [(lk, r) for lk, r in pairs if r.collision.free]
-        if not free:
-            raise SynthesisError(f"{ps.source}: none of the {len(pairs)} best {what} is collision-free; the best: "
-                                 f"{collision_sentence(pairs[0][1].collision, ps.length_scale, ps.length_unit)}")
-        pairs = free
-    return [lk for lk, _ in pairs], [r for _, r in pairs]
-
-
-def add_collisions(solutions: list, results, ps) -> None:
-    """index.json: each solution's collision report and its sentence in the input's length unit."""
-    for sol, r in zip(solutions, results):
-        sol["collision"] = r.collision.to_dict()
-        sol["design_summary"] = collision_sentence(r.collision, ps.length_scale, ps.length_unit)
-
-
-def require_collision_free(result, *, source: str, scale: float, unit: str) -> None:
-    """SynthesisError (exit 1) with the collision sentence unless the design is collision-free."""
-    from synth.errors import SynthesisError
-
-    if not result.collision.free:
-        raise SynthesisError(f"{source}: {collision_sentence(result.collision, scale, unit)}")
-
-
-def emit_linkage(linkage, *, source, scale, unit, out, name, force, package, sizes, quiet, as_json,
-                 details=None, require_free=False, result=None):
-    """The common ending of a synthesis command: design the physical linkage (when files are written,
-    JSON printed or a collision-free design required) and write OUT (when given) first, so that a
-    failure is the only line on stderr; then the summary on stderr (plus ``details()``, a callable that
-    echoes command-specific lines, and the collision sentence), then linkage.json on stdout with --json.
-    ``result``: a design already made (`synth.design.search.DesignResult`), else one is made here."""
+def emit(result, output: Output, details=None) -> None:
+    """The common ending of a synthesis command with one linkage (a `synth.solve.Result`): write OUT
+    (when given) first, so that a failure is the only line on stderr; then the summary on stderr (plus
+    ``details()``, a callable that echoes command-specific lines, and the collision sentence), then
+    linkage.json on stdout with --json."""
     from synth.io.jsonout import linkage_document
     from synth.io.writer import write_output
 
+    linkage, design, scale, unit = result.linkage, result.design, result.scale, result.unit
     files = None
-    if result is None and (out or as_json or require_free):
-        result = design_result(linkage, sizes, scale=scale, unit=unit, source=source, require_free=require_free)
-    elif result is not None and require_free:
-        require_collision_free(result, source=source, scale=scale, unit=unit)
-    if out:
-        files = write_output(linkage, out, robot_name=name or default_robot_name(source), force=force,
-                             package=package, result=result)
-    if not quiet:
+    if output.dir:
+        files = write_output(linkage, output.dir, robot_name=output.name or default_robot_name(result.source),
+                             force=output.force, package=output.package, result=design)
+    if not output.quiet:
         print_linkage_summary(linkage, scale, unit)
         if details is not None:
             details()
-        if result is not None:
-            echo(f"  design: {collision_sentence(result.collision, scale, unit)}")
+        if design is not None:
+            echo(f"  design: {result.sentence()}")
         if files is not None:
             n_pin = sum(1 for f in files if f.name.startswith("pin_") and str(f).endswith(".stl"))
             n_mesh = sum(1 for f in files if str(f).endswith(".stl")) - n_pin
-            echo(f"  wrote {out}/: linkage.urdf, linkage.json, {n_mesh} link meshes and {n_pin} pins in meshes/")
-        elif not as_json:
+            echo(f"  wrote {output.dir}/: linkage.urdf, linkage.json, {n_mesh} link meshes and {n_pin} pins in meshes/")
+        elif not output.as_json:
             echo("  no files written (give -o OUT to write URDF, STL and JSON)")
-    if as_json:
-        print_json(linkage_document(linkage, *((result.design, result.collision) if result else ())))
+    if output.as_json:
+        print_json(linkage_document(linkage, *((design.design, design.collision) if design else ())))
+
+
+def write_ranked(result, output: Output) -> None:
+    """Write the ranked solutions of a Result (``--top``) as OUT/<id>/ with OUT/index.json."""
+    from synth.io.writer import write_solutions
+
+    base = output.name or default_robot_name(result.source)
+    write_solutions(output.dir, [(s.id, s.linkage, f"{base}_{s.id.replace('-', '_')}", s.design)
+                                 for s in result.solutions], result.index, force=output.force, package=output.package)

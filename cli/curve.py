@@ -6,17 +6,14 @@ import math
 
 import click
 
-from synth.design.members import choose_member
 from synth.io.curvespec import load_spec
 from synth.io.posespec import LENGTH_UNITS
 from synth.io.writer import check_output_target
-from synth.synthesis.curve import spec_linkage
-from synth.task import CurveSpec
 
-from .common import debug_option, design_option_list, design_result, echo, emit_linkage, json_option, mesh_sizes, run_guarded
+from .common import Output, debug_option, design_option_list, design_options, echo, emit, json_option, run_guarded
 
 
-def design_options(func):
+def _design_flags(func):
     for opt in reversed(design_option_list("--units")):
         func = opt(func)
     return func
@@ -61,14 +58,13 @@ sliding joint"; no factorization), 2 bad input."""
                    "times a rotation about the tracer point (fewer joints for planar curves); 'auto' = fewer joints.")
 @click.option("--name", help="Robot name in the URDF (default: the spec file's stem).")
 @click.option("--force", is_flag=True, help="Replace OUT even if it holds files not written by mpsynth.")
-@design_options
+@_design_flags
 @click.option("--package", help="Write mesh paths as package://PACKAGE/meshes/... (ROS).")
 @click.option("-q", "--quiet", is_flag=True, help="No summary on stderr.")
 @json_option
 @debug_option
 @run_guarded
-def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_length, clearance, hole_clearance,
-          require_collision_free, package, quiet, as_json, debug):
+def curve(spec, units, method, **params):
     """Synthesize a linkage of revolute joints only (several Bennett loops) whose link `coupler`
     performs the rational motion of SPEC, or whose link `tracer` draws the rational curve of SPEC.
 
@@ -76,21 +72,25 @@ def curve(spec, out, units, method, name, force, pin_radius, link_radius, pin_le
     and Bennett flips then close the loops. Writes OUT/linkage.urdf, OUT/linkage.json and
     OUT/meshes/*.stl (metres) when -o is given; prints a summary with the joint and link counts on
     stderr and, with --json, linkage.json on stdout."""
-    scale = UNITS[units]
+    from synth.solve import SynthesisOptions, solve_curve
+
+    output = Output.of(params)
     parsed = load_spec(spec)
-    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
-                            clearance=clearance, hole_clearance=hole_clearance), scale)
-    if out:
-        check_output_target(out, force)
-    if method != "auto" and not isinstance(parsed, CurveSpec):
-        echo("  note: --method applies to curves only; ignored for a motion")
-    linkage = spec_linkage(parsed, scale=scale, method=method)
-    emit(linkage, source=spec, scale=scale, unit=units, out=out, name=name, force=force, package=package,
-         sizes=sizes, quiet=quiet, as_json=as_json, require_free=require_collision_free)
+    options = SynthesisOptions(design=design_options(params), physical=output.physical, method=method)
+
+    def ready():
+        if output.dir:
+            check_output_target(output.dir, output.force)
+
+    result = solve_curve(parsed, options, scale=UNITS[units], unit=units, source=spec, ready=ready)
+    for note in result.notes:
+        echo(f"  note: {note}")
+    emit_multiloop(result, output)
 
 
-def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quiet, as_json, require_free=False):
+def emit_multiloop(result, output) -> None:
     """Write (when OUT is given) first, then summarize on stderr and print JSON as asked."""
+    linkage, scale, unit = result.linkage, result.scale, result.unit
 
     def details():
         counts = linkage.info["counts"]
@@ -121,11 +121,4 @@ def emit(linkage, *, source, scale, unit, out, name, force, package, sizes, quie
             echo(f"  singular configurations: {first} at {where} deg, where another assembly branch of the "
                  "loop meets the motion; a built linkage can switch branch there (guide it through)")
 
-    result = None
-    if "darboux" in linkage.info and (out or as_json or require_free):  # a collision-free member first
-        linkage, result = choose_member(linkage, lambda lk, ranges, full_work, effort, spent: design_result(
-            lk, sizes, scale=scale, unit=unit, source=source, require_free=False, ranges=ranges,
-            full_work=full_work, effort=effort, work=spent))
-    emit_linkage(linkage, source=source, scale=scale, unit=unit, out=out, name=name, force=force,
-                 package=package, sizes=sizes, quiet=quiet, as_json=as_json, details=details,
-                 require_free=require_free, result=result)
+    emit(result, output, details)

@@ -3,12 +3,7 @@ from __future__ import annotations
 
 import click
 
-from synth.design.work import GAPS_PER_SECOND
-
-from .common import (add_collisions, choose_buildable, default_robot_name, design_solutions, echo, mesh_sizes,
-                     print_json, run_guarded, synthesis_options)
-
-INDEX_FORMAT = "mpsynth.sixbar-index/1"
+from .common import Output, design_options, echo, print_json, progress, run_guarded, synthesis_options, write_ranked
 
 
 @click.command(epilog="""\b
@@ -38,8 +33,7 @@ Examples:
                    "false) instead of exiting 1.")
 @synthesis_options
 @run_guarded
-def sixbar(poses, family, member, pair, top, best_effort, out, name, force, pin_radius, link_radius, pin_length,
-           clearance, hole_clearance, require_collision_free, package, normalize, quiet, as_json, debug):
+def sixbar(poses, family, member, pair, top, best_effort, **params):
     """Synthesize a spatial 6R linkage whose coupler passes through the four poses in POSES (YAML or
     JSON, '-' for stdin; see README for the format). With seven points instead (a `points:` list, or
     poses with a position only; 4 to 6: the rest is chosen) the tool point passes through them
@@ -50,41 +44,30 @@ def sixbar(poses, family, member, pair, top, best_effort, out, name, force, pin_
     of cubic motions is written to OUT (linkage.urdf, linkage.json, meshes/*.stl, lengths in metres).
     Exit status 1 when no real 6R linkage exists (e.g. the poses' quadric is oval)."""
     from synth.io.poses import load_poses
+    from synth.solve import SynthesisOptions, solve_sixbar
 
-    from .points import point_count, run_point_task
-
-    ps = load_poses(poses, count=((2, None), "mpsynth sixbar"), normalize=normalize, points=point_count(3))
-    if member is not None and not ps.has_points:
-        member = parse_member(member)
-    sizes = mesh_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
-                            clearance=clearance, hole_clearance=hole_clearance), ps.length_scale)
-    if ps.has_points:
-        if family is not None or member is not None or pair is not None:
-            from synth.errors import InputError
-
-            raise InputError("--family, --member and --pair select among the cubics through four poses; a point "
-                             "task has no families (use --top to see its ranked designs)")
-        return run_point_task(ps, 3, top, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-                              as_json=as_json, require_free=require_collision_free)
     from synth.synthesis.sixbar_task import is_task
 
-    if is_task(ps):  # tolerances, velocities, a listed order or other than four poses (docs/sixbar_fit.md)
-        from synth.errors import InputError
-        from synth.synthesis.sixbar_task import sixbar_task
+    from .points import emit_points, point_count
+    from .task import emit_task
 
-        from .task import run_task
-
-        if family is not None or member is not None or pair is not None:
-            raise InputError("--family, --member and --pair select among the cubics through four exact poses; a task "
-                             "with tolerances, velocities or another count ranks its own designs (use --top)")
-        return run_task(ps, top, best_effort, sixbar_task, out=out, name=name, force=force, package=package,
-                        sizes=sizes, quiet=quiet, as_json=as_json, require_free=require_collision_free)
+    output = Output.of(params)
+    ps = load_poses(poses, count=((2, None), "mpsynth sixbar"), normalize=params["normalize"], points=point_count(3))
+    task = not ps.has_points and is_task(ps)  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
+    if member is not None and not ps.has_points and not task:
+        member = parse_member(member)
+    options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=member,
+                               family=family, pair=pair, best_effort=best_effort)
+    result = solve_sixbar(ps, options, progress=lambda items, label: progress(items, label, output.quiet))
+    if task:
+        return emit_task(result, ps, output, top)
+    if ps.has_points:
+        return emit_points(result, ps, output, top)
     if top is None:
-        _single(ps, family, member, pair, out=out, name=name, force=force, package=package, sizes=sizes,
-                quiet=quiet, as_json=as_json, require_free=require_collision_free)
-    else:
-        _ranked(ps, family, member, pair, top, out=out, name=name, force=force, package=package, sizes=sizes,
-                quiet=quiet, as_json=as_json, require_free=require_collision_free)
+        from .bennett import emit_two_branch
+
+        return emit_two_branch(result, ps, output, summary_line=_design_line(result.linkage.info))
+    _ranked(result, ps, output, top)
 
 
 def parse_member(text: str):
@@ -115,60 +98,6 @@ def _design_line(info) -> str:
             f"min offset {p['min_offset']:.3g} x spread)")
 
 
-BUILDABLE_CANDIDATES = 8  # default design: the best-scored candidates searched, collision-free first
-BUILDABLE_WORK = 7.0 * GAPS_PER_SECOND  # gap evaluations of those design searches (synth.design.work; rank_buildable)
-
-
-def _single(ps, family, member, pair, *, out, name, force, package, sizes, quiet, as_json, require_free):
-    """The default design: with a physical design to make (files, --json, --require-collision-free) and no
-    explicit --family/--member/--pair, the best-scored candidates are designed in turn and the first
-    collision-free one (full cycle, then task range) wins (`synth.design.search.rank_buildable`); else the
-    best-scored linkage."""
-    from synth.checks import VERIFY_SAMPLES
-    from synth.synthesis.sixbar import sixbar as synth_sixbar
-    from synth.synthesis.sixbar import sixbar_candidates
-
-    from .bennett import emit
-
-    result = None
-    if (out or as_json or require_free) and family is None and member is None and pair is None:
-        candidates = sixbar_candidates(ps.matrices, ps.names, top=BUILDABLE_CANDIDATES, build=True,
-                                       check_samples=VERIFY_SAMPLES)
-        linkage, result = choose_buildable(candidates, ps, sizes, limit=BUILDABLE_CANDIDATES,
-                                           work=BUILDABLE_WORK, what="6R linkages")
-    else:
-        linkage = synth_sixbar(ps.matrices, ps.names, family=family, member=member, pair=pair,
-                               check_samples=VERIFY_SAMPLES)
-    emit(linkage, ps, out=out, name=name, force=force, package=package, sizes=sizes, quiet=quiet,
-         as_json=as_json, require_free=require_free, result=result, summary_line=_design_line(linkage.info))
-
-
-def solution_id(rank: int, linkage) -> str:
-    """Directory name of a ranked solution: rank, family and pair (the member is in index.json)."""
-    if isinstance(linkage.info.get("family"), dict):  # planar or spherical: the chain
-        return f"{rank:02d}-{linkage.info['family']['kind']}-c{linkage.info['chain']}"
-    return f"{rank:02d}-f{linkage.info['family']}-p{linkage.info['pair']}"
-
-
-def index_document(linkages, ids, source: str, length_scale: float, length_unit: str) -> dict:
-    from synth.synthesis.sixbar import SCORE_RULE
-
-    sols = []
-    for rank, (lk, sid) in enumerate(zip(linkages, ids), start=1):
-        c = lk.checks
-        sols.append({
-            "id": sid, "rank": rank, "path": f"{sid}/", "family": lk.info["family"], "member": lk.info["member"],
-            "pair": lk.info.get("pair", lk.info.get("chain")), "t3": lk.info["t3"], "score": lk.info["score"],
-            "score_parts": lk.info["score_parts"],
-            "checks": {k: c[k] for k in ("max_pose_error", "max_pose_translation_error", "max_pose_rotation_error",
-                                         "max_closure_error", "max_closure_translation_error",
-                                         "max_closure_rotation_error", "max_motion_error")},
-        })
-    return {"format": INDEX_FORMAT, "kind": linkages[0].kind if linkages else "6r", "poses": source, "units": {"length": "m", "angle": "rad"},
-            "input_length_unit": length_unit, "input_length_scale": length_scale,
-            "score_rule": SCORE_RULE, "solutions": sols}
-
-
 def ranking_table(doc) -> list[str]:
     head = (f"  {'rank':>4} {'id':12} {'fam':>3} {'member':>12} {'pair':>4} {'score':>9} {'cond':>8} {'extent':>7} "
             f"{'twist':>6} {'offset':>7} {'pose err':>9} {'closure':>9}")
@@ -187,39 +116,24 @@ def ranking_table(doc) -> list[str]:
     return rows
 
 
-def _ranked(ps, family, member, pair, top, *, out, name, force, package, sizes, quiet, as_json, require_free):
-    from synth.checks import VERIFY_SAMPLES
-    from synth.synthesis.sixbar import sixbar_candidates
-
-    linkages = sixbar_candidates(ps.matrices, ps.names, family=family, member=member, pair=pair, top=top,
-                                 build=True, check_samples=VERIFY_SAMPLES)
-    results = None
-    if out or as_json or require_free:  # the physical design of every solution, collision-free first
-        linkages, results = design_solutions(linkages, ps, sizes, quiet=quiet, require_free=require_free,
-                                             what="6R designs")
-    ids = [solution_id(r, lk) for r, lk in enumerate(linkages, start=1)]
-    doc = index_document(linkages, ids, ps.source, ps.length_scale, ps.length_unit)
-    if results is not None:
-        add_collisions(doc["solutions"], results, ps)
-    if not quiet:
-        echo(f"6r designs through {len(ps)} poses: the {len(linkages)} best of the scan"
-             + (f" (asked for {top})" if len(linkages) < top else "")
+def _ranked(result, ps, output, top: int) -> None:
+    doc, ids = result.index, [s.id for s in result.solutions]
+    designed = bool(result.solutions) and result.solutions[0].design is not None
+    if not output.quiet:
+        echo(f"6r designs through {len(ps)} poses: the {len(ids)} best of the scan"
+             + (f" (asked for {top})" if len(ids) < top else "")
              + " (extent and offset in pose spreads, twist in degrees, errors in m + rad)")
         for row in ranking_table(doc):
             echo(row)
-        for sol in doc["solutions"] if results is not None else ():
+        for sol in doc["solutions"] if designed else ():
             echo(f"  {sol['id']}: {sol['design_summary']}")
-    if out:
-        from synth.io.writer import write_solutions
-
-        base = name or default_robot_name(ps.source)
-        write_solutions(out, [(sid, lk, f"{base}_{sid.replace('-', '_')}", r) for lk, sid, r in zip(linkages, ids, results)],
-                        doc, force=force, package=package)
-        if not quiet:
-            echo(f"  wrote {out}/: index.json and {len(ids)} solution directories ({', '.join(ids)})")
-    elif not quiet and not as_json:
+    if output.dir:
+        write_ranked(result, output)
+        if not output.quiet:
+            echo(f"  wrote {output.dir}/: index.json and {len(ids)} solution directories ({', '.join(ids)})")
+    elif not output.quiet and not output.as_json:
         echo("  no files written (give -o OUT to write every design's URDF, STL and JSON)")
-    if as_json:
+    if output.as_json:
         from synth.io.jsonout import plain
 
         print_json(plain(doc))

@@ -12,10 +12,14 @@
     R = synth.bennett_batch(many)       # (N, 3, 4, 4) -> BennettBatch: arrays over N, per-set status
     F = synth.factorize(C)              # (n+1, 8) monic motion polynomial -> every factorization
     S = synth.sweep(many, client=...)   # bennett_batch over chunks, here or on a Dask cluster
+    R = synth.solve_bennett(ps, synth.SynthesisOptions(physical=True))  # what `mpsynth bennett` decides:
+                                        # ps = synth.io.poses.load_poses(file); R.linkage, R.design, R.index
+                                        # (also solve_sixbar, solve_points, solve_curve: docs/architecture.md)
 
 Layers (data flows one way; see docs/architecture.md): ``synth.algebra`` (dual quaternions, motion
 polynomials, factorization), ``synth.synthesis`` (conic, cubic families, Bennett, 6R, curves),
-``synth.linkage`` (the plain data object and its checks), ``synth.io`` (pose files in, URDF / STL / JSON
+``synth.linkage`` (the plain data object and its checks), ``synth.design`` (physical design),
+``synth.solve`` (the entry points: gates, ranking, choice of design), ``synth.io`` (pose files in, URDF / STL / JSON
 out, reading an output back) and ``synth.tools`` (render, viewer, collide, simulate, batch jobs).
 
 Nothing in this package's API touches the file system except ``synth.io``. Lengths are in metres (any
@@ -31,7 +35,8 @@ from __future__ import annotations
 import importlib
 
 __all__ = ["bennett", "fit", "sixbar", "bennett_points", "sixbar_points", "point_candidates", "bennett_batch", "sweep",
-           "factorize", "BennettBatch", "Linkage", "MpsynthError",
+           "factorize", "BennettBatch", "Linkage", "Kind", "MpsynthError",
+           "solve_bennett", "solve_sixbar", "solve_points", "solve_curve", "SynthesisOptions", "DesignOptions", "Result",
            "InputError", "SynthesisError"]
 
 _LAZY = {
@@ -46,6 +51,14 @@ _LAZY = {
     "sweep": "synth.tools.sweep",
     "factorize": "synth.algebra.factorize",
     "Linkage": "synth.linkage",
+    "Kind": "synth.linkage",
+    "solve_bennett": "synth.solve",
+    "solve_sixbar": "synth.solve",
+    "solve_points": "synth.solve",
+    "solve_curve": "synth.solve",
+    "SynthesisOptions": "synth.solve",
+    "DesignOptions": "synth.solve",
+    "Result": "synth.solve",
     "MpsynthError": "synth.errors",
     "InputError": "synth.errors",
     "SynthesisError": "synth.errors",

@@ -12,9 +12,10 @@ import functools
 
 import numpy as np
 
-from synth.algebra.algorithm1 import cross3, identity
+from synth.algebra.algorithm1 import identity
 from synth.algebra.anglelaw import half_angle
-from synth.algebra.dq import dot, dq_mul, dq_right_matrix, dq_translation, pose_to_dq
+from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq
+from synth.algebra.geometry import dq_pose_difference
 from synth.algebra.polynomial import evaluate, exponents, product_of_linear
 from synth.linkage import Linkage
 
@@ -24,46 +25,6 @@ _ULPS16 = 16 * _EPS  # the rounding allowance of `loop_bound`
 DEFAULT_CHECK_SAMPLES = 4  # synthesis functions check closure and motion at this many parameters
 BOUND_CHECK_SAMPLES = 0  # Bennett: closure and motion bounded over the whole motion (`loop_bound`), no samples
 VERIFY_SAMPLES = 200  # the CLI verifies this many before writing anything
-
-
-def rotation_angle(R):
-    """Rotation angle (rad) of rotation matrices (..., 3, 3), accurate for small and large angles."""
-    R = np.asarray(R, float)
-    s = 0.5 * np.linalg.norm(np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
-                                       R[..., 1, 0] - R[..., 0, 1]], -1), axis=-1)
-    c = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1)
-    return np.arctan2(s, c)
-
-
-def pose_difference(A, B):
-    """(translation error, rotation angle) between poses (..., 4, 4)."""
-    A = np.asarray(A, float)
-    B = np.asarray(B, float)
-    dt = np.linalg.norm(A[..., :3, 3] - B[..., :3, 3], axis=-1)
-    dr = rotation_angle(np.swapaxes(A[..., :3, :3], -1, -2) @ B[..., :3, :3])
-    return dt, dr
-
-
-def dq_pose_difference(A, B):
-    """(translation error, rotation angle) between the poses of dual quaternions A, B (..., 8) (Study
-    condition assumed, any nonzero scale): |d_A - d_B| with d = 2 vec(p q~)/|p|^2, and the angle of
-    p_A~ p_B in [0, pi], as 4 asin(|p_A - s p_B| / 2) for the unit primal parts (s = sign(p_A . p_B)),
-    accurate for small and large angles."""
-    A, B = np.broadcast_arrays(np.asarray(A, float), np.asarray(B, float))
-    return _pose_difference(np.stack([A, B]))
-
-
-def _pose_difference(X):
-    """`dq_pose_difference` of X[0] and X[1], X of shape (2, ..., 8)."""
-    P = X[..., :4]
-    n = dot(P, P)
-    d = dq_translation(X, n)
-    d = d[0] - d[1]
-    dt = np.sqrt(dot(d, d))
-    u = P / np.sqrt(n)[..., None]
-    w = u[0] - np.copysign(1.0, dot(u[0], u[1]))[..., None] * u[1]  # |w| <= sqrt(2)
-    dr = 4.0 * np.arcsin(0.5 * np.sqrt(dot(w, w)))
-    return dt, dr
 
 
 def sample_parameters_batch(a, b, samples: int) -> np.ndarray:
@@ -143,7 +104,7 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
     for i, (x, y) in enumerate(closures):
         X[0, :, P + S * (i + 1) : P + S * (i + 2)] = disp[x][:, P:]
         X[1, :, P + S * (i + 1) : P + S * (i + 2)] = disp[y][:, P:]
-    dt, dr = _pose_difference(X)
+    dt, dr = dq_pose_difference(X)
     clo_t, clo_r = dt[:, P + S :], dr[:, P + S :]
     return {"pose_translation": dt[:, :P].max(axis=1, initial=0.0),
             "pose_rotation": dr[:, :P].max(axis=1, initial=0.0),
@@ -225,7 +186,7 @@ def pose_bound(motion, ts, pose_dq, ref_dq, bound) -> dict:
     X = np.empty((2,) + pose_dq.shape)
     np.matmul(evaluate(motion, ts), dq_right_matrix(ref_dq), out=X[0])  # C(t_i) Q_0
     X[1] = pose_dq
-    dt, dr = _pose_difference(X)
+    dt, dr = dq_pose_difference(X)
     reach = 2.0 * np.sqrt(dot(ref_dq[:, 4:], ref_dq[:, 4:]))  # |d_0| (unit ref_dq)
     rot = bound["motion_rotation"]
     return {"pose_translation": dt.max(axis=1, initial=0.0) + bound["motion_translation"] + rot * reach,
@@ -298,49 +259,7 @@ def motion_error(linkage: Linkage, samples: int = 200) -> float:
     return linkage_figures(linkage, samples)["motion"]
 
 
-def extent(linkage: Linkage) -> float:
-    """`Linkage.extent`, all common normals at once: RMS distance of the joint sites (mean of the
-    common-normal feet along the links carrying the joint, else the axis point nearest the poses'
-    centre) and the tool positions from their centroid, at least 1e-9."""
-    js = linkage.joints
-    index = {j.name: i for i, j in enumerate(js)}
-    U = np.array([j.direction for j in js], float)
-    M = np.array([j.moment for j in js], float)
-    pairs = [(index[n1], index[n2]) for names in linkage.links.values()
-             for n1, n2 in zip([n for n in names if n in index], [n for n in names if n in index][1:])]
-    P = cross3(U, M)
-    tools = np.array([p.matrix[:3, 3] for p in linkage.poses] + [linkage.tool_ref[:3, 3]], float)
-    centre = tools.mean(axis=0)
-    sites = P + np.sum((centre - P) * U, axis=1, keepdims=True) * U  # the axis point nearest the centre
-    if pairs:
-        i, k = np.array(pairs).T
-        u1, u2, p1, p2 = U[i], U[k], P[i], P[k]
-        c = cross3(u1, u2)
-        s2 = np.sum(c * c, axis=1, keepdims=True)
-        par = s2 < 1e-18
-        s2 = np.where(par, 1.0, s2)
-        d = p2 - p1
-        f1 = np.where(par, p1 + 0.5 * np.sum(d * u1, 1, keepdims=True) * u1,
-                      p1 + np.sum(cross3(d, u2) * c, 1, keepdims=True) / s2 * u1)
-        f2 = np.where(par, p2 + np.sum((f1 - p2) * u2, 1, keepdims=True) * u2,
-                      p2 + np.sum(cross3(d, u1) * c, 1, keepdims=True) / s2 * u2)
-        acc = np.zeros((len(js), 3))
-        cnt = np.zeros(len(js))
-        np.add.at(acc, np.concatenate([i, k]), np.concatenate([f1, f2]))
-        np.add.at(cnt, np.concatenate([i, k]), 1.0)
-        sites = np.where(cnt[:, None] > 0, acc / np.maximum(cnt, 1.0)[:, None], sites)
-    pts = np.concatenate([tools[:-1], sites, tools[-1:]])
-    return float(max(np.sqrt(np.mean(np.sum((pts - pts.mean(axis=0)) ** 2, axis=1))), 1e-9))
-
-
 def self_check(linkage: Linkage, samples: int = 200) -> dict[str, float]:
     """All self-check figures (metres / radians) for linkage.json's ``checks``: pose errors at the
     reported angles of every pose, closure and motion errors at ``samples`` parameters covering R."""
-    return as_checks(linkage_figures(linkage, samples), samples, extent(linkage))
-
-
-def verify(linkage: Linkage, samples: int = VERIFY_SAMPLES) -> dict[str, float]:
-    """The explicit verification before anything is written: `self_check` at ``samples`` parameters,
-    stored as ``linkage.checks`` and returned."""
-    linkage.checks = self_check(linkage, samples)
-    return linkage.checks
+    return as_checks(linkage_figures(linkage, samples), samples, linkage.extent())

@@ -73,50 +73,10 @@ def tool_mount_origin(linkage) -> np.ndarray:
     return T
 
 
-# ---------------------------------------------------------------------- rigid transforms (4x4, batched)
+# ---------------------------------------------------------------- angles (rigid-body maths: synth.algebra.geometry)
 TWO_PI = 2.0 * math.pi
-
-
-def skew(v) -> np.ndarray:
-    """(3, 3) cross-product matrix of v (3,): skew(v) @ x == cross(v, x)."""
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def axis_rotations(u, q) -> np.ndarray:
-    """Rotations (N, 3, 3) about the unit axis u (3,) by angles q (N,) in radians (Rodrigues)."""
-    q = np.atleast_1d(np.asarray(q, float))
-    K = skew(u)
-    s, c = np.sin(q)[:, None, None], np.cos(q)[:, None, None]
-    return np.eye(3) + s * K + (1.0 - c) * (K @ K)
-
-
-def rot_angle(R) -> np.ndarray:
-    """Rotation angle (radians) of rotations R (..., 3, 3), accurate near 0 and pi."""
-    s = 0.5 * np.linalg.norm(np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
-                                       R[..., 1, 0] - R[..., 0, 1]], -1), axis=-1)
-    return np.arctan2(s, 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0))
 
 
 def wrap_angle(x) -> np.ndarray:
     """Angles (radians) to [-pi, pi)."""
     return np.mod(np.asarray(x, float) + math.pi, TWO_PI) - math.pi
-
-
-def invert_transform(T) -> np.ndarray:
-    """Inverse of rigid transforms T (..., 4, 4) (transpose of the rotation, no general inverse)."""
-    Ti = np.zeros_like(T)
-    Rt = np.swapaxes(T[..., :3, :3], -1, -2)
-    Ti[..., :3, :3] = Rt
-    Ti[..., :3, 3] = -np.einsum("...ij,...j->...i", Rt, T[..., :3, 3])
-    Ti[..., 3, 3] = 1.0
-    return Ti
-
-
-def pose_diff(A, B):
-    """(translation distance, rotation angle) between rigid transforms A and B (..., 4, 4): floats for
-    single transforms, arrays (...) for batches."""
-    dt = np.linalg.norm(A[..., :3, 3] - B[..., :3, 3], axis=-1)
-    dr = rot_angle(np.swapaxes(A[..., :3, :3], -1, -2) @ B[..., :3, :3])
-    if np.ndim(dt) == 0:
-        return float(dt), float(dr)
-    return dt, dr

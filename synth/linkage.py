@@ -18,13 +18,44 @@ Nothing here reads or writes files.
 """
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from synth.algebra.anglelaw import angle_law, angle_law_inverse
-from synth.algebra.dq import common_normal_feet, rotation_about_line
+from synth.algebra.geometry import extent, joint_sites, line_point, rotation_about_line
+
+
+class Kind(enum.StrEnum):
+    """What a linkage is; the values are linkage.json's ``kind`` strings."""
+
+    BENNETT = "bennett"  # spatial Bennett 4R (docs/conic.md)
+    SIXBAR = "6r"  # spatial 6R of a cubic motion (docs/cubic.md)
+    PLANAR_4R = "planar_4r"  # four-bar of planar poses (docs/planar.md)
+    SPHERICAL_4R = "spherical_4r"
+    PLANAR_SIXBAR = "planar_sixbar"  # Watt six-bar of planar poses (docs/planar.md)
+    SPHERICAL_SIXBAR = "spherical_sixbar"
+    MOTION = "motion"  # multi-loop linkage performing a rational motion (docs/exceptional.md)
+    CURVE = "curve"  # multi-loop linkage whose tracer draws a rational curve
+
+    @property
+    def label(self) -> str:
+        """The kind in words, for titles and summaries ("spatial 6R")."""
+        return KIND_LABELS.get(self, self.value)
+
+
+KIND_LABELS = {Kind.BENNETT: "Bennett 4R", Kind.SIXBAR: "spatial 6R", Kind.PLANAR_4R: "planar four-bar",
+               Kind.SPHERICAL_4R: "spherical four-bar", Kind.PLANAR_SIXBAR: "planar Watt six-bar",
+               Kind.SPHERICAL_SIXBAR: "spherical Watt six-bar"}
+_KINDS = {k.value: k for k in Kind}
+
+
+def kind_label(kind) -> str:
+    """`Kind.label` of a kind or its string; an unknown string (an output read back) as it is."""
+    k = _KINDS.get(kind)
+    return k.label if k is not None else str(kind)
 
 
 @dataclass
@@ -43,7 +74,7 @@ class Joint:
     @property
     def point(self) -> np.ndarray:
         """Point of the axis closest to the world origin (metres)."""
-        return np.cross(self.direction, self.moment)
+        return line_point(self.direction, self.moment)
 
     def angle(self, t):
         """Joint angle (rad) at parameter t (scalar or array; +-inf gives 0), in [0, 2pi)."""
@@ -73,7 +104,7 @@ class PoseRecord:
 class Linkage:
     """A synthesized closed-loop linkage (one or several loops)."""
 
-    kind: str  # "bennett", "6r", "motion", "curve"
+    kind: Kind  # (a `Kind` value given as a string becomes the Kind; another string, read back, stays)
     joints: list[Joint]  # tree joints, in an order where every parent link precedes its child
     links: dict[str, list[str]]  # link name -> joints whose pins it carries (empty: no geometry)
     branches: list[list[str]]  # joint names of each serial branch, base to coupler
@@ -84,6 +115,9 @@ class Linkage:
     tool_link: str = "coupler"
     checks: dict[str, float] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)  # kind-specific extras, JSON-serializable
+
+    def __post_init__(self):
+        self.kind = _KINDS.get(self.kind, self.kind)
 
     # ------------------------------------------------------------------ queries
     def joint(self, name: str) -> Joint:
@@ -120,25 +154,18 @@ class Linkage:
     def joint_sites(self) -> dict[str, np.ndarray]:
         """A representative point on every joint axis (metres, reference configuration): the mean of
         the feet of the common normals to the neighbouring axes of the links carrying the joint (where
-        its pins are); for a joint that no link pairs, the axis point nearest the pose positions.
-        Unlike ``Joint.point`` (nearest the world origin) it stays near the mechanism wherever the
-        world origin is."""
-        feet: dict[str, list[np.ndarray]] = {j.name: [] for j in self.joints}
-        byname = {j.name: j for j in self.joints}
+        its pins are); for a joint that no link pairs, the axis point nearest the pose positions
+        (`synth.algebra.geometry.joint_sites`). Unlike ``Joint.point`` (nearest the world origin) it stays
+        near the mechanism wherever the world origin is."""
+        index = {j.name: i for i, j in enumerate(self.joints)}
+        pairs = []
         for names in self.links.values():
-            js = [byname[n] for n in names if n in byname]
-            for j1, j2 in zip(js, js[1:]):
-                f1, f2 = pair_feet(j1, j2)
-                feet[j1.name].append(f1)
-                feet[j2.name].append(f2)
-        centre = self._pose_centre()
-        out = {}
-        for j in self.joints:
-            if feet[j.name]:
-                out[j.name] = np.mean(feet[j.name], axis=0)
-            else:
-                out[j.name] = j.point + np.dot(centre - j.point, j.direction) * j.direction
-        return out
+            ids = [index[n] for n in names if n in index]
+            pairs += zip(ids, ids[1:])
+        U = np.array([j.direction for j in self.joints], float).reshape(-1, 3)
+        M = np.array([j.moment for j in self.joints], float).reshape(-1, 3)
+        sites = joint_sites(U, M, pairs, self._pose_centre())
+        return {j.name: sites[i] for i, j in enumerate(self.joints)}
 
     def _pose_centre(self) -> np.ndarray:
         pts = [p.matrix[:3, 3] for p in self.poses] + [self.tool_ref[:3, 3]]
@@ -151,21 +178,7 @@ class Linkage:
                 "links_with_duplicates": len(self.links), "loops": len(self.closures)}
 
     def extent(self) -> float:
-        """A length scale of the linkage: RMS distance of the joint sites (see ``joint_sites``) and the
-        tool positions from their centroid, at least 1e-9 m."""
+        """A length scale of the linkage (`synth.algebra.geometry.extent`): RMS distance of the joint sites
+        (see ``joint_sites``) and the tool positions from their centroid, at least 1e-9 m."""
         pts = list(self.joint_sites().values()) + [p.matrix[:3, 3] for p in self.poses]
-        pts = np.array(pts + [self.tool_ref[:3, 3]])
-        c = pts.mean(axis=0)
-        return float(max(np.sqrt(np.mean(np.sum((pts - c) ** 2, axis=1))), 1e-9))
-
-
-def pair_feet(j1: Joint, j2: Joint) -> tuple[np.ndarray, np.ndarray]:
-    """Feet of the common normal of two joint axes (on j1, on j2). Parallel axes have no unique common
-    normal: take the one through the midpoint of the two axis points nearest the origin."""
-    u1, u2 = j1.direction, j2.direction
-    if np.linalg.norm(np.cross(u1, u2)) < 1e-9:
-        mid = (j1.point + j2.point) / 2
-        f1 = j1.point + np.dot(mid - j1.point, u1) * u1
-        f2 = j2.point + np.dot(f1 - j2.point, u2) * u2
-        return f1, f2
-    return common_normal_feet(u1, j1.moment, u2, j2.moment)
+        return float(extent(np.array(pts + [self.tool_ref[:3, 3]], float)))

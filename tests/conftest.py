@@ -51,6 +51,16 @@ def run_python(*args, timeout=600) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, *map(str, args)], capture_output=True, text=True, cwd=REPO, timeout=timeout)
 
 
+def assert_verified(*args, timeout=600) -> str | None:
+    """The shared verifier on ARGS must say "verify OK" (exit 0); its last line, or None when it is absent."""
+    r = run_verifier(*args, timeout=timeout)
+    if r is None:
+        return None
+    lines = (r.stdout + r.stderr).strip().splitlines()
+    assert r.returncode == 0 and r.stdout.strip().splitlines()[-1].startswith("verify OK"), r.stdout + r.stderr
+    return lines[-1]
+
+
 def run_verifier(*args, timeout=600) -> subprocess.CompletedProcess | None:
     """The shared verifier on ARGS (task, output directory, options), or None when it is absent (a plain
     copy of the repository): the caller checks what it can without it."""

@@ -8,7 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from synth.algebra.anglelaw import angle_law, angle_law_inverse, driven_angle, half_angle
-from synth.algebra.dq import dq_mul, rotation_about_line
+from synth.algebra.dq import dq_mul
+from synth.algebra.geometry import rotation_about_line
 from synth.algebra.polynomial import pose_at
 from synth.errors import InputError
 

@@ -144,7 +144,7 @@ def test_chunked_solve_equals_one_chunk(monkeypatch):
     monkeypatch.setattr(bennett_core, "CHUNK", 7)
     parts = bennett_core.solve(P, 0)
     for key in ("good", "lines", "laws", "pose_angles", "factors", "motion", "relative_error"):
-        np.testing.assert_allclose(parts[key], whole[key], rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(parts["bennett"]["a"], whole["bennett"]["a"], rtol=1e-12)
-    np.testing.assert_allclose(parts["errors"]["closure_translation"], whole["errors"]["closure_translation"],
+        np.testing.assert_allclose(getattr(parts, key), getattr(whole, key), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(parts.bennett["a"], whole.bennett["a"], rtol=1e-12)
+    np.testing.assert_allclose(parts.errors["closure_translation"], whole.errors["closure_translation"],
                                rtol=1e-9, atol=1e-15)

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from synth.synthesis.bennett import bennett
-from synth.algebra.dq import pose_to_dq, quat_to_matrix, rotation_about_line
+from synth.algebra.dq import pose_to_dq, quat_to_matrix
+from synth.algebra.geometry import rotation_about_line
 from synth.errors import InputError, SynthesisError
 from synth.algebra.polynomial import pose_at, product_of_linear, relative_error
 
@@ -220,7 +221,7 @@ def test_invariants_pose_reproduction_study_and_closure_along_the_motion(seed):
     from synth.algebra.algorithm1 import study_violation
     from synth.checks import link_displacements
     from synth.algebra.polynomial import evaluate
-    from synth.checks import dq_pose_difference
+    from synth.algebra.geometry import dq_pose_difference
 
     rng = np.random.default_rng(100 + seed)
     T = random_poses(rng, 3, scale=10 ** rng.uniform(-2, 2), offset=rng.normal(size=3) * 10)

@@ -37,7 +37,7 @@ def test_large_batches_run_on_one_blas_thread(monkeypatch):
     T[:, 1, :3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
     T[:, 2, :3, :3] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]
     out = bennett_core.solve(T, 0)
-    assert out["good"].shape == (len(T),)
+    assert out.good.shape == (len(T),)
     assert seen and all(n == len(T) and set(threads) <= {1} for n, threads in seen)
     bennett_core.solve(T[:3], 0)
     assert seen[-1][0] == 3  # small batches: BLAS untouched (the limit costs more than it saves there)

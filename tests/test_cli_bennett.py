@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from cli.main import mpsynth
 from synth.io.poses import load_poses
 
-from conftest import REPO, random_poses, write_pose_yaml, run
+from conftest import REPO, assert_verified, random_poses, run, write_pose_yaml
 
 TASKS = ("bennett_fit", "bennett_hermite")  # fits and Hermite pairs: tests/test_bennett_fit.py
 FIXTURES = sorted(p for p in (REPO / "fixtures").glob("bennett_*") if p.suffix in (".yaml", ".json")
@@ -38,15 +38,8 @@ def fk_check(out, pose_file, tol=1e-9):
         assert np.linalg.norm(M[:3, 3] - T[:3, 3]) < tol * spread + floor
 
 
-def verify(verifier, poses, out):
-    r = subprocess.run([sys.executable, str(verifier), str(poses), str(out)], capture_output=True, text=True,
-                       timeout=300)
-    assert r.returncode == 0, r.stdout + r.stderr
-    assert r.stdout.strip().splitlines()[-1].startswith("verify OK")
-
-
 @pytest.mark.parametrize("fixture", FIXTURES, ids=[p.name for p in FIXTURES])
-def test_fixture_end_to_end(fixture, tmp_path, verifier):
+def test_fixture_end_to_end(fixture, tmp_path):
     out = tmp_path / "out"
     r = run("bennett", fixture, "-o", out)
     assert r.exit_code == 0, r.output
@@ -54,11 +47,11 @@ def test_fixture_end_to_end(fixture, tmp_path, verifier):
     assert len(list((out / "meshes").glob("*.stl"))) == 8  # 4 links, 4 pins
     assert "design: NOT collision-free" in r.output or "design: collision-free" in r.output
     fk_check(out, fixture)
-    verify(verifier, fixture, out)
+    assert_verified(fixture, out)
 
 
 @pytest.mark.parametrize("case", ["plain", "far", "tiny", "near_pi"])
-def test_random_sets_end_to_end(case, tmp_path, verifier):
+def test_random_sets_end_to_end(case, tmp_path):
     rng = np.random.default_rng({"plain": 1, "far": 2, "tiny": 3, "near_pi": 4}[case])
     kw = {"plain": {}, "far": dict(offset=(1000.0, 1000.0, -1000.0)), "tiny": dict(scale=1e-3),
           "near_pi": dict(near_pi=True)}[case]
@@ -67,12 +60,12 @@ def test_random_sets_end_to_end(case, tmp_path, verifier):
     r = run("bennett", poses, "-o", out, "-q")
     assert r.exit_code == 0, r.output
     fk_check(out, poses)
-    verify(verifier, poses, out)
+    assert_verified(poses, out)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", range(40))
-def test_random_sets_end_to_end_sweep(seed, tmp_path, verifier):
+def test_random_sets_end_to_end_sweep(seed, tmp_path):
     rng = np.random.default_rng(500 + seed)
     T = random_poses(rng, 3, scale=10 ** rng.uniform(-3, 3), offset=rng.normal(size=3) * 1000,
                      near_pi=bool(seed % 3 == 0))
@@ -80,7 +73,7 @@ def test_random_sets_end_to_end_sweep(seed, tmp_path, verifier):
     out = tmp_path / "out"
     assert run("bennett", poses, "-o", out, "-q").exit_code == 0
     fk_check(out, poses)
-    verify(verifier, poses, out)
+    assert_verified(poses, out)
 
 
 def test_json_on_stdout_and_nothing_written_without_out(tmp_path, monkeypatch):

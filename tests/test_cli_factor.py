@@ -320,7 +320,7 @@ def test_subprocess_stdin_and_exit_codes():
 
 def test_angle_law_in_json_reproduces_poses():
     """theta(t) = 2 atan2(b, t - a) about (direction, moment) of each joint gives the pose of C(t)."""
-    from synth.algebra.dq import rotation_about_line
+    from synth.algebra.geometry import rotation_about_line
     from synth.algebra.polynomial import pose_at
 
     doc = run_json("--expr", EX_A)

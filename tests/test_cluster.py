@@ -17,7 +17,6 @@ import pytest
 distributed = pytest.importorskip("distributed")
 pq = pytest.importorskip("pyarrow.parquet")
 
-from cli.main import mpsynth  # noqa: E402
 from synth.tools.batchjobs import run_jobs  # noqa: E402
 from synth.tools.cluster import quiet_logs, run_jobs_on  # noqa: E402
 from synth.tools.sweep import sixbar_chunk, sweep  # noqa: E402

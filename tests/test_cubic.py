@@ -12,7 +12,7 @@ from synth.algebra.algorithm1 import multiply_back, norm_roots, polish, root_con
 from synth.algebra.dq import quat_to_matrix
 from synth.synthesis.cubic import (PAIRS, PERMS, families, parameter_separation, quadric, ruling_coordinates,
                                    ruling_inverse, ruling_matrix)
-from synth.synthesis.sixbar_loops import factor_members, loop_geometry
+from synth.synthesis.sixbar_loops import factor_members, member_geometry
 from synth.errors import SynthesisError
 from synth.algebra.factorize import factorize
 from synth.synthesis.conic import condition, relative_displacements, to_world
@@ -197,23 +197,25 @@ def test_parameter_separation():
     assert parameter_separation(-1.0) > 0.5
 
 
-def test_loop_geometry_matches_direct_computation():
-    from synth.algebra.dq import common_normal_feet, line_distance_angle, plucker
+def test_member_geometry_matches_direct_computation():
+    from synth.algebra.dq import plucker
+    from synth.algebra.geometry import common_normal
 
     D, _ = setup(e_poses())
     fam = family_with_t3(families(quadric(D))[0], E_T3[1])
     mf = factor_members(fam.member(0.5)[None])
-    geo = loop_geometry(mf)
+    geo = member_geometry(mf)
     for p, (i, j) in enumerate(PAIRS):
         ring = [mf.H[0, i, 0], mf.H[0, i, 1], mf.H[0, i, 2], mf.H[0, j, 2], mf.H[0, j, 1], mf.H[0, j, 0]]
         L = [plucker(h) for h in ring]
         dists, angs, feet = [], [], []
         for a in range(6):
             (u1, m1), (u2, m2) = L[a], L[(a + 1) % 6]
-            d, ang = line_distance_angle(u1, m1, u2, m2)
-            dists.append(d)
+            cn = common_normal(u1, m1, u2, m2)
+            ang = abs(float(cn.twist))
+            dists.append(float(cn.distance))
             angs.append(min(ang, np.pi - ang))
-            feet += list(common_normal_feet(u1, m1, u2, m2))
+            feet += list(cn.feet)
         assert geo["min_offset"][0, p] == pytest.approx(min(dists), abs=1e-12)
         assert geo["min_twist"][0, p] == pytest.approx(min(angs), abs=1e-12)
         assert geo["extent"][0, p] == pytest.approx(max(np.linalg.norm(f) for f in feet), abs=1e-12)

@@ -237,7 +237,7 @@ def test_the_seven_joint_loop_of_the_two_chains_closes_with_one_degree_of_freedo
     give the same end pose at every sampled t, and the seven joint screws there span 6 dimensions
     (instantaneous mobility 7 - 6 = 1). Numbers for docs/exceptional.md, section 6 (the linkage is built by
     synth/synthesis/darboux.py from a general construction, tests/test_darboux7.py)."""
-    from synth.algebra.dq import rotation_about_line
+    from synth.algebra.geometry import rotation_about_line
     from synth.synthesis.assemble import joint_from_factor
 
     u = [F(2, 3), F(-1, 3), F(-2, 3)]

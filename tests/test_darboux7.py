@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +14,8 @@ from synth.algebra.dq import dq_conj, dq_mul, qmul
 from synth.algebra.expr import parse_polynomial
 from synth.algebra.polynomial import poly_mul
 from synth.synthesis.darboux import chain_residuals, chains, darboux_linkage, darboux_structure
+
+from conftest import assert_verified
 
 REPO = Path(__file__).resolve().parents[1]
 GENERAL = "(t^2 + 1)*(t - k) + eps*(i + k/2 - (j + k/2)*t)*(t - k)"  # fixtures/motion_darboux_general.yaml
@@ -153,12 +153,7 @@ def test_curve_builds_the_7r_end_to_end(tmp_path):
     assert r.exit_code == 0 and "branch crossing(s) passed" in r.output, r.output
     r = CliRunner().invoke(mpsynth, ["collide", str(out), "-q"])
     assert r.exit_code == 0, r.output
-    verifier = REPO.parent / "shared/tools/verify_output.py"
-    if not verifier.exists():
-        pytest.skip("../shared/tools/verify_output.py is not present")
     curve = tmp_path / "path.yaml"
     curve.write_text('curve:\n  x: "-2"\n  y: "2*t"\n  z: "t - 1"\n  w: "t^2 + 1"\n')
-    v = subprocess.run([sys.executable, str(verifier), str(out), "--steps", "90", "--trace", "tool", "--curve",
-                        str(curve), "--collisions", repr(col["clearance"]), "--collision-range", "full"],
-                       capture_output=True, text=True, timeout=600)
-    assert v.returncode == 0 and v.stdout.strip().splitlines()[-1].startswith("verify OK"), v.stdout + v.stderr
+    assert_verified(out, "--steps", "90", "--trace", "tool", "--curve", curve, "--collisions", repr(col["clearance"]),
+                    "--collision-range", "full")

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -19,7 +17,7 @@ from synth.io.poses import load_poses
 from synth.io.writer import write_output
 from synth.synthesis.bennett import bennett
 
-from conftest import REPO
+from conftest import REPO, assert_verified
 
 PLANAR = REPO / "fixtures" / "bennett_planar.yaml"  # a planar four-bar: every axis along z
 
@@ -74,7 +72,7 @@ def test_straight_bars_in_one_plane_collide_and_cranks_free_them(flat):
     assert gaps(lk, result.design, True) >= r.min_distance - 1e-12 >= r.clearance - 1e-12
 
 
-def test_cranked_links_are_closed_solids_and_the_verifier_agrees(flat, tmp_path, verifier):
+def test_cranked_links_are_closed_solids_and_the_verifier_agrees(flat, tmp_path):
     lk, _, result = flat
     solids = design_solids(lk, result.design)  # raises unless every link and pin is one closed solid
     assert {"link_h1", "link_k1"} <= set(solids)
@@ -83,10 +81,7 @@ def test_cranked_links_are_closed_solids_and_the_verifier_agrees(flat, tmp_path,
     c = json.loads((out / "linkage.json").read_text())["collision"]
     assert c["free"] and c["cranked"]
     assert json.loads((out / "linkage.json").read_text())["design"]["bars"][1]["via"]
-    r = subprocess.run([sys.executable, str(verifier), str(PLANAR), str(out), "--steps", "90", "--collisions",
-                        repr(c["clearance"]), "--collision-range", "full"], capture_output=True, text=True,
-                       cwd=REPO, timeout=600)
-    assert r.returncode == 0, r.stdout + r.stderr
+    assert_verified(PLANAR, out, "--steps", "90", "--collisions", repr(c["clearance"]), "--collision-range", "full")
 
 
 def test_a_free_design_is_left_alone(flat):

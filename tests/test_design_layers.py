@@ -5,14 +5,10 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from cli.main import mpsynth
 from synth.design.layers import layered_design, level_pitch, parallel_axis
 from synth.design.model import CollisionReport, DesignResult
 from synth.design.choose import design_for
@@ -20,7 +16,7 @@ from synth.io.meshes import design_solids
 from synth.io.poses import load_poses
 from synth.synthesis.bennett import bennett
 
-from conftest import REPO
+from conftest import REPO, assert_verified, run
 
 PLANAR = REPO / "fixtures" / "bennett_planar.yaml"
 
@@ -47,7 +43,7 @@ def test_level_pitch_keeps_hubs_stacked_and_bars_clear(four_bar):
     assert p >= d.hub_length / 2 + d.hub_radius + d.bar_radius + d.clearance  # a bar one level off a hub
 
 
-def test_a_four_bar_in_layers_is_certified_free(four_bar, tmp_path, verifier):
+def test_a_four_bar_in_layers_is_certified_free(four_bar, tmp_path):
     """Any design of the planar four-bar reported not free is replaced by a certified layering."""
     d = design_for(four_bar).design
     stuck = DesignResult(d, CollisionReport(free=False, range="full", clearance=d.clearance, min_distance=-1.0,
@@ -69,25 +65,15 @@ def test_a_four_bar_in_layers_is_certified_free(four_bar, tmp_path, verifier):
     write_output(four_bar, out, robot_name="layers", result=result)
     c = json.loads((out / "linkage.json").read_text())["collision"]
     assert c["free"] and c["layers"] == r.layers
-    p = subprocess.run([sys.executable, str(verifier), str(PLANAR), str(out), "--steps", "90", "--collisions",
-                        repr(c["clearance"]), "--collision-range", "full"], capture_output=True, text=True,
-                       cwd=REPO, timeout=600)
-    assert p.returncode == 0, p.stdout + p.stderr
+    assert_verified(PLANAR, out, "--steps", "90", "--collisions", repr(c["clearance"]), "--collision-range", "full")
 
 
 @pytest.mark.slow
 def test_elliptic_translation_is_free_over_the_full_cycle_and_the_verifier_agrees(tmp_path):
     out = tmp_path / "out"
-    res = CliRunner().invoke(mpsynth, ["curve", str(REPO / "fixtures" / "motion_elliptic.yaml"), "-o", str(out)],
-                             catch_exceptions=False)
+    res = run("curve", REPO / "fixtures" / "motion_elliptic.yaml", "-o", out)
     assert res.exit_code == 0, res.output
     c = json.loads((out / "linkage.json").read_text())["collision"]
     assert c["free"] and c["certified"] and c["range"] == "full" and c["layers"] and c["cranked"]
     assert "collision-free over the full cycle" in res.output
-    from conftest import VERIFIER
-
-    if not VERIFIER.exists():
-        pytest.skip("../shared/tools/verify_output.py is not present")
-    p = subprocess.run([sys.executable, str(VERIFIER), str(out), "--collisions", repr(c["clearance"]),
-                        "--collision-range", "full"], capture_output=True, text=True, cwd=REPO, timeout=900)
-    assert p.returncode == 0 and "verify OK" in p.stdout, p.stdout + p.stderr
+    assert_verified(out, "--collisions", repr(c["clearance"]), "--collision-range", "full", timeout=900)

@@ -12,10 +12,10 @@ import pytest
 
 from synth.algebra.algorithm1 import algorithm1, multiply_back, norm_roots, orders, quadratics
 from synth.algebra.cofactor import exact_result, factorize_with_cofactor
-from synth.algebra.dq import (act_on_points, dq_inv, dq_mul, dq_to_pose, plucker, pose_to_dq, quat_to_matrix,
-                              rotation_about_line, study_form)
+from synth.algebra.dq import act_on_points, dq_inv, dq_mul, dq_to_pose, plucker, pose_to_dq, quat_to_matrix, study_form
 from synth.algebra.exact import factorize_exact
 from synth.algebra.factorize import factorize
+from synth.algebra.geometry import rotation_about_line
 from synth.algebra.flip import bennett_flip
 from synth.algebra.polynomial import (divide_real_quadratic, evaluate, linear, norm_poly, poly_mul,
                                       product_of_linear, study_residual)

@@ -23,11 +23,11 @@ from synth.algebra.dq import (
     qinv,
     qmul,
     quat_to_matrix,
-    rotation_about_line,
     study_condition,
     study_form,
     translation_dq,
 )
+from synth.algebra.geometry import rotation_about_line
 
 ONE = np.eye(8)[0]
 Q1, QI, QJ, QK = np.eye(4)

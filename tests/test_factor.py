@@ -9,7 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from synth.algebra import exact as X
-from synth.algebra.dq import dq_inv, dq_mul, line_distance_angle, plucker
+from synth.algebra.dq import dq_inv, dq_mul, plucker
+from synth.algebra.geometry import common_normal
 from synth.errors import InputError, NotGenericError, SynthesisError
 from synth.algebra.expr import parse_polynomial
 from synth.algebra.factorize import check_motion_polynomial, classify, factorize, norm_quadratics
@@ -136,7 +137,8 @@ def test_bennett_flip_numeric():
     # the loop m - h - m' - k is a Bennett linkage: equal opposite distances and twists, and
     # sin(alpha)/a equal for both pairs
     lines = [plucker(x) for x in (M_FLIP, H_FLIP, m2, k)]
-    da = [line_distance_angle(*lines[i], *lines[(i + 1) % 4]) for i in range(4)]
+    cn = [common_normal(*lines[i], *lines[(i + 1) % 4]) for i in range(4)]
+    da = [(float(c.distance), abs(float(c.twist))) for c in cn]
     assert da[0][0] == pytest.approx(da[2][0], abs=1e-12)
     assert da[1][0] == pytest.approx(da[3][0], abs=1e-12)
     s0 = [math.sin(a) for _, a in da]

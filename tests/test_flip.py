@@ -4,7 +4,8 @@ from fractions import Fraction as F
 import numpy as np
 import pytest
 
-from synth.algebra.dq import line_distance_angle, plucker
+from synth.algebra.dq import plucker
+from synth.algebra.geometry import common_normal
 from synth.errors import SynthesisError
 from synth.algebra.dq import exact_array
 from synth.algebra.flip import FlipError, bennett_flip, flip_residual, is_rotation
@@ -63,7 +64,8 @@ def test_random_flips_are_bennett_loops(seed):
     assert np.allclose(_norm(n), _norm(m)) and np.allclose(_norm(k), _norm(h))
     # loop m, h, n, k: opposite sides have equal distances and twists, d / sin(alpha) equal
     lines = [plucker(x) for x in (m, h, n, k)]
-    da = [line_distance_angle(*lines[i], *lines[(i + 1) % 4]) for i in range(4)]
+    cn = [common_normal(*lines[i], *lines[(i + 1) % 4]) for i in range(4)]
+    da = [(float(c.distance), abs(float(c.twist))) for c in cn]
     assert da[0][0] == pytest.approx(da[2][0], rel=1e-9, abs=1e-12)
     assert da[1][0] == pytest.approx(da[3][0], rel=1e-9, abs=1e-12)
     assert da[0][1] == pytest.approx(da[2][1], abs=1e-9)

@@ -20,8 +20,8 @@ def _sets(seed, n):
 
 
 def _arrays(out):
-    U, M = out["lines"][:, :, 0], out["lines"][:, :, 1]
-    return U, M, out["laws"][..., 0], out["laws"][..., 1]
+    U, M = out.lines[:, :, 0], out.lines[:, :, 1]
+    return U, M, out.laws[..., 0], out.laws[..., 1]
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -30,14 +30,14 @@ def test_bounds_are_above_the_errors_at_dense_samples_and_the_poses(seed):
     out = solve(T, 0)
     U, M, a, b = _arrays(out)
     Q = pose_to_dq(T)
-    sampled = check_figures(STRUCTURE, U, M, a, b, out["pose_angles"], Q, Q[:, 0], out["motion"], 500)
-    bound = loop_bound(U, M, a, b, BRANCHES, out["motion"])
+    sampled = check_figures(STRUCTURE, U, M, a, b, out.pose_angles, Q, Q[:, 0], out.motion, 500)
+    bound = loop_bound(U, M, a, b, BRANCHES, out.motion)
     # the poses' figures: forward kinematics at the reported angles (pose 0 included) against the bound
-    bound.update(pose_bound(out["motion"], TS[1:], Q[:, 1:], Q[:, 0], bound))
+    bound.update(pose_bound(out.motion, TS[1:], Q[:, 1:], Q[:, 0], bound))
     for key in ("closure_translation", "closure_rotation", "motion", "pose_translation", "pose_rotation"):
         assert np.all(bound[key] >= sampled[key]), key
     # and stays at the rounding level for these well-conditioned sets
-    size = out["scale"] + np.abs(T[:, :, :3, 3]).max(axis=(1, 2))
+    size = out.scale + np.abs(T[:, :, :3, 3]).max(axis=(1, 2))
     assert np.median(bound["closure_translation"] / size) < 1e-12
     assert np.median(bound["pose_translation"] / size) < 1e-12
 
@@ -50,11 +50,11 @@ def test_bound_detects_a_moved_axis_and_a_wrong_angle_law():
     for what in ("moment", "law"):
         M2, a2 = M.copy(), a.copy()
         if what == "moment":
-            M2[:, 3] += 1e-6 * out["scale"][:, None] * np.cross(U[:, 3], [0.0, 0.0, 1.0])  # axis k2 shifted
+            M2[:, 3] += 1e-6 * out.scale[:, None] * np.cross(U[:, 3], [0.0, 0.0, 1.0])  # axis k2 shifted
         else:
             a2[:, 2] += 1e-6  # joint k1 runs a little ahead
-        bound = loop_bound(U, M2, a2, b, BRANCHES, out["motion"])
-        sampled = check_figures(STRUCTURE, U, M2, a2, b, out["pose_angles"], Q, Q[:, 0], out["motion"], 200)
+        bound = loop_bound(U, M2, a2, b, BRANCHES, out.motion)
+        sampled = check_figures(STRUCTURE, U, M2, a2, b, out.pose_angles, Q, Q[:, 0], out.motion, 200)
         assert np.all(bound["closure_translation"] + bound["closure_rotation"]
                       >= sampled["closure_translation"] + sampled["closure_rotation"])
         assert np.all(sampled["closure_translation"] + sampled["closure_rotation"] > 1e-9)  # a real defect
@@ -65,7 +65,7 @@ def test_repeated_roots_give_no_bound():
     out = solve(T, 0)
     U, M, a, b = _arrays(out)
     a[:, 1], b[:, 1] = a[:, 0], b[:, 0]  # h1 and h2 with the same law: the partial fractions do not exist
-    bound = loop_bound(U, M, a, b, BRANCHES, out["motion"])
+    bound = loop_bound(U, M, a, b, BRANCHES, out.motion)
     assert np.all(np.isinf(bound["closure_translation"]))
 
 
@@ -73,13 +73,13 @@ def test_pose_bound_detects_a_moved_pose_and_a_wrong_motion():
     T = _sets(5, 50)
     out = solve(T, 0)
     U, M, a, b = _arrays(out)
-    bound = loop_bound(U, M, a, b, BRANCHES, out["motion"])
+    bound = loop_bound(U, M, a, b, BRANCHES, out.motion)
     moved = T.copy()
-    moved[:, 2, :3, 3] += 1e-6 * out["scale"][:, None]  # pose 2 shifted: the linkage misses it
+    moved[:, 2, :3, 3] += 1e-6 * out.scale[:, None]  # pose 2 shifted: the linkage misses it
     Qm = pose_to_dq(moved)
-    got = pose_bound(out["motion"], TS[1:], Qm[:, 1:], Qm[:, 0], bound)
-    assert np.all(got["pose_translation"] >= 1e-6 * out["scale"] * np.sqrt(3) * (1 - 1e-9))
-    wrong = out["motion"].copy()
+    got = pose_bound(out.motion, TS[1:], Qm[:, 1:], Qm[:, 0], bound)
+    assert np.all(got["pose_translation"] >= 1e-6 * out.scale * np.sqrt(3) * (1 - 1e-9))
+    wrong = out.motion.copy()
     wrong[:, 0, 1] += 1e-6  # C no longer the tool link's motion: the motion bound grows, and with it the pose bound
     bad = loop_bound(U, M, a, b, BRANCHES, wrong)
     Q = pose_to_dq(T)

@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from synth.algebra.dq import dq_inv, dq_mul, plucker, rotation_about_line
+from synth.algebra.dq import dq_inv, dq_mul, plucker
+from synth.algebra.geometry import rotation_about_line
 from synth.algebra.factorize import classify
 from synth.algebra.polynomial import (
     degree,

@@ -6,7 +6,7 @@ import pytest
 
 from synth.checks import closure_errors, motion_error, sample_parameters, self_check
 from synth.algebra.cofactor import exact_product, factorize_with_cofactor, rationalize_factors
-from synth.algebra.dq import line_distance_angle
+from synth.algebra.geometry import common_normal
 from synth.errors import SynthesisError
 from synth.algebra.expr import parse_polynomial
 from synth.synthesis.multiloop import (choose_m0, ladder_factors, ladder_linkage, loop_sides, mobility,
@@ -157,8 +157,9 @@ def test_spatial_ladders_have_one_dof(seed):
     assert lk.info["ladder"]["flip_residual"] < 1e-12
     for loop in lk.info["ladder"]["loop_joints"]:  # every loop is a Bennett linkage
         J = [lk.joint(n) for n in loop]
-        da = [line_distance_angle(J[i].direction, J[i].moment, J[(i + 1) % 4].direction, J[(i + 1) % 4].moment)
+        cn = [common_normal(J[i].direction, J[i].moment, J[(i + 1) % 4].direction, J[(i + 1) % 4].moment)
               for i in range(4)]
+        da = [(float(c.distance), abs(float(c.twist))) for c in cn]
         assert da[0][0] == pytest.approx(da[2][0], rel=1e-8, abs=1e-10)
         assert da[1][0] == pytest.approx(da[3][0], rel=1e-8, abs=1e-10)
 

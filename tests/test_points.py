@@ -3,8 +3,6 @@ file format, the CLI (with the shared verifier), batch jobs and the API."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -21,16 +19,7 @@ from synth.synthesis.bennett import bennett
 from synth.synthesis.pointfit import parameter_samples, point_motion, scan
 from synth.synthesis.points import bennett_points, point_candidates, sixbar_points
 
-from conftest import REPO, VERIFIER, random_poses, run
-
-
-def verify(points_file, out):
-    if not VERIFIER.exists():
-        pytest.skip(f"{VERIFIER} is not present")
-    r = subprocess.run([sys.executable, str(VERIFIER), str(points_file), str(out)], capture_output=True, text=True,
-                       timeout=600)
-    assert r.returncode == 0, r.stdout + r.stderr
-    assert r.stdout.strip().splitlines()[-1].startswith("verify OK")
+from conftest import REPO, assert_verified, random_poses, run
 
 
 def write_points(path, P, unit="m"):
@@ -230,7 +219,7 @@ def test_cli_bennett_points_fixture_verifies(tmp_path):
         urdf.update_cfg({k: v for k, v in rec["joint_angles"].items() if k in urdf.actuated_joint_names})
         assert np.linalg.norm(urdf.get_transform("tool", "base")[:3, 3] - rec["position"]) < 1e-9
     assert run("check", out, "--poses", fixture, "--no-meshes", "-q").exit_code == 0
-    verify(fixture, out)
+    assert_verified(fixture, out)
 
 
 def test_cli_bennett_points_top(tmp_path):
@@ -252,7 +241,7 @@ def test_cli_sixbar_points_top_verifies(tmp_path):
     index = json.loads((out / "index.json").read_text())
     assert index["task"] == "points" and len(index["solutions"]) == 2
     for s in index["solutions"]:
-        verify(fixture, out / s["id"])
+        assert_verified(fixture, out / s["id"])
 
 
 def test_cli_known_random_points_verify(tmp_path):
@@ -262,7 +251,7 @@ def test_cli_known_random_points_verify(tmp_path):
         f = write_points(tmp_path / f"{cmd}.yaml", P * 1000, unit="mm")
         r = run(cmd, f, "-o", tmp_path / cmd, "-q")
         assert r.exit_code == 0, r.output
-        verify(f, tmp_path / cmd)
+        assert_verified(f, tmp_path / cmd)
 
 
 @pytest.mark.parametrize("text, code, msg", [

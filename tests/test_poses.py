@@ -23,7 +23,7 @@ from synth.io.poses import (
     parse_pose_document,
     pose_from_spec,
     quaternion_matrix,
-    rpy_matrix,
+    rpy_matrix_exact,
 )
 
 FIXTURES = Path(__file__).resolve().parent.parent / "fixtures"
@@ -350,7 +350,7 @@ def test_rpy_matches_scipy_fixed_axes(seed):
 
 def test_rpy_is_urdf_order():
     # yaw 90 deg after roll 90 deg (fixed axes): x -> y, and z -> -x... check explicitly
-    R = rpy_matrix(90, 0, 90, unit="deg")
+    R = rpy_matrix_exact(90, 0, 90, unit="deg")
     Rx = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]])
     Rz = np.array([[0, -1, 0], [1, 0, 0], [0, 0, 1]])
     np.testing.assert_array_equal(R, Rz @ Rx)

@@ -9,7 +9,8 @@ from synth.synthesis.bennett import dh_table
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.conic import condition, relative_displacements
 from synth.algebra.polynomial import product_of_linear
-from synth.synthesis.sixbar import LOOP, one_member_loops, prepare, scan, sixbar, sixbar_candidates
+from synth.synthesis.sixbar import LOOP, prepare, scan, sixbar, sixbar_candidates
+from synth.synthesis.sixbar_member import one_member_loops
 
 from test_cubic import E_T3, e_poses
 

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sixbar_motions import poses_at, random_motion, twist_at
-from synth.checks import pose_difference
+from synth.algebra.geometry import pose_difference
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.conic import condition
 from synth.synthesis.sixbar_hermite import hermite_candidates, hermite_members

@@ -11,12 +11,13 @@ from hypothesis import strategies as st
 
 from synth.algebra.algorithm1 import algorithm1, multiply_back, norm_roots, quadratics, remainder_error
 from synth.algebra.dq import dq_to_pose
+from synth.algebra.geometry import dh_parameters
 from synth.algebra.polynomial import evaluate, norm_poly, product_of_linear
 from synth.errors import SynthesisError
 from synth.synthesis.cubic import PAIRS, PERMS
-from synth.synthesis.sixbar import (CHECK_TOL, checks_pass, grid_members, one_member_loops, prepare, scan, sixbar,
-                                    sixbar_candidates)
-from synth.synthesis.sixbar_loops import RESIDUAL_TOL, dh_parameters, evaluate_members, factor_members
+from synth.synthesis.sixbar import CHECK_TOL, checks_pass, grid_members, prepare, scan, sixbar, sixbar_candidates
+from synth.synthesis.sixbar_loops import RESIDUAL_TOL, evaluate_members, factor_members
+from synth.synthesis.sixbar_member import one_member_loops
 
 from test_sixbar import random_poses, relative_errors
 
@@ -203,6 +204,6 @@ def test_dh_parameters_of_a_known_ring():
     pts = np.array([[0, 0, 0.0], [0, 0, 2.0], [0, 3.0, 0], [0, 3.0, 2.0]])
     m = np.cross(pts, u)
     dh = dh_parameters(u, m)
-    assert np.allclose(np.abs(dh["alpha"]), np.pi / 2)
+    assert np.allclose(np.abs(dh.alpha), np.pi / 2)
     # axis 0 (z through the origin) to axis 1 (x at z = 2): they intersect (offset 0); 1 -> 2: distance 3
-    assert np.allclose(dh["a"], [0.0, 3.0, 0.0, 3.0], atol=1e-12)
+    assert np.allclose(dh.a, [0.0, 3.0, 0.0, 3.0], atol=1e-12)

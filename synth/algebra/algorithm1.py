@@ -27,25 +27,6 @@ FERRARI_MIN_BATCH = 32  # quartics from this batch size on start from Ferrari's 
 _ONE = np.eye(8)[0]
 
 
-_CROSS_A, _CROSS_B = np.array([1, 2, 0, 2, 0, 1]), np.array([2, 0, 1, 1, 2, 0])  # a_j b_k, then a_k b_j
-
-
-def cross3(a, b) -> np.ndarray:
-    """Cross product of 3-vectors (..., 3), broadcast (``numpy.cross`` costs ~15 us of overhead per
-    call, which dominates a single synthesis, and is 2-5x slower than componentwise products on large
-    broadcast batches): up to a few hundred vectors by one product of two index permutations (all six
-    a_j b_k at once), more component by component into the result."""
-    a = np.asarray(a, float)
-    b = np.asarray(b, float)
-    if a.size + b.size <= 3000:
-        ab = a.take(_CROSS_A, -1) * b.take(_CROSS_B, -1)
-        return ab[..., :3] - ab[..., 3:]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-        np.subtract(a[..., j] * b[..., k], a[..., k] * b[..., j], out=out[..., i])
-    return out
-
-
 def orders(n: int) -> np.ndarray:
     """All n! orders of n distinct quadratics, lexicographic, shape (n!, n)."""
     return np.array(list(itertools.permutations(range(n))), int).reshape(-1, n)

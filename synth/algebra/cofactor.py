@@ -203,7 +203,37 @@ def factorize_with_cofactor(C, *, seed: int = 0, max_templates: int = MAX_TEMPLA
         return CofactorResult(C=Cf, R=np.ones(1), factors=np.asarray(hs), residual=res, g=np.ones(1),
                               bound_met=True, generic=True, template=[f"r{i + 1}" for i in range(n)],
                               report=[])
+    nc = _normalized(Cf, rf)
+    n2 = nc.Cs2.shape[0] - 1
+    if not nc.blocks:  # only real content: C' is generic
+        hs = list(_generic(nc.Cs2)) if n2 > 0 else []
+        return _finish(Cf, rf, nc, hs, np.ones(1), [f"r{i + 1}" for i in range(n2)],
+                       [{"kind": "real", "quadratic": q.tolist(), "deg_R": 0} for q in nc.real_quads])
+    best = _best_template(Cf, rf, nc, rng, max_templates)
+    if best is None:
+        raise FactorizationError(
+            "no factorization of C R was found (no template of the co-factor algorithm solved; "
+            f"mrpf = {rf.text()})")
+    return best
 
+
+@dataclass
+class _Normalized:
+    """C in the normalized parameter s (t = sigma s + tau, dual part / lam) without its real content: Cs2,
+    the real quadratics and their factors, the blocks (quadratic, multiplicity) left for the co-factor and
+    g_s, their product."""
+
+    tau: float
+    sigma: float
+    lam: float
+    Cs2: np.ndarray
+    real_quads: list
+    real_hs: list
+    blocks: list
+    g_s: np.ndarray
+
+
+def _normalized(Cf, rf) -> _Normalized:
     tau, sigma, lam = _normalization(Cf)
     Cs = compose_affine(Cf, sigma, tau)
     Cs[:, 4:] /= lam
@@ -227,68 +257,54 @@ def factorize_with_cofactor(C, *, seed: int = 0, max_templates: int = MAX_TEMPLA
             blocks_q.append(np.asarray(M, float))
             blocks_k.append(k_left)
             g_s = real_mul(g_s, real_pow(quad(M), k_left))
-    blocks = list(zip(blocks_q, blocks_k))
-    n2 = Cs2.shape[0] - 1
+    return _Normalized(tau=tau, sigma=sigma, lam=lam, Cs2=Cs2, real_quads=real_quads, real_hs=real_hs,
+                       blocks=list(zip(blocks_q, blocks_k)), g_s=g_s)
 
-    def finish(hs_s, R_s, template, report, family=None):
-        hs_s = list(hs_s) + real_hs
-        R_t = _denormalize_real(R_s, tau, sigma)
-        hs = np.array([_denormalize_factor(h, tau, sigma, lam) for h in hs_s])
-        CR = np.zeros((n + len(R_t), 8))
-        for k, r in enumerate(R_t):
-            CR[k:k + n + 1] += r * Cf
-        res = float(relative_error(product_of_linear(hs), CR))
-        return CofactorResult(C=Cf, R=R_t, factors=hs, residual=res, g=rf.g.copy(),
-                              bound_met=len(R_t) - 1 <= len(rf.g) - 1, generic=False, template=template,
-                              report=report, real_content=[np.asarray(q) for q in real_quads], family=family)
 
-    if not blocks:  # only real content: C' is generic
-        hs = list(_generic(Cs2)) if n2 > 0 else []
-        return finish(hs, np.ones(1), [f"r{i + 1}" for i in range(n2)],
-                      [{"kind": "real", "quadratic": q.tolist(), "deg_R": 0} for q in real_quads])
+def _finish(Cf, rf, nc: _Normalized, hs_s, R_s, template, report, family=None) -> CofactorResult:
+    """The result in the original parameter t from factors ``hs_s`` and co-factor ``R_s`` in s."""
+    n = Cf.shape[0] - 1
+    hs_s = list(hs_s) + nc.real_hs
+    R_t = _denormalize_real(R_s, nc.tau, nc.sigma)
+    hs = np.array([_denormalize_factor(h, nc.tau, nc.sigma, nc.lam) for h in hs_s])
+    CR = np.zeros((n + len(R_t), 8))
+    for k, r in enumerate(R_t):
+        CR[k:k + n + 1] += r * Cf
+    res = float(relative_error(product_of_linear(hs), CR))
+    return CofactorResult(C=Cf, R=R_t, factors=hs, residual=res, g=rf.g.copy(),
+                          bound_met=len(R_t) - 1 <= len(rf.g) - 1, generic=False, template=template,
+                          report=report, real_content=[np.asarray(q) for q in nc.real_quads], family=family)
 
-    P = Cs2[:, :4]
-    Q = Cs2[:n2, 4:]
-    P0 = divide_real(P, g_s)
+
+def _primal_orders(nc: _Normalized):
+    """(degree d of the primal part without the blocks, the factor orders of that part (lists of (d, 4)))."""
+    P0 = divide_real(nc.Cs2[:, :4], nc.g_s)
     P0[-1] = [1.0, 0, 0, 0]
     d = P0.shape[0] - 1
-    if d > 0:
+    if d == 0:
+        return d, [np.zeros((0, 4))]
+    P0dq = np.concatenate([P0, np.zeros_like(P0)], axis=1)
+    return d, [f.factors[:, :4] for f in factorize(P0dq, validate=False).factorizations]
 
-        P0dq = np.concatenate([P0, np.zeros_like(P0)], axis=1)
-        fres = factorize(P0dq, validate=False)
-        orders = [f.factors[:, :4] for f in fres.factorizations]
-    else:
-        orders = [np.zeros((0, 4))]
 
+def _best_template(Cf, rf, nc: _Normalized, rng, max_templates: int):
+    """The best `CofactorResult` over the templates (lowest co-factor degree, then residual), or None."""
+    blocks = nc.blocks
+    n2 = nc.Cs2.shape[0] - 1
+    Q = nc.Cs2[:n2, 4:]
+    d, orders = _primal_orders(nc)
     best = None
     for oi, positions in _templates(d, len(blocks), orders, max_templates):
         items = build_items(orders[oi], blocks, positions)
         z0, K, res = solve_items(items, Q, n2)
         if res > TEMPLATE_TOL:
             continue
-        k1 = [b for b, (M, k) in enumerate(blocks) if k == 1]
-        E0 = {it.block: s.reshape(-1, 3) for it, s in zip(items, split_unknowns(items, z0)) if it.kind == "trans"}
-        noncirc = [b for b in k1 if np.max(np.abs(E0[b])) > 0
-                   and np.max(np.abs(circular_residual(blocks[b][0], E0[b]))) > CIRCULAR_TOL]
-        z = z0
-        if noncirc and K.shape[1] > 0:
-            found = None
-            for size in range(len(noncirc), 0, -1):
-                for subset in itertools.combinations(noncirc, size):
-                    others = [b for b in k1 if b not in noncirc]  # already circular: keep them so
-                    found = circular_kernel_search(items, z0, K, blocks, list(subset) + others, rng)
-                    if found is not None:
-                        break
-                if found is not None:
-                    break
-            if found is not None:
-                z = found
+        z = _circular(items, z0, K, blocks, rng)
         try:
             hs_s, R_s, report, family = _assemble(items, z, blocks, rng)
         except FactorizationError:
             continue
-        labels = [it.label for it in items]
-        result = finish(hs_s, R_s, labels, report, family)
+        result = _finish(Cf, rf, nc, hs_s, R_s, [it.label for it in items], report, family)
         if result.residual > FINAL_TOL:
             continue
         better = best is None or result.deg_R < best.deg_R or (
@@ -297,11 +313,25 @@ def factorize_with_cofactor(C, *, seed: int = 0, max_templates: int = MAX_TEMPLA
             best = result
         if best.deg_R == 0 or K.shape[1] == 0 and _coprime(blocks, orders[oi]):
             break
-    if best is None:
-        raise FactorizationError(
-            "no factorization of C R was found (no template of the co-factor algorithm solved; "
-            f"mrpf = {rf.text()})")
     return best
+
+
+def _circular(items, z0, K, blocks, rng):
+    """The template's solution z0, moved along its kernel K so that the translations of the simple blocks
+    are circular when they are not (largest subsets first; z0 when none is found)."""
+    k1 = [b for b, (M, k) in enumerate(blocks) if k == 1]
+    E0 = {it.block: s.reshape(-1, 3) for it, s in zip(items, split_unknowns(items, z0)) if it.kind == "trans"}
+    noncirc = [b for b in k1 if np.max(np.abs(E0[b])) > 0
+               and np.max(np.abs(circular_residual(blocks[b][0], E0[b]))) > CIRCULAR_TOL]
+    if not noncirc or K.shape[1] == 0:
+        return z0
+    others = [b for b in k1 if b not in noncirc]  # already circular: keep them so
+    for size in range(len(noncirc), 0, -1):
+        for subset in itertools.combinations(noncirc, size):
+            found = circular_kernel_search(items, z0, K, blocks, list(subset) + others, rng)
+            if found is not None:
+                return found
+    return z0
 
 
 def _coprime(blocks, rot_primals):

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.algebra.dq import qmul
+from synth.algebra.geometry import perpendicular_basis
 from synth.algebra.polynomial import poly_mul
 
 
@@ -35,11 +36,9 @@ def unit(v):
 
 
 def perp_basis(n):
-    """Two unit vectors completing the unit n to a right-handed orthonormal basis."""
-    n = unit(n)
-    a = np.eye(3)[int(np.argmin(np.abs(n)))]
-    e1 = unit(np.cross(n, a))
-    return e1, np.cross(n, e1)
+    """Two unit vectors completing the direction of n to a right-handed orthonormal basis
+    (`synth.algebra.geometry.perpendicular_basis` of n / |n|)."""
+    return perpendicular_basis(unit(n))
 
 
 def rotation_dq(alpha, beta, n, d):

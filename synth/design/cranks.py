@@ -2,11 +2,11 @@
 "Cranked bars"). Lengths in metres."""
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
 
+from synth.algebra.geometry import perpendicular_basis
 from synth.design.coordinate import FULL, Scorer, crank_space, search_rounds
 from synth.design.work import Work
 from synth.design.search import (CLEARANCE_FRACTION, FULL_SAMPLES, SAFETY, SEARCH_MERGED, SPREADS, TASK_SAMPLES,
@@ -22,7 +22,7 @@ def crank_direction(u, d) -> np.ndarray:
     d = d / max(np.linalg.norm(d), 1e-300)
     n = u - np.dot(u, d) * d
     if np.linalg.norm(n) < 1e-6:
-        n = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
+        return perpendicular_basis(d)[0]
     return n / np.linalg.norm(n)
 
 

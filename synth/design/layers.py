@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from synth.algebra.geometry import perpendicular_basis
 from synth.design.collision import adjacent_pairs, body_motion, even_samples
 from synth.design.coordinate import FULL
 from synth.design.model import DesignResult, joint_links
@@ -42,12 +43,6 @@ def parallel_axis(linkage, tol: float = 1e-9) -> np.ndarray | None:
         if np.linalg.norm(np.cross(j.direction, u)) > tol:
             return None
     return u / np.linalg.norm(u)
-
-
-def _plane(u):
-    e1 = np.cross(u, np.eye(3)[int(np.argmin(np.abs(u)))])
-    e1 /= np.linalg.norm(e1)
-    return e1, np.cross(u, e1)
 
 
 def _point_segment(p0, p1, x):
@@ -215,7 +210,7 @@ def layer_levels(linkage, u, rng_phi, reach, nodes, keep=None, exits=()):
     the stack along the axis to a joint not kept (a riser): the joint's column then reaches the top or
     the bottom of the stack, and the result's entry ``(joint, "exit")`` is ``[top + 1]`` or ``[-1]``, the
     level the riser ends on."""
-    e1, e2 = _plane(u)
+    e1, e2 = perpendicular_basis(u)
     jl = joint_links(linkage)
     joints = [j for j in jl if jl[j] and (keep is None or j in keep)]
     adjacent = adjacent_pairs(linkage)

@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from synth.algebra.geometry import common_normal
+
 
 @dataclass
 class Mount:
@@ -168,14 +170,13 @@ def straight_design(linkage, *, pin_radius: float, bar_radius: float, hub_length
     """A design with straight bars: every link mounted at ``offsets[(link, joint)]`` (default: the foot
     of the common normal to the link's other axis, the kinematic "natural" place), a hub of
     ``hub_length`` at each mount, and each joint's pin spanning the hubs of its two links."""
-    from synth.linkage import pair_feet
-
     sites = linkage.joint_sites()
     byname = {j.name: j for j in linkage.joints}
     mounts, bars = [], []
     for link, names in linkage.links.items():
         for a, b in zip(names, names[1:]):
-            fa, fb = pair_feet(byname[a], byname[b])
+            ja, jb = byname[a], byname[b]
+            fa, fb = common_normal(ja.direction, ja.moment, jb.direction, jb.moment).feet
             for n, f in ((a, fa), (b, fb)):
                 if all(not (m.link == link and m.joint == n) for m in mounts):
                     off = float(np.dot(f - sites[n], byname[n].direction))

@@ -49,7 +49,7 @@ from synth.io.constraints import parse_constraints
 from synth.io.taskspec import TOP_TASK_KEYS, task_fields
 from synth.io.posespec import (ANGLE_UNITS, LENGTH_UNITS, PoseProblem, axis_angle_matrix, check_keys,
                                describe_value, is_point_spec, point_position, pose_from_spec, pose_matrix,
-                               quaternion_matrix, rpy_matrix)
+                               quaternion_matrix, rpy_matrix_exact)
 
 __all__ = [
     "PoseSet",
@@ -57,7 +57,7 @@ __all__ = [
     "parse_pose_document",
     "pose_from_spec",
     "quaternion_matrix",
-    "rpy_matrix",
+    "rpy_matrix_exact",
     "axis_angle_matrix",
     "json_object_pairs",
     "LENGTH_UNITS",

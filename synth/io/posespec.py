@@ -17,9 +17,10 @@ from typing import Any, Iterable
 import numpy as np
 
 from synth.algebra.dq import matrix_to_quat, quat_to_matrix
+from synth.algebra.geometry import rotation_about_axis_sincos
 from synth.errors import InputError
 from synth.io.docload import clean_text, quote_text
-from synth.frames import rpy_from_sincos, skew
+from synth.frames import rpy_from_sincos
 
 #: metres per unit
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}
@@ -149,8 +150,9 @@ def quaternion_matrix(w: float, x: float, y: float, z: float) -> np.ndarray:
     return quat_to_matrix(np.array([w, x, y, z], float))
 
 
-def rpy_matrix(roll: float, pitch: float, yaw: float, unit: str = "rad") -> np.ndarray:
-    """URDF fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll); angles in ``unit``."""
+def rpy_matrix_exact(roll: float, pitch: float, yaw: float, unit: str = "rad") -> np.ndarray:
+    """URDF fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll); angles in ``unit``, exact for multiples
+    of 90 degrees (`synth.frames.rpy_matrix`: radians)."""
     sr, cr = _sincos(roll, unit)
     sp, cp = _sincos(pitch, unit)
     sy, cy = _sincos(yaw, unit)
@@ -158,12 +160,10 @@ def rpy_matrix(roll: float, pitch: float, yaw: float, unit: str = "rad") -> np.n
 
 
 def axis_angle_matrix(axis, angle: float, unit: str = "rad") -> np.ndarray:
-    """Rodrigues' formula; ``axis`` is normalized here (must be nonzero)."""
+    """Rodrigues' formula (`synth.algebra.geometry.rotation_about_axis`); ``axis`` is normalized here (must be
+    nonzero)."""
     k = np.asarray(axis, dtype=float)
-    k = k / math.hypot(*k)
-    s, c = _sincos(angle, unit)
-    K = skew(k)
-    return c * np.eye(3) + s * K + (1.0 - c) * np.outer(k, k)
+    return rotation_about_axis_sincos(k / math.hypot(*k), *_sincos(angle, unit))
 
 
 def _checked_rotation(R: np.ndarray, what: str, normalize: bool) -> np.ndarray:
@@ -274,7 +274,7 @@ def pose_matrix(spec: Any, length_scale: float, angle_unit: str, normalize: bool
             R = _parse_quaternion(val, normalize)
         elif key == "rpy":
             rpy = _vector(val, 3, "rpy")
-            R = rpy_matrix(*rpy, unit=angle_unit)
+            R = rpy_matrix_exact(*rpy, unit=angle_unit)
         elif key == "axis_angle":
             R = _parse_axis_angle(val, angle_unit)
         else:

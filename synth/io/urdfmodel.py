@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from synth.errors import InputError
-from synth.frames import axis_rotations, rpy_matrix
+from synth.algebra.geometry import rotation_about_axis
+from synth.frames import rpy_matrix
 
 
 @dataclass
@@ -80,7 +81,7 @@ class UrdfModel:
             if j.kind in ("revolute", "continuous"):
                 q = np.broadcast_to(np.asarray(cfg.get(jn, 0.0), float), (m,))
                 M = np.zeros((m, 4, 4))
-                M[:, :3, :3] = axis_rotations(j.axis, q)
+                M[:, :3, :3] = rotation_about_axis(j.axis, q)
                 M[:, 3, 3] = 1.0
                 F = F @ M
             elif j.kind == "prismatic":

@@ -6,7 +6,7 @@ angles 0), pose 1 at t = 0, pose 2 at t = 1. h1 (and k2) carry the norm factor w
 smaller real part. The synthesis is `synth.synthesis.bennett_core.solve` on a batch of one; a set it
 cannot judge goes through the per-set path here (the same conic, `synth.algebra.factorize.factorize`
 with its refinements), which gives every refusal its plain-language message. ``linkage.checks`` holds the
-self-check at ``check_samples`` parameters; `synth.checks.verify` is the explicit verification (200
+self-check at ``check_samples`` parameters; `verify` is the explicit verification (200
 samples) the CLI runs before writing.
 """
 from __future__ import annotations
@@ -16,16 +16,17 @@ from functools import lru_cache
 
 import numpy as np
 
-from synth.algebra.algorithm1 import cross3, index_pairs
+from synth.algebra.algorithm1 import index_pairs
 from synth.algebra.dq import dq_right_matrix, factor_lines, pose_to_dq
+from synth.algebra.geometry import (cross, dh_parameters, pose_difference, ring_normals, rotation_about_axis,
+                                    rotation_angle)
 from synth.algebra.factorize import factorize
-from synth.checks import (BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, pose_difference,
-                          self_check)
+from synth.checks import BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, self_check
 from synth.errors import InputError, NotGenericError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
-from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, TS, axis_distance, bennett_parameters,
-                                          dh_rows, factor_sets, loop_geometry, relative_error, solve)
-from synth.synthesis.conditioning import transmission_problem
+from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, TS, acceptance_error, axis_distance,
+                                          bennett_parameters, factor_sets, solve)
+from synth.synthesis.conditioning import TRANSMISSION_LIMIT, transmission_problem
 from synth.synthesis.conic import (Conditioning, condition, conditioning, conic, relative_displacements,
                                    position_spread, to_world)
 from synth.synthesis.planar import zero_pitch
@@ -74,7 +75,8 @@ def bennett(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, memb
 def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None,
                        top: int = 1) -> list:
     """`bennett` as a list: the one Bennett linkage of spatial poses, or up to ``top`` members of the
-    family of planar or spherical poses, best score first (`synth.synthesis.planar_bennett.candidates`)."""
+    family of planar or spherical poses, best score first (`synth.synthesis.planar_bennett.candidates`).
+    SynthesisError when one fails the transmission gate (`check_transmission`), as `verify` would."""
     T = np.asarray(poses, float)
     if T.shape != (3, 4, 4):
         raise InputError(f"a Bennett linkage needs exactly 3 poses (array of shape (3, 4, 4)), got {T.shape}")
@@ -83,10 +85,17 @@ def bennett_candidates(poses, names=None, *, check_samples: int = BOUND_CHECK_SA
         # the perturbed sets of the condition estimate (`sensitivity`) are factored in the same batch
         # (the first half of the pipeline only); a set with NaN or inf is never good (the per-set path says so)
         out = solve(T[None], check_samples, perturb=_small_motion_matrices(SENSITIVITY_EPS, 0, 2))
-        if out["good"][0]:
-            return [linkage_from_solution(out, 0, T, names, check_samples, perturbed=out["extra"])]
-        return per_set_candidates(T, names, check_samples=check_samples, top=top, perturbed=out["extra"])
-    return per_set_candidates(T, names, check_samples=check_samples, member=member, top=top)
+        if out.good[0]:
+            linkage = linkage_from_solution(out, 0, T, names, check_samples, perturbed=out.extra)
+            if out.transmission[0] > TRANSMISSION_LIMIT:  # the gate of `verify` (the ratio at hand)
+                check_transmission(linkage)
+            return [linkage]
+        linkages = per_set_candidates(T, names, check_samples=check_samples, top=top, perturbed=out.extra)
+    else:
+        linkages = per_set_candidates(T, names, check_samples=check_samples, member=member, top=top)
+    for lk in linkages:  # the gate of `verify` and of every entry point: a notebook gets what the CLI gives
+        check_transmission(lk)
+    return linkages
 
 
 def per_set_candidates(T, names, *, check_samples: int = BOUND_CHECK_SAMPLES, member=None, top: int = 1,
@@ -130,7 +139,7 @@ def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
               "closure_translation": checks["max_closure_translation_error"],
               "closure_rotation": checks["max_closure_rotation_error"]}
     far = axis_distance(U, M, cond.centre[None])
-    rel = float(relative_error(T[None], np.array([cond.scale]), far, {k: np.array([v]) for k, v in errors.items()})[0])
+    rel = float(acceptance_error(T[None], np.array([cond.scale]), far, {k: np.array([v]) for k, v in errors.items()})[0])
     info = dict(linkage.info)
     info["relative_error"] = _accept(linkage, cond, max(rel, info.get("relative_error", 0.0)))
     B = [info["study_form"][k] / float(cond.scale) for k in ("B01", "B02", "B12")]
@@ -149,23 +158,23 @@ def check_transmission(linkage) -> None:
         raise SynthesisError(why + _near_degenerate(T, [p.name for p in linkage.poses], _spread(T)))
 
 
-def linkage_from_solution(out: dict, i: int, T, names, check_samples: int, perturbed: dict | None = None):
+def linkage_from_solution(out, i: int, T, names, check_samples: int, perturbed: dict | None = None):
     """The `Linkage` of set i of a `synth.synthesis.bennett_core.solve` result (checks and info from
     its arrays). ``perturbed``: ``good`` and ``factors`` of `perturbed_poses` (T) (`factor_sets`), when
     at hand (`sensitivity` computes them otherwise)."""
-    F = out["factors"][i]
-    scale = float(out["scale"][i])
-    cond = Conditioning(centre=out["centre"][i], scale=scale)
-    info = {"factorization_residual": float(out["residual"][i]),
-            "study_form": dict(zip(("B01", "B02", "B12"), out["study_form"][i].tolist())),
-            "conditioning": {"centre": out["centre"][i].tolist(), "scale": scale}}
-    linkage = two_branch_linkage("bennett", F[:2], F[2:], out["motion"][i], T, names, TS, info,
-                                 angles=out["pose_angles"][i], lines=(out["lines"][i], out["laws"][i]))
-    figures = {k: float(v[i]) for k, v in out["errors"].items()}
-    linkage.checks = as_checks(figures, check_samples, float(out["length_scale"][i]), bounded=True)
-    linkage.info = _complete_info(linkage, info, out["study_form"][i] / scale, cond, out["bennett"], out["dh"],
-                                  float(out["relative_error"][i]), float(out["axis_distance"][i]), perturbed, row=i,
-                                  frame=(out["centre"][i], scale, out["lines"][i]))
+    F = out.factors[i]
+    scale = float(out.scale[i])
+    cond = Conditioning(centre=out.centre[i], scale=scale)
+    info = {"factorization_residual": float(out.residual[i]),
+            "study_form": dict(zip(("B01", "B02", "B12"), out.study_form[i].tolist())),
+            "conditioning": {"centre": out.centre[i].tolist(), "scale": scale}}
+    linkage = two_branch_linkage("bennett", F[:2], F[2:], out.motion[i], T, names, TS, info,
+                                 angles=out.pose_angles[i], lines=(out.lines[i], out.laws[i]))
+    figures = {k: float(v[i]) for k, v in out.errors.items()}
+    linkage.checks = as_checks(figures, check_samples, float(out.length_scale[i]), bounded=True)
+    linkage.info = _complete_info(linkage, info, out.study_form[i] / scale, cond, out.bennett, out.dh,
+                                  float(out.relative_error[i]), float(out.axis_distance[i]), perturbed, row=i,
+                                  frame=(out.centre[i], scale, out.lines[i]))
     return linkage
 
 
@@ -181,10 +190,10 @@ def _bennett_general(T, names, check_samples, perturbed=None):
               "closure_translation": c["max_closure_translation_error"],
               "closure_rotation": c["max_closure_rotation_error"]}
     far = axis_distance(U, M, cond.centre[None])
-    rel = float(relative_error(T[None], np.array([cond.scale]), far, {k: np.array([v]) for k, v in errors.items()})[0])
-    geo = loop_geometry(U, M)
-    linkage.info = _complete_info(linkage, info, con.B, cond, bennett_parameters(geo), dh_rows(U, geo), rel,
-                                  float(far[0]), perturbed)
+    rel = float(acceptance_error(T[None], np.array([cond.scale]), far, {k: np.array([v]) for k, v in errors.items()})[0])
+    geo = ring_normals(U, M)
+    linkage.info = _complete_info(linkage, info, con.B, cond, bennett_parameters(geo), dh_parameters(U, normals=geo),
+                                  rel, float(far[0]), perturbed)
     return linkage
 
 
@@ -204,7 +213,7 @@ def _complete_info(linkage, info, B, cond, bp, dh, rel, far, perturbed=None, row
     if not math.isfinite(bp["bennett_condition_residual"]):
         bp["bennett_condition_residual"] = None
     info["bennett"] = bp
-    info["dh"] = _dh_list(LOOP_NAMES, dh, row)
+    info["dh"] = dh.table(LOOP_NAMES, row)
     info["relative_error"] = _accept(linkage, cond, rel)
     info["warnings"] = _warnings(linkage, np.asarray(B, float).tolist(), cond, info, far, perturbed, frame)
     return info
@@ -213,7 +222,7 @@ def _complete_info(linkage, info, B, cond, bp, dh, rel, far, perturbed=None, row
 def bennett_parameters_of(linkage) -> dict:
     """The Bennett parameters (a, alpha, b, beta, mismatches, Bennett condition residual) of a Bennett
     linkage's loop h1-h2-k2-k1."""
-    bp = bennett_parameters(loop_geometry(*_loop_lines(linkage)))
+    bp = bennett_parameters(ring_normals(*_loop_lines(linkage)))
     return {k: float(v[0]) for k, v in bp.items()}
 
 
@@ -222,20 +231,12 @@ def dh_table(linkage, loop: list[str]) -> list[dict]:
     for joint i, ``a``/``alpha`` to the next joint (signed twist about the common normal), ``d`` the
     offset along axis i between the incoming and outgoing common normals, ``theta`` the angle between
     them about axis i."""
-    U, M = _loop_lines(linkage, loop)
-    return _dh_list(loop, dh_rows(U, loop_geometry(U, M)))
-
-
-def _dh_list(loop, rows, row: int = 0) -> list[dict]:
-    """linkage.json's DH table: set ``row`` of `dh_rows` (arrays (N, J)) as one dict per joint of ``loop``."""
-    a, alpha, d, theta = (rows[k][row].tolist() for k in ("a", "alpha", "d", "theta"))
-    return [{"joint": j, "next": nxt, "a": x1, "alpha": x2, "d": x3, "theta": x4}
-            for j, nxt, x1, x2, x3, x4 in zip(loop, loop[1:] + loop[:1], a, alpha, d, theta)]
+    return dh_parameters(*_loop_lines(linkage, loop)).table(loop, 0)
 
 
 def _accept(linkage, cond, rel) -> float:
     """Refuse a linkage whose own self-check fails (relative error ``rel`` above ACCEPT_TOL, see
-    `synth.synthesis.bennett_core.relative_error`): near degenerate poses can defeat double precision
+    `synth.synthesis.bennett_core.acceptance_error`): near degenerate poses can defeat double precision
     (the conic's coefficients or the factorization lose most digits), and a linkage that misses its
     poses must never be reported as a result. Errors between ACCURATE and ACCEPT_TOL are accepted with a
     warning (`_warnings`). Returns rel."""
@@ -264,7 +265,7 @@ def _near_relations(T, names, spread) -> list[tuple[int, str]]:
     for i, j in ((0, 1), (0, 2), (1, 2)):
         R = T[j, :3, :3] @ T[i, :3, :3].T
         d = T[j, :3, 3] - R @ T[i, :3, 3]
-        ang = float(np.arccos(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0)))
+        ang = float(rotation_angle(R))
         w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
         along = abs(float(np.dot(d, w / np.linalg.norm(w)))) if np.linalg.norm(w) > 1e-300 else 0.0
         trans = float(np.linalg.norm(d)) / spread
@@ -333,7 +334,7 @@ def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: in
     lines = factor_lines(F)[0]
     # their changes in both labellings (branches may swap), moments about c / spread (linear in the lines)
     D = lines.take(_LABELLINGS, axis=1) - ref  # (trials, 2, 4, 2, 3)
-    D[..., 1, :] -= cross3(c, D[..., 0, :])
+    D[..., 1, :] -= cross(c, D[..., 0, :])
     D[..., 1, :] /= spread
     d = np.abs(D).reshape(trials, 2, 24).max(axis=2).min(axis=1)
     return float(d.max()) / eps
@@ -353,10 +354,8 @@ def _small_motions(eps: float, seed: int, trials: int) -> tuple:
     for _ in range(3 * trials):
         w = rng.normal(size=3)
         v = rng.normal(size=3)
-        k = w / np.linalg.norm(w)
-        K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
         M = np.eye(4)
-        M[:3, :3] += math.sin(eps) * K + (1 - math.cos(eps)) * (K @ K)  # Rodrigues
+        M[:3, :3] = rotation_about_axis(w / np.linalg.norm(w), eps)
         M[:3, 3] = v * (eps / np.linalg.norm(v))
         out.append(M)
     out = np.array(out).reshape(trials, 3, 4, 4)

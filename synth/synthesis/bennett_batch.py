@@ -18,7 +18,7 @@ import numpy as np
 from synth.checks import BOUND_CHECK_SAMPLES
 from synth.errors import InputError, MpsynthError, SynthesisError
 from synth.synthesis.bennett import linkage_from_solution, per_set_candidates, perturbed_poses
-from synth.synthesis.bennett_core import ACCEPT_TOL, JOINTS, TS, factor_sets, solve
+from synth.synthesis.bennett_core import ACCEPT_TOL, JOINTS, TS, Solved, factor_sets, solve
 
 __all__ = ["BennettBatch", "bennett_batch", "JOINTS", "TS", "ACCEPT_TOL"]
 
@@ -46,7 +46,7 @@ class BennettBatch:
     check_samples: int = BOUND_CHECK_SAMPLES
     names: list = field(default_factory=lambda: ["p0", "p1", "p2"])
     general: np.ndarray = None  # (N,) bool: the set went through the per-set path of synth.synthesis.bennett
-    _solution: dict = field(default=None, repr=False)  # the arrays of `solve` (for `linkage`)
+    _solution: Solved = field(default=None, repr=False)  # the arrays of `solve` (for `linkage`)
 
     def __len__(self) -> int:
         return len(self.ok)
@@ -84,22 +84,22 @@ def bennett_batch(poses, *, check_samples: int = BOUND_CHECK_SAMPLES, names=None
         raise InputError(f"bennett_batch needs poses of shape (N, 3, 4, 4), got {T.shape}")
     names = list(names) if names is not None else ["p0", "p1", "p2"]
     out = solve(T, check_samples)
-    good, finite = out["good"], out["finite"]
+    good, finite = out.good, out.finite
     bad = ~good
-    errors = {k: v for k, v in out["errors"].items()}
-    bp = {k: out["bennett"][k] for k in ("a", "alpha", "b", "beta", "opposite_length_mismatch",
+    errors = {k: v for k, v in out.errors.items()}
+    bp = {k: out.bennett[k] for k in ("a", "alpha", "b", "beta", "opposite_length_mismatch",
                                            "opposite_twist_mismatch")}
-    fields = [out["lines"], out["laws"], out["pose_angles"], out["factors"], out["motion"], out["residual"],
-              out["relative_error"], *bp.values(), *errors.values()]
+    fields = [out.lines, out.laws, out.pose_angles, out.factors, out.motion, out.residual,
+              out.relative_error, *bp.values(), *errors.values()]
     for arr in fields:
         arr[bad] = np.nan
     status = ["" if g else "?" for g in good.tolist()]
     for i in np.flatnonzero(~finite).tolist():
         status[i] = "the poses contain NaN or infinity"
-    res = BennettBatch(poses=T, ok=good.copy(), status=status, lines=out["lines"], laws=out["laws"],
-                       pose_angles=out["pose_angles"], factors=out["factors"], motion=out["motion"],
-                       study_form=out["study_form"], centre=out["centre"], scale=out["scale"],
-                       residual=out["residual"], bennett=bp, errors=errors, relative_error=out["relative_error"],
+    res = BennettBatch(poses=T, ok=good.copy(), status=status, lines=out.lines, laws=out.laws,
+                       pose_angles=out.pose_angles, factors=out.factors, motion=out.motion,
+                       study_form=out.study_form, centre=out.centre, scale=out.scale,
+                       residual=out.residual, bennett=bp, errors=errors, relative_error=out.relative_error,
                        check_samples=check_samples, names=names, general=finite & bad, _solution=out)
     _fallback(res, np.flatnonzero(res.general), names)
     return res

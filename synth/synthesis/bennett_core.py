@@ -19,17 +19,20 @@ theta(t) = 2 atan2(b, t - a).
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
 
-from synth.algebra.algorithm1 import (algorithm1, cross3, is_translation, multiply_back, norm_roots, polish, quadratics,
+from synth.algebra.algorithm1 import (algorithm1, is_translation, multiply_back, norm_roots, polish, quadratics,
                                       remainder_error, root_conditioning)
 from synth.algebra.anglelaw import angle_law
 from synth.algebra.polynomial import norm_poly
 from synth.blas import one_blas_thread
 from synth.checks import check_figures, loop_bound, pose_bound
 from synth.algebra.dq import dot, factor_lines, pose_to_dq
+from synth.algebra.geometry import cross, dh_parameters, extent, ring_normals
+from synth.synthesis.conditioning import pair_ratio
 from synth.synthesis.conic import TS, condition_map, conditioning, conic, relative_displacements_dq, world_map
 
 JOINTS = ("h1", "h2", "k1", "k2")
@@ -37,7 +40,7 @@ BRANCHES = np.array([[0, 1], [2, 3]])  # h1 h2 | k1 k2, base to coupler
 LOOP = np.array([0, 1, 3, 2])  # h1 -> h2 -> k2 -> k1 -> h1
 STRUCTURE = ((("base", "link_h1"), ("link_h1", "coupler"), ("base", "link_k1"), ("link_k1", "coupler_k")),
              "coupler", (("coupler", "coupler_k"),))
-ACCEPT_TOL = 1e-8  # largest relative self-check error accepted (see `relative_error`)
+ACCEPT_TOL = 1e-8  # largest relative self-check error accepted (see `acceptance_error`)
 FLOOR_ULPS = 2**17  # rounding floor of the world-frame checks, in ulps of the pose coordinates
 EPS = float(np.finfo(float).eps)
 MIN_B = 1e-6  # |B_ij| (conditioned) at or below this: (nearly) degenerate conic -> per-set path
@@ -52,10 +55,40 @@ _EYE4 = np.eye(4)
 _FLOOR = FLOOR_ULPS * EPS / ACCEPT_TOL
 
 
-def solve(T, check_samples: int, perturb=None) -> dict:
-    """The Bennett pipeline on poses T (N, 3, 4, 4), metres; returns a dict of arrays over N (see
-    `synth.synthesis.bennett_batch.BennettBatch` for the fields) plus ``good`` (N,): the set was solved
-    here and its self-check is well inside ACCEPT_TOL. Rows of sets that are not good hold garbage.
+@dataclasses.dataclass(slots=True)
+class Solved:
+    """`solve`'s arrays over N pose sets (see `synth.synthesis.bennett_batch.BennettBatch` for the
+    fields' shapes and conventions). ``good`` (N,): the set was solved here and its self-check is well
+    inside ACCEPT_TOL (rows of other sets hold garbage); ``finite`` (N,): the poses were finite;
+    ``bennett``, ``dh`` and ``errors``: dicts of arrays (`bennett_parameters`, `dh_rows`, the
+    self-check figures); ``axis_distance`` (N,): the axes' largest distance from the centroid (m);
+    ``length_scale`` (N,): the linkage's extent (m); ``transmission`` (N,): the largest speed ratio of
+    two joints (`synth.synthesis.conditioning`: h1 and k2, h2 and k1 share their norm roots, so the ratio
+    of h1 and h2 is the largest); ``extra``: see `solve`'s ``perturb``."""
+
+    good: np.ndarray
+    finite: np.ndarray
+    lines: np.ndarray
+    laws: np.ndarray
+    pose_angles: np.ndarray
+    factors: np.ndarray
+    motion: np.ndarray
+    study_form: np.ndarray
+    centre: np.ndarray
+    scale: np.ndarray
+    residual: np.ndarray
+    bennett: dict
+    dh: dict
+    errors: dict
+    relative_error: np.ndarray
+    axis_distance: np.ndarray
+    length_scale: np.ndarray
+    transmission: np.ndarray
+    extra: dict | None = None
+
+
+def solve(T, check_samples: int, perturb=None) -> Solved:
+    """The Bennett pipeline on poses T (N, 3, 4, 4), metres; returns the arrays over N (`Solved`). Rows of sets that are not good hold garbage.
     Large batches run in chunks of CHUNK sets, whose temporaries stay in the CPU caches, with BLAS on
     one thread from ONE_THREAD_MIN sets on (`synth.blas`, docs/architecture.md "Threads"). ``perturb``
     (K, 3, 8, 8): the right-multiplication matrices (`synth.algebra.dq.dq_right_matrix`) of small motions,
@@ -70,7 +103,7 @@ def solve(T, check_samples: int, perturb=None) -> dict:
             fac = _factors(T, perturb)
             n = T.shape[0]
             out = _solve(T, check_samples, {k: v[:n] for k, v in fac.items()})
-            out["extra"] = {"good": fac["good"][n:], "factors": fac["factors"][n:]}  # as `factor_sets`
+            out.extra = {"good": fac["good"][n:], "factors": fac["factors"][n:]}  # as `factor_sets`
             return out
         if T.shape[0] >= ONE_THREAD_MIN:
             with one_blas_thread():
@@ -80,7 +113,10 @@ def solve(T, check_samples: int, perturb=None) -> dict:
 
 
 def _concatenate(parts: list):
-    """Dicts (nested) of arrays over sets, joined along the set axis."""
+    """`Solved` (or dicts, nested, of arrays) over sets, joined along the set axis."""
+    if isinstance(parts[0], Solved):
+        return Solved(*(_concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(Solved)
+                        if f.name != "extra"))
     if isinstance(parts[0], dict):
         return {k: _concatenate([p[k] for p in parts]) for k in parts[0]}
     return np.concatenate(parts, axis=0)
@@ -156,13 +192,16 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     U, M = lines[..., 0, :], lines[..., 1, :]
     pose_angles = angle_law(a[:, None, :], b[:, None, :], TS[:, None])  # (N, 3, 4); 0 at t = inf
     loop = lines.take(LOOP, axis=1)
-    geo = loop_geometry(loop[..., 0, :], loop[..., 1, :])
-    # the linkage's length scale (`synth.checks.extent`): the RMS distance from their centroid of the
-    # tool positions (pose 0 twice: the reference) and the joint sites, the means of the feet of the
-    # common normals around the loop (each link carries two joints of the loop), one linear map
-    pts = np.concatenate([fac["Tf"][:, :, :3, 3], geo["feet"].reshape(N, 8, 3)], axis=1)
-    rel = np.matmul(_SITES, pts).reshape(N, 24)
-    length_scale = np.maximum(np.sqrt(dot(rel, rel) * 0.125), 1e-9)
+    geo = ring_normals(loop[..., 0, :], loop[..., 1, :])
+    # the linkage's length scale (`synth.linkage.Linkage.extent`) of the tool positions (pose 0 twice: the
+    # reference) and the joint sites, the means of the feet of the common normals on either side (each
+    # link carries two joints of the loop)
+    pts = np.empty((N, 8, 3))
+    pts[:, :3] = fac["Tf"][:, :, :3, 3]
+    pts[:, 7] = pts[:, 0]
+    np.add(geo.feet[:, :, 0], geo.feet[:, _PREVIOUS, 1], out=pts[:, 3:7])
+    pts[:, 3:7] *= 0.5
+    length_scale = extent(pts)
     # certified: closure and motion over the whole motion, the poses at their angles through the motion
     bound = loop_bound(U, M, a, b, BRANCHES, motion)
     errors = pose_bound(motion, TS[1:], Q[:, 1:3], Q[:, 0], bound)  # (pose 0: t = inf)
@@ -178,23 +217,25 @@ def _solve(T, check_samples: int, fac=None) -> dict:
     far /= b * b
     far = np.sqrt(far.max(axis=1))
     far *= scale
-    rel = relative_error(fac["Tf"], scale, far, errors)
+    rel = acceptance_error(fac["Tf"], scale, far, errors)
     good = fac["good"] & (rel <= 0.1 * ACCEPT_TOL)
-    if geo["some_parallel"]:
-        good &= ~geo["parallel"].any(axis=1)
-    return dict(good=good, finite=fac["finite"], lines=lines, laws=laws, pose_angles=pose_angles, factors=factors,
-                motion=motion, study_form=fac["B"] * scale[:, None], centre=centre, scale=scale,
-                residual=fac["residual"], bennett=bennett_parameters(geo), dh=dh_rows(loop[..., 0, :], geo),
-                errors=errors, relative_error=rel, axis_distance=far, length_scale=length_scale)
+    if geo.some_parallel:
+        good &= ~geo.parallel.any(axis=1)
+    return Solved(good=good, finite=fac["finite"], lines=lines, laws=laws, pose_angles=pose_angles, factors=factors,
+                  motion=motion, study_form=fac["B"] * scale[:, None], centre=centre, scale=scale,
+                  residual=fac["residual"], bennett=bennett_parameters(geo),
+                  dh=dh_parameters(loop[..., 0, :], normals=geo),
+                  errors=errors, relative_error=rel, axis_distance=far, length_scale=length_scale,
+                  transmission=pair_ratio(a[:, 0] - a[:, 1], np.abs(b[:, 0]), np.abs(b[:, 1])))
 
 
 def axis_distance(U, M, c) -> np.ndarray:
     """Largest distance of the axes (U, M) (N, J, 3) from the points c (N, 3): |m - c x u|."""
-    m = M - cross3(c[:, None, :], U)
+    m = M - cross(c[:, None, :], U)
     return np.sqrt(dot(m, m).max(axis=-1))
 
 
-def relative_error(T, spread, far, errors) -> np.ndarray:
+def acceptance_error(T, spread, far, errors) -> np.ndarray:
     """The acceptance figure (N,): the largest self-check error, translations relative to the pose
     spread (closure: to the axes' largest distance ``far`` from the centroid, `axis_distance`), plus a
     floor of FLOOR_ULPS ulps of the coordinates' magnitude (a pose 1e6 m from the origin is only known
@@ -206,92 +247,13 @@ def relative_error(T, spread, far, errors) -> np.ndarray:
                                  errors["closure_rotation"]))
 
 
-def loop_geometry(U, M) -> dict:
-    """Geometry of consecutive axes around closed loops, lines U, M (N, J, 3) in loop order: for the pair
-    (i, i+1 mod J) ``distance`` and signed ``twist`` (the angle from u_i to u_{i+1} about the common
-    normal from i to i+1) (N, J), both as ``distance_twist`` (2, N, J), the feet ``foot_out`` (on i) and
-    ``foot_in`` (on i+1), both as ``feet`` (N, J, 2, 3), the unit ``normal`` (N, J, 3), ``parallel``
-    (N, J) and ``some_parallel`` (bool: any of them). Parallel axes: the foot on i is its point nearest
-    the origin."""
-    J = U.shape[-2]
-    pair = _pair_index(J)  # (J, 2): i, i+1
-    UU = U.take(pair, axis=-2)  # (N, J, 2, 3): u_i, u_{i+1}
-    u1, u2 = UU[..., 0, :], UU[..., 1, :]
-    # u_i x m_i (the axis point p_i nearest the origin) and cr = u_i x u_{i+1}, one product
-    X = cross3(u1[..., None, :], np.concatenate([M, U], axis=-2).take(_moment_next_index(J), axis=-2))
-    PP, cr = X[..., 0, :].take(pair, axis=-2), X[..., 1, :]  # p_i, p_{i+1}
-    s2 = dot(cr, cr)
-    par = s2 < 1e-24
-    some_parallel = np.count_nonzero(par) > 0  # (count_nonzero: a quarter of any()'s call overhead)
-    d = PP[..., 1, :] - PP[..., 0, :]
-    # feet of the common normal: p_i + k1 u_i, p_{i+1} + k2 u_{i+1} with k = ((d x u2) . cr, (d x u1) . cr) / |cr|^2
-    k = dot(cross3(d[..., None, :], UU), cr[..., None, :]) / (
-        np.where(par, 1.0, s2) if some_parallel else s2)[..., None]
-    feet = PP + k[..., ::-1, None] * UU
-    if some_parallel:  # parallel axes: from the point of i nearest the origin, straight across
-        across = np.stack([PP[..., 0, :], PP[..., 1, :] - dot(d, u2)[..., None] * u2], axis=-2)
-        feet = np.where(par[..., None, None], across, feet)
-    dv = feet[..., 1, :] - feet[..., 0, :]
-    dt = np.empty((2,) + s2.shape)  # distance, twist
-    dist = np.sqrt(dot(dv, dv), out=dt[0])
-    apart = dist > 1e-12
-    if np.count_nonzero(apart) == apart.size:
-        n = dv / dist[..., None]
-    else:  # intersecting axes: the normal of their plane (0 when they also coincide)
-        nc = np.sqrt(s2)[..., None]
-        n = np.where(apart[..., None], dv / np.where(apart, dist, 1.0)[..., None],
-                     np.where(nc > 1e-12, cr / np.where(nc > 1e-12, nc, 1.0), 0.0))
-    twist = np.arctan2(dot(cr, n), dot(u1, u2), out=dt[1])
-    return {"distance": dist, "twist": twist, "distance_twist": dt, "foot_out": feet[..., 0, :],
-            "foot_in": feet[..., 1, :], "feet": feet, "normal": n, "parallel": par, "some_parallel": some_parallel}
-
-
-@functools.lru_cache(maxsize=None)
-def _cyclic_index(J: int, step: int) -> np.ndarray:
-    """(i + step) mod J for i < J (read-only, cached)."""
-    out = (np.arange(J) + step) % J
-    out.flags.writeable = False
-    return out
-
-
-@functools.lru_cache(maxsize=None)
-def _moment_next_index(J: int) -> np.ndarray:
-    """Rows (m_i, u_{i+1}) of the J moments stacked on the J directions, (J, 2) (read-only, cached)."""
-    out = np.stack([np.arange(J), J + _cyclic_index(J, 1)], axis=-1)
-    out.flags.writeable = False
-    return out
-
-
-@functools.lru_cache(maxsize=None)
-def _pair_index(J: int) -> np.ndarray:
-    """The consecutive pairs (i, i+1 mod J) around a loop of J joints, (J, 2) (read-only, cached)."""
-    out = np.stack([np.arange(J), _cyclic_index(J, 1)], axis=-1)
-    out.flags.writeable = False
-    return out
-
-
-def _sites_map(J: int, P: int) -> np.ndarray:
-    """The linear map (P + J + 1, P + 2 J) from the tool positions of P poses and the feet (foot_out,
-    foot_in of each pair, `loop_geometry`) around a loop of J joints to the points of the length scale,
-    less their centroid: the positions, the joint sites (the mean of the feet on either side: foot_out of
-    pair i, foot_in of pair i-1), and pose 0 again (the tool reference)."""
-    S = np.zeros((P + J + 1, P + 2 * J))
-    S[:P, :P] = np.eye(P)
-    S[P + J, 0] = 1.0
-    for i, prev in enumerate(_cyclic_index(J, -1)):
-        S[P + i, P + 2 * i] = S[P + i, P + 2 * prev + 1] = 0.5
-    out = S - S.mean(axis=0)
-    out.flags.writeable = False
-    return out
-
-
 def bennett_parameters(geo) -> dict:
-    """Link lengths and twists of the loop h1-h2-k2-k1 (geometry from `loop_geometry`), each (N,): a,
+    """Link lengths and twists of the loop h1-h2-k2-k1 (its `synth.algebra.geometry.ring_normals`), each (N,): a,
     alpha (links h1h2 and k2k1), b, beta (coupler h2k2 and base k1h1), the mismatches of opposite links,
     a/sin(alpha), b/sin(beta) and the Bennett condition residual |a/sin(alpha)| - |b/sin(beta)| (relative;
     NaN when a twist vanishes)."""
-    dist, twist = geo["distance"], geo["twist"]  # (N, 4): a, b, a', b' and alpha, beta, alpha', beta'
-    dt = np.abs(geo["distance_twist"])  # (2, N, 4): distances and |twists|
+    dist, twist = geo.distance, geo.twist  # (N, 4): a, b, a', b' and alpha, beta, alpha', beta'
+    dt = np.abs(geo.distance_twist)  # (2, N, 4): distances and |twists|
     first = dt[..., :2]  # a, b and |alpha|, |beta|
     with np.errstate(all="ignore"):
         s = np.sin(first[1])  # |sin(twist)| (|twist| <= pi)
@@ -306,16 +268,4 @@ def bennett_parameters(geo) -> dict:
             "a_over_sin_alpha": r0, "b_over_sin_beta": r1, "bennett_condition_residual": res}
 
 
-def dh_rows(U, geo) -> dict:
-    """Denavit-Hartenberg parameters around closed loops (lines U (N, J, 3) in loop order, geometry from
-    `loop_geometry`): for joint i ``a``/``alpha`` to the next joint, ``d`` the offset along axis i
-    between the incoming and outgoing common normals, ``theta`` the angle between them about axis i."""
-    prv = _cyclic_index(U.shape[-2], -1)
-    n_out = geo["normal"]
-    f_in, n_in = geo["foot_in"].take(prv, axis=-2), n_out.take(prv, axis=-2)
-    d = dot(geo["foot_out"] - f_in, U)
-    theta = np.arctan2(dot(cross3(n_in, n_out), U), dot(n_in, n_out))
-    return {"a": geo["distance"], "alpha": geo["twist"], "d": d, "theta": theta}
-
-
-_SITES = _sites_map(4, 3)  # the Bennett loop's length-scale map (`_solve`)
+_PREVIOUS = np.array([3, 0, 1, 2])  # the pair before each joint around the Bennett loop

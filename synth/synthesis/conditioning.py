@@ -26,8 +26,12 @@ def transmission_ratios(a, b) -> np.ndarray:
     not finite."""
     a = np.asarray(a, float)
     b = np.abs(np.asarray(b, float))
-    da = a[..., :, None] - a[..., None, :]
-    bi, bj = b[..., :, None], b[..., None, :]
+    return pair_ratio(a[..., :, None] - a[..., None, :], b[..., :, None], b[..., None, :])
+
+
+def pair_ratio(da, bi, bj) -> np.ndarray:
+    """rho_ij of two joints (broadcast arrays): ``da`` = a_i - a_j, ``bi``, ``bj`` = |b_i|, |b_j|
+    (`transmission_ratios`; a Bennett linkage's two distinct norm roots give its largest ratio)."""
     with np.errstate(all="ignore"):
         s = da * da + bi * bi + bj * bj
         near = np.sqrt(da * da + (bi - bj) ** 2) * np.sqrt(da * da + (bi + bj) ** 2)

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.algebra.dq import dot, dq_conj, dq_left_matrix, dq_mul, normalize_dq, pose_to_dq, study_form
+from synth.algebra.dq import dq_conj, dq_left_matrix, dq_mul, normalize_dq, pose_to_dq, study_form
+from synth.algebra.geometry import spread
 from synth.errors import SynthesisError
 
 _ONE = np.eye(8)[0]
@@ -27,11 +28,7 @@ class Conditioning:
 
 def position_spread(T) -> tuple[np.ndarray, np.ndarray]:
     """(centroid (..., 3), RMS distance from it (...)) of the positions of poses T (..., k, 4, 4)."""
-    pos = np.asarray(T, float)[..., :3, 3]
-    k = pos.shape[-2]
-    c = pos.sum(axis=-2) / k
-    rel = (pos - c[..., None, :]).reshape(pos.shape[:-2] + (3 * k,))
-    return c, np.sqrt(dot(rel, rel) / k)
+    return spread(np.asarray(T, float)[..., :3, 3])
 
 
 def conditioning(T) -> Conditioning:

@@ -353,9 +353,23 @@ def families(q: Quadric) -> tuple[list[CubicFamily], dict[int, str]]:
     return fams, reasons
 
 
-def parameter_separation(t3: float) -> float:
-    """Chordal distance of t3 from the other pose parameters inf, 0, 1 (docs/cubic.md: t3 near 0 or 1
-    means two poses nearly on a common ruling line, poor conditioning)."""
-    w = np.sqrt(1 + t3 * t3)
-    return float(min(abs(t3) / w, abs(t3 - 1) / (w * np.sqrt(2)), 1 / w))
+def parameter_separation(t3):
+    """Chordal distance (`chordal_separation`) of t3 (scalar or (...)) from the other pose parameters inf,
+    0, 1 (docs/cubic.md: t3 near 0 or 1 means two poses nearly on a common ruling line, poor conditioning):
+    min(|t3| / w, |t3 - 1| / (sqrt(2) w), 1 / w), w = sqrt(1 + t3^2). A float for a scalar t3."""
+    t3 = np.asarray(t3, float)
+    t = np.stack(np.broadcast_arrays(0.0, 1.0, t3), axis=-1)
+    out = chordal_separation(t)
+    return float(out) if out.ndim == 0 else out
+
+
+def chordal_separation(t) -> np.ndarray:
+    """Smallest chordal distance between the parameters (..., k) and infinity (the first pose or point):
+    |t - s| / (sqrt(1 + t^2) sqrt(1 + s^2)) and 1 / sqrt(1 + t^2). Two poses or points at nearly the same
+    parameter make a poorly conditioned member."""
+    t = np.asarray(t, float)
+    w = np.sqrt(1 + t * t)
+    i, j = np.triu_indices(t.shape[-1], 1)
+    d = np.abs(t[..., i] - t[..., j]) / (w[..., i] * w[..., j])
+    return np.minimum(d.min(-1), (1 / w).min(-1))
 

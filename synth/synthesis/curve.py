@@ -18,7 +18,6 @@ at p0 (``linkage.info["markers"]``, written by the URDF exporter as link ``trace
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
@@ -27,6 +26,7 @@ from synth.algebra.cofactor import CofactorResult, factorize_with_cofactor
 from synth.algebra.exact import real_divmod, real_root_count
 from synth.algebra.family import conjugate_pairs, separate_coincident
 from synth.algebra.flip import parallelogram_flip
+from synth.algebra.geometry import perpendicular_basis
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.darboux import DARBOUX_JOINTS, darboux_linkage
 from synth.linkage import Linkage
@@ -312,9 +312,7 @@ def curve_plane(F):
         return None
     if sv[1] > tol:
         return Vt[2]
-    d = Vt[0]
-    e = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
-    return e / np.linalg.norm(e)
+    return perpendicular_basis(Vt[0])[0]
 
 
 def _rotation_cofactor(w, p0, normal, sign):

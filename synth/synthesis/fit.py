@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.algebra.dq import dq_inv, dq_translation, normalize_dq, structure_constants
+from synth.algebra.geometry import cross
 
 __all__ = ["TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",
            "homogeneous", "basis", "regauge", "gauge_matrix", "gauge_items", "inv2", "project", "GAUGE_ANGLES",
@@ -32,7 +33,7 @@ STEP = 1e-30  # complex step
 GRID = 48  # parameter samples per seed motion for projecting the items onto it (`project`)
 EXACT_WEIGHT = 1e3  # weight of exact rows when projecting and ranking seeds (conditioned units)
 FEASIBLE_FLOOR = 1e-14  # constraint violation (conditioned units) counted as met
-NEARLY_FEASIBLE = 1e-6  # during the damped steps: cost-lowering steps may leave this much (`polish` ends)
+NEARLY_FEASIBLE = 1e-6  # during the damped steps: cost-lowering steps may leave this much (`polish_feasible` ends)
 CORRECTIONS = 2  # second-order corrections per trial step, while the violation is above CORRECT_ABOVE
 CORRECT_ABOVE = 1e-9
 POLISH_STEPS = 4
@@ -55,12 +56,6 @@ def _mul(a, b):
 
 def _qmul(a, b):
     return _product(a, b, _Q)
-
-
-def _cross(a, b):
-    """a x b of (..., 3) arrays of any dtype: the vector part of the product of pure quaternions."""
-    pad = np.zeros(a.shape[:-1] + (1,), a.dtype)
-    return _qmul(np.concatenate([pad, a], -1), np.concatenate([np.zeros(b.shape[:-1] + (1,), b.dtype), b], -1))[..., 1:]
 
 
 def _vdot(a, b):
@@ -166,7 +161,7 @@ def pose_errors(C, dC, ref, task: TaskArrays):
         # C' C~: vector parts (w, -(velocity of the body point at the origin)) times |C|^2 / 2
         tw = _mul(dC, C * _CONJ)
         w = tw[..., 1:4]
-        z = np.concatenate([w, _cross(w, x) - tw[..., 5:8]], -1)
+        z = np.concatenate([w, cross(w, x) - tw[..., 5:8]], -1)
         z = z / np.sqrt(_vdot(z, z))[..., None]
         out.append((task.perp @ z[..., None])[..., 0])
     else:
@@ -306,7 +301,7 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
     followed by a second-order correction back onto c = 0 (min-norm along A's rows). A step is accepted
     (lam / 3, else lam * 4) when it lowers |r|^2 and keeps max |c| below max(NEARLY_FEASIBLE, its value), or
     halves max |c| while that is above NEARLY_FEASIBLE (a filter: exact rows never trade against the cost);
-    `polish` then meets c = 0 to rounding. ``fixed`` (S, P) bool: columns held, per seed. ``model``:
+    `polish_feasible` then meets c = 0 to rounding. ``fixed`` (S, P) bool: columns held, per seed. ``model``:
     ``rows(x) -> (r, c)`` and ``jacobians(x) -> (r, c, J_r, J_c)``. Stops after ``iterations`` Jacobians
     or when every seed's step is below 1e-13 (relative) or its cost stops moving (FLAT, relative): counted
     work only."""
@@ -357,7 +352,7 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
         if done.all():
             break
         r, c, Jr, Jc = model.jacobians(x)
-    x = polish(model, x, fixed)
+    x = polish_feasible(model, x, fixed)
     r, c = model.rows(x)
     return LMResult(x=x, cost=(r * r).sum(-1), violation=np.abs(c).max(-1, initial=0.0), iterations=it)
 
@@ -374,7 +369,7 @@ def _min_norm(A, c):
     return (np.swapaxes(A, 1, 2) @ _solve(A @ np.swapaxes(A, 1, 2), c)[..., None])[..., 0]
 
 
-def polish(model, x, fixed, steps: int = POLISH_STEPS):
+def polish_feasible(model, x, fixed, steps: int = POLISH_STEPS):
     """Newton steps onto c(x) = 0 (min-norm along the constraint Jacobian's rows, held columns fixed), for
     the exact rows' last digits after the damped steps (which keep them only below NEARLY_FEASIBLE).
     Counted steps."""

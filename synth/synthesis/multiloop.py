@@ -28,6 +28,8 @@ from fractions import Fraction
 
 import numpy as np
 
+from synth.algebra.dq import factor_lines
+from synth.algebra.geometry import line_point, perpendicular_basis, ring_normals, spread
 from synth.synthesis.assemble import joint_from_factor
 from synth.errors import SynthesisError
 from synth.algebra.flip import bennett_flip, flip_residual, is_exact
@@ -189,16 +191,12 @@ def mobility(linkage: Linkage, ts, tol: float = 1e-9) -> tuple[list[int], float]
 
 def loop_sides(linkage: Linkage) -> list[list[float]]:
     """Per loop (m_{i-1}, h_i, m_i, k_i): distances of the sides m-h and h-m' (opposite sides equal)."""
-    from synth.algebra.dq import line_distance_angle
-
     out = []
     for loop in linkage.info["ladder"]["loop_joints"]:
         J = [linkage.joint(n) for n in loop]
-        s = []
-        for a, b in ((0, 1), (1, 2), (2, 3), (3, 0)):
-            d, _ = line_distance_angle(J[a].direction, J[a].moment, J[b].direction, J[b].moment)
-            s.append(d)
-        out.append(s)
+        U = np.array([j.direction for j in J], float)
+        M = np.array([j.moment for j in J], float)
+        out.append([float(d) for d in ring_normals(U, M).distance])
     return out
 
 
@@ -223,14 +221,8 @@ def _leading_direction(hs):
 
 
 def _axis_points(hs):
-    out = []
-    for h in hs:
-        h = np.asarray(h, float)
-        v, w = h[1:4], h[5:8]
-        nv = np.linalg.norm(v)
-        u, m = -v / nv, w / nv
-        out.append(np.cross(u, m))
-    return np.array(out)
+    L = factor_lines(np.asarray(hs, float))[0]
+    return line_point(L[..., 0, :], L[..., 1, :])
 
 
 def make_rotation(a: float, b: float, direction, point) -> np.ndarray:
@@ -250,11 +242,10 @@ def m0_candidates(hs, count: int = 24, seed: int = 0):
     hs = np.asarray(hs, float)
     rng = np.random.default_rng(seed)
     pts = _axis_points(hs)
-    c = pts.mean(axis=0)
-    spread = float(np.sqrt(np.mean(np.sum((pts - c) ** 2, axis=1))))
+    c, size = spread(pts)
     ab = np.array([norm_of(h) for h in hs])
     a_mean, b_mean = float(ab[:, 0].mean()), float(ab[:, 1].mean())
-    scale = spread if spread > 0 else max(1.0, float(np.max(np.abs(hs[:, 5:]))))
+    scale = float(size) if size > 0 else max(1.0, float(np.max(np.abs(hs[:, 5:]))))
     n = _common_direction(hs)
     if n is None:
         n = _leading_direction(hs)
@@ -266,9 +257,7 @@ def m0_candidates(hs, count: int = 24, seed: int = 0):
         a, b = norms[i % len(norms)]
         if n is not None:
             d = n
-            e1 = np.cross(n, np.eye(3)[int(np.argmin(np.abs(n)))])
-            e1 /= np.linalg.norm(e1)
-            e2 = np.cross(n, e1)
+            e1, e2 = perpendicular_basis(n)
             phi = 2 * np.pi * ((i * 0.381966) % 1.0) - np.pi / 2
             r = scale * (0.75 + 0.5 * ((i * 0.618034) % 1.0))
             p = c + r * (np.cos(phi) * e1 + np.sin(phi) * e2)

@@ -22,12 +22,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.algebra.algorithm1 import algorithm1, is_translation, multiply_back, norm_roots, quadratics, root_conditioning
+from synth.algebra.geometry import dh_parameters, ring_normals
 from synth.algebra.polynomial import norm_poly
 from synth.checks import DEFAULT_CHECK_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
-from synth.synthesis.bennett_core import (ACCEPT_TOL, LOOP, axis_distance, bennett_parameters, dh_rows, loop_geometry,
-                                          relative_error)
+from synth.synthesis.bennett_core import ACCEPT_TOL, LOOP, acceptance_error, axis_distance, bennett_parameters
 from synth.synthesis.conic import TS, conic_member, to_world
 from synth.synthesis.planar import (ZeroPitch, axis_penalties, isogram_margin, isogram_penalty, study_forms,
                                     tracks_motion)
@@ -75,16 +75,19 @@ def scan(zp: ZeroPitch, lam) -> Scan:
         H, ok = algorithm1(C[:, None], quadratics(z)[:, ORDERS])  # (G, 2, 2, 8)
         residual = np.max(multiply_back(C[:, None], H), axis=1)
         F = H.reshape(-1, 4, 8)  # h1 h2 k1 k2
+        # the lines of `synth.algebra.dq.factor_lines` with |v| by numpy.linalg.norm: the members of a
+        # spherical family tie to the last ulp of their score, and fixtures/bennett_spherical.yaml keeps
+        # its member with these roundings
         b = np.linalg.norm(F[..., 1:4], axis=-1)
         U, M = -F[..., 1:4] / b[..., None], F[..., 5:8] / b[..., None]
-        geo = loop_geometry(U[:, LOOP], M[:, LOOP])
-        feet = np.concatenate([geo["foot_out"], geo["foot_in"]], axis=1)  # conditioned: origin = centroid
+        geo = ring_normals(U[:, LOOP], M[:, LOOP])
+        feet = geo.feet.reshape(len(F), 8, 3)  # conditioned: origin = centroid
         extent = np.max(np.linalg.norm(feet, axis=-1), axis=-1)
-        tw = np.abs(geo["twist"])
+        tw = np.abs(geo.twist)
         min_twist = np.min(np.minimum(tw, np.pi - tw), axis=-1)
-        min_offset = np.min(geo["distance"], axis=-1)
+        min_offset = np.min(geo.distance, axis=-1)
         kappa = np.minimum(im, sep)
-        iso = isogram_margin(zp.kind, geo["distance"][:, :2], geo["twist"][:, :2])
+        iso = isogram_margin(zp.kind, geo.distance[:, :2], geo.twist[:, :2])
         parts = {"conditioning": kappa, "root_imag": im, "root_separation": sep, "extent": extent,
                  "min_twist": min_twist, "min_offset": min_offset, "isogram": iso, "residual": residual,
                  "penalty_isogram": isogram_penalty(iso),
@@ -136,20 +139,18 @@ def build(zp: ZeroPitch, sc: Scan, g: int, *, check_samples: int = DEFAULT_CHECK
     linkage.checks = self_check(linkage, check_samples)
     U = np.array([linkage.joint(n).direction for n in LOOP_NAMES])[None]
     M = np.array([linkage.joint(n).moment for n in LOOP_NAMES])[None]
-    geo = loop_geometry(U, M)
+    geo = ring_normals(U, M)
     bp = {k: float(v[0]) for k, v in bennett_parameters(geo).items()}
     info = linkage.info
     info["bennett"] = {k: (v if math.isfinite(v) else None) for k, v in bp.items()}
-    rows = {k: v[0].tolist() for k, v in dh_rows(U, geo).items()}
-    info["dh"] = [{"joint": LOOP_NAMES[i], "next": LOOP_NAMES[(i + 1) % 4], **{k: rows[k][i] for k in rows}}
-                  for i in range(4)]
+    info["dh"] = dh_parameters(U, normals=geo).table(LOOP_NAMES, 0)
     info["relative_error"] = accepted_error(linkage, zp.poses, zp.cond)
     info["warnings"] = warnings(info)
     return linkage
 
 
 def accepted_error(linkage, T, cond) -> float:
-    """The relative self-check error of `synth.synthesis.bennett_core.relative_error` (translations to the
+    """The relative self-check error of `synth.synthesis.bennett_core.acceptance_error` (translations to the
     pose spread, closure to the axes' distance) of a linkage through the poses T with conditioning
     ``cond``; a value above ACCEPT_TOL is not accepted (returned as is: the caller decides)."""
     c = linkage.checks
@@ -160,7 +161,7 @@ def accepted_error(linkage, T, cond) -> float:
               "pose_rotation": np.array([c["max_pose_rotation_error"]]),
               "closure_translation": np.array([c["max_closure_translation_error"]]),
               "closure_rotation": np.array([c["max_closure_rotation_error"]])}
-    return float(relative_error(np.asarray(T, float)[None], np.array([float(cond.scale)]), far, errors)[0])
+    return float(acceptance_error(np.asarray(T, float)[None], np.array([float(cond.scale)]), far, errors)[0])
 
 
 def warnings(info) -> list[str]:

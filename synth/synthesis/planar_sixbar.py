@@ -29,10 +29,10 @@ from synth.checks import DEFAULT_CHECK_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import watt_linkage
 from synth.synthesis.conic import to_world
-from synth.synthesis.cubic import PERMS, cubic_member
+from synth.synthesis.cubic import PERMS, cubic_member, parameter_separation
 from synth.synthesis.planar import ZeroPitch, axis_penalties, isogram_margin, isogram_penalty
 from synth.synthesis.planar_bennett import COND_WEIGHT, KAPPA_GOOD, RESIDUAL_TOL, accepted_error, select_tracked
-from synth.synthesis.sixbar_loops import factor_members, pair_geometry
+from synth.synthesis.sixbar_loops import edge_normals, factor_members, geometry_parts
 
 T3_GRID = np.array([-3.0, -1.0, -1 / 3, 1 / 3, 2 / 3, 4 / 3, 2.0, 4.0])  # t3 of the default scan (all three arcs)
 LAMBDA_GRID = np.array([-3.0, -1.0, -1 / 3, 1 / 3, 1.0, 3.0])  # lambda1..3 of the default scan
@@ -76,13 +76,6 @@ def grid_members() -> np.ndarray:
     return np.stack([x.ravel() for x in g], -1)
 
 
-def t3_separation(t3) -> np.ndarray:
-    """Chordal distance of t3 from inf, 0, 1 (`synth.synthesis.cubic.parameter_separation`, batched)."""
-    t3 = np.asarray(t3, float)
-    w = np.sqrt(1 + t3 * t3)
-    return np.minimum(np.minimum(np.abs(t3) / w, np.abs(t3 - 1) / (w * np.sqrt(2))), 1 / w)
-
-
 def scan(zp: ZeroPitch, members, *, polish: bool = False) -> Scan:
     """Factor and score the members (G, 4) of the cubic family of a four-pose set ``zp``, all 6 chains."""
     members = np.asarray(members, float).reshape(-1, 4)
@@ -96,15 +89,11 @@ def scan(zp: ZeroPitch, members, *, polish: bool = False) -> Scan:
         ok = mf.ok[:, orders].all(-1)
         residual = mf.residual[:, orders].max(-1)
         im, sep = a1.root_conditioning(mf.roots)
-        kappa = np.minimum(np.minimum(im, sep), t3_separation(members[:, 0]))[:, None] + np.zeros((1, 6))
-        J = np.moveaxis(F, -1, 0)  # (8, G, 6, 7)
-        s = 1.0 / np.sqrt(np.sum(J[1:4] ** 2, 0))
-        u, m = -J[1:4] * s, J[5:8] * s
-        p = np.cross(u, m, axis=0)
-        e0, e1 = EDGES[:, 0], EDGES[:, 1]
-        dist, ang, f1, f2, _ = pair_geometry(u[..., e0], p[..., e0], u[..., e1], p[..., e1])  # (G, 6, E)
-        extent = np.sqrt(np.maximum(np.sum(f1 * f1, 0), np.sum(f2 * f2, 0)).max(-1))
-        min_twist, min_offset = ang.min(-1), dist.min(-1)
+        kappa = np.minimum(np.minimum(im, sep), parameter_separation(members[:, 0]))[:, None] + np.zeros((1, 6))
+        normals = edge_normals(F, EDGES)  # (G, 6, E)
+        dist, ang = normals.distance, normals.line_angle
+        geo = geometry_parts(normals, np.arange(len(EDGES))[None])  # every edge: (G, 6, 1)
+        extent, min_twist, min_offset = (geo[k][..., 0] for k in ("extent", "min_twist", "min_offset"))
         iso = isogram_margin(zp.kind, dist[..., SIDES], ang[..., SIDES]).min(-1)
         parts = {"isogram": iso, "penalty_isogram": isogram_penalty(iso), "conditioning": kappa, "extent": extent,
                  "min_twist": min_twist, "min_offset": min_offset,

@@ -30,10 +30,10 @@ from synth.algebra import algorithm1 as a1
 from synth.algebra.dq import dq_inv, dq_mul, qmul
 from synth.algebra.polynomial import norm_poly
 from synth.synthesis.conic import Conditioning, to_world
-from synth.synthesis.cubic import PAIRS, PERMS
-from synth.synthesis.sixbar_loops import factor_members, loop_geometry, pair_geometry, score_loops
+from synth.synthesis.cubic import PAIRS, PERMS, chordal_separation
+from synth.synthesis.sixbar_loops import edge_normals, factor_members, geometry_parts, member_geometry, score_loops
 
-__all__ = ["point_motion", "rereference", "parameter_samples", "parameter_separation", "scan", "PointScan",
+__all__ = ["point_motion", "rereference", "parameter_samples", "scan", "PointScan",
            "BENNETT_ORDERS",
            "BENNETT_PAIRS", "SAMPLES"]
 
@@ -109,17 +109,6 @@ def parameter_samples(count: int, free: int, seed: int = 0) -> np.ndarray:
     return np.concatenate([-np.ones((count, 1)), inner, np.ones((count, 1))], -1)
 
 
-def parameter_separation(t) -> np.ndarray:
-    """Smallest chordal distance between the parameters (..., k) and infinity (the first point):
-    |t - s| / (sqrt(1 + t^2) sqrt(1 + s^2)) and 1 / sqrt(1 + t^2). Two points at nearly the same
-    parameter make a poorly conditioned member."""
-    t = np.asarray(t, float)
-    w = np.sqrt(1 + t * t)
-    i, j = np.triu_indices(t.shape[-1], 1)
-    d = np.abs(t[..., i] - t[..., j]) / (w[..., i] * w[..., j])
-    return np.minimum(d.min(-1), (1 / w).min(-1))
-
-
 @dataclass
 class PointScan:
     """Members of a point scan (conditioned frame) and the scores of their loops."""
@@ -159,7 +148,7 @@ def scan(Y, degree: int, *, samples: int | None = None, seed: int = 0) -> PointS
     if n == 3:
         mf = factor_members(C)
         roots, H, ok, res = mf.roots, mf.H, mf.ok, mf.residual
-        geo = loop_geometry(mf)
+        geo = member_geometry(mf)
         pairs, orders = PAIRS, PERMS
     else:
         roots, H, ok, res = _factor_quadratics(C)
@@ -167,7 +156,7 @@ def scan(Y, degree: int, *, samples: int | None = None, seed: int = 0) -> PointS
         pairs, orders = BENNETT_PAIRS, BENNETT_ORDERS
     with np.errstate(all="ignore"):
         im, sep = a1.root_conditioning(roots)
-        tsep = parameter_separation(t)
+        tsep = chordal_separation(t)
         parts, valid, score = score_loops(im, sep, ("parameter_separation", tsep), geo, res, ok, finite, pairs)
     return PointScan(degree=n, t=t, Y=YY, C=C, roots=roots, H=H, pairs=pairs, orders=orders, parts=parts,
                      valid=valid, score=score)
@@ -186,14 +175,10 @@ def _factor_quadratics(C):
 
 def _bennett_geometry(H):
     """min_offset, min_twist and extent (each (S, 1)) of the Bennett loop h1 h2 k2 k1 of factors
-    H (S, 2, 2, 8) (BENNETT_ORDERS), as `synth.synthesis.sixbar_loops.loop_geometry`."""
-    ring = np.stack([H[:, 0, 0], H[:, 0, 1], H[:, 1, 1], H[:, 1, 0]], 1)  # (S, 4, 8)
+    H (S, 2, 2, 8) (BENNETT_ORDERS), as `synth.synthesis.sixbar_loops.member_geometry`."""
     with np.errstate(all="ignore"):
-        s = 1.0 / np.linalg.norm(ring[..., 1:4], axis=-1, keepdims=True)
-        u, m = -ring[..., 1:4] * s, ring[..., 5:8] * s
-        p = np.cross(u, m)
-        nxt = [1, 2, 3, 0]
-        dist, ang, f1, f2, _ = pair_geometry(*(np.moveaxis(a, -1, 0) for a in (u, p, u[:, nxt], p[:, nxt])))
-        foot = np.maximum((f1 * f1).sum(0), (f2 * f2).sum(0))
-    return {"min_offset": dist.min(-1, keepdims=True), "min_twist": ang.min(-1, keepdims=True),
-            "extent": np.sqrt(foot.max(-1, keepdims=True))}
+        return geometry_parts(edge_normals(H.reshape(-1, 4, 8), _BENNETT_RING), _BENNETT_LOOP)
+
+
+_BENNETT_RING = np.array([[0, 1], [1, 3], [3, 2], [2, 0]])  # h1 h2, h2 k2, k2 k1, k1 h1 of H (S, 4, 8)
+_BENNETT_LOOP = np.arange(4)[None]

@@ -24,6 +24,7 @@ from itertools import islice
 import numpy as np
 
 from synth.algebra import algorithm1 as a1
+from synth.algebra.geometry import dh_parameters
 from synth.checks import DEFAULT_CHECK_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
@@ -33,11 +34,11 @@ from synth.synthesis.conic import condition, relative_displacements, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, CubicFamily, families, quadric
 from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_sixbar import candidates as planar_candidates
-from synth.synthesis.sixbar_loops import (COND_WEIGHT, PART_KEYS, SCORE_RULE, MemberEval, dh_parameters,
-                                          evaluate_members, factor_members, lines, score_warnings)
+from synth.synthesis.sixbar_loops import (COND_WEIGHT, PART_KEYS, SCORE_RULE, MemberEval, evaluate_members,
+                                          factor_members, score_warnings)
 
 __all__ = ["COND_WEIGHT", "PART_KEYS", "SCORE_RULE", "Problem", "prepare", "scan", "sixbar", "sixbar_candidates",
-           "one_member_loops", "build_linkage", "MemberLoops", "Candidate", "Ranking", "LOOP"]
+           "build_linkage", "Candidate", "Ranking", "LOOP"]
 
 GRID = 24  # members per family in the scan
 REFINE = 0  # scan candidates refined locally by default (library option; the CLI uses the plain scan)
@@ -345,13 +346,11 @@ def build_linkage(problem: Problem, cand: Candidate, *, check_samples: int = DEF
 
 def loop_dh(linkage, loop: list[str]) -> list[dict]:
     """Denavit-Hartenberg parameters around the closed loop of joints ``loop`` at the reference
-    configuration (`synth.synthesis.sixbar_loops.dh_parameters`)."""
+    configuration (`synth.algebra.geometry.dh_parameters`)."""
     J = {j.name: j for j in linkage.joints}
-    dh = dh_parameters(np.array([J[n].direction for n in loop]), np.array([J[n].moment for n in loop]))
-    cols = {k: v.tolist() for k, v in dh.items()}
-    m = len(loop)
-    return [{"joint": loop[i], "next": loop[(i + 1) % m], "a": cols["a"][i], "alpha": cols["alpha"][i],
-             "d": cols["d"][i], "theta": cols["theta"][i]} for i in range(m)]
+    U = np.array([J[n].direction for n in loop], float)
+    M = np.array([J[n].moment for n in loop], float)
+    return dh_parameters(U, M).table(loop)
 
 
 def checks_pass(linkage, scale: float, tol: float = CHECK_TOL) -> bool:
@@ -455,52 +454,3 @@ def sixbar(poses, names=None, *, family=None, member=None, pair=None, grid: int 
     raise SynthesisError(
         f"the best 6R candidates do not pass the self-check (pose error {c['max_pose_error']:.2g}, closure "
         f"error {c['max_closure_error']:.2g}): {hint}")
-
-
-# ============================================================================ one member, all loops
-@dataclass
-class MemberLoops:
-    """The 9 loops of one member (world frame, metres): factors by order, the loop pairs, scores.
-    Each factor t - h is a revolute joint: line `lines(h)`, angle law theta(t) = 2 atan2(|vec p|, t - h0)."""
-
-    family: int
-    member: float
-    t3: float
-    C: np.ndarray  # (4, 8) world frame, metres
-    factorizations: np.ndarray  # (6, 3, 8) world frame, by order (synth.synthesis.cubic.PERMS)
-    orders: np.ndarray  # (6, 3) quadratic indices of h1, h2, h3 (quadratics sorted by Re of their root)
-    ok: np.ndarray  # (6,)
-    residual: np.ndarray  # (6,) multiply-back relative error
-    pairs: np.ndarray  # (9, 2) indices into factorizations: branch h, branch k (pair K = row K - 1)
-    H: np.ndarray  # (9, 3, 8) branch h of each pair
-    K: np.ndarray  # (9, 3, 8) branch k of each pair
-    valid: np.ndarray  # (9,)
-    score: np.ndarray | None = None  # (9,) engineering score (None when not scored)
-    parts: dict | None = None  # score parts, each (9,)
-
-    def lines(self):
-        """Plücker lines (u, m) of both branches of every pair, each (9, 2, 3, 3): [pair, branch, joint]."""
-        return lines(np.stack([self.H, self.K], axis=1))
-
-
-def one_member_loops(poses, family: int, member: float, names=None, problem: Problem | None = None,
-                     score: bool = True) -> MemberLoops:
-    """All 6 factorizations and the 9 loop pairs of one member (family 1|2, label lambda1 with
-    C(0) = lambda1 D_1), in the world frame, built by the scan's code on a batch of one member
-    (factors polished); with ``score`` also the engineering score of each loop (else ``valid`` only
-    says that both factorizations succeeded). ``problem`` (from `prepare`) skips the set-up for
-    repeated calls on the same poses."""
-    problem = problem or prepare(poses, names)
-    fam = problem.family(int(family))
-    if score:
-        ev = evaluate_member([fam], float(member))
-        mf, valid, sc, parts = ev.factors, ev.valid[0], ev.score[0], {k: v[0] for k, v in ev.parts.items()}
-    else:  # the same factorizations, without the loop geometry and scores
-        mf = factor_members(fam.member(float(member))[None], polish=True)
-        valid, sc, parts = mf.ok[0, PAIRS[:, 0]] & mf.ok[0, PAIRS[:, 1]], None, None
-    W = to_world(np.concatenate([mf.H[0].reshape(18, 8), mf.C[0]]), problem.cond)  # one call for all
-    F = W[:18].reshape(6, 3, 8)
-    return MemberLoops(
-        family=fam.index, member=float(member), t3=fam.t3, C=W[18:], factorizations=F,
-        orders=PERMS.copy(), ok=mf.ok[0], residual=mf.residual[0], pairs=PAIRS.copy(),
-        H=F[PAIRS[:, 0]], K=F[PAIRS[:, 1]], valid=valid, score=sc, parts=parts)

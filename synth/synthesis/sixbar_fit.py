@@ -26,12 +26,11 @@ from synth.errors import SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_fit import FEASIBLE
 from synth.synthesis.conic import condition, to_world
-from synth.synthesis.cubic import PAIRS, PERMS
+from synth.synthesis.cubic import PAIRS, PERMS, chordal_separation
 from synth.synthesis.cubic_fit import seeds
 from synth.synthesis.fit import Layout, MotionModel, levenberg_marquardt, reference_pose, task_arrays
-from synth.synthesis.pointfit import parameter_separation
 from synth.synthesis.sixbar import LOOP, loop_dh
-from synth.synthesis.sixbar_loops import factor_members, loop_geometry, score_loops, score_warnings
+from synth.synthesis.sixbar_loops import factor_members, member_geometry, score_loops, score_warnings
 from synth.synthesis.taskfit import FitSummary, check_fitted, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 
@@ -123,11 +122,11 @@ def _distinct(fits: CubicFits, listed: bool) -> list[int]:
 def _scored(fits: CubicFits, idx):
     """Factor and score the loops of the fits ``idx`` in one batch: (MemberFactors, parts, valid, score)."""
     C = np.concatenate([fits.coef[idx], np.broadcast_to(np.eye(8)[0], (len(idx), 1, 8))], 1)
-    tsep = np.array([parameter_separation(fits.ts(k)[1:]) for k in idx], float)
+    tsep = chordal_separation(np.array([fits.ts(k)[1:] for k in idx], float))
     with np.errstate(all="ignore"):
         mf = factor_members(C, polish=True)
         im, sep = a1.root_conditioning(mf.roots)
-        parts, valid, score = score_loops(im, sep, ("parameter_separation", tsep), loop_geometry(mf), mf.residual,
+        parts, valid, score = score_loops(im, sep, ("parameter_separation", tsep), member_geometry(mf), mf.residual,
                                           mf.ok, np.isfinite(C).all((-2, -1)), PAIRS)
     return mf, parts, valid, score
 

@@ -32,7 +32,7 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import condition, relative_displacements, to_world
 from synth.synthesis.cubic import PAIRS, PERMS
 from synth.synthesis.sixbar import LOOP, MAX_ATTEMPTS, checks_pass, loop_dh
-from synth.synthesis.sixbar_loops import factor_members, loop_geometry, score_loops, score_warnings
+from synth.synthesis.sixbar_loops import factor_members, member_geometry, score_loops, score_warnings
 
 __all__ = ["twist_dq", "hermite_members", "hermite_candidates", "GRID"]
 
@@ -118,7 +118,7 @@ def hermite_candidates(poses, velocity, names=None, *, top: int | None = None, g
     with np.errstate(all="ignore"):
         mf = factor_members(C, polish=True)
         im, sep = a1.root_conditioning(mf.roots)
-        geo = loop_geometry(mf)
+        geo = member_geometry(mf)
         parts, valid, score = score_loops(im, sep, ("parameter_separation", np.ones(len(C))), geo, mf.residual,
                                           mf.ok, np.isfinite(C).all((-2, -1)), PAIRS)
     g, k = np.nonzero(valid)

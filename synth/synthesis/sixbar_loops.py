@@ -3,7 +3,7 @@ member, their geometry and engineering score (docs/cubic.md).
 
 All functions work on a batch of G members: C (G, 4, 8) monic cubics (conditioned frame: origin at the
 pose centroid, unit = pose spread). The default scan is a batch of 2 x GRID members, a single member
-(``--member``, `synth.synthesis.sixbar.one_member_loops`) a batch of one; both go through
+(``--member``, `synth.synthesis.sixbar_member.one_member_loops`) a batch of one; both go through
 `evaluate_members`, which calls the one batched Algorithm 1 (`synth.algebra.algorithm1`) once for all
 members x 6 orders.
 
@@ -38,6 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.algebra import algorithm1 as a1
+from synth.algebra.dq import dot, factor_lines
+from synth.algebra.geometry import CommonNormals, common_normal
 from synth.algebra.polynomial import norm_poly
 from synth.synthesis.cubic import PAIRS, PERMS, CubicFamily, parameter_separation
 
@@ -97,13 +99,6 @@ def factor_members(C, *, polish: bool = False) -> MemberFactors:
 
 
 # ============================================================================ loop geometry
-def lines(H) -> tuple[np.ndarray, np.ndarray]:
-    """Plücker lines (u, m) of the joints t - h for factors H (..., 8): u = -v/|v|, m = w/|v|."""
-    v, w = H[..., 1:4], H[..., 5:8]
-    n = np.sqrt(np.sum(v * v, -1))[..., None]
-    return -v / n, w / n
-
-
 def _edge_tables():
     """Distinct joints and consecutive-joint edges of the 9 loops of a member.
 
@@ -135,71 +130,29 @@ def _edge_tables():
 JOINTS, EDGES, LOOP_EDGES = _edge_tables()
 
 
-def _cross(a, b):
-    """Cross products of component-first vectors a, b (3, ...)."""
-    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+def edge_normals(F, edges) -> CommonNormals:
+    """Common normals (`synth.algebra.geometry.common_normal`) of the joint pairs ``edges`` (E, 2) (indices
+    into the joints) of the revolute factors F (..., J, 8): arrays (..., E)."""
+    L = factor_lines(F)[0]  # (..., J, 2, 3)
+    A, B = L.take(edges[:, 0], axis=-3), L.take(edges[:, 1], axis=-3)
+    return common_normal(A[..., 0, :], A[..., 1, :], B[..., 0, :], B[..., 1, :])
 
 
-def _dot(a, b):
-    """Dot products of component-first vectors (3, ...)."""
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+def geometry_parts(normals: CommonNormals, loop_edges) -> dict[str, np.ndarray]:
+    """The geometric parts of the engineering score of loops made of edges (`edge_normals`, (..., E)), the
+    rows of ``loop_edges`` (P, K): ``min_offset`` (smallest distance of consecutive axes), ``min_twist``
+    (smallest angle between consecutive axes, in [0, pi/2]) and ``extent`` (largest distance of a
+    common-normal foot of consecutive axes from the origin), each (..., P); lengths in the factors' units."""
+    foot = dot(normals.feet, normals.feet).max(axis=-1)  # (..., E)
+    return {"min_offset": normals.distance[..., loop_edges].min(-1),
+            "min_twist": normals.line_angle[..., loop_edges].min(-1),
+            "extent": np.sqrt(foot[..., loop_edges].max(-1))}
 
 
-def pair_geometry(u1, p1, u2, p2):
-    """Common normals of line pairs given by unit directions u and points p, component-first (3, ...):
-    distance, line angle in [0, pi/2], the feet f1, f2 (3, ...) and the cross product u1 x u2. Parallel
-    pairs (|u1 x u2|^2 < 1e-24): feet at p1 and its projection onto the second line."""
-    c = _cross(u1, u2)
-    s2 = _dot(c, c)
-    ang = np.arctan2(np.sqrt(s2), np.abs(_dot(u1, u2)))
-    d = p2 - p1
-    par = s2 < 1e-24
-    s2s = np.where(par, 1.0, s2)
-    a1_ = np.where(par, 0.0, _dot(_cross(d, u2), c) / s2s)
-    a2_ = np.where(par, -_dot(d, u2), _dot(_cross(d, u1), c) / s2s)
-    f1 = p1 + a1_ * u1
-    f2 = p2 + a2_ * u2
-    e = f2 - f1
-    return np.sqrt(_dot(e, e)), ang, f1, f2, c
-
-
-def loop_geometry(mf: MemberFactors) -> dict[str, np.ndarray]:
-    """Geometry of the 9 loops of every member, computed once per distinct edge (18 per member):
-    ``min_offset`` (smallest distance of consecutive axes), ``min_twist`` (smallest angle between
-    consecutive axes, in [0, pi/2]) and ``extent`` (largest distance of a common-normal foot of
-    consecutive axes from the origin), each (G, 9); lengths in the units of the factors."""
-    J = np.moveaxis(mf.H[:, JOINTS[:, 0], JOINTS[:, 1]], -1, 0)  # (8, G, 12)
-    s = 1.0 / np.sqrt(_dot(J[1:4], J[1:4]))
-    u, m = -J[1:4] * s, J[5:8] * s  # lines(): (3, G, 12)
-    p = _cross(u, m)  # each joint's point nearest the origin
-    e0, e1 = EDGES[:, 0], EDGES[:, 1]
-    dist, ang, f1, f2, _ = pair_geometry(u[..., e0], p[..., e0], u[..., e1], p[..., e1])  # (G, 18)
-    foot = np.maximum(_dot(f1, f1), _dot(f2, f2))
-    return {"min_offset": dist[:, LOOP_EDGES].min(-1),
-            "min_twist": ang[:, LOOP_EDGES].min(-1),
-            "extent": np.sqrt(foot[:, LOOP_EDGES].max(-1))}
-
-
-def dh_parameters(u, m):
-    """Denavit-Hartenberg parameters around closed rings of lines (u, m) (..., n, 3) (docs/cubic.md;
-    the definitions of `synth.synthesis.bennett.dh_table`): for joint i, ``a``/``alpha`` to joint i+1
-    (distance; twist signed about the common normal from i to i+1), ``d`` the offset along axis i
-    between the incoming and outgoing common normals' feet and ``theta`` the angle between those
-    normals about axis i. Returns a dict of (..., n) arrays."""
-    u, m = np.moveaxis(np.asarray(u, float), -1, 0), np.moveaxis(np.asarray(m, float), -1, 0)
-    n = u.shape[-1]
-    nxt, prv = (np.arange(n) + 1) % n, (np.arange(n) - 1) % n
-    p = _cross(u, m)
-    u2 = u[..., nxt]
-    a, _, f1, f2, c = pair_geometry(u, p, u2, p[..., nxt])
-    cn = np.sqrt(_dot(c, c))
-    big_a, big_c = a > 1e-12, cn > 1e-12
-    nrm = np.where(big_a, (f2 - f1) / np.where(big_a, a, 1.0), np.where(big_c, c / np.where(big_c, cn, 1.0), 0.0))
-    alpha = np.arctan2(_dot(c, nrm), _dot(u, u2))
-    n_in = nrm[..., prv]
-    d = _dot(f1 - f2[..., prv], u)
-    theta = np.arctan2(_dot(_cross(n_in, nrm), u), _dot(n_in, nrm))
-    return {"a": a, "alpha": alpha, "d": d, "theta": theta}
+def member_geometry(mf: MemberFactors) -> dict[str, np.ndarray]:
+    """`geometry_parts` of the 9 loops of every member, computed once per distinct edge (18 per member):
+    each (G, 9)."""
+    return geometry_parts(edge_normals(mf.H[:, JOINTS[:, 0], JOINTS[:, 1]], EDGES), LOOP_EDGES)
 
 
 # ============================================================================ scores
@@ -260,7 +213,7 @@ def evaluate_members(C, lam, phi, fams, *, polish: bool = False) -> MemberEval:
         C[~finite] = np.eye(8)[0]  # placeholder for members at infinity (scored invalid)
         mf = factor_members(C, polish=polish)
         im, sep = a1.root_conditioning(mf.roots)
-        geo = loop_geometry(mf)
+        geo = member_geometry(mf)
         sep3: dict[int, float] = {}
         for f in fams:
             if id(f) not in sep3:

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.checks import VERIFY_SAMPLES, pose_difference, self_check
+from synth.algebra.geometry import pose_difference
+from synth.checks import VERIFY_SAMPLES, self_check
 import json
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.bennett_core import ACCEPT_TOL

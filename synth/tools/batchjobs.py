@@ -18,7 +18,8 @@ synthesis);
 mesh sizes are in the job's length unit. A Bennett job may carry a task file's keys (docs/fit.md:
 ``tolerance``, ``order``, ``constraints`` and per pose ``tolerance``, ``exact``, ``velocity``; then 2 or more
 poses, ``best_effort`` as the CLI's --best-effort); its result then has ``fit``. Unknown keys are an error (a typo must not be
-ignored silently).
+ignored silently). A job is solved by the entry point the CLI calls (`synth.solve`): the same gates and,
+with ``out``, the same choice of design.
 
 The result of a job is one JSON object::
 
@@ -52,22 +53,21 @@ import signal
 from pathlib import Path
 from typing import Any, Iterable, Iterator
 
-from synth.checks import VERIFY_SAMPLES
-from synth.design.choose import design_for
 from synth.errors import MpsynthError
 from synth.io.docload import json_object_pairs
 from synth.io.jsonout import linkage_document, plain
 from synth.io.names import check_robot_name, safe_robot_name
 from synth.io.poses import parse_pose_document
 from synth.io.writer import check_output_target, write_output
-from synth.synthesis.bennett import bennett, check_transmission
-from synth.synthesis.points import MINIMUM, NEEDED, oriented_item, point_candidates
+from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_points, solve_sixbar
+from synth.synthesis.points import MINIMUM, NEEDED
 
 KINDS = {"bennett": 3, "sixbar": 4}
 DEGREES = {"bennett": 2, "sixbar": 3}  # degree of the motion of a point task
+SIZE_KEYS = ("pin_radius", "link_radius", "pin_length")
 TASK_KEYS = ("tolerance", "order", "constraints")  # a task file's keys (docs/fit.md), as in a pose file
-JOB_KEYS = ("id", "kind", "poses", "points", "units", "out", "name", "normalize", "force",
-            "pin_radius", "link_radius", "pin_length", "best_effort") + TASK_KEYS
+JOB_KEYS = ("id", "kind", "poses", "points", "units", "out", "name", "normalize", "force", *SIZE_KEYS,
+            "best_effort") + TASK_KEYS
 MAX_LINE = 10 * 1024 * 1024
 
 
@@ -140,10 +140,10 @@ def _check_job(job: dict) -> None:
     for key in ("normalize", "force"):
         if key in job and not isinstance(job[key], bool):
             raise _JobError(f"{key!r} must be true or false")
-    for key in ("pin_radius", "link_radius", "pin_length"):
+    for key in SIZE_KEYS:  # their values: `synth.solve.DesignOptions.sizes`, as the CLI's
         if key in job:
             v = job[key]
-            if isinstance(v, (bool, RawNumber)) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
+            if isinstance(v, (bool, RawNumber)) or not isinstance(v, (int, float)):
                 raise _JobError(f"{key!r} must be a positive length in the job's unit")
 
 
@@ -155,20 +155,15 @@ def _is_task_job(job: dict) -> bool:
     return any(isinstance(p, dict) and any(k in p for k in ("tolerance", "exact", "velocity")) for p in items)
 
 
-def _synthesize(kind: str, ps):
-    if ps.has_points:  # a point task (docs/points.md): the best-scored design
-        oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
-        return point_candidates(ps.positions, ps.names, degree=DEGREES[kind], top=1, tool_rotation=rot,
-                                oriented=oriented, check_samples=VERIFY_SAMPLES)[0]
-    if kind == "bennett":
-        linkage = bennett(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
-        check_transmission(linkage)  # the CLI's gate (synth.synthesis.bennett.verify); sixbar has it inside
-        return linkage
+def _synthesize(kind: str, ps, options: SynthesisOptions):
+    """The job's Result: the entry point the CLI calls for the same task (`synth.solve`)."""
+    if kind == "bennett" or ps.has_points:
+        return solve_bennett(ps, options) if kind == "bennett" else solve_points(ps, DEGREES[kind], options)
     try:  # sixbar is optional in an installation
-        from synth.synthesis.sixbar import sixbar
+        import synth.synthesis.sixbar  # noqa: F401
     except ImportError as e:
         raise _JobError(f"kind 'sixbar' is not available in this installation ({e})") from None
-    return sixbar(ps.matrices, ps.names, check_samples=VERIFY_SAMPLES)
+    return solve_sixbar(ps, options)
 
 
 def _echo_id(jid):
@@ -205,20 +200,15 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
             ps = parse_pose_document(doc, source="poses", normalize=bool(job.get("normalize", False)),
                                      count=((2, None) if task else KINDS[kind], f"kind {kind!r}"),
                                      points=((MINIMUM[DEGREES[kind]], NEEDED[DEGREES[kind]]), f"kind {kind!r}"))
-            if task:  # tolerances, velocities, an order (docs/fit.md): exact, Hermite or fitted
-                from synth.synthesis.tasks import fit
-
-                linkage = fit(ps, kind="6r" if kind == "sixbar" else "bennett",
-                              best_effort=bool(job.get("best_effort", False)))[0]
-            else:
-                linkage = _synthesize(kind, ps)
-            out = None
+            design = DesignOptions(**{k: float(job[k]) for k in SIZE_KEYS if k in job})
+            design.sizes(ps.length_scale, label=repr)  # the job's names in the message
+            solved = _synthesize(kind, ps, SynthesisOptions(design=design, physical="out" in job,
+                                                            best_effort=bool(job.get("best_effort", False))))
+            linkage, out = solved.linkage, None
             if "out" in job:
-                sizes = {k: float(job[k]) * ps.length_scale for k in ("pin_radius", "link_radius", "pin_length")
-                         if k in job}
                 name = job.get("name") or safe_robot_name(str(result["id"]) if result["id"] is not None else "")
-                write_output(linkage, out_path, robot_name=name, result=design_for(linkage, **sizes),
-                             force=bool(job.get("force", False)))
+                write_output(linkage, out_path, robot_name=name, force=bool(job.get("force", False)),
+                             result=solved.design)
                 out = job["out"]
         except MpsynthError as e:
             raise _JobError(str(e), e.exit_code) from None

@@ -27,6 +27,7 @@ import numpy as np
 from synth.errors import InputError
 from synth.io.readback import Readback, cycle_parameters
 from synth.io.writer import atomic_write
+from synth.linkage import kind_label
 
 DEFAULT_SIZE = (800, 600)
 DPI = 100
@@ -305,8 +306,7 @@ def _apply(T, p):
 
 def _kind_label(lk) -> str:
     n = len(lk.joints)
-    k = {"bennett": "Bennett 4R", "6r": "spatial 6R", "planar_4r": "planar four-bar", "spherical_4r": "spherical four-bar",
-         "planar_sixbar": "planar Watt six-bar", "spherical_sixbar": "spherical Watt six-bar"}.get(lk.kind, lk.kind)
+    k = kind_label(lk.kind)
     loops = len(lk.closures)
     return f"{k} linkage ({n} revolute joints, {loops} loop{'s' if loops != 1 else ''})"
 

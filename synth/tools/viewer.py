@@ -26,6 +26,7 @@ import numpy as np
 
 from synth.io.readback import Readback, cycle_parameters
 from synth.io.writer import atomic_write
+from synth.linkage import kind_label
 from synth.tools.render import BASE_COLOR, default_view, link_colors
 from synth.tools.viewer_page import VIEWER_CSS, VIEWER_JS
 
@@ -119,8 +120,7 @@ def scene_data(rb: Readback, frames: int = DEFAULT_FRAMES, spacing: str = "angle
 
 
 def _subtitle(lk) -> str:
-    kind = {"bennett": "Bennett 4R", "6r": "spatial 6R", "planar_4r": "planar four-bar", "spherical_4r": "spherical four-bar",
-            "planar_sixbar": "planar Watt six-bar", "spherical_sixbar": "spherical Watt six-bar"}.get(lk.kind, lk.kind)
+    kind = kind_label(lk.kind)
     return f"{kind} linkage: {len(lk.joints)} revolute joints, {len(lk.closures)} loop(s), {len(lk.poses)} task poses"
 
 

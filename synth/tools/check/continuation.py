@@ -13,7 +13,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from synth.algebra.anglelaw import driven_angle
-from synth.frames import TWO_PI, invert_transform, wrap_angle
+from synth.algebra.geometry import cross, invert_pose
+from synth.frames import TWO_PI, wrap_angle
 from synth.io.urdfmodel import UrdfModel
 
 
@@ -48,7 +49,7 @@ def loop_residual(u: UrdfModel, closures, refs, cfg, unknowns, length, jacobian=
             Fj = F[j.parent] @ j.origin
             axes[jn] = (Fj[:3, :3] @ j.axis, Fj[:3, 3])
     for (a, b), R in zip(closures, refs):
-        G = F[b] @ invert_transform(R)  # where link a should be, according to branch b
+        G = F[b] @ invert_pose(R)  # where link a should be, according to branch b
         Fa = F[a]
         M = G[:3, :3] @ Fa[:3, :3].T
         e_p = (G[:3, 3] - Fa[:3, 3]) / length
@@ -63,18 +64,14 @@ def loop_residual(u: UrdfModel, closures, refs, cfg, unknowns, length, jacobian=
                 if sb == sa:
                     continue
                 if sb:
-                    J[:3, k] = _cross(w, G[:3, 3] - c) / length
+                    J[:3, k] = cross(w, G[:3, 3] - c) / length
                     J[3:, k] = w
                 else:
-                    J[:3, k] = -_cross(w, Fa[:3, 3] - c) / length
+                    J[:3, k] = -cross(w, Fa[:3, 3] - c) / length
                     J[3:, k] = -w
             jac.append(J)
     r = np.concatenate(rows) if rows else np.zeros(0)
     return r, (np.vstack(jac) if jacobian and jac else None)
-
-
-def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 _PATHS: dict = {}
@@ -151,7 +148,7 @@ class _Continuation:
                  singular):
         F0 = u.fk({})
         self.u, self.closures, self.driver, self.others = u, closures, driver, list(others)
-        self.refs = [invert_transform(F0[a]) @ F0[b] for a, b in closures]
+        self.refs = [invert_pose(F0[a]) @ F0[b] for a, b in closures]
         self.length, self.tol, self.guide, self.guide_tol, self.singular = length, tol, guide, guide_tol, singular
         self.target = 1e-3 / max(1.0, ratio / 100.0)
 
@@ -282,7 +279,7 @@ def crossing(u: UrdfModel, closures, driver: str, others: list[str], phi: float,
     ``conditioning`` (smallest kept / largest singular value of the Jacobian, rank 1 + others - 1 kept):
     a closed x off ``exact`` at a near-singular ``exact`` is a branch crossing, not an error."""
     F0 = u.fk({})
-    refs = [invert_transform(F0[a]) @ F0[b] for a, b in closures]
+    refs = [invert_pose(F0[a]) @ F0[b] for a, b in closures]
     x = np.array(x, float)
     for _ in range(iters):
         r, J = loop_residual(u, closures, refs, {driver: phi, **dict(zip(others, x))}, others, length)

@@ -42,7 +42,8 @@ import numpy as np
 from synth.algebra.anglelaw import angle_law, angle_law_inverse
 from synth.algebra.polynomial import pose_at
 from synth.tools.check.continuation import continue_loop, crossing, law_angles
-from synth.frames import TWO_PI, invert_transform, pose_diff, wrap_angle
+from synth.algebra.geometry import invert_pose, pose_difference
+from synth.frames import TWO_PI, wrap_angle
 from synth.io.readback import OutputFiles, angle_laws, angle_rates, read_files, solution_dirs
 from synth.tools.check.meshes import MeshChecks
 from synth.tools.check.structure import StructureChecks, matrix_or_none
@@ -137,12 +138,12 @@ class _Checker(StructureChecks, MeshChecks):
                 if M is None:
                     self.fail(f"linkage.json: pose {i} ({name}) has no 4x4 matrix")
                 else:
-                    dt, dr = pose_diff(F["tool"], M)
+                    dt, dr = pose_difference(F["tool"], M)
                     pt, pr = max(pt, dt), max(pr, dr)
                     if dt > self.tol_len or dr > self.tol_ang:
                         self.fail(f"tool frame misses pose {i} ({name}) of linkage.json by {dt:.3g} m, {dr:.3g} rad")
                 if file_T is not None and i < len(file_T):
-                    dt, dr = pose_diff(F["tool"], file_T[i])
+                    dt, dr = pose_difference(F["tool"], file_T[i])
                     if self.poses_file.is_point[i]:  # a point task prescribes the position only
                         dr = 0.0
                     ft, fr = max(ft, dt), max(fr, dr)
@@ -153,7 +154,7 @@ class _Checker(StructureChecks, MeshChecks):
                                   f"by {dt:.3g} m, {dr:.3g} rad"
                                   + (f" (linkage.json calls pose {i} {name})" if fname != name else ""))
             for (a, b), R in zip(self.closures, ref):
-                dt, dr = pose_diff(F[a] @ R, F[b])
+                dt, dr = pose_difference(F[a] @ R, F[b])
                 ct, cr = max(ct, dt), max(cr, dr)
                 if dt > self.tol_len or dr > self.tol_ang:
                     self.fail(f"loop {a}-{b} open at pose {i} ({name}) by {dt:.3g} m, {dr:.3g} rad")
@@ -164,7 +165,7 @@ class _Checker(StructureChecks, MeshChecks):
 
     def _closure_refs(self):
         F0 = self.u.fk({})
-        return [invert_transform(F0[a]) @ F0[b] for a, b in self.closures]
+        return [invert_pose(F0[a]) @ F0[b] for a, b in self.closures]
 
     # -------------------------------------------------------------- 4. exact cycle from the angle laws
     def laws(self):
@@ -203,7 +204,7 @@ class _Checker(StructureChecks, MeshChecks):
         F = self.u.fk(cfg, n=len(phi))
         ct = cr = 0.0
         for (a, b), R in zip(self.closures, self._closure_refs()):
-            dt, dr = pose_diff(F[a] @ R, F[b])
+            dt, dr = pose_difference(F[a] @ R, F[b])
             ct, cr = max(ct, float(dt.max())), max(cr, float(dr.max()))
         self.figures["law_closure_error"] = {"translation": ct, "rotation": cr, "samples": len(phi)}
         if ct > self.tol_len or cr > self.tol_ang:
@@ -217,8 +218,8 @@ class _Checker(StructureChecks, MeshChecks):
                 a, b = laws[self.driver]
                 t = angle_law_inverse(a, b, phi, rates.get(self.driver, 1))
                 target = pose_at(Cn, t)
-                disp = F[tool_link] @ invert_transform(self.u.fk({})[tool_link])
-                dt, dr = pose_diff(disp, target)
+                disp = F[tool_link] @ invert_pose(self.u.fk({})[tool_link])
+                dt, dr = pose_difference(disp, target)
                 me = {"translation": float(dt.max()), "rotation": float(dr.max())}
             except Exception as e:  # noqa: BLE001
                 self.fail(f"linkage.json: motion_polynomial cannot be evaluated ({type(e).__name__}: {e})")

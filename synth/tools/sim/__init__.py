@@ -35,9 +35,10 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.algebra.geometry import invert_pose, pose_difference
 from synth.errors import InputError, MpsynthError
+from synth.frames import wrap_angle
 from synth.tools.check.continuation import law_angles
-from synth.frames import invert_transform, pose_diff, wrap_angle
 from synth.io.readback import angle_laws, angle_rates, mesh_path, read_files
 
 ENGINES = ("pybullet", "mujoco")
@@ -127,7 +128,7 @@ def load_setup(out) -> SimSetup:
     driver = br[0][0] if (isinstance(br, list) and br and isinstance(br[0], list) and br[0]
                           and br[0][0] in joints) else u.path(closures[0][0])[0]
     F0 = u.fk({})
-    refs = [invert_transform(F0[a]) @ F0[b] for a, b in closures]
+    refs = [invert_pose(F0[a]) @ F0[b] for a, b in closures]
     inertials, split = sim_inertials(u, closures, refs)
     pts = np.array([F0[u.joints[jn].child][:3, 3] for jn in joints])
     size = float(np.sqrt(np.mean(np.sum((pts - pts.mean(0)) ** 2, 1))))
@@ -192,7 +193,7 @@ def sim_inertials(u, closures, refs):
         k = len(dups) + 1
         out[a] = (m / k, T.copy(), I / k)
         for b, R in dups:  # R = pose of b in a's frame; the inertial frame in b's frame is R^-1 T
-            out[b] = (m / k, invert_transform(R) @ T, I / k)
+            out[b] = (m / k, invert_pose(R) @ T, I / k)
         split.append(a)
     return out, split
 
@@ -274,7 +275,7 @@ class Tracker:
     def frames(self, frames: dict) -> None:
         """frames: link -> world frame(s) (4x4 or (n, 4, 4)) as the engine reports them."""
         for (a, b), R in zip(self.setup.closures, self.setup.refs):
-            dt, dr = pose_diff(np.asarray(frames[a]) @ R, np.asarray(frames[b]))
+            dt, dr = pose_difference(np.asarray(frames[a]) @ R, np.asarray(frames[b]))
             self.max_gap = max(self.max_gap, float(np.max(dt)))
             self.max_gap_angle = max(self.max_gap_angle, float(np.max(dr)))
 
@@ -284,24 +285,3 @@ class Tracker:
                 "worst_joint": self.worst_joint, "worst_driver_angle": self.worst_angle,
                 "driver": self.setup.driver, "max_driver_error": self.max_driver_error,
                 "drive_range": [float(v) for v in self.setup.drive_range], **extra}
-
-
-def quat_wxyz(R) -> np.ndarray:
-    """Unit quaternion (w, x, y, z) of a rotation matrix (Shepperd's method)."""
-    R = np.asarray(R, float)
-    tr = np.trace(R)
-    if tr > 0:
-        s = 2.0 * math.sqrt(1.0 + tr)
-        q = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
-    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
-        q = [(R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
-    elif R[1, 1] > R[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])
-        q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s]
-    else:
-        s = 2.0 * math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])
-        q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
-    q = np.array(q)
-    q /= np.linalg.norm(q)
-    return q if q[0] >= 0 else -q

@@ -30,9 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.algebra.dq import matrix_to_quat
 from synth.errors import InputError
 from synth.io.writer import atomic_write
-from synth.tools.sim import quat_wxyz
 
 DEFAULT_TIMESTEP = 5e-4
 ITERATIONS = 200
@@ -68,7 +68,7 @@ def _body(setup, parent_el, link, T, joint, mesh_names, caps):
     colliding geoms."""
     attrs = {"name": link}
     if T is not None:
-        attrs.update(pos=_v(T[:3, 3]), quat=_v(quat_wxyz(T[:3, :3])))
+        attrs.update(pos=_v(T[:3, 3]), quat=_v(matrix_to_quat(T[:3, :3])))
     b = ET.SubElement(parent_el, "body", **attrs)
     if link in setup.inertials:
         mass, Ti, I = setup.inertials[link]
@@ -90,7 +90,7 @@ def _body(setup, parent_el, link, T, joint, mesh_names, caps):
             continue
         seen.add((key, m.origin.tobytes()))
         ET.SubElement(b, "geom", type="mesh", mesh=mesh_names[key], pos=_v(m.origin[:3, 3]),
-                      quat=_v(quat_wxyz(m.origin[:3, :3])), rgba=_rgba(link),
+                      quat=_v(matrix_to_quat(m.origin[:3, :3])), rgba=_rgba(link),
                       **({"contype": "0", "conaffinity": "0"} if caps is not None else {}))
     for p0, p1, r in (caps or {}).get(link, []):  # --contacts: the design's capsules collide
         if np.linalg.norm(p1 - p0) > 1e-9 * r:
@@ -150,7 +150,7 @@ def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, me
     eq = ET.SubElement(root, "equality")
     for name, (a, b), R in zip(setup.closure_names, setup.closures, setup.refs):
         # relpose: pose of body2 in the frame of body1 (the all-zero relative pose)
-        ET.SubElement(eq, "weld", name=name, body1=a, body2=b, relpose=_v(list(R[:3, 3]) + list(quat_wxyz(R[:3, :3]))),
+        ET.SubElement(eq, "weld", name=name, body1=a, body2=b, relpose=_v(list(R[:3, 3]) + list(matrix_to_quat(R[:3, :3]))),
                       solref=_v([2 * dt, 1.0]), solimp="0.9999 0.9999 0.001 0.5 2")
 
     act = ET.SubElement(root, "actuator")
@@ -173,7 +173,7 @@ def principal_inertia(I) -> tuple[np.ndarray, np.ndarray]:
     a, b, c = ev  # ascending
     if a + b < c:
         a = b = max(a, c / 2)
-    return quat_wxyz(V), np.array([a, b, c])
+    return matrix_to_quat(V), np.array([a, b, c])
 
 
 def _rgba(link: str) -> str:

@@ -34,8 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.frames import invert_transform, rpy_from_matrix
-from synth.tools.sim import DriveProfile, SimulationError, Tracker, load_setup, quat_wxyz
+from synth.algebra.dq import matrix_to_quat
+from synth.algebra.geometry import invert_pose
+from synth.frames import rpy_from_matrix
+from synth.tools.sim import DriveProfile, SimulationError, Tracker, load_setup
 
 DEFAULT_TIMESTEP = 1e-3
 ITERATIONS = 3000
@@ -143,7 +145,7 @@ def _T(pos, orn, p) -> np.ndarray:
 
 
 def _pos_quat_xyzw(T):
-    w, x, y, z = quat_wxyz(T[:3, :3])
+    w, x, y, z = matrix_to_quat(T[:3, :3])
     return [float(v) for v in T[:3, 3]], [float(x), float(y), float(z), float(w)]
 
 
@@ -157,8 +159,8 @@ def _weld_loops(p, cid, robot, setup, link_index) -> list:
         Ia = _T(*p.getDynamicsInfo(robot, ia, physicsClientId=cid)[3:5], p)
         Ib = _T(*p.getDynamicsInfo(robot, ib, physicsClientId=cid)[3:5], p)
         X = F0[a]  # the weld frame: link a's frame at all-zero angles
-        pa, qa = _pos_quat_xyzw(invert_transform(F0[a] @ Ia) @ X)
-        pb, qb = _pos_quat_xyzw(invert_transform(F0[b] @ Ib) @ X)
+        pa, qa = _pos_quat_xyzw(invert_pose(F0[a] @ Ia) @ X)
+        pb, qb = _pos_quat_xyzw(invert_pose(F0[b] @ Ib) @ X)
         c = p.createConstraint(robot, ia, robot, ib, p.JOINT_FIXED, [0, 0, 0], pa, pb, qa, qb, physicsClientId=cid)
         p.changeConstraint(c, maxForce=1e9, physicsClientId=cid)
         constraints.append(c)

@@ -1,0 +1,240 @@
+"""One entry point per task kind: the decisions the CLI, batch jobs and notebooks share.
+
+``solve_bennett(ps, options)``, ``solve_sixbar``, ``solve_points``, ``solve_curve`` take a validated task
+(`synth.task.PoseSet`, or a parsed curve/motion spec) and `SynthesisOptions` and return a `Result`: the
+chosen linkage, its physical design (when asked for) and, for ``top``, the ranked solutions with their
+index document. They apply every gate (verification, transmission, collision-freedom when required),
+choose the design (collision-free first, then the score: counted work, never time) and raise InputError
+(exit 2) or SynthesisError (exit 1) naming the task's source. Nothing is written: `synth.io.writer`
+writes a Result's linkages and designs.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from synth.checks import VERIFY_SAMPLES
+from synth.design.work import GAPS_PER_SECOND
+from synth.errors import InputError, SynthesisError
+from synth.solve.choose import Designer
+from synth.solve.index import (add_collisions, point_index, point_solution_id, sixbar_index, sixbar_solution_id,
+                               task_index, task_solution_id)
+from synth.solve.options import SynthesisOptions
+
+# default designs: the best-scored candidates designed, collision-free first (`Designer.choose`), within
+# a budget of gap evaluations (`synth.design.work`: counted work, the same choice on a loaded machine)
+BENNETT_CHOICE = dict(limit=4, work=4.0 * GAPS_PER_SECOND)  # members of a planar or spherical family
+SIXBAR_CHOICE = dict(limit=8, work=7.0 * GAPS_PER_SECOND)
+POINTS_CHOICE = dict(limit=4, work=7.0 * GAPS_PER_SECOND)
+TASK_CHOICE = dict(limit=3, work=4.0 * GAPS_PER_SECOND)  # the best fits of a task file, within tolerance
+POINT_COMMAND = {2: "mpsynth bennett", 3: "mpsynth sixbar"}
+
+
+@dataclass(slots=True)
+class Solution:
+    """One ranked solution of ``top``: its id (directory name), linkage and design (None: not designed)."""
+
+    id: str
+    linkage: Any
+    design: Any = None
+
+
+@dataclass(slots=True)
+class Result:
+    """What a task gave. ``linkage``: the chosen one (``top``: the best ranked); ``design``: its
+    `synth.design.search.DesignResult` (None when no physical design was asked for); ``solutions`` and
+    ``index`` (the index.json document): the ranked solutions of ``top`` (else [] and None);
+    ``notes``: remarks on the options (e.g. one that does not apply); ``source``, ``scale`` (metres per
+    input unit), ``unit``: the task's, for messages."""
+
+    linkage: Any
+    design: Any = None
+    solutions: list[Solution] = field(default_factory=list)
+    index: dict | None = None
+    notes: list[str] = field(default_factory=list)
+    source: str = "<poses>"
+    scale: float = 1.0
+    unit: str = "m"
+
+    def sentence(self, design=None) -> str:
+        """What ``design`` (default: the chosen one's) achieves, in words, lengths in the input unit."""
+        from synth.solve.choose import collision_sentence
+
+        return collision_sentence((design or self.design).collision, self.scale, self.unit)
+
+
+def _designer(ps, options: SynthesisOptions) -> Designer:
+    return Designer(options.design.sizes(ps.length_scale), ps.source, ps.length_scale, ps.length_unit)
+
+
+def _finish(linkage, result, designer: Designer, options: SynthesisOptions, **extra) -> Result:
+    """The chosen linkage's design (made when asked for and not made yet) and the collision gate."""
+    if result is None and options.wants_design:
+        result = designer.design(linkage)
+    if result is not None and options.design.require_collision_free:
+        designer.require_free(result)
+    return Result(linkage, result, source=designer.source, scale=designer.scale, unit=designer.unit, **extra)
+
+
+def _ranked(linkages, designer: Designer, options: SynthesisOptions, ident, index, what: str, progress) -> Result:
+    """The ``top`` ranked solutions: designed (collision-free first) when asked for, ids, index document."""
+    results = None
+    if options.wants_design:
+        linkages, results = designer.rank(linkages, require_free=options.design.require_collision_free, what=what,
+                                          progress=progress)
+    ids = [ident(r, lk) for r, lk in enumerate(linkages, start=1)]
+    doc = index(linkages, ids)
+    if results is not None:
+        add_collisions(doc["solutions"], results, designer.sentence)
+    designs = results or [None] * len(linkages)
+    sols = [Solution(i, lk, r) for i, lk, r in zip(ids, linkages, designs)]
+    return Result(linkages[0] if linkages else None, designs[0] if designs else None, sols, doc, source=designer.source, scale=designer.scale,
+                  unit=designer.unit)
+
+
+def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: Callable | None = None,
+                  progress=None) -> Result:
+    """Three poses: the verified Bennett linkage (planar or spherical poses: the four-bar member given by
+    ``options.member``, else the best-scored members designed, collision-free first); five points (a
+    point task): `solve_points`. ``ready()``: called once the options are validated, before the work
+    (the CLI checks its output directory there); ``progress``: see `Designer.rank`. Tasks (tolerances,
+    velocities, an order, more poses or more than five points): `_solve_task`."""
+    from synth.synthesis.bennett import bennett_candidates, verify
+
+    from synth.synthesis.bennett_fit import is_task
+
+    designer = _designer(ps, options)
+    if ps.has_points and not is_task(ps):
+        if options.member is not None:
+            raise InputError("--member selects among the quadratic motions through planar or spherical poses; a "
+                             "point task has no such family (use --top to see its ranked designs)")
+        return solve_points(ps, 2, options, progress=progress)
+    if is_task(ps):  # tolerances, velocities, an order or other than three poses (docs/fit.md)
+        if ready is not None:
+            ready()
+        return _solve_task(ps, designer, options, progress)
+    if options.top is not None:
+        raise InputError("--top applies to point tasks and fits only: three poses give one Bennett linkage")
+    if ready is not None:
+        ready()
+    choose = options.wants_design and options.member is None
+    try:
+        linkages = bennett_candidates(ps.matrices, ps.names, member=options.member,
+                                      top=BENNETT_CHOICE["limit"] if choose else 1)
+        for lk in linkages:
+            verify(lk)  # the self-check at VERIFY_SAMPLES parameters; refuses a failing linkage
+    except SynthesisError as e:  # name the file, like every input error
+        raise SynthesisError(f"{ps.source}: {e}") from e
+    linkage, result = linkages[0], None
+    if len(linkages) > 1:  # members of a planar or spherical family: collision-free first
+        linkage, result = designer.choose(linkages, what="members", **BENNETT_CHOICE)
+    return _finish(linkage, result, designer, options)
+
+
+def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress, synthesize=None) -> Result:
+    """A task file's linkage (exact, Hermite or fitted: ``synthesize(ps, top=, best_effort=)``, default
+    `synth.synthesis.bennett_fit.bennett_task`, for 6R `synth.synthesis.sixbar_task.sixbar_task`;
+    ``options.best_effort``: the best fit even when a tolerance is missed); the best fits within tolerance
+    designed, collision-free first, or with ``top`` the N best ranked."""
+    if synthesize is None:
+        from synth.synthesis.bennett_fit import bennett_task as synthesize
+
+    want = options.top or (TASK_CHOICE["limit"] if options.wants_design else 1)
+    linkages = synthesize(ps, top=want, best_effort=options.best_effort)
+    if options.top is not None:
+        return _ranked(linkages, designer, options, task_solution_id, lambda lks, ids: task_index(lks, ids, ps),
+                       "fits", progress)
+    linkage, result = linkages[0], None
+    within = [lk for lk in linkages if lk.info["fit"]["within_tolerance"]] or linkages
+    if options.wants_design and len(within) > 1:
+        linkage, result = designer.choose(within, what="fits", **TASK_CHOICE)
+    return _finish(linkage, result, designer, options)
+
+
+def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress=None) -> Result:
+    """Four poses: the 6R linkage (explicit family/member/pair: the best-scored such; else, with a
+    physical design, the best-scored candidates designed, collision-free first), or with ``top`` the N
+    best ranked; seven points: `solve_points`; a task (tolerances, velocities, an order, other counts):
+    `synth.synthesis.sixbar_task.sixbar_task` as `_solve_task`."""
+    from synth.synthesis.sixbar import sixbar, sixbar_candidates
+    from synth.synthesis.sixbar_task import is_task, sixbar_task
+
+    designer = _designer(ps, options)
+    if not ps.has_points and is_task(ps):  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
+        if options.explicit:
+            raise InputError("--family, --member and --pair select among the cubics through four exact poses; a "
+                             "task with tolerances, velocities or another count ranks its own designs (use --top)")
+        return _solve_task(ps, designer, options, progress, sixbar_task)
+    if ps.has_points:
+        if options.explicit:
+            raise InputError("--family, --member and --pair select among the cubics through four poses; a point "
+                             "task has no families (use --top to see its ranked designs)")
+        return solve_points(ps, 3, options, progress=progress)
+    pick = dict(family=options.family, member=options.member, pair=options.pair)
+    if options.top is not None:
+        linkages = sixbar_candidates(ps.matrices, ps.names, **pick, top=options.top, build=True,
+                                     check_samples=VERIFY_SAMPLES)
+        return _ranked(linkages, designer, options, sixbar_solution_id, lambda lks, ids: sixbar_index(lks, ids, ps),
+                       "6R designs", progress)
+    if options.wants_design and not options.explicit:
+        candidates = sixbar_candidates(ps.matrices, ps.names, top=SIXBAR_CHOICE["limit"], build=True,
+                                       check_samples=VERIFY_SAMPLES)
+        linkage, result = designer.choose(candidates, what="6R linkages", **SIXBAR_CHOICE)
+        return _finish(linkage, result, designer, options)
+    return _finish(sixbar(ps.matrices, ps.names, **pick, check_samples=VERIFY_SAMPLES), None, designer, options)
+
+
+def point_count(degree: int):
+    """The count spec of a point file for `synth.io.poses.parse_pose_document` (``points=``)."""
+    from synth.synthesis.points import MINIMUM, NEEDED
+
+    return (MINIMUM[degree], NEEDED[degree]), POINT_COMMAND[degree]
+
+
+def solve_points(ps, degree: int, options: SynthesisOptions = SynthesisOptions(), *, progress=None) -> Result:
+    """A point task (docs/points.md): the tool point of a Bennett (``degree`` 2) or 6R (3) linkage passes
+    through the points; the best-scored interpolants designed, collision-free first, or with ``top`` the
+    N best ranked."""
+    from synth.synthesis.points import oriented_item, point_candidates
+
+    designer = _designer(ps, options)
+    try:
+        oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
+    except InputError as e:
+        raise InputError(f"{ps.source}: {e}") from e
+    want = options.top or (POINTS_CHOICE["limit"] if options.wants_design else 1)
+    try:
+        linkages = point_candidates(ps.positions, ps.names, degree=degree, top=want, tool_rotation=rot,
+                                    oriented=oriented, check_samples=VERIFY_SAMPLES)
+    except (SynthesisError, InputError) as e:
+        raise type(e)(f"{ps.source}: {e}") from e
+    if options.top is not None:
+        return _ranked(linkages, designer, options, point_solution_id, lambda lks, ids: point_index(lks, ids, ps),
+                       "designs", progress)
+    linkage, result = linkages[0], None
+    if options.wants_design:
+        linkage, result = designer.choose(linkages, what="interpolants", **POINTS_CHOICE)
+    return _finish(linkage, result, designer, options)
+
+
+def solve_curve(spec, options: SynthesisOptions = SynthesisOptions(), *, scale: float = 1.0, unit: str = "m",
+                source: str = "<spec>", ready: Callable | None = None) -> Result:
+    """A curve or motion spec (`synth.io.curvespec.load_spec`; lengths in ``unit``, ``scale`` metres
+    each): the multi-loop linkage (`synth.synthesis.curve.spec_linkage`); a 7R Darboux loop gets the
+    collision-free member of its family when a design is made (`synth.design.members.choose_member`)."""
+    from synth.design.members import choose_member
+    from synth.synthesis.curve import spec_linkage
+    from synth.task import CurveSpec
+
+    designer = Designer(options.design.sizes(scale), source, scale, unit)
+    if ready is not None:
+        ready()
+    notes = []
+    if options.method != "auto" and not isinstance(spec, CurveSpec):
+        notes.append("--method applies to curves only; ignored for a motion")
+    linkage = spec_linkage(spec, scale=scale, method=options.method)
+    result = None
+    if "darboux" in linkage.info and options.wants_design:  # a collision-free member first
+        linkage, result = choose_member(linkage, lambda lk, ranges, full_work, effort, spent: designer.design(
+            lk, ranges=ranges, full_work=full_work, effort=effort, work=spent))
+    return _finish(linkage, result, designer, options, notes=notes)
