@@ -14,7 +14,8 @@ from synth.tools import cluster
 from synth.tools.batchjobs import dumps, run_jobs, worker_count
 from synth.tools.resultstable import ResultsTable
 
-from .common import debug_option, echo, run_guarded
+from . import signals
+from .common import debug_option, echo, nonempty_path, run_guarded
 from .streams import silence_stdout, terminate_as_exit
 
 
@@ -98,14 +99,14 @@ Exit codes: 0 every job succeeded, 1 some job failed (its result line says why),
 @click.option("-j", "--jobs", "workers", type=int,
               help="Worker processes (0: one per CPU; never more than the CPUs or the jobs) [default: 1; "
                    "with --scheduler local: one per CPU].")
-@click.option("--out-dir", type=click.Path(file_okay=False),
+@click.option("--out-dir", type=click.Path(file_okay=False), callback=nonempty_path,
               help="Base directory of the jobs' relative 'out' paths (default: the working directory).")
 @click.option("--chunksize", type=int, help="Jobs handed to a worker at a time (default: from the job count).")
 @click.option("--full", is_flag=True, help="Add the whole linkage.json document to every successful result.")
 @click.option("--scheduler", metavar="ADDRESS|local",
               help="Run the chunks of jobs on the Dask scheduler at ADDRESS (tcp://host:8786), or on a "
                    "LocalCluster ('local'); needs mpsynth[cluster]. Same result lines, same order.")
-@click.option("--results", "results_file", type=click.Path(dir_okay=False),
+@click.option("--results", "results_file", type=click.Path(dir_okay=False), callback=nonempty_path,
               help="Also write one row per job to this Parquet file (id, ok, status, kind, extent, "
                    "checks, Bennett parameters, error); needs pyarrow (mpsynth[cluster]).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or summary on stderr.")
@@ -137,6 +138,7 @@ def batch(jobs_file, workers, out_dir, chunksize, full, scheduler, results_file,
                 workers = worker_count(1 if workers is None else workers, total)
                 where = f"-j {workers}"
                 results = run_jobs(lines, jobs=workers, chunksize=chunksize, full=full, total=total,
+                                   initializer=signals.batch_worker,
                                    out_dir=out_dir)
             else:
                 client = cluster.connect(scheduler.strip(), workers)

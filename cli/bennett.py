@@ -38,7 +38,7 @@ def bennett(poses, member, top, best_effort, **params):
     have a two-parameter family of quadratic motions through them: the result is then a planar
     four-bar (parallel axes, an anti-parallelogram) or a spherical four-bar (axes through one point).
 
-    Writes OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/*.stl (lengths in metres) when -o is
+    Writes OUT/linkage.urdf and OUT/linkage.json (lengths in metres) and OUT/meshes/*.stl (millimetres) when -o is
     given: printable parts of a physical design (bars, hubs with bores, separate pins) and what it
     achieves (collision-free over the full cycle or the task range, or not); prints a summary on stderr
     and, with --json, linkage.json on stdout."""
@@ -105,7 +105,7 @@ def emit_two_branch(result, ps, output, summary_line: str | None = None):
             echo(f"  {fam['kind']} four-bar: member lambda1 = {m['lambda1']:.6g}, lambda2 = {m['lambda2']:.6g} of "
                  f"the family of quadratic motions through the poses; {where}; " + (
                  f"links a = {fmt_len(bp['a'], scale, unit)}, b = {fmt_len(bp['b'], scale, unit)}" if fam["kind"] == "planar"
-                 else f"link angles alpha = {bp['alpha']:.6f} rad, beta = {bp['beta']:.6f} rad"))
+                 else f"link angles alpha = {math.degrees(bp['alpha']):.4f} deg, beta = {math.degrees(bp['beta']):.4f} deg"))
         elif bp:
             scale, unit = ps.length_scale, ps.length_unit
             echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {math.degrees(bp['alpha']):.4f} deg, "

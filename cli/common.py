@@ -13,6 +13,10 @@ import click
 from synth.io.names import check_package, check_robot_name, safe_robot_name
 from .streams import environment_error, silence_stderr, silence_stdout
 
+from . import signals
+
+signals.install()  # the CLI owns the process's signals: outputs being written are removed on ^C / SIGTERM
+
 
 def echo(msg: str = "") -> None:
     """Human-readable output goes to stderr (stdout is reserved for --json)."""
@@ -102,10 +106,17 @@ def _checked(check):
     return callback
 
 
+def nonempty_path(ctx, param, value):
+    """Click callback: an empty path (``-o ''``) is a usage error, never the working directory."""
+    if value is not None and not str(value).strip():
+        raise click.BadParameter("an empty path; name a directory")
+    return value
+
+
 def synthesis_options(func):
     """Options shared by the synthesis commands (bennett, sixbar, curve)."""
     opts = [
-        click.option("-o", "--out", "out", type=click.Path(file_okay=False),
+        click.option("-o", "--out", "out", type=click.Path(file_okay=False), callback=nonempty_path,
                      help="Output directory (linkage.urdf, linkage.json, meshes/). Without it nothing is written."),
         click.option("--name", callback=_checked(check_robot_name),
                      help="Robot name in the URDF (default: the pose file's stem)."),

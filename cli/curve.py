@@ -10,7 +10,7 @@ from synth.io.curvespec import load_spec
 from synth.io.posespec import LENGTH_UNITS
 from synth.io.writer import check_output_target
 
-from .common import Output, debug_option, design_option_list, design_options, echo, emit, json_option, run_guarded
+from .common import Output, debug_option, design_option_list, design_options, echo, emit, json_option, nonempty_path, run_guarded
 
 
 def _design_flags(func):
@@ -48,7 +48,7 @@ sliding joint"; no factorization), 2 bad input."""
 
 @click.command(epilog=EPILOG)
 @click.argument("spec", metavar="SPEC")
-@click.option("-o", "--out", "out", type=click.Path(file_okay=False),
+@click.option("-o", "--out", "out", type=click.Path(file_okay=False), callback=nonempty_path,
               help="Output directory (linkage.urdf, linkage.json, meshes/). Without it nothing is written.")
 @click.option("--units", type=click.Choice(list(UNITS)), default="m", show_default=True,
               help="Length unit of the spec (curve coordinates; dual parts of a motion).")
@@ -70,7 +70,7 @@ def curve(spec, units, method, **params):
 
     The motion is factorized after multiplication by a real co-factor (Theorem 2); one extra rotation
     and Bennett flips then close the loops. Writes OUT/linkage.urdf, OUT/linkage.json and
-    OUT/meshes/*.stl (metres) when -o is given; prints a summary with the joint and link counts on
+    OUT/meshes/*.stl (millimetres; URDF and JSON in metres) when -o is given; prints a summary with the joint and link counts on
     stderr and, with --json, linkage.json on stdout."""
     from synth.solve import SynthesisOptions, solve_curve
 

@@ -3,6 +3,8 @@ through prescribed points (docs/points.md). The synthesis and the choice of desi
 `synth.solve.solve_points`'s; this module prints and writes its Result."""
 from __future__ import annotations
 
+import math
+
 from synth.solve.tasks import point_count
 
 from .common import echo, emit, fmt_len, print_json, write_ranked
@@ -30,8 +32,8 @@ def emit_points(result, ps, output, top: int | None) -> None:
         bp = linkage.info.get("bennett")
         if bp:
             scale, unit = ps.length_scale, ps.length_unit
-            echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {bp['alpha']:.6f} rad, "
-                 f"b = {fmt_len(bp['b'], scale, unit)}, beta = {bp['beta']:.6f} rad")
+            echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {math.degrees(bp['alpha']):.4f} deg, "
+                 f"b = {fmt_len(bp['b'], scale, unit)}, beta = {math.degrees(bp['beta']):.4f} deg")
         if linkage.info["chosen_points"]:
             pts = "; ".join(" ".join(f"{x / ps.length_scale:.6g}" for x in p) for p in linkage.info["chosen_points"])
             echo(f"  chosen points ({ps.length_unit}): {pts}")

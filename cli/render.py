@@ -9,7 +9,7 @@ from synth.errors import InputError
 from synth.io.readback import read_output
 from synth.tools.render import render as do_render
 
-from .common import debug_option, echo, json_option, print_json, run_guarded
+from .common import debug_option, echo, json_option, print_json, nonempty_path, run_guarded
 
 
 def parse_size(value: str) -> tuple[int, int]:
@@ -28,8 +28,8 @@ Examples:
   mpsynth render out_bennett --png bennett.png
   mpsynth render out_bennett --gif bennett.gif --frames 90 --size 640x480""")
 @click.argument("out", metavar="OUT", type=click.Path())
-@click.option("--png", type=click.Path(dir_okay=False), help="Write a picture of the linkage to this PNG file.")
-@click.option("--gif", type=click.Path(dir_okay=False), help="Write an animation of one full cycle to this GIF file.")
+@click.option("--png", type=click.Path(dir_okay=False), callback=nonempty_path, help="Write a picture of the linkage to this PNG file.")
+@click.option("--gif", type=click.Path(dir_okay=False), callback=nonempty_path, help="Write an animation of one full cycle to this GIF file.")
 @click.option("--frames", type=int, default=60, show_default=True, help="GIF frames over the cycle.")
 @click.option("--size", default="800x600", show_default=True, help="Image size WIDTHxHEIGHT in pixels.")
 @click.option("--at", "at", help="PNG configuration: a task pose name or a motion parameter t "

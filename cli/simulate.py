@@ -8,7 +8,7 @@ import click
 from synth.tools.sim.run import advice
 from synth.tools.sim.run import simulate as run_sim
 
-from .common import debug_option, echo, json_option, print_json, run_guarded
+from .common import debug_option, echo, json_option, print_json, nonempty_path, run_guarded
 
 
 @click.command(epilog="""\b
@@ -27,7 +27,7 @@ Example:
 @click.option("--gravity", is_flag=True, help="Gravity -9.81 m/s^2 along the base's -z (default: off).")
 @click.option("--tol", type=float, default=1e-3, show_default=True,
               help="Exit 1 when a joint deviates from the exact motion by more than TOL radians.")
-@click.option("--export-mjcf", "export_mjcf", type=click.Path(dir_okay=False),
+@click.option("--export-mjcf", "export_mjcf", type=click.Path(dir_okay=False), callback=nonempty_path,
               help="Also write the MuJoCo model (MJCF; mesh paths relative to it) to this file.")
 @click.option("--contacts", is_flag=True,
               help="Contacts between bodies that share no joint (convex hulls of the meshes); reports the steps "

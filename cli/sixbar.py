@@ -41,7 +41,7 @@ def sixbar(poses, family, member, pair, top, best_effort, **params):
 
     By default the best design by the engineering score (well-conditioned factorization first, then a
     compact linkage without nearly parallel or nearly intersecting consecutive axes) over both families
-    of cubic motions is written to OUT (linkage.urdf, linkage.json, meshes/*.stl, lengths in metres).
+    of cubic motions is written to OUT (linkage.urdf and linkage.json in metres, meshes/*.stl in millimetres).
     Exit status 1 when no real 6R linkage exists (e.g. the poses' quadric is oval)."""
     from synth.io.poses import load_poses
     from synth.solve import SynthesisOptions, solve_sixbar

@@ -8,7 +8,7 @@ import click
 from synth.io.readback import read_output
 from synth.tools.trajectory import plan, summary, write
 
-from .common import debug_option, echo, run_guarded
+from .common import debug_option, echo, nonempty_path, run_guarded
 
 
 @click.command(epilog="""\b
@@ -20,7 +20,7 @@ Examples:
 \b
 Exit codes: 0 written, 2 bad input or a range outside the collision-free range of linkage.json.""")
 @click.argument("out", metavar="OUT", type=click.Path())
-@click.option("-o", "--output", type=click.Path(dir_okay=False),
+@click.option("-o", "--output", type=click.Path(dir_okay=False), callback=nonempty_path,
               help="Write to this .csv or .json file (default: CSV on standard output).")
 @click.option("--json", "as_json", is_flag=True, help="JSON on standard output instead of CSV.")
 @click.option("--driver", help="The driving joint (default: the first joint of linkage.json).")

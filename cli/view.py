@@ -7,14 +7,14 @@ from synth.errors import InputError
 from synth.io.readback import read_output
 from synth.tools.viewer import write_viewer
 
-from .common import debug_option, echo, json_option, print_json, run_guarded
+from .common import debug_option, echo, json_option, print_json, nonempty_path, run_guarded
 
 
 @click.command(epilog="""\b
 Example:
   mpsynth view out_bennett -o bennett.html     # then open bennett.html in a browser (no network needed)""")
 @click.argument("out", metavar="OUT", type=click.Path())
-@click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
+@click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False), callback=nonempty_path,
               help="The HTML file to write.")
 @click.option("--frames", type=int, default=120, show_default=True, help="Animation frames over one cycle.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary on stderr.")

@@ -125,10 +125,10 @@ def test_stdin_pipeline_and_outputs(tmp_path):
     rng = np.random.default_rng(3)
     jobs = [{"id": "a", "kind": "bennett", "poses": matrix_specs(random_poses(rng, 3)), "out": "a"},
             {"id": "b", "kind": "sixbar",
-             "poses": [{"position": [0, 0, 0], "quaternion": [1, 0, 0, 0]},
-                       {"position": [1, 0, 0.5], "quaternion": [0.6, 0, 0, 0.8]},
-                       {"position": [0.25, 1, 0.2], "quaternion": [0.6, 0.8, 0, 0]},
-                       {"position": [-1, 0.5, 0], "quaternion": [0.2, 0.4, 0.4, 0.8]}],
+             "poses": [{"position": [0, 0, 0], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}},
+                       {"position": [1, 0, 0.5], "quaternion": {"w": 0.6, "x": 0, "y": 0, "z": 0.8}},
+                       {"position": [0.25, 1, 0.2], "quaternion": {"w": 0.6, "x": 0.8, "y": 0, "z": 0}},
+                       {"position": [-1, 0.5, 0], "quaternion": {"w": 0.2, "x": 0.4, "y": 0.4, "z": 0.8}}],
              "out": "sub/b", "name": "six"}]
     text = "".join(json.dumps(j) + "\n" for j in jobs)
     exe = REPO / ".venv" / "bin" / "mpsynth"

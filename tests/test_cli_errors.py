@@ -27,15 +27,15 @@ POSE_C = "{name: c, position: [0.25, 1, 0.2], quaternion: {w: 0.6, x: 0.8, y: 0,
 
 
 def doc(*poses, units=None):
-    head = f"units: {units}\n" if units else ""
+    head = (f"units: {units}\n" if units else "") + "quaternion_order: wxyz\n"
     return head + "poses:\n" + "".join(f"  - {p}\n" for p in poses)
 
 
 GOOD = doc(POSE_A, POSE_B, POSE_C)
 GOOD_JSON = json.dumps({"poses": [
-    {"name": "a", "position": [0, 0, 0], "quaternion": [1, 0, 0, 0]},
-    {"name": "b", "position": [1, 0, 0.5], "quaternion": [0.6, 0, 0, 0.8]},
-    {"name": "c", "position": [0.25, 1, 0.2], "quaternion": [0.6, 0.8, 0, 0]}]})
+    {"name": "a", "position": [0, 0, 0], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}},
+    {"name": "b", "position": [1, 0, 0.5], "quaternion": {"w": 0.6, "x": 0, "y": 0, "z": 0.8}},
+    {"name": "c", "position": [0.25, 1, 0.2], "quaternion": {"w": 0.6, "x": 0.8, "y": 0, "z": 0}}]})
 
 
 def leftovers(root: Path) -> list[str]:

@@ -87,6 +87,18 @@ def test_fixture_bennett_collides_where_it_folds(out_quat):
     (clear,) = rep["clearance"]
     assert clear["links"] == ["link_h1", "link_k1"] and 0.001 < clear["min_distance"] < 0.03
     assert "COLLIDE base <-> coupler" in r.stderr and "clearance" in r.stderr
+    # #35: positions as the driver's angle in degrees, each range in the direction the driver turns: the
+    # driver meets the start first, the middle of the range collides, just before the start it is free
+    from synth.algebra.anglelaw import angle_law_inverse
+
+    d = rb.linkage.joint(rep["driver"])
+    for x in ranges:
+        s, e = x["driver_start_deg"], x["driver_end_deg"]
+        assert 0 <= s < 360 and s < e < s + 180
+        t_of = lambda deg: float(angle_law_inverse(d.a, d.b, math.radians(deg)))  # noqa: E731
+        assert tester.hit(t_of((s + e) / 2)) and not tester.hit(t_of(s - 1.0)) and not tester.hit(t_of(e + 1.0))
+        assert f"{rep['driver']} from {s:.2f} to {e:.2f} deg" in r.stderr
+    assert rep["range"] == "full"  # what this linkage.json claims (no claim: the full cycle)
 
 
 def test_big_pins_collide_everywhere(tmp_path, quat_linkage):

@@ -24,6 +24,7 @@ from synth.errors import InputError  # noqa: E402
 from synth.io.writer import atomic_directory, write_output  # noqa: E402
 from synth.io.jsonout import linkage_document  # noqa: E402
 from synth.io.urdf import urdf_text  # noqa: E402
+from synth.io import atomic as atomic_mod  # noqa: E402
 from synth.io import writer as writer_mod  # noqa: E402
 from synth.frames import rpy_from_matrix, rpy_matrix  # noqa: E402
 from synth.io.jsonout import FORMAT, plain, write_json  # noqa: E402
@@ -384,10 +385,11 @@ def test_replace_mpsynth_output(bennett, tmp_path):
     assert not (out / "meshes" / "link_gone.stl").exists()  # listed by the old manifest, not rewritten
     assert "notes.txt" not in json.loads((out / writer_mod.MARKER).read_text())["files"]
     assert entries(tmp_path) == {"OUT"}
-    # an output of an earlier version is recognised by linkage.json's format, without the manifest
+    # only the manifest proves ownership: a linkage.json with an mpsynth format is not enough (#35)
     (out / writer_mod.MARKER).unlink()
-    write_output(bennett, out, robot_name="third", result=design_for(bennett))
-    assert 'name="third"' in (out / "linkage.urdf").read_text()
+    with pytest.raises(InputError, match="not written by mpsynth"):
+        write_output(bennett, out, robot_name="third", result=design_for(bennett))
+    assert 'name="second"' in (out / "linkage.urdf").read_text()
     assert (out / "notes.txt").read_text() == "the user's"
 
 
@@ -452,7 +454,7 @@ def test_unwritable_parent_simulated(bennett, tmp_path, monkeypatch):
     def no_mkdtemp(*a, **k):
         raise OSError(30, "Read-only file system")
 
-    monkeypatch.setattr(writer_mod.tempfile, "mkdtemp", no_mkdtemp)
+    monkeypatch.setattr(atomic_mod.tempfile, "mkdtemp", no_mkdtemp)
     with pytest.raises(InputError, match="Read-only file system") as e:
         write_output(bennett, tmp_path / "OUT", robot_name="b", result=design_for(bennett))
     assert str(tmp_path) in str(e.value) and "\n" not in str(e.value)
@@ -476,8 +478,36 @@ def test_atomic_directory_generic_layout(tmp_path):
     assert entries(tmp_path) == {"MULTI"}
 
 
+@pytest.fixture
+def cli_guard():
+    """The CLI's signal policy for writes (cli/signals.py), as `mpsynth` registers it; the library's
+    own default installs nothing."""
+    from cli.signals import WriteGuard
+    from synth.io import interrupts
+
+    interrupts.use(WriteGuard)
+    yield
+    interrupts.use(interrupts.NoGuard)
+
+
+def test_library_installs_no_signal_handler(tmp_path):
+    from synth.io import interrupts
+
+    before = interrupts._factory
+    interrupts.use(interrupts.NoGuard)
+    try:
+        with atomic_directory(tmp_path / "OUT") as tmp:
+            assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL or \
+                signal.getsignal(signal.SIGTERM) is not None
+            handler = signal.getsignal(signal.SIGINT)
+            (tmp / "a").write_text("")
+        assert handler is signal.default_int_handler
+    finally:
+        interrupts.use(before)
+
+
 @pytest.mark.parametrize("sig,exc", [(signal.SIGTERM, SystemExit), (signal.SIGINT, KeyboardInterrupt)])
-def test_signal_during_write_cleans_up_and_restores_handlers(tmp_path, sig, exc):
+def test_signal_during_write_cleans_up_and_restores_handlers(tmp_path, sig, exc, cli_guard):
     previous = signal.getsignal(sig)
     with pytest.raises(exc) as e:
         with atomic_directory(tmp_path / "OUT") as tmp:
@@ -492,8 +522,8 @@ def test_signal_during_write_cleans_up_and_restores_handlers(tmp_path, sig, exc)
     assert signal.getsignal(sig) is previous
 
 
-def test_signal_during_commit_is_deferred(tmp_path, monkeypatch):
-    real_commit = writer_mod._commit
+def test_signal_during_commit_is_deferred(tmp_path, monkeypatch, cli_guard):
+    real_commit = atomic_mod._commit
 
     def commit(tmp, out):
         os.kill(os.getpid(), signal.SIGTERM)
@@ -501,7 +531,7 @@ def test_signal_during_commit_is_deferred(tmp_path, monkeypatch):
             pass
         real_commit(tmp, out)
 
-    monkeypatch.setattr(writer_mod, "_commit", commit)
+    monkeypatch.setattr(atomic_mod, "_commit", commit)
     with pytest.raises(SystemExit) as e:
         with atomic_directory(tmp_path / "OUT") as tmp:
             (tmp / "done").write_text("")

@@ -24,9 +24,9 @@ from conftest import REPO
 FIXTURE = REPO / "fixtures" / "bennett_quat.yaml"
 SIXBAR = REPO / "fixtures" / "sixbar_example.yaml"
 OUR_CODE = (f"{os.sep}cli{os.sep}", f"{os.sep}synth{os.sep}")
-GOOD_LINE = ('{"id": "j", "kind": "bennett", "poses": [{"position": [0, 0, 0], "quaternion": [1, 0, 0, 0]}, '
-             '{"position": [1, 0, 0.5], "quaternion": [0.6, 0, 0, 0.8]}, '
-             '{"position": [0.25, 1, 0.2], "quaternion": [0.6, 0.8, 0, 0]}]}')
+GOOD_LINE = ('{"id": "j", "kind": "bennett", "poses": [{"position": [0, 0, 0], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}}, '
+             '{"position": [1, 0, 0.5], "quaternion": {"w": 0.6, "x": 0, "y": 0, "z": 0.8}}, '
+             '{"position": [0.25, 1, 0.2], "quaternion": {"w": 0.6, "x": 0.8, "y": 0, "z": 0}}]}')
 
 
 def _tmpfs(path: Path, size: str) -> bool:

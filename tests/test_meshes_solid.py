@@ -323,6 +323,7 @@ def test_signal_during_manifold3d_import_arrives_after_it(tmp_path, sig):
         "total = sum(range(100000))  # bytecode during which a Python handler would run\n"
         "finished = True\n")
     code = ("import signal, sys\n"
+            "import cli.signals; cli.signals.install()  # the CLI's policy: signals wait during the import\n"
             "from synth.io.solid import import_manifold3d\n"
             "def term(signum, frame):\n    raise SystemExit(143)\n"
             "signal.signal(signal.SIGTERM, term)\n"

@@ -32,7 +32,7 @@ P = "{position: [0, 0, 0], quaternion: [1, 0, 0, 0]}"  # a valid pose in flow st
 
 
 def doc(*poses: str, units: str | None = None) -> str:
-    head = f"units: {units}\n" if units else ""
+    head = (f"units: {units}\n" if units else "") + "quaternion_order: wxyz\n"
     return head + "poses:\n" + "".join(f"  - {p}\n" for p in poses)
 
 
@@ -274,7 +274,7 @@ def test_stdin_text():
 
 
 def test_stdin_stream(monkeypatch):
-    data = json.dumps({"poses": [{"position": [1, 2, 3], "quaternion": [1, 0, 0, 0]}]}).encode()
+    data = json.dumps({"poses": [{"position": [1, 2, 3], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}}]}).encode()
     monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(data)))
     ps = load_poses("-")
     assert ps.source == "<stdin>"
@@ -300,7 +300,7 @@ def test_json_file(tmp_path):
 
 
 def test_json_content_in_yaml_file():
-    text = '{"poses": [{"position": [1, 2, 3], "quaternion": [1, 0, 0, 0]}]}'
+    text = '{"poses": [{"position": [1, 2, 3], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}}]}'
     assert len(load_poses("x.yaml", text=text)) == 1
 
 
@@ -319,8 +319,8 @@ def test_utf8_bom_and_bytes():
 RNG = np.random.default_rng(12345)
 
 
-def _yaml_pose(**kw) -> str:
-    return yaml.safe_dump({"poses": [kw]})
+def _yaml_pose(order="wxyz", **kw) -> str:
+    return yaml.safe_dump({"quaternion_order": order, "poses": [kw]})
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -331,8 +331,10 @@ def test_quaternion_forms_match_scipy(seed):
     w, x, y, z = (float(v) for v in q)
     pos = [float(v) for v in rng.normal(size=3)]
     ref = Rotation.from_quat([x, y, z, w]).as_matrix()
-    for quat in ({"w": w, "x": x, "y": y, "z": z}, [w, x, y, z]):
-        ps = load_poses("q.yaml", text=_yaml_pose(position=pos, quaternion=quat))
+    forms = [("wxyz", "quaternion", {"w": w, "x": x, "y": y, "z": z}), ("wxyz", "quaternion", [w, x, y, z]),
+             ("xyzw", "quaternion", [x, y, z, w]), ("xyzw", "orientation", {"x": x, "y": y, "z": z, "w": w})]
+    for order, key, quat in forms:
+        ps = load_poses("q.yaml", text=_yaml_pose(order, position=pos, **{key: quat}))
         T = ps.matrices[0]
         np.testing.assert_allclose(T[:3, :3], ref, atol=1e-14)
         np.testing.assert_allclose(T[:3, 3], pos, atol=0)
@@ -517,7 +519,8 @@ def test_pose_from_spec():
 
 
 def test_parse_pose_document_direct():
-    ps = parse_pose_document({"poses": [{"position": (0, 0, 0), "quaternion": (1, 0, 0, 0)}]}, source="mem")
+    ps = parse_pose_document({"quaternion_order": "wxyz",
+                              "poses": [{"position": (0, 0, 0), "quaternion": (1, 0, 0, 0)}]}, source="mem")
     assert isinstance(ps, PoseSet) and ps.source == "mem"
 
 

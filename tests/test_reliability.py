@@ -29,9 +29,9 @@ from synth.tools.batchjobs import run_job, worker_count
 from conftest import REPO, random_poses, run_process
 
 FIXTURE = REPO / "fixtures" / "bennett_mm_deg.yaml"
-POSES3 = [{"position": [0, 0, 0], "quaternion": [1, 0, 0, 0]},
-          {"position": [1, 0, 0.5], "quaternion": [0.6, 0, 0, 0.8]},
-          {"position": [0.25, 1, 0.2], "quaternion": [0.6, 0.8, 0, 0]}]
+POSES3 = [{"position": [0, 0, 0], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}},
+          {"position": [1, 0, 0.5], "quaternion": {"w": 0.6, "x": 0, "y": 0, "z": 0.8}},
+          {"position": [0.25, 1, 0.2], "quaternion": {"w": 0.6, "x": 0.8, "y": 0, "z": 0}}]
 
 
 def one_line_error(code, err, expected=(2,)):
@@ -72,13 +72,18 @@ def test_rerun_keeps_user_files_beside_the_output(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["out"]
 
 
-def test_thesis_beside_an_old_style_output_is_kept(tmp_path, bennett):
-    """A directory of an earlier version (mpsynth linkage.json, no manifest): only mpsynth's files move."""
+def test_thesis_beside_an_output_without_manifest_is_kept(tmp_path, bennett):
+    """A directory whose linkage.json merely has an mpsynth format (no manifest) is not mpsynth's (#35):
+    refused without --force, its meshes kept; with --force every file of the user's survives."""
     out = tmp_path / "OUT"
     writer_mod.write_output(bennett, out, robot_name="a", result=design_for(bennett))
     (out / writer_mod.MARKER).unlink()
     (out / "thesis.tex").write_text("years of work")
-    writer_mod.write_output(bennett, out, robot_name="b", result=design_for(bennett))
+    meshes = sorted(os.listdir(out / "meshes"))
+    with pytest.raises(InputError, match="not written by mpsynth"):
+        writer_mod.write_output(bennett, out, robot_name="b", result=design_for(bennett))
+    assert sorted(os.listdir(out / "meshes")) == meshes
+    writer_mod.write_output(bennett, out, robot_name="b", force=True, result=design_for(bennett))
     assert (out / "thesis.tex").read_text() == "years of work"
 
 
@@ -89,8 +94,10 @@ def test_force_into_the_working_directory_deletes_nothing(tmp_path):
     one_line_error(code, err)  # foreign directory: refused without --force
     assert (tmp_path / "linkage.urdf").read_text() == "the user's own URDF"
     code, _, err = run_process(["bennett", FIXTURE, "-o", ".", "-q", "--force"], tmp_path)
-    assert code == 0, err
-    assert (tmp_path / "jobs.jsonl").read_text() == "keep" and "<robot" in (tmp_path / "linkage.urdf").read_text()
+    one_line_error(code, err)  # the working directory cannot be replaced as a whole (#35)
+    assert "working directory" in err
+    assert (tmp_path / "jobs.jsonl").read_text() == "keep"
+    assert (tmp_path / "linkage.urdf").read_text() == "the user's own URDF"
 
 
 def test_a_users_file_where_mpsynth_would_write_is_refused_without_force(tmp_path, bennett):
@@ -373,7 +380,7 @@ def _launch(args, cwd):
 
 @pytest.mark.parametrize("sig,code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_signal_to_a_parallel_batch_is_quiet(tmp_path, sig, code):
-    sixbar = {"kind": "sixbar", "poses": POSES3 + [{"position": [-1, 0.5, 0], "quaternion": [0.2, 0.4, 0.4, 0.8]}]}
+    sixbar = {"kind": "sixbar", "poses": POSES3 + [{"position": [-1, 0.5, 0], "quaternion": {"w": 0.2, "x": 0.4, "y": 0.4, "z": 0.8}}]}
     (tmp_path / "j.jsonl").write_text("".join(json.dumps({"id": i, **sixbar}) + "\n" for i in range(400)))
     p = _launch(["batch", "j.jsonl", "-j", "2"], tmp_path)
     # signal the batch once its workers deliver results (a fixed sleep raced the start of the worker pool on a

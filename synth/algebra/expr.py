@@ -462,7 +462,18 @@ def parse_polynomial(
     rows = poly.fractions() or [[Fraction(0)] * 8]
     if exact:
         return rows
+    return exact_floats(rows, source)
+
+
+def exact_floats(values, source: str = "") -> np.ndarray:
+    """The exact numbers ``values`` (a list, or a list of rows, of Fractions / ints) as a float array;
+    InputError (``<source>: ...``) when one lies beyond the floating-point range (``1e400``)."""
+    shape = np.shape(values) if len(values) and not isinstance(values[0], (list, tuple)) else None
+    rows = [values] if shape is not None else values
     try:
-        return np.array([[float(v) for v in row] for row in rows], dtype=float)
+        out = np.array([[float(v) for v in row] for row in rows], dtype=float)
     except OverflowError:
+        out = None
+    if out is None or not np.all(np.isfinite(out)):
         raise _err(source, "a coefficient is too large to represent as a floating-point number") from None
+    return out[0] if shape is not None else out

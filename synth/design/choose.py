@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+from synth.design.sizes import check_sizes
 from synth.design.cranks import crank_bars
 from synth.design.layers import LAYER_NODES, layered_design, parallel_axis
 from synth.design.mixed import dominant_axis, mixed_design
@@ -79,6 +80,8 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     `LAYER_NODES`), any other one cranked bars for the colliding bodies (`synth.design.cranks.crank_bars`,
     within `CRANK_WORK`); a certified free result replaces it (its report's ``cranked`` names the cranked
     bars, ``layers`` the levels of a layered design)."""
+    check_sizes(dict(pin_radius=pin_radius, link_radius=link_radius, pin_length=pin_length,
+                     hole_clearance=hole_clearance, clearance=clearance), linkage.extent())
     work = Work() if work is None else work
     task = "task" in search.get("ranges", ("full", "task"))
     partly_planar = task and dominant_axis(linkage) is not None

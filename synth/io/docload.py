@@ -127,11 +127,43 @@ def _merged_size(node, memo: dict) -> int:
     return n
 
 
-_StrictSafeLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
-    list("-+0123456789"),
-)
+MAX_NUMBER_CHARS = 100  # characters of one numeric scalar (a float has at most ~25)
+_INT = re.compile(r"^(?:[-+]?0b[0-1_]+|[-+]?0[0-7_]+|[-+]?(?:0|[1-9][0-9_]*)|[-+]?0x[0-9a-fA-F_]+)$")
+_FLOAT = re.compile(r"^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?|\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?"
+                    r"|[-+]?(?:[0-9][0-9_]*)[eE][-+]?[0-9]+|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$")
+
+
+def _numbers_without_base_60(resolvers: dict) -> dict:
+    """The implicit resolvers of YAML 1.1 without its base-60 numbers (``1:30`` is a string, as in YAML
+    1.2: PyYAML converts ``1:0:0:...`` in quadratic time, a 2 MB scalar > 60 s) and with ``1e-3`` a float."""
+    out = {}
+    for first, entries in resolvers.items():
+        out[first] = [(tag, rx) for tag, rx in entries
+                      if tag not in ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")]
+    for tag, rx, firsts in (("tag:yaml.org,2002:int", _INT, "-+0123456789"),
+                            ("tag:yaml.org,2002:float", _FLOAT, "-+0123456789.")):
+        for ch in firsts:
+            out.setdefault(ch, []).append((tag, rx))
+    return out
+
+
+_StrictSafeLoader.yaml_implicit_resolvers = _numbers_without_base_60(yaml.SafeLoader.yaml_implicit_resolvers)
+
+
+def _bounded(construct):
+    """A number constructor that refuses numeric scalars longer than MAX_NUMBER_CHARS (no input needs
+    them; Python's int() of a long digit string is quadratic)."""
+    def wrapper(loader, node):
+        if len(node.value) > MAX_NUMBER_CHARS:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"a number with {len(node.value)} characters (at most {MAX_NUMBER_CHARS})",
+                node.start_mark)
+        return construct(loader, node)
+    return wrapper
+
+
+_StrictSafeLoader.add_constructor("tag:yaml.org,2002:int", _bounded(yaml.SafeLoader.construct_yaml_int))
+_StrictSafeLoader.add_constructor("tag:yaml.org,2002:float", _bounded(yaml.SafeLoader.construct_yaml_float))
 
 
 def _yaml_error_message(e: Exception) -> str:

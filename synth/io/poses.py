@@ -7,7 +7,7 @@ A pose file is YAML (or JSON, which is parsed with the ``json`` module when the 
     poses:
       - name: pick                           # optional; default p0, p1, ...
         position: [100, 0, 250]
-        quaternion: {w: 1, x: 0, y: 0, z: 0} # or a list [w, x, y, z]
+        quaternion: {w: 1, x: 0, y: 0, z: 0} # a list needs quaternion_order: wxyz | xyzw
       - position: [120, 50, 200]
         rpy: [0, 30, 45]                     # URDF fixed axes: R = Rz(yaw) Ry(pitch) Rx(roll)
       - position: [0, 0, 0]
@@ -47,7 +47,7 @@ from synth.task import PoseSet
 from synth.io.docload import MAX_FILE_BYTES, MAX_POSES, json_object_pairs, load_document, quote_text, read_source
 from synth.io.constraints import parse_constraints
 from synth.io.taskspec import TOP_TASK_KEYS, task_fields
-from synth.io.posespec import (ANGLE_UNITS, LENGTH_UNITS, PoseProblem, axis_angle_matrix, check_keys,
+from synth.io.posespec import (ANGLE_UNITS, LENGTH_UNITS, QUATERNION_ORDERS, PoseProblem, axis_angle_matrix, check_keys,
                                describe_value, is_point_spec, point_position, pose_from_spec, pose_matrix,
                                quaternion_matrix, rpy_matrix_exact)
 
@@ -66,7 +66,8 @@ __all__ = [
     "MAX_POSES",
 ]
 
-TOP_KEYS = ("units", "poses", "points") + TOP_TASK_KEYS
+TOP_KEYS = ("units", "quaternion_order", "poses", "points") + TOP_TASK_KEYS
+SIZE_RANGE_M = (1e-5, 10.0)  # spread of the positions (m) believable without an explicit length unit
 UNIT_KEYS = ("length", "angle")
 
 
@@ -143,9 +144,15 @@ def parse_pose_document(
                 shown = quote_text(angle_unit) if isinstance(angle_unit, str) else describe_value(angle_unit)
                 raise InputError(f"{name}: unknown angle unit {shown} (allowed: {', '.join(ANGLE_UNITS)})")
     scale = LENGTH_UNITS[length_unit]
+    order = doc.get("quaternion_order")
+    if "quaternion_order" in doc and order not in QUATERNION_ORDERS:
+        raise InputError(f"{name}: quaternion_order must be one of {', '.join(QUATERNION_ORDERS)}, "
+                         f"got {describe_value(order)}")
+    reading = dict(angle=angle_unit if isinstance(units, dict) and "angle" in units else None, order=order,
+                   length_given=isinstance(units, dict) and "length" in units)
 
     if "points" in doc or "poses" not in doc:
-        return _point_document(doc, name, scale, length_unit, angle_unit, count, normalize, points)
+        return _point_document(doc, name, scale, length_unit, angle_unit, count, normalize, points, reading)
     poses = doc["poses"]
     if not isinstance(poses, list):
         raise InputError(f"{name}: 'poses' must be a list, got {describe_value(poses)}")
@@ -154,7 +161,7 @@ def parse_pose_document(
     if len(poses) > MAX_POSES:
         raise InputError(f"{name}: {len(poses)} poses is more than the limit of {MAX_POSES}")
     if points is not None and any(is_point_spec(p) for p in poses):
-        return _point_document(doc, name, scale, length_unit, angle_unit, count, normalize, points)
+        return _point_document(doc, name, scale, length_unit, angle_unit, count, normalize, points, reading)
     if count is not None:
         problem = _count_problem(count, len(poses))
         if problem:
@@ -179,7 +186,7 @@ def parse_pose_document(
             pname = raw
         label = _pose_label(i, pname)
         try:
-            mats[i] = pose_matrix(spec, scale, angle_unit, normalize)
+            mats[i] = pose_matrix(spec, scale, reading["angle"], normalize, reading["order"])
         except PoseProblem as e:
             raise InputError(f"{name}: {label}: {e}") from None
         final = pname if pname is not None else f"p{i}"
@@ -191,6 +198,7 @@ def parse_pose_document(
         names.append(final)
         named.append(pname is not None)
 
+    _believable_size(mats, name, reading["length_given"])
     labels = [_pose_label(i, n if k else None) for i, (n, k) in enumerate(zip(names, named))]
     return _with_task(doc, poses, ["pose"] * len(poses), labels, PoseSet(
         names=names, matrices=mats, length_unit=length_unit, angle_unit=angle_unit, length_scale=scale,
@@ -205,7 +213,22 @@ def _with_task(doc, items, kinds, labels, ps: PoseSet) -> PoseSet:
     return ps
 
 
-def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize, points) -> PoseSet:
+def _believable_size(mats: np.ndarray, name: str, length_given: bool) -> None:
+    """InputError when the file gives no length unit and its positions (``mats`` (n, 4, 4), metres) spread
+    over more than 10 m or less than 10 µm (but not exactly one point): the numbers are most likely in
+    another unit (a gripper task in mm read as metres became a 171 m linkage)."""
+    if length_given:
+        return
+    p = mats[:, :3, 3]
+    spread = float(np.sqrt(np.mean(np.sum((p - p.mean(axis=0)) ** 2, axis=1))))
+    lo, hi = SIZE_RANGE_M
+    if spread > hi or 1e-12 < spread < lo:
+        what = "beyond 10 m" if spread > hi else "below 10 µm"
+        raise InputError(f"{name}: read as metres, the positions spread over {spread:.3g} m (a linkage {what}) and "
+                         "the file gives no length unit: add 'units: {length: mm}' (or cm, in; 'm' to confirm)")
+
+
+def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize, points, reading) -> PoseSet:
     """A document with points (docs/points.md): ``poses:`` entries (those with a position only are
     points), then the ``points:`` list ([x, y, z] or {name, position})."""
     if points is None:
@@ -245,7 +268,7 @@ def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize,
                 mats[i, :3, 3] = point_position(spec, scale)
                 kinds.append("point")
             else:
-                mats[i] = pose_matrix(spec, scale, angle_unit, normalize)
+                mats[i] = pose_matrix(spec, scale, reading["angle"], normalize, reading["order"])
                 kinds.append("pose")
         except PoseProblem as e:
             raise InputError(f"{name}: {label}: {e}") from None
@@ -256,6 +279,7 @@ def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize,
         names.append(final)
         named.append(pname is not None)
         labels.append(label)
+    _believable_size(mats, name, reading["length_given"])
     return _with_task(doc, [spec for _, spec in items], kinds, labels, PoseSet(
         names=names, matrices=mats, length_unit=length_unit, angle_unit=angle_unit, length_scale=scale,
         source=name, named=named, kinds=kinds))

@@ -32,10 +32,13 @@ MAX_POSITION_M = 1e9  # |position| after conversion to metres
 UNIT_TOL = 1e-6  # quaternion length, orthonormality, last matrix row
 PROJECT_TOL = 1e-3  # how far from orthonormal --normalize may project
 
-ORIENTATION_KEYS = ("quaternion", "rpy", "axis_angle", "rotation")
+ORIENTATION_KEYS = ("quaternion", "orientation", "rpy", "axis_angle", "rotation")  # orientation: ROS {x, y, z, w}
 TASK_ITEM_KEYS = ("tolerance", "exact", "velocity")  # read by synth.io.taskspec
 POSE_KEYS = ("name", "position") + ORIENTATION_KEYS + ("matrix",) + TASK_ITEM_KEYS
 QUAT_KEYS = ("w", "x", "y", "z")
+XYZ_KEYS = ("x", "y", "z")
+QUATERNION_ORDERS = ("wxyz", "xyzw")  # of a bare quaternion list (the document's quaternion_order)
+TWO_PI = 2.0 * math.pi
 AXIS_ANGLE_KEYS = ("axis", "angle")
 
 
@@ -85,10 +88,8 @@ def _did_you_mean(key: Any, allowed: Iterable[str]) -> str:
     if isinstance(key, str):
         close = difflib.get_close_matches(key.lower(), allowed, n=1, cutoff=0.6)
         if close:
-            hint = f" (did you mean {quote_text(close[0])}?)"
-    if not hint:
-        hint = " (allowed: " + ", ".join(allowed) + ")"
-    return hint
+            hint = f"did you mean {quote_text(close[0])}? "
+    return f" ({hint}valid keys: {', '.join(allowed)})"
 
 
 def check_keys(mapping: dict, allowed: tuple[str, ...], where: str) -> None:
@@ -196,19 +197,28 @@ def _checked_rotation(R: np.ndarray, what: str, normalize: bool) -> np.ndarray:
 
 
 # ============================================================== one pose
-def _parse_quaternion(v: Any, normalize: bool) -> np.ndarray:
+def _parse_quaternion(v: Any, normalize: bool, order: str | None = None, key: str = "quaternion") -> np.ndarray:
+    """A unit quaternion given as a mapping {w, x, y, z} (any key order; ``orientation`` is ROS's
+    {x, y, z, w}) or, for ``quaternion``, a bare list in the document's ``order`` (None: ambiguous, an
+    error)."""
     if isinstance(v, dict):
-        check_keys(v, QUAT_KEYS, " in quaternion")
+        check_keys(v, QUAT_KEYS, f" in {key}")
         missing = [k for k in QUAT_KEYS if k not in v]
         if missing:
-            raise PoseProblem(f"quaternion is missing {', '.join(quote_text(k) for k in missing)} (give w, x, y, z)")
-        q = [_number(v[k], f"quaternion.{k}") for k in QUAT_KEYS]
-    elif isinstance(v, (list, tuple)):
+            raise PoseProblem(f"{key} is missing {', '.join(quote_text(k) for k in missing)} (give w, x, y, z)")
+        q = [_number(v[k], f"{key}.{k}") for k in QUAT_KEYS]
+    elif isinstance(v, (list, tuple)) and key == "quaternion":
         if len(v) != 4:
-            raise PoseProblem(f"quaternion list must have 4 numbers [w, x, y, z], got {describe_value(v)}")
+            raise PoseProblem(f"quaternion list must have 4 numbers, got {describe_value(v)}")
         q = [_number(x, f"quaternion[{i}]") for i, x in enumerate(v)]
+        if order is None:
+            raise PoseProblem("a bare quaternion list is ambiguous (w, x, y, z or ROS's x, y, z, w): add "
+                              "'quaternion_order: wxyz' (or xyzw) at the top level, or write {w: .., x: .., y: .., z: ..}")
+        if order == "xyzw":
+            q = q[3:] + q[:3]
     else:
-        raise PoseProblem(f"quaternion must be a mapping {{w, x, y, z}} or a list [w, x, y, z], "
+        raise PoseProblem(f"{key} must be a mapping {{w, x, y, z}}"
+                          f"{' or a list (see quaternion_order)' if key == 'quaternion' else ''}, "
                           f"got {describe_value(v)}")
     n = math.hypot(*q)
     if n < 1e-12:
@@ -218,7 +228,29 @@ def _parse_quaternion(v: Any, normalize: bool) -> np.ndarray:
     return quaternion_matrix(*q)
 
 
-def _parse_axis_angle(v: Any, angle_unit: str) -> np.ndarray:
+def _angles(values, what: str, angle_unit: str | None) -> None:
+    """PoseProblem when no angle unit was given (``angle_unit`` None) and an angle is beyond 2 pi: it is
+    most likely in degrees, and reading it as radians would be a silent guess."""
+    if angle_unit is None:
+        for i, a in enumerate(np.atleast_1d(values)):
+            if abs(a) > TWO_PI + 1e-9:
+                at = f"{what}[{i}]" if np.ndim(values) else what
+                raise PoseProblem(f"{at} is {_num(float(a))}, beyond 2 pi, and the file gives no angle unit: add "
+                                  "'units: {angle: deg}' (or {angle: rad})")
+
+
+def _position(v: Any) -> np.ndarray:
+    """A position as a list [x, y, z] or a (ROS) mapping {x, y, z}."""
+    if isinstance(v, dict):
+        check_keys(v, XYZ_KEYS, " in position")
+        missing = [k for k in XYZ_KEYS if k not in v]
+        if missing:
+            raise PoseProblem(f"position is missing {', '.join(quote_text(k) for k in missing)} (give x, y, z)")
+        return np.array([_number(v[k], f"position.{k}") for k in XYZ_KEYS])
+    return _vector(v, 3, "position")
+
+
+def _parse_axis_angle(v: Any, angle_unit: str | None) -> np.ndarray:
     if not isinstance(v, dict):
         raise PoseProblem(f"axis_angle must be a mapping {{axis: [x, y, z], angle: a}}, got {describe_value(v)}")
     check_keys(v, AXIS_ANGLE_KEYS, " in axis_angle")
@@ -227,12 +259,16 @@ def _parse_axis_angle(v: Any, angle_unit: str) -> np.ndarray:
             raise PoseProblem(f"axis_angle is missing {quote_text(k)}")
     axis = _vector(v["axis"], 3, "axis_angle.axis")
     angle = _number(v["angle"], "axis_angle.angle")
+    _angles(angle, "axis_angle.angle", angle_unit)
     if math.hypot(*axis) < 1e-12:
         raise PoseProblem("axis_angle.axis is zero; give a nonzero direction")
-    return axis_angle_matrix(axis, angle, angle_unit)
+    return axis_angle_matrix(axis, angle, angle_unit or "rad")
 
 
-def pose_matrix(spec: Any, length_scale: float, angle_unit: str, normalize: bool) -> np.ndarray:
+def pose_matrix(spec: Any, length_scale: float, angle_unit: str | None, normalize: bool,
+                order: str | None = "wxyz") -> np.ndarray:
+    """The 4x4 pose (metres) of one pose mapping. ``angle_unit`` None: the file gives none (radians, but
+    an angle beyond 2 pi is refused); ``order``: of a bare quaternion list (None: refused)."""
     if not isinstance(spec, dict):
         raise PoseProblem(
             f"a pose must be a mapping with 'position' and an orientation, or 'matrix', got {describe_value(spec)}"
@@ -264,17 +300,18 @@ def pose_matrix(spec: Any, length_scale: float, angle_unit: str, normalize: bool
             raise PoseProblem("missing 'position' (a list of 3 numbers)")
         if not orient:
             raise PoseProblem(
-                "missing orientation: give one of 'quaternion', 'rpy', 'axis_angle', 'rotation' "
+                "missing orientation: give one of 'quaternion', 'orientation', 'rpy', 'axis_angle', 'rotation' "
                 "(or a 4x4 'matrix' alone)"
             )
-        T[:3, 3] = _vector(spec["position"], 3, "position") * length_scale
+        T[:3, 3] = _position(spec["position"]) * length_scale
         key = orient[0]
         val = spec[key]
-        if key == "quaternion":
-            R = _parse_quaternion(val, normalize)
+        if key in ("quaternion", "orientation"):
+            R = _parse_quaternion(val, normalize, order, key)
         elif key == "rpy":
             rpy = _vector(val, 3, "rpy")
-            R = rpy_matrix_exact(*rpy, unit=angle_unit)
+            _angles(rpy, "rpy", angle_unit)
+            R = rpy_matrix_exact(*rpy, unit=angle_unit or "rad")
         elif key == "axis_angle":
             R = _parse_axis_angle(val, angle_unit)
         else:

@@ -121,13 +121,9 @@ class Readback:
             for link in self.mesh_links:
                 parts = []
                 for v in self.visuals[link]:
-                    try:
-                        m = trimesh.load_mesh(str(v.path))
-                    except Exception as e:  # unreadable or malformed mesh file
-                        raise InputError(f"{v.path}: cannot read mesh ({type(e).__name__}: {e})") from None
-                    if isinstance(m, trimesh.Scene):
-                        m = m.to_mesh() if hasattr(m, "to_mesh") else m.dump(concatenate=True)
-                    m = m.copy()
+                    problem, m = mesh_file_problem(v.path)
+                    if problem:
+                        raise InputError(f"{v.path}: mesh {problem} (see 'mpsynth check')")
                     S = np.eye(4)
                     S[:3, :3] = np.diag(v.scale)
                     m.apply_transform(v.origin @ S)
@@ -259,16 +255,78 @@ def read_files(out) -> OutputFiles:
             hint = " (a multi-solution output: give OUT/<id>)" if (out / "index.json").is_file() else ""
             raise InputError(f"{out}: no {name}{hint}")
     urdf = read_urdf(out / "linkage.urdf")
-    path = out / "linkage.json"
+    return OutputFiles(out, urdf, read_document(out / "linkage.json"))
+
+
+MAX_DOCUMENT_BYTES = 64 * 1024 * 1024  # a linkage.json holds no meshes: a few hundred kB at most
+MAX_DOCUMENT_DEPTH = 64  # nesting of a linkage.json (mpsynth writes at most ~6 levels)
+
+
+def read_document(path: Path) -> dict:
+    """The JSON object in ``path``, bounded (MAX_DOCUMENT_BYTES, MAX_DOCUMENT_DEPTH); InputError (one
+    line) when it is larger, nested deeper, unreadable, not JSON or not an object."""
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        size = path.stat().st_size
+        if size > MAX_DOCUMENT_BYTES:
+            raise InputError(f"{path}: {size / 1e6:.0f} MB, larger than the {MAX_DOCUMENT_BYTES >> 20} MiB a "
+                             "linkage document can be; refusing to read it")
+        with open(path, "rb") as fh:
+            raw = fh.read(MAX_DOCUMENT_BYTES + 1)
+        text = raw.decode("utf-8")
     except (OSError, UnicodeDecodeError) as e:
         raise InputError(f"{path}: cannot read ({getattr(e, 'strerror', None) or e})") from None
-    except ValueError as e:
-        raise InputError(f"{path}: not valid JSON ({e})") from None
+    if _depth(text) > MAX_DOCUMENT_DEPTH:
+        raise InputError(f"{path}: JSON nested more than {MAX_DOCUMENT_DEPTH} levels deep; not a linkage document")
+    try:
+        doc = json.loads(text)
+    except (ValueError, RecursionError) as e:
+        raise InputError(f"{path}: not valid JSON ({' '.join(str(e).split())[:200]})") from None
     if not isinstance(doc, dict):
         raise InputError(f"{path}: not a JSON object")
-    return OutputFiles(out, urdf, doc)
+    return doc
+
+
+def _depth(text: str) -> int:
+    """An upper bound of the bracket nesting of JSON ``text`` (brackets inside strings count too)."""
+    opens = np.frombuffer(text.encode("utf-8", "replace"), np.uint8)
+    step = np.where((opens == 0x5B) | (opens == 0x7B), 1, 0) - np.where((opens == 0x5D) | (opens == 0x7D), 1, 0)
+    return int(np.cumsum(step).max(initial=0))
+
+
+def is_number(v) -> bool:
+    """A finite JSON number (not a boolean, not a string)."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def mesh_file_problem(path: Path) -> tuple[str, object]:
+    """("", the trimesh) for a whole binary STL file with triangles and finite vertices; else (the
+    problem, None): truncated or not binary, unloadable, no triangles, NaN / infinite vertices."""
+    import io
+
+    import trimesh
+
+    try:
+        raw = Path(path).read_bytes()
+    except OSError as e:
+        return f"cannot read ({e.strerror or e})", None
+    if len(raw) < 84:
+        return "not an STL file", None
+    n = int.from_bytes(raw[80:84], "little")
+    if len(raw) != 84 + 50 * n:
+        return "not a binary STL (truncated or of the wrong size)", None
+    if n == 0:
+        return "has no triangles", None
+    tri = np.frombuffer(raw, dtype=np.dtype([("normal", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")]),
+                        offset=84)
+    if not np.all(np.isfinite(tri["v"])):
+        return "has vertices that are not finite numbers", None
+    try:
+        mesh = trimesh.load(io.BytesIO(raw), file_type="stl", force="mesh")
+    except Exception as e:  # noqa: BLE001 - any loader failure is a problem line
+        return f"does not load ({type(e).__name__}: {e})", None
+    if len(mesh.faces) == 0:
+        return "has no triangles", None
+    return "", mesh
 
 
 def _law_entries(doc: dict):
@@ -339,6 +397,12 @@ def _arr(x, shape, where):
     return a
 
 
+def _number(v, where: str) -> float:
+    if not is_number(v):
+        raise InputError(f"{where}: expected a finite number, got {str(v)[:40]!r}")
+    return float(v)
+
+
 def linkage_from_document(doc: dict, where: str = "linkage.json") -> Linkage:
     """A `Linkage` from a linkage.json document (the keys jsonout.linkage_document writes)."""
     try:
@@ -353,7 +417,8 @@ def linkage_from_document(doc: dict, where: str = "linkage.json") -> Linkage:
                     raise InputError(f"{where}: joint {jd.get('name', i)!r} has no {key!r}")
             u = _arr(jd["line"]["direction"], (3,), f"{where}: joint {jd['name']} direction")
             m = _arr(jd["line"]["moment"], (3,), f"{where}: joint {jd['name']} moment")
-            a, b = float(law["a"]), float(law["b"])
+            a, b = _number(law["a"], f"{where}: joint {jd['name']}: angle law a"), \
+                _number(law["b"], f"{where}: joint {jd['name']}: angle law b")
             if not (math.isfinite(a) and math.isfinite(b)):
                 raise InputError(f"{where}: joint {jd['name']}: angle law is not finite")
             rate = law.get("rate", 1)
@@ -364,8 +429,9 @@ def linkage_from_document(doc: dict, where: str = "linkage.json") -> Linkage:
         for i, pd in enumerate(doc.get("poses", [])):
             t = pd.get("t", None)
             poses.append(PoseRecord(str(pd.get("name", f"p{i}")), _arr(pd["matrix"], (4, 4), f"{where}: pose {i}"),
-                                    float("inf") if t is None else float(t),
-                                    {k: float(v) for k, v in pd.get("joint_angles", {}).items()},
+                                    float("inf") if t is None else _number(t, f"{where}: pose {i}: t"),
+                                    {k: _number(v, f"{where}: pose {i}: joint angle {k}")
+                                     for k, v in pd.get("joint_angles", {}).items()},
                                     "point" if pd.get("kind") == "point" else "pose"))
         links = {str(k): [str(x) for x in v] for k, v in doc.get("links", {}).items()}
         if not links:  # older documents: every link carries the joints it touches

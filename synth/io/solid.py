@@ -11,12 +11,12 @@ triangle the unit normal and the three corners as little-endian float32, and a z
 """
 from __future__ import annotations
 
-import signal
 import sys
-import threading
 from dataclasses import dataclass
 
 import numpy as np
+
+from synth.io import interrupts
 
 STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
 
@@ -140,23 +140,15 @@ def concatenate(parts) -> Solid:
 
 
 def import_manifold3d():
-    """The manifold3d module. The first import runs with SIGINT/SIGTERM held back and delivers them
-    once it is done: a KeyboardInterrupt raised inside manifold3d's (nanobind) module initialisation
-    aborts the whole process (SIGABRT/SIGSEGV) instead of propagating. Raises ImportError."""
-    if "manifold3d" in sys.modules or threading.current_thread() is not threading.main_thread():
-        import manifold3d  # only the main thread runs Python signal handlers
+    """The manifold3d module. The first import runs inside `synth.io.interrupts.held` (the CLI holds
+    SIGINT/SIGTERM back there and delivers them once it is done: a KeyboardInterrupt raised inside
+    manifold3d's (nanobind) module initialisation aborts the whole process). Raises ImportError."""
+    if "manifold3d" in sys.modules:
+        import manifold3d
 
         return manifold3d
-    held = (signal.SIGINT, signal.SIGTERM)
-    pending = []
-    saved = {s: signal.signal(s, lambda signum, frame: pending.append(signum)) for s in held}
-    try:
+    with interrupts.held():
         import manifold3d
-    finally:
-        for s, handler in saved.items():
-            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
-        for s in dict.fromkeys(pending):
-            signal.raise_signal(s)  # to whatever handler was installed before
     return manifold3d
 
 

@@ -81,19 +81,19 @@ class Designer:
         return linkage, result
 
     def rank(self, linkages, *, require_free: bool, what: str, progress=None):
-        """The physical design of every ranked solution (`--top`), reordered collision-free first (full
-        cycle, then task range), then the given order; with ``require_free`` only the collision-free ones
-        (SynthesisError naming the best when there is none; ``what`` names the designs in it).
-        ``progress(items, label)``: an iterable wrapper showing progress (None: none). Returns
-        (linkages, DesignResults)."""
+        """The physical design of every ranked solution (`--top`), kept in the given (score) order, each
+        with its collision report (#35: the ranking is the score's); with ``require_free`` only the
+        collision-free ones (SynthesisError naming the best when there is none; ``what`` names the
+        designs in it). ``progress(items, label)``: an iterable wrapper showing progress (None: none).
+        Returns (linkages, DesignResults)."""
         items = linkages if progress is None else progress(linkages, "collision-free design search: design")
         results = [self.design(lk) for lk in items]
-        order = sorted(range(len(linkages)), key=lambda i: (collision_rank(results[i].collision), i))
-        pairs = [(linkages[i], results[i]) for i in order]
+        pairs = list(zip(linkages, results))
         if require_free:
             free = [(lk, r) for lk, r in pairs if r.collision.free]
             if not free:
+                best = min(pairs, key=lambda p: collision_rank(p[1].collision))[1]
                 raise SynthesisError(f"{self.source}: none of the {len(pairs)} best {what} is collision-free; "
-                                     f"the best: {self.sentence(pairs[0][1])}")
+                                     f"the best: {self.sentence(best)}")
             pairs = free
         return [lk for lk, _ in pairs], [r for _, r in pairs]

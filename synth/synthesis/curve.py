@@ -24,6 +24,7 @@ import numpy as np
 
 from synth.algebra.cofactor import CofactorResult, factorize_with_cofactor
 from synth.algebra.exact import real_divmod, real_root_count
+from synth.algebra.expr import exact_floats
 from synth.algebra.family import conjugate_pairs, separate_coincident
 from synth.algebra.flip import parallelogram_flip
 from synth.algebra.geometry import perpendicular_basis
@@ -62,7 +63,7 @@ def normalize_motion(C, scale: float = 1.0):
         rows = [list(r) for r in exact]
         while len(rows) > 1 and all(v == 0 for v in rows[-1]):
             rows.pop()
-        Cf = np.array([[float(x) for x in r] for r in rows])
+        Cf = exact_floats(rows, "motion")
     else:
         Cf = np.asarray(C, float)
         if Cf.ndim != 2 or Cf.shape[1] != 8:
@@ -219,7 +220,7 @@ def _plain_report(rep):
 
 # ====================================================================== curves
 def _poly_float(c):
-    return np.array([float(x) for x in c])
+    return exact_floats(list(c), "curve")
 
 
 def _exact_quotient(p, g) -> list[Fraction]:

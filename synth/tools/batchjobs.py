@@ -49,15 +49,16 @@ import json
 import math
 import multiprocessing
 import os
-import signal
+import sys
 from pathlib import Path
 from typing import Any, Iterable, Iterator
 
-from synth.errors import MpsynthError
+from synth.errors import InputError, MpsynthError
 from synth.io.docload import json_object_pairs
 from synth.io.jsonout import linkage_document, plain
 from synth.io.names import check_robot_name, safe_robot_name
 from synth.io.poses import parse_pose_document
+from synth.io.atomic import check_path
 from synth.io.writer import check_output_target, write_output
 from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_points, solve_sixbar
 from synth.synthesis.points import MINIMUM, NEEDED
@@ -66,7 +67,7 @@ KINDS = {"bennett": 3, "sixbar": 4}
 DEGREES = {"bennett": 2, "sixbar": 3}  # degree of the motion of a point task
 SIZE_KEYS = ("pin_radius", "link_radius", "pin_length")
 TASK_KEYS = ("tolerance", "order", "constraints")  # a task file's keys (docs/fit.md), as in a pose file
-JOB_KEYS = ("id", "kind", "poses", "points", "units", "out", "name", "normalize", "force", *SIZE_KEYS,
+JOB_KEYS = ("id", "kind", "poses", "points", "units", "quaternion_order", "out", "name", "normalize", "force", *SIZE_KEYS,
             "best_effort") + TASK_KEYS
 MAX_LINE = 10 * 1024 * 1024
 
@@ -188,9 +189,7 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
         job = parse_job(text)
         result["id"] = _echo_id(job.get("id"))
         _check_job(job)
-        doc = {k: job[k] for k in ("poses", "points") + TASK_KEYS if k in job}
-        if "units" in job:
-            doc["units"] = job["units"]
+        doc = {k: job[k] for k in ("poses", "points", "units", "quaternion_order") + TASK_KEYS if k in job}
         kind = job["kind"]
         try:
             out_path = _out_path(job["out"], out_dir) if "out" in job else None
@@ -232,6 +231,10 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
 def _out_path(out: str, out_dir) -> str:
     """``out`` resolved under the base directory; _JobError when it is absolute or leaves it."""
     base = os.path.abspath(os.fspath(out_dir) if out_dir is not None else os.curdir)
+    try:
+        check_path(out, "'out'")
+    except InputError as e:
+        raise _JobError(str(e)) from None
     if "\x00" in out or os.path.isabs(out) or out.startswith("~"):
         raise _JobError(f"'out' {out!r}: must be a relative path under the output base directory {base}")
     path = os.path.normpath(os.path.join(base, out))
@@ -320,10 +323,11 @@ def worker_count(requested: int, total: int | None) -> int:
 
 
 def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = False,
-             total: int | None = None, out_dir=None) -> Iterator[dict]:
+             total: int | None = None, out_dir=None, initializer=None) -> Iterator[dict]:
     """Results of the jobs in ``lines``, in input order. ``lines``: an iterable of (line number, text)
     pairs (`synth.io.docload.read_lines`) or of text lines. ``jobs`` worker processes (the caller caps
-    it, `worker_count`)."""
+    it, `worker_count`), each set up by ``initializer(parent pid)`` (an importable function; default
+    `prepare_worker`)."""
     items = numbered(lines)
     if jobs <= 1:
         for item in items:
@@ -332,7 +336,7 @@ def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = Fa
     if chunksize is None:
         chunksize = max(1, min(16, (total or 64) // (jobs * 8)))
     ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
-    pool = ctx.Pool(processes=jobs, initializer=_worker_init)
+    pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
     pending: collections.deque = collections.deque()
     try:
         for chunk in chunks(items, chunksize):
@@ -351,19 +355,37 @@ def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = Fa
         pool.join()
 
 
-def _worker_init():
-    """Workers ignore SIGINT (the parent handles ^C and terminates the pool) and pre-import the optional
-    sixbar synthesis once (bennett and the pose reader come with this module)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, _worker_term)
+class _QuietWhenOrphaned:
+    """A worker's stderr that drops what is written once the batch process is gone (a result sent to a
+    dead parent is a BrokenPipeError traceback nobody asked for); else the real stream."""
+
+    def __init__(self, stream, parent: int):
+        self.stream, self.parent = stream, parent
+
+    def write(self, text):
+        try:
+            os.kill(self.parent, 0)
+        except ProcessLookupError:
+            return len(text)
+        except OSError:
+            pass
+        return self.stream.write(text)
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+
+def prepare_worker(parent: int | None = None) -> None:
+    """A pool worker's set-up: its stderr goes quiet once the batch process ``parent`` is gone, and the
+    optional sixbar synthesis is imported once (bennett and the pose reader come with this module). The
+    command line adds its signal policy (cli/signals.py `batch_worker`: ^C ignored, SIGTERM a quiet
+    exit, killed with its parent); the library installs no handler."""
+    if parent is not None and sys.stderr is not None:
+        sys.stderr = _QuietWhenOrphaned(sys.stderr, parent)
     try:
         importlib.import_module("synth.synthesis.sixbar")
     except ImportError:
         pass
-
-
-def _worker_term(signum, frame):
-    os._exit(128 + signum)  # quietly: the parent reports the interruption
 
 
 def dumps(result: dict) -> str:

@@ -23,7 +23,10 @@ import time
 
 import numpy as np
 
-from synth.errors import MpsynthError
+from synth.algebra.anglelaw import angle_law_inverse
+from synth.design.search import driver_joint, task_range
+from synth.errors import InputError, MpsynthError
+from synth.frames import TWO_PI
 from synth.io.readback import Readback, cycle_parameters, phi_of
 
 INSTALL_HINT = "pip install 'mpsynth[collide]'"
@@ -127,15 +130,44 @@ def cyclic_runs(hit: np.ndarray) -> list[tuple[int, int]]:
     return sorted(runs)
 
 
-def collide(rb: Readback, steps: int = 360, spacing: str = "angle", clearance: bool = True) -> dict:
-    """Check every non-adjacent pair of links along the motion; returns the report (plain JSON types)."""
+SPANS = ("claim", "task", "full")
+
+
+def claimed_span(rb: Readback) -> str:
+    """The range linkage.json's design claims ("task" or "full"; "full" without a claim)."""
+    claim = rb.document.get("collision")
+    return "task" if isinstance(claim, dict) and claim.get("range") == "task" else "full"
+
+
+def _samples(rb: Readback, steps: int, spacing: str, span: str) -> tuple[np.ndarray, str, bool]:
+    """(motion parameters t, the driver, cyclic): one full cycle, or ``steps`` driver angles evenly over
+    the task range (`synth.design.search.task_range`; not cyclic)."""
+    lk = rb.linkage
+    driver = driver_joint(lk)
+    if span == "task":
+        driver, start, end = task_range(lk, driver)
+        if end - start < TWO_PI - 1e-9:
+            d = lk.joint(driver)
+            return angle_law_inverse(d.a, d.b, np.linspace(start, end, steps), d.rate), driver, False
+    return cycle_parameters(lk, steps, spacing=spacing), driver, True
+
+
+def collide(rb: Readback, steps: int = 360, spacing: str = "angle", clearance: bool = True,
+            span: str = "claim") -> dict:
+    """Check every non-adjacent pair of links along the motion; returns the report (plain JSON types).
+    ``span``: "full" (one cycle), "task" (the arc of the driver through the task poses) or "claim"
+    (the range linkage.json's design claims, `claimed_span`). Ranges are given as driver angles
+    (degrees, increasing: the direction the driver turns) and motion parameters."""
     _require_fcl()
     from trimesh.collision import CollisionManager
 
+    if span not in SPANS:
+        raise InputError(f"--range {span}: expected one of {', '.join(SPANS[1:])}")
+    span = claimed_span(rb) if span == "claim" else span
     t0 = time.perf_counter()
     lk = rb.linkage
     steps = int(steps)
-    ts = cycle_parameters(lk, steps, spacing=spacing)
+    ts, driver, cyclic = _samples(rb, steps, spacing, span)
     phis = phi_of(ts)
     test, skip = candidate_pairs(rb)
     meshes = rb.meshes()
@@ -161,13 +193,17 @@ def collide(rb: Readback, steps: int = 360, spacing: str = "angle", clearance: b
         h = hits[p]
         if not h.any():
             if clearance:
-                clear.append({"links": list(p), **_clearance(rb, p, poses, ts)})
+                clear.append({"links": list(p), **_clearance(rb, p, poses, ts, driver)})
             continue
         tester = PairTester(rb, *p)
         ranges = []
-        for first, last in cyclic_runs(h):
+        for first, last in (cyclic_runs(h) if cyclic else linear_runs(h)):
             if h.all():
-                ranges.append(_range(lk, None, None, steps))
+                ranges.append(_range(lk, None, None, steps, driver) if cyclic else
+                              _range(lk, phis[0], phis[-1], steps, driver))
+                continue
+            if not cyclic:  # the task range: its ends are the sample driver angles
+                ranges.append(_range(lk, phis[first], phis[last], last - first + 1, driver))
                 continue
             prev, nxt = (first - 1) % steps, (last + 1) % steps
             # unwrap phi so that prev < first <= last < nxt along the motion (period pi)
@@ -180,11 +216,13 @@ def collide(rb: Readback, steps: int = 360, spacing: str = "angle", clearance: b
             a = tester.boundary(ph_prev, ph_first)
             b = tester.boundary(ph_next, ph_last)
             count = (last - first) % steps + 1
-            ranges.append(_range(lk, a, b, count))
+            ranges.append(_range(lk, a, b, count, driver))
         collisions.append({"links": list(p), "samples": int(h.sum()), "fraction": float(h.mean()),
                            "ranges": ranges})
     return {
         "colliding": bool(collisions),
+        "range": span,
+        "driver": driver,
         "steps": steps,
         "spacing": spacing,
         "pairs_checked": [list(p) for p in test],
@@ -195,7 +233,18 @@ def collide(rb: Readback, steps: int = 360, spacing: str = "angle", clearance: b
     }
 
 
-def _clearance(rb: Readback, pair, poses, ts) -> dict:
+def linear_runs(hit: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) index of every run of True in ``hit`` (no wrap-around)."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], hit.astype(int), [0]])))
+    return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2])]
+
+
+def _driver_deg(lk, driver: str, t: float) -> float:
+    """The driver's angle (degrees, [0, 360)) at motion parameter t."""
+    return math.degrees(float(lk.angles_at(t)[driver]) % TWO_PI)
+
+
+def _clearance(rb: Readback, pair, poses, ts, driver: str) -> dict:
     """Smallest distance of a never-colliding pair over the samples, and where."""
     from trimesh.collision import CollisionManager
 
@@ -212,15 +261,24 @@ def _clearance(rb: Readback, pair, poses, ts) -> dict:
         if d < best:
             best, where = float(d), k
     t = ts[where]
-    return {"min_distance": best, "t": None if np.isinf(t) else float(t)}
+    return {"min_distance": best, "t": None if np.isinf(t) else float(t),
+            "driver_deg": _driver_deg(rb.linkage, driver, float(t))}
 
 
-def _range(lk, phi_a, phi_b, count) -> dict:
+def _range(lk, phi_a, phi_b, count, driver: str) -> dict:
+    """One colliding range between the motion parameters tan(phi_a) and tan(phi_b) (phi increasing):
+    as t and as the driver's angle, from where the driver enters it to where it leaves (degrees,
+    start in [0, 360), end > start)."""
     if phi_a is None:
         return {"whole_cycle": True, "t_start": None, "t_end": None, "samples": int(count)}
     ta, tb = _t_of_phi(phi_a), _t_of_phi(phi_b)
+    da, db = _driver_deg(lk, driver, ta), _driver_deg(lk, driver, tb)
+    if lk.joint(driver).b > 0:  # the driver's angle decreases as t grows: it meets tb first
+        da, db = db, da
     return {
         "whole_cycle": False,
+        "driver_start_deg": da,
+        "driver_end_deg": da + (db - da) % 360.0,
         "t_start": None if math.isinf(ta) else ta,
         "t_end": None if math.isinf(tb) else tb,
         "samples": int(count),
@@ -229,31 +287,29 @@ def _range(lk, phi_a, phi_b, count) -> dict:
     }
 
 
-def summary_lines(report: dict, first_joint: str | None = None) -> list[str]:
-    """Human-readable lines for the report."""
+def summary_lines(report: dict) -> list[str]:
+    """Human-readable lines for the report: positions as the driver's angle in degrees."""
     lines = []
-    n = report["steps"]
+    n, drv = report["steps"], report["driver"]
+    where = "the task range" if report["range"] == "task" else "the cycle"
     if not report["pairs_checked"]:
         lines.append("no pair of non-adjacent links to check")
     for c in report["collisions"]:
         a, b = c["links"]
-        lines.append(f"COLLIDE {a} <-> {b}: {c['samples']} of {n} samples ({100 * c['fraction']:.1f}% of the cycle)")
+        lines.append(f"COLLIDE {a} <-> {b}: {c['samples']} of {n} samples ({100 * c['fraction']:.1f}% of {where})")
         for r in c["ranges"]:
             if r["whole_cycle"]:
                 lines.append("    over the whole cycle")
                 continue
-            ts, te = _ft(r["t_start"]), _ft(r["t_end"])
-            through = " (through t = inf, the first pose)" if _wraps(r) else ""
-            ang = ""
-            if first_joint and first_joint in r["angles_start"]:
-                ang = (f", {first_joint} from {math.degrees(r['angles_start'][first_joint]):.2f} to "
-                       f"{math.degrees(r['angles_end'][first_joint]):.2f} deg")
-            lines.append(f"    t from {ts} to {te}{through}{ang}")
+            through = " (through the first pose)" if _wraps(r) else ""
+            lines.append(f"    {drv} from {r['driver_start_deg']:.2f} to {r['driver_end_deg']:.2f} deg{through} "
+                         f"(t from {_ft(r['t_start'])} to {_ft(r['t_end'])})")
     for c in report["clearance"]:
         a, b = c["links"]
-        lines.append(f"ok      {a} <-> {b}: clearance {1e3 * c['min_distance']:.3g} mm (at t = {_ft(c['t'])})")
+        lines.append(f"ok      {a} <-> {b}: clearance {1e3 * c['min_distance']:.3g} mm (at {drv} = "
+                     f"{c['driver_deg']:.2f} deg)")
     skipped = ", ".join(f"{a}-{b}" for a, b in report["excluded_adjacent"])
-    lines.append(f"{len(report['pairs_checked'])} pair(s) checked at {n} configurations in "
+    lines.append(f"{len(report['pairs_checked'])} pair(s) checked at {n} configurations of {where} in "
                  f"{report['seconds']:.2f} s; adjacent pairs not checked: {skipped or 'none'}")
     return lines
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from synth.errors import InputError
 from synth.io.readback import Readback, cycle_parameters
-from synth.io.writer import atomic_write
+from synth.io.atomic import atomic_write
 from synth.linkage import kind_label
 
 DEFAULT_SIZE = (800, 600)
@@ -115,6 +115,9 @@ class Scene:
         self.frame_len = 0.12 * self.half
 
         # camera: orthographic, from the side that shows the whole motion spread widest
+        for opt, v in (("--elev", elev), ("--azim", azim)):
+            if v is not None and not (math.isfinite(v) and abs(v) <= 360):
+                raise InputError(f"{opt} {v}: must be an angle in degrees between -360 and 360")
         if elev is None or azim is None:
             e0, a0 = planar_view(lk) or default_view(allp)
             elev = e0 if elev is None else elev

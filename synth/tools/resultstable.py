@@ -20,6 +20,7 @@ import os
 import tempfile
 
 from synth.errors import InputError, OutputError
+from synth.io.atomic import check_file_target, commit_file
 
 ROW_GROUP = 65536
 STATUS = {1: "no linkage", 2: "bad input", 3: "internal error"}
@@ -67,12 +68,8 @@ class ResultsTable:
     def __init__(self, path, avoid=()):
         """``avoid``: paths the table may not replace (the jobs file)."""
         self.pa, self.pq = _pyarrow()
-        self.path = os.path.abspath(os.fspath(path))
-        if os.path.isdir(self.path):
-            raise InputError(f"--results {path}: is a directory")
+        self.path = os.fspath(check_file_target(path, "--results"))
         parent = os.path.dirname(self.path)
-        if not os.path.isdir(parent):
-            raise InputError(f"--results {path}: its directory {parent} does not exist")
         for other in avoid:
             if other and other != "-" and os.path.exists(other) and os.path.exists(self.path) \
                     and os.path.samefile(other, self.path):
@@ -111,7 +108,10 @@ class ResultsTable:
         self._flush()
         try:
             self.writer.close()
-            os.replace(self.tmp, self.path)
+            commit_file(self.tmp, self.path)
+        except InputError:
+            self.abort()
+            raise
         except OSError as e:
             self.abort()
             raise OutputError(f"--results {self.path}: cannot write ({e.strerror or e})") from None

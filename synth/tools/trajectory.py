@@ -41,7 +41,7 @@ from synth.algebra.dq import matrix_to_quat
 from synth.design.search import task_range
 from synth.errors import InputError
 from synth.io.readback import Readback
-from synth.io.writer import atomic_write
+from synth.io.atomic import atomic_write
 from synth.linkage import Linkage
 
 TWO_PI = 2.0 * math.pi
@@ -248,9 +248,17 @@ def _allowed(lk: Linkage, driver: str, claim: dict | None) -> tuple[tuple[float,
     return arc, f"collision-free only over the task range ({driver} from {_deg(arc[0])} to {_deg(arc[1])} deg)"
 
 
+MAX_SAMPLES = 1_000_000  # samples of one trajectory (~100 MB of arrays for a 6R linkage)
+
+
 def _grid(rate: float, seconds: float) -> int:
-    """Whole samples (at least 1) closest to ``seconds``."""
-    return max(1, int(round(seconds * rate)))
+    """Whole samples (at least 1) closest to ``seconds``; InputError beyond MAX_SAMPLES (``--speed 1e-12``
+    asked for 1e13 samples)."""
+    n = seconds * rate
+    if not n <= MAX_SAMPLES:
+        raise InputError(f"{seconds:.6g} s at {rate:.6g} Hz is {n:.3g} samples, more than {MAX_SAMPLES}: "
+                         "lower --rate or --duration (--dwell), or raise --speed")
+    return max(1, int(round(n)))
 
 
 def _split(total: int, weights) -> list[int]:

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.io.readback import Readback, cycle_parameters
-from synth.io.writer import atomic_write
+from synth.io.atomic import atomic_write
 from synth.linkage import kind_label
 from synth.tools.render import BASE_COLOR, default_view, link_colors
 from synth.tools.viewer_page import VIEWER_CSS, VIEWER_JS

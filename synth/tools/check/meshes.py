@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.io.readback import mesh_path
+from synth.io.readback import mesh_file_problem, mesh_path
 
 
 class MeshChecks:
@@ -51,18 +51,9 @@ class MeshChecks:
         self.figures["meshes"] = {"referenced": len(self.u.meshes), "good": good}
 
     def _mesh_problem(self, trimesh, path: Path, scale, spread) -> str:
-        raw = path.read_bytes()
-        if len(raw) < 84:
-            return "not an STL file"
-        n = int.from_bytes(raw[80:84], "little")
-        if len(raw) != 84 + 50 * n:
-            return "not a binary STL"
-        try:
-            mesh = trimesh.load(path, file_type="stl", force="mesh")
-        except Exception as e:  # noqa: BLE001 - any loader failure is a problem line
-            return f"does not load ({type(e).__name__}: {e})"
-        if len(mesh.faces) == 0:
-            return "has no triangles"
+        problem, mesh = mesh_file_problem(path)
+        if problem:
+            return problem
         if not mesh.is_watertight:
             return "is not watertight"
         vol = float(mesh.volume) * float(np.prod(scale))

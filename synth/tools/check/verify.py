@@ -44,7 +44,8 @@ from synth.algebra.polynomial import pose_at
 from synth.tools.check.continuation import continue_loop, crossing, law_angles
 from synth.algebra.geometry import invert_pose, pose_difference
 from synth.frames import TWO_PI, wrap_angle
-from synth.io.readback import OutputFiles, angle_laws, angle_rates, read_files, solution_dirs
+from synth.io.posespec import describe_value
+from synth.io.readback import OutputFiles, angle_laws, angle_rates, is_number, read_files, solution_dirs
 from synth.tools.check.meshes import MeshChecks
 from synth.tools.check.structure import StructureChecks, matrix_or_none
 from synth.synthesis.conditioning import transmission_ratio
@@ -189,8 +190,14 @@ class _Checker(StructureChecks, MeshChecks):
             if "t" not in rec or not isinstance(rec.get("joint_angles"), dict):
                 continue
             t = rec["t"]
+            if t is not None and not is_number(t):
+                self.fail(f"linkage.json: pose {i}: t is {describe_value(t)}, not a number")
+                return
             t = math.inf if t is None else float(t)
             for jn, v in rec["joint_angles"].items():
+                if not is_number(v):
+                    self.fail(f"linkage.json: pose {i}: joint angle {jn} is {describe_value(v)}, not a finite number")
+                    return
                 if jn in laws:
                     a, b = laws[jn]
                     th = float(angle_law(a, b, t, rates.get(jn, 1)))
@@ -300,6 +307,8 @@ class _Checker(StructureChecks, MeshChecks):
 
     # -------------------------------------------------------------- run
     def run(self):
+        if self.u.problems:  # a URDF that cannot be posed (a zero axis, a broken tree): nothing more to judge
+            return self.problems, self.figures
         self._scales()
         self.structure()
         # joints in the loops (those that move some closure pair relative to each other), driver

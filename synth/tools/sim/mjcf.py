@@ -32,7 +32,7 @@ import numpy as np
 
 from synth.algebra.dq import matrix_to_quat
 from synth.errors import InputError
-from synth.io.writer import atomic_write
+from synth.io.atomic import atomic_write
 
 DEFAULT_TIMESTEP = 5e-4
 ITERATIONS = 200

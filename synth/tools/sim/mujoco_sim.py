@@ -11,8 +11,15 @@ import time
 
 import numpy as np
 
+from synth.errors import InputError
 from synth.tools.sim import DriveProfile, SimulationError, Tracker
 from synth.tools.sim.mjcf import DriveModel, mjcf_text, write_mjcf
+
+
+def one_line(e: Exception, limit: int = 300) -> str:
+    """MuJoCo's (multi-line) compiler message on one bounded line."""
+    text = " ".join(str(e).split())
+    return text if len(text) <= limit else text[:limit] + "..."
 
 
 def build_model(setup, *, timestep=None, gravity=False, contacts=False):
@@ -22,7 +29,7 @@ def build_model(setup, *, timestep=None, gravity=False, contacts=False):
     try:
         return mujoco.MjModel.from_xml_string(text)
     except Exception as e:  # noqa: BLE001 - MuJoCo raises ValueError with its compiler message
-        raise SimulationError(f"MuJoCo rejected the model of {setup.out}: {e}") from None
+        raise InputError(f"MuJoCo rejected the model of {setup.out}: {one_line(e)}") from None
 
 
 def run(setup, *, seconds: float, timestep=None, gravity: bool = False, export_mjcf=None, contacts=False) -> dict:
@@ -34,7 +41,7 @@ def run(setup, *, seconds: float, timestep=None, gravity: bool = False, export_m
         try:
             mujoco.MjModel.from_xml_path(str(path))
         except Exception as e:  # noqa: BLE001
-            raise SimulationError(f"MuJoCo cannot load the exported {path}: {e}") from None
+            raise InputError(f"MuJoCo cannot load the exported {path}: {one_line(e)}") from None
     model = build_model(setup, timestep=timestep, gravity=gravity, contacts=contacts)
     data = mujoco.MjData(model)
     dt = float(model.opt.timestep)

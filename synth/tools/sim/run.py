@@ -67,6 +67,7 @@ def near_singular(result: dict) -> float | None:
     return None if best is None else best[1]
 
 
+MAX_STEPS = 1_000_000  # engine steps of one run (--timestep 1e-9 asked for 14.9 GiB of samples)
 RETRY_MAX_SLOWDOWN = 8.0  # the default turn's automatic retry is at most this much slower
 
 
@@ -88,6 +89,11 @@ def simulate(out, engine: str, *, seconds: float | None = None, timestep: float 
         raise InputError(f"--seconds must be in (0, 3600], got {seconds}")
     if timestep is not None and not (0 < timestep <= seconds / 10):
         raise InputError(f"--timestep must be positive and at most a tenth of --seconds, got {timestep}")
+    if timestep is not None and seconds / timestep > MAX_STEPS:
+        raise InputError(f"--timestep {timestep:g} s makes {seconds / timestep:.3g} steps of a {seconds:g} s run, "
+                         f"more than {MAX_STEPS}; give a larger --timestep or fewer --seconds")
+    if tol is not None and not (math.isfinite(tol) and tol > 0):
+        raise InputError(f"--tol must be a positive number of radians, got {tol}")
     res = _run(setup, engine, seconds=seconds, timestep=timestep, gravity=gravity, export_mjcf=export_mjcf,
                timeout=timeout, contacts=contacts)
     if auto and tol is not None and res["max_joint_deviation"] > tol:

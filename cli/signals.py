@@ -1,0 +1,122 @@
+"""The command line's signal policy while an output is written (the library installs no handlers).
+
+`WriteGuard` is registered with `synth.io.interrupts.use` by `cli.common`: while a writer of
+`synth.io.atomic` is inside its temporary directory, SIGINT raises KeyboardInterrupt (exit 130) and
+SIGTERM SystemExit(143), so that the temporary directory is removed; during the final swap and the
+clean-up (``defer``) a signal waits until they are done. Handlers are installed for that time only, in
+the main thread only.
+"""
+from __future__ import annotations
+
+import contextlib
+import signal
+import sys
+import threading
+
+
+def act(signum) -> None:
+    """Raise what ``signum`` means for the command: KeyboardInterrupt or SystemExit(128 + signum)."""
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt
+    raise SystemExit(128 + int(signum))
+
+
+class WriteGuard:
+    """SIGINT/SIGTERM -> exception while writing; deferred while ``defer`` is set."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self):
+        self.defer = False
+        self.pending = None
+        self.raised = None  # the signal already turned into an exception (which a library may swallow)
+        self.saved = {}
+        self.saved_hook = None
+
+    def install(self) -> None:
+        if threading.current_thread() is not threading.main_thread():
+            return
+        for s in self.SIGNALS:
+            self.saved[s] = signal.getsignal(s)
+            signal.signal(s, self._handle)
+        self.saved_hook = sys.unraisablehook
+        sys.unraisablehook = self._unraisable
+
+    def restore(self):
+        for s, h in self.saved.items():
+            signal.signal(s, h if h is not None else signal.SIG_DFL)
+        self.saved = {}
+        if self.saved_hook is not None:
+            sys.unraisablehook, self.saved_hook = self.saved_hook, None
+        return self.pending
+
+    act = staticmethod(act)
+
+    def _unraisable(self, info):
+        """A signal that lands inside a callback Python cannot propagate from (e.g. an import lock's
+        weakref callback) is printed as 'Exception ignored ... Traceback'. It is ours and is raised
+        again before the commit (``raised``), so keep stderr to the contract's one line."""
+        if self.raised is not None and isinstance(info.exc_value, (KeyboardInterrupt, SystemExit)):
+            return
+        self.saved_hook(info)
+
+    def _handle(self, signum, frame):
+        if self.defer:
+            self.pending = self.pending or signum
+            return
+        self.defer = True  # the first signal interrupts; a second one waits for the clean-up
+        self.raised = signum
+        act(signum)
+
+
+_PR_SET_PDEATHSIG = 1
+
+
+def batch_worker(parent: int) -> None:
+    """Initializer of `mpsynth batch -j N`'s pool workers: ^C is ignored (the batch process handles it
+    and terminates the pool), SIGTERM exits quietly, and the kernel kills the worker when its parent
+    (the pool's fork server, which exits with the batch process, even on SIGKILL) dies (Linux prctl
+    PR_SET_PDEATHSIG): no orphan keeps writing outputs. Then the library's `prepare_worker`."""
+    import ctypes
+    import ctypes.util
+    import os
+
+    from synth.tools.batchjobs import prepare_worker
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, lambda signum, frame: os._exit(128 + signum))
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
+        ppid = os.getppid()
+        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        if os.getppid() != ppid:  # the parent died before the prctl
+            os._exit(1)
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        pass
+    prepare_worker(parent)
+
+
+@contextlib.contextmanager
+def held():
+    """SIGINT/SIGTERM wait until the block is done, then go to the handlers installed before (main
+    thread only; elsewhere nothing is held)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending = []
+    saved = {s: signal.signal(s, lambda signum, frame: pending.append(signum)) for s in WriteGuard.SIGNALS}
+    try:
+        yield
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        for s in dict.fromkeys(pending):
+            signal.raise_signal(s)
+
+
+def install() -> None:
+    """Make `WriteGuard` the guard of every output the library writes in this process, and `held` the
+    way signals wait during native module initialisations."""
+    from synth.io import interrupts
+
+    interrupts.use(WriteGuard, held=held)
