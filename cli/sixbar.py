@@ -46,14 +46,14 @@ def sixbar(poses, family, member, pair, top, best_effort, **params):
     from synth.io.poses import load_poses
     from synth.solve import SynthesisOptions, solve_sixbar
 
-    from synth.synthesis.sixbar_task import is_task
+    from synth.synthesis.sixbar_task import is_sixbar_task
 
     from .points import emit_points, point_count
     from .task import emit_task
 
     output = Output.of(params)
     ps = load_poses(poses, count=((2, None), "mpsynth sixbar"), normalize=params["normalize"], points=point_count(3))
-    task = not ps.has_points and is_task(ps)  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
+    task = not ps.has_points and is_sixbar_task(ps)  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
     if member is not None and not ps.has_points and not task:
         member = parse_member(member)
     options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=member,

@@ -5,7 +5,7 @@
     L = synth.bennett(many, tolerance=(1e-3, 0.01), order="listed")  # (N, 4, 4): fitted (docs/fit.md)
     Ls = synth.fit(load_poses("task.yaml"), top=3)                   # a task file's PoseSet -> best fits
     L = synth.sixbar(poses4)            # (4, 4, 4) -> the best 6R Linkage (options: family, member, pair)
-    L = synth.sixbar(many, tolerance=(1e-3, 0.01))  # (N, 4, 4): a fitted 6R (docs/sixbar_fit.md); synth.fit(.., kind="6r")
+    Ls = synth.fit(many, tolerance=(1e-3, 0.01), kind="6r")  # (N, 4, 4): fitted 6R linkages (docs/sixbar_fit.md)
                                         # planar/spherical poses: a four-bar / Watt six-bar (docs/planar.md)
     L = synth.bennett_points(pts)       # (5, 3) points, metres -> Bennett Linkage whose tool point visits them
     L = synth.sixbar_points(pts7)       # (7, 3) -> the best 6R Linkage; synth.point_candidates(.., top=N): ranked
@@ -42,7 +42,7 @@ __all__ = ["bennett", "fit", "sixbar", "bennett_points", "sixbar_points", "point
 _LAZY = {
     "bennett": "synth.synthesis.tasks",
     "fit": "synth.synthesis.tasks",
-    "sixbar": "synth.synthesis.tasks",
+    "sixbar": "synth.synthesis.sixbar",
     "bennett_points": "synth.synthesis.points",
     "sixbar_points": "synth.synthesis.points",
     "point_candidates": "synth.synthesis.points",

@@ -22,7 +22,8 @@ def test_import_synth_is_cheap():
 
 def test_api_names_are_the_library_functions():
     from synth.algebra.factorize import factorize
-    from synth.synthesis.tasks import bennett, sixbar  # the exact synthesis for 3 / 4 poses, the task one for tasks
+    from synth.synthesis.sixbar import sixbar
+    from synth.synthesis.tasks import bennett  # the exact synthesis for three poses, the task one for tasks
 
     assert synth.bennett is bennett and synth.sixbar is sixbar and synth.factorize is factorize
     assert synth.SynthesisError.__name__ == "SynthesisError"

@@ -273,6 +273,6 @@ def test_batch_job_and_python_api_take_6r_tasks():
     rng = np.random.default_rng(3)
     C, X0 = random_motion(rng)
     T = poses_at(C, X0, TS8)
-    lk = synth.sixbar(T, tolerance=(1e-3 * spread(T), 1e-2), order="listed")
+    lk = synth.fit(T, tolerance=(1e-3 * spread(T), 1e-2), order="listed", kind="6r")[0]
     assert lk.kind == "6r" and lk.info["fit"]["method"] == "fit" and lk.info["fit"]["within_tolerance"]
     assert synth.fit(T, tolerance=(1e-3 * spread(T), 1e-2), kind="6r", top=2)[0].kind == "6r"

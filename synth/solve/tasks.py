@@ -157,10 +157,10 @@ def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress
     best ranked; seven points: `solve_points`; a task (tolerances, velocities, an order, other counts):
     `synth.synthesis.sixbar_task.sixbar_task` as `_solve_task`."""
     from synth.synthesis.sixbar import sixbar, sixbar_candidates
-    from synth.synthesis.sixbar_task import is_task, sixbar_task
+    from synth.synthesis.sixbar_task import is_sixbar_task, sixbar_task
 
     designer = _designer(ps, options)
-    if not ps.has_points and is_task(ps):  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
+    if not ps.has_points and is_sixbar_task(ps):  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
         if options.explicit:
             raise InputError("--family, --member and --pair select among the cubics through four exact poses; a "
                              "task with tolerances, velocities or another count ranks its own designs (use --top)")

@@ -20,7 +20,7 @@ from synth.errors import InputError
 from synth.synthesis.taskfit import FitSummary, annotate, select, visiting_order
 from synth.task import Order, PoseSet
 
-__all__ = ["task_kind", "is_task", "sixbar_task", "CONDITIONS"]
+__all__ = ["task_kind", "is_sixbar_task", "sixbar_task", "CONDITIONS"]
 
 CONDITIONS = 22  # a cubic 6R motion has 21 degrees of freedom; a task needs at least 22 conditions
 
@@ -41,7 +41,7 @@ def task_kind(ps: PoseSet) -> str:
     return "fit"
 
 
-def is_task(ps: PoseSet) -> bool:
+def is_sixbar_task(ps: PoseSet) -> bool:
     """Whether a pose set needs `sixbar_task` rather than the classic four-pose scan."""
     return task_kind(ps) != "exact" or ps.order is Order.LISTED
 

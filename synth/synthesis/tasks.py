@@ -1,4 +1,4 @@
-"""The task entry points of the Python API (``synth.bennett``, ``synth.sixbar``, ``synth.fit``; docs/fit.md,
+"""The task entry points of the Python API (``synth.bennett``, ``synth.fit``; docs/fit.md,
 docs/sixbar_fit.md): a classic pose
 array goes to the exact synthesis, a task (tolerances, velocities, an order, other counts) to the task
 synthesis of its kind.
@@ -11,7 +11,7 @@ from synth.synthesis.bennett_fit import bennett_task
 from synth.synthesis.taskfit import make_task
 from synth.task import PoseSet
 
-__all__ = ["bennett", "sixbar", "fit"]
+__all__ = ["bennett", "fit"]
 
 
 def bennett(poses, names=None, *, tolerance=None, velocity=None, order=None, best_effort: bool = False, **kw):
@@ -24,19 +24,6 @@ def bennett(poses, names=None, *, tolerance=None, velocity=None, order=None, bes
     if isinstance(poses, PoseSet) or tolerance is not None or velocity is not None or order is not None:
         return fit(poses, names, tolerance=tolerance, velocity=velocity, order=order, best_effort=best_effort)[0]
     return exact_bennett(poses, names, **kw)
-
-
-def sixbar(poses, names=None, *, tolerance=None, velocity=None, order=None, best_effort: bool = False, **kw):
-    """The best 6R linkage of four poses (`synth.synthesis.sixbar.sixbar`, keywords ``family``, ``member``,
-    ``pair``, ``grid``, ``check_samples``), or of a task (a `synth.task.PoseSet`, or poses (N, 4, 4) with
-    ``tolerance``, ``velocity`` and/or ``order`` as `bennett`): exact for four poses or a Hermite pair
-    (two poses with a velocity at each), else fitted (`synth.synthesis.sixbar_task.sixbar_task`)."""
-    if isinstance(poses, PoseSet) or tolerance is not None or velocity is not None or order is not None:
-        return fit(poses, names, tolerance=tolerance, velocity=velocity, order=order, kind="6r",
-                   best_effort=best_effort)[0]
-    from synth.synthesis.sixbar import sixbar as exact_sixbar
-
-    return exact_sixbar(poses, names, **kw)
 
 
 def fit(poses, names=None, *, tolerance=None, velocity=None, order=None, kind: str = "bennett", top: int = 1,
