@@ -28,9 +28,12 @@ Examples:
 @click.option("--pair", type=click.IntRange(1, 9), help="Only this loop pair (1..9) of the member's factorizations.")
 @click.option("--top", type=click.IntRange(1, 1000), default=None,
               help="Write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
+@click.option("--best-effort", is_flag=True,
+              help="Fits: when the tolerances cannot be met, write the best linkage anyway (info.fit.within_tolerance "
+                   "false) instead of exiting 1.")
 @synthesis_options
 @run_guarded
-def sixbar(poses, family, member, pair, top, **params):
+def sixbar(poses, family, member, pair, top, best_effort, **params):
     """Synthesize a spatial 6R linkage whose coupler passes through the four poses in POSES (YAML or
     JSON, '-' for stdin; see README for the format). With seven points instead (a `points:` list, or
     poses with a position only; 4 to 6: the rest is chosen) the tool point passes through them
@@ -43,15 +46,21 @@ def sixbar(poses, family, member, pair, top, **params):
     from synth.io.poses import load_poses
     from synth.solve import SynthesisOptions, solve_sixbar
 
+    from synth.synthesis.sixbar_task import is_sixbar_task
+
     from .points import emit_points, point_count
+    from .task import emit_task
 
     output = Output.of(params)
-    ps = load_poses(poses, count=(4, "mpsynth sixbar"), normalize=params["normalize"], points=point_count(3))
-    if member is not None and not ps.has_points:
+    ps = load_poses(poses, count=((2, None), "mpsynth sixbar"), normalize=params["normalize"], points=point_count(3))
+    task = not ps.has_points and is_sixbar_task(ps)  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
+    if member is not None and not ps.has_points and not task:
         member = parse_member(member)
     options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=member,
-                               family=family, pair=pair, **drive_options(params))
+                               family=family, pair=pair, best_effort=best_effort, **drive_options(params))
     result = solve_sixbar(ps, options, progress=lambda items, label: progress(items, label, output.quiet))
+    if task:
+        return emit_task(result, ps, output, top)
     if ps.has_points:
         return emit_points(result, ps, output, top)
     if top is None:

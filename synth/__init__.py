@@ -5,6 +5,7 @@
     Ls = synth.fit(many, tolerance=(1e-3, 0.01), order="listed")    # (N, 4, 4): fitted (docs/fit.md)
     Ls = synth.fit(load_poses("task.yaml"), top=3)                   # a task file's PoseSet -> best fits
     L = synth.sixbar(poses4)            # (4, 4, 4) -> the best 6R Linkage (options: family, member, pair)
+    Ls = synth.fit(many, tolerance=(1e-3, 0.01), kind="6r")  # (N, 4, 4): fitted 6R linkages (docs/sixbar_fit.md)
                                         # planar/spherical poses: a four-bar / Watt six-bar (docs/planar.md)
     L = synth.fourbar(poses)            # (k, 4, 4) coplanar, k >= 3 -> the best planar four-bar (docs/fourbar.md)
     L = synth.bennett_points(pts)       # (5, 3) points, metres -> Bennett Linkage whose tool point visits them

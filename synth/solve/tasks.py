@@ -162,14 +162,16 @@ def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: 
     return _finish(linkage, result, designer, options, ps.constraints)
 
 
-def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress) -> Result:
-    """A task file's Bennett linkage (exact, Hermite or fitted: `synth.synthesis.bennett_fit.bennett_task`;
+def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress, synthesize=None) -> Result:
+    """A task file's linkage (exact, Hermite or fitted: ``synthesize(ps, top=, best_effort=)``, default
+    `synth.synthesis.bennett_fit.bennett_task`, for 6R `synth.synthesis.sixbar_task.sixbar_task`;
     ``options.best_effort``: the best fit even when a tolerance is missed); the best fits within tolerance
     designed, collision-free first, or with ``top`` the N best ranked."""
-    from synth.synthesis.bennett_fit import bennett_task
+    if synthesize is None:
+        from synth.synthesis.bennett_fit import bennett_task as synthesize
 
     want = options.top or ((CONSTRAINED if ps.constraints else TASK_CHOICE["limit"]) if options.wants_design else 1)
-    linkages = bennett_task(ps, top=want, best_effort=options.best_effort)
+    linkages = synthesize(ps, top=want, best_effort=options.best_effort)
     if options.top is not None:
         return _ranked(linkages, designer, options, task_solution_id, lambda lks, ids: task_index(lks, ids, ps),
                        "fits", progress, ps.constraints)
@@ -184,10 +186,17 @@ def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress) -> 
 def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress=None) -> Result:
     """Four poses: the 6R linkage (explicit family/member/pair: the best-scored such; else, with a
     physical design, the best-scored candidates designed, collision-free first), or with ``top`` the N
-    best ranked; seven points: `solve_points`."""
+    best ranked; seven points: `solve_points`; a task (tolerances, velocities, an order, other counts):
+    `synth.synthesis.sixbar_task.sixbar_task` as `_solve_task`."""
     from synth.synthesis.sixbar import sixbar, sixbar_candidates
+    from synth.synthesis.sixbar_task import is_sixbar_task, sixbar_task
 
     designer = _designer(ps, options)
+    if not ps.has_points and is_sixbar_task(ps):  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
+        if options.explicit:
+            raise InputError("--family, --member and --pair select among the cubics through four exact poses; a "
+                             "task with tolerances, velocities or another count ranks its own designs (use --top)")
+        return _solve_task(ps, designer, options, progress, sixbar_task)
     if ps.has_points:
         if options.explicit:
             raise InputError("--family, --member and --pair select among the cubics through four poses; a point "
