@@ -296,3 +296,19 @@ def write_ranked(result, output: Output) -> None:
     base = output.name or default_robot_name(result.source)
     write_solutions(output.dir, [(s.id, s.linkage, f"{base}_{s.id.replace('-', '_')}", s.design)
                                  for s in result.solutions], result.index, force=output.force, package=output.package)
+
+
+def finish_ranked(result, output: Output) -> None:
+    """The ending of a ``--top`` run after its ranking table: OUT/<id>/ and OUT/index.json written
+    (`write_ranked`) and said, or that nothing was written; the index document on stdout with --json."""
+    ids = [s.id for s in result.solutions]
+    if output.dir:
+        write_ranked(result, output)
+        if not output.quiet:
+            echo(f"  wrote {output.dir}/: index.json and {len(ids)} solution directories ({', '.join(ids)})")
+    elif not output.quiet and not output.as_json:
+        echo("  no files written (give -o OUT to write every design's URDF, STL and JSON)")
+    if output.as_json:
+        from synth.io.jsonout import plain
+
+        print_json(plain(result.index))

@@ -12,6 +12,7 @@ import click  # the ^C hooks are installed by the package (cli/__init__.py) befo
 COMMANDS = {
     "bennett": ("cli.bennett:bennett", "Three poses -> a Bennett 4R (planar/spherical: a four-bar), URDF + STL + JSON."),
     "sixbar": ("cli.sixbar:sixbar", "Four poses -> ranked spatial 6R linkages, or a planar/spherical Watt six-bar."),
+    "fourbar": ("cli.fourbar:fourbar", "3-5 coplanar poses (or more, fitted) -> a ranked planar four-bar (Burmester), URDF + STL + JSON."),
     "factor": ("cli.factor:factor", "Factorize a motion polynomial into linear factors (joints)."),
     "flip": ("cli.flip:flip", "Bennett flip: (t-m)(t-h) = (t-k)(t-n)."),
     "curve": ("cli.curve:curve", "A multi-loop linkage that performs a rational motion or draws a rational curve."),

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from .common import Output, design_options, drive_options, echo, print_json, progress, run_guarded, synthesis_options, write_ranked
+from .common import Output, design_options, drive_options, echo, finish_ranked, progress, run_guarded, synthesis_options
 
 
 @click.command(epilog="""\b
@@ -28,9 +28,12 @@ Examples:
 @click.option("--pair", type=click.IntRange(1, 9), help="Only this loop pair (1..9) of the member's factorizations.")
 @click.option("--top", type=click.IntRange(1, 1000), default=None,
               help="Write the N best designs to OUT/<id>/ with OUT/index.json and print the ranking.")
+@click.option("--best-effort", is_flag=True,
+              help="Fits: when the tolerances cannot be met, write the best linkage anyway (info.fit.within_tolerance "
+                   "false) instead of exiting 1.")
 @synthesis_options
 @run_guarded
-def sixbar(poses, family, member, pair, top, **params):
+def sixbar(poses, family, member, pair, top, best_effort, **params):
     """Synthesize a spatial 6R linkage whose coupler passes through the four poses in POSES (YAML or
     JSON, '-' for stdin; see README for the format). With seven points instead (a `points:` list, or
     poses with a position only; 4 to 6: the rest is chosen) the tool point passes through them
@@ -43,15 +46,21 @@ def sixbar(poses, family, member, pair, top, **params):
     from synth.io.poses import load_poses
     from synth.solve import SynthesisOptions, solve_sixbar
 
+    from synth.synthesis.sixbar_task import is_sixbar_task
+
     from .points import emit_points, point_count
+    from .task import emit_task
 
     output = Output.of(params)
-    ps = load_poses(poses, count=(4, "mpsynth sixbar"), normalize=params["normalize"], points=point_count(3))
-    if member is not None and not ps.has_points:
+    ps = load_poses(poses, count=((2, None), "mpsynth sixbar"), normalize=params["normalize"], points=point_count(3))
+    task = not ps.has_points and is_sixbar_task(ps)  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
+    if member is not None and not ps.has_points and not task:
         member = parse_member(member)
     options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=member,
-                               family=family, pair=pair, **drive_options(params))
+                               family=family, pair=pair, best_effort=best_effort, **drive_options(params))
     result = solve_sixbar(ps, options, progress=lambda items, label: progress(items, label, output.quiet))
+    if task:
+        return emit_task(result, ps, output, top)
     if ps.has_points:
         return emit_points(result, ps, output, top)
     if top is None:
@@ -118,13 +127,4 @@ def _ranked(result, ps, output, top: int) -> None:
             echo(row)
         for sol in doc["solutions"] if designed else ():
             echo(f"  {sol['id']}: {sol['design_summary']}")
-    if output.dir:
-        write_ranked(result, output)
-        if not output.quiet:
-            echo(f"  wrote {output.dir}/: index.json and {len(ids)} solution directories ({', '.join(ids)})")
-    elif not output.quiet and not output.as_json:
-        echo("  no files written (give -o OUT to write every design's URDF, STL and JSON)")
-    if output.as_json:
-        from synth.io.jsonout import plain
-
-        print_json(plain(doc))
+    finish_ranked(result, output)

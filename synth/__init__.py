@@ -5,7 +5,9 @@
     Ls = synth.fit(many, tolerance=(1e-3, 0.01), order="listed")    # (N, 4, 4): fitted (docs/fit.md)
     Ls = synth.fit(load_poses("task.yaml"), top=3)                   # a task file's PoseSet -> best fits
     L = synth.sixbar(poses4)            # (4, 4, 4) -> the best 6R Linkage (options: family, member, pair)
+    Ls = synth.fit(many, tolerance=(1e-3, 0.01), kind="6r")  # (N, 4, 4): fitted 6R linkages (docs/sixbar_fit.md)
                                         # planar/spherical poses: a four-bar / Watt six-bar (docs/planar.md)
+    L = synth.fourbar(poses)            # (k, 4, 4) coplanar, k >= 3 -> the best planar four-bar (docs/fourbar.md)
     L = synth.bennett_points(pts)       # (5, 3) points, metres -> Bennett Linkage whose tool point visits them
     L = synth.sixbar_points(pts7)       # (7, 3) -> the best 6R Linkage; synth.point_candidates(.., top=N): ranked
     R = synth.bennett_batch(many)       # (N, 3, 4, 4) -> BennettBatch: arrays over N, per-set status
@@ -33,15 +35,16 @@ from __future__ import annotations
 
 import importlib
 
-__all__ = ["bennett", "fit", "sixbar", "bennett_points", "sixbar_points", "point_candidates", "bennett_batch", "sweep",
+__all__ = ["bennett", "fit", "sixbar", "fourbar", "bennett_points", "sixbar_points", "point_candidates", "bennett_batch", "sweep",
            "factorize", "BennettBatch", "Linkage", "Kind", "MpsynthError",
-           "solve_bennett", "solve_sixbar", "solve_points", "solve_curve", "SynthesisOptions", "DesignOptions", "Result",
+           "solve_bennett", "solve_sixbar", "solve_fourbar", "solve_points", "solve_curve", "SynthesisOptions", "DesignOptions", "Result",
            "InputError", "SynthesisError"]
 
 _LAZY = {
     "bennett": "synth.synthesis.bennett",
     "fit": "synth.synthesis.tasks",
     "sixbar": "synth.synthesis.sixbar",
+    "fourbar": "synth.synthesis.fourbar",
     "bennett_points": "synth.synthesis.points",
     "sixbar_points": "synth.synthesis.points",
     "point_candidates": "synth.synthesis.points",
@@ -53,6 +56,7 @@ _LAZY = {
     "Kind": "synth.linkage",
     "solve_bennett": "synth.solve",
     "solve_sixbar": "synth.solve",
+    "solve_fourbar": "synth.solve",
     "solve_points": "synth.solve",
     "solve_curve": "synth.solve",
     "SynthesisOptions": "synth.solve",

@@ -9,13 +9,14 @@ one batched product per joint for all poses and samples at once.
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
 from synth.algebra.algorithm1 import identity
 from synth.algebra.anglelaw import half_angle
 from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq
-from synth.algebra.geometry import dq_pose_difference
+from synth.algebra.geometry import dq_pose_difference, pose_difference
 from synth.algebra.polynomial import evaluate, exponents, product_of_linear
 from synth.linkage import Linkage
 
@@ -199,8 +200,11 @@ def structure(linkage: Linkage) -> tuple:
 
 
 def linkage_figures(linkage: Linkage, samples: int) -> dict:
-    """`check_figures` for one linkage (a batch of one), as floats."""
+    """`check_figures` for one linkage (a batch of one), as floats (`loop_law_figures` for a linkage whose
+    joints follow a loop law)."""
     js = linkage.joints
+    if any(j.law is not None for j in js):
+        return loop_law_figures(linkage, samples)
     lines = np.array([(j.direction, j.moment) for j in js], float)  # (J, 2, 3)
     a = np.array([[j.a for j in js]])
     b = np.array([[j.b for j in js]])
@@ -211,6 +215,23 @@ def linkage_figures(linkage: Linkage, samples: int) -> dict:
     out = check_figures(structure(linkage), lines[None, :, 0], lines[None, :, 1], a, b, ang, Q[None, :-1], Q[None, -1],
                         np.asarray(linkage.motion, float)[None], samples, rate)
     return {k: float(v[0]) for k, v in out.items()}
+
+
+def loop_law_figures(linkage: Linkage, samples: int) -> dict:
+    """The figures of `linkage_figures` for a linkage with loop laws (a planar four-bar, docs/fourbar.md),
+    by forward kinematics: the tool frame at every pose's joint angles against the pose, and every welded
+    pair along the joint angles at ``samples`` parameters covering the cycle. No motion polynomial: the
+    motion figure is NaN."""
+    T = np.array([rec.matrix for rec in linkage.poses], float).reshape(-1, 4, 4)
+    disp = [linkage.tool_pose(rec.joint_angles) for rec in linkage.poses]
+    pt, pr = pose_difference(np.array(disp).reshape(-1, 4, 4), T) if len(T) else (np.zeros(1), np.zeros(1))
+    D = linkage.displacements(linkage.angles_at(sample_parameters(linkage, samples)))
+    ct = cr = 0.0
+    for a, b in linkage.closures:
+        dt, dr = pose_difference(D[a], D[b])
+        ct, cr = max(ct, float(np.max(dt))), max(cr, float(np.max(dr)))
+    return {"pose_translation": float(np.max(pt, initial=0.0)), "pose_rotation": float(np.max(pr, initial=0.0)),
+            "closure_translation": ct, "closure_rotation": cr, "motion": math.nan}
 
 
 def as_checks(fig: dict, samples: int, length_scale: float, bounded: bool = False) -> dict[str, float]:

@@ -177,6 +177,9 @@ def _laws(linkage: Linkage) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             np.array([j.rate for j in linkage.joints]))
 
 
+LOOP_LAW_SAMPLES = 4001  # driver angles sampling a four-bar's speed ratios (smooth: relative error ~1e-6)
+
+
 def follower_angles(linkage: Linkage, driver: str, phi) -> tuple[np.ndarray, np.ndarray]:
     """(angles, d angle / d phi), each (..., J) in the order of ``linkage.joints``, when ``driver`` is
     at angle(s) ``phi`` (any real: whole turns of the driver give whole turns of every joint); every
@@ -189,15 +192,25 @@ def follower_angles(linkage: Linkage, driver: str, phi) -> tuple[np.ndarray, np.
     ang[..., k] = phi
     dang = driven_speed(a, b, d.a, d.b, phi[..., None], r, d.rate)
     dang[..., k] = 1.0
+    for i, j in enumerate(linkage.joints):  # a planar four-bar: the loop law of the crank's angle (docs/fourbar.md)
+        if j.law is not None:
+            if d.law is not None:
+                raise InputError(f"a planar four-bar is driven by its crank, not by {driver}")
+            ang[..., i], dang[..., i] = j.law.continued(ang[..., i]), j.law.speed(ang[..., i]) * dang[..., i]
     return ang, dang
 
 
 def speed_ratio(linkage: Linkage, driver: str, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
     """(J,) the largest |d theta_j / d theta_driver| over driver angles [lo, hi] and (J,) the driver angle
-    where it is reached, exactly (`driven_speed_max`); the driver's own entry is 1 at lo."""
+    where it is reached, exactly (`driven_speed_max`); the driver's own entry is 1 at lo. A planar four-bar's
+    loop-law joints (docs/fourbar.md): the largest of LOOP_LAW_SAMPLES equally spaced driver angles."""
     d = linkage.joint(driver)
     a, b, r = _laws(linkage)
     ratio, at = driven_speed_max(a, b, d.a, d.b, lo, hi, r, d.rate)
+    if any(j.law is not None for j in linkage.joints):
+        phi = np.linspace(lo, hi, LOOP_LAW_SAMPLES)
+        speed = np.abs(follower_angles(linkage, driver, phi)[1])  # (samples, J)
+        ratio, at = speed.max(axis=0), phi[np.argmax(speed, axis=0)]
     k = [j.name for j in linkage.joints].index(driver)
     ratio[k], at[k] = 1.0, lo
     return ratio, at

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from synth.algebra.anglelaw import angle_law, angle_law_inverse
+from synth.algebra.fourbar_loop import FourBarLaw
 from synth.algebra.geometry import extent, joint_sites, line_point, rotation_about_line
 
 
@@ -70,6 +71,8 @@ class Joint:
     a: float  # angle law theta(t) = rate * 2 atan2(b, t - a)
     b: float
     rate: int = 1  # the joint of a factor (t - h)^rate (docs/exceptional.md, section 6)
+    law: FourBarLaw | None = None  # a planar four-bar's loop law: the angle is law.angle(crank angle), the
+    # crank's angle being the law (a, b) above (docs/fourbar.md); None: (a, b, rate) is this joint's own law
 
     @property
     def point(self) -> np.ndarray:
@@ -78,11 +81,15 @@ class Joint:
 
     def angle(self, t):
         """Joint angle (rad) at parameter t (scalar or array; +-inf gives 0), in [0, 2pi)."""
-        return angle_law(self.a, self.b, t, self.rate)
+        theta = angle_law(self.a, self.b, t, self.rate)
+        return theta if self.law is None else self.law.angle(theta)
 
     def parameter(self, theta, branch: int = 0):
         """Parameter t where the joint is at angle theta (`synth.algebra.anglelaw.angle_law_inverse`;
-        a joint of rate r reaches every angle at r parameters, ``branch`` 0 .. r - 1); theta = 0: inf."""
+        a joint of rate r reaches every angle at r parameters, ``branch`` 0 .. r - 1); theta = 0: inf.
+        Not for a joint with a loop ``law`` (its angle is not a bijection of the cycle): ValueError."""
+        if self.law is not None:
+            raise ValueError(f"joint {self.name} follows a loop law: invert the crank's angle law instead")
         return angle_law_inverse(self.a, self.b, theta, self.rate, branch)
 
 

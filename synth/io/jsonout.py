@@ -3,7 +3,8 @@
 Beyond the contract's required keys we add (the contract allows new keys): ``poses[].t`` (the motion
 parameter of the pose, null for t = infinity), ``poses[].kind = "point"`` and ``poses[].position`` for the points
 of a point task (docs/points.md), ``joints[].parent/child/angle_law`` (theta(t) =
-rate * 2 atan2(b, t - a); ``rate`` written only when it is not 1), ``links`` (link -> joints it carries), ``tool_link``, ``tool_ref`` and ``info``
+rate * 2 atan2(b, t - a); ``rate`` written only when it is not 1; ``fourbar``: a planar four-bar's loop law of
+the crank's angle, docs/fourbar.md), ``links`` (link -> joints it carries), ``tool_link``, ``tool_ref`` and ``info``
 (the linkage's kind-specific extras), ``design`` (the physical design: `PhysicalDesign.to_dict`, with
 every pin's length and mesh file: the bill of materials) and ``collision`` (what the design achieves:
 `CollisionReport.to_dict`) and ``stl`` (the STL files' unit, millimetres, with the URDF mesh scale 0.001,
@@ -84,12 +85,13 @@ def linkage_document(linkage, design=None, collision=None, drive=None) -> dict:
             {"name": j.name,
              "line": {"direction": np.asarray(j.direction, float), "moment": np.asarray(j.moment, float)},
              "parent": j.parent, "child": j.child,
-             "angle_law": {"a": float(j.a), "b": float(j.b), **({"rate": int(j.rate)} if j.rate != 1 else {})}}
+             "angle_law": {"a": float(j.a), "b": float(j.b), **({"rate": int(j.rate)} if j.rate != 1 else {}),
+                           **({"fourbar": j.law.to_dict()} if j.law is not None else {})}}
             for j in linkage.joints
         ],
         "branches": [list(b) for b in linkage.branches],
         "closures": [list(c) for c in linkage.closures],
-        "motion_polynomial": np.asarray(linkage.motion, float),
+        "motion_polynomial": None if linkage.motion is None else np.asarray(linkage.motion, float),
         "checks": dict(linkage.checks),
         "links": {k: list(v) for k, v in linkage.links.items()},
         "tool_link": linkage.tool_link,

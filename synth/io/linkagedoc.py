@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from synth.algebra.fourbar_loop import FourBarLaw
 from synth.errors import InputError
 from synth.linkage import Joint, Linkage, PoseRecord
 
@@ -46,6 +47,30 @@ def angle_rates(doc: dict) -> dict[str, int]:
     return rates
 
 
+def _loop_law(law: dict, where: str) -> FourBarLaw | None:
+    """The planar four-bar loop law of an ``angle_law`` entry (its ``fourbar`` key, docs/fourbar.md), or None."""
+    if "fourbar" not in law:
+        return None
+    try:
+        return FourBarLaw.from_dict(law["fourbar"])
+    except (KeyError, TypeError, ValueError) as e:
+        raise InputError(f"{where}: bad four-bar loop law ({e})") from None
+
+
+def loop_laws(doc: dict) -> dict[str, FourBarLaw]:
+    """joint -> its planar four-bar loop law (``joints[].angle_law.fourbar``) for the joints of a linkage.json
+    document that have a well-formed one (nothing is judged here)."""
+    out = {}
+    for name, law in _law_entries(doc):
+        try:
+            fb = _loop_law(law, name)
+        except InputError:
+            continue
+        if fb is not None:
+            out[name] = fb
+    return out
+
+
 def _arr(x, shape, where):
     try:
         a = np.array(x, dtype=float)
@@ -83,7 +108,8 @@ def linkage_from_document(doc: dict, where: str = "linkage.json") -> Linkage:
             rate = law.get("rate", 1)
             if isinstance(rate, bool) or not isinstance(rate, int) or rate < 1:
                 raise InputError(f"{where}: joint {jd['name']}: angle law rate {rate!r} is not a positive integer")
-            joints.append(Joint(str(jd["name"]), str(jd["parent"]), str(jd["child"]), u, m, a, b, rate))
+            joints.append(Joint(str(jd["name"]), str(jd["parent"]), str(jd["child"]), u, m, a, b, rate,
+                                _loop_law(law, f"{where}: joint {jd['name']}")))
         poses = []
         for i, pd in enumerate(doc.get("poses", [])):
             t = pd.get("t", None)

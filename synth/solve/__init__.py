@@ -4,13 +4,13 @@
     ps = synth.io.poses.load_poses("fixtures/bennett_quat.yaml")
     R = solve_bennett(ps, SynthesisOptions(physical=True))   # R.linkage, R.design, R.sentence()
 
-`solve_bennett`, `solve_sixbar`, `solve_points`, `solve_curve` (`synth.solve.tasks`) are what
+`solve_bennett`, `solve_sixbar`, `solve_fourbar`, `solve_points`, `solve_curve` (`synth.solve.tasks`) are what
 `mpsynth bennett|sixbar|curve` and `mpsynth batch` call: the same gates, ranking and choice of design
 for a shell user and a notebook user. Layer: below `synth.io` (which writes a Result), above
 `synth.design` and `synth.synthesis`.
 """
 from synth.solve.options import DesignOptions, SynthesisOptions
-from synth.solve.tasks import Result, Solution, solve_bennett, solve_curve, solve_points, solve_sixbar
+from synth.solve.tasks import Result, Solution, solve_bennett, solve_curve, solve_fourbar, solve_points, solve_sixbar
 
-__all__ = ["DesignOptions", "SynthesisOptions", "Result", "Solution", "solve_bennett", "solve_sixbar", "solve_points",
+__all__ = ["DesignOptions", "SynthesisOptions", "Result", "Solution", "solve_bennett", "solve_sixbar", "solve_fourbar", "solve_points",
            "solve_curve"]

@@ -6,6 +6,7 @@ from __future__ import annotations
 SIXBAR_FORMAT = "mpsynth.sixbar-index/1"
 POINTS_FORMAT = "mpsynth.points-index/1"
 TASK_FORMAT = "mpsynth.task-index/1"
+FOURBAR_FORMAT = "mpsynth.fourbar-index/1"
 SIXBAR_CHECKS = ("max_pose_error", "max_pose_translation_error", "max_pose_rotation_error", "max_closure_error",
                  "max_closure_translation_error", "max_closure_rotation_error", "max_motion_error")
 POINT_CHECKS = ("max_pose_error", "max_pose_translation_error", "max_closure_error")
@@ -68,6 +69,20 @@ def task_index(linkages, ids, ps) -> dict:
             for r, (sid, lk) in enumerate(zip(ids, linkages), start=1)]
     return {"format": TASK_FORMAT, "kind": linkages[0].kind, "task": "poses", "poses": ps.source,
             "units": dict(UNITS), "solutions": sols}
+
+
+def fourbar_index(linkages, ids, ps) -> dict:
+    """index.json of ranked four-bars of the task ``ps``: lengths, transmission, extent, cost, checks."""
+    sols = []
+    for rank, (lk, sid) in enumerate(zip(linkages, ids), start=1):
+        f = lk.info["fourbar"]
+        sols.append({"id": sid, "rank": rank, "path": f"{sid}/", "lengths": f["lengths"],
+                     "transmission_min_deg": f["transmission_min_deg"], "extent": f["extent"], "cost": f["cost"],
+                     "checks": {k: lk.checks[k] for k in ("max_pose_error", "max_closure_error")},
+                     **({"fit": lk.info["fit"]} if "fit" in lk.info else {})})
+    return {"format": FOURBAR_FORMAT, "kind": "planar_fourbar", "poses": ps.source, "units": dict(UNITS),
+            "input_length_unit": ps.length_unit, "input_length_scale": ps.length_scale,
+            "score_rule": linkages[0].info["score_rule"], "solutions": sols}
 
 
 def add_collisions(solutions: list, results, sentence) -> None:

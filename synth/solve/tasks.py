@@ -1,6 +1,6 @@
 """One entry point per task kind: the decisions the CLI, batch jobs and notebooks share.
 
-``solve_bennett(ps, options)``, ``solve_sixbar``, ``solve_points``, ``solve_curve`` take a validated task
+``solve_bennett(ps, options)``, ``solve_sixbar``, ``solve_fourbar``, ``solve_points``, ``solve_curve`` take a validated task
 (`synth.task.PoseSet`, or a parsed curve/motion spec) and `SynthesisOptions` and return a `Result`: the
 chosen linkage, its physical design (when asked for) and, for ``top``, the ranked solutions with their
 index document. They apply every gate (verification, transmission, collision-freedom when required),
@@ -19,8 +19,8 @@ from synth.design.work import GAPS_PER_SECOND
 from synth.drive import drive_report
 from synth.errors import InputError, SynthesisError
 from synth.solve.choose import Designer
-from synth.solve.index import (add_collisions, point_index, point_solution_id, sixbar_index, sixbar_solution_id,
-                               task_index, task_solution_id)
+from synth.solve.index import (add_collisions, fourbar_index, point_index, point_solution_id, sixbar_index,
+                               sixbar_solution_id, task_index, task_solution_id)
 from synth.solve.options import SynthesisOptions
 
 # default designs: the best-scored candidates designed, collision-free first (`Designer.choose`), within
@@ -29,6 +29,7 @@ BENNETT_CHOICE = dict(limit=4, work=4.0 * GAPS_PER_SECOND)  # members of a plana
 SIXBAR_CHOICE = dict(limit=8, work=7.0 * GAPS_PER_SECOND)
 POINTS_CHOICE = dict(limit=4, work=7.0 * GAPS_PER_SECOND)
 TASK_CHOICE = dict(limit=3, work=4.0 * GAPS_PER_SECOND)  # the best fits of a task file, within tolerance
+FOURBAR_CHOICE = dict(limit=4, work=4.0 * GAPS_PER_SECOND)  # the best-ranked planar four-bars
 CONSTRAINED = 16  # with constraints in the task file: this many candidates filtered by them (sixbar: twice)
 POINT_COMMAND = {2: "mpsynth bennett", 3: "mpsynth sixbar"}
 
@@ -161,14 +162,16 @@ def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: 
     return _finish(linkage, result, designer, options, ps.constraints)
 
 
-def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress) -> Result:
-    """A task file's Bennett linkage (exact, Hermite or fitted: `synth.synthesis.bennett_fit.bennett_task`;
+def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress, synthesize=None) -> Result:
+    """A task file's linkage (exact, Hermite or fitted: ``synthesize(ps, top=, best_effort=)``, default
+    `synth.synthesis.bennett_fit.bennett_task`, for 6R `synth.synthesis.sixbar_task.sixbar_task`;
     ``options.best_effort``: the best fit even when a tolerance is missed); the best fits within tolerance
     designed, collision-free first, or with ``top`` the N best ranked."""
-    from synth.synthesis.bennett_fit import bennett_task
+    if synthesize is None:
+        from synth.synthesis.bennett_fit import bennett_task as synthesize
 
     want = options.top or ((CONSTRAINED if ps.constraints else TASK_CHOICE["limit"]) if options.wants_design else 1)
-    linkages = bennett_task(ps, top=want, best_effort=options.best_effort)
+    linkages = synthesize(ps, top=want, best_effort=options.best_effort)
     if options.top is not None:
         return _ranked(linkages, designer, options, task_solution_id, lambda lks, ids: task_index(lks, ids, ps),
                        "fits", progress, ps.constraints)
@@ -183,10 +186,17 @@ def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress) -> 
 def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress=None) -> Result:
     """Four poses: the 6R linkage (explicit family/member/pair: the best-scored such; else, with a
     physical design, the best-scored candidates designed, collision-free first), or with ``top`` the N
-    best ranked; seven points: `solve_points`."""
+    best ranked; seven points: `solve_points`; a task (tolerances, velocities, an order, other counts):
+    `synth.synthesis.sixbar_task.sixbar_task` as `_solve_task`."""
     from synth.synthesis.sixbar import sixbar, sixbar_candidates
+    from synth.synthesis.sixbar_task import is_sixbar_task, sixbar_task
 
     designer = _designer(ps, options)
+    if not ps.has_points and is_sixbar_task(ps):  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
+        if options.explicit:
+            raise InputError("--family, --member and --pair select among the cubics through four exact poses; a "
+                             "task with tolerances, velocities or another count ranks its own designs (use --top)")
+        return _solve_task(ps, designer, options, progress, sixbar_task)
     if ps.has_points:
         if options.explicit:
             raise InputError("--family, --member and --pair select among the cubics through four poses; a point "
@@ -210,6 +220,39 @@ def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress
     linkage = _admissible([sixbar(ps.matrices, ps.names, **pick, check_samples=VERIFY_SAMPLES)], designer, options,
                           ps.constraints)[0]
     return _finish(linkage, None, designer, options, ps.constraints)
+
+
+def solve_fourbar(ps, options: SynthesisOptions = SynthesisOptions(), *, min_transmission_deg: float = 40.0,
+                  ready=None, progress=None) -> Result:
+    """Three or more coplanar poses (a `synth.task.PoseSet`): the best planar four-bar
+    (`synth.synthesis.fourbar.fourbar_candidates`; with a physical design the best four designed,
+    collision-free first), or with ``options.top`` the N best ranked. Velocities and constraints are not
+    supported (InputError); ``ready()`` is called before the work."""
+    from synth.synthesis.fourbar import fourbar_candidates
+
+    if ps.has_points:
+        raise InputError(f"{ps.source}: mpsynth fourbar needs poses (position and orientation), not points")
+    if ps.velocity is not None and (ps.velocity == ps.velocity).any():
+        raise InputError(f"{ps.source}: mpsynth fourbar does not take pose velocities (yet); remove 'velocity' or use "
+                         "mpsynth bennett")
+    if ps.constraints is not None:
+        raise InputError(f"{ps.source}: mpsynth fourbar does not take 'constraints' (yet); remove them")
+    designer = _designer(ps, options)
+    if ready is not None:
+        ready()
+    want = options.top or (FOURBAR_CHOICE["limit"] if options.wants_design else 1)
+    try:
+        linkages = fourbar_candidates(ps.matrices, ps.names, top=want, min_transmission_deg=min_transmission_deg,
+                                      order=ps.order, tolerance=ps.tolerance, source=ps.source)
+    except SynthesisError as e:  # name the file, like every input error
+        raise SynthesisError(e.args[0] if str(e).startswith(ps.source) else f"{ps.source}: {e}") from e
+    if options.top is not None:
+        return _ranked(linkages, designer, options, lambda r, lk: f"{r:02d}-fourbar",
+                       lambda lks, ids: fourbar_index(lks, ids, ps), "four-bars", progress)
+    linkage, result = linkages[0], None
+    if options.wants_design and len(linkages) > 1:
+        linkage, result = designer.choose(linkages, what="four-bars", **FOURBAR_CHOICE)
+    return _finish(linkage, result, designer, options)
 
 
 def point_count(degree: int):

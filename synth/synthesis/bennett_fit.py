@@ -28,7 +28,7 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
 from synth.synthesis.fit import (reference_pose, ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, MotionModel, gauge_items, gauge_matrix, inv2,
                                  levenberg_marquardt, project, regauge, task_arrays)
-from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, tolerance_problem, visiting_order, visits_in_order
+from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, select, visiting_order
 from synth.task import Order, PoseSet
 
 __all__ = ["bennett_task", "is_task", "hermite_conic", "fit_motion", "linkage_of", "MAX_TRIPLES", "KEEP"]
@@ -287,16 +287,7 @@ def _bennett_task(ps: PoseSet, top: int, best_effort: bool) -> list:
             check_fitted(lk)  # (fits are checked in `_fitted`)
         annotate(lk, ps, s)
         results.append(lk)
-    if ps.order is Order.LISTED:
-        listed = [lk for lk in results if visits_in_order([r.t for r in lk.poses])]
-        if not listed:
-            raise SynthesisError(f"{ps.source}: no Bennett linkage found visits the poses in the listed order (the "
-                                 f"best visits {', '.join(results[0].info['fit']['visit_order'])})")
-        results = listed
-    results.sort(key=lambda lk: not lk.info["fit"]["within_tolerance"])
-    if not results[0].info["fit"]["within_tolerance"] and not best_effort:
-        raise SynthesisError(f"{ps.source}: {tolerance_problem(results[0], ps)}")
-    return results[:top]
+    return select(results, ps, top, best_effort, "Bennett")
 
 
 def _hermite(ps: PoseSet):

@@ -18,8 +18,8 @@ from synth.synthesis.bennett_core import ACCEPT_TOL
 from synth.synthesis.conditioning import transmission_problem
 from synth.task import Order, PoseSet
 
-__all__ = ["make_task", "check_fitted", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem", "error_rows",
-           "item_kinds"]
+__all__ = ["make_task", "check_fitted", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem",
+           "error_rows", "item_kinds", "select"]
 
 
 @dataclass
@@ -83,6 +83,23 @@ def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
         "max_angle_error": float(dr.max()), "within_tolerance": bool(all(ok)),
         "failing": [i for i, good in enumerate(ok) if not good]}
     return all(ok)
+
+
+def select(linkages, ps: PoseSet, top: int | None, best_effort: bool, what: str) -> list:
+    """The annotated ``linkages`` (best first) that answer the task: with ``order: listed`` only those visiting
+    the poses in the listed order, those within every tolerance first, at most ``top``. SynthesisError when
+    none follows the listed order, or (unless ``best_effort``) the best misses a tolerance
+    (`tolerance_problem`); ``what`` names the linkages ("Bennett", "6R")."""
+    if ps.order is Order.LISTED:
+        listed = [lk for lk in linkages if visits_in_order([r.t for r in lk.poses])]
+        if not listed:
+            raise SynthesisError(f"{ps.source}: no {what} linkage found visits the poses in the listed order (the "
+                                 f"best visits {', '.join(linkages[0].info['fit']['visit_order'])})")
+        linkages = listed
+    linkages = sorted(linkages, key=lambda lk: not lk.info["fit"]["within_tolerance"])
+    if not linkages[0].info["fit"]["within_tolerance"] and not best_effort:
+        raise SynthesisError(f"{ps.source}: {tolerance_problem(linkages[0], ps)}")
+    return linkages[:top] if top else linkages
 
 
 def item_kinds(ps: PoseSet) -> list[str]:

@@ -195,7 +195,7 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
             out_path = _out_path(job["out"], out_dir) if "out" in job else None
             if out_path is not None:
                 _prepare_out(out_path, bool(job.get("force", False)), created)
-            task = kind == "bennett" and _is_task_job(job)
+            task = _is_task_job(job)
             ps = parse_pose_document(doc, source="poses", normalize=bool(job.get("normalize", False)),
                                      count=((2, None) if task else KINDS[kind], f"kind {kind!r}"),
                                      points=((MINIMUM[DEGREES[kind]], NEEDED[DEGREES[kind]]), f"kind {kind!r}"))

@@ -19,12 +19,13 @@ from synth.io.urdfmodel import UrdfModel
 
 
 # ----------------------------------------------------------------------------- angle laws
-def law_angles(laws: dict, driver: str, phi, rates: dict | None = None) -> dict[str, np.ndarray]:
+def law_angles(laws: dict, driver: str, phi, rates: dict | None = None, loops: dict | None = None) -> dict[str, np.ndarray]:
     """Exact joint angles when the driver joint is at angle(s) ``phi`` in [0, 2pi]: the driver's law
     theta = 2 atan2(b, t - a) gives t = a + b cot(phi/2); with s = sin(phi/2) >= 0, c = cos(phi/2),
     theta_j = 2 atan2(b_j s, (a_d - a_j) s + b_d c), which is exact at phi = 0 (t = infinity) too
     (`synth.algebra.anglelaw.driven_angle`). ``rates``: joint -> rate of its law (default 1; a driver of
-    rate r covers the motion once as phi runs over [0, 2 pi r])."""
+    rate r covers the motion once as phi runs over [0, 2 pi r]). ``loops``: joint -> its planar four-bar loop
+    law (`synth.algebra.fourbar_loop.FourBarLaw`), applied to the angle of its own (a, b), the crank's."""
     phi = np.asarray(phi, float)
     rates = rates or {}
     ad, bd = laws[driver]
@@ -32,6 +33,9 @@ def law_angles(laws: dict, driver: str, phi, rates: dict | None = None) -> dict[
     out = {}
     for jn, (a, b) in laws.items():
         out[jn] = phi.copy() if jn == driver else driven_angle(a, b, ad, bd, phi, rates.get(jn, 1), rd)
+    for jn, law in (loops or {}).items():  # a four-bar's joint: its loop law of the crank's angle (its (a, b))
+        if jn in out and jn != driver:
+            out[jn] = law.angle(out[jn])
     return out
 
 

@@ -15,7 +15,8 @@ the independent continuation is `synth.tools.check.continuation`. The checks, ea
    URDF ``scale``) fits the linkage's size;
 3. poses: at every pose's ``joint_angles`` the URDF's ``tool`` frame equals the pose matrix of
    linkage.json and, with ``poses``, the pose of the POSES file; every loop is closed there;
-4. cycle, exact: the angle laws ``theta_j(t) = 2 atan2(b_j, t - a_j)`` (``joints[].angle_law``) give the
+4. cycle, exact: the angle laws ``theta_j(t) = 2 atan2(b_j, t - a_j)`` (``joints[].angle_law``; for a planar
+   four-bar's joints with ``angle_law.fourbar`` the loop law of that angle, docs/fourbar.md) give the
    pose angles at ``poses[].t``; sampled uniformly in the first joint's angle over a full turn they keep
    every loop closed, and the coupler follows ``motion_polynomial``;
 5. cycle, independent: the first joint of the first branch is driven through a full turn in adaptive
@@ -45,7 +46,7 @@ from synth.tools.check.continuation import continue_loop, crossing, law_angles
 from synth.algebra.geometry import invert_pose, pose_difference
 from synth.frames import TWO_PI, wrap_angle
 from synth.io.posespec import describe_value
-from synth.io.linkagedoc import angle_laws, angle_rates, is_number
+from synth.io.linkagedoc import angle_laws, angle_rates, is_number, loop_laws
 from synth.io.readback import OutputFiles, read_files, solution_dirs
 from synth.tools.check.meshes import MeshChecks
 from synth.tools.check.structure import StructureChecks, matrix_or_none
@@ -86,6 +87,9 @@ class _Checker(StructureChecks, MeshChecks):
 
     def _angle_rates(self) -> dict[str, int]:
         return angle_rates(self.doc)
+
+    def _loops(self) -> dict:
+        return loop_laws(self.doc)
 
     # -------------------------------------------------------------- scales
     def _scales(self):
@@ -202,13 +206,15 @@ class _Checker(StructureChecks, MeshChecks):
                 if jn in laws:
                     a, b = laws[jn]
                     th = float(angle_law(a, b, t, rates.get(jn, 1)))
+                    if jn in self._loops():  # a four-bar's loop law of the crank's angle (docs/fourbar.md)
+                        th = float(self._loops()[jn].angle(th))
                     worst = max(worst, abs(float(wrap_angle(th - float(v)))))
         if worst > self.tol_ang:
             self.fail(f"linkage.json: pose joint angles differ from the angle laws by {worst:.3g} rad")
         self.figures["law_vs_pose_angles"] = worst
         # loops along the motion, uniform in the driver's angle
         phi = np.linspace(0.0, TWO_PI, self.samples, endpoint=False)
-        cfg = law_angles(laws, self.driver, phi, rates)
+        cfg = law_angles(laws, self.driver, phi, rates, self._loops())
         F = self.u.fk(cfg, n=len(phi))
         ct = cr = 0.0
         for (a, b), R in zip(self.closures, self._closure_refs()):
@@ -253,7 +259,7 @@ class _Checker(StructureChecks, MeshChecks):
             rates = self._angle_rates()
 
             def guide(p):
-                ex = law_angles(laws, self.driver, np.array([p]), rates)
+                ex = law_angles(laws, self.driver, np.array([p]), rates, self._loops())
                 return np.array([ex[jn][0] for jn in others])
         result = continue_loop(self.u, self.closures, self.driver, others, steps=self.steps,
                                length=self.L, tol=max(self.tol_ang, self.tol_len / self.L), ratio=rho,
@@ -261,7 +267,7 @@ class _Checker(StructureChecks, MeshChecks):
         dev, crossings = None, []
         if laws and all(jn in laws for jn in self.loop_joints) and len(result["path"]):
             path = np.array(result["path"])
-            exact = law_angles(laws, self.driver, path[:, 0], self._angle_rates())
+            exact = law_angles(laws, self.driver, path[:, 0], self._angle_rates(), self._loops())
             ex = np.stack([exact[jn] for jn in others], axis=1) if others else np.zeros((len(path), 0))
             devs = np.abs(wrap_angle(path[:, 1:] - ex)).max(axis=1, initial=0.0)
             # a point off the laws next to a singular configuration of the laws (the loop Jacobian loses

@@ -39,7 +39,7 @@ from synth.algebra.geometry import invert_pose, pose_difference
 from synth.errors import InputError, MpsynthError
 from synth.frames import wrap_angle
 from synth.tools.check.continuation import law_angles
-from synth.io.linkagedoc import angle_laws, angle_rates
+from synth.io.linkagedoc import angle_laws, angle_rates, loop_laws
 from synth.io.readback import mesh_path, read_files
 
 ENGINES = ("pybullet", "mujoco")
@@ -85,6 +85,7 @@ class SimSetup:
     drive_range: tuple = (0.0, TWO_PI)  # the driver's sweep: its URDF limits when it has them, else a turn
     rates: dict = field(default_factory=dict)  # joint -> rate of its angle law (absent: 1)
     singular_deg: tuple = ()  # driver angles (deg) of singular configurations (linkage.json info.darboux)
+    loops: dict = field(default_factory=dict)  # joint -> its planar four-bar loop law (docs/fourbar.md)
 
     def start_angles(self) -> dict:
         """Joint angles at the start of the sweep: all zero, or the exact motion at the lower limit."""
@@ -96,7 +97,7 @@ class SimSetup:
 
     def exact(self, phi):
         """Exact angles of every joint when the driver is at angle(s) phi (radians, any turn)."""
-        return law_angles(self.laws, self.driver, np.mod(np.asarray(phi, float), TWO_PI), self.rates)
+        return law_angles(self.laws, self.driver, np.mod(np.asarray(phi, float), TWO_PI), self.rates, self.loops)
 
     def mesh_path(self, filename: str) -> Path:
         """Absolute path of a URDF mesh filename (relative to OUT; package://NAME/x -> OUT/x)."""
@@ -138,7 +139,7 @@ def load_setup(out) -> SimSetup:
     if lim is not None and 0 < lim[1] - lim[0] < TWO_PI - 1e-9:  # a task-range design: stay inside
         drive = (float(lim[0]), float(lim[1]))
     return SimSetup(Path(out).resolve(), u, u.name or "linkage", laws, driver, joints, closures, names, refs,
-                    inertials, split, size, drive, angle_rates(doc), _singular_deg(doc, driver))
+                    inertials, split, size, drive, angle_rates(doc), _singular_deg(doc, driver), loop_laws(doc))
 
 
 def _singular_deg(doc: dict, driver: str) -> tuple:
