@@ -149,3 +149,14 @@ def test_velocities_refused(tmp_path):
     task.write_text(text)
     r = run("fourbar", task)
     assert r.exit_code == 2 and "does not take pose velocities" in r.output
+
+
+def test_min_transmission_option(tmp_path):
+    """--min-transmission: outside 0..90 degrees a usage error; 89 degrees, which no four-bar through the
+    fixture's poses keeps, exit 1 with nothing written."""
+    r = run("fourbar", FIX5, "--min-transmission", "95")
+    assert r.exit_code == 2 and "--min-transmission" in r.output
+    out = tmp_path / "out"
+    r = run("fourbar", FIX5, "--min-transmission", "89", "-o", out)
+    assert r.exit_code == 1, r.output
+    assert not out.exists()
