@@ -7,7 +7,7 @@ import math
 
 from synth.solve.tasks import point_count
 
-from .common import echo, emit, fmt_len, print_json, write_ranked
+from .common import echo, emit, fmt_len, finish_ranked
 
 __all__ = ["point_count", "emit_points"]
 
@@ -42,8 +42,6 @@ def emit_points(result, ps, output, top: int | None) -> None:
 
 
 def _ranked(result, ps, output, top: int) -> None:
-    from synth.io.jsonout import plain
-
     doc, sols = result.index, result.solutions
     kind = result.linkage.kind
     if not output.quiet:
@@ -54,9 +52,4 @@ def _ranked(result, ps, output, top: int) -> None:
             echo(f"  {s['rank']:>3} {s['id']:14} score {s['score']:.3g}  cond {p['conditioning']:.3g}  extent "
                  f"{p['extent']:.3g}  point err {s['checks']['max_pose_translation_error']:.1e}"
                  + (f"  {s['design_summary']}" if "design_summary" in s else ""))
-    if output.dir:
-        write_ranked(result, output)
-        if not output.quiet:
-            echo(f"  wrote {output.dir}/: index.json and {len(sols)} solution directories")
-    if output.as_json:
-        print_json(plain(doc))
+    finish_ranked(result, output)

@@ -42,6 +42,25 @@ def environment_error(e: BaseException) -> str | None:
     return None
 
 
+def _exit_after(seconds: float, code: int) -> None:
+    """Exit with ``code`` after ``seconds`` unless the process has ended by then: a worker pool's clean-up
+    (terminate, join) can block for good when SIGTERM interrupted the pool's own bookkeeping, and a
+    terminated command must end. Whole result lines already written are flushed first."""
+
+    def exit_now():
+        flush = threading.Thread(target=sys.stdout.flush, daemon=True)  # not here: it may wait on a held lock
+        flush.start()
+        flush.join(1.0)
+        os._exit(code)
+
+    timer = threading.Timer(seconds, exit_now)
+    timer.daemon = True
+    timer.start()
+
+
+CLEANUP_SECONDS = 10.0  # how long the clean-up after SIGTERM may take (a shutdown bound, not a search budget)
+
+
 @contextmanager
 def terminate_as_exit():
     """Inside: SIGTERM raises SystemExit(143), so that `finally` clauses (worker pools) run and no
@@ -52,6 +71,7 @@ def terminate_as_exit():
 
     def handler(signum, frame):
         signal.signal(signal.SIGTERM, signal.SIG_IGN)  # one clean-up is enough
+        _exit_after(CLEANUP_SECONDS, 128 + signum)
         raise SystemExit(128 + signum)
 
     previous = signal.signal(signal.SIGTERM, handler)

@@ -3,7 +3,7 @@
 `synth.synthesis.bennett_fit.bennett_task`, `synth.synthesis.taskfit`, the choice of design)."""
 from __future__ import annotations
 
-from .common import echo, emit, print_json, write_ranked
+from .common import echo, emit, finish_ranked
 
 
 def emit_task(result, ps, output, top: int | None) -> None:
@@ -29,9 +29,7 @@ def print_fit(linkage, ps) -> None:
 
 
 def _ranked(result, ps, output, top: int) -> None:
-    from synth.io.jsonout import plain
-
-    doc, sols, kind = result.index, result.index["solutions"], result.linkage.kind
+    sols, kind = result.index["solutions"], result.linkage.kind
     if not output.quiet:
         echo(f"{kind} fits of {len(ps)} items: the {len(sols)} best" + (f" (asked for {top})" if len(sols) < top else ""))
         for s in sols:
@@ -40,9 +38,4 @@ def _ranked(result, ps, output, top: int) -> None:
                  f"{ps.length_unit} / {f['max_angle_error'] * 57.29577951308232:.4g} deg"
                  + ("" if f["within_tolerance"] else " (tolerance not met)")
                  + (f"  {s['design_summary']}" if "design_summary" in s else ""))
-    if output.dir:
-        write_ranked(result, output)
-        if not output.quiet:
-            echo(f"  wrote {output.dir}/: index.json and {len(sols)} solution directories")
-    if output.as_json:
-        print_json(plain(doc))
+    finish_ranked(result, output)

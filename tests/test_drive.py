@@ -32,7 +32,7 @@ def test_driven_speed_max_is_the_maximum(a, b, ad, bd, lo, span, rate):
     phi = np.linspace(lo, lo + span, 20001)
     dense = np.abs(driven_speed(a, b, ad, bd, phi, rate)).max()
     top, at = driven_speed_max(a, b, ad, bd, lo, lo + span, rate)
-    assert top >= dense * (1 - 1e-12)
+    assert top >= dense * (1 - 1e-9)  # the closed form rounds at ~1e-10 near sharp peaks (b = -0.5, bd = 0.05)
     assert lo - 1e-12 <= at <= lo + span + 1e-12
     assert abs(abs(driven_speed(a, b, ad, bd, at, rate)) - top) <= 1e-9 * top
 
