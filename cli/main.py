@@ -23,6 +23,8 @@ COMMANDS = {
     "collide": ("cli.collide:collide", "Self-collision check of the links along the motion."),
     "trajectory": ("cli.trajectory:trajectory", "Joint angles, velocities and tool pose over time (CSV/JSON) for a controller."),
     "batch": ("cli.batch:batch", "Run many synthesis jobs from JSON lines."),
+    "parts": ("cli.parts:parts", "Print plates (STL) and an assembly sheet (HTML) for a written linkage."),
+    "export": ("cli.export:export", "Add linkage.step (B-rep solids for CAD, mpsynth[cad]) to an existing output."),
 }
 
 

@@ -26,6 +26,7 @@ from synth.io.jsonout import linkage_document  # noqa: E402
 from synth.io.urdf import urdf_text  # noqa: E402
 from synth.io import atomic as atomic_mod  # noqa: E402
 from synth.io import writer as writer_mod  # noqa: E402
+from synth.io import step  # noqa: E402
 from synth.frames import rpy_from_matrix, rpy_matrix  # noqa: E402
 from synth.io.jsonout import FORMAT, plain, write_json  # noqa: E402
 from synth.design.choose import default_sizes, design_for  # noqa: E402
@@ -323,7 +324,8 @@ def test_write_output_files(bennett, written):
 
     out, paths = written
     assert paths[:2] == [out / "linkage.urdf", out / "linkage.json"]
-    assert sorted(p.name for p in paths[2:]) == sorted(f"{n}.stl" for n in GEOMETRIC | PINS)
+    assert sorted(p.name for p in paths[2:] if p.suffix == ".stl") == sorted(f"{n}.stl" for n in GEOMETRIC | PINS)
+    assert (Path("linkage.step") in [p.relative_to(out) for p in paths]) == step.have_kernel()  # with the cad extra
     assert all(p.is_file() for p in paths)
 
     result = design_for(bennett)
@@ -339,7 +341,7 @@ def test_write_output_files(bennett, written):
     assert {p["link"] for p in doc["design"]["pins"]} == PINS
     assert all(p["length"] > 0 and p["mesh"] == f"meshes/{p['link']}.stl" for p in doc["design"]["pins"])
     assert set(doc["collision"]) >= {"free", "range", "clearance", "min_distance", "driver_range"}
-    for p in paths[2:]:
+    for p in [p for p in paths[2:] if p.suffix == ".stl"]:
         data = p.read_bytes()
         n = int.from_bytes(data[80:84], "little")
         assert len(data) == 84 + 50 * n and n > 100  # binary STL

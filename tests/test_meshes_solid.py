@@ -23,7 +23,7 @@ from synth.io import meshes as meshes_mod  # noqa: E402
 from synth.io.writer import write_output  # noqa: E402
 from synth.design.choose import design_for  # noqa: E402
 from synth.frames import link_origins  # noqa: E402
-from synth.io.solid import (Solid, axis_rotation, concatenate, cylinder, mass_properties,  # noqa: E402
+from synth.io.solid import (Solid, axis_rotation, boolean, capsule, concatenate, cylinder, mass_properties,  # noqa: E402
                                 read_stl_triangles, signed_volume, stl_bytes, surface_defect, union, weld)
 from synth.io.names import MESH_UNIT_SCALE  # noqa: E402
 from synth.io.poses import load_poses  # noqa: E402
@@ -251,6 +251,33 @@ def test_stl_file_is_trimeshs_stl_of_the_centred_mm_mesh(name):
         volume = signed_volume(solid.triangles) / MESH_UNIT_SCALE ** 3
         assert loaded.volume == pytest.approx(volume, rel=1e-5)  # float32 corners
         assert np.array_equal(read_stl_triangles(data), np.asarray(loaded.triangles, np.float32))
+
+
+def test_hubs_as_wide_as_their_bars_write_closed_stls():
+    """A hub cylinder as wide as its bar (a sturdy bar reaches the hub's radius) is tangent to the bar's
+    round end and crosses the bar at equal radii: the single-precision boolean wrote zero-area triangles
+    there (2 of these 40 links were not closed STLs); the double-precision one must give closed ones of
+    the same volume to the facets' accuracy."""
+    rng = np.random.default_rng(0)
+    R, bore = 0.0295, 0.0148
+    for _ in range(40):
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        v = np.cross(u, rng.normal(size=3))
+        v /= np.linalg.norm(v)
+        a = rng.normal(size=3) * 0.3
+        b = a + rng.uniform(0.2, 0.7) * v
+        h = rng.uniform(0.01, 0.05)
+        parts = [capsule(a, b, R, meshes_mod.BAR_SECTIONS), capsule(b, b + 0.3 * u, R, meshes_mod.BAR_SECTIONS)]
+        parts += [cylinder(c - h * u, c + h * u, R, meshes_mod.PIN_SECTIONS, phase=0.5) for c in (a, b)]
+        half = 1.01 * max(h, R) + 0.01 * R
+        bores = [cylinder(c - half * u, c + half * u, bore, meshes_mod.PIN_SECTIONS) for c in (a, b)]
+        link = boolean(parts, bores)
+        data, _ = meshes_mod.stl_file(link)  # raises unless the file is a closed solid
+        stored = weld(read_stl_triangles(data))
+        assert surface_defect(stored.faces) is None
+        hull = signed_volume(concatenate(parts[:1]).triangles)  # the first bar alone: a lower bound
+        assert signed_volume(link.triangles) > hull - 2 * np.pi * bore ** 2 * half
 
 
 def test_stl_round_trip_and_truncation():

@@ -197,12 +197,21 @@ def straight_design(linkage, *, pin_radius: float, bar_radius: float, hub_length
 MIN_WALL = 1.2e-3  # metres: the wall around a bore, three perimeters of a 0.4 mm nozzle (issue 33)
 
 
+HUB_MARGIN = 1.1  # a hub's radius and its bar's differ by at least this factor
+
+
 def hub_radius_for(pin_radius: float, bar_radius: float, hole_clearance: float) -> float:
-    """A hub's radius (metres): the bar's, or the pin's bore (pin radius + hole clearance) with a wall of
-    half a pin radius, at least `MIN_WALL` (but not over the pin's diameter: a linkage too small to print
-    keeps its proportions), when that is larger."""
+    """A hub's radius (metres): the pin's bore (pin radius + hole clearance) with a wall of half a pin
+    radius, at least `MIN_WALL` (but not over the pin's diameter: a linkage too small to print keeps its
+    proportions). A bar thicker than that holds the bore in its round end, and the hub stays this size
+    (its capsule in the collision search then reaches little beyond the bar's). A bar within
+    `HUB_MARGIN` of it gets a hub `HUB_MARGIN` times the bar's radius: equal radii make the hub tangent
+    to the bar's round end and the two cylinders cross at a point (Steinmetz), a degenerate solid."""
     wall = max(0.5 * pin_radius, min(MIN_WALL, 2.0 * pin_radius))
-    return max(bar_radius, pin_radius + hole_clearance + wall)
+    hub = pin_radius + hole_clearance + wall
+    if hub / HUB_MARGIN < bar_radius < hub * HUB_MARGIN:
+        return HUB_MARGIN * bar_radius
+    return hub
 
 
 def pins_for(linkage, design: PhysicalDesign) -> list[Pin]:

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from synth.design.model import DesignResult
-from synth.io import jsonout, meshes, urdf
+from synth.io import jsonout, meshes, step, urdf
 from synth.io.names import check_package, check_robot_name
 
 
@@ -51,6 +51,7 @@ EXPORTERS = {
     "urdf": urdf.write_urdf,  # linkage.urdf
     "json": jsonout.write_linkage_json,  # linkage.json
     "stl": meshes.write_stl,  # meshes/<link>.stl, meshes/pin_<joint>.stl
+    "step": step.write_step,  # linkage.step, with the cad extra (gmsh); nothing without it
 }
 
 

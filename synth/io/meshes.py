@@ -26,6 +26,7 @@ for the tools that want them.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -50,26 +51,60 @@ def have_manifold() -> bool:
     return True
 
 
-def link_parts(linkage, design: PhysicalDesign, name: str) -> tuple[list[Solid], list[Solid]]:
-    """(parts, bores) of link ``name``: closed meshes in world coordinates at the reference configuration.
-    Parts: a capsule per bar segment, a cylinder per hub; bores: a cylinder per mount, along the axis,
-    through the hub and the bar's round end. Both empty for a link without joints."""
+@dataclass(frozen=True)
+class Primitive:
+    """One solid the parts of a link are built from, in world coordinates at the reference configuration
+    (metres): a ``"capsule"`` (round bar with round ends) or a ``"cylinder"`` (flat ends) of ``radius``
+    around the segment ``p0``-``p1``; ``phase``: where a cylinder's facets start (`solid.cylinder`). The
+    STL (`link_parts`) and the STEP (`synth.io.step`) build the same primitives."""
+
+    kind: str
+    p0: np.ndarray
+    p1: np.ndarray
+    radius: float
+    phase: float = 0.0
+
+
+def link_primitives(linkage, design: PhysicalDesign, name: str) -> tuple[list[Primitive], list[Primitive]]:
+    """(parts, bores) of link ``name``. Parts: a capsule per bar segment, a cylinder per hub; bores: a
+    cylinder per mount, along the axis, through the hub and the bar's round end. Both empty for a link
+    without joints."""
     parts, bores = [], []
     carriers = {p.joint: p.carrier for p in design.pins}
     for c in capsules(linkage, design):
         if c.link != name or c.part == "pin":
             continue
         if c.part == "bar":
-            parts.append(capsule(c.p0, c.p1, c.radius, BAR_SECTIONS))
+            parts.append(Primitive("capsule", c.p0, c.p1, c.radius))
         else:  # hub: the cylinder inside its capsule, and the bore through it
             # half a section turned against the bore: its cap spokes never run through the bore's corners
-            parts.append(cylinder(c.p0, c.p1, c.radius, PIN_SECTIONS, phase=0.5))
+            parts.append(Primitive("cylinder", c.p0, c.p1, c.radius, phase=0.5))
             u = linkage.joint(c.joint).direction
             centre = (c.p0 + c.p1) / 2
             half = 1.01 * max(design.hub_length / 2, design.bar_radius) + 0.01 * design.hub_radius
             r = design.pin_radius + (0.0 if carriers.get(c.joint) == name else design.hole_clearance)
-            bores.append(cylinder(centre - half * u, centre + half * u, r, PIN_SECTIONS))
+            bores.append(Primitive("cylinder", centre - half * u, centre + half * u, r))
     return parts, bores
+
+
+def primitive_solid(p: Primitive) -> Solid:
+    """The closed mesh of a primitive (`PIN_SECTIONS` for cylinders, `BAR_SECTIONS` for capsules)."""
+    if p.kind == "capsule":
+        return capsule(p.p0, p.p1, p.radius, BAR_SECTIONS)
+    return cylinder(p.p0, p.p1, p.radius, PIN_SECTIONS, phase=p.phase)
+
+
+def link_parts(linkage, design: PhysicalDesign, name: str) -> tuple[list[Solid], list[Solid]]:
+    """(parts, bores) of link ``name`` (`link_primitives`) as closed meshes."""
+    parts, bores = link_primitives(linkage, design, name)
+    return [primitive_solid(p) for p in parts], [primitive_solid(b) for b in bores]
+
+
+def pin_primitive(linkage, design: PhysicalDesign, joint: str) -> Primitive:
+    """The pin of ``joint`` in world coordinates at the reference configuration."""
+    p = design.pin(joint)
+    return Primitive("cylinder", axis_point(linkage, joint, p.start), axis_point(linkage, joint, p.end),
+                     design.pin_radius)
 
 
 def pin_origin(linkage, design: PhysicalDesign, joint: str) -> np.ndarray:
@@ -81,9 +116,7 @@ def pin_origin(linkage, design: PhysicalDesign, joint: str) -> np.ndarray:
 
 def pin_solid(linkage, design: PhysicalDesign, joint: str) -> Solid:
     """The pin of ``joint`` in its own frame (`pin_origin`)."""
-    p = design.pin(joint)
-    a, b = axis_point(linkage, joint, p.start), axis_point(linkage, joint, p.end)
-    return cylinder(a, b, design.pin_radius, PIN_SECTIONS).translated(-pin_origin(linkage, design, joint))
+    return primitive_solid(pin_primitive(linkage, design, joint)).translated(-pin_origin(linkage, design, joint))
 
 
 def _solid(parts, bores=()) -> Solid:

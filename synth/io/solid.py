@@ -157,28 +157,36 @@ def union(parts) -> Solid:
     return boolean(parts)
 
 
+BOOLEAN_TOLERANCE = 1e-6  # of the parts' size: features below it are merged (float32 STL steps are 6e-8)
+
+
 def boolean(parts, cut=()) -> Solid:
     """The union of the closed ``parts`` minus the union of the closed ``cut`` solids, with manifold3d:
     one closed 2-manifold.
 
-    Computed at unit size around the origin in single precision (manifold3d's ``Mesh``): its tolerances
-    are then relative, so micrometre-sized parts and parts far from the world origin work alike. Edges
-    shorter than a float32 step of the STL can remain (where a bore cuts a bar's round end): the STL writer
-    drops the triangles they make degenerate (`degenerate_free`)."""
+    Computed at unit size around the origin in double precision (manifold3d's ``Mesh64`` in and out):
+    its tolerances are then relative, so micrometre-sized parts and parts far from the world origin work
+    alike. (Its single-precision ``Mesh`` rounds distinct vertices of the result onto one another where
+    surfaces meet at a grazing angle, e.g. a hub as wide as its bar: zero-area triangles whose edges a
+    reader of the STL sees run twice.) The result is then simplified to `BOOLEAN_TOLERANCE` of the size
+    (`Manifold.set_tolerance`: edges shorter than that collapse while the solid stays a 2-manifold), well
+    above the float32 step of an STL and well below anything a printer or a simulator resolves; an
+    edge that cannot collapse may remain, and the STL writer drops the triangles it makes degenerate
+    (`degenerate_free`)."""
     manifold3d = import_manifold3d()
     lo = np.min([p.vertices.min(axis=0) for p in parts], axis=0)
     hi = np.max([p.vertices.max(axis=0) for p in parts], axis=0)
     centre, size = (lo + hi) / 2, float(np.max(hi - lo))
 
     def solids(ps):
-        return [manifold3d.Manifold(manifold3d.Mesh(
-            vert_properties=np.ascontiguousarray((p.vertices - centre) / size, dtype=np.float32),
-            tri_verts=np.ascontiguousarray(p.faces, dtype=np.uint32))) for p in ps]
+        return [manifold3d.Manifold(manifold3d.Mesh64(
+            vert_properties=np.ascontiguousarray((p.vertices - centre) / size, dtype=np.float64),
+            tri_verts=np.ascontiguousarray(p.faces, dtype=np.uint64))) for p in ps]
 
     body = manifold3d.Manifold.batch_boolean(solids(parts), manifold3d.OpType.Add)
     if len(cut):
         body = body - manifold3d.Manifold.batch_boolean(solids(cut), manifold3d.OpType.Add)
-    mesh = body.to_mesh()
+    mesh = body.set_tolerance(BOOLEAN_TOLERANCE).to_mesh64()
     vertices = np.asarray(mesh.vert_properties, np.float64)[:, :3] * size + centre
     return Solid(vertices, np.asarray(mesh.tri_verts, np.int64).reshape(-1, 3))
 

@@ -436,3 +436,58 @@ def render(rb: Readback, *, png=None, gif=None, frames: int = 60, size=DEFAULT_S
         stats["frames"] = len(images)
     stats["total_s"] = time.perf_counter() - t0
     return stats
+
+
+def exploded_view(rb: Readback, file, size=(900, 700), spread: float = 0.6) -> None:
+    """A PNG of the parts of ``rb`` at the home configuration pulled apart (for the assembly sheet of
+    `synth.tools.plates`): every part moved ``spread`` times its centre's distance from the assembly's
+    centre, each pin with its carrier link and 1.5 pin lengths out along its axis, a dashed line along the
+    axis back to its bores, every part named. ``file``: a path or a binary file object."""
+    _require_matplotlib()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from synth.io.readback import mesh_path
+    from synth.io.solid import read_stl_triangles
+
+    frames, parts = rb.urdf.fk({}), {}
+    for m in rb.urdf.meshes:
+        path = mesh_path(m.filename, rb.root) if m.tag == "visual" else None
+        if path is not None and path.is_file():
+            tri = read_stl_triangles(path.read_bytes()).astype(float) * m.scale
+            T = frames[m.link] @ m.origin
+            parts[m.link] = tri @ T[:3, :3].T + T[:3, 3]
+    centre = np.mean([t.reshape(-1, 3).mean(0) for t in parts.values()], axis=0)
+    fig = Figure(figsize=(size[0] / DPI, size[1] / DPI), dpi=DPI, facecolor="white")
+    FigureCanvasAgg(fig)
+    ax = fig.add_axes([0, 0, 1, 0.94], projection="3d")
+    elev, azim = default_view(np.concatenate([t.reshape(-1, 3) for t in parts.values()]))
+    light, colours, polys, shades, pts = _light_direction(elev, azim), link_colors(rb), [], [], []
+    moves = {n: spread * (t.reshape(-1, 3).mean(0) - centre) for n, t in parts.items()}
+    carriers = {f"pin_{p['joint']}": p["carrier"] for p in (rb.document.get("design") or {}).get("pins", [])}
+    for k, (name, tri) in enumerate(parts.items()):
+        c, move = tri.reshape(-1, 3).mean(0), moves[name]
+        if name in carriers and carriers[name] in moves:  # out of its carrier's bore along the axis
+            u = rb.linkage.joint(name[4:]).direction
+            move = moves[carriers[name]] + 1.5 * np.ptp(tri.reshape(-1, 3) @ u) * u
+            ax.plot(*np.stack([c + moves[carriers[name]], c + move]).T, color="0.4", lw=0.8, ls="--")
+        tri = tri + move
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        rgb = np.array(colours.get(name, PALETTE[k % len(PALETTE)]))
+        shades.append(np.clip(rgb * (0.45 + 0.55 * np.clip(n @ light, 0, 1))[:, None], 0, 1))
+        polys.append(tri)
+        pts.append(tri.reshape(-1, 3))
+        ax.text(*(c + move), name, fontsize=8, zorder=10)
+    ax.add_collection3d(Poly3DCollection(np.concatenate(polys), facecolors=np.concatenate(shades), linewidths=0))
+    allp = np.concatenate(pts)
+    lo, hi = allp.min(0), allp.max(0)
+    half = max(float(np.max(hi - lo)) / 2, 1e-9)
+    for set_lim, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), (lo + hi) / 2):
+        set_lim(c - half, c + half)
+    ax.view_init(elev=elev, azim=azim)
+    ax.set_proj_type("ortho")
+    ax.set_axis_off()
+    fig.suptitle(f"{rb.robot_name}: exploded view (home configuration)", fontsize=11)
+    fig.savefig(file, format="png")

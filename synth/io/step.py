@@ -1,0 +1,169 @@
+"""``linkage.step``: the linkage as an assembly of B-rep solids for CAD programs (issue 33), written with
+gmsh's OpenCASCADE kernel when the optional extra is installed (``pip install 'mpsynth[cad]'``).
+
+One solid per link with joints and per pin, named as in the URDF (``base``, ``link_a1``, ...,
+``pin_<joint>``), in millimetres, at the home configuration (all joint angles 0: the reference
+configuration, world coordinates). Each solid is built from the same primitives as its STL
+(`synth.io.meshes.link_primitives`, `pin_primitive`): a round bar is a cylinder fused with a sphere at
+each end, a hub a cylinder, minus a cylinder per bore; exact cylinders and spheres where the STL has
+facets, so the volumes agree to the facets' accuracy (under 1 %).
+
+The kernel (bench/RESULTS.md, "STEP kernel"): gmsh's PyPI wheel (about 140 MB installed, 0.3 s import)
+over cadquery-ocp (over 900 MB with its dependencies). gmsh's STEP writer names every part
+"Open CASCADE STEP translator ..."; `name_products` gives them the URDF's names (the PRODUCT entities of
+ISO 10303-21, in the order the solids were added). Nothing here imports gmsh until a file is written.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import re
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from synth.io.meshes import link_primitives, pin_primitive
+from synth.io.names import MESH_UNIT_SCALE, pin_link_name
+
+STEP_FILE = "linkage.step"
+
+
+def load_kernel():
+    """The gmsh module, or None when the ``cad`` extra is not installed or its shared libraries (libGLU,
+    X11, fontconfig) do not load. Imports gmsh only when it is installed."""
+    if importlib.util.find_spec("gmsh") is None:
+        return None
+    try:
+        import gmsh
+    except (ImportError, OSError):
+        return None
+    return gmsh
+
+
+def have_kernel() -> bool:
+    """True when gmsh (the ``cad`` extra) is installed and loads (`load_kernel`)."""
+    return load_kernel() is not None
+
+
+def step_parts(linkage, design) -> dict[str, tuple[list, list]]:
+    """{URDF link name: (parts, bores)} (`synth.io.meshes.Primitive` lists, world coordinates, metres):
+    every link with joints, then every pin (no bores)."""
+    out = {}
+    for name in linkage.link_names:
+        parts, bores = link_primitives(linkage, design, name)
+        if parts:
+            out[name] = (parts, bores)
+    for p in design.pins:
+        out[pin_link_name(p.joint)] = ([pin_primitive(linkage, design, p.joint)], [])
+    return out
+
+
+@contextmanager
+def _quiet_stdout():
+    """OpenCASCADE's STEP translator prints its statistics on file descriptor 1, past gmsh's own
+    verbosity setting: keep them off the CLI's stdout (a --json document)."""
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def _occ_solids(occ, prims, bores, scale: float) -> list[int]:
+    """The gmsh volume tags of the union of ``prims`` minus the union of ``bores`` (millimetres): one
+    volume, or several where the bores cut the union apart (as they cut the STL's mesh: a bar thinner
+    than a bore running along that bore's axis). RuntimeError when nothing is left."""
+    tags = []
+    for p in prims:
+        a, b = np.asarray(p.p0) * scale, np.asarray(p.p1) * scale
+        r = p.radius * scale
+        tags.append(occ.addCylinder(*a, *(b - a), r))
+        if p.kind == "capsule":
+            tags += [occ.addSphere(*a, r), occ.addSphere(*b, r)]
+    body = [(3, tags[0])]
+    if len(tags) > 1:
+        body, _ = occ.fuse(body, [(3, t) for t in tags[1:]])
+    if bores:
+        cuts = []
+        for p in bores:
+            a, b = np.asarray(p.p0) * scale, np.asarray(p.p1) * scale
+            cuts.append((3, occ.addCylinder(*a, *(b - a), p.radius * scale)))
+        body, _ = occ.cut(body, cuts)
+    if not body:
+        raise RuntimeError("the B-rep boolean left no solid")
+    return [t for _, t in body]
+
+
+def name_products(text: str, names: list[str]) -> str:
+    """The STEP ``text`` with the k-th part PRODUCT (the ones the translator numbers "n.k", n counting
+    the files written in this process) named ``names[k - 1]`` and the assembly ("n") named "linkage";
+    and what else depends on the process or the clock made reproducible: the assembly occurrences
+    numbered 1, 2, ... in file order, the header's file name "linkage" and time stamp the epoch.
+    ValueError when the counts differ."""
+    pattern = re.compile(r"PRODUCT\('Open CASCADE STEP translator \S+ \d+(\.(\d+))?',\s*'[^']*'")
+    seen = []
+
+    def rename(m):
+        if m.group(2) is None:
+            return "PRODUCT('linkage','linkage'"
+        k = int(m.group(2))
+        seen.append(k)
+        return f"PRODUCT('{names[k - 1]}','{names[k - 1]}'" if k <= len(names) else m.group(0)
+
+    out = pattern.sub(rename, text)
+    if sorted(seen) != list(range(1, len(names) + 1)):
+        raise ValueError(f"the STEP file has {len(seen)} parts, expected {len(names)}")
+    count = iter(range(1, 1 << 30))
+    out = re.sub(r"NEXT_ASSEMBLY_USAGE_OCCURRENCE\('\d+'", lambda m: f"NEXT_ASSEMBLY_USAGE_OCCURRENCE('{next(count)}'",
+                 out)
+    return re.sub(r"FILE_NAME\('[^']*','[^']*'", "FILE_NAME('linkage','1970-01-01T00:00:00'", out, count=1)
+
+
+def step_text(linkage, design) -> str:
+    """The ``linkage.step`` file of ``linkage`` with its physical ``design`` (see the module docstring).
+    Imports gmsh (ImportError without the ``cad`` extra); RuntimeError when a boolean fails."""
+    gmsh = load_kernel()
+    if gmsh is None:
+        raise ImportError("linkage.step needs gmsh: pip install 'mpsynth[cad]'")
+
+    parts = step_parts(linkage, design)
+    scale = 1.0 / MESH_UNIT_SCALE
+    started = gmsh.isInitialized()
+    if not started:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)  # keep the CLI's SIGINT handler
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("linkage")
+        occ = gmsh.model.occ
+        pieces = {name: _occ_solids(occ, prims, bores, scale) for name, (prims, bores) in parts.items()}
+        occ.synchronize()
+        tags = {t: name if k == 0 else f"{name}_piece{k + 1}" for name, ts in pieces.items() for k, t in enumerate(ts)}
+        volumes = [t for _, t in gmsh.model.getEntities(3)]
+        if volumes != sorted(tags):
+            raise RuntimeError(f"the B-rep model holds volumes {volumes}, expected {sorted(tags)}")
+        order = [tags[t] for t in volumes]  # the writer's order: by volume tag
+        gmsh.option.setString("Geometry.OCCTargetUnit", "MM")
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / STEP_FILE
+            with _quiet_stdout():
+                gmsh.write(str(path))
+            text = path.read_text(encoding="ascii")
+        gmsh.model.remove()
+    finally:
+        if not started:
+            gmsh.finalize()
+    return name_products(text, order)
+
+
+def write_step(job, directory: Path) -> list[Path]:
+    """The ``step`` exporter (`synth.io.export`): ``linkage.step`` when the ``cad`` extra is installed,
+    nothing otherwise."""
+    if not have_kernel():
+        return []
+    (Path(directory) / STEP_FILE).write_text(step_text(job.linkage, job.result.design), encoding="ascii")
+    return [Path(STEP_FILE)]

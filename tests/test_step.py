@@ -1,0 +1,138 @@
+"""linkage.step (synth/io/step.py, `mpsynth export OUT --step`): one named B-rep solid per STL, with the
+STL's volume; nothing imported or written without the cad extra."""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from conftest import REPO  # noqa: E402
+
+import synth  # noqa: E402
+from synth.design.choose import design_for  # noqa: E402
+from synth.io import step as step_mod  # noqa: E402
+from synth.io.names import MESH_UNIT_SCALE  # noqa: E402
+from synth.io.poses import load_poses  # noqa: E402
+from synth.io.solid import read_stl_triangles, signed_volume  # noqa: E402
+from synth.io.writer import write_output  # noqa: E402
+
+
+def _kernel():
+    """gmsh, or a skip without the cad extra (or without the libraries its wheel loads)."""
+    return step_mod.load_kernel() or pytest.skip("no gmsh (pip install 'mpsynth[cad]')")
+
+
+def _write(tmp_path, fixture, kind):
+    lk = getattr(synth, kind)(load_poses(str(REPO / "fixtures" / fixture)).matrices)
+    out = tmp_path / kind
+    write_output(lk, out, robot_name=kind, result=design_for(lk))
+    return out
+
+
+def _step_solids(path: Path) -> dict[str, float]:
+    """{part name: volume mm^3} of a STEP file as gmsh's OpenCASCADE reads it back."""
+    gmsh = _kernel()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(path))
+        return {gmsh.model.getEntityName(3, t).rsplit("/", 1)[-1]: gmsh.model.occ.getMass(3, t)
+                for _, t in gmsh.model.getEntities(3)}
+    finally:
+        gmsh.finalize()
+
+
+def _stl_volumes(out: Path) -> dict[str, float]:
+    return {f.stem: signed_volume(read_stl_triangles(f.read_bytes()).astype(float))
+            for f in (out / "meshes").glob("*.stl")}
+
+
+@pytest.mark.parametrize("fixture,kind", [("bennett_mm_deg.yaml", "bennett"), ("sixbar_example.yaml", "sixbar")])
+def test_step_holds_one_named_solid_per_stl_with_its_volume(tmp_path, fixture, kind):
+    _kernel()
+    out = _write(tmp_path, fixture, kind)
+    text = (out / "linkage.step").read_text()
+    stl = _stl_volumes(out)
+    assert len(re.findall(r"MANIFOLD_SOLID_BREP\(", text)) == len(stl)  # the file itself, not gmsh's reading
+    assert "Open CASCADE STEP translator" not in text
+    solids = _step_solids(out / "linkage.step")
+    assert set(solids) == set(stl)
+    for name, v in stl.items():
+        assert solids[name] == pytest.approx(v, rel=0.03), name  # facets vs exact cylinders and spheres
+        assert solids[name] > v  # the facets lie inside the true surfaces: the STL is the smaller
+
+
+def test_step_is_in_millimetres_at_the_home_configuration(tmp_path):
+    """A pin's solid spans its axis from the design's start to end offsets, in mm, in world coordinates."""
+    gmsh = _kernel()
+    lk = synth.bennett(load_poses(str(REPO / "fixtures/bennett_mm_deg.yaml")).matrices)
+    design = design_for(lk).design
+    path = tmp_path / "x.step"
+    path.write_text(step_mod.step_text(lk, design))
+    pin = design.pins[0]
+    j = lk.joint(pin.joint)
+    ends = [(lk.joint_sites()[pin.joint] + s * j.direction) / MESH_UNIT_SCALE for s in (pin.start, pin.end)]
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(path))
+        tag = next(t for _, t in gmsh.model.getEntities(3) if gmsh.model.getEntityName(3, t).endswith(f"pin_{pin.joint}"))
+        box = np.array(gmsh.model.getBoundingBox(3, tag)).reshape(2, 3)
+    finally:
+        gmsh.finalize()
+    r = design.pin_radius / MESH_UNIT_SCALE
+    lo, hi = np.minimum(*ends) - r, np.maximum(*ends) + r
+    assert np.all(box[0] >= lo - 1e-3 * r) and np.all(box[1] <= hi + 1e-3 * r)
+    assert np.allclose(box.mean(axis=0), (ends[0] + ends[1]) / 2, atol=1e-3 * r)
+
+
+def test_export_step_writes_it_for_an_existing_output(tmp_path):
+    _kernel()
+    from cli.main import mpsynth as cli
+
+    out = _write(tmp_path, "bennett_mm_deg.yaml", "bennett")
+    first = (out / "linkage.step").read_text()
+    (out / "linkage.step").unlink()
+    r = CliRunner().invoke(cli, ["export", str(out), "--step", "--json"])
+    assert r.exit_code == 0, r.output
+    again = (out / "linkage.step").read_text()
+    assert again == first  # reproducible: no clock, no count of earlier files in the header or the data
+    assert "linkage.step" in (out / ".mpsynth-output").read_text()
+
+
+def test_without_the_extra_nothing_is_written_and_export_says_why(tmp_path, monkeypatch):
+    from cli.main import mpsynth as cli
+
+    out = tmp_path / "b"
+    monkeypatch.setattr(step_mod, "have_kernel", lambda: False)
+    import synth.tools.cadexport as cadexport
+
+    monkeypatch.setattr(cadexport, "have_kernel", lambda: False)
+    lk = synth.bennett(load_poses(str(REPO / "fixtures/bennett_mm_deg.yaml")).matrices)
+    write_output(lk, out, robot_name="b", result=design_for(lk))
+    assert not (out / "linkage.step").exists() and (out / "linkage.urdf").exists()
+    r = CliRunner().invoke(cli, ["export", str(out), "--step"])
+    assert r.exit_code == 2 and "mpsynth[cad]" in r.output
+
+
+def test_cli_and_writing_without_step_do_not_import_gmsh():
+    code = ("import sys, cli.main, synth.io.export, synth.tools.cadexport; "
+            "assert 'gmsh' not in sys.modules, 'gmsh imported'")
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO)
+
+
+def test_products_are_renamed_in_order_or_refused():
+    text = ("#7 = PRODUCT('Open CASCADE STEP translator 7.8 3',\n  'Open CASCADE STEP translator 7.8 3','',(#8));\n"
+            "#9 = PRODUCT('Open CASCADE STEP translator 7.8 3.2',\n  'Open CASCADE STEP translator 7.8 3.2','',(#8));\n"
+            "#10 = PRODUCT('Open CASCADE STEP translator 7.8 3.1',\n  'Open CASCADE STEP translator 7.8 3.1','',(#8));\n")
+    named = step_mod.name_products(text, ["base", "pin_h1"])
+    assert "PRODUCT('linkage','linkage'" in named
+    assert named.index("'pin_h1'") < named.index("'base'")  # by the translator's number, not file order
+    with pytest.raises(ValueError):
+        step_mod.name_products(text, ["base", "pin_h1", "coupler"])
