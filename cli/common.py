@@ -154,6 +154,9 @@ def design_option_list(unit: str) -> list:
         click.option("--slenderness", type=float,
                      help="Longest bar length over bar diameter, at most (default 25): default bars are made "
                           "thick enough for this."),
+        click.option("--pin-fit", type=click.Choice(["press", "clip", "plain"]), default=None,
+                     help="Pins with a head sunk into a counterbore: 'press' (default; pressed into the carrier's "
+                          "bore), 'clip' (a groove for a retaining clip); 'plain': bare cylinders."),
         click.option("--require-collision-free", is_flag=True,
                      help="Exit 1 (nothing written) unless the design is collision-free."),
     ]
@@ -206,7 +209,8 @@ def design_options(params: dict):
 
     return DesignOptions(params.get("pin_radius"), params.get("link_radius"), params.get("pin_length"),
                          params.get("clearance"), params.get("hole_clearance"),
-                         params.get("require_collision_free", False), params.get("slenderness"))
+                         params.get("require_collision_free", False), params.get("slenderness"),
+                         params.get("pin_fit"))
 
 
 def default_robot_name(source: str) -> str:

@@ -146,8 +146,8 @@ def _segment_distance(points, p0, p1):
 @pytest.mark.parametrize("name", list(LINKAGES))
 def test_design_solids_lie_inside_their_capsules(name):
     """Every vertex of a link's mesh lies within its capsules (bars, hubs) and every vertex of a pin's
-    mesh within the pin's capsule: the collision search's capsules bound the written solids from
-    outside. Each mesh is one closed solid whose mass properties agree with trimesh's."""
+    mesh within the pin's capsule or a hub's on its joint (the head): the collision search's capsules
+    bound the written solids from outside. Each mesh is one closed solid whose mass properties agree with trimesh's."""
     from synth.design.model import capsules
     from synth.io.names import pin_link_name
 
@@ -168,7 +168,8 @@ def test_design_solids_lie_inside_their_capsules(name):
         else:
             joint = link[len("pin_"):]
             world = solid.vertices + meshes_mod.pin_origin(lk, result.design, joint)
-            mine = [c for c in caps if c.part == "pin" and c.joint == joint]
+            # the shaft in the pin's capsule; its head (and a clip's groove) sunk into a hub on its joint
+            mine = [c for c in caps if c.part in ("pin", "hub") and c.joint == joint]
         excess = np.min([_segment_distance(world, c.p0, c.p1) - c.radius for c in mine], axis=0)
         assert excess.max() <= 1e-6 * length, (link, excess.max())
 
@@ -392,7 +393,8 @@ def test_cranked_bars_and_shifted_mounts(name):
         else:
             joint = link[len("pin_"):]
             world = solid.vertices + meshes_mod.pin_origin(lk, design, joint)
-            mine = [c for c in caps if c.part == "pin" and c.joint == joint]
+            # the shaft in the pin's capsule; its head (and a clip's groove) sunk into a hub on its joint
+            mine = [c for c in caps if c.part in ("pin", "hub") and c.joint == joint]
         excess = np.min([_segment_distance(world, c.p0, c.p1) - c.radius for c in mine], axis=0)
         assert excess.max() <= 1e-6 * length, (link, excess.max())
         meshes_mod.stl_file(solid, link)  # raises unless the STL reads back as a closed solid

@@ -17,6 +17,7 @@ from conftest import REPO  # noqa: E402
 import synth  # noqa: E402
 from synth.design.choose import design_for  # noqa: E402
 from synth.io import step as step_mod  # noqa: E402
+from synth.io.meshes import pin_ends  # noqa: E402
 from synth.io.names import MESH_UNIT_SCALE  # noqa: E402
 from synth.io.poses import load_poses  # noqa: E402
 from synth.io.solid import read_stl_triangles, signed_volume  # noqa: E402
@@ -69,7 +70,8 @@ def test_step_holds_one_named_solid_per_stl_with_its_volume(tmp_path, fixture, k
 
 
 def test_step_is_in_millimetres_at_the_home_configuration(tmp_path):
-    """A pin's solid spans its axis from the design's start to end offsets, in mm, in world coordinates."""
+    """A pin's solid spans its axis from the design's start to end offsets, in mm, in world coordinates
+    (no wider than its head)."""
     gmsh = _kernel()
     lk = synth.bennett(load_poses(str(REPO / "fixtures/bennett_mm_deg.yaml")).matrices)
     design = design_for(lk).design
@@ -87,9 +89,10 @@ def test_step_is_in_millimetres_at_the_home_configuration(tmp_path):
     finally:
         gmsh.finalize()
     r = design.pin_radius / MESH_UNIT_SCALE
-    lo, hi = np.minimum(*ends) - r, np.maximum(*ends) + r
-    assert np.all(box[0] >= lo - 1e-3 * r) and np.all(box[1] <= hi + 1e-3 * r)
-    assert np.allclose(box.mean(axis=0), (ends[0] + ends[1]) / 2, atol=1e-3 * r)
+    head = pin_ends(lk, design, pin.joint).head / MESH_UNIT_SCALE  # the widest part
+    lo, hi = np.minimum(*ends), np.maximum(*ends)
+    assert np.all(box[0] >= lo - head - 1e-3 * r) and np.all(box[1] <= hi + head + 1e-3 * r)
+    assert np.all(box[0] <= lo + 1e-3 * r) and np.all(box[1] >= hi - 1e-3 * r)  # it spans its axis segment
 
 
 def test_export_step_writes_it_for_an_existing_output(tmp_path):

@@ -19,7 +19,7 @@ from synth.design.sizes import check_sizes
 from synth.design.cranks import crank_bars
 from synth.design.layers import LAYER_NODES, layered_design, parallel_axis
 from synth.design.mixed import dominant_axis, mixed_design
-from synth.design.model import DesignResult
+from synth.design.model import PIN_FITS, DesignResult
 from synth.design.search import design_linkage, natural_result
 from synth.design.sturdy import SLENDERNESS, bar_radius_for
 from synth.design.work import GAPS_PER_SECOND, Work
@@ -63,13 +63,15 @@ def default_hole_clearance(pin_radius: float) -> float:
 
 def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None,
                clearance=None, thin=True, work: Work | None = None, slenderness: float = SLENDERNESS,
-               **search) -> DesignResult:
+               pin_fit: str = "press", **search) -> DesignResult:
     """The physical design of ``linkage`` (`synth.design.search.design_linkage`) with the given or default
     sizes (metres; see `default_sizes`, `default_hole_clearance`; clearance None: the search's default);
     ``search``: further arguments of `design_linkage` (ranges, full_work, effort, seed); ``work``: a
     `synth.design.work.Work` that every search below charges (its limit, if any, stops them all).
     Every budget is counted work, never time: the same input gives the same design on any machine.
     ``slenderness``: no default-sized or thinned bar is longer than this many diameters (`synth.design.sturdy`).
+    ``pin_fit``: how the pins hold (`synth.design.model.PIN_FITS`; their heads and grooves lie inside the
+    hubs, so the search is the same for all).
 
     Thinning (docs/design.md): when the search covered the task range and found no free design, and
     neither radius was given (``thin``), it is retried with the bar and pin radii of the default times
@@ -90,6 +92,17 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
                      hole_clearance=hole_clearance, clearance=clearance), linkage.extent())
     if not (isinstance(slenderness, (int, float)) and math.isfinite(slenderness) and slenderness > 0):
         raise InputError(f"slenderness must be a positive ratio (bar length / diameter), got {slenderness!r}")
+    if pin_fit not in PIN_FITS:
+        raise InputError(f"pin fit must be one of {', '.join(PIN_FITS)}, got {pin_fit!r}")
+    result = _design_for(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, work,
+                         slenderness, search)
+    result.design.pin_fit = pin_fit
+    return result
+
+
+def _design_for(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, work, slenderness,
+                search) -> DesignResult:
+    """`design_for` after its checks."""
     work = Work() if work is None else work
     task = "task" in search.get("ranges", ("full", "task"))
     partly_planar = task and dominant_axis(linkage) is not None

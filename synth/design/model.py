@@ -77,6 +77,7 @@ class PhysicalDesign:
     mounts: list[Mount]
     bars: list[Bar]
     pins: list[Pin]
+    pin_fit: str = "press"  # how a pin holds (`PIN_FITS`): docs/design.md, "Pins"
 
     def mount(self, link: str, joint: str) -> Mount:
         for m in self.mounts:
@@ -100,6 +101,7 @@ class PhysicalDesign:
                      for b in self.bars],
             "pins": [{"joint": p.joint, "start": p.start, "end": p.end, "length": p.length, "carrier": p.carrier}
                      for p in self.pins],
+            "pin_fit": self.pin_fit,
         }
 
     @classmethod
@@ -111,6 +113,7 @@ class PhysicalDesign:
             mounts=[Mount(m["link"], m["joint"], float(m["offset"])) for m in d["mounts"]],
             bars=[Bar(b["link"], tuple(b["joints"]), [np.asarray(v, float) for v in b["via"]]) for b in d["bars"]],
             pins=[Pin(p["joint"], float(p["start"]), float(p["end"]), p["carrier"]) for p in d["pins"]],
+            pin_fit=str(d.get("pin_fit", "plain")),  # written before pins had heads: plain cylinders
         )
 
 
@@ -194,6 +197,7 @@ def straight_design(linkage, *, pin_radius: float, bar_radius: float, hub_length
     return design
 
 
+PIN_FITS = ("press", "clip", "plain")  # head + press fit in the carrier; head + clip groove; a plain cylinder
 MIN_WALL = 1.2e-3  # metres: the wall around a bore, three perimeters of a 0.4 mm nozzle (issue 33)
 
 

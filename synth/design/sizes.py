@@ -38,7 +38,7 @@ def check_sizes(sizes: dict, extent: float, *, scale: float = 1.0, unit: str = "
     check_extent(extent, scale=scale, unit=unit)
     lo, hi = SIZE_RANGE
     for key, v in sizes.items():
-        if v is None or key == "slenderness":  # a ratio, not a size (DesignOptions.sizes checks it)
+        if v is None or key in ("slenderness", "pin_fit"):  # a ratio and a choice, not sizes
             continue
         shown = f"{label(key)} {v / scale:.6g} {unit}"
         if key in CLEARANCE_KEYS:

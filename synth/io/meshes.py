@@ -65,12 +65,58 @@ class Primitive:
     phase: float = 0.0
 
 
+PRESS_INTERFERENCE = 5e-5  # metres, radial: a press fit of a printed pin (at most 2 % of the pin radius)
+
+
+@dataclass(frozen=True)
+class PinEnds:
+    """Where a pin's head and retention go (docs/design.md, "Pins"): ``outward`` (3,) unit vectors along
+    the axis pointing out of the stack at the carrier's and at the turning link's outer face, the faces
+    ``faces`` (3,) each (world, reference configuration), head radius ``head`` and thickness
+    ``thickness``, counterbore radius ``counterbore`` (metres)."""
+
+    carrier: str
+    turning: str
+    faces: dict
+    outward: dict
+    head: float
+    thickness: float
+    counterbore: float
+
+
+def pin_ends(linkage, design: PhysicalDesign, joint: str) -> PinEnds | None:
+    """The `PinEnds` of the pin of ``joint``, None for a joint held by one link. The head: radius bore +
+    0.4 of the hub's wall, thickness a quarter of the hub length, sunk flush into a counterbore (head
+    radius + hole clearance, one hole clearance deeper) of the hub it sits on: inside that hub."""
+    pin = design.pin(joint)
+    mounts = {m.link: m.offset for m in design.mounts if m.joint == joint}
+    others = [n for n in mounts if n != pin.carrier]
+    if pin.carrier not in mounts or not others:
+        return None
+    turning = others[0]
+    u = linkage.joint(joint).direction
+    out = 1.0 if mounts[turning] > mounts[pin.carrier] else -1.0  # the turning link's side, along u
+    ends = {turning: pin.end if out > 0 else pin.start, pin.carrier: pin.start if out > 0 else pin.end}
+    bore = design.pin_radius + design.hole_clearance
+    head = bore + 0.4 * (design.hub_radius - bore)
+    return PinEnds(pin.carrier, turning, {n: axis_point(linkage, joint, e) for n, e in ends.items()},
+                   {turning: out * u, pin.carrier: -out * u}, head, 0.25 * design.hub_length,
+                   head + design.hole_clearance)
+
+
+def _head_side(design: PhysicalDesign, ends: PinEnds) -> tuple[str, str | None]:
+    """(the link whose face the head sits on, the link whose face holds the clip groove or None)."""
+    return (ends.carrier, ends.turning) if design.pin_fit == "clip" else (ends.turning, None)
+
+
 def link_primitives(linkage, design: PhysicalDesign, name: str) -> tuple[list[Primitive], list[Primitive]]:
     """(parts, bores) of link ``name``. Parts: a capsule per bar segment, a cylinder per hub; bores: a
-    cylinder per mount, along the axis, through the hub and the bar's round end. Both empty for a link
-    without joints."""
+    cylinder per mount, along the axis, through the hub and the bar's round end (the carrier's smaller
+    by `PRESS_INTERFERENCE` for a press fit), and a counterbore where a pin's head or clip sits on this
+    link's hub. Both empty for a link without joints."""
     parts, bores = [], []
     carriers = {p.joint: p.carrier for p in design.pins}
+    press = min(PRESS_INTERFERENCE, 0.02 * design.pin_radius) if design.pin_fit == "press" else 0.0
     for c in capsules(linkage, design):
         if c.link != name or c.part == "pin":
             continue
@@ -82,8 +128,13 @@ def link_primitives(linkage, design: PhysicalDesign, name: str) -> tuple[list[Pr
             u = linkage.joint(c.joint).direction
             centre = (c.p0 + c.p1) / 2
             half = 1.01 * max(design.hub_length / 2, design.bar_radius) + 0.01 * design.hub_radius
-            r = design.pin_radius + (0.0 if carriers.get(c.joint) == name else design.hole_clearance)
+            r = design.pin_radius - press if carriers.get(c.joint) == name else design.pin_radius + design.hole_clearance
             bores.append(Primitive("cylinder", centre - half * u, centre + half * u, r))
+            ends = pin_ends(linkage, design, c.joint) if design.pin_fit != "plain" and c.joint in carriers else None
+            if ends is not None and name in _head_side(design, ends):
+                face, w = ends.faces[name], ends.outward[name]
+                depth = ends.thickness + design.hole_clearance
+                bores.append(Primitive("cylinder", face - depth * w, face + half * w, ends.counterbore))
     return parts, bores
 
 
@@ -100,11 +151,30 @@ def link_parts(linkage, design: PhysicalDesign, name: str) -> tuple[list[Solid],
     return [primitive_solid(p) for p in parts], [primitive_solid(b) for b in bores]
 
 
-def pin_primitive(linkage, design: PhysicalDesign, joint: str) -> Primitive:
-    """The pin of ``joint`` in world coordinates at the reference configuration."""
+def pin_primitives(linkage, design: PhysicalDesign, joint: str) -> list[Primitive]:
+    """The pin of ``joint`` in world coordinates at the reference configuration, as cylinders whose union
+    it is: the shaft, and unless the fit is "plain" the head flush in its counterbore (on the turning
+    link for a press fit, on the carrier for a clip), and for a clip a groove at the turning link's face
+    (the shaft at 0.8 pin radii over a third of the head's thickness, one hole clearance inside the
+    counterbore's floor) for a standard retaining clip."""
     p = design.pin(joint)
-    return Primitive("cylinder", axis_point(linkage, joint, p.start), axis_point(linkage, joint, p.end),
-                     design.pin_radius)
+    a, b = axis_point(linkage, joint, p.start), axis_point(linkage, joint, p.end)
+    r = design.pin_radius
+    ends = pin_ends(linkage, design, joint) if design.pin_fit != "plain" else None
+    if ends is None:
+        return [Primitive("cylinder", a, b, r)]
+    head_on, clip_on = _head_side(design, ends)
+    face, w, t = ends.faces[head_on], ends.outward[head_on], ends.thickness
+    other = b if np.dot(b - face, w) < np.dot(a - face, w) else a  # the shaft's far end (press)
+    shaft_end = face - 0.5 * t * w  # inside the head: no coplanar caps
+    prims = [Primitive("cylinder", face - t * w, face, ends.head)]
+    if clip_on is None:
+        return [Primitive("cylinder", other, shaft_end, r)] + prims
+    g_face, g_w = ends.faces[clip_on], ends.outward[clip_on]
+    lo = g_face - (t + design.hole_clearance) * g_w  # the groove from the counterbore's floor outwards
+    hi = lo + (t / 3) * g_w
+    return prims + [Primitive("cylinder", shaft_end, lo, r), Primitive("cylinder", hi, g_face, r),
+                    Primitive("cylinder", lo - 0.05 * t * g_w, hi + 0.05 * t * g_w, 0.8 * r)]
 
 
 def pin_origin(linkage, design: PhysicalDesign, joint: str) -> np.ndarray:
@@ -116,7 +186,8 @@ def pin_origin(linkage, design: PhysicalDesign, joint: str) -> np.ndarray:
 
 def pin_solid(linkage, design: PhysicalDesign, joint: str) -> Solid:
     """The pin of ``joint`` in its own frame (`pin_origin`)."""
-    return primitive_solid(pin_primitive(linkage, design, joint)).translated(-pin_origin(linkage, design, joint))
+    prims = [primitive_solid(p) for p in pin_primitives(linkage, design, joint)]
+    return _solid(prims).translated(-pin_origin(linkage, design, joint))
 
 
 def _solid(parts, bores=()) -> Solid:

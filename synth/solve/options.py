@@ -32,6 +32,7 @@ class DesignOptions:
     hole_clearance: float | None = None
     require_collision_free: bool = False
     slenderness: float | None = None  # longest bar / bar diameter at most (None: synth.design.sturdy's 25)
+    pin_fit: str | None = None  # "press", "clip" or "plain" (None: press; synth.design.model.PIN_FITS)
 
     def sizes(self, length_scale: float, label: Callable[[str], str] = option_label) -> dict:
         """The given sizes in metres (``length_scale``: metres per input unit), keyed as
@@ -52,6 +53,8 @@ class DesignOptions:
                 raise InputError(f"{label('slenderness')} must be a positive ratio (bar length / diameter), "
                                  f"got {self.slenderness}")
             out["slenderness"] = float(self.slenderness)  # a ratio: not scaled
+        if self.pin_fit is not None:
+            out["pin_fit"] = str(self.pin_fit)  # a choice, not a size
         return out
 
 

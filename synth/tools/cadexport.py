@@ -10,15 +10,19 @@ from __future__ import annotations
 from pathlib import Path
 
 from synth.design.model import PhysicalDesign
-from synth.errors import InputError
+from synth.errors import InputError, SynthesisError
 from synth.io.atomic import atomic_write, owned_files, write_manifest
 from synth.io.readback import read_output, solution_dirs
+from synth.io.meshes import design_solids
+from synth.io.names import MESH_UNIT_SCALE
+from synth.io.solid import signed_volume
 from synth.io.step import STEP_FILE, have_kernel, step_text
 
 
 def export_step(out) -> list[Path]:
     """Write ``linkage.step`` into every linkage directory of ``out``; the paths written. InputError when
-    the ``cad`` extra is missing, OUT is not an mpsynth output or a linkage.json has no design."""
+    the ``cad`` extra is missing, OUT is not an mpsynth output or a linkage.json has no design;
+    SynthesisError when OpenCASCADE's booleans do not give a solid the volume of its STL."""
     if not have_kernel():
         raise InputError("linkage.step needs gmsh's OpenCASCADE kernel: pip install 'mpsynth[cad]'")
     written = []
@@ -31,7 +35,12 @@ def export_step(out) -> list[Path]:
             design = PhysicalDesign.from_dict(doc)
         except (KeyError, TypeError, ValueError) as e:
             raise InputError(f"{rb.root / 'linkage.json'}: unreadable 'design' section ({e})") from None
-        text = step_text(rb.linkage, design)
+        solids = design_solids(rb.linkage, design)
+        try:
+            text = step_text(rb.linkage, design, {n: signed_volume(m.triangles) / MESH_UNIT_SCALE ** 3
+                                                  for n, m in solids.items()})
+        except RuntimeError as e:
+            raise SynthesisError(f"{rb.root}: no linkage.step: {e}") from None
         path = rb.root / STEP_FILE
         atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="ascii"), "STEP file")
         owned = owned_files(rb.root)
