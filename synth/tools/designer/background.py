@@ -15,6 +15,13 @@ from synth.errors import MpsynthError
 from synth.solve import SynthesisOptions
 
 
+SETTLE_SECONDS = 0.25  # a job starts this long after its change, unless a newer one cancels it first (a
+# drag sends a change every few ms: the search starts when the hand rests; timing decides only *whether* a job
+# runs, never what it finds, which counted work decides)
+STOP_SECONDS = 2.0  # how long a change waits for the cancelled job to stop (one move of the search) before its
+# own synthesis, so the two do not share the interpreter
+
+
 class Stage(enum.StrEnum):
     RUNNING = "running"
     DONE = "done"
@@ -58,6 +65,8 @@ def start(revision: int, solve, ps, linkage, on_done=None) -> Job:
 
     def run():
         try:
+            if job.flag.wait(SETTLE_SECONDS):  # a newer change came first: nothing to do
+                raise Cancelled()
             with cancellable(job.flag):
                 job.drive = drive_report(linkage).sentence()
                 if job.flag.is_set():

@@ -55,6 +55,7 @@ BODY = r"""<div id="app">
 
 JS = r""""use strict";
 (function () {
+  var timings = [];  // ms from a change sent to its state drawn (bench/bench_designer.py)
   var S = null, frame = 0, playing = false, busy = false, queued = null, polling = null;
   var canvas = document.getElementById("view"), ctx = canvas.getContext("2d");
   var cam = { yaw: -0.9, pitch: 0.45, zoom: 1, pan: [0, 0], centre: [0, 0, 0], size: 1 };
@@ -69,7 +70,9 @@ JS = r""""use strict";
     if (busy) { queued = [name, body]; return; }
     busy = true; $("message").textContent = "";
     var t0 = performance.now();
-    api(name, body).then(function (st) { show(st); $("timing").textContent = "update " + Math.round(performance.now() - t0) + " ms"; })
+    api(name, body).then(function (st) {
+      show(st); var ms = performance.now() - t0; timings.push(ms); $("timing").textContent = "update " + Math.round(ms) + " ms";
+    })
       .catch(function (e) { $("message").textContent = e.message; })
       .then(function () { busy = false; if (queued) { var q = queued; queued = null; send(q[0], q[1]); } });
   }
@@ -273,7 +276,8 @@ JS = r""""use strict";
     setTimeout(tick, 50);
   }
   playBtn.addEventListener("click", function () { playing = !playing; playBtn.innerHTML = playing ? "&#10073;&#10073;" : "&#9654;"; tick(); });
-  window.mpsynthDesigner = { state: function () { return S; }, handleXY: handleXY, idle: function () { return !busy && !queued; } };
+  window.mpsynthDesigner = { state: function () { return S; }, handleXY: handleXY, idle: function () { return !busy && !queued; },
+    timings: function () { return timings.slice(); } };
   api("state").then(show).catch(function (e) { $("message").textContent = e.message; });
 })();
 """

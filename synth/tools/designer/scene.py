@@ -2,7 +2,7 @@
 
 Every link is a polyline through the sites of the joints it carries (`Linkage.joint_sites`), every
 joint a short segment along its axis, the tool a frame, plus the tool path and the task poses. All
-positions are in the task's length unit (the page shows the task's numbers), rounded to 1e-6 of the
+positions are in the task's length unit (the page shows the task's numbers), rounded to 1e-5 of the
 figure's size; frames sample the cycle uniformly in phi = atan(t) (`synth.io.readback.cycle_parameters`,
 the cheap spacing: this is redrawn on every change).
 """
@@ -17,8 +17,9 @@ PATH_SAMPLES = 240  # samples of the tool path
 
 
 def _rounded(a: np.ndarray, size: float) -> list:
-    step = max(size, 1e-300) * 1e-6
-    return (np.round(np.asarray(a, float) / step) * step).tolist()
+    """``a`` rounded to about 1e-5 of ``size`` (decimal places: short JSON numbers)."""
+    digits = int(5 - np.floor(np.log10(max(size, 1e-300))))
+    return np.round(np.asarray(a, float), digits).tolist()
 
 
 def scene(linkage, scale: float, frames: int = FRAMES) -> dict:

@@ -93,12 +93,13 @@ class Session:
     def _update(self) -> None:
         """Re-synthesize the current document and start the design behind it (cancelling the last)."""
         self.revision += 1
+        if self.job is not None:  # stop the last design search first: it would slow this synthesis down
+            self.job.cancel()
+            self.job.wait(background.STOP_SECONDS)
+            self.job = None
         self.synthesis = synthesize(self.doc, self.source, self.kind)
         if self.pick >= len(self.synthesis.linkages):
             self.pick = 0
-        if self.job is not None:
-            self.job.cancel()
-            self.job = None
         s = self.synthesis
         if self.background_design and s.linkages:
             self.job = background.start(self.revision, SOLVERS[s.kind], s.ps, s.linkages[self.pick])
