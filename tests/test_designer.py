@@ -227,3 +227,29 @@ def test_design_refuses_a_missing_task(tmp_path):
     r = subprocess.run([sys.executable, "-m", "cli.main", "design", str(tmp_path / "nope.yaml"), "--no-browser"],
                        capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert r.returncode == 2 and "nope.yaml" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_task_fields_are_given_edited_and_taken_back(task):
+    s = Session(task, background_design=False)
+    st_ = s.state()["items"][0]
+    assert st_["addable"] == ["tolerance", "order"] and st_["rows"][1]["addable"] == ["tolerance", "exact", "velocity"]
+    s.add_field(None, "tolerance")  # a task tolerance: a fit of the three poses
+    st_ = s.add_field(1, "exact")
+    assert st_["items"][0]["rows"][1]["removable"] == ["exact"]
+    cells = {c["label"]: c["value"] for c in st_["items"][0]["settings"]}
+    assert cells == {"tolerance.position": 1.0, "tolerance.angle": 1}  # 1 % of 380 mm -> 1 mm; 1 deg
+    assert st_["problem"] is None and all(e["within"] for e in st_["errors"])
+    st_ = s.edit(["tolerance", "angle"], 0.5)
+    assert st_["errors"][0]["tolerance"] == [1.0, 0.5] and st_["errors"][1]["tolerance"] is None  # via: exact
+    st_ = s.remove_field(1, "exact")
+    assert st_["errors"][1]["tolerance"] == [1.0, 0.5]
+    with pytest.raises(InputError, match="cannot be given 'exact'"):
+        s.add_field(None, "exact")
+    s.save()
+    assert "tolerance:" in task.read_text()  # a new key: the document is written anew
+    s.undo()
+    s.undo()
+    s.undo()
+    s.undo()
+    s.save()
+    assert task.read_text() == BENNETT.read_text()  # back to the original text, comments included

@@ -104,6 +104,10 @@ def test_a_table_edit_saves_the_expected_yaml(open_task):
     page.click("#save")
     page.wait_for_function("document.getElementById('message').textContent.startsWith('saved')")
     assert task.read_text() == original.replace("position: [-180, -160, -40]", "position: [-181.5, -160, -40]")
+    page.click("button[data-field='add:task:tolerance']")  # a task tolerance: the table gains its numbers
+    st = settled(page, st["revision"])
+    assert page.locator("""input[data-path='["tolerance","position"]']""").count() == 1
+    assert st["problem"] is None and page.locator("#errors tbody tr.hit").count() == 3
     assert errors == []
 
 

@@ -112,6 +112,16 @@ def with_value(doc: Any, path: tuple, value: Any) -> Any:
     return new
 
 
+COMPONENTS = {"position": ("x", "y", "z"), "rpy": ("roll", "pitch", "yaw"), "axis": ("x", "y", "z")}
+
+
+def label(path: tuple) -> str:
+    """A short label of a leaf inside its item: ``position x``, ``rpy yaw``, ``tolerance.position``."""
+    if len(path) >= 2 and path[-2] in COMPONENTS and isinstance(path[-1], int) and path[-1] < 3:
+        return format_path(path[:-1]) + " " + COMPONENTS[path[-2]][path[-1]]
+    return format_path(path)
+
+
 def format_path(path: tuple) -> str:
     return ".".join(str(k) for k in path) or "(document)"
 
@@ -181,3 +191,47 @@ def _scalar_spans(text: str) -> dict[tuple, tuple[int, int]] | None:
     if root is not None:
         walk(root, ())
     return spans
+
+
+ITEM_FIELDS = ("tolerance", "exact", "velocity")  # what an item (a mapping) may gain (synth.io.posespec)
+TOP_FIELDS = ("tolerance", "order")  # what the document may gain (synth.io.taskspec)
+
+
+def addable(doc: Any, item: int | None) -> list[str]:
+    """The task fields that item ``item`` (None: the document) does not have and may be given."""
+    node = doc if item is None else (doc[items_key(doc)][item] if items_key(doc) else None)
+    if not isinstance(node, dict):
+        return []
+    return [k for k in (TOP_FIELDS if item is None else ITEM_FIELDS) if k not in node]
+
+
+def default_field(doc: Any, key: str, size: float) -> Any:
+    """The value a new field starts with (then edited in the table): a tolerance of 1 % of the task's size
+    ``size`` (task units, rounded) and 1 degree; ``exact``: true; a velocity along x of ``size`` per second;
+    the listed order."""
+    units = doc.get("units") if isinstance(doc, dict) else None
+    degrees = isinstance(units, dict) and units.get("angle") == "deg"
+    step = 10.0 ** math.floor(math.log10(max(0.01 * size, 1e-12)))
+    return {"tolerance": {"position": float(format_number(step)), "angle": 1 if degrees else 0.0175},
+            "exact": True, "velocity": {"linear": [float(format_number(size)), 0, 0]}, "order": "listed"}[key]
+
+
+def with_field(doc: Any, item: int | None, key: str, size: float) -> Any:
+    """A copy of ``doc`` whose item ``item`` (None: the document) has the new field ``key``
+    (`default_field`); InputError when it may not have it."""
+    if key not in addable(doc, item):
+        raise InputError(f"{'the task' if item is None else f'item {item}'} cannot be given {key!r} here")
+    new = copy.deepcopy(doc)
+    node = new if item is None else new[items_key(new)][item]
+    node[key] = default_field(doc, key, size)
+    return new
+
+
+def without_field(doc: Any, item: int | None, key: str) -> Any:
+    """A copy of ``doc`` without the task field ``key`` of item ``item`` (None: the document)."""
+    node = doc if item is None else (doc[items_key(doc)][item] if items_key(doc) else None)
+    if not isinstance(node, dict) or key not in node or key not in (TOP_FIELDS if item is None else ITEM_FIELDS):
+        raise InputError(f"{'the task' if item is None else f'item {item}'} has no {key!r} to remove")
+    new = copy.deepcopy(doc)
+    del (new if item is None else new[items_key(new)][item])[key]
+    return new

@@ -31,6 +31,7 @@ th { color: #555; font-weight: 600; border-bottom: 1px solid #ddd; }
 .item b { display: inline-block; min-width: 64px; }
 .cell { display: inline-flex; flex-direction: column; margin: 2px 4px 2px 0; font-size: 11px; color: #555; }
 #message { color: #8a1c12; min-height: 1em; }
+.fields button { font-size: 11px; padding: 0 4px; margin: 2px 3px 2px 0; }
 """
 
 BODY = r"""<div id="app">
@@ -202,17 +203,34 @@ JS = r""""use strict";
     items.innerHTML = ""; settings.innerHTML = "";
     st.items.forEach(function (group) {
       group.settings.forEach(function (c) { settings.appendChild(input(c)); });
+      fieldButtons(settings, null, group.addable, group.removable);
       group.rows.forEach(function (row) {
         var div = document.createElement("div"); div.className = "item";
         var b = document.createElement("b"); b.textContent = (group.key || "item") + " " + row.index; div.appendChild(b);
         row.cells.forEach(function (c) { div.appendChild(input(c)); });
+        fieldButtons(div, row.index, row.addable, row.removable);
         items.appendChild(div);
       });
     });
   }
+  function fieldButtons(parent, item, add, remove) { // give or take a task field (tolerance, exact, velocity, order)
+    var span = document.createElement("span"); span.className = "fields";
+    [["add", add || [], "+ "], ["remove", remove || [], "\u2212 "]].forEach(function (a) {
+      a[1].forEach(function (key) {
+        var btn = document.createElement("button"); btn.type = "button"; btn.textContent = a[2] + key;
+        btn.dataset.field = a[0] + ":" + (item === null ? "task" : item) + ":" + key;
+        btn.addEventListener("click", function () { send(a[0], { item: item, key: key }); });
+        span.appendChild(btn);
+      });
+    });
+    parent.appendChild(span);
+  }
   function fit() {
     var pts = (S.poses || []).map(function (T) { return [T[0][3], T[1][3], T[2][3]]; });
-    if (S.scene) S.scene.path.forEach(function (p) { pts.push(p); });
+    if (S.scene) {
+      S.scene.path.forEach(function (p) { pts.push(p); });
+      S.scene.links.forEach(function (lk) { lk.points.forEach(function (P) { P.forEach(function (p) { pts.push(p); }); }); });
+    }
     if (!pts.length) return;
     var lo = pts[0].slice(), hi = pts[0].slice();
     pts.forEach(function (p) { for (var k = 0; k < 3; k++) { lo[k] = Math.min(lo[k], p[k]); hi[k] = Math.max(hi[k], p[k]); } });

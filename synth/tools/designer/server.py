@@ -8,6 +8,7 @@ answer ``{"error": message}`` that the page shows in words.
     GET  /api/state      Session.state()
     POST /api/edit       {"path": [...], "value": v}       POST /api/move  {"item": i, "position": [x, y, z]}
     POST /api/kind       {"kind": "bennett"|...}           POST /api/pick  {"pick": k}
+    POST /api/add        {"item": i or null, "key": k}     POST /api/remove {"item": i or null, "key": k}
     POST /api/undo       {}                                POST /api/save  {"path": optional}
     POST /api/write      {"out": optional, "force": bool}  (default OUT: the command's -o)
 """
@@ -45,6 +46,8 @@ def make_app(session, out: str | None = None, force: bool = False):
         "edit": lambda b: session.edit(b["path"], b["value"]),
         "move": lambda b: session.move(b["item"], b["position"]),
         "kind": lambda b: session.set_kind(b["kind"]),
+        "add": lambda b: session.add_field(b.get("item"), b["key"]),
+        "remove": lambda b: session.remove_field(b.get("item"), b["key"]),
         "pick": lambda b: session.set_pick(b["pick"]),
         "undo": lambda b: session.undo(),
         "save": lambda b: session.save(b.get("path")),

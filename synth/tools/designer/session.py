@@ -27,9 +27,9 @@ class Session:
 
     def __init__(self, path, background_design: bool = True):
         self.path = Path(path)
-        self.source, self.text = read_source(str(path), None)
-        self.saved = document.parse(self.text, self.source)  # the document of ``text`` (the file)
-        self.doc = self.saved
+        self.source, text = read_source(str(path), None)
+        self.doc = document.parse(text, self.source)
+        self.bases = [(text, self.doc)]  # (text, its document) of the file as opened and as saved since
         self.history: list[tuple] = []  # (doc, kind, pick) before each change
         self.kind: Kind | None = None  # None: the task's default
         self.pick = 0
@@ -60,6 +60,17 @@ class Session:
             for k, x in enumerate(position):
                 new = document.with_value(new, where + (k,), _round(float(x), size))
             return self._change(new, self.kind, self.pick)
+
+    def add_field(self, item, key: str) -> dict:
+        """Give item ``item`` (None: the task) the field ``key`` (tolerance, exact, velocity, order) with a
+        starting value (`document.default_field`), to edit in the table."""
+        with self.lock:
+            size = _spread(self.synthesis.ps) if self.synthesis.ps is not None else 1.0
+            return self._change(document.with_field(self.doc, _item(item), key, size), self.kind, self.pick)
+
+    def remove_field(self, item, key: str) -> dict:
+        with self.lock:
+            return self._change(document.without_field(self.doc, _item(item), key), self.kind, self.pick)
 
     def set_kind(self, kind: str) -> dict:
         with self.lock:
@@ -110,10 +121,13 @@ class Session:
         numbers in place (comments kept) where possible, else the whole document anew."""
         with self.lock:
             target = Path(path) if path else self.path
-            text, kept = document.write_back(self.text, self.saved, self.doc, self.source)
+            for base_text, base_doc in reversed(self.bases):  # the last saved text first, the opened file last
+                text, kept = document.write_back(base_text, base_doc, self.doc, self.source)
+                if kept:
+                    break
             atomic_write(target, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
             if target == self.path:
-                self.text, self.saved = text, self.doc
+                self.bases.append((text, self.doc))
             return {"path": str(target), "comments_kept": kept, "bytes": len(text.encode("utf-8"))}
 
     def write_output(self, out, force: bool = False) -> dict:
@@ -166,17 +180,18 @@ class Session:
         rows: dict = {}
         settings = []
         for leaf in document.leaves(self.doc):
-            cell = {"path": list(leaf.path), "label": document.format_path(leaf.path[2:] if leaf.item is not None
-                                                                            else leaf.path),
-                    "value": leaf.value}
+            cell = {"path": list(leaf.path), "value": leaf.value,
+                    "label": document.label(leaf.path[2:] if leaf.item is not None else leaf.path)}
             if leaf.item is None:
                 if leaf.path[:1] != ("units",):
                     settings.append(cell)
             else:
                 rows.setdefault(leaf.item, []).append(cell)
-        items = [{"index": i, "cells": cells, "movable": document.position_path(self.doc, i) is not None}
+        items = [{"index": i, "cells": cells, "movable": document.position_path(self.doc, i) is not None,
+                  "addable": document.addable(self.doc, i), "removable": _removable(self.doc, key, i)}
                  for i, cells in sorted(rows.items())]
-        return [{"key": key, "rows": items, "settings": settings}]
+        return [{"key": key, "rows": items, "settings": settings, "addable": document.addable(self.doc, None),
+                 "removable": _removable(self.doc, None, None)}]
 
     def _background(self, scale: float) -> dict | None:
         job = self.job
@@ -195,6 +210,16 @@ class Session:
         """Cancel the design behind (the server is stopping)."""
         if self.job is not None:
             self.job.cancel()
+
+
+def _item(item) -> int | None:
+    return None if item is None else int(item)
+
+
+def _removable(doc, key, item) -> list[str]:
+    node = doc if item is None else doc[key][item]
+    fields = document.TOP_FIELDS if item is None else document.ITEM_FIELDS
+    return [k for k in fields if isinstance(node, dict) and k in node]
 
 
 def _spread(ps) -> float:
