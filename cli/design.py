@@ -17,10 +17,15 @@ Example:
               help="TCP port of the page (0: a free one).")
 @click.option("--host", default="127.0.0.1", show_default=True,
               help="Interface to listen on; anything but 127.0.0.1 lets other machines edit your files.")
+@click.option("--kind", type=click.Choice(["bennett", "sixbar", "fourbar"]),
+              help="The linkage to start with (default: by the task: 4 poses or 7 points a 6R, coplanar poses a "
+                   "four-bar, else Bennett); the page switches it.")
+@click.option("--normalize", is_flag=True,
+              help="Accept slightly non-unit quaternions / non-orthonormal rotations and normalize them.")
 @click.option("--no-browser", is_flag=True, help="Do not open the page in a browser; print its URL only.")
 @debug_option
 @run_guarded
-def design(task, out, force, port, host, no_browser, debug):
+def design(task, out, force, port, host, kind, normalize, no_browser, debug):
     """Open TASK (a pose or point file) in an interactive designer in the browser: drag the poses or edit
     their numbers, and the linkage is re-synthesized and drawn at once with its motion, per-pose errors,
     drive report and collision-free design; undo, save the task, write OUT. Needs the extra
@@ -41,4 +46,4 @@ def design(task, out, force, port, host, no_browser, debug):
 
             webbrowser.open(url)
 
-    Server(Session(task), host=host, port=port, out=out, force=force).serve(ready)
+    Server(Session(task, kind=kind, normalize=normalize), host=host, port=port, out=out, force=force).serve(ready)

@@ -253,3 +253,20 @@ def test_task_fields_are_given_edited_and_taken_back(task):
     s.undo()
     s.save()
     assert task.read_text() == BENNETT.read_text()  # back to the original text, comments included
+
+
+@pytest.mark.parametrize("fixture, kind, count", [("bennett_points.yaml", "bennett", 5), ("fourbar_5.yaml", "fourbar", 2),
+                                                  ("bennett_fit.yaml", "bennett", 1)])
+def test_the_default_kind_reads_the_task_as_its_command_does(fixture, kind, count):
+    s = Session(ROOT / "fixtures" / fixture, background_design=False)
+    st_ = s.state()
+    assert (st_["kind"], st_["problem"], len(st_["candidates"])) == (kind, None, count)
+    if fixture == "bennett_points.yaml":  # points: drawn without frames, moved by their position
+        assert all(st_["points"]) and st_["items"][0]["rows"][1]["movable"]
+        assert all(e["angle"] is None and e["within"] for e in st_["errors"])
+
+
+def test_a_kind_given_at_the_start_and_one_that_is_unknown(task):
+    assert Session(task, background_design=False, kind="fourbar").state()["kind"] == "fourbar"
+    with pytest.raises(InputError, match="unknown kind 'eightbar'"):
+        Session(task, background_design=False, kind="eightbar")

@@ -23,15 +23,18 @@ POSITION_DIGITS = 6  # a dragged position is rounded to this many significant di
 
 class Session:
     """A task file opened in the designer. ``background_design``: run the design search behind each
-    change (tests of the live part switch it off)."""
+    change (tests of the live part switch it off); ``kind``: the kind to start with (None: the task's
+    default, `synth_view.default_kind`); ``normalize``: accept slightly non-unit quaternions and
+    non-orthonormal rotations, as the commands' --normalize."""
 
-    def __init__(self, path, background_design: bool = True):
+    def __init__(self, path, background_design: bool = True, kind: str | None = None, normalize: bool = False):
         self.path = Path(path)
         self.source, text = read_source(str(path), None)
         self.doc = document.parse(text, self.source)
         self.bases = [(text, self.doc)]  # (text, its document) of the file as opened and as saved since
         self.history: list[tuple] = []  # (doc, kind, pick) before each change
-        self.kind: Kind | None = None  # None: the task's default
+        self.kind: Kind | None = _kind(kind)  # None: the task's default
+        self.normalize = normalize
         self.pick = 0
         self.revision = 0
         self.background_design = background_design
@@ -74,11 +77,7 @@ class Session:
 
     def set_kind(self, kind: str) -> dict:
         with self.lock:
-            try:
-                k = Kind(kind)
-            except ValueError:
-                raise InputError(f"unknown kind {kind!r}; one of {', '.join(k.value for k in Kind)}") from None
-            return self._change(self.doc, k, 0)
+            return self._change(self.doc, _kind(kind), 0)
 
     def set_pick(self, pick: int) -> dict:
         with self.lock:
@@ -108,7 +107,7 @@ class Session:
             self.job.cancel()
             self.job.wait(background.STOP_SECONDS)
             self.job = None
-        self.synthesis = synthesize(self.doc, self.source, self.kind)
+        self.synthesis = synthesize(self.doc, self.source, self.kind, self.normalize)
         if self.pick >= len(self.synthesis.linkages):
             self.pick = 0
         s = self.synthesis
@@ -166,7 +165,7 @@ class Session:
             }
             if ps is not None:
                 out["poses"] = pose_frames(ps.matrices, scale)
-                out["points"] = [k == "point" for k in ps.is_point.tolist()]
+                out["points"] = ps.is_point.tolist()
             if s.linkages:
                 lk = s.linkages[self.pick]
                 out["scene"] = scene(lk, scale)
@@ -210,6 +209,15 @@ class Session:
         """Cancel the design behind (the server is stopping)."""
         if self.job is not None:
             self.job.cancel()
+
+
+def _kind(kind) -> Kind | None:
+    if kind is None:
+        return None
+    try:
+        return Kind(kind)
+    except ValueError:
+        raise InputError(f"unknown kind {kind!r}; one of {', '.join(k.value for k in Kind)}") from None
 
 
 def _item(item) -> int | None:

@@ -32,10 +32,40 @@ SOLVERS = {Kind.BENNETT: solve_bennett, Kind.SIXBAR: solve_sixbar, Kind.FOURBAR:
 
 
 def default_kind(ps) -> Kind:
-    """The kind a task asks for by its count: four poses or seven points a 6R, else a Bennett linkage
-    (three poses, five points, or a fit of any count)."""
+    """The kind a task asks for: four poses or seven points a 6R; coplanar poses other than three or four
+    (`synth.synthesis.fourbar_plane.plane_of_motion`) the planar four-bar; else a Bennett linkage (three
+    poses, which may be planar or spherical, five points, a fit of any count)."""
     n = len(ps)
-    return Kind.SIXBAR if (n == 4 and not ps.has_points) or (n == 7 and ps.has_points) else Kind.BENNETT
+    if ps.has_points:
+        return Kind.SIXBAR if n == 7 else Kind.BENNETT
+    if n == 4:
+        return Kind.SIXBAR
+    if n != 3 and _coplanar(ps):
+        return Kind.FOURBAR
+    return Kind.BENNETT
+
+
+def _coplanar(ps) -> bool:
+    from synth.synthesis.fourbar_plane import plane_of_motion
+
+    try:
+        plane_of_motion(ps.matrices, ps.names, ps.source)
+    except MpsynthError:
+        return False
+    return True
+
+
+def load_spec(kind: Kind | None) -> dict:
+    """The counts `parse_pose_document` checks for ``kind``, as its command does (None: any task)."""
+    from synth.solve.tasks import point_count
+
+    if kind is None:
+        return dict(count=((1, None), "mpsynth design"), points=((1, None), "mpsynth design"))
+    if kind is Kind.FOURBAR:
+        return dict(count=((3, None), "mpsynth fourbar"))
+    degree = 2 if kind is Kind.BENNETT else 3
+    points = ((point_count(2)[0][0], None), "mpsynth bennett") if degree == 2 else point_count(3)
+    return dict(count=((2, None), f"mpsynth {kind.value}"), points=points)
 
 
 def ranks(kind: Kind, ps) -> bool:
@@ -80,15 +110,18 @@ class Synthesis:
     seconds: float = 0.0
 
 
-def synthesize(doc, source: str, kind: Kind | None) -> Synthesis:
+def synthesize(doc, source: str, kind: Kind | None, normalize: bool = False) -> Synthesis:
     """The linkages of the task document ``doc`` (a file's parsed content, task units) for ``kind``
-    (None: `default_kind`); an input or synthesis error becomes ``problem`` (its one-line message)."""
+    (None: `default_kind`), read as its command reads it (``normalize``: its --normalize); an input or
+    synthesis error becomes ``problem`` (its one-line message)."""
     t0 = time.perf_counter()
     out = Synthesis(kind or Kind.BENNETT)
     try:
-        ps = parse_pose_document(copy.deepcopy(doc), source=source)
-        out.ps = ps
-        out.kind = kind = kind or default_kind(ps)
+        if kind is None:
+            out.ps = parse_pose_document(copy.deepcopy(doc), source=source, normalize=normalize, **load_spec(None))
+            kind = default_kind(out.ps)
+        out.kind = kind
+        out.ps = ps = parse_pose_document(copy.deepcopy(doc), source=source, normalize=normalize, **load_spec(kind))
         top = TOP if ranks(kind, ps) else None
         result = SOLVERS[kind](ps, SynthesisOptions(top=top))
         if result.solutions:
