@@ -270,3 +270,21 @@ def test_a_kind_given_at_the_start_and_one_that_is_unknown(task):
     assert Session(task, background_design=False, kind="fourbar").state()["kind"] == "fourbar"
     with pytest.raises(InputError, match="unknown kind 'eightbar'"):
         Session(task, background_design=False, kind="eightbar")
+
+
+def test_the_command_serves_on_localhost_and_stops_on_interrupt(task):
+    pytest.importorskip("uvicorn")
+    import signal
+
+    proc = subprocess.Popen([sys.executable, "-m", "cli.main", "design", str(task), "--no-browser", "--port", "0"],
+                            cwd=ROOT, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stderr.readline()
+        assert line.startswith("mpsynth design: http://127.0.0.1:"), line
+        url = line.split()[2]
+        code, st_ = _call(url, "state")
+        assert code == 200 and st_["kind"] == "bennett"
+    finally:
+        proc.send_signal(signal.SIGINT)
+        rest = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 0 and "Traceback" not in rest

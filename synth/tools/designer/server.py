@@ -99,7 +99,7 @@ class Server:
         return f"http://{host}:{port}/"
 
     def serve(self, ready=None) -> None:
-        """Serve until interrupted (^C: uvicorn's own handling) or `stop`; ``ready(url)`` is called (on
+        """Serve until interrupted (^C: a normal end) or `stop`; ``ready(url)`` is called (on
         another thread) once the server listens. InputError when it cannot listen."""
         if ready is not None:
             def watch():
@@ -111,6 +111,8 @@ class Server:
             threading.Thread(target=watch, name="mpsynth-design-ready", daemon=True).start()
         try:
             self.server.run()
+        except KeyboardInterrupt:  # ^C, the way to stop the server (uvicorn raises it again once shut down)
+            pass
         except SystemExit:  # uvicorn's answer to a port in use or an address it cannot bind
             self.server.should_exit = True
             raise InputError(f"cannot listen on {self.host}:{self.server.config.port} (in use, or not an "

@@ -145,7 +145,8 @@ class Session:
             result = background.design_result(SOLVERS[s.kind], s.ps)
         files = write_output(result.linkage, str(out), robot_name=safe_robot_name(Path(self.source).stem or "linkage"),
                              force=force, result=result.design)
-        return {"out": str(out), "files": len(files), "design": result.sentence() if result.design else None}
+        return {"out": str(out), "files": len(files), "design": result.sentence() if result.design else None,
+                "choice": result.linkage.info.get("design_choice")}
 
     # ------------------------------------------------------------------ what the page shows
     def state(self) -> dict:
