@@ -58,7 +58,8 @@ class Session:
                 raise InputError(f"item {item} has no position list of three numbers to move")
             if len(position) != 3:
                 raise InputError(f"a position needs three numbers, got {len(position)}")
-            size = max(self.synthesis.ps and _spread(self.synthesis.ps) or 1.0, 1e-12)
+            ps = self.synthesis.ps
+            size = max(_spread(ps), 1e-12) if ps is not None else 1.0
             new = self.doc
             for k, x in enumerate(position):
                 new = document.with_value(new, where + (k,), _round(float(x), size))
