@@ -9,8 +9,9 @@ answer ``{"error": message}`` that the page shows in words.
     POST /api/edit       {"path": [...], "value": v}       POST /api/move  {"item": i, "position": [x, y, z]}
     POST /api/kind       {"kind": "bennett"|...}           POST /api/pick  {"pick": k}
     POST /api/add        {"item": i or null, "key": k}     POST /api/remove {"item": i or null, "key": k}
-    POST /api/undo       {}                                POST /api/save  {"path": optional}
-    POST /api/write      {"out": optional, "force": bool}  (default OUT: the command's -o)
+    POST /api/undo       {}                                POST /api/save  {} (the task file itself)
+    POST /api/write      {} (the command's -o OUT and --force: a page names no path, so a client reached
+                         through --host can write nothing else)
 """
 from __future__ import annotations
 
@@ -35,11 +36,10 @@ def make_app(session, out: str | None = None, force: bool = False):
     async def index(request):
         return HTMLResponse(html, headers={"Cache-Control": "no-store"})
 
-    def write(out_=None, force_=None):
-        target = out_ or out
-        if not target:
-            raise InputError("no output directory: start mpsynth design with -o OUT, or give one")
-        return session.write_output(target, force if force_ is None else bool(force_))
+    def write():
+        if not out:
+            raise InputError("no output directory: start mpsynth design with -o OUT")
+        return session.write_output(out, force)
 
     calls = {
         "state": lambda b: session.state(),
@@ -50,8 +50,8 @@ def make_app(session, out: str | None = None, force: bool = False):
         "remove": lambda b: session.remove_field(b.get("item"), b["key"]),
         "pick": lambda b: session.set_pick(b["pick"]),
         "undo": lambda b: session.undo(),
-        "save": lambda b: session.save(b.get("path")),
-        "write": lambda b: write(b.get("out"), b.get("force")),
+        "save": lambda b: session.save(),
+        "write": lambda b: write(),
     }
 
     async def api(request):
