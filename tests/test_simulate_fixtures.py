@@ -57,3 +57,45 @@ def test_a_bennett_fixture_passes_at_the_defaults(outputs, engine):
 def test_every_fixture_passes_at_the_defaults(outputs, fixture, engine):
     res = simulate_at_defaults(outputs(fixture), engine)
     assert res["engine"] == engine
+
+
+# ------------------------------------------------------------------ the PyBullet child's bound: CPU time, not wall time
+def test_a_child_that_uses_no_cpu_is_stopped_as_hung(monkeypatch):
+    import subprocess
+    import sys
+
+    from synth.tools.sim import SimulationError, pybullet_sim
+
+    monkeypatch.setattr(pybullet_sim, "STALL_SECONDS", 0.3)
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    with pytest.raises(SimulationError, match="no progress"):
+        pybullet_sim._wait_while_working(proc, 600.0)
+    assert proc.returncode is not None
+
+
+def test_a_working_child_is_waited_for_however_long_it_takes(monkeypatch):
+    """A child that keeps using CPU is never stopped by the stall check (a loaded machine only makes the
+    same run take longer)."""
+    import subprocess
+    import sys
+
+    from synth.tools.sim import pybullet_sim
+
+    monkeypatch.setattr(pybullet_sim, "STALL_SECONDS", 5.0)  # CPU ticks come every 10 ms: under load, seconds apart
+    code = "import time\nt = time.process_time()\nwhile time.process_time() - t < 0.5: pass\nprint('done')"
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    out, _ = pybullet_sim._wait_while_working(proc, 600.0)
+    assert out.strip() == "done" and proc.returncode == 0
+
+
+def test_the_cpu_budget_ends_a_runaway_child():
+    import signal
+    import subprocess
+    import sys
+
+    from synth.tools.sim import pybullet_sim
+
+    proc = subprocess.run([sys.executable, "-c", "while True: pass"], preexec_fn=lambda: pybullet_sim._limit_cpu(0.5),
+                          capture_output=True, timeout=600)
+    assert proc.returncode == -signal.SIGXCPU
