@@ -143,8 +143,6 @@ def test_noisy_samples_fit_within_the_tolerance(seed):
     _noisy_fit_within_tolerance(seed)
 
 
-@pytest.mark.xfail(strict=True, reason="known bug: no refined seed meets the exact poses (violation ~0.9) for this "
-                                       "set; found by the property test above")
 def test_noisy_samples_seed_9901_meets_its_exact_poses():
     _noisy_fit_within_tolerance(9901)
 

@@ -31,6 +31,8 @@ ERRORS = 6  # per item: position error (3, spreads), rotation error 2 sin(angle/
 ROWS = ERRORS + 5  # and 5 velocity rows (components of the twist direction across the prescribed one)
 STEP = 1e-30  # complex step
 GRID = 48  # parameter samples per seed motion for projecting the items onto it (`project`)
+ZOOMS = 3  # refinements of each projection around its nearest sample
+ZOOM_SAMPLES = 9  # samples per refinement
 EXACT_WEIGHT = 1e3  # weight of exact rows when projecting and ranking seeds (conditioned units)
 FEASIBLE_FLOOR = 1e-14  # constraint violation (conditioned units) counted as met
 NEARLY_FEASIBLE = 1e-6  # during the damped steps: cost-lowering steps may leave this much (`polish_feasible` ends)
@@ -449,16 +451,40 @@ def inv2(M):
         return adj / det[..., None, None]
 
 
-def project(coef, ref, task, grid: int = GRID, exact_weight: float = EXACT_WEIGHT):
+def project(coef, ref, task, grid: int = GRID, exact_weight: float = EXACT_WEIGHT, rounds: int = ZOOMS):
     """Each item's angle phi (S, N) on each seed motion (coef (S, n, 8), reference (S, 8)): the nearest of
     ``grid`` samples, by the weighted squared position and angle misses (exact components weighted
-    ``exact_weight``; angles 8 (1 - |p . q|))."""
-    grid = (np.arange(grid) + 0.5) * (np.pi / grid)
+    ``exact_weight``; angles 8 (1 - |p . q|)), then ``rounds`` zooms: ZOOM_SAMPLES samples across the
+    current best +- one spacing, the spacing shrinking by ZOOM_SAMPLES / 2 each round (a seed's parameter
+    may crowd the items into one cell of the coarse grid)."""
+    S, h = len(coef), np.pi / grid
+    phi = _nearest(coef, ref, task, np.broadcast_to((np.arange(grid) + 0.5) * h, (S, 1, grid)), exact_weight)
+    offsets = np.linspace(-1.0, 1.0, ZOOM_SAMPLES)
+    for _ in range(rounds):
+        phi = _nearest(coef, ref, task, phi[..., None] + h * offsets, exact_weight)
+        h *= 2.0 / (ZOOM_SAMPLES - 1)
+    return np.mod(phi, np.pi)
+
+
+def _nearest(coef, ref, task, cand, exact_weight):
+    """Per seed and item, the angle among cand (S, N, K) (or (S, 1, K): shared by the items) nearest the
+    item (S, N)."""
+    S, K = len(coef), cand.shape[-1]
+    shared = cand.shape[1] == 1
+    ang = cand[:, 0] if shared else cand.reshape(S, -1)
     with np.errstate(all="ignore"):
-        P = normalize_dq(_mul(homogeneous(coef, np.broadcast_to(grid, (len(coef), len(grid)))), ref[:, None]))
+        P = normalize_dq(_mul(homogeneous(coef, ang), ref[:, None]))
         x = dq_translation(P)  # (S, G, 3)
     w = task.weight[:, [0, 3]] + exact_weight * task.exact[:, [0, 3]]  # (N, 2): position, angle
-    d2 = ((x[:, :, None, :] - task.X) ** 2).sum(-1) * w[:, 0] ** 2
-    cos = np.abs(P[..., :4] @ task.Q[:, :4].T)  # |p . q|: (S, G, N)
-    d2 = d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1] ** 2
-    return grid[np.argmin(np.nan_to_num(d2, nan=np.inf), axis=1)]
+    if shared:
+        d2 = ((x[:, :, None, :] - task.X) ** 2).sum(-1) * w[:, 0] ** 2
+        cos = np.abs(P[..., :4] @ task.Q[:, :4].T)  # |p . q|: (S, G, N)
+        d2 = np.swapaxes(d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1] ** 2, 1, 2)  # (S, N, G)
+    else:
+        N = cand.shape[1]
+        x, P = x.reshape(S, N, K, 3), P.reshape(S, N, K, 8)
+        d2 = ((x - task.X[:, None]) ** 2).sum(-1) * w[:, :1] ** 2
+        cos = np.abs((P[..., :4] * task.Q[:, None, :4]).sum(-1))
+        d2 = d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1:] ** 2
+    k = np.argmin(np.nan_to_num(d2, nan=np.inf), axis=-1)
+    return np.take_along_axis(np.broadcast_to(cand, d2.shape), k[..., None], -1)[..., 0]

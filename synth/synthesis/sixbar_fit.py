@@ -42,6 +42,7 @@ KEEP_FITS = 6  # best seeds refined further
 STAGE2 = 60  # Jacobians on those, at most
 DISTINCT = 1e-6  # relative coefficient distance below which two fits are one motion
 MAX_BUILT = 12  # candidates built before giving up
+LOOPS_PER_FIT = 3  # loop pairs of one fitted motion tried, at most
 
 
 class CubicFits:
@@ -146,7 +147,8 @@ def fit_candidates(ps: PoseSet, top: int = 1) -> list:
         raise SynthesisError(f"{ps.source}: the exact poses and velocities cannot all be met by a cubic 6R motion "
                              f"(best constraint violation {np.nanmin(fits.violation):.1e}, conditioned units)")
     mf, parts, valid, score = _scored(fits, idx)
-    rank = sorted((fits.cost[k], -score[j, p], j, p) for j, k in enumerate(idx) for p in np.nonzero(valid[j])[0])
+    rank = sorted((fits.cost[k], -score[j, p], j, p) for j, k in enumerate(idx)
+                  for p in _best_loops(score[j], valid[j]))
     if not rank:
         raise SynthesisError(f"{ps.source}: every fitted cubic motion has a nearly real or repeated norm factor or a "
                              "translation factor: no 6R linkage of it")
@@ -164,6 +166,13 @@ def fit_candidates(ps: PoseSet, top: int = 1) -> list:
     if not out:
         raise SynthesisError(f"{ps.source}: {why}")
     return out
+
+
+def _best_loops(score, valid) -> np.ndarray:
+    """The LOOPS_PER_FIT valid loop pairs of best score of one fit (their closure and transmission fail
+    mostly together, so a fit that fails them gives way to the next)."""
+    ok = np.nonzero(valid)[0]
+    return ok[np.argsort(-score[ok], kind="stable")[:LOOPS_PER_FIT]]
 
 
 def _linkage(fits: CubicFits, k, mf, j, p, parts, score, ps: PoseSet):
