@@ -17,7 +17,7 @@ from synth.synthesis.fit import gauge_matrix, homogeneous, item_errors, regauge,
 from synth.synthesis.taskfit import error_rows, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 
-from conftest import assert_verified, random_poses, run
+from conftest import assert_verified, random_poses, run, write_pose_yaml
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -179,6 +179,35 @@ def test_listed_order_kept_and_refused_when_impossible():
     shuffled = T[[0, 4, 1, 6, 2, 7, 3, 5]]
     with pytest.raises(SynthesisError, match="listed order"):
         bennett_task(task(shuffled, tol, exact=(0,), order=Order.LISTED))
+
+
+def listed_task_with_close_poses(seed=5, noise=0.03):
+    """8 poses of a known motion in listed order, poses 3 and 4 0.002 rad apart on it, the positions of all
+    but pose 0 moved by ``noise`` spreads: the best fit in any order visits 4 before 3."""
+    rng = np.random.default_rng(seed)
+    C, Q0 = known_motion(seed)
+    T = motion_poses(C, Q0, np.pi - np.array([0, 0.5, 0.9, 1.3, 1.302, 1.8, 2.2, 2.6]))
+    L = spread_of(T)
+    T[1:, :3, 3] += rng.normal(size=(7, 3)) * noise * L
+    return T, (0.15 * L, math.radians(5))
+
+
+def test_listed_order_is_a_constraint_of_the_fit(tmp_path):
+    T, tol = listed_task_with_close_poses()
+    free = bennett_task(task(T, tol, exact=(0,)))[0].info["fit"]["visit_order"]
+    assert free == ["p0", "p1", "p2", "p4", "p3", "p5", "p6", "p7"]  # (a filter on these fits finds none)
+    lk = bennett_task(task(T, tol, exact=(0,), order=Order.LISTED))[0]
+    assert visits_in_order([r.t for r in lk.poses]) and lk.info["fit"]["within_tolerance"]
+    assert lk.info["fit"]["visit_order"] == [f"p{i}" for i in range(8)]
+    text = write_pose_yaml(tmp_path / "t.yaml", T).read_text().replace("units: {length: m}", (
+        f"units: {{length: m, angle: deg}}\norder: listed\ntolerance: {{position: {tol[0]!r}, angle: 5}}"))
+    f = tmp_path / "t.yaml"
+    f.write_text(text.replace("  - name: p0\n", "  - name: p0\n    exact: true\n"))
+    r = run("bennett", f, "-o", tmp_path / "out")
+    assert r.exit_code == 0, r.output
+    line = verify(f, tmp_path / "out")
+    if line is not None:
+        assert "order=listed" in line
 
 
 def test_velocity_in_a_fit_is_met_exactly():

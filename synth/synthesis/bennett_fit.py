@@ -28,6 +28,7 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
 from synth.synthesis.fit import (reference_pose, ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, MotionModel, gauge_items, gauge_matrix, inv2,
                                  levenberg_marquardt, project, regauge, task_arrays)
+from synth.synthesis.fit_order import ListedOrder, directions, project_listed
 from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, select, visiting_order
 from synth.task import Order, PoseSet
 
@@ -149,7 +150,12 @@ def fit_motion(ps: PoseSet):
     task = task_arrays(Q, Tc[:, :3, 3], ps.tolerance, ps.velocity, float(cond.scale))
     twists = _twists(ps, Tc, float(cond.scale))
     coef, ref = _seeds(Q, task, item_kinds(ps), twists)
-    phi = project(coef, ref, task)
+    listed = ps.order is Order.LISTED
+    if listed:  # each seed twice: the items placed in the listed order, either way round
+        phi, rows = project_listed(coef, ref, task)
+        coef, ref = coef[rows], ref[rows]
+    else:
+        phi = project(coef, ref, task)
     gauge = gauge_items(phi)
     with np.errstate(all="ignore"):
         M = gauge_matrix(np.take_along_axis(phi, gauge, 1)) @ inv2(gauge_matrix(GAUGE_ANGLES))
@@ -161,7 +167,8 @@ def fit_motion(ps: PoseSet):
     coef, ref, phi, gauge = coef[ok], ref[ok], phi[ok], gauge[ok]
     tried = int(ok.sum())
     layout = Layout(DEGREE, len(T), gauge)
-    model = MotionModel(layout, task, ref)
+    sign = directions(phi)
+    model = _model(layout, task, ref, sign if listed else None)
     x0 = layout.join(coef, np.zeros((len(coef), 6)), phi)
     with np.errstate(all="ignore"):
         r, c = model.rows(x0)
@@ -175,7 +182,8 @@ def fit_motion(ps: PoseSet):
         if positions_only:  # the tool's orientation at the reference is free: hold it
             fixed[:, 8 * DEGREE:8 * DEGREE + 3] = True
         with np.errstate(all="ignore"), one_blas_thread():
-            res = levenberg_marquardt(MotionModel(layout, task, ref[keep]), x0[keep], fixed, ITERATIONS)
+            res = levenberg_marquardt(_model(layout, task, ref[keep], sign[keep] if listed else None), x0[keep],
+                                      fixed, ITERATIONS)
         if (res.violation <= FEASIBLE).any():
             break
     coef, x_ref, phi = layout.split(res.x)
@@ -183,6 +191,12 @@ def fit_motion(ps: PoseSet):
     order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
     summary = FitSummary("fit", seeds=tried, refined=start + len(keep), iterations=res.iterations)
     return coef[order], refs[order], np.mod(phi[order], np.pi), res.cost[order], res.violation[order], cond, summary
+
+
+def _model(layout, task, ref, sign):
+    """The fit's model; with the seeds' directions ``sign`` (S,) (``order: listed``) its hinge rows too."""
+    model = MotionModel(layout, task, ref)
+    return model if sign is None else ListedOrder(model, sign, layout.items)
 
 
 def _in_order(phi) -> np.ndarray:

@@ -24,7 +24,8 @@ from synth.algebra.dq import dq_inv, dq_translation, normalize_dq, structure_con
 from synth.algebra.geometry import cross
 
 __all__ = ["TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",
-           "homogeneous", "basis", "regauge", "gauge_matrix", "gauge_items", "inv2", "project", "GAUGE_ANGLES",
+           "homogeneous", "basis", "regauge", "gauge_matrix", "gauge_items", "inv2", "project", "zoom", "distances",
+           "GAUGE_ANGLES",
            "ERRORS", "ROWS"]
 
 ERRORS = 6  # per item: position error (3, spreads), rotation error 2 sin(angle/2) axis (3)
@@ -453,22 +454,31 @@ def inv2(M):
 
 def project(coef, ref, task, grid: int = GRID, exact_weight: float = EXACT_WEIGHT, rounds: int = ZOOMS):
     """Each item's angle phi (S, N) on each seed motion (coef (S, n, 8), reference (S, 8)): the nearest of
-    ``grid`` samples, by the weighted squared position and angle misses (exact components weighted
-    ``exact_weight``; angles 8 (1 - |p . q|)), then ``rounds`` zooms: ZOOM_SAMPLES samples across the
-    current best +- one spacing, the spacing shrinking by ZOOM_SAMPLES / 2 each round (a seed's parameter
-    may crowd the items into one cell of the coarse grid)."""
+    ``grid`` samples by `distances`, then `zoom` (a seed's parameter may crowd the items into one cell of
+    the coarse grid)."""
     S, h = len(coef), np.pi / grid
-    phi = _nearest(coef, ref, task, np.broadcast_to((np.arange(grid) + 0.5) * h, (S, 1, grid)), exact_weight)
+    cand = np.broadcast_to((np.arange(grid) + 0.5) * h, (S, 1, grid))
+    d2 = distances(coef, ref, task, cand, exact_weight)
+    phi = np.take_along_axis(np.broadcast_to(cand, d2.shape), np.argmin(d2, -1)[..., None], -1)[..., 0]
+    return zoom(coef, ref, task, phi, h, exact_weight, rounds)
+
+
+def zoom(coef, ref, task, phi, h: float, exact_weight: float = EXACT_WEIGHT, rounds: int = ZOOMS):
+    """``rounds`` refinements of the items' angles phi (S, N) on the seed motions: the nearest
+    (`distances`) of ZOOM_SAMPLES samples across phi +- h, h shrinking by ZOOM_SAMPLES / 2 each round."""
     offsets = np.linspace(-1.0, 1.0, ZOOM_SAMPLES)
     for _ in range(rounds):
-        phi = _nearest(coef, ref, task, phi[..., None] + h * offsets, exact_weight)
+        cand = phi[..., None] + h * offsets
+        phi = np.take_along_axis(cand, np.argmin(distances(coef, ref, task, cand, exact_weight), -1)[..., None],
+                                 -1)[..., 0]
         h *= 2.0 / (ZOOM_SAMPLES - 1)
     return np.mod(phi, np.pi)
 
 
-def _nearest(coef, ref, task, cand, exact_weight):
-    """Per seed and item, the angle among cand (S, N, K) (or (S, 1, K): shared by the items) nearest the
-    item (S, N)."""
+def distances(coef, ref, task, cand, exact_weight: float = EXACT_WEIGHT):
+    """(S, N, K): the weighted squared miss of each item at the angles cand (S, N, K) (or (S, 1, K), shared
+    by the items) of the seed motions: position and angle (8 (1 - |p . q|)) misses, exact components
+    weighted ``exact_weight``; NaN as inf."""
     S, K = len(coef), cand.shape[-1]
     shared = cand.shape[1] == 1
     ang = cand[:, 0] if shared else cand.reshape(S, -1)
@@ -486,5 +496,4 @@ def _nearest(coef, ref, task, cand, exact_weight):
         d2 = ((x - task.X[:, None]) ** 2).sum(-1) * w[:, :1] ** 2
         cos = np.abs((P[..., :4] * task.Q[:, None, :4]).sum(-1))
         d2 = d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1:] ** 2
-    k = np.argmin(np.nan_to_num(d2, nan=np.inf), axis=-1)
-    return np.take_along_axis(np.broadcast_to(cand, d2.shape), k[..., None], -1)[..., 0]
+    return np.nan_to_num(d2, nan=np.inf)
