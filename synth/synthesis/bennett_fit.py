@@ -41,6 +41,7 @@ MAX_TRIPLES = 60  # seeds from triples of poses: all when there are at most this
 ROUNDS = 3  # batches of KEEP seeds refined at most, the next only when no refined seed meets the exact rows
 KEEP = 4  # seeds refined by Levenberg-Marquardt
 ITERATIONS = 40  # Jacobians per refinement, at most
+FINISH = 80  # further Jacobians on the best refined seed alone, at most
 FEASIBLE = 1e-10  # largest constraint violation of an accepted fit (conditioned units)
 DEGREE = 2
 
@@ -186,10 +187,16 @@ def fit_motion(ps: PoseSet):
                                       fixed, ITERATIONS)
         if (res.violation <= FEASIBLE).any():
             break
+    order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
+    b = order[:1]  # the finish: the best seed goes on alone (a curved valley can take many short steps)
+    with np.errstate(all="ignore"), one_blas_thread():
+        fin = levenberg_marquardt(_model(Layout(DEGREE, len(T), gauge[keep][b]), task, ref[keep][b],
+                                         sign[keep][b] if listed else None), res.x[b], fixed[b], FINISH)
+    if fin.violation[0] <= max(res.violation[b[0]], FEASIBLE) and fin.cost[0] <= res.cost[b[0]]:
+        res.x[b], res.cost[b], res.violation[b] = fin.x, fin.cost, fin.violation
     coef, x_ref, phi = layout.split(res.x)
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
-    order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
-    summary = FitSummary("fit", seeds=tried, refined=start + len(keep), iterations=res.iterations)
+    summary = FitSummary("fit", seeds=tried, refined=start + len(keep), iterations=res.iterations + fin.iterations)
     return coef[order], refs[order], np.mod(phi[order], np.pi), res.cost[order], res.violation[order], cond, summary
 
 
