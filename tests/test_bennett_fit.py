@@ -13,7 +13,8 @@ from synth.errors import SynthesisError
 from synth.io.poses import load_poses
 from synth.synthesis.bennett import bennett
 from synth.synthesis.bennett_fit import bennett_task, hermite_conic
-from synth.synthesis.fit import gauge_matrix, homogeneous, item_errors, regauge, study_rows, task_arrays
+from synth.synthesis.fit import homogeneous, item_errors, study_rows, task_arrays
+from synth.synthesis.fit_seeds import gauge_matrix, regauge
 from synth.synthesis.taskfit import error_rows, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 

@@ -26,8 +26,9 @@ from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import (reference_pose, ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, MotionModel, gauge_items, gauge_matrix, inv2,
-                                 levenberg_marquardt, project, regauge, task_arrays)
+from synth.synthesis.fit import ERRORS, Layout, MotionModel, levenberg_marquardt, reference_pose, task_arrays
+from synth.synthesis.fit_seeds import (EXACT_WEIGHT, GAUGE_ANGLES, GRID, gauge_items, gauge_matrix, inv2, nearest, regauge,
+                                       zoom)
 from synth.synthesis.fit_order import ListedOrder, directions, project_listed
 from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, select, visiting_order
 from synth.task import Order, PoseSet
@@ -40,6 +41,8 @@ PARAMETER_SAMPLES = 24  # samples of the two free parameters per subset
 MAX_TRIPLES = 60  # seeds from triples of poses: all when there are at most this many, else a sample
 ROUNDS = 3  # batches of KEEP seeds refined at most, the next only when no refined seed meets the exact rows
 KEEP = 4  # seeds refined by Levenberg-Marquardt
+PRESCORED = 16  # seeds with the least summed misses at their grid projections, projected finely and ranked
+PRESCORED_POINTS = 96  # the same for point tasks (samples of 5-point families: the pre-score ranks them less well)
 ITERATIONS = 40  # Jacobians per refinement, at most
 FINISH = 80  # further Jacobians on the best refined seed alone, at most
 FEASIBLE = 1e-10  # largest constraint violation of an accepted fit (conditioned units)
@@ -153,10 +156,15 @@ def fit_motion(ps: PoseSet):
     coef, ref = _seeds(Q, task, item_kinds(ps), twists)
     listed = ps.order is Order.LISTED
     if listed:  # each seed twice: the items placed in the listed order, either way round
-        phi, rows = project_listed(coef, ref, task)
-        coef, ref = coef[rows], ref[rows]
+        phi, rows, miss, h = project_listed(coef, ref, task)
+        coef, ref, h = coef[rows], ref[rows], h / 2
     else:
-        phi = project(coef, ref, task)
+        (phi, miss), h = nearest(coef, ref, task), np.pi / GRID
+    tried = len(coef)
+    keep = PRESCORED if sum(k != "point" for k in item_kinds(ps)) >= 3 else PRESCORED_POINTS
+    best = np.argsort(np.nan_to_num(miss, nan=np.inf), kind="stable")[:keep]  # the cheap pre-score
+    coef, ref = coef[best], ref[best]
+    phi = zoom(coef, ref, task, phi[best], h)
     gauge = gauge_items(phi)
     with np.errstate(all="ignore"):
         M = gauge_matrix(np.take_along_axis(phi, gauge, 1)) @ inv2(gauge_matrix(GAUGE_ANGLES))
@@ -166,7 +174,6 @@ def fit_motion(ps: PoseSet):
     if not ok.any():
         raise SynthesisError("every seed motion is degenerate (the items fall on one point of it)")
     coef, ref, phi, gauge = coef[ok], ref[ok], phi[ok], gauge[ok]
-    tried = int(ok.sum())
     layout = Layout(DEGREE, len(T), gauge)
     sign = directions(phi)
     model = _model(layout, task, ref, sign if listed else None)
@@ -188,15 +195,17 @@ def fit_motion(ps: PoseSet):
         if (res.violation <= FEASIBLE).any():
             break
     order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
-    b = order[:1]  # the finish: the best seed goes on alone (a curved valley can take many short steps)
-    with np.errstate(all="ignore"), one_blas_thread():
-        fin = levenberg_marquardt(_model(Layout(DEGREE, len(T), gauge[keep][b]), task, ref[keep][b],
-                                         sign[keep][b] if listed else None), res.x[b], fixed[b], FINISH)
-    if fin.violation[0] <= max(res.violation[b[0]], FEASIBLE) and fin.cost[0] <= res.cost[b[0]]:
-        res.x[b], res.cost[b], res.violation[b] = fin.x, fin.cost, fin.violation
+    b, more = order[:1], 0  # the finish: the best seed goes on alone (a curved valley can take many short steps)
+    if res.iterations >= ITERATIONS:  # (not when every seed converged)
+        with np.errstate(all="ignore"), one_blas_thread():
+            fin = levenberg_marquardt(_model(Layout(DEGREE, len(T), gauge[keep][b]), task, ref[keep][b],
+                                             sign[keep][b] if listed else None), res.x[b], fixed[b], FINISH)
+        more = fin.iterations
+        if fin.violation[0] <= max(res.violation[b[0]], FEASIBLE) and fin.cost[0] <= res.cost[b[0]]:
+            res.x[b], res.cost[b], res.violation[b] = fin.x, fin.cost, fin.violation
     coef, x_ref, phi = layout.split(res.x)
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
-    summary = FitSummary("fit", seeds=tried, refined=start + len(keep), iterations=res.iterations + fin.iterations)
+    summary = FitSummary("fit", seeds=tried, refined=start + len(keep), iterations=res.iterations + more)
     return coef[order], refs[order], np.mod(phi[order], np.pi), res.cost[order], res.violation[order], cond, summary
 
 

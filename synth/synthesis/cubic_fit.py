@@ -4,7 +4,7 @@ For a deterministic sample of quadruples (pose 0 and three others, exact poses f
 cubics through them (`synth.synthesis.cubic`) are scanned (MEMBERS members each); every member is a
 monic C with C(inf) = 1 relative to pose 0, so the tool pose at t is C(t) Q_0 and the quadruple's poses
 are at t = inf, 0, 1, t3. The other poses are placed on each member at their best parameter
-(`synth.synthesis.fit.project`), and the KEEP best-fitting members of each quadruple become seeds
+(`synth.synthesis.fit_seeds.project`), and the KEEP best-fitting members of each quadruple become seeds
 in the layout of `synth.synthesis.fit` (coefficients c_0..c_2, reference pose Q_0, angles phi with
 t = cot phi), their gauge the quadruple's poses at t = inf and 0 and 1 (phi = 0, pi/2, pi/4).
 """
@@ -17,7 +17,8 @@ import numpy as np
 from synth.errors import SynthesisError
 from synth.synthesis.conic import relative_displacements_dq
 from synth.synthesis.cubic import families, quadric
-from synth.synthesis.fit import ERRORS, EXACT_WEIGHT, TaskArrays, item_errors, project
+from synth.synthesis.fit import ERRORS, TaskArrays, item_errors
+from synth.synthesis.fit_seeds import EXACT_WEIGHT, project
 from synth.synthesis.sixbar import grid_members
 
 __all__ = ["quadruples", "seeds", "QUADRUPLES", "MEMBERS", "KEEP"]

@@ -5,8 +5,8 @@ projective line of the motion's parameter (angles phi in [0, pi), item 0 at phi 
 increase (direction +1) or decrease (-1) from item 0 on, less than one turn in all. Two parts:
 
 * `project_listed`: the items placed on a seed motion in the listed order, the least total weighted miss
-  over strictly monotone placements on a grid (dynamic programming, both directions), then zoomed
-  (`synth.synthesis.fit.zoom`);
+  over strictly monotone placements on a grid (dynamic programming, both directions), to be zoomed
+  (`synth.synthesis.fit_seeds.zoom`);
 * `ListedOrder`: a model for `synth.synthesis.fit.levenberg_marquardt` adding hinge rows
   ``ORDER_WEIGHT * max(0, ORDER_MARGIN - gap)`` on the N gaps between consecutive angles (from 0 to pi in the
   seed's direction), so the refinement keeps the order instead of a filter dropping fits afterwards.
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from synth.synthesis.fit import EXACT_WEIGHT, GRID, distances, zoom
+from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, distances, zoom
 
 __all__ = ["project_listed", "ListedOrder", "directions", "ORDER_MARGIN", "ORDER_WEIGHT"]
 
@@ -27,26 +27,27 @@ def project_listed(coef, ref, task, grid: int = GRID, exact_weight: float = EXAC
     """The items' angles phi (2 S, N) on each seed motion (coef (S, n, 8), reference (S, 8)) in the listed
     order, rows 0..S-1 increasing from item 0 on, rows S..2S-1 decreasing: item 0 at its nearest of ``grid``
     cells (at least 2 N), the others in strictly monotone cells after it (less than a turn) of least total
-    `distances`, then zoomed. Returns (phi, the seeds' rows (2 S,) into coef)."""
+    `distances`. Returns (phi, the seeds' rows (2 S,) into coef, that total (2 S,), the cells' spacing) for
+    `synth.synthesis.fit_seeds.zoom` (with half the spacing, which keeps the order)."""
     S, N = len(coef), len(task.Q)
     G = max(grid, 2 * N)
     h = np.pi / G
     cells = (np.arange(G) + 0.5) * h
     d2 = distances(coef, ref, task, np.broadcast_to(cells, (S, 1, G)), exact_weight)  # (S, N, G)
     g0 = np.argmin(d2[:, 0], -1)  # (S,)
-    out = []
+    out, miss = [], []
     for sign in (1, -1):
         cell = (g0[:, None] + sign * np.arange(G)) % G  # (S, G): k cells after item 0 in this direction
-        steps = _monotone(np.take_along_axis(d2[:, 1:], cell[:, None, :], -1))  # (S, N - 1), k >= 1
+        D = np.take_along_axis(d2[:, 1:], cell[:, None, :], -1)
+        steps, total = _monotone(D)  # (S, N - 1), k >= 1
         out.append(np.concatenate([g0[:, None], np.take_along_axis(cell, steps, -1)], 1))
-    phi = cells[np.concatenate(out)]
-    rows = np.tile(np.arange(S), 2)
-    return zoom(coef[rows], ref[rows], task, phi, h / 2, exact_weight), rows
+        miss.append(total + np.take_along_axis(d2[:, 0], g0[:, None], -1)[:, 0])
+    return cells[np.concatenate(out)], np.tile(np.arange(S), 2), np.concatenate(miss), h
 
 
 def _monotone(D) -> np.ndarray:
     """(S, M) strictly increasing cell indices k_1 < ... < k_M in 1..K-1 of least sum_i D[:, i, k_i]
-    (D (S, M, K)), by dynamic programming."""
+    (D (S, M, K)), by dynamic programming, and that least sum (S,)."""
     S, M, K = D.shape
     best = np.full((S, K), np.inf)
     best[:, 0] = 0.0  # item 0 at cell 0
@@ -61,9 +62,10 @@ def _monotone(D) -> np.ndarray:
         best = new
     k = np.empty((S, M), int)
     k[:, -1] = np.argmin(best, -1)
+    total = best[np.arange(S), k[:, -1]]
     for i in range(M - 1, 0, -1):
         k[:, i - 1] = back[np.arange(S), i, k[:, i]]
-    return k
+    return k, total
 
 
 def directions(phi) -> np.ndarray:
