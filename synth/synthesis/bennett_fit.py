@@ -20,17 +20,17 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dq_mul, dq_to_pose, dq_translation, normalize_dq, pose_to_dq, translation_dq
+from synth.algebra.dq import dq_to_pose, dq_translation, normalize_dq, pose_to_dq
 from synth.blas import one_blas_thread
 from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
 from synth.synthesis.fit import ERRORS, Layout, MotionModel, levenberg_marquardt, reference_pose, task_arrays
-from synth.synthesis.fit_seeds import (EXACT_WEIGHT, GAUGE_ANGLES, GRID, gauge_items, gauge_matrix, inv2, nearest, regauge,
-                                       zoom)
+from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, nearest, regauge, to_gauge, zoom
+from synth.synthesis.pointfit import subset_motions
 from synth.synthesis.fit_order import ListedOrder, directions, project_listed
-from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, select, visiting_order
+from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, item_tolerances, select, visiting_order
 from synth.task import Order, PoseSet
 
 __all__ = ["bennett_task", "is_task", "hermite_conic", "fit_motion", "linkage_of", "MAX_TRIPLES", "KEEP"]
@@ -106,7 +106,7 @@ def _seeds(Q, task, kinds, velocity_twists):
                 except SynthesisError:
                     pass
     if not len(tri) and len(Q) >= POINTS_NEEDED:  # a point task: no triples of poses
-        c, r = _point_seeds(dq_translation(Q))
+        c, r = subset_motions(dq_translation(Q), DEGREE, MAX_SUBSETS, PARAMETER_SAMPLES)
         coefs.append(c)
         refs.append(r)
     if not coefs:
@@ -119,30 +119,6 @@ def _seeds(Q, task, kinds, velocity_twists):
     return coef[ok], ref[ok]
 
 
-def _point_seeds(X):
-    """Seed motions through five of the items' positions X (N, 3) (conditioned): for each 5-subset (all,
-    or a seeded sample of MAX_SUBSETS), the quadratic
-    motions moving the subset's first position through the others at PARAMETER_SAMPLES
-    (`synth.synthesis.pointfit.point_motion`), conjugated to the frame: (coef (S, 2, 8), reference (S, 8),
-    the translation to the first position)."""
-    from synth.synthesis.pointfit import parameter_samples, point_motion
-
-    subsets = list(itertools.combinations(range(len(X)), POINTS_NEEDED))
-    if len(subsets) > MAX_SUBSETS:
-        pick = np.random.default_rng(0).choice(len(subsets), size=MAX_SUBSETS, replace=False)
-        subsets = [subsets[i] for i in sorted(pick)]
-    sub = np.array(subsets, int)  # (k, 5)
-    t = parameter_samples(PARAMETER_SAMPLES, 2)  # (m, 4)
-    k, m = len(sub), len(t)
-    rel = X[sub[:, 1:]] - X[sub[:, :1]]  # (k, 4, 3)
-    with np.errstate(all="ignore"):
-        C = point_motion(np.repeat(rel, m, axis=0), np.tile(t, (k, 1)), 2)  # (k m, 3, 8)
-    move = translation_dq(np.repeat(X[sub[:, 0]], m, axis=0))[:, None]  # (k m, 1, 8)
-    back = translation_dq(-np.repeat(X[sub[:, 0]], m, axis=0))[:, None]
-    coef = dq_mul(dq_mul(move, C[:, :2]), back)
-    return coef, move[:, 0]
-
-
 # ------------------------------------------------------------------ the fit
 def fit_motion(ps: PoseSet):
     """The refined motions of a task (at least three items): (coef (K, 2, 8), reference (K, 8), phi (K, N),
@@ -151,7 +127,7 @@ def fit_motion(ps: PoseSet):
     T = np.asarray(ps.matrices, float)
     Tc, cond = condition(T)
     Q = pose_to_dq(Tc)
-    task = task_arrays(Q, Tc[:, :3, 3], ps.tolerance, ps.velocity, float(cond.scale))
+    task = task_arrays(Q, Tc[:, :3, 3], item_tolerances(ps), ps.velocity, float(cond.scale))
     twists = _twists(ps, Tc, float(cond.scale))
     coef, ref = _seeds(Q, task, item_kinds(ps), twists)
     listed = ps.order is Order.LISTED
@@ -164,16 +140,7 @@ def fit_motion(ps: PoseSet):
     keep = PRESCORED if sum(k != "point" for k in item_kinds(ps)) >= 3 else PRESCORED_POINTS
     best = np.argsort(np.nan_to_num(miss, nan=np.inf), kind="stable")[:keep]  # the cheap pre-score
     coef, ref = coef[best], ref[best]
-    phi = zoom(coef, ref, task, phi[best], h)
-    gauge = gauge_items(phi)
-    with np.errstate(all="ignore"):
-        M = gauge_matrix(np.take_along_axis(phi, gauge, 1)) @ inv2(gauge_matrix(GAUGE_ANGLES))
-        coef, ref, phi = regauge(coef, ref, phi, M)
-    np.put_along_axis(phi, gauge, GAUGE_ANGLES[None], 1)
-    ok = np.isfinite(coef).all((1, 2)) & np.isfinite(ref).all(1) & np.isfinite(phi).all(1)
-    if not ok.any():
-        raise SynthesisError("every seed motion is degenerate (the items fall on one point of it)")
-    coef, ref, phi, gauge = coef[ok], ref[ok], phi[ok], gauge[ok]
+    coef, ref, phi, gauge = to_gauge(coef, ref, zoom(coef, ref, task, phi[best], h))
     layout = Layout(DEGREE, len(T), gauge)
     sign = directions(phi)
     model = _model(layout, task, ref, sign if listed else None)

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.algebra.dq import dq_translation, structure_constants
+from synth.algebra.dq import structure_constants
 from synth.algebra.geometry import cross
 
 __all__ = ["TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",

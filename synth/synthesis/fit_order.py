@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, distances, zoom
+from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, distances
 
 __all__ = ["project_listed", "ListedOrder", "directions", "ORDER_MARGIN", "ORDER_WEIGHT"]
 

@@ -7,9 +7,10 @@ from __future__ import annotations
 import numpy as np
 
 from synth.algebra.dq import dq_inv, dq_mul, dq_translation, normalize_dq
+from synth.errors import SynthesisError
 from synth.synthesis.fit import basis, homogeneous
 
-__all__ = ["project", "nearest", "zoom", "distances", "regauge", "gauge_matrix", "gauge_items", "inv2", "GAUGE_ANGLES", "GRID",
+__all__ = ["project", "nearest", "zoom", "distances", "regauge", "to_gauge", "gauge_matrix", "gauge_items", "inv2", "GAUGE_ANGLES", "GRID",
            "EXACT_WEIGHT"]
 
 GRID = 48  # parameter samples per seed motion for projecting the items onto it (`project`)
@@ -58,6 +59,21 @@ def regauge(coef, ref, phi, M):
     new_ref = normalize_dq(dq_mul(lead, ref))
     w = inv2(M) @ np.stack([np.cos(phi), np.sin(phi)], -2)
     return new, new_ref, np.mod(np.arctan2(w[..., 1, :], w[..., 0, :]), np.pi)
+
+
+def to_gauge(coef, ref, phi):
+    """Seeds (coef (S, n, 8), reference (S, 8), item angles phi (S, N)) moved onto the gauge: item 0 and the
+    items a third and two thirds along (`gauge_items`) at GAUGE_ANGLES (`regauge`). Returns (coef, ref,
+    phi, gauge (S', 3)) of the seeds that stay finite; SynthesisError when none does."""
+    gauge = gauge_items(phi)
+    with np.errstate(all="ignore"):
+        M = gauge_matrix(np.take_along_axis(phi, gauge, 1)) @ inv2(gauge_matrix(GAUGE_ANGLES))
+        coef, ref, phi = regauge(coef, ref, phi, M)
+    np.put_along_axis(phi, gauge, GAUGE_ANGLES[None], 1)
+    ok = np.isfinite(coef).all((1, 2)) & np.isfinite(ref).all(1) & np.isfinite(phi).all(1)
+    if not ok.any():
+        raise SynthesisError("every seed motion is degenerate (the items fall on one point of it)")
+    return coef[ok], ref[ok], phi[ok], gauge[ok]
 
 
 def inv2(M):

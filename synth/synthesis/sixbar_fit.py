@@ -27,11 +27,11 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_fit import FEASIBLE
 from synth.synthesis.conic import condition, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, chordal_separation
-from synth.synthesis.cubic_fit import seeds
-from synth.synthesis.fit import Layout, MotionModel, levenberg_marquardt, reference_pose, task_arrays
+from synth.synthesis.cubic_fit import point_seeds, seeds
+from synth.synthesis.fit import ERRORS, Layout, MotionModel, levenberg_marquardt, reference_pose, task_arrays
 from synth.synthesis.sixbar import LOOP, loop_dh
 from synth.synthesis.sixbar_loops import factor_members, member_geometry, score_loops, score_warnings
-from synth.synthesis.taskfit import FitSummary, check_fitted, visiting_order, visits_in_order
+from synth.synthesis.taskfit import FitSummary, check_fitted, item_kinds, item_tolerances, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 
 __all__ = ["CubicFits", "fit_cubics", "fit_candidates", "STAGE1", "STAGE2", "KEEP_FITS"]
@@ -71,8 +71,11 @@ def _cot(phi) -> np.ndarray:
 
 def _refine(task, ref, x0, gauge, iterations):
     layout = Layout(DEGREE, task.Q.shape[0], gauge)
+    fixed = layout.fixed
+    if not (task.weight[:, 3:ERRORS].any() or task.exact[:, 3:].any()):  # positions only: hold the tool's
+        fixed[:, 8 * DEGREE:8 * DEGREE + 3] = True  # orientation at the reference (points do not see it)
     with np.errstate(all="ignore"):
-        return layout, levenberg_marquardt(MotionModel(layout, task, ref), x0, layout.fixed, iterations)
+        return layout, levenberg_marquardt(MotionModel(layout, task, ref), x0, fixed, iterations)
 
 
 def fit_cubics(ps: PoseSet) -> CubicFits:
@@ -81,8 +84,9 @@ def fit_cubics(ps: PoseSet) -> CubicFits:
     T = np.asarray(ps.matrices, float)
     Tc, cond = condition(T)
     Q = pose_to_dq(Tc)
-    task = task_arrays(Q, Tc[:, :3, 3], ps.tolerance, ps.velocity, float(cond.scale))
-    coef, ref, phi, gauge, quads = seeds(Q, task)
+    task = task_arrays(Q, Tc[:, :3, 3], item_tolerances(ps), ps.velocity, float(cond.scale))
+    points = sum(k != "point" for k in item_kinds(ps)) < 4  # no quadruple of poses: 7-subsets of the positions
+    coef, ref, phi, gauge, quads = point_seeds(Tc[:, :3, 3], task) if points else seeds(Q, task)
     if not len(coef):
         raise SynthesisError(f"{ps.source}: no quadruple of the poses with pose 0 spans a real family of cubic "
                              "motions (each is degenerate or oval): no 6R motion to start a fit from")
