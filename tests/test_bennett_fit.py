@@ -382,3 +382,22 @@ def test_degenerate_tasks_exit_1_with_the_reason(tmp_path, positions):
     r = run("bennett", f, "-o", tmp_path / "o")
     assert r.exit_code == 1 and not (tmp_path / "o").exists()
     assert "every triple of poses is degenerate" in r.output and str(f) in r.output
+
+
+def test_planar_and_spherical_tasks_of_more_than_three_poses_are_refused_with_the_way_out(tmp_path):
+    import yaml
+
+    items = [{"position": [40.0 * i, 10.0 * i * i, 0.0], "rpy": [0, 0, 20 * i]} for i in range(5)]
+    f = tmp_path / "planar.yaml"
+    f.write_text(yaml.safe_dump({"units": {"length": "mm", "angle": "deg"},
+                                 "tolerance": {"position": 0.5, "angle": 0.5}, "poses": items}))
+    r = run("bennett", f, "-o", tmp_path / "o")
+    assert r.exit_code == 1 and not (tmp_path / "o").exists()
+    assert "5 poses are planar" in r.output and "mpsynth fourbar" in r.output and str(f) in r.output
+    rng = np.random.default_rng(3)  # rotations about one point c: x -> R (x - c) + c
+    c = np.array([0.3, -0.2, 0.5])
+    T = random_poses(rng, 4)
+    T[:, :3, 3] = c - np.einsum("nij,j->ni", T[:, :3, :3], c)
+    with pytest.raises(SynthesisError, match="4 poses are spherical"):
+        bennett_task(task(T, (1e-3, 1e-3)))
+

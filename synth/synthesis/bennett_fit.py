@@ -268,6 +268,7 @@ def _bennett_task(ps: PoseSet, top: int, best_effort: bool) -> list:
                                       oriented=oriented, check_samples=VERIFY_SAMPLES)
         summary = FitSummary("exact", visit=visiting_order([r.t for r in candidates[0].poses]))
     elif (len(ps) >= 3 and n_poses >= 3) or (n_poses >= 2 and twists and len(ps) >= 3) or len(ps) > POINTS_NEEDED:
+        _refuse_zero_pitch(ps, n_poses)
         candidates, summary = _fitted(ps, top), None
     else:
         got = f"{n_poses} poses" + (f" and {len(ps) - n_poses} points" if len(ps) > n_poses else "")
@@ -285,6 +286,38 @@ def _bennett_task(ps: PoseSet, top: int, best_effort: bool) -> list:
         annotate(lk, ps, s)
         results.append(lk)
     return select(results, ps, top, best_effort, "Bennett")
+
+
+def _refuse_zero_pitch(ps: PoseSet, n_poses: int) -> None:
+    """SynthesisError for more than three poses (no points) in one planar or spherical subgroup
+    (`synth.synthesis.planar.zero_pitch`): the Bennett motions through their triples degenerate to planar
+    or spherical four-bar motions, which the spatial fit has no seeds for; planar tasks go to `mpsynth
+    fourbar`."""
+    if n_poses != len(ps) or n_poses <= 3:
+        return
+    from synth.synthesis.conic import relative_displacements
+    from synth.synthesis.planar import ZERO_PITCH_TOL, study_forms, zero_pitch
+
+    if np.max(np.abs(study_forms(relative_displacements(condition(ps.matrices)[0])))) > ZERO_PITCH_TOL:
+        return  # spatial
+    kind = None
+    for tri in itertools.islice(itertools.combinations(range(n_poses), 3), 20):  # a triple that classifies them
+        try:
+            kind = zero_pitch(ps.matrices[list(tri)], [ps.names[i] for i in tri]).kind
+            break
+        except SynthesisError:  # (a degenerate triple: translations only, one axis)
+            continue
+    if kind is None:
+        return  # (the fit's own refusal names the degeneracy)
+    if kind == "planar":
+        raise SynthesisError(f"the {n_poses} poses are planar (every rotation about one normal, every tool origin "
+                             "in one plane perpendicular to it): a Bennett linkage through them degenerates to a "
+                             "planar four-bar, which `mpsynth fourbar` synthesizes (exactly for 3 to 5 poses, by "
+                             "least squares within the tolerances for more)")
+    raise SynthesisError(f"the {n_poses} poses are spherical (every one a rotation about one common point): a "
+                         "Bennett linkage through them degenerates to a spherical four-bar, which is not fitted to "
+                         "more than three poses; give three poses (`mpsynth bennett` gives the family of "
+                         "spherical four-bars through them)")
 
 
 def _hermite(ps: PoseSet):
