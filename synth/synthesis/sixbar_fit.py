@@ -28,6 +28,7 @@ from synth.synthesis.bennett_fit import FEASIBLE
 from synth.synthesis.conic import condition, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, chordal_separation
 from synth.synthesis.cubic_fit import point_seeds, seeds
+from synth.synthesis.fit_order import ListedOrder, directions
 from synth.synthesis.fit import ERRORS, Layout, MotionModel, levenberg_marquardt, reference_pose, task_arrays
 from synth.synthesis.sixbar import LOOP, loop_dh
 from synth.synthesis.sixbar_loops import factor_members, member_geometry, score_loops, score_warnings
@@ -69,13 +70,18 @@ def _cot(phi) -> np.ndarray:
     return ts
 
 
-def _refine(task, ref, x0, gauge, iterations):
+def _refine(task, ref, x0, gauge, iterations, sign=None):
+    """Levenberg-Marquardt on seeds x0; with the seeds' directions ``sign`` (``order: listed``) the hinge rows
+    of the order too (`synth.synthesis.fit_order.ListedOrder`)."""
     layout = Layout(DEGREE, task.Q.shape[0], gauge)
     fixed = layout.fixed
     if not (task.weight[:, 3:ERRORS].any() or task.exact[:, 3:].any()):  # positions only: hold the tool's
         fixed[:, 8 * DEGREE:8 * DEGREE + 3] = True  # orientation at the reference (points do not see it)
+    model = MotionModel(layout, task, ref)
+    if sign is not None:
+        model = ListedOrder(model, sign, layout.items)
     with np.errstate(all="ignore"):
-        return layout, levenberg_marquardt(MotionModel(layout, task, ref), x0, fixed, iterations)
+        return layout, levenberg_marquardt(model, x0, fixed, iterations)
 
 
 def fit_cubics(ps: PoseSet) -> CubicFits:
@@ -93,14 +99,15 @@ def fit_cubics(ps: PoseSet) -> CubicFits:
     with one_blas_thread():
         layout = Layout(DEGREE, len(T), gauge)
         x0 = layout.join(coef, np.zeros((len(coef), 6)), phi)
-        _, first = _refine(task, ref, x0, gauge, STAGE1)
+        sign = directions(phi) if ps.order is Order.LISTED else None  # steer toward the listed order
+        _, first = _refine(task, ref, x0, gauge, STAGE1, sign)
         merit = np.nan_to_num(first.cost + 1e6 * first.violation, nan=np.inf)
         keep = np.argsort(merit, kind="stable")
         if ps.order is Order.LISTED:  # the seeds that visit the poses in the listed order first
             listed = np.array([visits_in_order(_cot(p)) for p in layout.split(first.x)[2]])
             keep = keep[np.argsort(~listed[keep], kind="stable")]
         keep = keep[:KEEP_FITS]
-        layout, res = _refine(task, ref[keep], first.x[keep], gauge[keep], STAGE2)
+        layout, res = _refine(task, ref[keep], first.x[keep], gauge[keep], STAGE2, None if sign is None else sign[keep])
     c, x_ref, ph = layout.split(res.x)
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
     order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
