@@ -48,7 +48,8 @@ def complete_out(out: Path) -> str:
         n = int.from_bytes(data[80:84], "little")
         assert len(data) == 84 + 50 * n and n > 0, rel  # a whole binary STL
     assert (out / ".mpsynth-output").is_file()
-    assert set(os.listdir(out)) == {"linkage.json", "linkage.urdf", "meshes", ".mpsynth-output"}
+    optional = {"linkage.step"}  # with the cad extra (synth.io.step)
+    assert set(os.listdir(out)) - optional == {"linkage.json", "linkage.urdf", "meshes", ".mpsynth-output"}
     return robot.get("name")
 
 

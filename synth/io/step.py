@@ -182,7 +182,7 @@ def _checked_solids(occ, prims, bores, scale: float, volume: float | None) -> li
     for revolved in (True, False):
         try:
             tags = _occ_solids(occ, prims, bores, scale, revolved)
-        except RuntimeError:
+        except Exception:  # noqa: BLE001  (gmsh reports a failed boolean as a bare Exception)
             continue
         total = sum(occ.getMass(3, t) for t in tags)
         if volume is None or abs(total / volume - 1) <= VOLUME_TOLERANCE:
