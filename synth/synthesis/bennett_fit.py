@@ -26,7 +26,7 @@ from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import (reference_pose, ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, MotionModel, gauge_items, gauge_matrix, inv2,
+from synth.synthesis.fit import (sample_combinations, reference_pose, ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, MotionModel, gauge_items, gauge_matrix, inv2,
                                  levenberg_marquardt, project, regauge, task_arrays)
 from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, select, visiting_order
 from synth.task import Order, PoseSet
@@ -72,14 +72,9 @@ def _triples(task_kinds, exact_items, n: int) -> np.ndarray:
     """Triples of pose items (k, 3): all when there are at most MAX_TRIPLES, else those among the exact
     poses first, then a deterministic sample (seeded generator)."""
     poses = [i for i, k in enumerate(task_kinds) if k != "point"]
-    allt = list(itertools.combinations(poses, 3))
-    if len(allt) <= MAX_TRIPLES:
-        return np.array(allt, int).reshape(-1, 3)
     ex = [i for i in poses if i in exact_items]
-    first = list(itertools.combinations(ex, 3))[: MAX_TRIPLES // 2]
-    rng = np.random.default_rng(0)
-    pick = rng.choice(len(allt), size=MAX_TRIPLES - len(first), replace=False)
-    return np.array(first + [allt[i] for i in sorted(pick)], int).reshape(-1, 3)
+    first = itertools.islice(itertools.combinations(ex, 3), MAX_TRIPLES // 2)
+    return np.array(sample_combinations(poses, 3, MAX_TRIPLES, first), int).reshape(-1, 3)
 
 
 def _seeds(Q, task, kinds, velocity_twists):
@@ -122,11 +117,7 @@ def _point_seeds(X):
     the translation to the first position)."""
     from synth.synthesis.pointfit import parameter_samples, point_motion
 
-    subsets = list(itertools.combinations(range(len(X)), POINTS_NEEDED))
-    if len(subsets) > MAX_SUBSETS:
-        pick = np.random.default_rng(0).choice(len(subsets), size=MAX_SUBSETS, replace=False)
-        subsets = [subsets[i] for i in sorted(pick)]
-    sub = np.array(subsets, int)  # (k, 5)
+    sub = np.array(sample_combinations(range(len(X)), POINTS_NEEDED, MAX_SUBSETS), int)  # (k, 5)
     t = parameter_samples(PARAMETER_SAMPLES, 2)  # (m, 4)
     k, m = len(sub), len(t)
     rel = X[sub[:, 1:]] - X[sub[:, :1]]  # (k, 4, 3)
