@@ -192,7 +192,7 @@ def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress
     from synth.synthesis.sixbar_task import is_sixbar_task, sixbar_task
 
     designer = _designer(ps, options)
-    if not ps.has_points and is_sixbar_task(ps):  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
+    if is_sixbar_task(ps):  # tolerances, velocities, an order, other counts, > 7 points (docs/sixbar_fit.md)
         if options.explicit:
             raise InputError("--family, --member and --pair select among the cubics through four exact poses; a "
                              "task with tolerances, velocities or another count ranks its own designs (use --top)")
