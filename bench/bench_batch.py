@@ -9,7 +9,8 @@ degrees, ``random.seed(1)``) are run as new processes, stdout to a file:
    skipped when dask is not installed): jobs/s; the three result files must be byte-identical (checked);
 2. `synth.bennett_batch` on the same pose sets (parsed once, in this process): linkages/s, the
    baseline of the ratios printed;
-3. writing outputs (each job with ``"out"``) on the first ``--design-jobs`` jobs: with the design search
+3. CPU time per job in this process, per-job path against chunk path (steadier than wall time);
+4. writing outputs (each job with ``"out"``) on the first ``--design-jobs`` jobs: with the design search
    (URDF + STL + linkage.json, collision-free search) and with ``--no-design`` (kinematic outputs only).
 
 Targets (issue 36): ``-j 2`` >= 10,000 jobs/s and >= 25% of bennett_batch's rate; outputs with the design
@@ -30,8 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-ENV = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+from bench_cluster import ROOT, mpsynth as run_cli  # noqa: E402 (this folder is on the path of a script)
 
 
 def readme_jobs(n: int, seed: int = 1) -> list[str]:
@@ -45,16 +45,9 @@ def readme_jobs(n: int, seed: int = 1) -> list[str]:
     return out
 
 
-def mpsynth(args, out: Path, cwd: Path = ROOT) -> float:
+def mpsynth(args, out: Path) -> float:
     """Wall seconds of `mpsynth ARGS -q > out` (a new process; exit 0 or 1 expected)."""
-    t = time.perf_counter()
-    with open(out, "wb") as f:
-        p = subprocess.run([sys.executable, "-m", "cli.main", *map(str, args), "-q"], stdout=f,
-                           stderr=subprocess.PIPE, cwd=cwd, env=ENV)
-    wall = time.perf_counter() - t
-    if p.returncode not in (0, 1):
-        sys.exit(f"mpsynth {' '.join(map(str, args))} failed ({p.returncode}): {p.stderr.decode()[-2000:]}")
-    return wall
+    return run_cli(args, out)[0]
 
 
 def library_rate(lines: list[str], repeats: int = 3) -> float:
@@ -73,6 +66,37 @@ def library_rate(lines: list[str], repeats: int = 3) -> float:
     return len(T) / best
 
 
+def cpu_per_job(lines: list[str], n: int = 1000) -> tuple[float, float]:
+    """CPU µs per job (process time, steadier than wall time on a shared machine) of the first n jobs, in
+    this process: the per-job path (`run_job` each) and the chunk path (`run_chunk`, chunks of 1024),
+    result lines (`dumps`) included."""
+    from synth.tools.batchjobs import dumps, run_chunk, run_job
+
+    items = list(enumerate(lines[:n], 1))
+    run_chunk(items[:8], False, None)  # (imports, caches)
+    t = time.process_time()
+    [dumps(run_job(it)) for it in items]
+    single = (time.process_time() - t) / len(items) * 1e6
+    t = time.process_time()
+    [dumps(r) for k in range(0, len(items), 1024) for r in run_chunk(items[k : k + 1024], False, None)]
+    return single, (time.process_time() - t) / len(items) * 1e6
+
+
+def cpu_outputs(lines: list[str], tmp: Path, n: int = 10) -> tuple[float, float]:
+    """CPU ms per job writing OUT, in this process (`run_job`, n jobs): with the design search and with
+    ``design=False`` (``--no-design``)."""
+    from synth.tools.batchjobs import run_job
+
+    out = []
+    for design in (True, False):
+        items = [(i + 1, json.dumps({**json.loads(s), "out": f"cpu{int(design)}_{i}"})) for i, s in enumerate(lines[:n])]
+        t = time.process_time()
+        for it in items:
+            run_job(it, out_dir=tmp, design=design)
+        out.append((time.process_time() - t) / n * 1e3)
+    return out[0], out[1]
+
+
 def has_dask() -> bool:
     return subprocess.run([sys.executable, "-c", "import distributed"], capture_output=True).returncode == 0
 
@@ -81,7 +105,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--jobs", type=int, default=20_000)
     ap.add_argument("--design-jobs", type=int, default=200, help="jobs with 'out' for the output runs")
-    ap.add_argument("--runs", default="j1,j2,local,design,nodesign", help="comma-separated runs to make")
+    ap.add_argument("--runs", default="cpu,j1,j2,local,design,nodesign", help="comma-separated runs to make")
     a = ap.parse_args()
     runs = set(a.runs.split(","))
     load0 = os.getloadavg()
@@ -92,6 +116,8 @@ def main():
         jobs = tmp / "jobs.jsonl"
         jobs.write_text("\n".join(lines) + "\n")
         lib = library_rate(lines)
+        cpu = cpu_per_job(lines) if "cpu" in runs else None
+        cpu_out = cpu_outputs(lines, tmp) if "cpu" in runs else None
         results = {}
         for name, args in (("j1", ["-j", 1]), ("j2", ["-j", 2]), ("local", ["--scheduler", "local", "-j", 2])):
             if name not in runs or (name == "local" and not has_dask()):
@@ -122,6 +148,12 @@ def main():
     print(f"{'synth.bennett_batch (in process, best of 3)':48s} {a.jobs / lib:8.2f} {lib:10,.0f} {1:16.4f}")
     for name, wall, n in rows:
         print(f"{name:48s} {wall:8.2f} {n / wall:10,.1f} {n / wall / lib:16.4f}")
+    if cpu:
+        print(f"CPU per job in process ({min(len(lines), 1000):,} jobs): per-job path {cpu[0]:,.0f} µs, chunk path {cpu[1]:,.0f} µs "
+              f"({cpu[0] / cpu[1]:.1f}x); bennett_batch {1e6 / lib:,.0f} µs wall per set")
+    if cpu_out:
+        print(f"CPU per job writing OUT in process (10 jobs): with the design search {cpu_out[0]:,.0f} ms, "
+              f"--no-design {cpu_out[1]:,.0f} ms")
     j2 = rate.get("batch -j 2")
     if j2:
         print(f"targets: -j 2 {j2:,.0f} jobs/s (>= 10,000: {j2 / 10_000:.3f}x); {j2 / lib:.1%} of bennett_batch "

@@ -132,12 +132,20 @@ def test_summaries_decide_the_common_sets():
     assert checks["samples"] == 200 and checks["max_pose_error"] < 1e-9 and checks["length_scale"] == S.extent[n]
 
 
-@pytest.mark.parametrize("full", [True])
-def test_full_and_outputs_take_the_per_job_path(full, tmp_path):
-    """--full (the whole linkage.json) and jobs with out: the per-job path's lines."""
+def test_full_and_outputs_take_the_per_job_path(tmp_path):
+    """--full (the whole linkage.json) and jobs with out (here kinematic outputs; one OUT named by several
+    jobs, each rewriting it after the one before, as job by job): the per-job path's lines."""
     lines = mixed_lines(40, seed=4)[:11]
     items = list(enumerate(lines, 1))
-    assert [dumps(r) for r in run_chunk(items, full, None)] == [dumps(run_job(it, full=full)) for it in items]
+    assert [dumps(r) for r in run_chunk(items, True, None)] == [dumps(run_job(it, full=True)) for it in items]
+    outs = [json.dumps({**json.loads(s), "out": f"o{min(i, 2)}"}) if s.startswith("{") else s for i, s in enumerate(lines)]
+    items = list(enumerate(outs, 1))
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    chunked = [dumps(r) for r in run_chunk(items, False, tmp_path / "a", design=False)]
+    single = [dumps(run_job(it, out_dir=tmp_path / "b", design=False)) for it in items]
+    assert [s.replace(str(tmp_path / "a"), "B") for s in chunked] == [s.replace(str(tmp_path / "b"), "B") for s in single]
+    assert sum('"out":"o2"' in s for s in single) >= 2  # (mpsynth rewrites its own OUT)
 
 
 def test_workers_and_the_local_cluster_print_the_same_bytes(tmp_path):

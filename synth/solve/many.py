@@ -31,7 +31,7 @@ BENNETT_PAIRS = ((0, 2), (0, 1), (2, 3), (1, 3))  # joints h1 h2 k1 k2 carried b
 MARGIN = 0.5  # a set is decided here only with every gate's figure below MARGIN times its limit
 PARAMETERS = ("a", "alpha", "b", "beta")
 CHUNK = 1024  # sets per call of the pipeline
-CHECK_CHUNK = 32  # sets per call of the 200-sample check: its temporaries (~80 kB a set) stay in the caches
+CHECK_CHUNK = 16  # sets per call of the 200-sample check: its temporaries (~80 kB a set) stay in the caches
 
 
 @dataclass

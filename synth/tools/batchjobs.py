@@ -110,9 +110,10 @@ class _Job:
     created: list
 
 
-def _read_job(item, out_dir) -> _Job | dict:
+def _read_job(item, out_dir, defer_out: bool = False) -> _Job | dict | None:
     """The checks of one (line number, text) before its synthesis: a `_Job`, or the final result dict
-    (a blank line, a bad job)."""
+    (a blank line, a bad job); ``defer_out``: None for a valid-looking job with OUT, before anything is
+    touched on disk (its caller runs it whole at its turn, after the jobs before it have written theirs)."""
     lineno, text = item
     result: dict[str, Any] = {"id": None, "line": lineno}
     created: list[str] = []  # parent directories made for "out": removed again when the job fails
@@ -123,6 +124,8 @@ def _read_job(item, out_dir) -> _Job | dict:
         job = parse_job(text)
         result["id"] = echo_id(job.get("id"))
         check_job(job)
+        if defer_out and "out" in job:
+            return None
         doc = {k: job[k] for k in ("poses", "points", "units", "quaternion_order") + TASK_KEYS if k in job}
         kind = job["kind"]
         try:
@@ -208,9 +211,9 @@ def _success_fields(kind: str, joints: int, extent: float, checks, out, bennett=
     """The fields of a successful result line, in their order."""
     res = {"ok": True, "kind": kind, "joints": joints, "extent": extent, "extent_unit": "m",
            "checks": plain(dict(checks)), "out": out}
-    if bennett:
+    if bennett is not None:
         res["bennett"] = plain(bennett)
-    if fit:
+    if fit is not None:
         res["fit"] = plain(fit)
     return res
 
@@ -229,11 +232,12 @@ def run_chunk(chunk, full: bool, out_dir, design: bool = True):
     """The results of a list of (line number, text) jobs (a worker's unit of work), in order: the
     three-pose Bennett jobs without OUT in one `synth.solve.many.solve_bennett_many` call (the sets it
     leaves undecided, and every other job, one by one: `run_job`); the same result lines either way."""
-    read = [_read_job(item, out_dir) for item in chunk]
+    read = [_read_job(item, out_dir, defer_out=True) for item in chunk]
     fast = [n for n, j in enumerate(read) if isinstance(j, _Job) and _batchable(j, full)]
     if fast:
         _solve_many([read[n] for n in fast])
-    return [j if isinstance(j, dict) else j.result if j.ps is None else _solve_job(j, full, design) for j in read]
+    return [run_job(item, full, out_dir, design) if j is None else j if isinstance(j, dict) else
+            j.result if j.ps is None else _solve_job(j, full, design) for item, j in zip(chunk, read)]
 
 
 def _solve_many(jobs: list) -> None:
