@@ -100,7 +100,7 @@ def solve(T, check_samples: int, perturb=None, *, as_single: bool = False) -> So
     companion matrices at every batch size, `synth.algebra.algorithm1.norm_roots`; batch jobs print
     what the per-job path prints), a little slower."""
     T = np.asarray(T, float)
-    ferrari = False if as_single else None
+    roots = {"ferrari": False} if as_single else {}  # (`_solve`'s keyword)
     with np.errstate(all="ignore"):  # (for `_factors` and `_solve`: rows of bad sets hold garbage)
         if perturb is not None:
             fac = _factors(T, perturb)
@@ -110,9 +110,9 @@ def solve(T, check_samples: int, perturb=None, *, as_single: bool = False) -> So
             return out
         if T.shape[0] >= ONE_THREAD_MIN:
             with one_blas_thread():
-                parts = [_solve(T[i : i + CHUNK], check_samples, ferrari=ferrari) for i in range(0, T.shape[0], CHUNK)]
+                parts = [_solve(T[i : i + CHUNK], check_samples, **roots) for i in range(0, T.shape[0], CHUNK)]
             return parts[0] if len(parts) == 1 else _concatenate(parts)
-        return _solve(T, check_samples, ferrari=ferrari)
+        return _solve(T, check_samples, **roots)
 
 
 def _concatenate(parts: list):
