@@ -228,16 +228,25 @@ def numbered(lines) -> Iterator[tuple[int, str]]:
     return (it if isinstance(it, tuple) else (n, it) for n, it in enumerate(lines, 1))
 
 
-def run_chunk(chunk, full: bool, out_dir, design: bool = True):
+def run_chunk(chunk, full: bool, out_dir, design: bool = True) -> list[dict]:
     """The results of a list of (line number, text) jobs (a worker's unit of work), in order: the
     three-pose Bennett jobs without OUT in one `synth.solve.many.solve_bennett_many` call (the sets it
     leaves undecided, and every other job, one by one: `run_job`); the same result lines either way."""
+    return list(chunk_results(chunk, full, out_dir, design))
+
+
+def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) -> Iterator[dict]:
+    """`run_chunk`'s results as they are ready (the batched jobs first, at once); ``stop``: as `run_jobs`,
+    asked before every result."""
     read = [_read_job(item, out_dir, defer_out=True) for item in chunk]
     fast = [n for n, j in enumerate(read) if isinstance(j, _Job) and _batchable(j, full)]
     if fast:
         _solve_many([read[n] for n in fast])
-    return [run_job(item, full, out_dir, design) if j is None else j if isinstance(j, dict) else
-            j.result if j.ps is None else _solve_job(j, full, design) for item, j in zip(chunk, read)]
+    for item, j in zip(chunk, read):
+        if stop is not None and stop():
+            raise Stopped
+        yield (run_job(item, full, out_dir, design) if j is None else j if isinstance(j, dict) else
+               j.result if j.ps is None else _solve_job(j, full, design))
 
 
 def _solve_many(jobs: list) -> None:
@@ -288,31 +297,52 @@ def worker_count(requested: int, total: int | None) -> int:
     return max(1, n)
 
 
+class Stopped(Exception):
+    """``run_jobs`` gave up because its ``stop()`` said so (the caller's request, e.g. a signal)."""
+
+
+POLL_SECONDS = 0.1  # how often a waiting `run_jobs` asks ``stop()`` (a reaction time, not a work budget)
+
+
 def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = False,
-             total: int | None = None, out_dir=None, initializer=None, design: bool = True) -> Iterator[dict]:
+             total: int | None = None, out_dir=None, initializer=None, stop=None,
+             design: bool = True) -> Iterator[dict]:
     """Results of the jobs in ``lines``, in input order. ``lines``: an iterable of (line number, text)
     pairs (`synth.io.docload.read_lines`) or of text lines. ``jobs`` worker processes (the caller caps
     it, `worker_count`), each set up by ``initializer(parent pid)`` (an importable function; default
-    `prepare_worker`)."""
+    `prepare_worker`). ``stop``: a callable asked before every job (chunk of jobs, with workers) and,
+    while waiting for a worker, every `POLL_SECONDS`; when it returns true the pool is terminated (from this loop, never from inside the
+    pool's own bookkeeping) and `Stopped` is raised. ``design``: as `run_job`."""
     items = numbered(lines)
+    stop = stop or (lambda: False)
     if chunksize is None:
         chunksize = default_chunksize(jobs, total)
     if jobs <= 1:
         for chunk in chunks(items, chunksize):
-            yield from run_chunk(chunk, full, out_dir, design)
+            yield from chunk_results(chunk, full, out_dir, design, stop)
         return
     ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
     pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
     pending: collections.deque = collections.deque()
+
+    def first_done():
+        while not (stop() or pending[0].ready()):
+            pending[0].wait(POLL_SECONDS)
+        if stop():
+            raise Stopped
+        return pending.popleft().get()
+
     try:
         for chunk in chunks(items, chunksize):
+            if stop():
+                raise Stopped
             pending.append(pool.apply_async(run_chunk, (chunk, full, out_dir, design)))
             while len(pending) > 2 * jobs:
-                yield from pending.popleft().get()
+                yield from first_done()
             while pending and pending[0].ready():
-                yield from pending.popleft().get()
+                yield from first_done()
         while pending:
-            yield from pending.popleft().get()
+            yield from first_done()
         pool.close()
     except BaseException:
         pool.terminate()
