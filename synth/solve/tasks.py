@@ -230,6 +230,8 @@ def solve_fourbar(ps, options: SynthesisOptions = SynthesisOptions(), *, min_tra
     supported (InputError); ``ready()`` is called before the work."""
     from synth.synthesis.fourbar import fourbar_candidates
 
+    if not 0.0 <= min_transmission_deg <= 90.0:  # NaN included (it passes click's range check)
+        raise InputError(f"--min-transmission must be between 0 and 90 degrees, got {min_transmission_deg}")
     if ps.has_points:
         raise InputError(f"{ps.source}: mpsynth fourbar needs poses (position and orientation), not points")
     if ps.velocity is not None and (ps.velocity == ps.velocity).any():
