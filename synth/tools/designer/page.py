@@ -73,8 +73,12 @@ JS = r""""use strict";
       return r.json().then(function (j) { if (!r.ok) throw new Error(j.error || r.statusText); return j; });
     });
   }
-  function send(name, body) { // one request in flight; a newer change replaces a waiting one
-    if (busy) { queued = [name, body]; return; }
+  function send(name, body) { // one request in flight; a newer change replaces a waiting one (turns add up)
+    if (busy) {
+      if (name === "turn" && queued && queued[0] === "turn" && queued[1].item === body.item)
+        body = { item: body.item, axis: body.axis, degrees: body.degrees + queued[1].degrees };
+      queued = [name, body]; return;
+    }
     busy = true; $("message").textContent = "";
     var t0 = performance.now();
     api(name, body).then(function (st) {
@@ -300,7 +304,7 @@ JS = r""""use strict";
       var T = S.poses[i];
       drag.start = pos(T); drag.dx = 0; drag.dy = 0;
       drag.turn = (e.altKey || e.ctrlKey || e.metaKey) && !S.points[i];
-      if (drag.turn) { drag.centre = proj(drag.start); drag.a0 = angleAt(drag.centre, x, y); drag.axis = basis().f; drag.sent = 0; }
+      if (drag.turn) { drag.centre = proj(drag.start); drag.a0 = null; drag.axis = basis().f; drag.sent = 0; }
     }
     draw();
   });
@@ -310,7 +314,12 @@ JS = r""""use strict";
     var dx = e.clientX - drag.x, dy = e.clientY - drag.y, dpr = window.devicePixelRatio || 1;
     drag.x = e.clientX; drag.y = e.clientY;
     if (drag.item >= 0 && drag.turn) { // about the view axis through the pose, by the angle swept round its handle
-      var a = angleAt(drag.centre, e.offsetX * dpr, e.offsetY * dpr), deg = (a - drag.a0) * 180 / Math.PI;
+      var mx = e.offsetX * dpr, my = e.offsetY * dpr, a = angleAt(drag.centre, mx, my);
+      if (drag.a0 === null) { // the sweep starts once the pointer is off the handle's centre
+        if (Math.hypot(mx - drag.centre[0], my - drag.centre[1]) > 8 * dpr) drag.a0 = a;
+        return;
+      }
+      var deg = (a - drag.a0) * 180 / Math.PI;
       deg = ((deg + 540) % 360) - 180;
       if (Math.abs(deg - drag.sent) >= 0.5) {
         send("turn", { item: drag.item, axis: drag.axis, degrees: deg - drag.sent }); drag.sent = deg;
