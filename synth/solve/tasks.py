@@ -122,6 +122,13 @@ def _ranked(linkages, designer: Designer, options: SynthesisOptions, ident, inde
                   unit=designer.unit)
 
 
+def design_solution(ps, linkage, options: SynthesisOptions = SynthesisOptions(physical=True)) -> Result:
+    """The physical design of one given solution of ``ps`` (a `Result.solutions` linkage the caller picked,
+    e.g. ``--top`` rank k in `mpsynth design`), gated and reported as an entry point's chosen one
+    (`_finish`: collision gate, envelope, drive report)."""
+    return _finish(linkage, None, _designer(ps, options), options, ps.constraints)
+
+
 def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: Callable | None = None,
                   progress=None) -> Result:
     """Three poses: the verified Bennett linkage (planar or spherical poses: the four-bar member given by
