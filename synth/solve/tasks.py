@@ -10,7 +10,7 @@ writes a Result's linkages and designs.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 from synth.checks import VERIFY_SAMPLES
@@ -170,8 +170,10 @@ def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress, syn
     if synthesize is None:
         from synth.synthesis.bennett_fit import bennett_task as synthesize
 
-    want = options.top or ((CONSTRAINED if ps.constraints else TASK_CHOICE["limit"]) if options.wants_design else 1)
+    want = options.top or (CONSTRAINED if ps.constraints else TASK_CHOICE["limit"] if options.wants_design else 1)
     linkages = synthesize(ps, top=want, best_effort=options.best_effort)
+    if not options.best_effort:  # (steered fits may leave the tolerances: `synth.synthesis.steer`)
+        linkages = [lk for lk in linkages if lk.info["fit"]["within_tolerance"]]
     if options.top is not None:
         return _ranked(linkages, designer, options, task_solution_id, lambda lks, ids: task_index(lks, ids, ps),
                        "fits", progress, ps.constraints)
@@ -224,35 +226,33 @@ def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress
 
 def solve_fourbar(ps, options: SynthesisOptions = SynthesisOptions(), *, min_transmission_deg: float = 40.0,
                   ready=None, progress=None) -> Result:
-    """Three or more coplanar poses (a `synth.task.PoseSet`): the best planar four-bar
-    (`synth.synthesis.fourbar.fourbar_candidates`; with a physical design the best four designed,
-    collision-free first), or with ``options.top`` the N best ranked. Velocities and constraints are not
-    supported (InputError); ``ready()`` is called before the work."""
+    """Three or more coplanar poses (a `synth.task.PoseSet`; velocities count as poses, docs/fourbar.md): the
+    best planar four-bar (`synth.synthesis.fourbar.fourbar_candidates`; with a physical design the best
+    four designed, collision-free first), or with ``options.top`` the N best ranked. The task's constraints
+    filter the ranked candidates, the crank h1 driving (`_admissible`); ``ready()`` is called before the
+    work."""
     from synth.synthesis.fourbar import fourbar_candidates
 
     if ps.has_points:
         raise InputError(f"{ps.source}: mpsynth fourbar needs poses (position and orientation), not points")
-    if ps.velocity is not None and (ps.velocity == ps.velocity).any():
-        raise InputError(f"{ps.source}: mpsynth fourbar does not take pose velocities (yet); remove 'velocity' or use "
-                         "mpsynth bennett")
-    if ps.constraints is not None:
-        raise InputError(f"{ps.source}: mpsynth fourbar does not take 'constraints' (yet); remove them")
     designer = _designer(ps, options)
     if ready is not None:
         ready()
-    want = options.top or (FOURBAR_CHOICE["limit"] if options.wants_design else 1)
+    want = options.top or (CONSTRAINED if ps.constraints else FOURBAR_CHOICE["limit"] if options.wants_design else 1)
     try:
         linkages = fourbar_candidates(ps.matrices, ps.names, top=want, min_transmission_deg=min_transmission_deg,
-                                      order=ps.order, tolerance=ps.tolerance, source=ps.source)
+                                      order=ps.order, tolerance=ps.tolerance, velocity=ps.velocity, source=ps.source)
     except SynthesisError as e:  # name the file, like every input error
         raise SynthesisError(e.args[0] if str(e).startswith(ps.source) else f"{ps.source}: {e}") from e
+    crank = replace(options, driver=options.driver or "h1")
     if options.top is not None:
-        return _ranked(linkages, designer, options, lambda r, lk: f"{r:02d}-fourbar",
-                       lambda lks, ids: fourbar_index(lks, ids, ps), "four-bars", progress)
+        return _ranked(linkages, designer, crank, lambda r, lk: f"{r:02d}-fourbar",
+                       lambda lks, ids: fourbar_index(lks, ids, ps), "four-bars", progress, ps.constraints)
+    linkages = _admissible(linkages, designer, crank, ps.constraints)
     linkage, result = linkages[0], None
     if options.wants_design and len(linkages) > 1:
-        linkage, result = designer.choose(linkages, what="four-bars", **FOURBAR_CHOICE)
-    return _finish(linkage, result, designer, options)
+        linkage, result = designer.choose(linkages, what="four-bars", constraints=ps.constraints, **FOURBAR_CHOICE)
+    return _finish(linkage, result, designer, options, ps.constraints)
 
 
 def point_count(degree: int):

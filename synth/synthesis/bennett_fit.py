@@ -26,7 +26,7 @@ from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import (reference_pose, ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, MotionModel, gauge_items, gauge_matrix, inv2,
+from synth.synthesis.fit import (reference_pose, ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, LMResult, MotionModel, gauge_items, gauge_matrix, inv2,
                                  levenberg_marquardt, project, regauge, task_arrays)
 from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, select, visiting_order
 from synth.task import Order, PoseSet
@@ -178,10 +178,18 @@ def fit_motion(ps: PoseSet):
             res = levenberg_marquardt(MotionModel(layout, task, ref[keep]), x0[keep], fixed, ITERATIONS)
         if (res.violation <= FEASIBLE).any():
             break
+    if ps.constraints is not None and ps.constraints.base is not None:  # the ground axes into the box
+        from synth.synthesis.steer import into_base_box
+
+        with np.errstate(all="ignore"), one_blas_thread():
+            steered, seed = into_base_box(MotionModel(layout, task, ref[keep]), res, fixed, ps.constraints.base, cond)
+        res = LMResult(np.concatenate([res.x, steered.x]), np.concatenate([res.cost, steered.cost]),
+                       np.concatenate([res.violation, steered.violation]), res.iterations + steered.iterations)
+        keep = np.concatenate([keep, keep[seed]])
     coef, x_ref, phi = layout.split(res.x)
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
     order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
-    summary = FitSummary("fit", seeds=tried, refined=start + len(keep), iterations=res.iterations)
+    summary = FitSummary("fit", seeds=tried, refined=start + len(keep[:KEEP]), iterations=res.iterations)
     return coef[order], refs[order], np.mod(phi[order], np.pi), res.cost[order], res.violation[order], cond, summary
 
 

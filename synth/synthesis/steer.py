@@ -1,0 +1,98 @@
+"""Steering a Bennett fit into the task's mounting box (docs/drive.md, "Using the freedom the task leaves").
+
+A fit within tolerance leaves freedom: the poses may be missed by up to their tolerances, and the ground
+axes (the first factors h1, k1 of the two factorizations of the fitted quadratic C = t^2 + c1 t + c0) move
+with the fit. `into_base_box` re-fits the best seeds of `synth.synthesis.bennett_fit.fit_motion` with one
+more residual row per ground axis: ``weight * d / tol``, d the distance of the axis from the base box
+shrunk by `BOX_INSET` of its smallest half-size on every side (`synth.algebra.geometry.line_box_distance`; zero
+inside, so a fit meeting the box trades nothing), tol the task's tightest position tolerance (conditioned
+units). It runs for each weight of `WEIGHTS` from the unsteered fit; the refusal and ranking downstream
+(`synth.design.constraints.admissible`, `synth.synthesis.taskfit.select`) keep the steered fits that meet
+the box and stay within tolerance. Counted work: `ITERATIONS` Jacobians per weight.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from synth.algebra.algorithm1 import algorithm1, norm_roots, quadratics
+from synth.algebra.dq import factor_lines
+from synth.algebra.geometry import cross, line_box_distance
+from synth.algebra.polynomial import norm_poly
+from synth.synthesis.fit import LMResult, levenberg_marquardt
+from synth.task import Box
+
+__all__ = ["ground_axes", "into_base_box", "WEIGHTS", "BOX_INSET"]
+
+WEIGHTS = (1.0, 10.0, 100.0)  # penalty weights tried, each from the unsteered fit
+BOX_INSET = 0.1  # the penalty's box: the base box shrunk by this fraction of its smallest half-size
+FD_STEP = 1e-7  # forward-difference step of the penalty rows in the coefficients (conditioned units)
+ITERATIONS = 40  # Jacobians per steered refinement, at most
+_ORDERS = np.array([[0, 1], [1, 0]])  # the two factorizations: their first factors are the ground axes
+
+
+def ground_axes(coef):
+    """(points (..., 2, 3), directions (..., 2, 3)) of the first factors of the two factorizations of the
+    monic quadratic motions with coefficients ``coef`` (..., 2, 8) (c0, c1; conditioned frame): the ground
+    axes of their Bennett linkages (h1, k1). Unit directions; NaN where C does not factor."""
+    coef = np.asarray(coef, float)
+    C = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], coef.shape[:-2] + (1, 8))], -2)
+    with np.errstate(all="ignore"):
+        z = norm_roots(norm_poly(C))
+        H, ok = algorithm1(C[..., None, :, :], quadratics(z)[..., _ORDERS, :])  # (..., 2, 2, 8)
+        lines, _ = factor_lines(H[..., 0, :])  # (..., 2, 2, 3): direction, moment
+    u, m = lines[..., 0, :], lines[..., 1, :]
+    bad = (~ok | ~np.isfinite(lines).all((-1, -2)))[..., None]
+    return np.where(bad, np.nan, cross(u, m)), np.where(bad, np.nan, u)
+
+
+class _Penalized:
+    """A motion-fit model (`synth.synthesis.fit.MotionModel`) with the ground axes' box distances as two
+    more residual rows (``weight`` / ``tol`` each), their derivatives by forward differences."""
+
+    def __init__(self, model, box: Box, weight: float):
+        self.model, self.box, self.scale = model, box, weight
+        self.columns = 8 * model.layout.n
+
+    def _penalty(self, x):
+        coef = x[..., :self.columns].reshape(x.shape[:-1] + (self.model.layout.n, 8))
+        p, u = ground_axes(coef)
+        d = line_box_distance(np.nan_to_num(p), np.where(np.isfinite(u), u, 1.0), self.box)
+        return np.where(np.isfinite(u).all(-1), d, 1e3) * self.scale
+
+    def rows(self, x):
+        r, c = self.model.rows(x)
+        return np.concatenate([r, self._penalty(x)], -1), c
+
+    def jacobians(self, x):
+        r, c, Jr, Jc = self.model.jacobians(x)
+        p = self._penalty(x)
+        k = self.columns
+        steps = x[:, None, :] + FD_STEP * np.eye(x.shape[-1])[:k]  # (S, k, P)
+        dp = (self._penalty(steps) - p[:, None, :]) / FD_STEP  # (S, k, 2)
+        Jp = np.zeros((x.shape[0], 2, x.shape[-1]))
+        Jp[:, :, :k] = np.swapaxes(dp, 1, 2)
+        return np.concatenate([r, p], -1), c, np.concatenate([Jr, Jp], 1), Jc
+
+
+def into_base_box(model, res: LMResult, fixed, box: Box, cond) -> tuple[LMResult, np.ndarray]:
+    """Steered re-fits of the refined seeds ``res`` (of ``model``, columns ``fixed``) towards the base box
+    (world frame, metres; ``cond`` the fit's `synth.synthesis.conic.Conditioning`), one batch per weight
+    of `WEIGHTS`: (the results (W S seeds; cost and violation of the unpenalized ``model``), the seed
+    index of each)."""
+    lo = (np.asarray(box.lo, float) - cond.centre) / cond.scale
+    hi = (np.asarray(box.hi, float) - cond.centre) / cond.scale
+    inset = BOX_INSET * float(np.min(hi - lo)) / 2
+    shrunk = Box(lo + inset, hi - inset)
+    w = model.task.weight[:, :3]
+    tol = 1.0 / w.max() if (w > 0).any() else 1e-3  # the tightest position tolerance (conditioned)
+    xs, cost, viol, its = [], [], [], 0
+    for weight in WEIGHTS:
+        out = levenberg_marquardt(_Penalized(model, shrunk, weight / tol), res.x, fixed, ITERATIONS)
+        r, c = model.rows(out.x)
+        xs.append(out.x)
+        cost.append((r * r).sum(-1))
+        viol.append(np.abs(c).max(-1, initial=0.0))
+        its += out.iterations
+    seeds = np.tile(np.arange(len(res.x)), len(WEIGHTS))
+    return LMResult(np.concatenate(xs), np.concatenate(cost), np.concatenate(viol), its), seeds
+
