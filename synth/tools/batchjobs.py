@@ -6,7 +6,8 @@ A job is one JSON object on one line::
      "out": "runs/a7", "name": "a7", "normalize": false, "force": false,
      "pin_radius": 4, "link_radius": 3, "pin_length": 20}
 
-``kind`` is ``"bennett"`` (3 poses) or ``"sixbar"`` (4 poses); ``poses`` is a list of pose specs
+``kind`` is ``"bennett"`` (3 poses), ``"sixbar"`` (4 poses) or ``"fourbar"`` (3 or more coplanar poses, or 2
+with a velocity: `synth.solve.solve_fourbar`, as ``mpsynth fourbar``; its result has ``fourbar``); ``poses`` is a list of pose specs
 exactly as in a pose file's ``poses`` list, ``units`` as in a pose file (both validated by
 ``synth.io.poses.parse_pose_document``); everything but ``kind`` and ``poses`` is optional. A point task
 (docs/points.md) gives ``points`` (5 for bennett, 7 for sixbar, as a pose file's ``points`` list) instead
@@ -60,10 +61,10 @@ from synth.io.names import check_robot_name, safe_robot_name
 from synth.io.poses import parse_pose_document
 from synth.io.atomic import check_path
 from synth.io.writer import check_output_target, write_output
-from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_points, solve_sixbar
+from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_fourbar, solve_points, solve_sixbar
 from synth.synthesis.points import MINIMUM, NEEDED
 
-KINDS = {"bennett": 3, "sixbar": 4}
+KINDS = {"bennett": 3, "sixbar": 4, "fourbar": (2, None)}  # pose counts (fourbar: its own refusals below 3)
 DEGREES = {"bennett": 2, "sixbar": 3}  # degree of the motion of a point task
 SIZE_KEYS = ("pin_radius", "link_radius", "pin_length")
 TASK_KEYS = ("tolerance", "order", "constraints")  # a task file's keys (docs/fit.md), as in a pose file
@@ -158,6 +159,8 @@ def _is_task_job(job: dict) -> bool:
 
 def _synthesize(kind: str, ps, options: SynthesisOptions):
     """The job's Result: the entry point the CLI calls for the same task (`synth.solve`)."""
+    if kind == "fourbar":
+        return solve_fourbar(ps, options)
     if kind == "bennett" or ps.has_points:
         return solve_bennett(ps, options) if kind == "bennett" else solve_points(ps, DEGREES[kind], options)
     try:  # sixbar is optional in an installation
@@ -198,7 +201,8 @@ def run_job(item, full: bool = False, out_dir=None) -> dict:
             task = _is_task_job(job)
             ps = parse_pose_document(doc, source="poses", normalize=bool(job.get("normalize", False)),
                                      count=((2, None) if task else KINDS[kind], f"kind {kind!r}"),
-                                     points=((MINIMUM[DEGREES[kind]], NEEDED[DEGREES[kind]]), f"kind {kind!r}"))
+                                     points=((MINIMUM[DEGREES.get(kind, 2)], NEEDED[DEGREES.get(kind, 2)]),
+                                             f"kind {kind!r}"))
             design = DesignOptions(**{k: float(job[k]) for k in SIZE_KEYS if k in job})
             design.sizes(ps.length_scale, label=repr)  # the job's names in the message
             solved = _synthesize(kind, ps, SynthesisOptions(design=design, physical="out" in job,
@@ -271,6 +275,9 @@ def _success(kind: str, linkage, out, full: bool) -> dict:
     b = linkage.info.get("bennett")
     if b:
         res["bennett"] = plain({k: b[k] for k in ("a", "alpha", "b", "beta") if k in b})
+    fb = linkage.info.get("fourbar")
+    if fb:
+        res["fourbar"] = plain({k: fb[k] for k in ("lengths", "grashof", "transmission_min_deg", "task_range_deg")})
     f = linkage.info.get("fit")
     if f:
         res["fit"] = plain({k: f[k] for k in ("method", "within_tolerance", "max_position_error", "max_angle_error",
