@@ -7,6 +7,8 @@ from __future__ import annotations
 import json
 
 import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
 import pytest
 from scipy.spatial.transform import Rotation
 
@@ -93,3 +95,61 @@ def test_steered_fit_end_to_end(tmp_path, verifier):  # noqa: F811
     doc = json.loads((out / "linkage.json").read_text())
     assert doc["info"]["fit"]["within_tolerance"]
     verify_claims(verifier, task, out)
+
+
+def test_point_task_searches_its_free_parameters_for_the_box():
+    """A point task (fixtures/bennett_points.yaml: five points, the tool's orientation free): a thin box around
+    the ground axes of the 21st-ranked design of the enlarged scan. The default candidates, filtered, all
+    miss it (by 15 mm or more); the steered search (the scan BOX_SCAN times as large, designs meeting the
+    box first) meets it."""
+    from synth.io.poses import load_poses
+    from synth.solve.tasks import point_count
+    from synth.synthesis.points import oriented_item, point_candidates
+    from synth.synthesis.steer import BOX_SCAN
+
+    from conftest import REPO
+
+    ps = load_poses(REPO / "fixtures" / "bennett_points.yaml", count=((2, None), "test"), points=point_count(2))
+    oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
+    kw = dict(degree=2, tool_rotation=rot, oriented=oriented)
+    lk = point_candidates(ps.positions, ps.names, top=21, samples=BOX_SCAN * 136, **kw)[20]
+    h1, k1 = lk.joint("h1"), lk.joint("k1")
+    k = int(np.argmax(np.minimum(abs(h1.direction), abs(k1.direction))))
+    x0 = (h1.point[k] + k1.point[k]) / 2
+    hits = [j.point + (x0 - j.point[k]) / j.direction[k] * j.direction for j in (h1, k1)]
+    box = Box(np.min(hits, 0) - 1e-3, np.max(hits, 0) + 1e-3)
+    plain = point_candidates(ps.positions, ps.names, top=16, **kw)
+    assert min(box_miss(c, box) for c in plain) > 0.015
+    ps.constraints = Constraints(base=box)
+    result = solve_bennett(ps, SynthesisOptions())
+    assert box_miss(result.linkage, box) <= 1e-9 * result.linkage.extent()
+
+
+class _Sized:
+    def __init__(self, name, extent):
+        self.name, self._e = name, extent
+
+    def extent(self):
+        return self._e
+
+
+@given(st.lists(st.floats(0.01, 1e4), min_size=1, max_size=12))
+def test_compact_first_is_a_stable_partition(extents):
+    """compact_first: the candidates within COMPACT_FACTOR of the smallest first, each group in its order."""
+    from synth.design.constraints import COMPACT_FACTOR, compact_first
+
+    cands = [_Sized(i, e) for i, e in enumerate(extents)]
+    out = compact_first(cands)
+    assert sorted(c.name for c in out) == list(range(len(cands)))
+    near = [c.extent() <= COMPACT_FACTOR * min(extents) for c in out]
+    assert near == sorted(near, reverse=True)
+    for group in (True, False):
+        names = [c.name for c, n in zip(out, near) if n is group]
+        assert names == sorted(names)
+
+
+def test_compact_first_worked():
+    from synth.design.constraints import compact_first
+
+    cands = [_Sized("big", 10.0), _Sized("a", 1.0), _Sized("mid", 3.5), _Sized("b", 2.9)]
+    assert [c.name for c in compact_first(cands)] == ["a", "b", "big", "mid"]

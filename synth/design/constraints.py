@@ -35,12 +35,13 @@ from synth.errors import SynthesisError
 from synth.linkage import Linkage
 from synth.task import Box, Constraints
 
-__all__ = ["Violation", "default_max_extent", "kinematic_violations", "admissible",
+__all__ = ["Violation", "default_max_extent", "compact_first", "kinematic_violations", "admissible",
            "envelope_excess", "envelope_violation", "refusal"]
 
 EXTENT_FACTOR = 100.0  # default --max-extent: this many times the task's spread
 BOX_TOL = 1e-9  # an axis within this fraction of the linkage's extent of the box passes through it
 ENVELOPE_SAMPLES = 48  # samples per joint over the task range for the envelope
+COMPACT_FACTOR = 3.0  # with limits (constraints, --max-extent): candidates up to this many times the smallest first
 
 
 @dataclass(frozen=True)
@@ -139,6 +140,18 @@ def admissible(candidates, constraints: Constraints | None, *, driver: str | Non
         return passed
     _, v, bad = best
     raise refusal(v, bad, source=source, scale=scale, unit=unit, count=len(candidates))
+
+
+def compact_first(linkages, factor: float = COMPACT_FACTOR) -> list:
+    """The candidates (best first) with those at most ``factor`` times as large (`Linkage.extent`) as the most
+    compact one first, each group in its order: among the members of a family or the scored 6R pairs
+    meeting the task's limits, the compact ones are designed first."""
+    linkages = list(linkages)
+    if len(linkages) < 2:
+        return linkages
+    E = np.array([lk.extent() for lk in linkages])
+    near = E <= factor * E.min()
+    return [lk for lk, n in zip(linkages, near) if n] + [lk for lk, n in zip(linkages, near) if not n]
 
 
 def refusal(linkage: Linkage, violations: list[Violation], *, source: str = "", scale: float = 1.0,

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 from synth.checks import VERIFY_SAMPLES
-from synth.design.constraints import admissible, first_in_envelope, met_sentence
+from synth.design.constraints import admissible, compact_first, first_in_envelope, met_sentence
 from synth.design.work import GAPS_PER_SECOND
 from synth.drive import drive_report
 from synth.errors import InputError, SynthesisError
@@ -156,6 +156,8 @@ def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: 
     except SynthesisError as e:  # name the file, like every input error
         raise SynthesisError(f"{ps.source}: {e}") from e
     linkages = _admissible(linkages, designer, options, ps.constraints)
+    if ps.constraints is not None or options.max_extent is not None:  # limits: compact members first
+        linkages = compact_first(linkages)
     linkage, result = linkages[0], None
     if len(linkages) > 1 and options.wants_design:  # members of a planar or spherical family: collision-free first
         linkage, result = designer.choose(linkages, what="members", constraints=ps.constraints, **BENNETT_CHOICE)
@@ -214,6 +216,8 @@ def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress
         candidates = sixbar_candidates(ps.matrices, ps.names, top=2 * CONSTRAINED if ps.constraints else
                                        SIXBAR_CHOICE["limit"], build=True, check_samples=VERIFY_SAMPLES)
         candidates = _admissible(candidates, designer, options, ps.constraints)
+        if ps.constraints is not None or options.max_extent is not None:  # limits: compact members first
+            candidates = compact_first(candidates)
         linkage, result = candidates[0], None
         if options.wants_design:
             linkage, result = designer.choose(candidates, what="6R linkages", constraints=ps.constraints,
@@ -277,7 +281,8 @@ def solve_points(ps, degree: int, options: SynthesisOptions = SynthesisOptions()
                            or ps.constraints else 1)
     try:
         linkages = point_candidates(ps.positions, ps.names, degree=degree, top=want, tool_rotation=rot,
-                                    oriented=oriented, check_samples=VERIFY_SAMPLES)
+                                    oriented=oriented, check_samples=VERIFY_SAMPLES,
+                                    base_box=ps.constraints.base if ps.constraints else None)
     except (SynthesisError, InputError) as e:
         raise type(e)(f"{ps.source}: {e}") from e
     if options.top is not None:

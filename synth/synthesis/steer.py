@@ -9,6 +9,9 @@ inside, so a fit meeting the box trades nothing), tol the task's tightest positi
 units). It runs for each weight of `WEIGHTS` from the unsteered fit; the refusal and ranking downstream
 (`synth.design.constraints.admissible`, `synth.synthesis.taskfit.select`) keep the steered fits that meet
 the box and stay within tolerance. Counted work: `ITERATIONS` Jacobians per weight.
+
+Point tasks (`synth.synthesis.points.point_candidates` with ``base_box``) rank the scanned members whose
+ground axes meet the box first (`ground_box_distance`), from a scan `BOX_SCAN` times as large.
 """
 from __future__ import annotations
 
@@ -21,12 +24,13 @@ from synth.algebra.polynomial import norm_poly
 from synth.synthesis.fit import LMResult, levenberg_marquardt
 from synth.task import Box
 
-__all__ = ["ground_axes", "into_base_box", "WEIGHTS", "BOX_INSET"]
+__all__ = ["ground_axes", "into_base_box", "conditioned_box", "ground_box_distance", "WEIGHTS", "BOX_INSET"]
 
 WEIGHTS = (1.0, 10.0, 100.0)  # penalty weights tried, each from the unsteered fit
 BOX_INSET = 0.1  # the penalty's box: the base box shrunk by this fraction of its smallest half-size
 FD_STEP = 1e-7  # forward-difference step of the penalty rows in the coefficients (conditioned units)
 ITERATIONS = 40  # Jacobians per steered refinement, at most
+BOX_SCAN = 4  # point tasks with a base box: this many times the default scan
 _ORDERS = np.array([[0, 1], [1, 0]])  # the two factorizations: their first factors are the ground axes
 
 
@@ -43,6 +47,28 @@ def ground_axes(coef):
     u, m = lines[..., 0, :], lines[..., 1, :]
     bad = (~ok | ~np.isfinite(lines).all((-1, -2)))[..., None]
     return np.where(bad, np.nan, cross(u, m)), np.where(bad, np.nan, u)
+
+
+def conditioned_box(box: Box, cond, inset: float = 0.0) -> Box:
+    """The box (world, metres) in the conditioned frame of ``cond`` (`synth.synthesis.conic.Conditioning`),
+    shrunk by ``inset`` times its smallest half-size on every side."""
+    lo = (np.asarray(box.lo, float) - cond.centre) / cond.scale
+    hi = (np.asarray(box.hi, float) - cond.centre) / cond.scale
+    pad = inset * float(np.min(hi - lo)) / 2
+    return Box(lo + pad, hi - pad)
+
+
+def ground_box_distance(H, pairs, box: Box) -> np.ndarray:
+    """(S, P) the larger distance from ``box`` of the two ground axes (first factors) of each loop: factors
+    H (S, orders, n, 8) by order, loops ``pairs`` (P, 2) (the orders of branches h and k), as in
+    `synth.synthesis.pointfit.PointScan`; NaN factors give inf."""
+    lines, _ = factor_lines(H[:, :, 0])  # (S, orders, 2, 3)
+    u, m = lines[..., 0, :], lines[..., 1, :]
+    good = np.isfinite(lines).all((-1, -2))
+    with np.errstate(all="ignore"):
+        d = line_box_distance(np.where(good[..., None], cross(u, m), 0.0), np.where(good[..., None], u, 1.0), box)
+    d = np.where(good, d, np.inf)
+    return np.maximum(d[:, pairs[:, 0]], d[:, pairs[:, 1]])
 
 
 class _Penalized:
@@ -79,10 +105,7 @@ def into_base_box(model, res: LMResult, fixed, box: Box, cond) -> tuple[LMResult
     (world frame, metres; ``cond`` the fit's `synth.synthesis.conic.Conditioning`), one batch per weight
     of `WEIGHTS`: (the results (W S seeds; cost and violation of the unpenalized ``model``), the seed
     index of each)."""
-    lo = (np.asarray(box.lo, float) - cond.centre) / cond.scale
-    hi = (np.asarray(box.hi, float) - cond.centre) / cond.scale
-    inset = BOX_INSET * float(np.min(hi - lo)) / 2
-    shrunk = Box(lo + inset, hi - inset)
+    shrunk = conditioned_box(box, cond, BOX_INSET)
     w = model.task.weight[:, :3]
     tol = 1.0 / w.max() if (w > 0).any() else 1e-3  # the tightest position tolerance (conditioned)
     xs, cost, viol, its = [], [], [], 0
