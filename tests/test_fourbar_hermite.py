@@ -110,3 +110,18 @@ def test_a_base_box_no_fourbar_meets_is_refused(tmp_path):
     out = tmp_path / "out"
     r = run("fourbar", task_file(tmp_path, T, vel, box), "-o", out)
     assert r.exit_code == 1 and "constraints.base: the axis of" in r.output and not out.exists()
+
+
+def test_fixture_end_to_end(tmp_path, verifier):  # noqa: F811
+    """fixtures/fourbar_velocity.yaml (made by `hermite_task(0, 4, 1)`): the crank-rocker that made it, its
+    constraints met, accepted by the verifier with its collision claim."""
+    from conftest import REPO
+
+    fixture = REPO / "fixtures" / "fourbar_velocity.yaml"
+    out = tmp_path / "out"
+    r = run("fourbar", fixture, "-o", out)
+    assert r.exit_code == 0, r.output
+    assert "constraints: met: base box (h1, k1 through it), max speed ratio 1.38 <= 3" in r.output
+    L = hermite_task(0, 4, 1)[0]
+    assert np.max(np.abs(lengths_of(json.loads((out / "linkage.json").read_text())) - L)) < 1e-7 * L.max()
+    verify_claims(verifier, fixture, out)
