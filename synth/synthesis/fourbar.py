@@ -35,7 +35,8 @@ def fourbar_candidates(T, names, *, top: int = 1, min_transmission_deg: float = 
     With a tolerance, or more than five poses, every pose record carries its miss and tolerance and
     ``info.fit`` the fit's figures (`synth.synthesis.taskfit.annotate`). ``velocity`` (k, 6) [w rad/s, v m/s]
     (NaN rows: none): the coupler's velocity direction at those poses, each a further exact condition
-    (Hermite; at most five conditions in all). SynthesisError (with the count of candidates failing each criterion) when no four-bar qualifies."""
+    (Hermite; at most five conditions in all). SynthesisError (with the count of candidates failing each
+    criterion) when no four-bar qualifies."""
     T = np.asarray(T, float)
     k = len(T)
     given = 0 if velocity is None else int(np.any(~np.isnan(np.asarray(velocity, float)), axis=1).sum())

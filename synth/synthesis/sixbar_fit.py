@@ -28,7 +28,7 @@ from synth.synthesis.bennett_fit import FEASIBLE
 from synth.synthesis.conic import condition, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, chordal_separation
 from synth.synthesis.cubic_fit import seeds
-from synth.synthesis.fit import Layout, MotionModel, levenberg_marquardt, reference_pose, task_arrays
+from synth.synthesis.fit import Layout, LMResult, MotionModel, levenberg_marquardt, reference_pose, task_arrays
 from synth.synthesis.sixbar import LOOP, loop_dh
 from synth.synthesis.sixbar_loops import factor_members, member_geometry, score_loops, score_warnings
 from synth.synthesis.taskfit import FitSummary, check_fitted, visiting_order, visits_in_order
@@ -96,10 +96,21 @@ def fit_cubics(ps: PoseSet) -> CubicFits:
             keep = keep[np.argsort(~listed[keep], kind="stable")]
         keep = keep[:KEEP_FITS]
         layout, res = _refine(task, ref[keep], first.x[keep], gauge[keep], STAGE2)
+        if ps.constraints is not None and ps.constraints.base is not None:  # a loop's ground axes into the box
+            from synth.synthesis.steer import into_base_box
+
+            with np.errstate(all="ignore"):
+                steered, seed = into_base_box(MotionModel(layout, task, ref[keep]), res, layout.fixed,
+                                              ps.constraints.base, cond, PERMS, PAIRS)
+            res = LMResult(np.concatenate([res.x, steered.x]), np.concatenate([res.cost, steered.cost]),
+                           np.concatenate([res.violation, steered.violation]), res.iterations + steered.iterations)
+            keep = np.concatenate([keep, keep[seed]])
+            layout = Layout(DEGREE, len(T), gauge[keep])
     c, x_ref, ph = layout.split(res.x)
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
     order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
-    summary = FitSummary("fit", seeds=len(coef), refined=len(keep), iterations=first.iterations + res.iterations)
+    summary = FitSummary("fit", seeds=len(coef), refined=len(set(keep.tolist())),
+                         iterations=first.iterations + res.iterations)
     return CubicFits(c[order], refs[order], np.mod(ph[order], np.pi), res.cost[order], res.violation[order], cond,
                      summary)
 
@@ -146,12 +157,18 @@ def fit_candidates(ps: PoseSet, top: int = 1) -> list:
         raise SynthesisError(f"{ps.source}: the exact poses and velocities cannot all be met by a cubic 6R motion "
                              f"(best constraint violation {np.nanmin(fits.violation):.1e}, conditioned units)")
     mf, parts, valid, score = _scored(fits, idx)
-    rank = sorted((fits.cost[k], -score[j, p], j, p) for j, k in enumerate(idx) for p in np.nonzero(valid[j])[0])
+    miss = np.zeros(valid.shape, bool)
+    if ps.constraints is not None and ps.constraints.base is not None:  # loops with ground axes in the box first
+        from synth.synthesis.steer import conditioned_box, ground_box_distance
+
+        miss = ground_box_distance(mf.H, PAIRS, conditioned_box(ps.constraints.base, fits.cond)) > 1e-9
+    rank = sorted((bool(miss[j, p]), fits.cost[k], -score[j, p], j, p) for j, k in enumerate(idx)
+                  for p in np.nonzero(valid[j])[0])
     if not rank:
         raise SynthesisError(f"{ps.source}: every fitted cubic motion has a nearly real or repeated norm factor or a "
                              "translation factor: no 6R linkage of it")
     out, why = [], None
-    for _, _, j, p in rank[:MAX_BUILT]:
+    for *_, j, p in rank[:MAX_BUILT]:
         try:
             lk = _linkage(fits, idx[j], mf, j, int(p), parts, score, ps)
             check_fitted(lk)

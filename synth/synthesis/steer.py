@@ -1,17 +1,19 @@
-"""Steering a Bennett fit into the task's mounting box (docs/drive.md, "Using the freedom the task leaves").
+"""Steering a Bennett or 6R fit into the task's mounting box (docs/drive.md, "Using the freedom the task leaves").
 
 A fit within tolerance leaves freedom: the poses may be missed by up to their tolerances, and the ground
 axes (the first factors h1, k1 of the two factorizations of the fitted quadratic C = t^2 + c1 t + c0) move
 with the fit. `into_base_box` re-fits the best seeds of `synth.synthesis.bennett_fit.fit_motion` with one
 more residual row per ground axis: ``weight * d / tol``, d the distance of the axis from the base box
-shrunk by `BOX_INSET` of its smallest half-size on every side (`synth.algebra.geometry.line_box_distance`; zero
-inside, so a fit meeting the box trades nothing), tol the task's tightest position tolerance (conditioned
+shrunk by `BOX_INSET` of its smallest half-size on every side (`synth.algebra.geometry.line_box_distance`;
+zero inside, so a fit meeting the box trades nothing), tol the task's tightest position tolerance (conditioned
 units). It runs for each weight of `WEIGHTS` from the unsteered fit; the refusal and ranking downstream
 (`synth.design.constraints.admissible`, `synth.synthesis.taskfit.select`) keep the steered fits that meet
 the box and stay within tolerance. Counted work: `ITERATIONS` Jacobians per weight.
 
-Point tasks (`synth.synthesis.points.point_candidates` with ``base_box``) rank the scanned members whose
-ground axes meet the box first (`ground_box_distance`), from a scan `BOX_SCAN` times as large.
+A 6R fit (`synth.synthesis.sixbar_fit.fit_cubics`) steers the loop pair (of its six factorizations) whose
+farther ground axis is nearest the box. Point tasks (`synth.synthesis.points.point_candidates` with
+``base_box``) rank the scanned members whose ground axes meet the box first (`ground_box_distance`), from
+a scan `BOX_SCAN` times as large.
 """
 from __future__ import annotations
 
@@ -34,19 +36,30 @@ BOX_SCAN = 4  # point tasks with a base box: this many times the default scan
 _ORDERS = np.array([[0, 1], [1, 0]])  # the two factorizations: their first factors are the ground axes
 
 
-def ground_axes(coef):
-    """(points (..., 2, 3), directions (..., 2, 3)) of the first factors of the two factorizations of the
-    monic quadratic motions with coefficients ``coef`` (..., 2, 8) (c0, c1; conditioned frame): the ground
-    axes of their Bennett linkages (h1, k1). Unit directions; NaN where C does not factor."""
+def ground_axes(coef, orders=_ORDERS):
+    """(points (..., F, 3), directions (..., F, 3)) of the first factors of the factorizations ``orders``
+    (F, n) (quadratic indices left to right; default: the two of a Bennett motion) of the monic motions with
+    coefficients ``coef`` (..., n, 8) (c_0 .. c_{n-1}; conditioned frame): the possible ground axes of their
+    linkages (a Bennett linkage's h1, k1). Unit directions; NaN where C does not factor."""
     coef = np.asarray(coef, float)
     C = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], coef.shape[:-2] + (1, 8))], -2)
     with np.errstate(all="ignore"):
         z = norm_roots(norm_poly(C))
-        H, ok = algorithm1(C[..., None, :, :], quadratics(z)[..., _ORDERS, :])  # (..., 2, 2, 8)
-        lines, _ = factor_lines(H[..., 0, :])  # (..., 2, 2, 3): direction, moment
+        H, ok = algorithm1(C[..., None, :, :], quadratics(z)[..., np.asarray(orders), :])  # (..., F, n, 8)
+        lines, _ = factor_lines(H[..., 0, :])  # (..., F, 2, 3): direction, moment
     u, m = lines[..., 0, :], lines[..., 1, :]
     bad = (~ok | ~np.isfinite(lines).all((-1, -2)))[..., None]
     return np.where(bad, np.nan, cross(u, m)), np.where(bad, np.nan, u)
+
+
+def _loop_distances(p, u, pairs, box: Box) -> np.ndarray:
+    """(..., 2) the distances from ``box`` of the two ground axes of the loop (a pair of factorizations,
+    ``pairs`` (P, 2)) whose farther ground axis is nearest, from the first factors' points and directions
+    ``p``, ``u`` (..., F, 3); 1e3 for axes that do not exist."""
+    d = _axis_distances(p, u, box, 1e3)
+    dh, dk = d[..., pairs[:, 0]], d[..., pairs[:, 1]]
+    best = np.argmin(np.maximum(dh, dk), axis=-1)[..., None]
+    return np.concatenate([np.take_along_axis(dh, best, -1), np.take_along_axis(dk, best, -1)], -1)
 
 
 def conditioned_box(box: Box, cond, inset: float = 0.0) -> Box:
@@ -58,16 +71,23 @@ def conditioned_box(box: Box, cond, inset: float = 0.0) -> Box:
     return Box(lo + pad, hi - pad)
 
 
+def _axis_distances(p, u, box: Box, missing: float) -> np.ndarray:
+    """(...) the distances from ``box`` of the lines through ``p`` along ``u`` (..., 3); ``missing`` where
+    they are not finite."""
+    good = np.isfinite(u).all(-1) & np.isfinite(p).all(-1)
+    with np.errstate(all="ignore"):
+        d = line_box_distance(np.where(good[..., None], p, 0.0), np.where(good[..., None], u, 1.0), box)
+    return np.where(good, d, missing)
+
+
 def ground_box_distance(H, pairs, box: Box) -> np.ndarray:
     """(S, P) the larger distance from ``box`` of the two ground axes (first factors) of each loop: factors
     H (S, orders, n, 8) by order, loops ``pairs`` (P, 2) (the orders of branches h and k), as in
     `synth.synthesis.pointfit.PointScan`; NaN factors give inf."""
-    lines, _ = factor_lines(H[:, :, 0])  # (S, orders, 2, 3)
-    u, m = lines[..., 0, :], lines[..., 1, :]
-    good = np.isfinite(lines).all((-1, -2))
     with np.errstate(all="ignore"):
-        d = line_box_distance(np.where(good[..., None], cross(u, m), 0.0), np.where(good[..., None], u, 1.0), box)
-    d = np.where(good, d, np.inf)
+        lines, _ = factor_lines(H[:, :, 0])  # (S, orders, 2, 3)
+    u, m = lines[..., 0, :], lines[..., 1, :]
+    d = _axis_distances(cross(u, m), u, box, np.inf)
     return np.maximum(d[:, pairs[:, 0]], d[:, pairs[:, 1]])
 
 
@@ -75,15 +95,14 @@ class _Penalized:
     """A motion-fit model (`synth.synthesis.fit.MotionModel`) with the ground axes' box distances as two
     more residual rows (``weight`` / ``tol`` each), their derivatives by forward differences."""
 
-    def __init__(self, model, box: Box, weight: float):
-        self.model, self.box, self.scale = model, box, weight
+    def __init__(self, model, box: Box, weight: float, orders, pairs):
+        self.model, self.box, self.scale, self.orders, self.pairs = model, box, weight, orders, pairs
         self.columns = 8 * model.layout.n
 
     def _penalty(self, x):
         coef = x[..., :self.columns].reshape(x.shape[:-1] + (self.model.layout.n, 8))
-        p, u = ground_axes(coef)
-        d = line_box_distance(np.nan_to_num(p), np.where(np.isfinite(u), u, 1.0), self.box)
-        return np.where(np.isfinite(u).all(-1), d, 1e3) * self.scale
+        p, u = ground_axes(coef, self.orders)
+        return _loop_distances(p, u, self.pairs, self.box) * self.scale
 
     def rows(self, x):
         r, c = self.model.rows(x)
@@ -100,17 +119,20 @@ class _Penalized:
         return np.concatenate([r, p], -1), c, np.concatenate([Jr, Jp], 1), Jc
 
 
-def into_base_box(model, res: LMResult, fixed, box: Box, cond) -> tuple[LMResult, np.ndarray]:
+def into_base_box(model, res: LMResult, fixed, box: Box, cond, orders=_ORDERS,
+                  pairs=np.array([[0, 1]])) -> tuple[LMResult, np.ndarray]:
     """Steered re-fits of the refined seeds ``res`` (of ``model``, columns ``fixed``) towards the base box
     (world frame, metres; ``cond`` the fit's `synth.synthesis.conic.Conditioning`), one batch per weight
     of `WEIGHTS`: (the results (W S seeds; cost and violation of the unpenalized ``model``), the seed
-    index of each)."""
+    index of each). ``orders`` (F, n), ``pairs`` (P, 2): the factorizations and the loops built of them
+    (default: Bennett's; 6R: `synth.synthesis.cubic.PERMS`, ``PAIRS``): the loop whose ground axes are
+    nearest the box is steered."""
     shrunk = conditioned_box(box, cond, BOX_INSET)
     w = model.task.weight[:, :3]
     tol = 1.0 / w.max() if (w > 0).any() else 1e-3  # the tightest position tolerance (conditioned)
     xs, cost, viol, its = [], [], [], 0
     for weight in WEIGHTS:
-        out = levenberg_marquardt(_Penalized(model, shrunk, weight / tol), res.x, fixed, ITERATIONS)
+        out = levenberg_marquardt(_Penalized(model, shrunk, weight / tol, orders, pairs), res.x, fixed, ITERATIONS)
         r, c = model.rows(out.x)
         xs.append(out.x)
         cost.append((r * r).sum(-1))
