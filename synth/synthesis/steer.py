@@ -6,7 +6,7 @@ with the fit. `into_base_box` re-fits the best seeds of `synth.synthesis.bennett
 more residual row per ground axis: ``weight * d / tol``, d the distance of the axis from the base box
 shrunk by `BOX_INSET` of its smallest half-size on every side (`synth.algebra.geometry.line_box_distance`;
 zero inside, so a fit meeting the box trades nothing), tol the task's tightest position tolerance (conditioned
-units). It runs for each weight of `WEIGHTS` from the unsteered fit; the refusal and ranking downstream
+units). It runs for each weight of `WEIGHTS` from the unsteered fit (until every seed meets the box); the refusal and ranking downstream
 (`synth.design.constraints.admissible`, `synth.synthesis.taskfit.select`) keep the steered fits that meet
 the box and stay within tolerance. Counted work: `ITERATIONS` Jacobians per weight.
 
@@ -132,12 +132,15 @@ def into_base_box(model, res: LMResult, fixed, box: Box, cond, orders=_ORDERS,
     tol = 1.0 / w.max() if (w > 0).any() else 1e-3  # the tightest position tolerance (conditioned)
     xs, cost, viol, its = [], [], [], 0
     for weight in WEIGHTS:
-        out = levenberg_marquardt(_Penalized(model, shrunk, weight / tol, orders, pairs), res.x, fixed, ITERATIONS)
+        penalized = _Penalized(model, shrunk, weight / tol, orders, pairs)
+        out = levenberg_marquardt(penalized, res.x, fixed, ITERATIONS)
         r, c = model.rows(out.x)
         xs.append(out.x)
         cost.append((r * r).sum(-1))
         viol.append(np.abs(c).max(-1, initial=0.0))
         its += out.iterations
-    seeds = np.tile(np.arange(len(res.x)), len(WEIGHTS))
+        if not penalized._penalty(out.x).any():  # every seed in the box: larger weights change nothing
+            break
+    seeds = np.tile(np.arange(len(res.x)), len(xs))
     return LMResult(np.concatenate(xs), np.concatenate(cost), np.concatenate(viol), its), seeds
 
