@@ -22,6 +22,7 @@ COMMANDS = {
     "view": ("cli.view:view", "Self-contained offline HTML viewer of a linkage."),
     "collide": ("cli.collide:collide", "Self-collision check of the links along the motion."),
     "trajectory": ("cli.trajectory:trajectory", "Joint angles, velocities and tool pose over time (CSV/JSON) for a controller."),
+    "design": ("cli.design:design", "Interactive designer in the browser: drag poses, see the linkage re-synthesized live."),
     "batch": ("cli.batch:batch", "Run many synthesis jobs from JSON lines."),
 }
 

@@ -9,7 +9,9 @@ between moves, so a budget is exceeded by at most one move's evaluations.
 """
 from __future__ import annotations
 
+import contextlib
 import math
+import threading
 
 GAPS_PER_SECOND = 1e7  # about one CPU second of the batched search (measured: 1.1e7 gap evaluations per CPU s for the
 # design of fixtures/sixbar_example.yaml, 6e6-8e6 for a Bennett linkage; the budgets were CPU seconds before)
@@ -27,6 +29,9 @@ class Work:
     def charge(self, n: int) -> None:
         """Count ``n`` gap evaluations."""
         self.done += int(n)
+        flag = getattr(_CANCEL, "flag", None)
+        if flag is not None and flag.is_set():
+            raise Cancelled("the design search was cancelled")
         if self.parent is not None:
             self.parent.charge(n)
 
@@ -44,3 +49,22 @@ class Work:
     def part(self, limit: float | None) -> Work:
         """A budget of at most ``limit`` more evaluations (None: no own limit) inside this one."""
         return Work(math.inf if limit is None else limit, self)
+
+
+class Cancelled(Exception):
+    """The design search was cancelled (`cancellable`): raised at the next charge of counted work."""
+
+
+_CANCEL = threading.local()
+
+
+@contextlib.contextmanager
+def cancellable(flag: threading.Event):
+    """Within this block, on this thread, every `Work.charge` (between the searches' moves) raises
+    `Cancelled` once ``flag`` is set: a design search stops within one move's evaluations."""
+    old = getattr(_CANCEL, "flag", None)
+    _CANCEL.flag = flag
+    try:
+        yield
+    finally:
+        _CANCEL.flag = old

@@ -226,7 +226,7 @@ def _solve(T, check_samples: int, fac=None) -> dict:
                   residual=fac["residual"], bennett=bennett_parameters(geo),
                   dh=dh_parameters(loop[..., 0, :], normals=geo),
                   errors=errors, relative_error=rel, axis_distance=far, length_scale=length_scale,
-                  transmission=pair_ratio(a[:, 0] - a[:, 1], np.abs(b[:, 0]), np.abs(b[:, 1])))
+                  transmission=pair_ratio(a[:, 0] - a[:, 1], b[:, 0], b[:, 1]))  # (b = |v| >= 0)
 
 
 def axis_distance(U, M, c) -> np.ndarray:

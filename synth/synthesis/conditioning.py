@@ -33,10 +33,12 @@ def transmission_ratios(a, b) -> np.ndarray:
 def pair_ratio(da, bi, bj) -> np.ndarray:
     """rho_ij of two joints (broadcast arrays): ``da`` = a_i - a_j, ``bi``, ``bj`` = |b_i|, |b_j|
     (`transmission_ratios`; a Bennett linkage's two distinct norm roots give its largest ratio); at
-    least 1, inf where not finite. Call under ``np.errstate(all="ignore")`` (b = 0 divides by zero)."""
-    s = da * da + bi * bi + bj * bj
-    near = np.sqrt(da * da + (bi - bj) ** 2) * np.sqrt(da * da + (bi + bj) ** 2)
-    rho = (s + near) / (2.0 * bi * bj)
+    least 1, inf where not finite. Call under ``np.errstate(all="ignore")`` (b = 0 divides by zero).
+    With h1 = |z_i - z_j|, h2 = |z_i - conj z_j|: S = (h1^2 + h2^2) / 2, so the module's formula is
+    rho = (h1 + h2)^2 / (4 b_i b_j), a sum of positive terms (no cancellation near rho = 1)."""
+    h = np.hypot(da, bi - bj)
+    h = h + np.hypot(da, bi + bj)
+    rho = (h * h) / (4.0 * bi * bj)
     return np.where(rho >= 1.0, rho, np.where(rho != rho, np.inf, 1.0))  # NaN (0 / 0): inf
 
 
