@@ -41,11 +41,17 @@ def noisy_task(seed: int, n: int = 8, pad: float = 1e-4):
     for i in range(n):
         axis = rng.normal(size=3)
         T[i, :3, :3] = rotation_about_axis(axis / np.linalg.norm(axis), rng.normal() * np.radians(0.15)) @ T[i, :3, :3]
+    return lk, make_task(T, tolerance=TOL), box_across(lk, pad)
+
+
+def box_across(lk, pad: float) -> Box:
+    """The bounding box of the crossings of the ground axes h1, k1 of ``lk`` with a coordinate plane across
+    both, padded by ``pad`` (metres): thin across the plane."""
     h1, k1 = lk.joint("h1"), lk.joint("k1")
     k = int(np.argmax(np.minimum(abs(h1.direction), abs(k1.direction))))
     x0 = (h1.point[k] + k1.point[k]) / 2
     hits = [j.point + (x0 - j.point[k]) / j.direction[k] * j.direction for j in (h1, k1)]
-    return lk, make_task(T, tolerance=TOL), Box(np.min(hits, 0) - pad, np.max(hits, 0) + pad)
+    return Box(np.min(hits, 0) - pad, np.max(hits, 0) + pad)
 
 
 def box_miss(linkage, box: Box) -> float:
@@ -113,11 +119,7 @@ def test_point_task_searches_its_free_parameters_for_the_box():
     oriented, rot = oriented_item(ps.matrices, ps.kinds, ps.names)
     kw = dict(degree=2, tool_rotation=rot, oriented=oriented)
     lk = point_candidates(ps.positions, ps.names, top=21, samples=BOX_SCAN * 136, **kw)[20]
-    h1, k1 = lk.joint("h1"), lk.joint("k1")
-    k = int(np.argmax(np.minimum(abs(h1.direction), abs(k1.direction))))
-    x0 = (h1.point[k] + k1.point[k]) / 2
-    hits = [j.point + (x0 - j.point[k]) / j.direction[k] * j.direction for j in (h1, k1)]
-    box = Box(np.min(hits, 0) - 1e-3, np.max(hits, 0) + 1e-3)
+    box = box_across(lk, 1e-3)
     plain = point_candidates(ps.positions, ps.names, top=16, **kw)
     assert min(box_miss(c, box) for c in plain) > 0.015
     ps.constraints = Constraints(base=box)
@@ -187,11 +189,7 @@ def test_sixbar_fit_is_steered_into_the_box():
     for i in range(9):
         axis = rng.normal(size=3)
         T[i, :3, :3] = rotation_about_axis(axis / np.linalg.norm(axis), rng.normal() * np.radians(0.15)) @ T[i, :3, :3]
-    h1, k1 = lk.joint("h1"), lk.joint("k1")
-    k = int(np.argmax(np.minimum(abs(h1.direction), abs(k1.direction))))
-    x0 = (h1.point[k] + k1.point[k]) / 2
-    hits = [j.point + (x0 - j.point[k]) / j.direction[k] * j.direction for j in (h1, k1)]
-    box = Box(np.min(hits, 0) - 1e-4, np.max(hits, 0) + 1e-4)
+    box = box_across(lk, 1e-4)
     ps = make_task(T, tolerance=TOL)
     assert min(box_miss(c, box) for c in sixbar_task(ps, top=16)) > 1e-4
     ps.constraints = Constraints(base=box)
