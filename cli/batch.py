@@ -11,7 +11,7 @@ import click
 from synth.errors import InputError, OutputError
 from synth.io.docload import open_lines, read_lines
 from synth.tools import cluster
-from synth.tools.batchjobs import dumps, run_jobs, worker_count
+from synth.tools.batchjobs import Stopped, dumps, run_jobs, worker_count
 from synth.tools.resultstable import ResultsTable
 
 from . import signals
@@ -131,15 +131,18 @@ def batch(jobs_file, workers, out_dir, chunksize, full, scheduler, results_file,
     n = failed = 0
     codes: dict[int, int] = {}
     progress = None
+    if scheduler is None:
+        workers = worker_count(1 if workers is None else workers, total)
+    # a worker pool's loop polls for signals (raising inside the pool's bookkeeping could hang its shutdown)
+    stopper = signals.StopOnSignal() if scheduler is None and workers > 1 else None
     try:
-        with stream, table, terminate_as_exit():
+        with stream, table, stopper or terminate_as_exit():
             lines = _read(read_lines(stream), jobs_file)
             if scheduler is None:
-                workers = worker_count(1 if workers is None else workers, total)
                 where = f"-j {workers}"
                 results = run_jobs(lines, jobs=workers, chunksize=chunksize, full=full, total=total,
                                    initializer=signals.batch_worker,
-                                   out_dir=out_dir)
+                                   out_dir=out_dir, stop=stopper and stopper.requested)
             else:
                 client = cluster.connect(scheduler.strip(), workers)
                 where = f"{cluster.worker_threads(client)} Dask workers"
@@ -147,6 +150,8 @@ def batch(jobs_file, workers, out_dir, chunksize, full, scheduler, results_file,
                                               out_dir=out_dir)
             progress = Progress(total) if (not quiet and sys.stderr.isatty()) else None
             for res in results:
+                if stopper and stopper.requested():
+                    raise Stopped
                 _write(dumps(res) + "\n")
                 if results_file:
                     table.add(res)
@@ -158,6 +163,8 @@ def batch(jobs_file, workers, out_dir, chunksize, full, scheduler, results_file,
                 if not res["ok"]:
                     failed += 1
                     codes[res["exit_code"]] = codes.get(res["exit_code"], 0) + 1
+    except Stopped:  # SIGINT/SIGTERM while the pool ran: it has been shut down, now act on the signal
+        stopper.act()
     except BrokenPipeError:  # the reader went away (e.g. `| head`): stop quietly
         silence_stdout()
         sys.exit(1 if failed else 0)

@@ -69,6 +69,43 @@ class WriteGuard:
         act(signum)
 
 
+class StopOnSignal:
+    """While a loop owns a worker pool: SIGINT/SIGTERM only record the first signal (``signum``), and the
+    loop asks ``requested()`` between its waits, then shuts the pool down from a clean state and calls
+    ``act()``. Raising from the handler instead could land inside the pool's own bookkeeping (a result
+    wait, a task hand-over, a half-written stdout line) and leave the pool unjoinable. Whatever happens,
+    the process ends within `cli.streams.CLEANUP_SECONDS` of the signal. Main thread only."""
+
+    def __init__(self):
+        self.signum = None
+        self.saved = {}
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            self.saved = {s: signal.signal(s, self._handle) for s in WriteGuard.SIGNALS}
+        return self
+
+    def __exit__(self, *exc):
+        for s, h in self.saved.items():
+            signal.signal(s, h if h is not None else signal.SIG_DFL)
+        self.saved = {}
+        return False
+
+    def _handle(self, signum, frame):
+        if self.signum is None:
+            from .streams import exit_after_cleanup
+
+            self.signum = signum
+            exit_after_cleanup(128 + signum)
+
+    def requested(self) -> bool:
+        return self.signum is not None
+
+    def act(self) -> None:
+        """Raise what the recorded signal means (`act`)."""
+        act(self.signum)
+
+
 _PR_SET_PDEATHSIG = 1
 
 

@@ -37,7 +37,7 @@ def sixbar(poses, family, member, pair, top, best_effort, **params):
     """Synthesize a spatial 6R linkage whose coupler passes through the four poses in POSES (YAML or
     JSON, '-' for stdin; see README for the format). With seven points instead (a `points:` list, or
     poses with a position only; 4 to 6: the rest is chosen) the tool point passes through them
-    (docs/points.md).
+    (docs/points.md); more points are fitted (docs/sixbar_fit.md).
 
     By default the best design by the engineering score (well-conditioned factorization first, then a
     compact linkage without nearly parallel or nearly intersecting consecutive axes) over both families
@@ -52,8 +52,9 @@ def sixbar(poses, family, member, pair, top, best_effort, **params):
     from .task import emit_task
 
     output = Output.of(params)
-    ps = load_poses(poses, count=((2, None), "mpsynth sixbar"), normalize=params["normalize"], points=point_count(3))
-    task = not ps.has_points and is_sixbar_task(ps)  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
+    ps = load_poses(poses, count=((2, None), "mpsynth sixbar"), normalize=params["normalize"],
+                    points=((point_count(3)[0][0], None), "mpsynth sixbar"))  # more than 7 points: fitted
+    task = is_sixbar_task(ps)  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
     if member is not None and not ps.has_points and not task:
         member = parse_member(member)
     options = SynthesisOptions(design=design_options(params), physical=output.physical, top=top, member=member,

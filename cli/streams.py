@@ -61,6 +61,12 @@ def _exit_after(seconds: float, code: int) -> None:
 CLEANUP_SECONDS = 10.0  # how long the clean-up after SIGTERM may take (a shutdown bound, not a search budget)
 
 
+def exit_after_cleanup(code: int) -> None:
+    """The process ends with ``code`` at the latest `CLEANUP_SECONDS` from now (a bound on the clean-up
+    after a signal; `mpsynth batch -j N` shuts its pool down in well under a second)."""
+    _exit_after(CLEANUP_SECONDS, code)
+
+
 @contextmanager
 def terminate_as_exit():
     """Inside: SIGTERM raises SystemExit(143), so that `finally` clauses (worker pools) run and no
@@ -71,7 +77,7 @@ def terminate_as_exit():
 
     def handler(signum, frame):
         signal.signal(signal.SIGTERM, signal.SIG_IGN)  # one clean-up is enough
-        _exit_after(CLEANUP_SECONDS, 128 + signum)
+        exit_after_cleanup(128 + signum)
         raise SystemExit(128 + signum)
 
     previous = signal.signal(signal.SIGTERM, handler)

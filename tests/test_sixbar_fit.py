@@ -120,8 +120,9 @@ def test_listed_order_is_kept_and_the_visiting_order_reported():
     ts = [rec.t for rec in lk.poses]
     assert visits_in_order(ts)
     assert lk.info["fit"]["visit_order"] == [names(8)[i] for i in visiting_order(ts)]
-    # the same poses in another listed order: the motion visits them as before, so no linkage answers
-    with pytest.raises(SynthesisError, match="listed order"):
+    # the same poses in another listed order: the fit is held to that order (hinge rows), so the best linkage
+    # in it misses the swapped poses by far more than the tolerance
+    with pytest.raises(SynthesisError, match=r'tolerances not met .*pose 1 \("p1"\) missed by 0\.\d+ m'):
         sixbar_task(task(T[[0, 2, 1, 3, 4, 5, 6, 7]], tol, order=Order.LISTED))
 
 
@@ -140,6 +141,39 @@ def test_unrealizable_tolerances_exit_with_the_failing_poses():
         sixbar_task(task(T, tol))
     lk = sixbar_task(task(T, tol), best_effort=True)[0]
     assert lk.info["fit"]["within_tolerance"] is False
+
+
+def point_task(seed, n, noise=0.0):
+    """n points (the first exact) of a known 6R motion at t = inf, -2 .. 2, positions moved by ``noise``
+    spreads, tolerance max(5 noise, 1e-6) spreads; and the spread."""
+    rng = np.random.default_rng(seed)
+    C, X0 = random_motion(rng)
+    T = poses_at(C, X0, np.r_[np.inf, np.linspace(-2.0, 2.0, n - 1)])
+    L = spread(T)
+    T[1:, :3, 3] += rng.standard_normal((n - 1, 3)) * noise * L
+    T[:, :3, :3] = np.eye(3)
+    tol = np.tile([max(5 * noise, 1e-6) * L, np.inf], (n, 1))
+    tol[0] = 0.0
+    return PoseSet(names=names(n), matrices=T, kinds=["point"] * n, tolerance=tol, source="task.yaml"), L
+
+
+@pytest.mark.parametrize("seed, n", [(0, 9), (1, 12)])
+def test_more_than_seven_clean_points_are_fitted_to_rounding(seed, n):
+    ps, L = point_task(seed, n)
+    lk = sixbar_task(ps)[0]
+    f = lk.info["fit"]
+    assert f["method"] == "fit" and f["within_tolerance"] and f["max_position_error"] <= 1e-9 * L
+    assert all(rec.kind == "point" for rec in lk.poses) and lk.poses[0].exact
+
+
+def test_noisy_points_are_fitted_within_tolerance():
+    ps, L = point_task(2, 12, noise=1e-3)
+    lk = sixbar_task(ps)[0]
+    assert lk.info["fit"]["within_tolerance"] and lk.poses[0].error[0] <= 1e-9 * L
+    for rec, target in zip(lk.poses, ps.matrices):
+        assert rec.error[0] <= 5e-3 * L
+        assert np.linalg.norm(lk.tool_pose(rec.joint_angles)[:3, 3] - target[:3, 3]) == pytest.approx(rec.error[0],
+                                                                                                    abs=1e-12)
 
 
 # ============================================================================ Hermite
@@ -208,6 +242,7 @@ def _has_error_claims() -> bool:
 
 
 @pytest.mark.parametrize("fixture, collisions", [("sixbar_fit.yaml", True), ("sixbar_hermite.yaml", False),
+                                                 ("sixbar_points_fit.yaml", True),
                                                  pytest.param("sixbar_hermite.yaml", True, marks=pytest.mark.slow)])
 def test_cli_fixture_verifies(tmp_path, fixture, collisions):
     """`mpsynth sixbar FIXTURE -o OUT` passes the shared verifier (tolerances, error claims, velocities,
@@ -237,7 +272,8 @@ def test_cli_fixture_verifies(tmp_path, fixture, collisions):
 def _task_poses(path):
     import yaml
 
-    return yaml.safe_load(path.read_text())["poses"]
+    doc = yaml.safe_load(path.read_text())
+    return doc.get("poses") or doc["points"]
 
 
 def test_cli_unreachable_tolerance_exits_1_and_writes_nothing(tmp_path):

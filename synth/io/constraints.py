@@ -7,8 +7,8 @@
       envelope: {box: [[x0, y0, z0], [x1, y1, z1]]}  # every written solid stays inside over the task range
       max_speed_ratio: 4                             # |d joint / d driver| of every joint over the task range
 
-Box corners are in the file's length unit (converted to metres here) and may be given in any order
-(each coordinate is sorted: lo <= hi). Every problem is an `InputError` of one line naming the file and
+Box corners are in the file's length unit (converted to metres here), the lower corner first (x0 <= x1,
+y0 <= y1, z0 <= z1; a flipped coordinate is an error, not silently sorted). Every problem is an `InputError` of one line naming the file and
 the key, e.g. ``task.yaml: constraints.base.box[1][2] must be a number, got a string ("x")``.
 """
 from __future__ import annotations
@@ -60,6 +60,10 @@ def _box(value: Any, what: str, length_scale: float) -> Box:
     corners = value["box"]
     if not isinstance(corners, (list, tuple)) or len(corners) != 2:
         raise PoseProblem(f"{what}.box must be two corners [[x0, y0, z0], [x1, y1, z1]], got {describe_value(corners)}")
-    c = np.array([vector(corner, 3, f"{what}.box[{i}]") for i, corner in enumerate(corners)]) * length_scale
-    c.sort(axis=0)
+    c = np.array([vector(corner, 3, f"{what}.box[{i}]") for i, corner in enumerate(corners)])
+    flipped = [f"{a}0 = {c[0, k]:g} > {a}1 = {c[1, k]:g}" for k, a in enumerate("xyz") if c[0, k] > c[1, k]]
+    if flipped:  # a flipped sign or swapped coordinate is a typo more often than a deliberate corner order
+        raise PoseProblem(f"{what}.box must be [[x0, y0, z0], [x1, y1, z1]] with the lower corner first, got "
+                          + ", ".join(flipped))
+    c = c * length_scale
     return Box(lo=c[0], hi=c[1])

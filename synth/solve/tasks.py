@@ -196,7 +196,7 @@ def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress
     from synth.synthesis.sixbar_task import is_sixbar_task, sixbar_task
 
     designer = _designer(ps, options)
-    if not ps.has_points and is_sixbar_task(ps):  # tolerances, velocities, an order, other counts (docs/sixbar_fit.md)
+    if is_sixbar_task(ps):  # tolerances, velocities, an order, other counts, > 7 points (docs/sixbar_fit.md)
         if options.explicit:
             raise InputError("--family, --member and --pair select among the cubics through four exact poses; a "
                              "task with tolerances, velocities or another count ranks its own designs (use --top)")
@@ -237,6 +237,8 @@ def solve_fourbar(ps, options: SynthesisOptions = SynthesisOptions(), *, min_tra
     work."""
     from synth.synthesis.fourbar import fourbar_candidates
 
+    if not 0.0 <= min_transmission_deg <= 90.0:  # NaN included (it passes click's range check)
+        raise InputError(f"--min-transmission must be between 0 and 90 degrees, got {min_transmission_deg}")
     if ps.has_points:
         raise InputError(f"{ps.source}: mpsynth fourbar needs poses (position and orientation), not points")
     designer = _designer(ps, options)

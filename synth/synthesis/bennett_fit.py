@@ -20,15 +20,17 @@ import itertools
 
 import numpy as np
 
-from synth.algebra.dq import dq_mul, dq_to_pose, dq_translation, normalize_dq, pose_to_dq, translation_dq
+from synth.algebra.dq import dq_to_pose, dq_translation, normalize_dq, pose_to_dq
 from synth.blas import one_blas_thread
 from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import (reference_pose, ERRORS, EXACT_WEIGHT, GAUGE_ANGLES, Layout, LMResult, MotionModel, gauge_items, gauge_matrix, inv2,
-                                 levenberg_marquardt, project, regauge, task_arrays)
-from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, select, visiting_order
+from synth.synthesis.fit import ERRORS, Layout, LMResult, MotionModel, levenberg_marquardt, reference_pose, task_arrays
+from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, nearest, regauge, to_gauge, zoom
+from synth.synthesis.pointfit import subset_motions
+from synth.synthesis.fit_order import ListedOrder, directions, project_listed
+from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, item_tolerances, select, visiting_order
 from synth.task import Order, PoseSet
 
 __all__ = ["bennett_task", "is_task", "hermite_conic", "fit_motion", "linkage_of", "MAX_TRIPLES", "KEEP"]
@@ -39,7 +41,10 @@ PARAMETER_SAMPLES = 24  # samples of the two free parameters per subset
 MAX_TRIPLES = 60  # seeds from triples of poses: all when there are at most this many, else a sample
 ROUNDS = 3  # batches of KEEP seeds refined at most, the next only when no refined seed meets the exact rows
 KEEP = 4  # seeds refined by Levenberg-Marquardt
+PRESCORED = 16  # seeds with the least summed misses at their grid projections, projected finely and ranked
+PRESCORED_POINTS = 96  # the same for point tasks (samples of 5-point families: the pre-score ranks them less well)
 ITERATIONS = 40  # Jacobians per refinement, at most
+FINISH = 80  # further Jacobians on the best refined seed alone, at most
 FEASIBLE = 1e-10  # largest constraint violation of an accepted fit (conditioned units)
 DEGREE = 2
 
@@ -101,7 +106,7 @@ def _seeds(Q, task, kinds, velocity_twists):
                 except SynthesisError:
                     pass
     if not len(tri) and len(Q) >= POINTS_NEEDED:  # a point task: no triples of poses
-        c, r = _point_seeds(dq_translation(Q))
+        c, r = subset_motions(dq_translation(Q), DEGREE, MAX_SUBSETS, PARAMETER_SAMPLES)
         coefs.append(c)
         refs.append(r)
     if not coefs:
@@ -114,30 +119,6 @@ def _seeds(Q, task, kinds, velocity_twists):
     return coef[ok], ref[ok]
 
 
-def _point_seeds(X):
-    """Seed motions through five of the items' positions X (N, 3) (conditioned): for each 5-subset (all,
-    or a seeded sample of MAX_SUBSETS), the quadratic
-    motions moving the subset's first position through the others at PARAMETER_SAMPLES
-    (`synth.synthesis.pointfit.point_motion`), conjugated to the frame: (coef (S, 2, 8), reference (S, 8),
-    the translation to the first position)."""
-    from synth.synthesis.pointfit import parameter_samples, point_motion
-
-    subsets = list(itertools.combinations(range(len(X)), POINTS_NEEDED))
-    if len(subsets) > MAX_SUBSETS:
-        pick = np.random.default_rng(0).choice(len(subsets), size=MAX_SUBSETS, replace=False)
-        subsets = [subsets[i] for i in sorted(pick)]
-    sub = np.array(subsets, int)  # (k, 5)
-    t = parameter_samples(PARAMETER_SAMPLES, 2)  # (m, 4)
-    k, m = len(sub), len(t)
-    rel = X[sub[:, 1:]] - X[sub[:, :1]]  # (k, 4, 3)
-    with np.errstate(all="ignore"):
-        C = point_motion(np.repeat(rel, m, axis=0), np.tile(t, (k, 1)), 2)  # (k m, 3, 8)
-    move = translation_dq(np.repeat(X[sub[:, 0]], m, axis=0))[:, None]  # (k m, 1, 8)
-    back = translation_dq(-np.repeat(X[sub[:, 0]], m, axis=0))[:, None]
-    coef = dq_mul(dq_mul(move, C[:, :2]), back)
-    return coef, move[:, 0]
-
-
 # ------------------------------------------------------------------ the fit
 def fit_motion(ps: PoseSet):
     """The refined motions of a task (at least three items): (coef (K, 2, 8), reference (K, 8), phi (K, N),
@@ -146,22 +127,23 @@ def fit_motion(ps: PoseSet):
     T = np.asarray(ps.matrices, float)
     Tc, cond = condition(T)
     Q = pose_to_dq(Tc)
-    task = task_arrays(Q, Tc[:, :3, 3], ps.tolerance, ps.velocity, float(cond.scale))
+    task = task_arrays(Q, Tc[:, :3, 3], item_tolerances(ps), ps.velocity, float(cond.scale))
     twists = _twists(ps, Tc, float(cond.scale))
     coef, ref = _seeds(Q, task, item_kinds(ps), twists)
-    phi = project(coef, ref, task)
-    gauge = gauge_items(phi)
-    with np.errstate(all="ignore"):
-        M = gauge_matrix(np.take_along_axis(phi, gauge, 1)) @ inv2(gauge_matrix(GAUGE_ANGLES))
-        coef, ref, phi = regauge(coef, ref, phi, M)
-    np.put_along_axis(phi, gauge, GAUGE_ANGLES[None], 1)
-    ok = np.isfinite(coef).all((1, 2)) & np.isfinite(ref).all(1) & np.isfinite(phi).all(1)
-    if not ok.any():
-        raise SynthesisError("every seed motion is degenerate (the items fall on one point of it)")
-    coef, ref, phi, gauge = coef[ok], ref[ok], phi[ok], gauge[ok]
-    tried = int(ok.sum())
+    listed = ps.order is Order.LISTED
+    if listed:  # each seed twice: the items placed in the listed order, either way round
+        phi, rows, miss, h = project_listed(coef, ref, task)
+        coef, ref, h = coef[rows], ref[rows], h / 2
+    else:
+        (phi, miss), h = nearest(coef, ref, task), np.pi / GRID
+    tried = len(coef)
+    keep = PRESCORED if sum(k != "point" for k in item_kinds(ps)) >= 3 else PRESCORED_POINTS
+    best = np.argsort(np.nan_to_num(miss, nan=np.inf), kind="stable")[:keep]  # the cheap pre-score
+    coef, ref = coef[best], ref[best]
+    coef, ref, phi, gauge = to_gauge(coef, ref, zoom(coef, ref, task, phi[best], h))
     layout = Layout(DEGREE, len(T), gauge)
-    model = MotionModel(layout, task, ref)
+    sign = directions(phi)
+    model = _model(layout, task, ref, sign if listed else None)
     x0 = layout.join(coef, np.zeros((len(coef), 6)), phi)
     with np.errstate(all="ignore"):
         r, c = model.rows(x0)
@@ -175,22 +157,40 @@ def fit_motion(ps: PoseSet):
         if positions_only:  # the tool's orientation at the reference is free: hold it
             fixed[:, 8 * DEGREE:8 * DEGREE + 3] = True
         with np.errstate(all="ignore"), one_blas_thread():
-            res = levenberg_marquardt(MotionModel(layout, task, ref[keep]), x0[keep], fixed, ITERATIONS)
+            res = levenberg_marquardt(_model(layout, task, ref[keep], sign[keep] if listed else None), x0[keep],
+                                      fixed, ITERATIONS)
         if (res.violation <= FEASIBLE).any():
             break
-    if ps.constraints is not None and ps.constraints.base is not None:  # the ground axes into the box
+    order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
+    b, more = order[:1], 0  # the finish: the best seed goes on alone (a curved valley can take many short steps)
+    if res.iterations >= ITERATIONS:  # (not when every seed converged)
+        with np.errstate(all="ignore"), one_blas_thread():
+            fin = levenberg_marquardt(_model(Layout(DEGREE, len(T), gauge[keep][b]), task, ref[keep][b],
+                                             sign[keep][b] if listed else None), res.x[b], fixed[b], FINISH)
+        more = fin.iterations
+        if fin.violation[0] <= max(res.violation[b[0]], FEASIBLE) and fin.cost[0] <= res.cost[b[0]]:
+            res.x[b], res.cost[b], res.violation[b] = fin.x, fin.cost, fin.violation
+    refined = start + len(keep)
+    if ps.constraints is not None and ps.constraints.base is not None:  # the ground axes into the box (steer.py)
         from synth.synthesis.steer import into_base_box
 
         with np.errstate(all="ignore"), one_blas_thread():
-            steered, seed = into_base_box(MotionModel(layout, task, ref[keep]), res, fixed, ps.constraints.base, cond)
+            steered, seed = into_base_box(_model(layout, task, ref[keep], sign[keep] if listed else None), res, fixed,
+                                          ps.constraints.base, cond)
         res = LMResult(np.concatenate([res.x, steered.x]), np.concatenate([res.cost, steered.cost]),
                        np.concatenate([res.violation, steered.violation]), res.iterations + steered.iterations)
         keep = np.concatenate([keep, keep[seed]])
+        order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
     coef, x_ref, phi = layout.split(res.x)
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
-    order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
-    summary = FitSummary("fit", seeds=tried, refined=start + len(keep[:KEEP]), iterations=res.iterations)
+    summary = FitSummary("fit", seeds=tried, refined=refined, iterations=res.iterations + more)
     return coef[order], refs[order], np.mod(phi[order], np.pi), res.cost[order], res.violation[order], cond, summary
+
+
+def _model(layout, task, ref, sign):
+    """The fit's model; with the seeds' directions ``sign`` (S,) (``order: listed``) its hinge rows too."""
+    model = MotionModel(layout, task, ref)
+    return model if sign is None else ListedOrder(model, sign, layout.items)
 
 
 def _in_order(phi) -> np.ndarray:
@@ -279,6 +279,7 @@ def _bennett_task(ps: PoseSet, top: int, best_effort: bool) -> list:
                                       oriented=oriented, check_samples=VERIFY_SAMPLES)
         summary = FitSummary("exact", visit=visiting_order([r.t for r in candidates[0].poses]))
     elif (len(ps) >= 3 and n_poses >= 3) or (n_poses >= 2 and twists and len(ps) >= 3) or len(ps) > POINTS_NEEDED:
+        _refuse_zero_pitch(ps, n_poses)
         candidates, summary = _fitted(ps, top), None
     else:
         got = f"{n_poses} poses" + (f" and {len(ps) - n_poses} points" if len(ps) > n_poses else "")
@@ -296,6 +297,38 @@ def _bennett_task(ps: PoseSet, top: int, best_effort: bool) -> list:
         annotate(lk, ps, s)
         results.append(lk)
     return select(results, ps, top, best_effort, "Bennett")
+
+
+def _refuse_zero_pitch(ps: PoseSet, n_poses: int) -> None:
+    """SynthesisError for more than three poses (no points) in one planar or spherical subgroup
+    (`synth.synthesis.planar.zero_pitch`): the Bennett motions through their triples degenerate to planar
+    or spherical four-bar motions, which the spatial fit has no seeds for; planar tasks go to `mpsynth
+    fourbar`."""
+    if n_poses != len(ps) or n_poses <= 3:
+        return
+    from synth.synthesis.conic import relative_displacements
+    from synth.synthesis.planar import ZERO_PITCH_TOL, study_forms, zero_pitch
+
+    if np.max(np.abs(study_forms(relative_displacements(condition(ps.matrices)[0])))) > ZERO_PITCH_TOL:
+        return  # spatial
+    kind = None
+    for tri in itertools.islice(itertools.combinations(range(n_poses), 3), 20):  # a triple that classifies them
+        try:
+            kind = zero_pitch(ps.matrices[list(tri)], [ps.names[i] for i in tri]).kind
+            break
+        except SynthesisError:  # (a degenerate triple: translations only, one axis)
+            continue
+    if kind is None:
+        return  # (the fit's own refusal names the degeneracy)
+    if kind == "planar":
+        raise SynthesisError(f"the {n_poses} poses are planar (every rotation about one normal, every tool origin "
+                             "in one plane perpendicular to it): a Bennett linkage through them degenerates to a "
+                             "planar four-bar, which `mpsynth fourbar` synthesizes (exactly for 3 to 5 poses, by "
+                             "least squares within the tolerances for more)")
+    raise SynthesisError(f"the {n_poses} poses are spherical (every one a rotation about one common point): a "
+                         "Bennett linkage through them degenerates to a spherical four-bar, which is not fitted to "
+                         "more than three poses; give three poses (`mpsynth bennett` gives the family of "
+                         "spherical four-bars through them)")
 
 
 def _hermite(ps: PoseSet):

@@ -4,7 +4,7 @@ For a deterministic sample of quadruples (pose 0 and three others, exact poses f
 cubics through them (`synth.synthesis.cubic`) are scanned (MEMBERS members each); every member is a
 monic C with C(inf) = 1 relative to pose 0, so the tool pose at t is C(t) Q_0 and the quadruple's poses
 are at t = inf, 0, 1, t3. The other poses are placed on each member at their best parameter
-(`synth.synthesis.fit.project`), and the KEEP best-fitting members of each quadruple become seeds
+(`synth.synthesis.fit_seeds.project`), and the KEEP best-fitting members of each quadruple become seeds
 in the layout of `synth.synthesis.fit` (coefficients c_0..c_2, reference pose Q_0, angles phi with
 t = cot phi), their gauge the quadruple's poses at t = inf and 0 and 1 (phi = 0, pi/2, pi/4).
 """
@@ -17,14 +17,18 @@ import numpy as np
 from synth.errors import SynthesisError
 from synth.synthesis.conic import relative_displacements_dq
 from synth.synthesis.cubic import families, quadric
-from synth.synthesis.fit import ERRORS, EXACT_WEIGHT, TaskArrays, item_errors, project
+from synth.synthesis.fit import ERRORS, TaskArrays, item_errors
+from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, nearest, project, to_gauge, zoom
 from synth.synthesis.sixbar import grid_members
 
-__all__ = ["quadruples", "seeds", "QUADRUPLES", "MEMBERS", "KEEP"]
+__all__ = ["quadruples", "seeds", "point_seeds", "QUADRUPLES", "MEMBERS", "KEEP"]
 
 QUADRUPLES = 12  # quadruples (pose 0 and three others) sampled for seeds
 MEMBERS = 12  # pencil members per family scanned per quadruple
 KEEP = 2  # best-fitting members kept per quadruple (over both families)
+POINT_SUBSETS = 24  # 7-subsets of a point task's positions sampled for seeds
+POINT_SAMPLES = 24  # samples of the four free parameters per subset
+POINT_PRESCORED = 24  # seeds of a point task refined (STAGE1), by their summed grid misses
 
 
 def quadruples(exact, count: int = QUADRUPLES) -> list[tuple[int, int, int, int]]:
@@ -83,3 +87,22 @@ def seeds(Q, task: TaskArrays):
         keep += rows[np.argsort(cost[rows], kind="stable")[:KEEP]].tolist()
     keep = np.array(keep, int)
     return coef[keep], np.array(ref[keep]), phi[keep], qi[keep, :3], len(np.unique(qi, axis=0))
+
+
+def point_seeds(X, task: TaskArrays):
+    """Seeds of a point task (more than seven positions X (N, 3), conditioned), in the layout of `seeds`:
+    the cubic motions through 7-subsets (`synth.synthesis.pointfit.subset_motions`: POINT_SUBSETS subsets,
+    POINT_SAMPLES choices of the four free parameters each), the POINT_PRESCORED of least summed grid
+    misses (`synth.synthesis.fit_seeds.nearest`) zoomed and moved onto the gauge (`to_gauge`)."""
+    from synth.synthesis.pointfit import subset_motions
+
+    coef, ref = subset_motions(X, 3, POINT_SUBSETS, POINT_SAMPLES)
+    ok = np.isfinite(coef).all((1, 2))
+    if not ok.any():
+        raise SynthesisError("no seed motion: every 7-subset of the points is degenerate")
+    coef, ref = coef[ok], ref[ok]
+    phi, miss = nearest(coef, ref, task)
+    best = np.argsort(np.nan_to_num(miss, nan=np.inf), kind="stable")[:POINT_PRESCORED]
+    coef, ref = coef[best], ref[best]
+    coef, ref, phi, gauge = to_gauge(coef, ref, zoom(coef, ref, task, phi[best], np.pi / GRID))
+    return coef, ref, phi, gauge, int(ok.sum())

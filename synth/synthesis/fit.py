@@ -20,18 +20,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.algebra.dq import dq_inv, dq_translation, normalize_dq, structure_constants
+from synth.algebra.dq import structure_constants
 from synth.algebra.geometry import cross
 
 __all__ = ["TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",
-           "homogeneous", "basis", "regauge", "gauge_matrix", "gauge_items", "inv2", "project", "GAUGE_ANGLES",
+           "homogeneous", "basis", 
+          
            "ERRORS", "ROWS"]
 
 ERRORS = 6  # per item: position error (3, spreads), rotation error 2 sin(angle/2) axis (3)
 ROWS = ERRORS + 5  # and 5 velocity rows (components of the twist direction across the prescribed one)
 STEP = 1e-30  # complex step
-GRID = 48  # parameter samples per seed motion for projecting the items onto it (`project`)
-EXACT_WEIGHT = 1e3  # weight of exact rows when projecting and ranking seeds (conditioned units)
 FEASIBLE_FLOOR = 1e-14  # constraint violation (conditioned units) counted as met
 NEARLY_FEASIBLE = 1e-6  # during the damped steps: cost-lowering steps may leave this much (`polish_feasible` ends)
 CORRECTIONS = 2  # second-order corrections per trial step, while the violation is above CORRECT_ABOVE
@@ -52,6 +51,14 @@ def _product(a, b, table):
 
 def _mul(a, b):
     return _product(a, b, _DQ)
+
+
+def _times_fixed(a, b, table):
+    """The product of a (..., k) by a broadcast factor b (..., k) of fewer elements (a reference pose, a
+    target): a @ the matrix of right multiplication by b (k x k per b), k^2 products per a instead of k^3."""
+    k = b.shape[-1]
+    right = (b @ table.reshape(k, k, k).transpose(1, 0, 2).reshape(k, k * k)).reshape(b.shape[:-1] + (k, k))
+    return (a[..., None, :] @ right)[..., 0, :]
 
 
 def _qmul(a, b):
@@ -150,10 +157,10 @@ def item_errors(coef, ref, phi, task: TaskArrays):
 def motion_errors(C, dC, ref, task: TaskArrays):
     """`item_errors` from the motion's values C (..., N, 8) and derivatives dC at the items and the reference
     ``ref`` (..., 1, 8) (broadcast)."""
-    P = _mul(C, ref)
+    P = _times_fixed(C, ref, _DQ)
     p, q = P[..., :4], P[..., 4:]
     x = 2.0 * _qmul(p, q * _CONJ[:4])[..., 1:] / _vdot(p, p)[..., None]  # translation (synth.algebra.dq)
-    e = _qmul(p, task.Q[:, :4] * _CONJ[:4])  # rotation from the target to the prediction (times |p|)
+    e = _times_fixed(p, task.Q[:, :4] * _CONJ[:4], _Q)  # rotation from the target to the prediction (times |p|)
     sign = np.where(e[..., :1].real < 0, -1.0, 1.0)
     rot = 2.0 * sign * e[..., 1:] / np.sqrt(_vdot(e, e))[..., None]
     out = [x - task.X, rot]
@@ -374,9 +381,10 @@ def polish_feasible(model, x, fixed, steps: int = POLISH_STEPS):
     the exact rows' last digits after the damped steps (which keep them only below NEARLY_FEASIBLE).
     Counted steps."""
     for _ in range(steps):
-        _, c, _, Jc = model.jacobians(x)
+        c = model.rows(x)[1]  # (cheaper than the Jacobians, which only a violated constraint needs)
         if not c.shape[-1] or np.abs(c).max() <= FEASIBLE_FLOOR:
             break
+        _, c, _, Jc = model.jacobians(x)
         xn = x - _min_norm(_held(Jc, fixed), c)
         cn = model.rows(xn)[1]
         better = np.abs(cn).max(-1) < np.abs(c).max(-1)
@@ -396,69 +404,3 @@ def _solve(K, rhs):
             except np.linalg.LinAlgError:
                 pass
         return out
-
-
-# ------------------------------------------------------------------ gauge and seeds
-def gauge_matrix(phi) -> np.ndarray:
-    """M (..., 2, 2) mapping the homogeneous parameters (1, 0), (0, 1), (1, 1) to those of the items with
-    angles ``phi`` (..., 3) (up to scale): the reparametrization putting them at t = inf, 0, 1."""
-    w = np.stack([np.cos(phi), np.sin(phi)], -2)  # (..., 2, 3) columns
-    det = w[..., 0, 0] * w[..., 1, 1] - w[..., 0, 1] * w[..., 1, 0]  # 0: two items at one point (NaN out)
-    with np.errstate(all="ignore"):
-        alpha = (w[..., 0, 2] * w[..., 1, 1] - w[..., 1, 2] * w[..., 0, 1]) / det
-        beta = (w[..., 0, 0] * w[..., 1, 2] - w[..., 1, 0] * w[..., 0, 2]) / det
-    return w[..., :2] * np.stack([alpha, beta], -1)[..., None, :]
-
-
-GAUGE_ANGLES = np.array([0.0, np.pi / 3, 2 * np.pi / 3])  # where the gauge items are held (t = inf, +-1/sqrt 3)
-
-
-def gauge_items(phi) -> np.ndarray:
-    """(S, 3): item 0 and the items a third and two thirds along the motion from it (cyclic order of the
-    angles phi (S, N) on the projective line), which `fit_motion` holds at GAUGE_ANGLES (spread evenly,
-    for well-conditioned coefficients)."""
-    N = phi.shape[1]
-    order = np.argsort(np.mod(phi - phi[:, :1], np.pi), axis=1, kind="stable")
-    return np.stack([order[:, 0], order[:, max(1, N // 3)], order[:, max(2, (2 * N) // 3)]], 1)
-
-
-def regauge(coef, ref, phi, M):
-    """The same motion in the parameter t' with homogeneous (u, v) = M (u', v'): coefficients (..., n, 8)
-    of the monic C'(t') = C(M(t')) lead^-1, reference lead Q and the items' new angles (..., N)."""
-    n = coef.shape[-2]
-    psi = (np.arange(n + 1) + 0.5) * (np.pi / (n + 1))
-    uv = M @ np.stack([np.cos(psi), np.sin(psi)])  # (..., 2, n+1)
-    rho, theta = np.hypot(uv[..., 0, :], uv[..., 1, :]), np.arctan2(uv[..., 1, :], uv[..., 0, :])
-    values = homogeneous(coef, theta) * (rho ** n)[..., None]  # (..., n+1, 8)
-    k = np.arange(n + 1)
-    basis = np.cos(psi)[:, None] ** k * np.sin(psi)[:, None] ** (n - k)
-    full = np.linalg.solve(basis, values)  # (..., n+1, 8): coefficients of C(M(.))
-    lead = full[..., n, :]
-    inv = dq_inv(lead)
-    new = _mul(full[..., :n, :], inv[..., None, :])
-    new_ref = normalize_dq(_mul(lead, ref))
-    w = inv2(M) @ np.stack([np.cos(phi), np.sin(phi)], -2)
-    return new, new_ref, np.mod(np.arctan2(w[..., 1, :], w[..., 0, :]), np.pi)
-
-
-def inv2(M):
-    """Inverses of 2x2 matrices (..., 2, 2) (NaN for singular ones)."""
-    det = M[..., 0, 0] * M[..., 1, 1] - M[..., 0, 1] * M[..., 1, 0]
-    adj = np.stack([np.stack([M[..., 1, 1], -M[..., 0, 1]], -1), np.stack([-M[..., 1, 0], M[..., 0, 0]], -1)], -2)
-    with np.errstate(all="ignore"):
-        return adj / det[..., None, None]
-
-
-def project(coef, ref, task, grid: int = GRID, exact_weight: float = EXACT_WEIGHT):
-    """Each item's angle phi (S, N) on each seed motion (coef (S, n, 8), reference (S, 8)): the nearest of
-    ``grid`` samples, by the weighted squared position and angle misses (exact components weighted
-    ``exact_weight``; angles 8 (1 - |p . q|))."""
-    grid = (np.arange(grid) + 0.5) * (np.pi / grid)
-    with np.errstate(all="ignore"):
-        P = normalize_dq(_mul(homogeneous(coef, np.broadcast_to(grid, (len(coef), len(grid)))), ref[:, None]))
-        x = dq_translation(P)  # (S, G, 3)
-    w = task.weight[:, [0, 3]] + exact_weight * task.exact[:, [0, 3]]  # (N, 2): position, angle
-    d2 = ((x[:, :, None, :] - task.X) ** 2).sum(-1) * w[:, 0] ** 2
-    cos = np.abs(P[..., :4] @ task.Q[:, :4].T)  # |p . q|: (S, G, N)
-    d2 = d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1] ** 2
-    return grid[np.argmin(np.nan_to_num(d2, nan=np.inf), axis=1)]

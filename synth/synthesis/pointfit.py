@@ -22,18 +22,19 @@ with the one batched Algorithm 1 and scores each loop with the 6R engineering sc
 """
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
 from synth.algebra import algorithm1 as a1
-from synth.algebra.dq import dq_inv, dq_mul, qmul
+from synth.algebra.dq import dq_inv, dq_mul, qmul, translation_dq
 from synth.algebra.polynomial import norm_poly
 from synth.synthesis.conic import Conditioning, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, chordal_separation
 from synth.synthesis.sixbar_loops import edge_normals, factor_members, geometry_parts, member_geometry, score_loops
 
-__all__ = ["point_motion", "rereference", "parameter_samples", "scan", "PointScan",
+__all__ = ["point_motion", "subset_motions", "rereference", "parameter_samples", "scan", "PointScan",
            "BENNETT_ORDERS",
            "BENNETT_PAIRS", "SAMPLES"]
 
@@ -80,6 +81,28 @@ def point_motion(X, t, degree: int):
     C[:, n, 0] = 1.0
     C[~good] = np.nan
     return C
+
+
+def subset_motions(X, degree: int, max_subsets: int, samples: int):
+    """Seed motions of a fit of the positions X (N, 3) (N > 2n; conditioned): for each (2n+1)-subset (all,
+    or a sample of ``max_subsets`` from a generator seeded with 0) the motions of degree n moving the
+    subset's first position through the others at ``samples`` choices of the free parameters
+    (`parameter_samples`, `point_motion`), conjugated to the frame. Returns (coef (S, n, 8) of the monic
+    motions, reference poses (S, 8): the translations to the subsets' first positions)."""
+    n = int(degree)
+    subsets = list(itertools.combinations(range(len(X)), 2 * n + 1))
+    if len(subsets) > max_subsets:
+        pick = np.random.default_rng(0).choice(len(subsets), size=max_subsets, replace=False)
+        subsets = [subsets[i] for i in sorted(pick)]
+    sub = np.array(subsets, int)  # (k, 2n + 1)
+    t = parameter_samples(samples, 2 * n - 2)  # (m, 2n)
+    k, m = len(sub), len(t)
+    rel = X[sub[:, 1:]] - X[sub[:, :1]]  # (k, 2n, 3)
+    with np.errstate(all="ignore"):
+        C = point_motion(np.repeat(rel, m, axis=0), np.tile(t, (k, 1)), n)  # (k m, n+1, 8)
+    first = np.repeat(X[sub[:, 0]], m, axis=0)
+    move, back = translation_dq(first)[:, None], translation_dq(-first)[:, None]
+    return dq_mul(dq_mul(move, C[:, :n]), back), move[:, 0]
 
 
 def rereference(H, t0: float):

@@ -27,11 +27,12 @@ from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_fit import FEASIBLE
 from synth.synthesis.conic import condition, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, chordal_separation
-from synth.synthesis.cubic_fit import seeds
-from synth.synthesis.fit import Layout, LMResult, MotionModel, levenberg_marquardt, reference_pose, task_arrays
+from synth.synthesis.cubic_fit import point_seeds, seeds
+from synth.synthesis.fit_order import ListedOrder, directions
+from synth.synthesis.fit import ERRORS, Layout, LMResult, MotionModel, levenberg_marquardt, reference_pose, task_arrays
 from synth.synthesis.sixbar import LOOP, loop_dh
 from synth.synthesis.sixbar_loops import factor_members, member_geometry, score_loops, score_warnings
-from synth.synthesis.taskfit import FitSummary, check_fitted, visiting_order, visits_in_order
+from synth.synthesis.taskfit import FitSummary, check_fitted, item_kinds, item_tolerances, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 
 __all__ = ["CubicFits", "fit_cubics", "fit_candidates", "STAGE1", "STAGE2", "KEEP_FITS"]
@@ -42,6 +43,7 @@ KEEP_FITS = 6  # best seeds refined further
 STAGE2 = 60  # Jacobians on those, at most
 DISTINCT = 1e-6  # relative coefficient distance below which two fits are one motion
 MAX_BUILT = 12  # candidates built before giving up
+LOOPS_PER_FIT = 3  # loop pairs of one fitted motion tried, at most
 
 
 class CubicFits:
@@ -68,10 +70,24 @@ def _cot(phi) -> np.ndarray:
     return ts
 
 
-def _refine(task, ref, x0, gauge, iterations):
+def _model(task, ref, layout, sign=None):
+    """(the fit's model, the columns held): with ``sign`` the listed order's hinge rows too."""
+    fixed = layout.fixed
+    if not (task.weight[:, 3:ERRORS].any() or task.exact[:, 3:].any()):  # positions only: hold the tool's
+        fixed[:, 8 * DEGREE:8 * DEGREE + 3] = True  # orientation at the reference (points do not see it)
+    model = MotionModel(layout, task, ref)
+    if sign is not None:
+        model = ListedOrder(model, sign, layout.items)
+    return model, fixed
+
+
+def _refine(task, ref, x0, gauge, iterations, sign=None):
+    """Levenberg-Marquardt on seeds x0; with the seeds' directions ``sign`` (``order: listed``) the hinge rows
+    of the order too (`synth.synthesis.fit_order.ListedOrder`)."""
     layout = Layout(DEGREE, task.Q.shape[0], gauge)
+    model, fixed = _model(task, ref, layout, sign)
     with np.errstate(all="ignore"):
-        return layout, levenberg_marquardt(MotionModel(layout, task, ref), x0, layout.fixed, iterations)
+        return layout, levenberg_marquardt(model, x0, fixed, iterations)
 
 
 def fit_cubics(ps: PoseSet) -> CubicFits:
@@ -80,28 +96,30 @@ def fit_cubics(ps: PoseSet) -> CubicFits:
     T = np.asarray(ps.matrices, float)
     Tc, cond = condition(T)
     Q = pose_to_dq(Tc)
-    task = task_arrays(Q, Tc[:, :3, 3], ps.tolerance, ps.velocity, float(cond.scale))
-    coef, ref, phi, gauge, quads = seeds(Q, task)
+    task = task_arrays(Q, Tc[:, :3, 3], item_tolerances(ps), ps.velocity, float(cond.scale))
+    points = sum(k != "point" for k in item_kinds(ps)) < 4  # no quadruple of poses: 7-subsets of the positions
+    coef, ref, phi, gauge, quads = point_seeds(Tc[:, :3, 3], task) if points else seeds(Q, task)
     if not len(coef):
         raise SynthesisError(f"{ps.source}: no quadruple of the poses with pose 0 spans a real family of cubic "
                              "motions (each is degenerate or oval): no 6R motion to start a fit from")
     with one_blas_thread():
         layout = Layout(DEGREE, len(T), gauge)
         x0 = layout.join(coef, np.zeros((len(coef), 6)), phi)
-        _, first = _refine(task, ref, x0, gauge, STAGE1)
+        sign = directions(phi) if ps.order is Order.LISTED else None  # steer toward the listed order
+        _, first = _refine(task, ref, x0, gauge, STAGE1, sign)
         merit = np.nan_to_num(first.cost + 1e6 * first.violation, nan=np.inf)
         keep = np.argsort(merit, kind="stable")
         if ps.order is Order.LISTED:  # the seeds that visit the poses in the listed order first
             listed = np.array([visits_in_order(_cot(p)) for p in layout.split(first.x)[2]])
             keep = keep[np.argsort(~listed[keep], kind="stable")]
         keep = keep[:KEEP_FITS]
-        layout, res = _refine(task, ref[keep], first.x[keep], gauge[keep], STAGE2)
+        layout, res = _refine(task, ref[keep], first.x[keep], gauge[keep], STAGE2, None if sign is None else sign[keep])
         if ps.constraints is not None and ps.constraints.base is not None:  # a loop's ground axes into the box
             from synth.synthesis.steer import into_base_box
 
+            model, fixed = _model(task, ref[keep], layout, None if sign is None else sign[keep])
             with np.errstate(all="ignore"):
-                steered, seed = into_base_box(MotionModel(layout, task, ref[keep]), res, layout.fixed,
-                                              ps.constraints.base, cond, PERMS, PAIRS)
+                steered, seed = into_base_box(model, res, fixed, ps.constraints.base, cond, PERMS, PAIRS)
             res = LMResult(np.concatenate([res.x, steered.x]), np.concatenate([res.cost, steered.cost]),
                            np.concatenate([res.violation, steered.violation]), res.iterations + steered.iterations)
             keep = np.concatenate([keep, keep[seed]])
@@ -163,7 +181,7 @@ def fit_candidates(ps: PoseSet, top: int = 1) -> list:
 
         miss = ground_box_distance(mf.H, PAIRS, conditioned_box(ps.constraints.base, fits.cond)) > 1e-9
     rank = sorted((bool(miss[j, p]), fits.cost[k], -score[j, p], j, p) for j, k in enumerate(idx)
-                  for p in np.nonzero(valid[j])[0])
+                  for p in _best_loops(score[j], valid[j], miss[j]))
     if not rank:
         raise SynthesisError(f"{ps.source}: every fitted cubic motion has a nearly real or repeated norm factor or a "
                              "translation factor: no 6R linkage of it")
@@ -181,6 +199,14 @@ def fit_candidates(ps: PoseSet, top: int = 1) -> list:
     if not out:
         raise SynthesisError(f"{ps.source}: {why}")
     return out
+
+
+def _best_loops(score, valid, miss) -> np.ndarray:
+    """The LOOPS_PER_FIT valid loop pairs of best score of one fit (their closure and transmission fail
+    mostly together, so a fit that fails them gives way to the next); those not ``miss``-ing the task's
+    base box first."""
+    ok = np.nonzero(valid)[0]
+    return ok[np.lexsort((-score[ok], miss[ok]))[:LOOPS_PER_FIT]]
 
 
 def _linkage(fits: CubicFits, k, mf, j, p, parts, score, ps: PoseSet):

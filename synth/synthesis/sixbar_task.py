@@ -4,8 +4,8 @@ the linkages.
 * four exact poses, no velocities: the exact scan of `synth.synthesis.sixbar` (``task_kind`` "exact"; the
   CLI's classic path unless the order is listed);
 * two exact poses with a full velocity at each: Hermite interpolation, exact (`synth.synthesis.sixbar_hermite`);
-* anything else that determines the cubic (six conditions per pose, five per velocity, at least 22): a fit
-  (`synth.synthesis.sixbar_fit`).
+* anything else that determines the cubic (six conditions per pose, three per point, five per velocity, at
+  least 22): a fit (`synth.synthesis.sixbar_fit`; more than seven points: seeds from 7-subsets).
 
 Every returned linkage has its poses' misses measured on it (`synth.synthesis.taskfit.annotate`: pose
 records' ``error``, ``tolerance``, ``exact`` and ``info["fit"]``) and answers the order and tolerances
@@ -17,12 +17,13 @@ import numpy as np
 
 from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError
-from synth.synthesis.taskfit import FitSummary, annotate, select, visiting_order
+from synth.synthesis.taskfit import FitSummary, annotate, item_kinds, select, visiting_order
 from synth.task import Order, PoseSet
 
 __all__ = ["task_kind", "is_sixbar_task", "sixbar_task", "CONDITIONS"]
 
 CONDITIONS = 22  # a cubic 6R motion has 21 degrees of freedom; a task needs at least 22 conditions
+POINTS_EXACT = 7  # items of a point task the exact point synthesis takes; more are fitted
 
 
 def task_kind(ps: PoseSet) -> str:
@@ -35,14 +36,18 @@ def task_kind(ps: PoseSet) -> str:
         return "exact"
     if exact and len(ps) == 2 and np.isfinite(vel).all():
         return "hermite"
-    if 6 * len(ps) + 5 * int(given.sum()) < CONDITIONS or len(ps) < 2:
+    per_item = [3 if k == "point" else 6 for k in item_kinds(ps)]  # a point prescribes its position only
+    if sum(per_item) + 5 * int(given.sum()) < CONDITIONS or len(ps) < 2:
         raise InputError(f"{ps.source}: a 6R linkage needs 4 poses (or 2 with a velocity at each, or more to fit), "
                          f"got {len(ps)}" + (f" with {int(given.sum())} velocities" if given.any() else ""))
     return "fit"
 
 
 def is_sixbar_task(ps: PoseSet) -> bool:
-    """Whether a pose set needs `sixbar_task` rather than the classic four-pose scan."""
+    """Whether a pose set needs `sixbar_task` rather than the classic four-pose scan or, for a task with
+    points, the exact point synthesis (up to POINTS_EXACT items, docs/points.md)."""
+    if ps.has_points:
+        return len(ps) > POINTS_EXACT
     return task_kind(ps) != "exact" or ps.order is Order.LISTED
 
 

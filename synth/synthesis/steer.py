@@ -91,16 +91,25 @@ def ground_box_distance(H, pairs, box: Box) -> np.ndarray:
     return np.maximum(d[:, pairs[:, 0]], d[:, pairs[:, 1]])
 
 
+def _motion_model(model):
+    """The `synth.synthesis.fit.MotionModel` of ``model`` (a wrapper, e.g. `synth.synthesis.fit_order.ListedOrder`,
+    keeps it as ``.model``)."""
+    while not hasattr(model, "layout"):
+        model = model.model
+    return model
+
+
 class _Penalized:
     """A motion-fit model (`synth.synthesis.fit.MotionModel`) with the ground axes' box distances as two
     more residual rows (``weight`` / ``tol`` each), their derivatives by forward differences."""
 
     def __init__(self, model, box: Box, weight: float, orders, pairs):
         self.model, self.box, self.scale, self.orders, self.pairs = model, box, weight, orders, pairs
-        self.columns = 8 * model.layout.n
+        self.n = _motion_model(model).layout.n
+        self.columns = 8 * self.n
 
     def _penalty(self, x):
-        coef = x[..., :self.columns].reshape(x.shape[:-1] + (self.model.layout.n, 8))
+        coef = x[..., :self.columns].reshape(x.shape[:-1] + (self.n, 8))
         p, u = ground_axes(coef, self.orders)
         return _loop_distances(p, u, self.pairs, self.box) * self.scale
 
@@ -128,7 +137,7 @@ def into_base_box(model, res: LMResult, fixed, box: Box, cond, orders=_ORDERS,
     (default: Bennett's; 6R: `synth.synthesis.cubic.PERMS`, ``PAIRS``): the loop whose ground axes are
     nearest the box is steered."""
     shrunk = conditioned_box(box, cond, BOX_INSET)
-    w = model.task.weight[:, :3]
+    w = _motion_model(model).task.weight[:, :3]
     tol = 1.0 / w.max() if (w > 0).any() else 1e-3  # the tightest position tolerance (conditioned)
     xs, cost, viol, its = [], [], [], 0
     for weight in WEIGHTS:

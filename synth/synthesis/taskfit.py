@@ -19,7 +19,7 @@ from synth.synthesis.conditioning import transmission_problem
 from synth.task import Order, PoseSet
 
 __all__ = ["make_task", "check_fitted", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem",
-           "error_rows", "item_kinds", "select"]
+           "error_rows", "item_kinds", "item_tolerances", "select"]
 
 
 @dataclass
@@ -100,6 +100,13 @@ def select(linkages, ps: PoseSet, top: int | None, best_effort: bool, what: str)
     if not linkages[0].info["fit"]["within_tolerance"] and not best_effort:
         raise SynthesisError(f"{ps.source}: {tolerance_problem(linkages[0], ps)}")
     return linkages[:top] if top else linkages
+
+
+def item_tolerances(ps: PoseSet) -> np.ndarray:
+    """(N, 2) [metres, radians] of every item: 0 (exact) without tolerances; a point's angle free (inf)."""
+    tol = np.zeros((len(ps), 2)) if ps.tolerance is None else np.array(ps.tolerance, float)
+    tol[np.array([k == "point" for k in item_kinds(ps)], bool), 1] = np.inf
+    return tol
 
 
 def item_kinds(ps: PoseSet) -> list[str]:

@@ -329,15 +329,27 @@ def worker_count(requested: int, total: int | None) -> int:
     return max(1, n)
 
 
+class Stopped(Exception):
+    """``run_jobs`` gave up because its ``stop()`` said so (the caller's request, e.g. a signal)."""
+
+
+POLL_SECONDS = 0.1  # how often a waiting `run_jobs` asks ``stop()`` (a reaction time, not a work budget)
+
+
 def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = False,
-             total: int | None = None, out_dir=None, initializer=None) -> Iterator[dict]:
+             total: int | None = None, out_dir=None, initializer=None, stop=None) -> Iterator[dict]:
     """Results of the jobs in ``lines``, in input order. ``lines``: an iterable of (line number, text)
     pairs (`synth.io.docload.read_lines`) or of text lines. ``jobs`` worker processes (the caller caps
     it, `worker_count`), each set up by ``initializer(parent pid)`` (an importable function; default
-    `prepare_worker`)."""
+    `prepare_worker`). ``stop``: a callable asked before every job (chunk of jobs, with workers) and,
+    while waiting for a worker, every `POLL_SECONDS`; when it returns true the pool is terminated (from this loop, never from inside the
+    pool's own bookkeeping) and `Stopped` is raised."""
     items = numbered(lines)
+    stop = stop or (lambda: False)
     if jobs <= 1:
         for item in items:
+            if stop():
+                raise Stopped
             yield run_job(item, full=full, out_dir=out_dir)
         return
     if chunksize is None:
@@ -345,15 +357,25 @@ def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = Fa
     ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
     pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
     pending: collections.deque = collections.deque()
+
+    def first_done():
+        while not (stop() or pending[0].ready()):
+            pending[0].wait(POLL_SECONDS)
+        if stop():
+            raise Stopped
+        return pending.popleft().get()
+
     try:
         for chunk in chunks(items, chunksize):
+            if stop():
+                raise Stopped
             pending.append(pool.apply_async(run_chunk, (chunk, full, out_dir)))
             while len(pending) > 2 * jobs:
-                yield from pending.popleft().get()
+                yield from first_done()
             while pending and pending[0].ready():
-                yield from pending.popleft().get()
+                yield from first_done()
         while pending:
-            yield from pending.popleft().get()
+            yield from first_done()
         pool.close()
     except BaseException:
         pool.terminate()

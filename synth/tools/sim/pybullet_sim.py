@@ -25,6 +25,8 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -99,32 +101,77 @@ def _capsule_collisions(link, caps) -> None:
             ET.SubElement(geom, "sphere", radius=repr(r))
 
 
+CPU_SECONDS_PER_STEP = 0.05  # the child's CPU budget per engine step (measured: ~3-5 ms for the 5-loop ladder)
+STALL_SECONDS = 120.0  # a child that uses no CPU at all for this long (wall time) is hung
+
+
 def run_in_subprocess(setup, *, seconds: float, timestep: float | None, gravity: bool, timeout: float = 600.0,
                       contacts: bool = False, tight: bool = False) -> dict:
-    """Run `child_main` in a fresh Python; returns its result or raises SimulationError."""
+    """Run `child_main` in a fresh Python; returns its result or raises SimulationError. The child's bound is
+    CPU time, not wall time (a loaded machine must give the same answer, only later): at most ``timeout``
+    or `CPU_SECONDS_PER_STEP` per step, whichever is larger (RLIMIT_CPU), and it is stopped as hung when
+    it uses no CPU for `STALL_SECONDS`."""
+    dt = timestep or DEFAULT_TIMESTEP
+    cpu_budget = max(timeout, CPU_SECONDS_PER_STEP * seconds / dt)
     with tempfile.TemporaryDirectory(prefix="mpsynth-pybullet-") as tmp:
         tmp = Path(tmp)
         urdf = tmp / "sim.urdf"
         urdf.write_text(sim_urdf_text(setup, contacts), encoding="utf-8")
         request = {"out": str(setup.out), "urdf": str(urdf), "result": str(tmp / "result.json"),
-                   "seconds": seconds, "timestep": timestep or DEFAULT_TIMESTEP, "gravity": gravity,
+                   "seconds": seconds, "timestep": dt, "gravity": gravity,
                    "contacts": contacts, "tight": tight}
         (tmp / "request.json").write_text(json.dumps(request), encoding="utf-8")
-        try:
-            r = subprocess.run([sys.executable, "-m", "synth.tools.sim.pybullet_sim", str(tmp / "request.json")],
-                               capture_output=True, text=True, timeout=timeout, cwd=str(_repo_root()))
-        except subprocess.TimeoutExpired:
-            raise SimulationError(f"pybullet did not finish within {timeout:.0f} s") from None
+        proc = subprocess.Popen([sys.executable, "-m", "synth.tools.sim.pybullet_sim", str(tmp / "request.json")],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(_repo_root()),
+                                preexec_fn=lambda: _limit_cpu(cpu_budget))
+        stdout, stderr = _wait_while_working(proc, cpu_budget)
         result_file = tmp / "result.json"
-        if r.returncode < 0:
-            raise SimulationError(f"pybullet crashed (signal {-r.returncode}) on {setup.out}")
+        if proc.returncode == -signal.SIGXCPU:
+            raise SimulationError(f"pybullet used its CPU budget ({cpu_budget:.0f} s) on {setup.out}")
+        if proc.returncode < 0:
+            raise SimulationError(f"pybullet crashed (signal {-proc.returncode}) on {setup.out}")
         if not result_file.exists():
-            tail = (r.stderr or r.stdout).strip().splitlines()[-1:] or ["no output"]
-            raise SimulationError(f"pybullet failed on {setup.out} (exit {r.returncode}): {tail[0]}")
+            tail = (stderr or stdout).strip().splitlines()[-1:] or ["no output"]
+            raise SimulationError(f"pybullet failed on {setup.out} (exit {proc.returncode}): {tail[0]}")
         res = json.loads(result_file.read_text(encoding="utf-8"))
     if "error" in res:
         raise SimulationError(f"pybullet failed on {setup.out}: {res['error']}")
     return res
+
+
+def _limit_cpu(seconds: float) -> None:
+    """In the child before exec: SIGXCPU once it has used ``seconds`` of CPU time."""
+    import resource
+
+    resource.setrlimit(resource.RLIMIT_CPU, (int(seconds) + 1, int(seconds) + 6))
+
+
+def _cpu_seconds(pid: int) -> float | None:
+    """CPU time (user + system) used so far by process ``pid`` (Linux /proc), None when unknown."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _wait_while_working(proc, cpu_budget: float):
+    """(stdout, stderr) of ``proc`` once it ends; kills it and raises SimulationError when it uses no CPU
+    for `STALL_SECONDS` (or, where its CPU time cannot be read, after ``cpu_budget`` of wall time)."""
+    last = None
+    waited = 0.0
+    while True:
+        try:
+            return proc.communicate(timeout=STALL_SECONDS)
+        except subprocess.TimeoutExpired:
+            waited += STALL_SECONDS
+            cpu = _cpu_seconds(proc.pid)
+            if (cpu is not None and cpu == last) or (cpu is None and waited >= cpu_budget):
+                proc.kill()
+                proc.communicate()
+                raise SimulationError(f"pybullet stopped working (no progress for {STALL_SECONDS:.0f} s)") from None
+            last = cpu
 
 
 def residual_threshold(loops: int, tight: bool = False) -> float:

@@ -1,0 +1,90 @@
+"""Issue #35: a signal to `mpsynth batch -j N` is acted on from the pool's loop, never from inside the
+pool's bookkeeping (`synth.tools.batchjobs.run_jobs(stop=...)`, `cli.signals.StopOnSignal`)."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+
+import pytest
+
+from synth.tools.batchjobs import Stopped, run_jobs
+
+POSES3 = [{"position": [0, 0, 0], "quaternion": {"w": 1, "x": 0, "y": 0, "z": 0}},
+          {"position": [1, 0, 0.5], "quaternion": {"w": 0.6, "x": 0, "y": 0, "z": 0.8}},
+          {"position": [0.25, 1, 0.2], "quaternion": {"w": 0.6, "x": 0.8, "y": 0, "z": 0}}]
+
+
+def job_lines(n: int) -> list[str]:
+    return [json.dumps({"id": i, "kind": "bennett", "poses": POSES3}) for i in range(n)]
+
+
+def _workers() -> set[int]:
+    """Pids of this process's live descendants (Linux /proc, zombies excluded) but multiprocessing's
+    long-lived helpers (the fork server, the resource tracker): the pool workers."""
+    parent, helpers = {}, set()
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            stat = open(f"/proc/{pid}/stat").read()
+            cmd = open(f"/proc/{pid}/cmdline", "rb").read()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2:].split()
+        if fields[0] != "Z":
+            parent[int(pid)] = int(fields[1])
+        if b"forkserver" in cmd or b"resource_tracker" in cmd:
+            helpers.add(int(pid))
+    found, todo = set(), [os.getpid()]
+    while todo:
+        p = todo.pop()
+        kids = [c for c, pp in parent.items() if pp == p]
+        found.update(kids)
+        todo.extend(kids)
+    return found - helpers
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc"), reason="needs /proc")
+@pytest.mark.parametrize("after", [0, 3])
+def test_a_stopped_pool_raises_stopped_and_leaves_no_worker(after):
+    """``stop()`` true after ``after`` results: exactly those results came, then `Stopped`, and the pool's
+    workers are gone (terminated and joined by run_jobs, not left to the interpreter's exit)."""
+    before = _workers()
+    got = []
+    with pytest.raises(Stopped):
+        for res in run_jobs(job_lines(40), jobs=2, chunksize=1, stop=lambda: len(got) >= after):
+            got.append(res)
+    assert len(got) == after and [r["line"] for r in got] == list(range(1, after + 1))
+    assert all(r["ok"] for r in got)
+    assert _workers() <= before
+
+
+def test_a_serial_run_asks_stop_between_jobs():
+    got = []
+    with pytest.raises(Stopped):
+        for res in run_jobs(job_lines(5), jobs=1, stop=lambda: len(got) >= 2):
+            got.append(res)
+    assert len(got) == 2
+
+
+def test_stop_never_asked_true_changes_nothing():
+    lines = job_lines(6)
+    assert [r["line"] for r in run_jobs(lines, jobs=2, chunksize=1, stop=lambda: False)] == list(range(1, 7))
+
+
+def test_stop_on_signal_only_records_the_first_signal(monkeypatch):
+    """The handler raises nothing (the loop acts later) and starts the bounded clean-up once."""
+    from cli import signals, streams
+
+    started = []
+    monkeypatch.setattr(streams, "exit_after_cleanup", started.append)
+    previous = signal.getsignal(signal.SIGTERM)
+    with signals.StopOnSignal() as stopper:
+        assert not stopper.requested()
+        signal.raise_signal(signal.SIGTERM)  # no exception here
+        signal.raise_signal(signal.SIGINT)
+        assert stopper.requested() and stopper.signum == signal.SIGTERM and started == [143]
+        with pytest.raises(SystemExit) as e:
+            stopper.act()
+        assert e.value.code == 143
+    assert signal.getsignal(signal.SIGTERM) == previous
+
