@@ -335,21 +335,23 @@ def extent(points, centred: bool = False) -> np.ndarray:
 
 
 def joint_sites(U, M, pairs, centre) -> np.ndarray:
-    """Where the pins of joints (lines U, M (J, 3)) are: the mean of the feet of the common normals of
-    ``pairs`` (P, 2) (joint indices; consecutive joints carried by one link) on each joint, and for a
-    joint in no pair the point of its axis nearest ``centre`` (3,). Returns (J, 3)."""
+    """Where the pins of joints (lines U, M (..., J, 3)) are: the mean of the feet of the common normals of
+    ``pairs`` (P, 2) (joint indices, the same for every linkage of the batch; consecutive joints carried by
+    one link) on each joint, and for a joint in no pair the point of its axis nearest ``centre`` (..., 3).
+    Returns (..., J, 3); the feet are summed in pair order (the same bits for a batch and for one)."""
     U = np.asarray(U, float)
     M = np.asarray(M, float)
     P = line_point(U, M)
-    sites = P + dot(np.asarray(centre, float) - P, U)[:, None] * U
+    sites = P + dot(np.asarray(centre, float)[..., None, :] - P, U)[..., None] * U
     pairs = np.asarray(pairs, int).reshape(-1, 2)
     if len(pairs):
         i, k = pairs[:, 0], pairs[:, 1]
-        feet = common_normal(U[i], M[i], U[k], M[k]).feet  # (P, 2, 3)
-        idx = pairs.reshape(-1)
+        feet = common_normal(U[..., i, :], M[..., i, :], U[..., k, :], M[..., k, :]).feet  # (..., P, 2, 3)
         acc = np.zeros(U.shape)
-        np.add.at(acc, idx, feet.reshape(-1, 3))
-        count = np.bincount(idx, minlength=len(U)).astype(float)[:, None]
+        for p, ends in enumerate(pairs.tolist()):
+            for side, j in enumerate(ends):
+                acc[..., j, :] += feet[..., p, side, :]
+        count = np.bincount(pairs.reshape(-1), minlength=U.shape[-2]).astype(float)[:, None]
         sites = np.where(count > 0, acc / np.maximum(count, 1.0), sites)
     return sites
 
