@@ -85,7 +85,7 @@ Example:
 
 \b
 A job line: {"id": "a1", "kind": "bennett", "poses": [...], "units": {...}, "out": "dir"}
-  kind: bennett (3 poses) | sixbar (4 poses); poses and units exactly as in a pose file;
+  kind: bennett (3 poses) | sixbar (4 poses) | fourbar (3+ coplanar poses); poses and units as in a pose file;
   optional: out (write the linkage there), name, normalize, force, pin_radius, link_radius, pin_length.
 Every input line (split on \\n only) gets one result line, in order:
   {"id", "line", "ok": true, "kind", "joints", "extent", "checks", "out"}

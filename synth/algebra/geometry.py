@@ -354,3 +354,26 @@ def joint_sites(U, M, pairs, centre) -> np.ndarray:
         count = np.bincount(pairs.reshape(-1), minlength=U.shape[-2]).astype(float)[:, None]
         sites = np.where(count > 0, acc / np.maximum(count, 1.0), sites)
     return sites
+
+
+def line_box_distance(point, direction, box: Box) -> np.ndarray:
+    """(...) the distance of the lines ``point + s direction`` (each (..., 3), direction nonzero) from the
+    axis-aligned box (``box.lo``, ``box.hi`` (3,)), exactly: the squared distance is convex and piecewise quadratic in s, with breaks
+    where a coordinate crosses a face; its minimum is at a break or at a piece's stationary point."""
+    p, d = np.asarray(point, float), np.asarray(direction, float)
+    lo, hi = box.lo, box.hi
+    with np.errstate(divide="ignore", invalid="ignore"):
+        brk = np.concatenate([(lo - p) / d, (hi - p) / d], axis=-1)  # (..., 6), inf/nan where d_k = 0
+    brk = np.sort(np.where(np.isfinite(brk), brk, 0.0), axis=-1)
+    mids = np.concatenate([brk[..., :1] - 1.0, (brk[..., 1:] + brk[..., :-1]) / 2, brk[..., -1:] + 1.0], axis=-1)
+    x = p[..., None, :] + mids[..., None] * d[..., None, :]  # (..., 7, 3): a point of each piece
+    face = np.where(x < lo, lo, np.where(x > hi, hi, np.nan))  # the active face per coordinate, nan: inside
+    out = ~np.isnan(face)
+    dd = np.where(out, d[..., None, :], 0.0)
+    s_star = -np.sum(dd * np.where(out, p[..., None, :] - face, 0.0), axis=-1) / np.maximum(np.sum(dd * dd, -1), 1e-300)
+    lo_s = np.concatenate([np.full(brk.shape[:-1] + (1,), -np.inf), brk], axis=-1)
+    hi_s = np.concatenate([brk, np.full(brk.shape[:-1] + (1,), np.inf)], axis=-1)
+    s = np.concatenate([brk, np.clip(s_star, lo_s, hi_s)], axis=-1)  # (..., 13) candidates
+    y = p[..., None, :] + s[..., None] * d[..., None, :]
+    gap = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
+    return np.sqrt(np.sum(gap * gap, axis=-1)).min(axis=-1)

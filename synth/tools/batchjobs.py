@@ -6,7 +6,8 @@ A job is one JSON object on one line::
      "out": "runs/a7", "name": "a7", "normalize": false, "force": false,
      "pin_radius": 4, "link_radius": 3, "pin_length": 20}
 
-``kind`` is ``"bennett"`` (3 poses) or ``"sixbar"`` (4 poses); ``poses`` is a list of pose specs
+``kind`` is ``"bennett"`` (3 poses), ``"sixbar"`` (4 poses) or ``"fourbar"`` (3 or more coplanar poses, or 2
+with a velocity: `synth.solve.solve_fourbar`, as ``mpsynth fourbar``; its result has ``fourbar``); ``poses`` is a list of pose specs
 exactly as in a pose file's ``poses`` list, ``units`` as in a pose file (both validated by
 ``synth.io.poses.parse_pose_document``); everything but ``kind`` and ``poses`` is optional. A point task
 (docs/points.md) gives ``points`` (5 for bennett, 7 for sixbar, as a pose file's ``points`` list) instead
@@ -69,7 +70,7 @@ from synth.io.jsonout import linkage_document, plain
 from synth.io.names import safe_robot_name
 from synth.io.poses import parse_pose_document
 from synth.io.writer import write_output
-from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_points, solve_sixbar
+from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_fourbar, solve_points, solve_sixbar
 from synth.solve.many import solve_bennett_many
 from synth.synthesis.points import MINIMUM, NEEDED
 from synth.tools.jobspec import (DEGREES, KINDS, SIZE_KEYS, TASK_KEYS, JobError, check_job, echo_id, is_task_job,
@@ -80,6 +81,8 @@ MAX_CHUNK = 1024  # jobs per chunk at most (`default_chunksize`)
 
 def _synthesize(kind: str, ps, options: SynthesisOptions):
     """The job's Result: the entry point the CLI calls for the same task (`synth.solve`)."""
+    if kind == "fourbar":
+        return solve_fourbar(ps, options)
     if kind == "bennett" or ps.has_points:
         return solve_bennett(ps, options) if kind == "bennett" else solve_points(ps, DEGREES[kind], options)
     try:  # sixbar is optional in an installation
@@ -135,7 +138,8 @@ def _read_job(item, out_dir, defer_out: bool = False) -> _Job | dict | None:
             task = is_task_job(job)
             ps = parse_pose_document(doc, source="poses", normalize=bool(job.get("normalize", False)),
                                      count=((2, None) if task else KINDS[kind], f"kind {kind!r}"),
-                                     points=((MINIMUM[DEGREES[kind]], NEEDED[DEGREES[kind]]), f"kind {kind!r}"))
+                                     points=((MINIMUM[DEGREES.get(kind, 2)], NEEDED[DEGREES.get(kind, 2)]),
+                                             f"kind {kind!r}"))
             design = DesignOptions(**{k: float(job[k]) for k in SIZE_KEYS if k in job})
             design.sizes(ps.length_scale, label=repr)  # the job's names in the message
         except MpsynthError as e:
@@ -202,6 +206,9 @@ def _success(kind: str, linkage, out, full: bool) -> dict:
                           {k: b[k] for k in ("a", "alpha", "b", "beta") if k in b} if b else None,
                           {k: f[k] for k in ("method", "within_tolerance", "max_position_error", "max_angle_error",
                                              "rms_position_error", "rms_angle_error", "visit_order")} if f else None)
+    fb = linkage.info.get("fourbar")
+    if fb:
+        res["fourbar"] = plain({k: fb[k] for k in ("lengths", "grashof", "transmission_min_deg", "task_range_deg")})
     if full:
         res["linkage"] = linkage_document(linkage)
     return res

@@ -15,7 +15,7 @@ from synth.io.docload import json_object_pairs
 from synth.io.names import check_robot_name
 from synth.io.writer import check_output_target
 
-KINDS = {"bennett": 3, "sixbar": 4}
+KINDS = {"bennett": 3, "sixbar": 4, "fourbar": (2, None)}  # pose counts (fourbar: its own refusals below 3)
 DEGREES = {"bennett": 2, "sixbar": 3}  # degree of the motion of a point task
 SIZE_KEYS = ("pin_radius", "link_radius", "pin_length")
 TASK_KEYS = ("tolerance", "order", "constraints")  # a task file's keys (docs/fit.md), as in a pose file
