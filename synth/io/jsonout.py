@@ -153,6 +153,8 @@ def write_json(doc: dict, path) -> Path:
 
 def write_linkage_json(job, directory: Path) -> list[Path]:
     """The ``json`` exporter (`synth.io.export`): ``linkage.json`` of ``job``'s linkage and design."""
-    drive = job.result.drive if job.result.drive is not None else drive_report(job.linkage)
-    write_json(linkage_document(job.linkage, job.result.design, job.result.collision, drive), directory / "linkage.json")
+    r = job.result
+    drive = r.drive if r is not None and r.drive is not None else drive_report(job.linkage)
+    write_json(linkage_document(job.linkage, r.design if r else None, r.collision if r else None, drive),
+               directory / "linkage.json")
     return [Path("linkage.json")]
