@@ -7,7 +7,7 @@ state) plus its JSON encoding, for fixtures/bennett_mm_deg.yaml (Bennett) and fi
 (6R, the five ranked candidates), N small moves of one pose; with the design search running behind
 (cancelled by each move, as in use) and without it. In the browser (Debian's chromium through playwright,
 when present): the page's own figure, from the change sent to its state drawn on the canvas, for N mouse
-drag steps of a pose handle. Targets: Bennett <= 100 ms, 6R <= 300 ms (median and 90th percentile shown).
+drag steps of a pose handle; server side also N small turns of the pose (alt-drag). Targets: Bennett <= 100 ms, 6R <= 300 ms (median and 90th percentile shown).
 
 Baseline, timed in the same run: the route before the designer, one cold `mpsynth bennett|sixbar TASK`
 process per change (without -o; no rendering); the ratio baseline / designer says what the live page buys.
@@ -39,7 +39,9 @@ def pct(xs, q):
     return xs[min(len(xs) - 1, int(q * len(xs)))]
 
 
-def server_side(task: Path, item: int, moves: int, design: bool) -> list[float]:
+def server_side(task: Path, item: int, moves: int, design: bool, turn: bool = False) -> list[float]:
+    """Milliseconds per change: ``moves`` small moves of item ``item`` (``turn``: turns by +-0.5 degree
+    about a fixed axis, as an alt-drag of its handle sends)."""
     s = Session(task, background_design=design)
     p0 = [row[3] for row in s.state()["poses"][item][:3]]
     size = s.state()["scene"]["size"]
@@ -47,7 +49,7 @@ def server_side(task: Path, item: int, moves: int, design: bool) -> list[float]:
     for k in range(moves):
         pos = [p0[0] + 0.002 * size * (k % 7), p0[1] - 0.001 * size * (k % 5), p0[2]]
         t = time.perf_counter()
-        st = s.move(item, pos)
+        st = s.turn(item, [0.3, -0.5, 0.8], 0.5 if k % 4 < 2 else -0.5) if turn else s.move(item, pos)
         json.dumps(st)
         out.append((time.perf_counter() - t) * 1e3)
         assert st["problem"] is None, st["problem"]
@@ -109,7 +111,8 @@ def main() -> None:
         shutil.copy(ROOT / "fixtures" / fixture, task)
         cli = cold_cli(task, command, 3)
         rows = [("server, design search behind", server_side(task, item, a.moves, True)),
-                ("server, no design search", server_side(task, item, a.moves, False))]
+                ("server, no design search", server_side(task, item, a.moves, False)),
+                ("server, pose turned, no design search", server_side(task, item, a.moves, False, turn=True))]
         if not a.no_browser:
             br = browser_side(task, item, a.moves)
             rows.append(("browser (drag -> drawn)", br) if br else ("browser: chromium/playwright absent", None))

@@ -85,7 +85,7 @@ Example:
 
 \b
 A job line: {"id": "a1", "kind": "bennett", "poses": [...], "units": {...}, "out": "dir"}
-  kind: bennett (3 poses) | sixbar (4 poses); poses and units exactly as in a pose file;
+  kind: bennett (3 poses) | sixbar (4 poses) | fourbar (3+ coplanar poses); poses and units as in a pose file;
   optional: out (write the linkage there), name, normalize, force, pin_radius, link_radius, pin_length.
 Every input line (split on \\n only) gets one result line, in order:
   {"id", "line", "ok": true, "kind", "joints", "extent", "checks", "out"}
@@ -103,6 +103,9 @@ Exit codes: 0 every job succeeded, 1 some job failed (its result line says why),
               help="Base directory of the jobs' relative 'out' paths (default: the working directory).")
 @click.option("--chunksize", type=int, help="Jobs handed to a worker at a time (default: from the job count).")
 @click.option("--full", is_flag=True, help="Add the whole linkage.json document to every successful result.")
+@click.option("--no-design", is_flag=True,
+              help="Jobs with 'out' write the kinematic outputs only: linkage.json and a URDF without meshes "
+                   "(no physical design, no collision search; for filtering before building).")
 @click.option("--scheduler", metavar="ADDRESS|local",
               help="Run the chunks of jobs on the Dask scheduler at ADDRESS (tcp://host:8786), or on a "
                    "LocalCluster ('local'); needs mpsynth[cluster]. Same result lines, same order.")
@@ -112,7 +115,7 @@ Exit codes: 0 every job succeeded, 1 some job failed (its result line says why),
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or summary on stderr.")
 @debug_option
 @run_guarded
-def batch(jobs_file, workers, out_dir, chunksize, full, scheduler, results_file, quiet, debug):
+def batch(jobs_file, workers, out_dir, chunksize, full, no_design, scheduler, results_file, quiet, debug):
     """Run the synthesis jobs in JOBS (JSON lines; '-' reads standard input), one result line per line
     on stdout, in input order, streamed as the jobs finish. A failing job (malformed line, bad poses,
     no real linkage) gives a result line with its error and never stops the batch."""
@@ -142,12 +145,12 @@ def batch(jobs_file, workers, out_dir, chunksize, full, scheduler, results_file,
                 where = f"-j {workers}"
                 results = run_jobs(lines, jobs=workers, chunksize=chunksize, full=full, total=total,
                                    initializer=signals.batch_worker,
-                                   out_dir=out_dir, stop=stopper and stopper.requested)
+                                   out_dir=out_dir, stop=stopper and stopper.requested, design=not no_design)
             else:
                 client = cluster.connect(scheduler.strip(), workers)
                 where = f"{cluster.worker_threads(client)} Dask workers"
                 results = cluster.run_jobs_on(client, lines, chunksize=chunksize, full=full, total=total,
-                                              out_dir=out_dir)
+                                              out_dir=out_dir, design=not no_design)
             progress = Progress(total) if (not quiet and sys.stderr.isatty()) else None
             for res in results:
                 if stopper and stopper.requested():

@@ -41,8 +41,9 @@ def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, contacts
     JOINT_FIXED constraint between coupler and coupler_k; MuJoCo: an equality weld), drive the first
     joint through one full turn (a driver with URDF limits, from its design's task range: from the lower to
     the upper limit) with a position motor (all other joints free, no self-contacts unless --contacts) and
-    report the worst deviation of every other joint from the exact motion of linkage.json's angle laws,
-    and the worst gap of the welds.
+    report the worst deviation of the joints from the exact motion of linkage.json's angle laws (the
+    configuration's distance from the motion's curve, every joint; not read at the driver's angle alone,
+    which multiplies the driver's slip by the speed ratio), and the worst gap of the welds.
 
     Exit 0 when every joint stays within --tol of the exact motion, 1 when not or when the engine fails,
     2 for unreadable input or an engine that is not installed (pip install 'mpsynth[sim]')."""

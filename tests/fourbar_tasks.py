@@ -71,12 +71,24 @@ def noisy(T, rng, position: float, angle: float):
     return out
 
 
-def yaml_text(T, names=None, extra: str = "") -> str:
-    """A task file of poses T (metres) as matrices, with ``extra`` top-level YAML lines."""
+def yaml_text(T, names=None, extra: str = "", velocity=None) -> str:
+    """A task file of poses T (metres) as matrices, with ``extra`` top-level YAML lines; ``velocity``:
+    {pose: (w rad/s, v m/s)} (the file then needs ``units: {angle: rad}``)."""
     lines = [extra.rstrip()] if extra else []
     lines.append("poses:")
+    fmt = lambda a: "[" + ", ".join(f"{x:.17g}" for x in a) + "]"  # noqa: E731
     for i, Ti in enumerate(T):
-        rows = ", ".join("[" + ", ".join(f"{x:.17g}" for x in row) + "]" for row in Ti)
         lines.append(f"  - name: {names[i] if names else f'p{i}'}")
-        lines.append(f"    matrix: [{rows}]")
+        lines.append(f"    matrix: [{', '.join(fmt(row) for row in Ti)}]")
+        if velocity and i in velocity:
+            lines.append(f"    velocity: {{angular: {fmt(velocity[i][0])}, linear: {fmt(velocity[i][1])}}}")
     return "\n".join(lines) + "\n"
+
+
+def coupler_twist(lengths, phi: float, h: float = 1e-6, **kw):
+    """(w, v): the tool's world angular velocity and the velocity of its origin per unit crank rate at crank
+    angle ``phi`` (central differences of `coupler_poses` with the same keywords)."""
+    (Tm, Tp), _, _ = coupler_poses(lengths, [phi - h, phi + h], **kw)
+    T0 = coupler_poses(lengths, [phi], **kw)[0][0]
+    W = (Tp[:3, :3] - Tm[:3, :3]) / (2 * h) @ T0[:3, :3].T
+    return np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]]) / 2, (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)

@@ -55,7 +55,7 @@ def make_jobs(n=200, seed=7):
             exp = (False, 2)
         else:  # wrong pose count, unknown kind, unknown key, missing poses in turn
             bad = [{"id": i, "kind": "bennett", "poses": matrix_specs(random_poses(rng, 4))},
-                   {"id": i, "kind": "fourbar", "poses": []},
+                   {"id": i, "kind": "fivebar", "poses": []},
                    {"id": i, "kind": "bennett", "pose": []},
                    {"id": i, "kind": "sixbar"}][(i // 10) % 4]
             job, exp = bad, (False, 2)
@@ -105,7 +105,7 @@ def test_200_jobs_in_order_with_failures_inline(jobs):
     assert sum(res["ok"] for res in results if res.get("kind") == "sixbar") >= 10
     msgs = {res["error"] for res in results if not res["ok"]}
     assert any("invalid JSON" in m for m in msgs) and any("quaternion" in m for m in msgs)
-    assert any("coincide" in m for m in msgs) and any("unknown kind 'fourbar'" in m for m in msgs)
+    assert any("coincide" in m for m in msgs) and any("unknown kind 'fivebar'" in m for m in msgs)
     assert any("unknown key 'pose' (did you mean 'poses'?)" in m for m in msgs)
     assert any("needs exactly 3 poses, got 4" in m for m in msgs)
     assert "200 jobs, " in r.stderr and "failed" in r.stderr
@@ -206,3 +206,29 @@ def test_cluster_options_without_the_cluster_extra(monkeypatch, tmp_path):
     r = run("batch", jobs, "--results", tmp_path / "r.parquet")
     assert r.exit_code == 2 and "pyarrow" in r.stderr and "mpsynth[cluster]" in r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["jobs.jsonl"]
+
+
+def test_fourbar_job_matches_the_command(tmp_path):
+    """kind "fourbar": the four-bar `mpsynth fourbar` writes for the same poses (fixtures/fourbar_5.yaml), and
+    with a velocity (two poses and the tool's twist at one: three conditions)."""
+    import yaml
+
+    from fourbar_tasks import coupler_poses, coupler_twist, random_crank_rocker
+
+    doc = yaml.safe_load((REPO / "fixtures" / "fourbar_5.yaml").read_text())
+    res = run_job((1, json.dumps({"id": "fb", "kind": "fourbar", "poses": doc["poses"], "out": "fb"})), out_dir=tmp_path)
+    assert res["ok"] and res["kind"] == "fourbar" and res["joints"] == 4, res
+    written = json.loads((tmp_path / "fb" / "linkage.json").read_text())
+    assert res["fourbar"]["lengths"] == written["info"]["fourbar"]["lengths"]
+    assert run("fourbar", REPO / "fixtures" / "fourbar_5.yaml", "-o", tmp_path / "cli").exit_code == 0
+    cli = json.loads((tmp_path / "cli" / "linkage.json").read_text())
+    assert cli["info"]["fourbar"]["lengths"] == written["info"]["fourbar"]["lengths"]
+    L = random_crank_rocker(np.random.default_rng(1))
+    T, _, _ = coupler_poses(L, [0.3, 2.0], plane_seed=1, scale=0.1)
+    w, v = coupler_twist(L, 0.3, plane_seed=1, scale=0.1)
+    poses = [{"matrix": T[0].tolist(), "velocity": {"angular": w.tolist(), "linear": v.tolist()}},
+             {"matrix": T[1].tolist()}]
+    res = run_job((2, json.dumps({"kind": "fourbar", "poses": poses, "units": {"length": "m", "angle": "rad"}})))
+    assert res["ok"] and res["fourbar"]["grashof"] == "crank-rocker", res
+    res = run_job((3, json.dumps({"kind": "fourbar", "poses": [{"matrix": M.tolist()} for M in T]})))
+    assert not res["ok"] and res["exit_code"] == 2 and "needs at least 3 poses (or 2 with a velocity)" in res["error"]

@@ -14,7 +14,7 @@ from synth.io.poses import load_poses
 
 from conftest import REPO, assert_verified, random_poses, run, write_pose_yaml
 
-TASKS = ("bennett_fit", "bennett_hermite")  # fits and Hermite pairs: tests/test_bennett_fit.py
+TASKS = ("bennett_fit", "bennett_hermite", "bennett_fit_mount")  # fits, Hermite pairs: test_bennett_fit.py, test_steer.py
 FIXTURES = sorted(p for p in (REPO / "fixtures").glob("bennett_*") if p.suffix in (".yaml", ".json")
                   and "points" not in p.name and p.stem not in TASKS)  # point tasks: tests/test_points.py
 

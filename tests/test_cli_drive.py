@@ -16,7 +16,7 @@ from click.testing import CliRunner
 
 from cli.main import mpsynth
 from synth.checks import VERIFY_SAMPLES
-from synth.design.constraints import line_box_distance
+from synth.algebra.geometry import line_box_distance
 from synth.io.poses import load_poses
 from synth.synthesis.points import oriented_item, point_candidates
 from synth.task import Box

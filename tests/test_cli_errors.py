@@ -436,10 +436,10 @@ def test_expression_parser_huge_degree_refused_fast():
     from synth.algebra.expr import parse_polynomial
 
     for text in ["(t - i)^10000", "t^10000 + 1", "(" * 5000 + "t" + ")" * 5000, "t" + "*t" * 9000]:
-        t0 = time.monotonic()
+        t0 = time.process_time()  # (this process's CPU time: a blow-up guard, steady under load)
         with pytest.raises(InputError):
             parse_polynomial(text)
-        assert time.monotonic() - t0 < 5, text
+        assert time.process_time() - t0 < 5, text
 
 
 CLI_PAYLOADS = ["__import__('os').system('touch pwned')", "t.__class__", "exec('open(\"pwned\", \"w\")')",

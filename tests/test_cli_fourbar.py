@@ -143,12 +143,19 @@ def test_two_poses_exit_2(tmp_path):
     assert r.exit_code == 2 and "3" in r.output
 
 
-def test_velocities_refused(tmp_path):
+def test_velocity_beyond_five_conditions_refused(tmp_path):
+    """Five poses and a velocity: six exact conditions, more than a four-bar meets (exit 2, with the count);
+    a velocity without its linear part: exit 2 (tests/test_fourbar_hermite.py has the accepted ones)."""
     text = FIX5.read_text().replace("  - name: grip\n", "  - name: grip\n    velocity: {angular: [0, 0, 1]}\n")
     task = tmp_path / "vel.yaml"
     task.write_text(text)
     r = run("fourbar", task)
-    assert r.exit_code == 2 and "does not take pose velocities" in r.output
+    assert r.exit_code == 2 and "at most 5 conditions" in r.output and "5 poses and 1 velocities" in r.output
+    lines = text.splitlines(keepends=True)
+    cut = [i for i, line in enumerate(lines) if line.startswith("  - name:")][4]
+    task.write_text("".join(lines[:cut]))  # four poses: five conditions
+    r = run("fourbar", task)
+    assert r.exit_code == 2 and "needs both 'angular' and 'linear'" in r.output
 
 
 def test_min_transmission_option(tmp_path):

@@ -9,6 +9,7 @@ import os
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytest.importorskip("uvicorn")
@@ -138,4 +139,86 @@ def test_sixbar_candidates_and_the_design_behind(open_task):
     assert st["pick"] == 2 and "6 joints" in page.text_content("#status")
     page.wait_for_function("document.getElementById('design').dataset.stage === 'done'", timeout=120_000)
     assert page.text_content("#design").count("design: ") == 1
+    assert errors == []
+
+
+def test_the_camera_orbits_zooms_and_resets(open_task):
+    task, page, errors = open_task("bennett_mm_deg.yaml")
+    cam0 = page.evaluate("window.mpsynthDesigner.camera()")
+    box = page.locator("#view").bounding_box()
+    x, y = box["x"] + 60, box["y"] + 60  # the background, away from the handles
+    page.mouse.move(x, y)
+    page.mouse.down(button="right")
+    page.mouse.move(x + 80, y + 30, steps=4)
+    page.mouse.up(button="right")
+    cam1 = page.evaluate("window.mpsynthDesigner.camera()")
+    assert cam1["yaw"] == pytest.approx(cam0["yaw"] - 0.8) and cam1["pitch"] == pytest.approx(cam0["pitch"] + 0.3)
+    h0 = page.evaluate("window.mpsynthDesigner.handleXY(2)")
+    page.mouse.wheel(0, -200)
+    assert page.evaluate("window.mpsynthDesigner.camera()")["zoom"] > cam0["zoom"]
+    assert page.evaluate("window.mpsynthDesigner.handleXY(2)") != h0
+    page.click("#reset")
+    cam2 = page.evaluate("window.mpsynthDesigner.camera()")
+    assert cam2 == cam0
+    assert page.evaluate("window.mpsynthDesigner.state()")["revision"] == 1  # the view moved, the task did not
+    assert errors == []
+
+
+def test_alt_drag_turns_a_pose_and_the_wheel_moves_it_along_the_depth(open_task):
+    task, page, errors = open_task("bennett_mm_deg.yaml")
+    x, y = page.evaluate("window.mpsynthDesigner.handleXY(0)")
+    page.keyboard.down("Alt")
+    page.mouse.move(x + 30, y)
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + 30, y, steps=2)
+    page.mouse.move(x, y - 30, steps=4)  # a quarter turn counter-clockwise round the handle
+    page.mouse.up()
+    page.keyboard.up("Alt")
+    st = settled(page, 1)
+    rpy = [c["value"] for c in st["items"][0]["rows"][0]["cells"] if c["label"].startswith("rpy")]
+    assert rpy != [0, 0, 0] and st["undo"] >= 1
+    f = page.evaluate("(() => { const c = window.mpsynthDesigner.camera(), cp = Math.cos(c.pitch);"
+                      " return [cp * Math.cos(c.yaw), cp * Math.sin(c.yaw), Math.sin(c.pitch)]; })()")
+    R = np.array(st["poses"][0])[:3, :3]  # turned about the view axis: that axis is kept
+    assert np.allclose(R @ np.array(f), f, atol=1e-4)
+    assert np.degrees(np.arccos((np.trace(R) - 1) / 2)) == pytest.approx(90, abs=8)
+    rev = st["revision"]
+    x, y = page.evaluate("window.mpsynthDesigner.handleXY(2)")
+    p0 = np.array(st["poses"][2])[:3, 3]
+    page.mouse.move(x, y)
+    page.mouse.wheel(0, -100)
+    st = settled(page, rev)
+    d = np.array(st["poses"][2])[:3, 3] - p0
+    assert np.linalg.norm(d) > 0 and np.allclose(np.cross(d, f), 0, atol=1e-3 * np.linalg.norm(d))
+    while st["undo"]:
+        page.click("#undo")
+        st = settled(page, st["revision"])
+    assert [c["value"] for c in st["items"][0]["rows"][0]["cells"] if c["label"].startswith("rpy")] == [0, 0, 0]
+    assert errors == []
+
+
+def test_a_kind_that_cannot_apply_is_greyed_out_with_its_reason(open_task):
+    task, page, errors = open_task("bennett_mm_deg.yaml")
+    four = page.locator("#kind option[value='fourbar']")
+    assert four.is_disabled() and "coplanar" in four.get_attribute("title")
+    assert not page.locator("#kind option[value='sixbar']").is_disabled()
+    assert errors == []
+
+
+def test_write_output_writes_the_picked_candidate_coloured_by_clearance(open_task):
+    task, page, errors = open_task("sixbar_example.yaml", background_design=True)
+    page.select_option("#pick", "3")
+    settled(page, 1)
+    page.wait_for_function("document.getElementById('design').dataset.stage === 'done'", timeout=300_000)
+    drawn = page.evaluate("window.mpsynthDesigner.drawn()")
+    gaps = page.evaluate("window.mpsynthDesigner.state().background.clearance.bodies")
+    red = {True: "#b71c1c", False: "#e53935"}  # overlapping (a negative gap), closer than the clearance
+    assert drawn["link_h2"] == red[gaps["link_h2"] < 0] and drawn["link_k2"] == red[gaps["link_k2"] < 0]
+    assert drawn["link_h1"] == "#2e7d32"
+    assert "red come closer" in page.text_content("#design")
+    page.click("#write")
+    page.wait_for_function("document.getElementById('message').textContent.startsWith('wrote')", timeout=120_000)
+    assert page.text_content("#message").startswith("wrote candidate 4 of 5 (04-f2-p9) to ")
+    assert page.locator("#errors tbody tr.hit").count() == 4
     assert errors == []

@@ -231,18 +231,20 @@ def test_error_message_exact():
 
 
 def test_huge_power_refused_quickly():
-    t0 = time.perf_counter()
+    t0 = time.process_time()  # (CPU time of this process: a blow-up guard; expanding any of these takes hours)
     for text in ("(t+1)^100000", "(t+i)**100000", "t^1000000", "(t^2+1)^101"):
         with pytest.raises(InputError, match="exceeds the maximum"):
             parse_polynomial(text)
-    assert time.perf_counter() - t0 < 0.1
+    assert time.process_time() - t0 < 5.0
 
 
 def test_max_degree_expansion_is_fast():
-    t0 = time.perf_counter()
+    # a guard against blow-up (unguarded, such inputs run for hours), not a speed figure: this process's
+    # CPU time, which other processes on a loaded machine do not inflate, with a wide margin
+    t0 = time.process_time()
     p = parse_polynomial("(t + 1/3 + i - eps*j/7)^200")
     assert p.shape == (201, 8)
-    assert time.perf_counter() - t0 < 2.0
+    assert time.process_time() - t0 < 10.0
 
 
 @pytest.mark.parametrize("text,msg", [
@@ -254,10 +256,10 @@ def test_max_degree_expansion_is_fast():
     ("+".join(["(t+1/3+i-eps*j/7)^200"] * 400), "too expensive to expand"),
 ])
 def test_resource_guards_refuse_quickly(text, msg):
-    t0 = time.perf_counter()
+    t0 = time.process_time()  # (CPU time of this process: a blow-up guard, as above)
     with pytest.raises(InputError, match=msg):
         parse_polynomial(text)
-    assert time.perf_counter() - t0 < 3.0
+    assert time.process_time() - t0 < 10.0
 
 
 def test_overflow_to_float_is_an_input_error():

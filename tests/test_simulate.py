@@ -127,11 +127,11 @@ def test_pybullet_crash_is_reported(outputs, monkeypatch):
 
     import synth.tools.sim.pybullet_sim as pb
 
-    real = subprocess.run
+    real = subprocess.Popen
 
     def crashing(cmd, **kw):
         return real([cmd[0], "-c", "import os, signal; os.kill(os.getpid(), signal.SIGSEGV)"], **kw)
 
-    monkeypatch.setattr(pb.subprocess, "run", crashing)
+    monkeypatch.setattr(pb.subprocess, "Popen", crashing)
     r = run("simulate", outputs["bennett"], "--engine", "pybullet")
     assert r.exit_code == 1 and "pybullet crashed (signal 11)" in r.stderr

@@ -84,3 +84,9 @@ def test_planar_four_bar_passes_with_the_defaults(tmp_path, engine):
     # an explicit --seconds is never changed
     r = run("simulate", out, "--engine", engine, "--seconds", "2", "--json", "-q")
     assert json.loads(r.output)["seconds"] == 2 and "retried" not in json.loads(r.output)
+
+
+def test_pybullet_gives_welds_in_series_more_solver_iterations():
+    from synth.tools.sim.pybullet_sim import solver_iterations
+
+    assert solver_iterations(1) == solver_iterations(2) == 3000 and solver_iterations(5) == 6000

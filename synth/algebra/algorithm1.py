@@ -39,18 +39,19 @@ def distinct_orders(mult) -> list[tuple]:
     return sorted(set(map(tuple, labels[orders(len(labels))].tolist())))
 
 
-def norm_roots(N, newton: int = 2) -> np.ndarray:
+def norm_roots(N, newton: int = 2, ferrari: bool | None = None) -> np.ndarray:
     """One root of each conjugate pair of a real monic polynomial N (..., 2n+1) (ascending) without
     real roots: shape (..., n), Im z >= 0, sorted by Re z + 1e-12 Im z. Quartics (n = 2, the Bennett
     case) in batches of FERRARI_MIN_BATCH or more start from Ferrari's closed form, everything else (and
     quartics where Newton does not settle) from companion-matrix eigenvalues (batched
     ``numpy.linalg.eigvals``); then ``newton`` Newton steps on N. Real or repeated roots are not
-    detected here (see `root_conditioning`)."""
+    detected here (see `root_conditioning`). ``ferrari`` False: companion-matrix starts at every batch size,
+    so each row's roots are the bits a batch of one gives (True: Ferrari's at every size)."""
     N = np.asarray(N, float)
     batch, m = N.shape[:-1], N.shape[-1] - 1
     flat = N.reshape(-1, m + 1)
     with np.errstate(all="ignore"):  # (for `_eig_upper` and `_newton` too)
-        if m == 4 and flat.shape[0] >= FERRARI_MIN_BATCH:
+        if m == 4 and (flat.shape[0] >= FERRARI_MIN_BATCH if ferrari is None else ferrari):
             z, step = _newton(flat, _ferrari_upper(flat), max(newton, 1) + 1)
             redo = ~(np.abs(step) <= 1e-10 * np.maximum(1.0, np.abs(z))).all(axis=-1) & np.isfinite(flat).all(axis=-1)
             if redo.any():
@@ -322,27 +323,38 @@ def polish(C, H, iterations: int = 3, step_tol: float = 1e-10):
     r = (product_of_linear(H) - C)[..., :n, :]
     rm = np.abs(r).max(axis=(-2, -1))
     tiny = 2e-16 * np.maximum(1.0, np.abs(C).max(axis=(-2, -1)))
+    active = rm > tiny  # each product steps as it would alone: a batch gives every row its own result
     with np.errstate(all="ignore"):
         for _ in range(iterations):
-            if not (rm > tiny).any():
+            if not active.any():
                 break
-            J = _jacobian(H)
-            try:
-                d = np.linalg.solve(J, -r.reshape(r.shape[:-2] + (8 * n, 1)))
-            except np.linalg.LinAlgError:
-                break
-            D = d.reshape(H.shape)
+            D = _newton_step(_jacobian(H), -r.reshape(r.shape[:-2] + (8 * n, 1))).reshape(H.shape)
             Hn = H + np.where(np.isfinite(D), D, 0)
             rn = (product_of_linear(Hn) - C)[..., :n, :]
             rmn = np.abs(rn).max(axis=(-2, -1))
-            better = rmn < rm
+            better = (rmn < rm) & active
             H = np.where(better[..., None, None], Hn, H)
             r = np.where(better[..., None, None], rn, r)
             rm = np.where(better, rmn, rm)
             big = np.abs(D).max(axis=(-2, -1)) > step_tol * np.maximum(1.0, np.abs(H).max(axis=(-2, -1)))
-            if not (better & big).any():
-                break
+            active = better & big
     return H, rm
+
+
+def _newton_step(J, rhs):
+    """The Newton steps J^-1 rhs (..., m, 1) of Jacobians J (..., m, m); NaN where J is singular (so that
+    one singular product never stops the others)."""
+    try:
+        return np.linalg.solve(J, rhs)
+    except np.linalg.LinAlgError:
+        out = np.full(np.broadcast_shapes(J.shape[:-1], rhs.shape[:-2] + (J.shape[-1],)) + (1,), np.nan)
+        J, rhs = np.broadcast_to(J, out.shape[:-1] + J.shape[-1:]), np.broadcast_to(rhs, out.shape)
+        for idx in np.ndindex(out.shape[:-2]):
+            try:
+                out[idx] = np.linalg.solve(J[idx], rhs[idx])
+            except np.linalg.LinAlgError:
+                pass
+        return out
 
 
 def _jacobian(H):

@@ -335,20 +335,45 @@ def extent(points, centred: bool = False) -> np.ndarray:
 
 
 def joint_sites(U, M, pairs, centre) -> np.ndarray:
-    """Where the pins of joints (lines U, M (J, 3)) are: the mean of the feet of the common normals of
-    ``pairs`` (P, 2) (joint indices; consecutive joints carried by one link) on each joint, and for a
-    joint in no pair the point of its axis nearest ``centre`` (3,). Returns (J, 3)."""
+    """Where the pins of joints (lines U, M (..., J, 3)) are: the mean of the feet of the common normals of
+    ``pairs`` (P, 2) (joint indices, the same for every linkage of the batch; consecutive joints carried by
+    one link) on each joint, and for a joint in no pair the point of its axis nearest ``centre`` (..., 3).
+    Returns (..., J, 3); the feet are summed in pair order (the same bits for a batch and for one)."""
     U = np.asarray(U, float)
     M = np.asarray(M, float)
     P = line_point(U, M)
-    sites = P + dot(np.asarray(centre, float) - P, U)[:, None] * U
+    sites = P + dot(np.asarray(centre, float)[..., None, :] - P, U)[..., None] * U
     pairs = np.asarray(pairs, int).reshape(-1, 2)
     if len(pairs):
         i, k = pairs[:, 0], pairs[:, 1]
-        feet = common_normal(U[i], M[i], U[k], M[k]).feet  # (P, 2, 3)
-        idx = pairs.reshape(-1)
+        feet = common_normal(U[..., i, :], M[..., i, :], U[..., k, :], M[..., k, :]).feet  # (..., P, 2, 3)
         acc = np.zeros(U.shape)
-        np.add.at(acc, idx, feet.reshape(-1, 3))
-        count = np.bincount(idx, minlength=len(U)).astype(float)[:, None]
+        for p, ends in enumerate(pairs.tolist()):
+            for side, j in enumerate(ends):
+                acc[..., j, :] += feet[..., p, side, :]
+        count = np.bincount(pairs.reshape(-1), minlength=U.shape[-2]).astype(float)[:, None]
         sites = np.where(count > 0, acc / np.maximum(count, 1.0), sites)
     return sites
+
+
+def line_box_distance(point, direction, box: Box) -> np.ndarray:
+    """(...) the distance of the lines ``point + s direction`` (each (..., 3), direction nonzero) from the
+    axis-aligned box (``box.lo``, ``box.hi`` (3,)), exactly: the squared distance is convex and piecewise quadratic in s, with breaks
+    where a coordinate crosses a face; its minimum is at a break or at a piece's stationary point."""
+    p, d = np.asarray(point, float), np.asarray(direction, float)
+    lo, hi = box.lo, box.hi
+    with np.errstate(divide="ignore", invalid="ignore"):
+        brk = np.concatenate([(lo - p) / d, (hi - p) / d], axis=-1)  # (..., 6), inf/nan where d_k = 0
+    brk = np.sort(np.where(np.isfinite(brk), brk, 0.0), axis=-1)
+    mids = np.concatenate([brk[..., :1] - 1.0, (brk[..., 1:] + brk[..., :-1]) / 2, brk[..., -1:] + 1.0], axis=-1)
+    x = p[..., None, :] + mids[..., None] * d[..., None, :]  # (..., 7, 3): a point of each piece
+    face = np.where(x < lo, lo, np.where(x > hi, hi, np.nan))  # the active face per coordinate, nan: inside
+    out = ~np.isnan(face)
+    dd = np.where(out, d[..., None, :], 0.0)
+    s_star = -np.sum(dd * np.where(out, p[..., None, :] - face, 0.0), axis=-1) / np.maximum(np.sum(dd * dd, -1), 1e-300)
+    lo_s = np.concatenate([np.full(brk.shape[:-1] + (1,), -np.inf), brk], axis=-1)
+    hi_s = np.concatenate([brk, np.full(brk.shape[:-1] + (1,), np.inf)], axis=-1)
+    s = np.concatenate([brk, np.clip(s_star, lo_s, hi_s)], axis=-1)  # (..., 13) candidates
+    y = p[..., None, :] + s[..., None] * d[..., None, :]
+    gap = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
+    return np.sqrt(np.sum(gap * gap, axis=-1)).min(axis=-1)

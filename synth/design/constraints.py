@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.algebra.geometry import spread
+from synth.algebra.geometry import line_box_distance, spread
 from synth.design.collision import even_samples, t_of_phi
 from synth.design.model import capsules
 from synth.design.search import task_phi_range
@@ -35,12 +35,13 @@ from synth.errors import SynthesisError
 from synth.linkage import Linkage
 from synth.task import Box, Constraints
 
-__all__ = ["Violation", "line_box_distance", "default_max_extent", "kinematic_violations", "admissible",
+__all__ = ["Violation", "default_max_extent", "compact_first", "kinematic_violations", "admissible",
            "envelope_excess", "envelope_violation", "refusal"]
 
 EXTENT_FACTOR = 100.0  # default --max-extent: this many times the task's spread
 BOX_TOL = 1e-9  # an axis within this fraction of the linkage's extent of the box passes through it
 ENVELOPE_SAMPLES = 48  # samples per joint over the task range for the envelope
+COMPACT_FACTOR = 3.0  # with limits (constraints, --max-extent): candidates up to this many times the smallest first
 
 
 @dataclass(frozen=True)
@@ -70,29 +71,6 @@ class Violation:
 
 
 # ----------------------------------------------------------------------------------------- base box
-def line_box_distance(point, direction, box: Box) -> np.ndarray:
-    """(...) the distance of the lines ``point + s direction`` (each (..., 3), direction nonzero) from the
-    axis-aligned box, exactly: the squared distance is convex and piecewise quadratic in s, with breaks
-    where a coordinate crosses a face; its minimum is at a break or at a piece's stationary point."""
-    p, d = np.asarray(point, float), np.asarray(direction, float)
-    lo, hi = box.lo, box.hi
-    with np.errstate(divide="ignore", invalid="ignore"):
-        brk = np.concatenate([(lo - p) / d, (hi - p) / d], axis=-1)  # (..., 6), inf/nan where d_k = 0
-    brk = np.sort(np.where(np.isfinite(brk), brk, 0.0), axis=-1)
-    mids = np.concatenate([brk[..., :1] - 1.0, (brk[..., 1:] + brk[..., :-1]) / 2, brk[..., -1:] + 1.0], axis=-1)
-    x = p[..., None, :] + mids[..., None] * d[..., None, :]  # (..., 7, 3): a point of each piece
-    face = np.where(x < lo, lo, np.where(x > hi, hi, np.nan))  # the active face per coordinate, nan: inside
-    out = ~np.isnan(face)
-    dd = np.where(out, d[..., None, :], 0.0)
-    s_star = -np.sum(dd * np.where(out, p[..., None, :] - face, 0.0), axis=-1) / np.maximum(np.sum(dd * dd, -1), 1e-300)
-    lo_s = np.concatenate([np.full(brk.shape[:-1] + (1,), -np.inf), brk], axis=-1)
-    hi_s = np.concatenate([brk, np.full(brk.shape[:-1] + (1,), np.inf)], axis=-1)
-    s = np.concatenate([brk, np.clip(s_star, lo_s, hi_s)], axis=-1)  # (..., 13) candidates
-    y = p[..., None, :] + s[..., None] * d[..., None, :]
-    gap = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
-    return np.sqrt(np.sum(gap * gap, axis=-1)).min(axis=-1)
-
-
 def _base_violations(linkage: Linkage, box: Box, E: float) -> list[Violation]:
     roots = [j for j in linkage.joints if j.parent == "base"]
     dist = line_box_distance(np.array([j.point for j in roots]), np.array([j.direction for j in roots]), box)
@@ -162,6 +140,18 @@ def admissible(candidates, constraints: Constraints | None, *, driver: str | Non
         return passed
     _, v, bad = best
     raise refusal(v, bad, source=source, scale=scale, unit=unit, count=len(candidates))
+
+
+def compact_first(linkages, factor: float = COMPACT_FACTOR) -> list:
+    """The candidates (best first) with those at most ``factor`` times as large (`Linkage.extent`) as the most
+    compact one first, each group in its order: among the members of a family or the scored 6R pairs
+    meeting the task's limits, the compact ones are designed first."""
+    linkages = list(linkages)
+    if len(linkages) < 2:
+        return linkages
+    E = np.array([lk.extent() for lk in linkages])
+    near = E <= factor * E.min()
+    return [lk for lk, n in zip(linkages, near) if n] + [lk for lk, n in zip(linkages, near) if not n]
 
 
 def refusal(linkage: Linkage, violations: list[Violation], *, source: str = "", scale: float = 1.0,

@@ -21,7 +21,7 @@ class ExportJob:
     link frame, metres), their masses and the STL files' origins (computed once, on first use)."""
 
     linkage: object
-    result: DesignResult
+    result: DesignResult | None  # None: kinematic outputs only (linkage.json, a URDF without meshes)
     robot_name: str
     package: str | None = None
     _solids: dict | None = field(default=None, repr=False)

@@ -155,8 +155,10 @@ def write_json(doc: dict, path) -> Path:
 
 def write_linkage_json(job, directory: Path) -> list[Path]:
     """The ``json`` exporter (`synth.io.export`): ``linkage.json`` of ``job``'s linkage and design."""
-    drive = job.result.drive if job.result.drive is not None else drive_report(job.linkage)
-    doc = linkage_document(job.linkage, job.result.design, job.result.collision, drive)
-    doc["print"] = print_section(job.solids)  # issue 33: each part on the bed (synth.io.printreport)
+    r = job.result
+    drive = r.drive if r is not None and r.drive is not None else drive_report(job.linkage)
+    doc = linkage_document(job.linkage, r.design if r else None, r.collision if r else None, drive)
+    if r is not None:
+        doc["print"] = print_section(job.solids)  # issue 33: each part on the bed (synth.io.printreport)
     write_json(doc, directory / "linkage.json")
     return [Path("linkage.json")]

@@ -264,6 +264,8 @@ def stl_offset(mesh: Solid) -> np.ndarray:
 def write_stl(job, directory: Path) -> list[Path]:
     """The ``stl`` exporter (`synth.io.export`): ``meshes/<link>.stl`` of every solid of ``job``."""
     written = []
+    if job.result is None:  # kinematic outputs only (no design, no meshes)
+        return written
     if job.solids:
         (directory / "meshes").mkdir()
     for name, mesh in job.solids.items():

@@ -111,6 +111,8 @@ def _number(v: Any, what: str) -> float:
 
 
 def _vector(v: Any, n: int, what: str) -> np.ndarray:
+    if type(v) is list and len(v) == n and all(type(x) is float and -MAX_ABS_NUMBER <= x <= MAX_ABS_NUMBER for x in v):
+        return np.array(v, dtype=float)  # (the common case: what `_number` accepts unchanged, in one pass)
     if not isinstance(v, (list, tuple)):
         raise PoseProblem(f"{what} must be a list of {n} numbers, got {describe_value(v)}")
     if len(v) != n:

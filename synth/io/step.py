@@ -234,7 +234,7 @@ def write_step(job, directory: Path) -> list[Path]:
     """The ``step`` exporter (`synth.io.export`): ``linkage.step`` when the ``cad`` extra is installed and
     every B-rep solid has its STL's volume (`_checked_solids`); nothing otherwise (the STL files are the
     output's geometry: an optional format does not fail a run; `mpsynth export OUT --step` says why)."""
-    if not have_kernel():
+    if job.result is None or not have_kernel():  # kinematic outputs only: no design, no solids
         return []
     volumes = {n: signed_volume(m.triangles) / MESH_UNIT_SCALE ** 3 for n, m in job.solids.items()}
     try:

@@ -132,7 +132,7 @@ def _mesh_geometry(link, n, fn, offset):
 def _pin_frames(linkage, design, origins) -> dict:
     """{pin link: (carrier link, (3,) origin of the pin frame in the carrier's frame)}."""
     out = {}
-    for p in design.pins:
+    for p in design.pins if design is not None else ():
         if p.carrier not in origins:
             raise ValueError(f"pin {p.joint} is carried by unknown link {p.carrier!r}")
         mid = axis_point(linkage, p.joint, (p.start + p.end) / 2)
@@ -150,9 +150,10 @@ def urdf_text(linkage, robot_name: str, design, masses: dict, *, mesh_dir: str =
     non-empty joint list in ``linkage.links``. ``mesh_offsets``: {link: (3,) position (metres, link frame)
     of the STL file's origin}; the writer stores each STL about its own centre so that single-precision
     STL coordinates stay accurate far from the origin. ``collision``: the design's collision claim
-    (`CollisionReport` or dict), for the driver's limits."""
+    (`CollisionReport` or dict), for the driver's limits. ``design`` None: the kinematic URDF (no meshes,
+    no pins, every link the tiny inertial; README "Batch and shell pipelines", ``--no-design``)."""
     origins = link_origins(linkage)
-    geometric = [n for n in origins if linkage.links.get(n)]
+    geometric = [n for n in origins if linkage.links.get(n)] if design is not None else []
     pins = _pin_frames(linkage, design, origins)
     _check_names(linkage, origins, pins, geometric, masses)
     masses = _share_welded_masses(linkage, masses, origins, geometric)
@@ -235,7 +236,10 @@ def _joints(robot, linkage, origins, pins, limits) -> None:
 def write_urdf(job, directory: Path) -> list[Path]:
     """The ``urdf`` exporter (`synth.io.export`): ``linkage.urdf`` of ``job``'s linkage and design."""
     r = job.result
-    text = urdf_text(job.linkage, job.robot_name, r.design, job.masses, mesh_dir="meshes", package=job.package,
-                     mesh_offsets=job.mesh_offsets, collision=r.collision)
+    if r is None:  # kinematic outputs only
+        text = urdf_text(job.linkage, job.robot_name, None, {}, package=job.package)
+    else:
+        text = urdf_text(job.linkage, job.robot_name, r.design, job.masses, mesh_dir="meshes", package=job.package,
+                         mesh_offsets=job.mesh_offsets, collision=r.collision)
     (directory / "linkage.urdf").write_text(text, encoding="utf-8")
     return [Path("linkage.urdf")]

@@ -24,8 +24,9 @@ def write_linkage_files(linkage, directory, *, robot_name: str, result, package:
 def write_output(linkage, out_dir, *, robot_name: str, result, force: bool = False,
                  package: str | None = None) -> list[Path]:
     """Write OUT/linkage.urdf, OUT/linkage.json and OUT/meshes/*.stl of ``linkage`` with its finished
-    design ``result`` atomically; returns the final paths. Raises InputError for an unusable OUT (see
-    the module docstring)."""
+    design ``result`` atomically (``result`` None: the kinematic outputs only, linkage.json and a URDF
+    without meshes); returns the final paths. Raises InputError for an unusable OUT (see the module
+    docstring)."""
     check_robot_name(robot_name)
     check_package(package)
     out = check_path(out_dir)

@@ -10,7 +10,7 @@ for a shell user and a notebook user. Layer: below `synth.io` (which writes a Re
 `synth.design` and `synth.synthesis`.
 """
 from synth.solve.options import DesignOptions, SynthesisOptions
-from synth.solve.tasks import Result, Solution, solve_bennett, solve_curve, solve_fourbar, solve_points, solve_sixbar
+from synth.solve.tasks import Result, Solution, design_solution, solve_bennett, solve_curve, solve_fourbar, solve_points, solve_sixbar
 
 __all__ = ["DesignOptions", "SynthesisOptions", "Result", "Solution", "solve_bennett", "solve_sixbar", "solve_fourbar", "solve_points",
-           "solve_curve"]
+           "solve_curve", "design_solution"]

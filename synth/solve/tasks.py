@@ -10,11 +10,11 @@ writes a Result's linkages and designs.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 from synth.checks import VERIFY_SAMPLES
-from synth.design.constraints import admissible, first_in_envelope, met_sentence
+from synth.design.constraints import admissible, compact_first, first_in_envelope, met_sentence
 from synth.design.work import GAPS_PER_SECOND
 from synth.drive import drive_report
 from synth.errors import InputError, SynthesisError
@@ -122,6 +122,13 @@ def _ranked(linkages, designer: Designer, options: SynthesisOptions, ident, inde
                   unit=designer.unit)
 
 
+def design_solution(ps, linkage, options: SynthesisOptions = SynthesisOptions(physical=True)) -> Result:
+    """The physical design of one given solution of ``ps`` (a `Result.solutions` linkage the caller picked,
+    e.g. ``--top`` rank k in `mpsynth design`), gated and reported as an entry point's chosen one
+    (`_finish`: collision gate, envelope, drive report)."""
+    return _finish(linkage, None, _designer(ps, options), options, ps.constraints)
+
+
 def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: Callable | None = None,
                   progress=None) -> Result:
     """Three poses: the verified Bennett linkage (planar or spherical poses: the four-bar member given by
@@ -156,6 +163,8 @@ def solve_bennett(ps, options: SynthesisOptions = SynthesisOptions(), *, ready: 
     except SynthesisError as e:  # name the file, like every input error
         raise SynthesisError(f"{ps.source}: {e}") from e
     linkages = _admissible(linkages, designer, options, ps.constraints)
+    if ps.constraints is not None or options.max_extent is not None:  # limits: compact members first
+        linkages = compact_first(linkages)
     linkage, result = linkages[0], None
     if len(linkages) > 1 and options.wants_design:  # members of a planar or spherical family: collision-free first
         linkage, result = designer.choose(linkages, what="members", constraints=ps.constraints, **BENNETT_CHOICE)
@@ -170,8 +179,10 @@ def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress, syn
     if synthesize is None:
         from synth.synthesis.bennett_fit import bennett_task as synthesize
 
-    want = options.top or ((CONSTRAINED if ps.constraints else TASK_CHOICE["limit"]) if options.wants_design else 1)
+    want = options.top or (CONSTRAINED if ps.constraints else TASK_CHOICE["limit"] if options.wants_design else 1)
     linkages = synthesize(ps, top=want, best_effort=options.best_effort)
+    if not options.best_effort:  # (steered fits may leave the tolerances: `synth.synthesis.steer`)
+        linkages = [lk for lk in linkages if lk.info["fit"]["within_tolerance"]]
     if options.top is not None:
         return _ranked(linkages, designer, options, task_solution_id, lambda lks, ids: task_index(lks, ids, ps),
                        "fits", progress, ps.constraints)
@@ -212,6 +223,8 @@ def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress
         candidates = sixbar_candidates(ps.matrices, ps.names, top=2 * CONSTRAINED if ps.constraints else
                                        SIXBAR_CHOICE["limit"], build=True, check_samples=VERIFY_SAMPLES)
         candidates = _admissible(candidates, designer, options, ps.constraints)
+        if ps.constraints is not None or options.max_extent is not None:  # limits: compact members first
+            candidates = compact_first(candidates)
         linkage, result = candidates[0], None
         if options.wants_design:
             linkage, result = designer.choose(candidates, what="6R linkages", constraints=ps.constraints,
@@ -224,37 +237,35 @@ def solve_sixbar(ps, options: SynthesisOptions = SynthesisOptions(), *, progress
 
 def solve_fourbar(ps, options: SynthesisOptions = SynthesisOptions(), *, min_transmission_deg: float = 40.0,
                   ready=None, progress=None) -> Result:
-    """Three or more coplanar poses (a `synth.task.PoseSet`): the best planar four-bar
-    (`synth.synthesis.fourbar.fourbar_candidates`; with a physical design the best four designed,
-    collision-free first), or with ``options.top`` the N best ranked. Velocities and constraints are not
-    supported (InputError); ``ready()`` is called before the work."""
+    """Three or more coplanar poses (a `synth.task.PoseSet`; velocities count as poses, docs/fourbar.md): the
+    best planar four-bar (`synth.synthesis.fourbar.fourbar_candidates`; with a physical design the best
+    four designed, collision-free first), or with ``options.top`` the N best ranked. The task's constraints
+    filter the ranked candidates, the crank h1 driving (`_admissible`); ``ready()`` is called before the
+    work."""
     from synth.synthesis.fourbar import fourbar_candidates
 
     if not 0.0 <= min_transmission_deg <= 90.0:  # NaN included (it passes click's range check)
         raise InputError(f"--min-transmission must be between 0 and 90 degrees, got {min_transmission_deg}")
     if ps.has_points:
         raise InputError(f"{ps.source}: mpsynth fourbar needs poses (position and orientation), not points")
-    if ps.velocity is not None and (ps.velocity == ps.velocity).any():
-        raise InputError(f"{ps.source}: mpsynth fourbar does not take pose velocities (yet); remove 'velocity' or use "
-                         "mpsynth bennett")
-    if ps.constraints is not None:
-        raise InputError(f"{ps.source}: mpsynth fourbar does not take 'constraints' (yet); remove them")
     designer = _designer(ps, options)
     if ready is not None:
         ready()
-    want = options.top or (FOURBAR_CHOICE["limit"] if options.wants_design else 1)
+    want = options.top or (CONSTRAINED if ps.constraints else FOURBAR_CHOICE["limit"] if options.wants_design else 1)
     try:
         linkages = fourbar_candidates(ps.matrices, ps.names, top=want, min_transmission_deg=min_transmission_deg,
-                                      order=ps.order, tolerance=ps.tolerance, source=ps.source)
+                                      order=ps.order, tolerance=ps.tolerance, velocity=ps.velocity, source=ps.source)
     except SynthesisError as e:  # name the file, like every input error
         raise SynthesisError(e.args[0] if str(e).startswith(ps.source) else f"{ps.source}: {e}") from e
+    crank = replace(options, driver=options.driver or "h1")
     if options.top is not None:
-        return _ranked(linkages, designer, options, lambda r, lk: f"{r:02d}-fourbar",
-                       lambda lks, ids: fourbar_index(lks, ids, ps), "four-bars", progress)
+        return _ranked(linkages, designer, crank, lambda r, lk: f"{r:02d}-fourbar",
+                       lambda lks, ids: fourbar_index(lks, ids, ps), "four-bars", progress, ps.constraints)
+    linkages = _admissible(linkages, designer, crank, ps.constraints)
     linkage, result = linkages[0], None
     if options.wants_design and len(linkages) > 1:
-        linkage, result = designer.choose(linkages, what="four-bars", **FOURBAR_CHOICE)
-    return _finish(linkage, result, designer, options)
+        linkage, result = designer.choose(linkages, what="four-bars", constraints=ps.constraints, **FOURBAR_CHOICE)
+    return _finish(linkage, result, designer, options, ps.constraints)
 
 
 def point_count(degree: int):
@@ -279,7 +290,8 @@ def solve_points(ps, degree: int, options: SynthesisOptions = SynthesisOptions()
                            or ps.constraints else 1)
     try:
         linkages = point_candidates(ps.positions, ps.names, degree=degree, top=want, tool_rotation=rot,
-                                    oriented=oriented, check_samples=VERIFY_SAMPLES)
+                                    oriented=oriented, check_samples=VERIFY_SAMPLES,
+                                    base_box=ps.constraints.base if ps.constraints else None)
     except (SynthesisError, InputError) as e:
         raise type(e)(f"{ps.source}: {e}") from e
     if options.top is not None:

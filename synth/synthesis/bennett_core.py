@@ -87,7 +87,7 @@ class Solved:
     extra: dict | None = None
 
 
-def solve(T, check_samples: int, perturb=None) -> Solved:
+def solve(T, check_samples: int, perturb=None, *, as_single: bool = False) -> Solved:
     """The Bennett pipeline on poses T (N, 3, 4, 4), metres; returns the arrays over N (`Solved`). Rows of sets that are not good hold garbage.
     Large batches run in chunks of CHUNK sets, whose temporaries stay in the CPU caches, with BLAS on
     one thread from ONE_THREAD_MIN sets on (`synth.blas`, docs/architecture.md "Threads"). ``perturb``
@@ -96,8 +96,11 @@ def solve(T, check_samples: int, perturb=None) -> Solved:
     perturbations, `synth.synthesis.bennett.perturbed_poses`): every set with pose i moved to T_i M_ki is
     also factored, in the same batch (the first half of the pipeline only, `_factors`):
     ``out["extra"]`` = {``good`` (N K,) (the gates before the self-check), ``factors`` (N K, 4, 8)},
-    set by set."""
+    set by set. ``as_single``: every set's arrays are the bits a batch of one gives (the norm roots from
+    companion matrices at every batch size, `synth.algebra.algorithm1.norm_roots`; batch jobs print
+    what the per-job path prints), a little slower."""
     T = np.asarray(T, float)
+    roots = {"ferrari": False} if as_single else {}  # (`_solve`'s keyword)
     with np.errstate(all="ignore"):  # (for `_factors` and `_solve`: rows of bad sets hold garbage)
         if perturb is not None:
             fac = _factors(T, perturb)
@@ -107,9 +110,9 @@ def solve(T, check_samples: int, perturb=None) -> Solved:
             return out
         if T.shape[0] >= ONE_THREAD_MIN:
             with one_blas_thread():
-                parts = [_solve(T[i : i + CHUNK], check_samples) for i in range(0, T.shape[0], CHUNK)]
+                parts = [_solve(T[i : i + CHUNK], check_samples, **roots) for i in range(0, T.shape[0], CHUNK)]
             return parts[0] if len(parts) == 1 else _concatenate(parts)
-        return _solve(T, check_samples)
+        return _solve(T, check_samples, **roots)
 
 
 def _concatenate(parts: list):
@@ -134,12 +137,12 @@ def factor_sets(T) -> dict:
     return {"good": fac["good"], "factors": fac["factors"]}
 
 
-def _factors(T, perturb=None) -> dict:
+def _factors(T, perturb=None, ferrari: bool | None = None) -> dict:
     """The first half of the pipeline, arrays over the sets of T (N, 3, 4, 4): conic, norm roots,
     Algorithm 1 for both orders (polished where needed), the factors and C in the world frame, and
     ``good``: the gates that need no self-check. ``perturb`` (K, 3, 8, 8): as `solve`; the perturbed copies
     follow the N sets (set by set) in the arrays over sets, except ``Tf``, ``Q``, ``centre`` and ``scale``
-    (the N sets only);
+    (the N sets only); ``ferrari``: as `synth.algebra.algorithm1.norm_roots`;
     ``conditioned``: the factors in the conditioned frame. Call under ``np.errstate(all="ignore")``."""
     finite = np.isfinite(T).all(axis=(1, 2, 3))
     Tf = T if np.count_nonzero(finite) == finite.size else np.where(finite[:, None, None, None], T, _EYE4)
@@ -158,7 +161,7 @@ def _factors(T, perturb=None) -> dict:
     N = Qc.shape[0]
     con = conic(relative_displacements_dq(Qc))
     C, B = con.C, con.B  # (N, 3, 8), (N, 3)
-    z = norm_roots(norm_poly(C))  # (N, 2), Re z[0] <= Re z[1]
+    z = norm_roots(norm_poly(C), ferrari=ferrari)  # (N, 2), Re z[0] <= Re z[1]
     im, sep = root_conditioning(z)
     H, ok, R = algorithm1(C[:, None], quadratics(z)[:, _ORDERS], remainders=True)  # (N, 2 branches, 2, 8)
     residual = remainder_error(C[:, None], H, R).max(axis=1)  # the multiply-back error, up to rounding
@@ -186,8 +189,8 @@ def _copy_rows(N: int, K: int) -> np.ndarray:
     return out
 
 
-def _solve(T, check_samples: int, fac=None) -> dict:
-    fac = _factors(T) if fac is None else fac
+def _solve(T, check_samples: int, fac=None, ferrari: bool | None = None) -> dict:
+    fac = _factors(T, ferrari=ferrari) if fac is None else fac
     N = T.shape[0]
     factors, motion, Q, centre, scale = fac["factors"], fac["motion"], fac["Q"], fac["centre"], fac["scale"]
     # (N, 4, 2, 3), (N, 4, 2): the joints of the linkage, the ones `synth.checks.loop_bound` certifies

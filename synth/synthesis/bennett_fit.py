@@ -26,7 +26,8 @@ from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import ERRORS, Layout, MotionModel, levenberg_marquardt, reference_pose, task_arrays
+from synth.synthesis.fit import (ERRORS, Layout, LMResult, MotionModel, levenberg_marquardt, reference_pose,
+                                 sample_combinations, task_arrays)
 from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, nearest, regauge, to_gauge, zoom
 from synth.synthesis.pointfit import subset_motions
 from synth.synthesis.fit_order import ListedOrder, directions, project_listed
@@ -77,14 +78,9 @@ def _triples(task_kinds, exact_items, n: int) -> np.ndarray:
     """Triples of pose items (k, 3): all when there are at most MAX_TRIPLES, else those among the exact
     poses first, then a deterministic sample (seeded generator)."""
     poses = [i for i, k in enumerate(task_kinds) if k != "point"]
-    allt = list(itertools.combinations(poses, 3))
-    if len(allt) <= MAX_TRIPLES:
-        return np.array(allt, int).reshape(-1, 3)
     ex = [i for i in poses if i in exact_items]
-    first = list(itertools.combinations(ex, 3))[: MAX_TRIPLES // 2]
-    rng = np.random.default_rng(0)
-    pick = rng.choice(len(allt), size=MAX_TRIPLES - len(first), replace=False)
-    return np.array(first + [allt[i] for i in sorted(pick)], int).reshape(-1, 3)
+    first = itertools.islice(itertools.combinations(ex, 3), MAX_TRIPLES // 2)
+    return np.array(sample_combinations(poses, 3, MAX_TRIPLES, first), int).reshape(-1, 3)
 
 
 def _seeds(Q, task, kinds, velocity_twists):
@@ -170,9 +166,20 @@ def fit_motion(ps: PoseSet):
         more = fin.iterations
         if fin.violation[0] <= max(res.violation[b[0]], FEASIBLE) and fin.cost[0] <= res.cost[b[0]]:
             res.x[b], res.cost[b], res.violation[b] = fin.x, fin.cost, fin.violation
+    refined = start + len(keep)
+    if ps.constraints is not None and ps.constraints.base is not None:  # the ground axes into the box (steer.py)
+        from synth.synthesis.steer import into_base_box
+
+        with np.errstate(all="ignore"), one_blas_thread():
+            steered, seed = into_base_box(_model(layout, task, ref[keep], sign[keep] if listed else None), res, fixed,
+                                          ps.constraints.base, cond)
+        res = LMResult(np.concatenate([res.x, steered.x]), np.concatenate([res.cost, steered.cost]),
+                       np.concatenate([res.violation, steered.violation]), res.iterations + steered.iterations)
+        keep = np.concatenate([keep, keep[seed]])
+        order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
     coef, x_ref, phi = layout.split(res.x)
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
-    summary = FitSummary("fit", seeds=tried, refined=start + len(keep), iterations=res.iterations + more)
+    summary = FitSummary("fit", seeds=tried, refined=refined, iterations=res.iterations + more)
     return coef[order], refs[order], np.mod(phi[order], np.pi), res.cost[order], res.violation[order], cond, summary
 
 

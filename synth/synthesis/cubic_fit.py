@@ -10,14 +10,15 @@ t = cot phi), their gauge the quadruple's poses at t = inf and 0 and 1 (phi = 0,
 """
 from __future__ import annotations
 
-from itertools import combinations
+import math
+from itertools import combinations, islice
 
 import numpy as np
 
 from synth.errors import SynthesisError
 from synth.synthesis.conic import relative_displacements_dq
 from synth.synthesis.cubic import families, quadric
-from synth.synthesis.fit import ERRORS, TaskArrays, item_errors
+from synth.synthesis.fit import ERRORS, TaskArrays, item_errors, nth_combination
 from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, nearest, project, to_gauge, zoom
 from synth.synthesis.sixbar import grid_members
 
@@ -26,6 +27,7 @@ __all__ = ["quadruples", "seeds", "point_seeds", "QUADRUPLES", "MEMBERS", "KEEP"
 QUADRUPLES = 12  # quadruples (pose 0 and three others) sampled for seeds
 MEMBERS = 12  # pencil members per family scanned per quadruple
 KEEP = 2  # best-fitting members kept per quadruple (over both families)
+LISTED_QUADRUPLES = 100_000  # up to this many (about 85 poses) all are listed and scored; beyond, by rank
 POINT_SUBSETS = 24  # 7-subsets of a point task's positions sampled for seeds
 POINT_SAMPLES = 24  # samples of the four free parameters per subset
 POINT_PRESCORED = 24  # seeds of a point task refined (STAGE1), by their summed grid misses
@@ -34,6 +36,13 @@ POINT_PRESCORED = 24  # seeds of a point task refined (STAGE1), by their summed 
 def quadruples(exact, count: int = QUADRUPLES) -> list[tuple[int, int, int, int]]:
     """A deterministic sample of quadruples (0, i, j, k) of N poses (``exact`` (N,) bool): those with the
     most exact poses first (half the sample), then spread evenly over the lexicographic list of all."""
+    total = math.comb(len(exact) - 1, 3)
+    if total > LISTED_QUADRUPLES:  # never list them all (10,000 poses: 1.7e11): exact ones first, then by rank
+        ex = [i for i in range(1, len(exact)) if exact[i]]
+        first = list(islice(combinations(ex, 3), count // 2))
+        spread = [tuple(1 + a for a in nth_combination(len(exact) - 1, 3, int(r)))
+                  for r in np.linspace(0, total - 1, count).round()]
+        return [(0,) + q for q in list(dict.fromkeys(first + spread))[:count]]
     allq = list(combinations(range(1, len(exact)), 3))
     if len(allq) <= count:
         return [(0,) + q for q in allq]

@@ -16,6 +16,8 @@ function with the same row/column structure can use it.
 from __future__ import annotations
 
 import functools
+import itertools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,7 +25,7 @@ import numpy as np
 from synth.algebra.dq import structure_constants
 from synth.algebra.geometry import cross
 
-__all__ = ["TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",
+__all__ = ["sample_combinations", "nth_combination", "TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",
            "homogeneous", "basis", 
           
            "ERRORS", "ROWS"]
@@ -404,3 +406,31 @@ def _solve(K, rhs):
             except np.linalg.LinAlgError:
                 pass
         return out
+
+
+def nth_combination(n: int, k: int, index: int) -> tuple:
+    """The ``index``-th k-subset of range(n) in the lexicographic order of itertools.combinations."""
+    out, start = [], 0
+    for left in range(k, 0, -1):
+        for a in range(start, n):
+            count = math.comb(n - a - 1, left - 1)  # subsets that start with a
+            if index < count:
+                out.append(a)
+                start = a + 1
+                break
+            index -= count
+    return tuple(out)
+
+
+def sample_combinations(items, k: int, size: int, first=()) -> list:
+    """Up to ``size`` k-subsets of ``items`` (tuples, in the lexicographic order of
+    itertools.combinations): all when there are at most ``size``; else ``first`` (some of them, kept
+    in front) and a seeded sample (generator seed 0) of the rest, picked by rank, never listing all
+    (a task of 10,000 poses has 1.7e11 triples). The same subsets as sampling from the full list."""
+    items = list(items)
+    total = math.comb(len(items), k)
+    if total <= size:
+        return list(itertools.combinations(items, k))
+    first = list(first)
+    pick = np.random.default_rng(0).choice(total, size=size - len(first), replace=False)
+    return first + [tuple(items[i] for i in nth_combination(len(items), k, int(r))) for r in sorted(pick)]

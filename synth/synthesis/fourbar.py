@@ -15,7 +15,7 @@ from synth.checks import VERIFY_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.fourbar_build import fourbar_linkage
 from synth.synthesis.fourbar_dyads import FIT_GRID, FIT_ITERATIONS, FIT_SEEDS, task_dyads
-from synth.synthesis.fourbar_plane import plane_of_motion
+from synth.synthesis.fourbar_plane import plane_of_motion, with_velocities
 from synth.synthesis.fourbar_rank import best_distinct, judge, pairs, rejection_counts
 from synth.synthesis.taskfit import FitSummary, annotate, make_task
 from synth.task import Order
@@ -26,21 +26,30 @@ MAX_EXACT = 5  # a four-bar passes through at most five general poses
 
 
 def fourbar_candidates(T, names, *, top: int = 1, min_transmission_deg: float = MIN_TRANSMISSION_DEG,
-                       order: Order = Order.ANY, tolerance=None, source: str = "<poses>",
+                       order: Order = Order.ANY, tolerance=None, velocity=None, source: str = "<poses>",
                        check_samples: int = VERIFY_SAMPLES) -> list:
     """Up to ``top`` planar four-bars (`synth.linkage.Linkage`, kind ``planar_fourbar``), best first, whose
     coupler carries the tool through the poses T (k, 4, 4) (metres, k >= 3, coplanar: InputError naming the
     pose otherwise). k <= 5: exactly; more: least squares, within ``tolerance`` (k, 2) (metres, radians;
     0 = exact, inf = free; None = exact). ``order`` LISTED: the crank meets the poses in the listed order.
     With a tolerance, or more than five poses, every pose record carries its miss and tolerance and
-    ``info.fit`` the fit's figures (`synth.synthesis.taskfit.annotate`).
-    SynthesisError (with the count of candidates failing each criterion) when no four-bar qualifies."""
+    ``info.fit`` the fit's figures (`synth.synthesis.taskfit.annotate`). ``velocity`` (k, 6) [w rad/s, v m/s]
+    (NaN rows: none): the coupler's velocity direction at those poses, each a further exact condition
+    (Hermite; at most five conditions in all). SynthesisError (with the count of candidates failing each
+    criterion) when no four-bar qualifies."""
     T = np.asarray(T, float)
     k = len(T)
-    if k < 3:
-        raise InputError(f"{source}: mpsynth fourbar needs at least 3 poses, got {k}")
+    given = 0 if velocity is None else int(np.any(~np.isnan(np.asarray(velocity, float)), axis=1).sum())
+    if k + given < 3 or k < 2:
+        raise InputError(f"{source}: mpsynth fourbar needs at least 3 poses (or 2 with a velocity), got {k}")
     task = plane_of_motion(T, names, source)
-    exact = k <= MAX_EXACT
+    if given:
+        if k + given > MAX_EXACT:
+            raise InputError(f"{source}: a four-bar meets at most {MAX_EXACT} conditions exactly (poses, and each "
+                             f"velocity counts as one), got {k} poses and {given} velocities; drop velocities to fit "
+                             "more poses")
+        task = with_velocities(task, velocity, names, source)
+    exact = k + given <= MAX_EXACT
     tol = None
     if not exact:
         tol = np.full((k, 2), 0.0) if tolerance is None else np.asarray(tolerance, float).reshape(k, 2)

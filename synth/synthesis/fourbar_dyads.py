@@ -8,6 +8,12 @@ about G. Relative to pose 0 each further pose gives one equation, bilinear in G 
     m_i = 2 (R_i^T q_i - q_0) - 2 (R_i - I)^T G,   c_i = |q_i|^2 - |q_0|^2 - 2 G . (q_i - q_0),
     n_i = -2 (q_i - q_0) - 2 (R_i - I) w,          e_i = |q_i|^2 - |q_0|^2 + 2 (R_i^T q_i - q_0) . w.
 
+A velocity at pose i (`synth.synthesis.fourbar_plane.with_velocities`: the field X' = a + r J X) is a
+Hermite condition, pose i and one infinitesimally near it: the moving pivot's velocity is across the crank,
+(Z_i - G) . (a + r J Z_i) = 0, again bilinear: ``m = R_i^T (a + r J G)``, ``c = q_i . (a + r J G) - G . a``;
+``n = -(a + r J Z_i)``, ``e = Z_i . a``; its rows follow the poses' and vanish at the instant centre
+P = -J a / r (its "pole"). The count of conditions (poses plus velocities) picks the method below.
+
 * 3 poses: two equations, linear in G for a chosen w: the circumcentre of Z_0, Z_1, Z_2 (oo^2 dyads; the
   circle points are taken on a grid).
 * 4 poses: three equations, linear in (w, 1) with the 3 x 3 matrix [m_i(G), c_i(G)]: its determinant, a
@@ -85,7 +91,19 @@ def rows_in_w(task: PlanarTask, G) -> np.ndarray:
     G = np.asarray(G, float)[..., None, :]
     m = 2 * (np.einsum("kba,kb->ka", R, q)[1:] - q[0]) - 2 * np.einsum("kba,...kb->...ka", R[1:] - np.eye(2), G)
     c = np.sum(q[1:] ** 2, -1) - np.sum(q[0] ** 2) - 2 * np.sum(G * (q[1:] - q[0]), -1)
-    return np.concatenate([m, c[..., None]], -1)
+    out = np.concatenate([m, c[..., None]], -1)
+    if not len(task.velocity_items):
+        return out
+    a, rate, i = task.velocity[:, :2], task.velocity[:, 2], task.velocity_items  # Hermite rows (module docstring)
+    s = a + rate[:, None] * quarter_turn(G)  # (..., m, 2)
+    mv = np.einsum("kba,...kb->...ka", R[i], s)
+    cv = np.sum(q[i] * s, -1) - np.sum(G * a, -1)
+    return np.concatenate([out, np.concatenate([mv, cv[..., None]], -1)], -2)
+
+
+def quarter_turn(x) -> np.ndarray:
+    """J x (..., 2): x turned by +90 degrees."""
+    return np.stack([-x[..., 1], x[..., 0]], -1)
 
 
 def rows_in_g(task: PlanarTask, w) -> np.ndarray:
@@ -94,7 +112,13 @@ def rows_in_g(task: PlanarTask, w) -> np.ndarray:
     w = np.asarray(w, float)[..., None, :]
     n = -2 * (q[1:] - q[0]) - 2 * np.einsum("kab,...kb->...ka", R[1:] - np.eye(2), w)
     e = np.sum(q[1:] ** 2, -1) - np.sum(q[0] ** 2) + 2 * np.sum((np.einsum("kba,kb->ka", R, q)[1:] - q[0]) * w, -1)
-    return np.concatenate([n, e[..., None]], -1)
+    out = np.concatenate([n, e[..., None]], -1)
+    if not len(task.velocity_items):
+        return out
+    a, rate, i = task.velocity[:, :2], task.velocity[:, 2], task.velocity_items
+    Z = q[i] + np.einsum("kab,...kb->...ka", R[i], w)  # (..., m, 2)
+    nv = -(a + rate[:, None] * quarter_turn(Z))
+    return np.concatenate([out, np.concatenate([nv, np.sum(Z * a, -1)[..., None]], -1)], -2)
 
 
 def circle_point_grid(task, grid) -> np.ndarray:
@@ -106,7 +130,9 @@ def circle_point_grid(task, grid) -> np.ndarray:
 def three_pose_dyads(task: PlanarTask, grid=CIRCLE_GRID) -> Dyads:
     """Dyads of three poses: circle points on ``grid`` x ``grid`` and on rings about the three poles (where the
     circles are small: the short cranks of crank-rockers), centres the circumcentres."""
-    poles = [pole(task, j, i) for i, j in ((0, 1), (0, 2), (1, 2))]
+    k = len(task.theta)
+    poles = [pole(task, j, i) for i, j in ((0, 1), (0, 2), (1, 2)) if j < k] + [
+        task.rotations[i].T @ (pole(task, k + n) - task.qc[i]) for n, i in enumerate(task.velocity_items)]
     w = np.concatenate([circle_point_grid(task, grid)] + [p + pole_rings() for p in poles if np.all(np.isfinite(p))])
     rows = rows_in_g(task, w)  # (N, 2, 3)
     with np.errstate(all="ignore"):
@@ -129,6 +155,10 @@ def pole(task: PlanarTask, j: int, i: int = 0) -> np.ndarray:
     """The circle point w (2,) at the pole P_ij: Z_i = Z_j, (R_i - R_j) w = q_j - q_i (conditioned; for i = 0
     also the pole's position, Z_0 = w); NaN when poses i and j differ by a translation."""
     R = task.rotations
+    k = len(task.theta)
+    if j >= k:  # the Hermite row j - k: its instant centre P (a + rate J P = 0), as a centre; NaN for a translation
+        a, rate = task.velocity[j - k, :2], task.velocity[j - k, 2]
+        return -quarter_turn(a) / rate if abs(rate) > 1e-12 else np.full(2, np.nan)
     A = R[i] - R[j]
     if abs(np.linalg.det(A)) < 1e-24:
         return np.full(2, np.nan)
@@ -138,7 +168,7 @@ def pole(task: PlanarTask, j: int, i: int = 0) -> np.ndarray:
 def centre_point_curve(task: PlanarTask, directions: int = CURVE_DIRECTIONS) -> Dyads:
     """Dyads of four poses along the centre-point curve, sampled by ``directions`` lines through the pole
     P_0j of the largest rotation (module docstring)."""
-    j = 1 + int(np.argmax(np.abs(np.sin(task.theta[1:4] / 2))))
+    j = 1 + int(np.argmax(np.abs(np.sin(task.theta[1:4] / 2))))  # (a pose: Hermite rows follow the poses')
     P = pole(task, j)
     tau = np.pi * np.arange(directions) / directions
     d = np.stack([np.cos(tau), np.sin(tau)], -1)
@@ -305,9 +335,10 @@ def _levenberg_marquardt(task, G, w, wts, iterations: int = FIT_ITERATIONS):
 
 
 def task_dyads(task: PlanarTask, weights=None) -> Dyads:
-    """The dyads of a planar task by its pose count: 3 (grid), 4 (centre-point curve), 5 (Burmester
-    points), more (least squares, ``weights`` per pose)."""
-    k = len(task.theta)
+    """The dyads of a planar task by its count of conditions (poses, and velocities: each a pose
+    infinitesimally near its own): 3 (grid), 4 (centre-point curve), 5 (Burmester points), more (least
+    squares, ``weights`` per pose; velocities refused by the caller)."""
+    k = len(task.theta) + len(task.velocity_items)  # a pose with a velocity counts twice (Hermite)
     if k == 3:
         return three_pose_dyads(task)
     if k == 4:

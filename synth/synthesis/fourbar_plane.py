@@ -10,7 +10,7 @@ coordinates ``(x - centre) / scale`` (centre and RMS spread of the q_i) and map 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -35,6 +35,8 @@ class PlanarTask:
     theta: np.ndarray
     centre: np.ndarray
     scale: float
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (m, 3): [a, rate] (`with_velocities`)
+    velocity_items: np.ndarray = field(default_factory=lambda: np.zeros(0, int))  # (m,) the pose of each
 
     @property
     def qc(self) -> np.ndarray:
@@ -114,3 +116,30 @@ def plane_normal(R, source: str) -> np.ndarray:
     _, _, V = np.linalg.svd(A[fixed[best, 1:]].reshape(-1, 3))
     n = V[-1] / np.linalg.norm(V[-1])
     return n if n[np.argmax(np.abs(n))] > 0 else -n
+
+
+def with_velocities(task: PlanarTask, velocity, names, source: str = "<poses>") -> PlanarTask:
+    """The task with the prescribed tool twists ``velocity`` (k, 6) [w rad/s, v m/s of the tool origin] (NaN
+    rows: none) as Hermite conditions: each in the plane as the velocity field X' = a + rate J X (conditioned
+    coordinates, J the quarter turn), ``velocity`` rows [a, rate]. InputError naming a pose whose twist has
+    only one part or leaves the plane."""
+    rows, items = [], []
+    for i, v in enumerate(np.asarray(velocity, float)):
+        if np.isnan(v).all():
+            continue
+        if np.isnan(v).any():
+            raise InputError(f"{source}: pose {i} ({names[i]}): a four-bar's velocity needs both 'angular' and "
+                             "'linear'")
+        w, lin = v[:3], v[3:]
+        size = max(np.linalg.norm(w) * task.scale, np.linalg.norm(lin), 1e-300)
+        if (np.linalg.norm(w - (w @ task.normal) * task.normal) * task.scale > COPLANAR_TOL * 1e3 * size
+                or abs(lin @ task.normal) > COPLANAR_TOL * 1e3 * size):
+            raise InputError(f"{source}: pose {i} ({names[i]}): its velocity leaves the plane of motion (the angular "
+                             f"velocity must be along the normal ({', '.join(f'{x:.4f}' for x in task.normal)}) and "
+                             "the linear one in the plane)")
+        rate = float(w @ task.normal)
+        vo = np.array([lin @ task.e1, lin @ task.e2]) / task.scale
+        o = task.qc[i]
+        rows.append([vo[0] + rate * o[1], vo[1] - rate * o[0], rate])  # a = v_o - rate J o
+        items.append(i)
+    return replace(task, velocity=np.array(rows, float).reshape(-1, 3), velocity_items=np.array(items, int))

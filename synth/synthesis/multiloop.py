@@ -133,10 +133,11 @@ def ladder_linkage(hs, m0, *, kind: str = "motion", motion=None, coupler: str = 
 
 
 # ------------------------------------------------------------------ analysis
-def joint_twists(linkage: Linkage, angles) -> dict:
+def joint_twists(linkage: Linkage, angles, disp: dict | None = None) -> dict:
     """World twists (omega, v) (..., 6) of every joint at the given angles (scalars or arrays of one
-    shape; v = velocity of the point at the origin)."""
-    disp = linkage.displacements(angles)
+    shape; v = velocity of the point at the origin); ``disp``: ``linkage.displacements(angles)`` when the
+    caller has them already."""
+    disp = linkage.displacements(angles) if disp is None else disp
     out = {}
     for j in linkage.joints:
         T = disp[j.parent]
@@ -157,9 +158,10 @@ def _path(linkage: Linkage, link: str) -> list[str]:
     return out[::-1]
 
 
-def constraint_jacobian(linkage: Linkage, angles) -> np.ndarray:
-    """(..., 6 * closures, joints): for every weld (Y, Y'), twist(path to Y) - twist(path to Y')."""
-    tw = joint_twists(linkage, angles)
+def constraint_jacobian(linkage: Linkage, angles, disp: dict | None = None) -> np.ndarray:
+    """(..., 6 * closures, joints): for every weld (Y, Y'), twist(path to Y) - twist(path to Y');
+    ``disp``: as `joint_twists`."""
+    tw = joint_twists(linkage, angles, disp)
     names = [j.name for j in linkage.joints]
     col = {n: i for i, n in enumerate(names)}
     batch = np.broadcast_shapes(*[np.shape(v)[:-1] for v in tw.values()])

@@ -131,10 +131,12 @@ def tracks_motion(linkage, driver: str = "h1", steps: int = 180, tol: float = 1e
         guess[d] = th
         x = guess
         for _ in range(8):
-            e = _closure_error(linkage, names, x)
+            angles = dict(zip(names, x))
+            disp = linkage.displacements(angles)  # one evaluation for the error and the Jacobian
+            e = _closure_error(linkage, disp)
             if np.max(np.abs(e)) < 1e-13:
                 break
-            J = constraint_jacobian(linkage, dict(zip(names, x)))
+            J = constraint_jacobian(linkage, angles, disp)
             x = x.copy()
             x[others] -= np.linalg.lstsq(J[:, others], e, rcond=None)[0]
         diff = np.angle(np.exp(1j * (x - laws[k])))
@@ -144,9 +146,9 @@ def tracks_motion(linkage, driver: str = "h1", steps: int = 180, tol: float = 1e
     return True
 
 
-def _closure_error(linkage, names, x) -> np.ndarray:
-    """Stacked twists (omega, v) of disp(Y) disp(Y')^-1 over the welds (Y, Y'), small-displacement form."""
-    disp = linkage.displacements(dict(zip(names, x)))
+def _closure_error(linkage, disp) -> np.ndarray:
+    """Stacked twists (omega, v) of disp(Y) disp(Y')^-1 over the welds (Y, Y'), small-displacement form;
+    ``disp``: the links' displacements (`Linkage.displacements`)."""
     out = []
     for y, y2 in linkage.closures:
         E = disp[y] @ np.linalg.inv(disp[y2])

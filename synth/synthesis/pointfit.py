@@ -22,7 +22,6 @@ with the one batched Algorithm 1 and scores each loop with the 6R engineering sc
 """
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +31,7 @@ from synth.algebra.dq import dq_inv, dq_mul, qmul, translation_dq
 from synth.algebra.polynomial import norm_poly
 from synth.synthesis.conic import Conditioning, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, chordal_separation
+from synth.synthesis.fit import sample_combinations
 from synth.synthesis.sixbar_loops import edge_normals, factor_members, geometry_parts, member_geometry, score_loops
 
 __all__ = ["point_motion", "subset_motions", "rereference", "parameter_samples", "scan", "PointScan",
@@ -90,11 +90,7 @@ def subset_motions(X, degree: int, max_subsets: int, samples: int):
     (`parameter_samples`, `point_motion`), conjugated to the frame. Returns (coef (S, n, 8) of the monic
     motions, reference poses (S, 8): the translations to the subsets' first positions)."""
     n = int(degree)
-    subsets = list(itertools.combinations(range(len(X)), 2 * n + 1))
-    if len(subsets) > max_subsets:
-        pick = np.random.default_rng(0).choice(len(subsets), size=max_subsets, replace=False)
-        subsets = [subsets[i] for i in sorted(pick)]
-    sub = np.array(subsets, int)  # (k, 2n + 1)
+    sub = np.array(sample_combinations(range(len(X)), 2 * n + 1, max_subsets), int)  # (k, 2n + 1)
     t = parameter_samples(samples, 2 * n - 2)  # (m, 2n)
     k, m = len(sub), len(t)
     rel = X[sub[:, 1:]] - X[sub[:, :1]]  # (k, 2n, 3)

@@ -124,10 +124,17 @@ def oriented_item(matrices, kinds, names) -> tuple[int, np.ndarray | None]:
     return (posed[0], np.asarray(matrices, float)[posed[0], :3, :3]) if posed else (0, None)
 
 
-def _ranked_entries(sc: PointScan, task: PointTask):
-    """Yield (member, loop) of the valid loops, best score first, one per design (`DISTINCT`), lazily."""
+def _ranked_entries(sc: PointScan, task: PointTask, base_box=None):
+    """Yield (member, loop) of the valid loops, best score first (with ``base_box``, those whose ground
+    axes pass through it first: `synth.synthesis.steer.ground_box_distance`), one per design
+    (`DISTINCT`), lazily."""
     s, p = np.nonzero(sc.valid)
     order = np.argsort(-sc.score[s, p], kind="stable")
+    if base_box is not None:
+        from synth.synthesis.steer import conditioned_box, ground_box_distance
+
+        miss = ground_box_distance(sc.H, sc.pairs, conditioned_box(base_box, task.cond))[s, p] > 1e-9
+        order = order[np.argsort(miss[order], kind="stable")]
     key = np.concatenate([sc.t, sc.Y[:, len(task.points):].reshape(len(sc.t), -1)], -1)
     kept_keys, kept_loops = np.empty((0, key.shape[1])), np.empty(0, int)
     for si, pi in zip(s[order].tolist(), p[order].tolist()):
@@ -206,13 +213,20 @@ def freedom_text(task: PointTask, samples: int) -> str:
 
 def point_candidates(points, names=None, *, degree: int, top: int | None = None, samples: int | None = None,
                      seed: int = 0, tool_rotation=None, oriented: int = 0,
-                     check_samples: int = DEFAULT_CHECK_SAMPLES):
+                     check_samples: int = DEFAULT_CHECK_SAMPLES, base_box=None):
     """The best distinct verified linkages through the points (k, 3) (metres), best score first, at
     most ``top`` (default all that pass; the first MAX_ATTEMPTS failures stop the search). With
-    ``tool_rotation`` item ``oriented`` is a full pose (`PointTask`). SynthesisError when none passes."""
+    ``tool_rotation`` item ``oriented`` is a full pose (`PointTask`). ``base_box`` (`synth.task.Box`): a
+    scan `synth.synthesis.steer.BOX_SCAN` times as large, the designs whose ground axes pass through the
+    box first. SynthesisError when none passes."""
     task = prepare_points(points, names, degree=degree, tool_rotation=tool_rotation, oriented=oriented)
+    if base_box is not None:
+        from synth.synthesis.pointfit import SAMPLES
+        from synth.synthesis.steer import BOX_SCAN
+
+        samples = samples or BOX_SCAN * SAMPLES[degree]
     sc = scan(task.Y[task.order], degree, samples=samples, seed=seed)
-    entries = _ranked_entries(sc, task)
+    entries = _ranked_entries(sc, task, base_box)
     if not sc.valid.any():
         raise SynthesisError(f"no member of the {len(sc.t)} scanned motions through the points gives a real "
                              f"{KINDS[degree]} linkage (every one has a nearly real or repeated norm factor or a "

@@ -29,7 +29,7 @@ from synth.synthesis.conic import condition, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, chordal_separation
 from synth.synthesis.cubic_fit import point_seeds, seeds
 from synth.synthesis.fit_order import ListedOrder, directions
-from synth.synthesis.fit import ERRORS, Layout, MotionModel, levenberg_marquardt, reference_pose, task_arrays
+from synth.synthesis.fit import ERRORS, Layout, LMResult, MotionModel, levenberg_marquardt, reference_pose, task_arrays
 from synth.synthesis.sixbar import LOOP, loop_dh
 from synth.synthesis.sixbar_loops import factor_members, member_geometry, score_loops, score_warnings
 from synth.synthesis.taskfit import FitSummary, check_fitted, item_kinds, item_tolerances, visiting_order, visits_in_order
@@ -70,16 +70,22 @@ def _cot(phi) -> np.ndarray:
     return ts
 
 
-def _refine(task, ref, x0, gauge, iterations, sign=None):
-    """Levenberg-Marquardt on seeds x0; with the seeds' directions ``sign`` (``order: listed``) the hinge rows
-    of the order too (`synth.synthesis.fit_order.ListedOrder`)."""
-    layout = Layout(DEGREE, task.Q.shape[0], gauge)
+def _model(task, ref, layout, sign=None):
+    """(the fit's model, the columns held): with ``sign`` the listed order's hinge rows too."""
     fixed = layout.fixed
     if not (task.weight[:, 3:ERRORS].any() or task.exact[:, 3:].any()):  # positions only: hold the tool's
         fixed[:, 8 * DEGREE:8 * DEGREE + 3] = True  # orientation at the reference (points do not see it)
     model = MotionModel(layout, task, ref)
     if sign is not None:
         model = ListedOrder(model, sign, layout.items)
+    return model, fixed
+
+
+def _refine(task, ref, x0, gauge, iterations, sign=None):
+    """Levenberg-Marquardt on seeds x0; with the seeds' directions ``sign`` (``order: listed``) the hinge rows
+    of the order too (`synth.synthesis.fit_order.ListedOrder`)."""
+    layout = Layout(DEGREE, task.Q.shape[0], gauge)
+    model, fixed = _model(task, ref, layout, sign)
     with np.errstate(all="ignore"):
         return layout, levenberg_marquardt(model, x0, fixed, iterations)
 
@@ -108,10 +114,21 @@ def fit_cubics(ps: PoseSet) -> CubicFits:
             keep = keep[np.argsort(~listed[keep], kind="stable")]
         keep = keep[:KEEP_FITS]
         layout, res = _refine(task, ref[keep], first.x[keep], gauge[keep], STAGE2, None if sign is None else sign[keep])
+        if ps.constraints is not None and ps.constraints.base is not None:  # a loop's ground axes into the box
+            from synth.synthesis.steer import into_base_box
+
+            model, fixed = _model(task, ref[keep], layout, None if sign is None else sign[keep])
+            with np.errstate(all="ignore"):
+                steered, seed = into_base_box(model, res, fixed, ps.constraints.base, cond, PERMS, PAIRS)
+            res = LMResult(np.concatenate([res.x, steered.x]), np.concatenate([res.cost, steered.cost]),
+                           np.concatenate([res.violation, steered.violation]), res.iterations + steered.iterations)
+            keep = np.concatenate([keep, keep[seed]])
+            layout = Layout(DEGREE, len(T), gauge[keep])
     c, x_ref, ph = layout.split(res.x)
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
     order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
-    summary = FitSummary("fit", seeds=len(coef), refined=len(keep), iterations=first.iterations + res.iterations)
+    summary = FitSummary("fit", seeds=len(coef), refined=len(set(keep.tolist())),
+                         iterations=first.iterations + res.iterations)
     return CubicFits(c[order], refs[order], np.mod(ph[order], np.pi), res.cost[order], res.violation[order], cond,
                      summary)
 
@@ -158,13 +175,18 @@ def fit_candidates(ps: PoseSet, top: int = 1) -> list:
         raise SynthesisError(f"{ps.source}: the exact poses and velocities cannot all be met by a cubic 6R motion "
                              f"(best constraint violation {np.nanmin(fits.violation):.1e}, conditioned units)")
     mf, parts, valid, score = _scored(fits, idx)
-    rank = sorted((fits.cost[k], -score[j, p], j, p) for j, k in enumerate(idx)
-                  for p in _best_loops(score[j], valid[j]))
+    miss = np.zeros(valid.shape, bool)
+    if ps.constraints is not None and ps.constraints.base is not None:  # loops with ground axes in the box first
+        from synth.synthesis.steer import conditioned_box, ground_box_distance
+
+        miss = ground_box_distance(mf.H, PAIRS, conditioned_box(ps.constraints.base, fits.cond)) > 1e-9
+    rank = sorted((bool(miss[j, p]), fits.cost[k], -score[j, p], j, p) for j, k in enumerate(idx)
+                  for p in _best_loops(score[j], valid[j], miss[j]))
     if not rank:
         raise SynthesisError(f"{ps.source}: every fitted cubic motion has a nearly real or repeated norm factor or a "
                              "translation factor: no 6R linkage of it")
     out, why = [], None
-    for _, _, j, p in rank[:MAX_BUILT]:
+    for *_, j, p in rank[:MAX_BUILT]:
         try:
             lk = _linkage(fits, idx[j], mf, j, int(p), parts, score, ps)
             check_fitted(lk)
@@ -179,11 +201,12 @@ def fit_candidates(ps: PoseSet, top: int = 1) -> list:
     return out
 
 
-def _best_loops(score, valid) -> np.ndarray:
+def _best_loops(score, valid, miss) -> np.ndarray:
     """The LOOPS_PER_FIT valid loop pairs of best score of one fit (their closure and transmission fail
-    mostly together, so a fit that fails them gives way to the next)."""
+    mostly together, so a fit that fails them gives way to the next); those not ``miss``-ing the task's
+    base box first."""
     ok = np.nonzero(valid)[0]
-    return ok[np.argsort(-score[ok], kind="stable")[:LOOPS_PER_FIT]]
+    return ok[np.lexsort((-score[ok], miss[ok]))[:LOOPS_PER_FIT]]
 
 
 def _linkage(fits: CubicFits, k, mf, j, p, parts, score, ps: PoseSet):

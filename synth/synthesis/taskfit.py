@@ -49,8 +49,10 @@ def visiting_order(ts) -> tuple:
 
 def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
     """Measure every item's miss on the linkage (tool frame at the recorded joint angles), store it in
-    the pose records (``error``, ``tolerance``, ``exact``, ``kind``) and ``info["fit"]``; the self-check
-    (closure, transmission) as ``linkage.checks``. Returns whether every tolerance is met."""
+    the pose records (``error``, ``tolerance``, ``exact``, ``kind``) and ``info["fit"]``. A point's record
+    becomes the tool pose reached at its position, and ``linkage.checks`` is then re-measured against
+    those records (its pose figures would otherwise compare with an orientation the task left free).
+    Returns whether every tolerance is met."""
     kinds = item_kinds(ps)
     tol = np.zeros((len(ps), 2)) if ps.tolerance is None else np.asarray(ps.tolerance, float)
     angles = {j.name: np.array([r.joint_angles[j.name] for r in linkage.poses]) for j in linkage.joints}
@@ -72,6 +74,8 @@ def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
         lim_t = tol[i, 0] if tol[i, 0] > 0 else 1e-9 * size
         lim_r = tol[i, 1] if tol[i, 1] > 0 else 1e-9
         ok.append(bool(dt[i] <= lim_t * (1 + 1e-9) and dr[i] <= lim_r * (1 + 1e-9)))
+    if point.any() and linkage.checks:  # the point records now hold the tool poses reached: check those
+        linkage.checks = self_check(linkage, int(linkage.checks.get("samples", VERIFY_SAMPLES)))
     rated = ~np.isinf(tol[:, 0])
     names = [ps.names[i] for i in summary.visit] if summary.visit else None
     linkage.info["fit"] = {

@@ -33,7 +33,7 @@ import uuid
 from typing import Iterator
 
 from synth.errors import InputError, MpsynthError
-from synth.tools.batchjobs import chunks, numbered, run_chunk, worker_count
+from synth.tools.batchjobs import chunks, default_chunksize, numbered, run_chunk, worker_count
 
 CONNECT_TIMEOUT = 30.0  # seconds to reach the scheduler
 WORKER_TIMEOUT = 60.0  # seconds to wait for a first worker
@@ -136,17 +136,8 @@ def worker_threads(client) -> int:
         return 1
 
 
-def default_chunksize(threads: int, total: int | None) -> int:
-    """Jobs per task: about 8 tasks per worker thread for a known job count, between 1 and 256 (a
-    chunk's round trip costs milliseconds to tens of milliseconds, a Bennett job ~4 ms of CPU:
-    bench/RESULTS.md)."""
-    if total is None:
-        return 64
-    return max(1, min(256, total // (8 * threads)))
-
-
 def run_jobs_on(client, lines, chunksize: int | None = None, full: bool = False, total: int | None = None,
-                out_dir=None, window: int | None = None) -> Iterator[dict]:
+                out_dir=None, window: int | None = None, design: bool = True) -> Iterator[dict]:
     """Results of the jobs in ``lines`` ((line number, text) pairs or text lines) computed on the Dask
     cluster of ``client``, in input order, streamed; the same dictionaries as
     `synth.tools.batchjobs.run_jobs`. ``window``: tasks in flight (default 3 per worker thread, at
@@ -160,15 +151,15 @@ def run_jobs_on(client, lines, chunksize: int | None = None, full: bool = False,
     pending: collections.deque = collections.deque()  # (future, chunk) in input order
     try:
         for chunk in chunks(numbered(lines), chunksize):
-            fut = client.submit(run_chunk, chunk, full, base, pure=False,
+            fut = client.submit(run_chunk, chunk, full, base, design, pure=False,
                                 key=f"mpsynth-batch-{token}-{chunk[0][0]}")
             pending.append((fut, chunk))
             while len(pending) >= window:
-                yield from _collect(client, *pending.popleft(), full, base)
+                yield from _collect(client, *pending.popleft(), full, base, design)
             while pending and pending[0][0].done():
-                yield from _collect(client, *pending.popleft(), full, base)
+                yield from _collect(client, *pending.popleft(), full, base, design)
         while pending:
-            yield from _collect(client, *pending.popleft(), full, base)
+            yield from _collect(client, *pending.popleft(), full, base, design)
     finally:
         if pending:
             try:
@@ -177,7 +168,7 @@ def run_jobs_on(client, lines, chunksize: int | None = None, full: bool = False,
                 pass
 
 
-def _collect(client, fut, chunk, full, base) -> list[dict]:
+def _collect(client, fut, chunk, full, base, design=True) -> list[dict]:
     """The results of one submitted chunk; a chunk that killed workers is run job by job."""
     distributed = import_distributed()
     try:
@@ -188,8 +179,8 @@ def _collect(client, fut, chunk, full, base) -> list[dict]:
             return [{"id": None, "line": lineno, "ok": False, "exit_code": 3,
                      "error": "internal error: this job killed every Dask worker that ran it "
                               "(out of memory, a crash); it was not completed"}]
-        singles = [client.submit(run_chunk, [item], full, base, pure=False) for item in chunk]
-        return [r for f, item in zip(singles, chunk) for r in _collect(client, f, [item], full, base)]
+        singles = [client.submit(run_chunk, [item], full, base, design, pure=False) for item in chunk]
+        return [r for f, item in zip(singles, chunk) for r in _collect(client, f, [item], full, base, design)]
     except ImportError as e:  # the worker's Python has no (or another) mpsynth
         raise ClusterError(f"a Dask worker cannot run mpsynth's jobs ({type(e).__name__}: {e}); install "
                            f"the same mpsynth on every worker ({INSTALL_HINT})") from None

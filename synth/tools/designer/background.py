@@ -58,9 +58,10 @@ def design_result(solve, ps):
     return solve(ps, SynthesisOptions(physical=True))
 
 
-def start(revision: int, solve, ps, linkage, on_done=None) -> Job:
-    """Start the job for ``ps`` (the task), ``solve`` (its entry point) and ``linkage`` (the one drawn,
-    for the drive report); ``on_done(job)`` is called on the thread at the end."""
+def start(revision: int, design, linkage, on_done=None) -> Job:
+    """Start the job ``design()`` (a `synth.solve.Result` with its design: `design_result`, or
+    `synth.solve.design_solution` of a picked candidate) with ``linkage`` (the one drawn, for the drive
+    report); ``on_done(job)`` is called on the thread at the end."""
     job = Job(revision)
 
     def run():
@@ -71,7 +72,7 @@ def start(revision: int, solve, ps, linkage, on_done=None) -> Job:
                 job.drive = drive_report(linkage).sentence()
                 if job.flag.is_set():
                     raise Cancelled()
-                job.result = design_result(solve, ps)
+                job.result = design()
             job.stage = Stage.DONE
         except Cancelled:
             job.stage = Stage.CANCELLED

@@ -235,3 +235,43 @@ def without_field(doc: Any, item: int | None, key: str) -> Any:
     new = copy.deepcopy(doc)
     del (new if item is None else new[items_key(new)][item])[key]
     return new
+
+
+def orientation_leaves(doc: Any, item: int, R, angle_unit: str | None) -> list[tuple[tuple, float]]:
+    """The (path, value) leaves that give item ``item`` the rotation ``R`` (3x3) in the item's own
+    orientation form: ``rpy`` (URDF roll-pitch-yaw), ``quaternion`` (mapping, or a list in the document's
+    ``quaternion_order``), ``orientation`` (ROS {x, y, z, w}), ``axis_angle``, ``rotation`` (3x3 rows);
+    angles in ``angle_unit`` ("deg" or radians). InputError when the item has none of these (a 4x4
+    ``matrix`` pose, a point): its orientation is edited in the table."""
+    import numpy as np
+
+    from synth.algebra.dq import matrix_to_quat
+    from synth.algebra.geometry import rotation_angle
+    from synth.frames import rpy_from_matrix
+
+    key = items_key(doc)
+    node = doc[key][item] if key is not None and 0 <= item < len(doc[key]) else None
+    form = next((k for k in ("rpy", "quaternion", "orientation", "axis_angle", "rotation")
+                 if isinstance(node, dict) and k in node), None)
+    if form is None:
+        raise InputError(f"item {item} has no orientation that a drag can turn (a matrix or a point); edit it in "
+                         "the table")
+    base = (key, item, form)
+    R = np.asarray(R, float)
+    deg = (lambda a: math.degrees(a)) if angle_unit == "deg" else (lambda a: a)
+    if form == "rpy":
+        return [(base + (k,), deg(a)) for k, a in enumerate(rpy_from_matrix(R))]
+    if form == "rotation":
+        return [(base + (i, j), float(R[i, j])) for i in range(3) for j in range(3)]
+    q = matrix_to_quat(R)
+    q = q if q[0] >= 0 else -q
+    wxyz = dict(zip("wxyz", (float(x) for x in q)))
+    if form == "axis_angle":
+        angle = float(rotation_angle(R))
+        axis = q[1:] / max(float(np.linalg.norm(q[1:])), 1e-300) if angle > 1e-12 else np.array([0.0, 0.0, 1.0])
+        return [(base + ("axis", k), float(axis[k])) for k in range(3)] + [(base + ("angle",), deg(angle))]
+    value = node[form]
+    if isinstance(value, dict):
+        return [(base + (k,), wxyz[k]) for k in value if k in wxyz]
+    order = "xyzw" if doc.get("quaternion_order") == "xyzw" else "wxyz"
+    return [(base + (i,), wxyz[c]) for i, c in enumerate(order)]

@@ -1,9 +1,13 @@
 """The designer's page: one HTML document with its style and script inline (no network, no library).
 
-The 3D view is a 2D canvas (an orthographic projection that the mouse orbits, pans and zooms): the
-stick figure of `synth.tools.designer.scene`, the task poses as frames whose origins are drag handles
-(a drag moves the item in the view's plane), the tool path and the tool frame, animated by a play
-button and a slider. A 2D canvas needs no WebGL, so the page works in any browser, headless ones
+The 3D view is a 2D canvas with a perspective camera that orbits the figure (drag the background, or
+drag with the right button; shift-drag pans, the wheel zooms, "reset view" or a double click restores
+it): the stick figure of `synth.tools.designer.scene` with its joint axes as short segments, drawn far to
+near with nearer segments thicker and more opaque; the task poses as frames whose origins are drag
+handles (a drag moves the item in the view's plane, alt/ctrl-drag turns it about the view axis, the wheel
+over a handle moves it along the view's depth), the tool path and the tool frame, animated by a play
+button and a slider. Once the design behind is done the links are coloured by clearance (green: keep
+the clearance, red: come closer). A 2D canvas needs no WebGL, so the page works in any browser, headless ones
 included. The table edits every value of the task file in its own units; every change goes to the
 server, which answers with the new state (the page decides nothing). ``window.mpsynthDesigner`` gives
 tests the state and the screen position of each handle.
@@ -27,6 +31,8 @@ td, th { padding: 1px 3px; text-align: left; font-variant-numeric: tabular-nums;
 th { color: #555; font-weight: 600; border-bottom: 1px solid #ddd; }
 .cell input[type=number], .cell input[type=text] { width: 72px; }
 .miss { color: #b3261e; font-weight: 600; } .hit { color: #1b5e20; }
+tr.miss td { background: #fdecea; } tr.hit td { background: #e8f5e9; }
+#kind option:disabled { color: #9e9e9e; }
 .item { border-top: 1px solid #eee; padding: 4px 0; }
 .item b { display: inline-block; min-width: 64px; }
 .cell { display: inline-flex; flex-direction: column; margin: 2px 4px 2px 0; font-size: 11px; color: #555; }
@@ -49,7 +55,7 @@ BODY = r"""<div id="app">
   <div id="items"></div>
 </div>
 <div id="main"><canvas id="view"></canvas>
-  <div id="bar"><button id="play" type="button">&#9654;</button><input id="slider" type="range" min="0" max="0" value="0">
+  <div id="bar"><button id="play" type="button">&#9654;</button><button id="reset" type="button" title="reset view (or double-click the view)">reset view</button><input id="slider" type="range" min="0" max="0" value="0">
     <span id="frame"></span></div>
 </div>
 </div>"""
@@ -67,8 +73,12 @@ JS = r""""use strict";
       return r.json().then(function (j) { if (!r.ok) throw new Error(j.error || r.statusText); return j; });
     });
   }
-  function send(name, body) { // one request in flight; a newer change replaces a waiting one
-    if (busy) { queued = [name, body]; return; }
+  function send(name, body) { // one request in flight; a newer change replaces a waiting one (turns add up)
+    if (busy) {
+      if (name === "turn" && queued && queued[0] === "turn" && queued[1].item === body.item)
+        body = { item: body.item, axis: body.axis, degrees: body.degrees + queued[1].degrees };
+      queued = [name, body]; return;
+    }
     busy = true; $("message").textContent = "";
     var t0 = performance.now();
     api(name, body).then(function (st) {
@@ -77,20 +87,32 @@ JS = r""""use strict";
       .catch(function (e) { $("message").textContent = e.message; })
       .then(function () { busy = false; if (queued) { var q = queued; queued = null; send(q[0], q[1]); } });
   }
-  // ------------------------------------------------------------ projection
-  function basis() {
+  // ------------------------------------------------------------ camera: orbit about the figure's centre, perspective
+  function basis() { // r: right, u: up, f: towards the viewer (task frame, z up)
     var cy = Math.cos(cam.yaw), sy = Math.sin(cam.yaw), cp = Math.cos(cam.pitch), sp = Math.sin(cam.pitch);
-    return { r: [-sy, cy, 0], u: [-sp * cy, -sp * sy, cp] };
+    return { r: [-sy, cy, 0], u: [-sp * cy, -sp * sy, cp], f: [cp * cy, cp * sy, sp] };
   }
   function scale() { return cam.zoom * 0.8 * Math.min(canvas.width, canvas.height) / (cam.size || 1); }
-  function proj(p) {
+  var EYE = 3;  // the eye's distance from the centre, in figure sizes
+  function proj(p) { // [x, y] canvas pixels, [2]: depth towards the viewer, [3]: perspective factor
     var b = basis(), k = scale(), d = [p[0] - cam.centre[0], p[1] - cam.centre[1], p[2] - cam.centre[2]];
-    return [canvas.width / 2 + cam.pan[0] + k * (d[0] * b.r[0] + d[1] * b.r[1] + d[2] * b.r[2]),
-      canvas.height / 2 + cam.pan[1] - k * (d[0] * b.u[0] + d[1] * b.u[1] + d[2] * b.u[2])];
+    var z = d[0] * b.f[0] + d[1] * b.f[1] + d[2] * b.f[2], D = EYE * (cam.size || 1), s = D / Math.max(D - z, 0.05 * D);
+    return [canvas.width / 2 + cam.pan[0] + k * s * (d[0] * b.r[0] + d[1] * b.r[1] + d[2] * b.r[2]),
+      canvas.height / 2 + cam.pan[1] - k * s * (d[0] * b.u[0] + d[1] * b.u[1] + d[2] * b.u[2]), z, s];
   }
-  function line(a, b, color, w) {
-    var p = proj(a), q = proj(b);
-    ctx.strokeStyle = color; ctx.lineWidth = w; ctx.beginPath(); ctx.moveTo(p[0], p[1]); ctx.lineTo(q[0], q[1]); ctx.stroke();
+  // depth cues: segments are gathered, then drawn far to near, nearer ones thicker and more opaque
+  var segs = [];
+  function line(a, b, color, w, flat) { segs.push({ a: proj(a), b: proj(b), color: color, w: w, flat: !!flat }); }
+  function flush() {
+    var h = 0.5 * (cam.size || 1);
+    segs.sort(function (p, q) { return (p.a[2] + p.b[2]) - (q.a[2] + q.b[2]); });
+    segs.forEach(function (g) {
+      var z = (g.a[2] + g.b[2]) / 2, near = Math.max(0, Math.min(1, 0.5 + 0.5 * z / h));
+      ctx.globalAlpha = g.flat ? 1 : 0.35 + 0.65 * near;
+      ctx.strokeStyle = g.color; ctx.lineWidth = g.flat ? g.w : g.w * (0.6 + 0.8 * near) * (g.a[3] + g.b[3]) / 2;
+      ctx.lineCap = "round"; ctx.beginPath(); ctx.moveTo(g.a[0], g.a[1]); ctx.lineTo(g.b[0], g.b[1]); ctx.stroke();
+    });
+    ctx.globalAlpha = 1; segs = [];
   }
   var AX = ["#d32f2f", "#2e7d32", "#1565c0"];
   function frameAt(T, L, w) {
@@ -103,6 +125,13 @@ JS = r""""use strict";
     var bg = S.background;
     return bg && bg.scene && bg.revision === S.revision ? bg.scene : S.scene;
   }
+  function clearance() { var bg = S && S.background; return bg && bg.clearance && bg.revision === S.revision ? bg.clearance : null; }
+  function linkColor(name, k) { // by clearance once the design behind is done: green keeps it, red comes closer
+    var c = clearance();
+    if (!c) return k === 0 ? "#616161" : COLORS[k % COLORS.length];
+    return name in c.bodies ? (c.bodies[name] < 0 ? "#b71c1c" : "#e53935") : "#2e7d32";
+  }
+  var drawn = {};  // what the last frame drew (tests): link name -> colour
   function draw() {
     var dpr = window.devicePixelRatio || 1;
     var w = Math.round(canvas.clientWidth * dpr), h = Math.round(canvas.clientHeight * dpr);
@@ -110,30 +139,33 @@ JS = r""""use strict";
     ctx.setTransform(1, 0, 0, 1, 0, 0); ctx.clearRect(0, 0, w, h);
     if (!S) return;
     var sc = current(), L = 0.08 * cam.size;
+    drawn = {};
     if (sc) {
       var f = Math.min(frame, sc.t.length - 1);
-      ctx.setLineDash([]);
-      for (var i = 1; i < sc.path.length; i++) line(sc.path[i - 1], sc.path[i], "#9e9e9e", 1);
+      for (var i = 1; i < sc.path.length; i++) line(sc.path[i - 1], sc.path[i], "#9e9e9e", 1, true);
       sc.links.forEach(function (lk, k) {
-        var P = lk.points[f];
-        for (var i = 1; i < P.length; i++) line(P[i - 1], P[i], k === 0 ? "#616161" : COLORS[k % COLORS.length], 4 * dpr);
-        if (P.length > 2) line(P[P.length - 1], P[0], COLORS[k % COLORS.length], 4 * dpr);
+        var P = lk.points[f], col = linkColor(lk.name, k);
+        drawn[lk.name] = col;
+        for (var i = 1; i < P.length; i++) line(P[i - 1], P[i], col, 5 * dpr);
+        if (P.length > 2) line(P[P.length - 1], P[0], col, 5 * dpr);
       });
-      sc.axes.forEach(function (ax) { line(ax.ends[f][0], ax.ends[f][1], "#212121", 2 * dpr); });
+      sc.axes.forEach(function (ax) { line(ax.ends[f][0], ax.ends[f][1], "#212121", 3 * dpr); });
       frameAt(sc.tool[f], 1.4 * L, 3 * dpr);
     }
+    (S.poses || []).forEach(function (T, i) { if (!S.points[i]) frameAt(T, L, 2 * dpr); });
+    flush();
     (S.poses || []).forEach(function (T, i) {
-      if (!S.points[i]) frameAt(T, L, 1.5 * dpr);
       var p = proj([T[0][3], T[1][3], T[2][3]]), miss = S.errors[i] && !S.errors[i].within;
       ctx.fillStyle = miss ? "#d32f2f" : "#fbc02d"; ctx.strokeStyle = "#333"; ctx.lineWidth = 1;
       ctx.beginPath(); ctx.arc(p[0], p[1], 6 * dpr, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
+      if (drag && drag.item === i && drag.turn) { ctx.beginPath(); ctx.arc(p[0], p[1], 26 * dpr, 0, 2 * Math.PI); ctx.strokeStyle = "#1565c0"; ctx.stroke(); }
       ctx.fillStyle = "#222"; ctx.font = (12 * dpr) + "px sans-serif"; ctx.fillText(itemName(i), p[0] + 8 * dpr, p[1] - 8 * dpr);
     });
     $("frame").textContent = sc ? "frame " + (frame + 1) + "/" + sc.t.length : "";
   }
   function itemName(i) { return S.errors[i] ? S.errors[i].name : "item " + i; }
   function handleXY(i) { // CSS pixels of item i's handle in the page
-    var T = S.poses[i], p = proj([T[0][3], T[1][3], T[2][3]]), r = canvas.getBoundingClientRect(), dpr = window.devicePixelRatio || 1;
+    var T = S.poses[i], p = proj(pos(T)), r = canvas.getBoundingClientRect(), dpr = window.devicePixelRatio || 1;
     return [r.left + p[0] / dpr, r.top + p[1] / dpr];
   }
   // ------------------------------------------------------------ panel
@@ -143,12 +175,13 @@ JS = r""""use strict";
     S = st;
     if (first || st.scene && !cam.size) fit();
     $("title").textContent = "mpsynth design: " + st.source;
-    fill($("kind"), st.kinds, st.kind); fill($("pick"), st.candidates.map(function (c, i) { return (i + 1) + ": " + c; }), st.pick);
+    fillKinds(st); fill($("pick"), st.candidates.map(function (c, i) { return (i + 1) + ": " + c; }), st.pick);
     var ok = !st.problem;
     $("status").className = ok ? "ok" : "bad";
     $("status").textContent = ok ? st.linkage.kind + " linkage: " + st.linkage.joints + " joints, " + st.linkage.loops +
       " loop(s); synthesized in " + st.ms + " ms" : "No linkage: " + st.problem;
     $("undo").disabled = !st.undo;
+    $("write").title = st.written ? "writes " + st.written : "";
     var rows = st.errors.map(function (e) {
       var tol = e.tolerance ? fmt(e.tolerance[0]) + " " + st.unit + " / " + fmt(e.tolerance[1]) + " deg" : "exact";
       return "<tr class='" + (e.within ? "hit" : "miss") + "'><td>" + esc(e.name) + "</td><td>" + fmt(e.position, 3) + " " + st.unit +
@@ -168,7 +201,12 @@ JS = r""""use strict";
     if (!bg || bg.revision !== st.revision) { el.className = ""; el.textContent = st.problem ? "" : "design: waiting"; return; }
     var drive = bg.drive ? "drive: " + bg.drive + "\n" : "";
     if (bg.stage === "running") { el.className = ""; el.textContent = drive + "design: collision-free search running..."; }
-    else if (bg.stage === "done") { el.className = bg.free ? "free" : "collides"; el.textContent = drive + "design: " + bg.design + (bg.choice ? "\n(" + bg.choice + ")" : ""); }
+    else if (bg.stage === "done") {
+      el.className = bg.free ? "free" : "collides";
+      var c = bg.clearance, legend = c ? "\nlinks: green keep " + fmt(c.clearance, 3) + " " + st.unit + " apart" +
+        (Object.keys(c.bodies).length ? ", red come closer (" + Object.keys(c.bodies).map(function (b) { return b + " " + fmt(c.bodies[b], 3); }).join(", ") + ")" : "") : "";
+      el.textContent = drive + "design: " + bg.design + (bg.choice ? "\n(" + bg.choice + ")" : "") + legend;
+    }
     else if (bg.stage === "failed") { el.className = "failed"; el.textContent = drive + "design: " + bg.problem; }
     else { el.className = ""; el.textContent = drive + "design: cancelled"; }
     el.dataset.stage = bg.stage;
@@ -179,6 +217,14 @@ JS = r""""use strict";
       polling = setTimeout(function () { if (!busy) api("state").then(function (s) { if (s.revision === S.revision) show(s); else poll(S); }); else poll(S); }, 300);
   }
   function esc(s) { return String(s).replace(/[&<>"']/g, function (c) { return "&#" + c.charCodeAt(0) + ";"; }); }
+  function fillKinds(st) { // kinds that cannot apply are greyed out, with the reason as their tooltip
+    var sel = $("kind");
+    sel.innerHTML = st.kinds.map(function (k) {
+      return "<option value='" + esc(k.kind) + "'" + (k.problem && k.kind !== st.kind ? " disabled" : "") +
+        (k.problem ? " title='" + esc(k.problem) + "'" : "") + ">" + esc(k.kind) + (k.problem ? " (n/a)" : "") + "</option>";
+    }).join("");
+    sel.value = st.kind;
+  }
   function fill(sel, values, chosen) {
     sel.innerHTML = values.map(function (v, i) { return "<option value='" + (typeof chosen === "number" ? i : esc(v)) + "'>" + esc(v) + "</option>"; }).join("");
     sel.value = String(chosen);
@@ -237,7 +283,7 @@ JS = r""""use strict";
     cam.centre = [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2];
     cam.size = Math.max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) || 1;
   }
-  // ------------------------------------------------------------ mouse: drag a handle, orbit, pan, zoom
+  // ------------------------------------------------------------ mouse: drag a handle (alt/ctrl: turn it), orbit, pan, zoom
   var drag = null;
   function hit(x, y) {
     var dpr = window.devicePixelRatio || 1, best = -1, bd = 10 * dpr;
@@ -248,20 +294,39 @@ JS = r""""use strict";
     });
     return best;
   }
+  function pos(T) { return [T[0][3], T[1][3], T[2][3]]; }
+  function angleAt(c, x, y) { return Math.atan2(-(y - c[1]), x - c[0]); } // counter-clockwise on the screen
   canvas.addEventListener("pointerdown", function (e) {
-    var dpr = window.devicePixelRatio || 1, x = e.offsetX * dpr, y = e.offsetY * dpr, i = hit(x, y);
+    var dpr = window.devicePixelRatio || 1, x = e.offsetX * dpr, y = e.offsetY * dpr, i = e.button === 0 ? hit(x, y) : -1;
     canvas.setPointerCapture(e.pointerId);
-    drag = { x: e.clientX, y: e.clientY, item: i, pan: e.shiftKey || e.button === 2 };
-    if (i >= 0) { var T = S.poses[i]; drag.start = [T[0][3], T[1][3], T[2][3]]; drag.dx = 0; drag.dy = 0; }
+    drag = { x: e.clientX, y: e.clientY, item: i, pan: e.shiftKey || e.button === 1 };
+    if (i >= 0) {
+      var T = S.poses[i];
+      drag.start = pos(T); drag.dx = 0; drag.dy = 0;
+      drag.turn = (e.altKey || e.ctrlKey || e.metaKey) && !S.points[i];
+      if (drag.turn) { drag.centre = proj(drag.start); drag.a0 = null; drag.axis = basis().f; drag.sent = 0; }
+    }
+    draw();
   });
-  canvas.addEventListener("pointerup", function () { drag = null; });
+  canvas.addEventListener("pointerup", function () { drag = null; draw(); });
   canvas.addEventListener("pointermove", function (e) {
     if (!drag) return;
     var dx = e.clientX - drag.x, dy = e.clientY - drag.y, dpr = window.devicePixelRatio || 1;
     drag.x = e.clientX; drag.y = e.clientY;
-    if (drag.item >= 0) {
+    if (drag.item >= 0 && drag.turn) { // about the view axis through the pose, by the angle swept round its handle
+      var mx = e.offsetX * dpr, my = e.offsetY * dpr, a = angleAt(drag.centre, mx, my);
+      if (drag.a0 === null) { // the sweep starts once the pointer is off the handle's centre
+        if (Math.hypot(mx - drag.centre[0], my - drag.centre[1]) > 8 * dpr) drag.a0 = a;
+        return;
+      }
+      var deg = (a - drag.a0) * 180 / Math.PI;
+      deg = ((deg + 540) % 360) - 180;
+      if (Math.abs(deg - drag.sent) >= 0.5) {
+        send("turn", { item: drag.item, axis: drag.axis, degrees: deg - drag.sent }); drag.sent = deg;
+      }
+    } else if (drag.item >= 0) {
       drag.dx += dx * dpr; drag.dy += dy * dpr;
-      var b = basis(), k = scale(), p = drag.start.slice();
+      var b = basis(), k = scale() * proj(drag.start)[3], p = drag.start.slice();
       for (var j = 0; j < 3; j++) p[j] += (drag.dx * b.r[j] - drag.dy * b.u[j]) / k;
       var T = S.poses[drag.item]; T[0][3] = p[0]; T[1][3] = p[1]; T[2][3] = p[2];
       send("move", { item: drag.item, position: p });
@@ -270,8 +335,20 @@ JS = r""""use strict";
     draw();
   });
   canvas.addEventListener("contextmenu", function (e) { e.preventDefault(); });
-  canvas.addEventListener("wheel", function (e) { e.preventDefault(); cam.zoom *= Math.exp(-Math.max(-1, Math.min(1, e.deltaY * 0.0015))); draw(); }, { passive: false });
-  canvas.addEventListener("dblclick", function () { cam.zoom = 1; cam.pan = [0, 0]; fit(); draw(); });
+  canvas.addEventListener("wheel", function (e) { // over a handle: the pose along the view's depth; else zoom
+    e.preventDefault();
+    var dpr = window.devicePixelRatio || 1, i = hit(e.offsetX * dpr, e.offsetY * dpr), step = Math.max(-1, Math.min(1, e.deltaY * 0.01));
+    if (i >= 0) {
+      var T = S.poses[i], f = basis().f, p = pos(T), d = -0.02 * (cam.size || 1) * step;
+      for (var j = 0; j < 3; j++) p[j] += d * f[j];
+      T[0][3] = p[0]; T[1][3] = p[1]; T[2][3] = p[2];
+      send("move", { item: i, position: p });
+    } else cam.zoom *= Math.exp(-Math.max(-1, Math.min(1, e.deltaY * 0.0015)));
+    draw();
+  }, { passive: false });
+  function resetView() { cam.yaw = -0.9; cam.pitch = 0.45; cam.zoom = 1; cam.pan = [0, 0]; fit(); draw(); }
+  canvas.addEventListener("dblclick", resetView);
+  $("reset").addEventListener("click", resetView);
   window.addEventListener("resize", draw);
   // ------------------------------------------------------------ controls
   $("kind").addEventListener("change", function (e) { send("kind", { kind: e.target.value }); });
@@ -283,7 +360,7 @@ JS = r""""use strict";
   });
   $("write").addEventListener("click", function () {
     $("message").textContent = "writing...";
-    api("write", {}).then(function (r) { $("message").textContent = "wrote " + r.out + " (" + r.files + " files)" + (r.design ? "; " + r.design : ""); })
+    api("write", {}).then(function (r) { $("message").textContent = "wrote " + r.written + " to " + r.out + " (" + r.files + " files)" + (r.design ? "; " + r.design : ""); })
       .catch(function (e) { $("message").textContent = e.message; });
   });
   var slider = $("slider"), playBtn = $("play");
@@ -295,7 +372,8 @@ JS = r""""use strict";
   }
   playBtn.addEventListener("click", function () { playing = !playing; playBtn.innerHTML = playing ? "&#10073;&#10073;" : "&#9654;"; tick(); });
   window.mpsynthDesigner = { state: function () { return S; }, handleXY: handleXY, idle: function () { return !busy && !queued; },
-    timings: function () { return timings.slice(); } };
+    timings: function () { return timings.slice(); }, camera: function () { return JSON.parse(JSON.stringify(cam)); },
+    drawn: function () { return Object.assign({}, drawn); } };
   api("state").then(show).catch(function (e) { $("message").textContent = e.message; });
 })();
 """

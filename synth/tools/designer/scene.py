@@ -63,3 +63,16 @@ def pose_frames(matrices: np.ndarray, scale: float) -> list:
     T = np.array(matrices, float).copy()
     T[:, :3, 3] /= scale
     return T.round(12).tolist()
+
+
+def clearances(linkage, collision, scale: float) -> dict:
+    """The design's collision status for colours, lengths in task units: ``free``, ``clearance`` (the gap
+    asked for), ``min_distance`` (the smallest gap found), and ``bodies``: {body: its smallest gap} for every
+    link or pin of an offending pair (`synth.design.model.CollisionReport.pairs`); links not named keep
+    at least the clearance."""
+    bodies: dict[str, float] = {}
+    for p in collision.pairs:
+        for b in p["bodies"]:
+            bodies[b] = min(bodies.get(b, np.inf), p["min_distance"] / scale)
+    return {"free": bool(collision.free), "clearance": collision.clearance / scale,
+            "min_distance": float(collision.min_distance) / scale, "bodies": bodies}

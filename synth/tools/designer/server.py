@@ -7,6 +7,7 @@ answer ``{"error": message}`` that the page shows in words.
     GET  /               the page (`synth.tools.designer.page`)
     GET  /api/state      Session.state()
     POST /api/edit       {"path": [...], "value": v}       POST /api/move  {"item": i, "position": [x, y, z]}
+    POST /api/turn       {"item": i, "axis": [x, y, z], "degrees": a}
     POST /api/kind       {"kind": "bennett"|...}           POST /api/pick  {"pick": k}
     POST /api/add        {"item": i or null, "key": k}     POST /api/remove {"item": i or null, "key": k}
     POST /api/undo       {}                                POST /api/save  {} (the task file itself)
@@ -45,6 +46,7 @@ def make_app(session, out: str | None = None, force: bool = False):
         "state": lambda b: session.state(),
         "edit": lambda b: session.edit(b["path"], b["value"]),
         "move": lambda b: session.move(b["item"], b["position"]),
+        "turn": lambda b: session.turn(b["item"], b["axis"], b["degrees"]),
         "kind": lambda b: session.set_kind(b["kind"]),
         "add": lambda b: session.add_field(b.get("item"), b["key"]),
         "remove": lambda b: session.remove_field(b.get("item"), b["key"]),

@@ -6,18 +6,24 @@ position, a kind, a pick) and draws `Session.state()`. Values are in the task's 
 """
 from __future__ import annotations
 
+import math
 import threading
 from pathlib import Path
+
+import numpy as np
 
 from synth.errors import InputError
 from synth.io.atomic import atomic_write
 from synth.io.docload import read_source
 from synth.io.names import safe_robot_name
 from synth.tools.designer import background, document
-from synth.tools.designer.scene import pose_frames, scene
-from synth.tools.designer.synth_view import SOLVERS, Kind, default_kind, task_misses, synthesize
+from synth.solve import design_solution
+from synth.tools.designer.scene import clearances, pose_frames, scene
+from synth.tools.designer.synth_view import SOLVERS, Kind, default_kind, kind_problems, task_misses, synthesize
 
 MAX_UNDO = 200
+ANGLE_DECIMALS = {"deg": 4, None: 6}  # a turned orientation's angles, rounded (degrees, radians)
+UNIT_DECIMALS = 9  # a turned quaternion's or rotation matrix's entries, rounded (unit tests pass at 1e-6)
 POSITION_DIGITS = 6  # a dragged position is rounded to this many significant digits of the task's size
 
 
@@ -65,6 +71,30 @@ class Session:
                 new = document.with_value(new, where + (k,), _round(float(x), size))
             return self._change(new, self.kind, self.pick)
 
+    def turn(self, item: int, axis, degrees: float) -> dict:
+        """Turn item ``item``'s orientation by ``degrees`` about the direction ``axis`` (three numbers, the
+        task's frame; the page's view axis) through its position: one undo step, written in the item's
+        own orientation form (`document.orientation_leaves`)."""
+        from synth.algebra.geometry import rotation_about_axis
+
+        with self.lock:
+            ps = self.synthesis.ps
+            if ps is None:
+                raise InputError("the task does not read; fix it in the table before turning a pose")
+            if not 0 <= int(item) < len(ps) or ps.is_point[int(item)]:
+                raise InputError(f"item {item} is not a pose with an orientation to turn")
+            u = np.asarray(axis, float)
+            if u.shape != (3,) or not np.isfinite(u).all() or not np.linalg.norm(u) > 0 or not math.isfinite(degrees):
+                raise InputError(f"a turn needs an axis of three finite numbers (not zero) and a finite angle, got "
+                                 f"{axis!r}, {degrees!r}")
+            R = rotation_about_axis(u / np.linalg.norm(u), math.radians(float(degrees))) @ ps.matrices[int(item)][:3, :3]
+            new = self.doc
+            for path, value in document.orientation_leaves(self.doc, int(item), R, ps.angle_unit):
+                angle = path[2] == "rpy" or path[-1] == "angle"
+                digits = ANGLE_DECIMALS.get(ps.angle_unit, 6) if angle else UNIT_DECIMALS
+                new = document.with_value(new, path, round(value, digits) + 0.0)
+            return self._change(new, self.kind, self.pick)
+
     def add_field(self, item, key: str) -> dict:
         """Give item ``item`` (None: the task) the field ``key`` (tolerance, exact, velocity, order) with a
         starting value (`document.default_field`), to edit in the table."""
@@ -109,11 +139,27 @@ class Session:
             self.job.wait(background.STOP_SECONDS)
             self.job = None
         self.synthesis = synthesize(self.doc, self.source, self.kind, self.normalize)
+        self.kind_problems = kind_problems(self.doc, self.source, self.normalize)
         if self.pick >= len(self.synthesis.linkages):
             self.pick = 0
         s = self.synthesis
         if self.background_design and s.linkages:
-            self.job = background.start(self.revision, SOLVERS[s.kind], s.ps, s.linkages[self.pick])
+            self.job = background.start(self.revision, self._design(), s.linkages[self.pick])
+
+    def _design(self):
+        """The design behind the drawing, as a call: the picked candidate's (`synth.solve.design_solution`)
+        when the entry point ranks candidates, else the command's own choice (`background.design_result`)."""
+        s, pick = self.synthesis, self.pick
+        if s.ranked:
+            return lambda: design_solution(s.ps, s.linkages[pick])
+        return lambda: background.design_result(SOLVERS[s.kind], s.ps)
+
+    def _written(self) -> str:
+        """Which candidate "write output" writes, in words."""
+        s = self.synthesis
+        if s.ranked:
+            return f"candidate {self.pick + 1} of {len(s.linkages)} ({s.labels[self.pick]})"
+        return f"the linkage mpsynth {s.kind.value} chooses"
 
     # ------------------------------------------------------------------ files
     def save(self, path=None) -> dict:
@@ -131,23 +177,25 @@ class Session:
             return {"path": str(target), "comments_kept": kept, "bytes": len(text.encode("utf-8"))}
 
     def write_output(self, out, force: bool = False) -> dict:
-        """Write OUT as `mpsynth KIND TASK -o OUT` does (the same entry point with a physical design and
-        `synth.io.writer.write_output`); the design search of the current revision is reused when done."""
+        """Write OUT as `mpsynth KIND TASK -o OUT` does (`synth.io.writer.write_output`) for the candidate
+        picked (ranked candidates: `synth.solve.design_solution` of the pick, as ``--top`` designs each; else
+        the entry point's own choice with a physical design); the design behind of the current revision is
+        reused when done. ``written`` says which one, in words."""
         from synth.io.writer import check_output_target, write_output
 
         with self.lock:
-            s, job = self.synthesis, self.job
+            s, job, design, written = self.synthesis, self.job, self._design(), self._written()
             if s.problem:
                 raise InputError(f"nothing to write: {s.problem}")
             check_output_target(str(out), force)
         if job is not None and job.wait() and job.stage is background.Stage.DONE:
             result = job.result
         else:
-            result = background.design_result(SOLVERS[s.kind], s.ps)
+            result = design()
         files = write_output(result.linkage, str(out), robot_name=safe_robot_name(Path(self.source).stem or "linkage"),
                              force=force, result=result.design)
         return {"out": str(out), "files": len(files), "design": result.sentence() if result.design else None,
-                "choice": result.linkage.info.get("design_choice")}
+                "choice": result.linkage.info.get("design_choice"), "written": written}
 
     # ------------------------------------------------------------------ what the page shows
     def state(self) -> dict:
@@ -159,11 +207,11 @@ class Session:
             out = {
                 "revision": self.revision, "source": self.source, "kind": s.kind.value,
                 "default_kind": default_kind(ps).value if ps is not None else None,
-                "kinds": [k.value for k in Kind], "problem": s.problem, "ms": round(1e3 * s.seconds, 2),
+                "kinds": [{"kind": k.value, "problem": self.kind_problems.get(k)} for k in Kind], "problem": s.problem, "ms": round(1e3 * s.seconds, 2),
                 "unit": ps.length_unit if ps is not None else None,
                 "angle_unit": ps.angle_unit if ps is not None else None,
                 "items": self._items(), "undo": len(self.history),
-                "candidates": s.labels, "pick": self.pick, "scene": None, "errors": [], "linkage": None,
+                "candidates": s.labels, "pick": self.pick, "written": None if s.problem else self._written(), "scene": None, "errors": [], "linkage": None,
             }
             if ps is not None:
                 out["poses"] = pose_frames(ps.matrices, scale)
@@ -205,6 +253,7 @@ class Session:
             out["free"] = bool(r.design.collision.free) if r.design is not None else None
             out["choice"] = r.linkage.info.get("design_choice")
             out["scene"] = scene(r.linkage, scale)
+            out["clearance"] = clearances(r.linkage, r.design.collision, scale) if r.design is not None else None
         return out
 
     def close(self) -> None:

@@ -68,6 +68,23 @@ def load_spec(kind: Kind | None) -> dict:
     return dict(count=((2, None), f"mpsynth {kind.value}"), points=points)
 
 
+def kind_problems(doc, source: str, normalize: bool = False) -> dict[Kind, str | None]:
+    """Why each kind cannot apply to the task document ``doc`` (None: it may): its command's reading of the
+    file fails (the one-line message), or, for the four-bar, the items are points or not coplanar poses.
+    Only what reading shows: a kind that reads may still find no real linkage (`synthesize` says why)."""
+    out: dict[Kind, str | None] = {}
+    for kind in Kind:
+        try:
+            ps = parse_pose_document(copy.deepcopy(doc), source=source, normalize=normalize, **load_spec(kind))
+            out[kind] = None
+            if kind is Kind.FOURBAR and (ps.has_points or not _coplanar(ps)):
+                out[kind] = ("a four-bar needs poses, not points" if ps.has_points else
+                             "a four-bar needs coplanar poses (a planar motion): these are not")
+        except MpsynthError as e:
+            out[kind] = str(e)
+    return out
+
+
 def ranks(kind: Kind, ps) -> bool:
     """Whether the entry point of ``kind`` ranks candidates for ``ps`` (``--top``): 6R and four-bar
     tasks, and Bennett fits and point tasks (three exact poses give one Bennett linkage)."""
@@ -98,7 +115,8 @@ class PoseError:
 @dataclass(slots=True)
 class Synthesis:
     """What one synthesis gave: ``linkages`` (best first; [] when none) with their ``labels``, the pose
-    set, or ``problem``: why there is no linkage, in words; ``seconds``: its wall time (for the bench
+    set, or ``problem``: why there is no linkage, in words; ``ranked``: the linkages are ranked solutions;
+    ``seconds``: its wall time (for the bench
     and the page, never for a decision)."""
 
     kind: Kind
@@ -106,6 +124,7 @@ class Synthesis:
     linkages: list = field(default_factory=list)
     labels: list[str] = field(default_factory=list)
     problem: str | None = None
+    ranked: bool = False  # the linkages are the entry point's ranked solutions (``--top``), else its one choice
     exit_code: int = 0
     seconds: float = 0.0
 
@@ -127,6 +146,7 @@ def synthesize(doc, source: str, kind: Kind | None, normalize: bool = False) -> 
         if result.solutions:
             out.linkages = [s.linkage for s in result.solutions]
             out.labels = [s.id for s in result.solutions]
+            out.ranked = True
         else:
             out.linkages, out.labels = [result.linkage], ["the linkage"]
     except MpsynthError as e:

@@ -8,7 +8,8 @@ base and ``URDF_USE_INERTIA_FROM_FILE`` (self-collision is off unless ``contacts
 adds one ``JOINT_FIXED`` user constraint per loop between ``coupler`` and ``coupler_k`` (frames relative
 to the links' centre-of-mass frames, as PyBullet wants, computed so that the weld holds the all-zero
 relative pose), releases the default velocity motors (``VELOCITY_CONTROL`` with force 0) and drives the
-first joint with ``POSITION_CONTROL``. Solver: fixed time step (default 1 ms), 3000 iterations (the loop
+first joint with ``POSITION_CONTROL``. Solver: fixed time step (default 1 ms), 3000 iterations, more for
+several loops (`solver_iterations`) (the loop
 is overconstrained: a weld of 6 equations on a 1-dof loop, which PyBullet's iterative solver only
 settles with many iterations; a 6R still gains from 300 to 3000), error reduction 0.8 per step (the
 default 0.2 lets the weld drift about four times further). The solver stops early once its residual
@@ -42,7 +43,8 @@ from synth.frames import rpy_from_matrix
 from synth.tools.sim import DriveProfile, SimulationError, Tracker, load_setup
 
 DEFAULT_TIMESTEP = 1e-3
-ITERATIONS = 3000
+ITERATIONS = 3000  # at least; welds in series want more, `solver_iterations`
+ITERATIONS_PER_LOOP = 1200
 ERP = 0.8  # error reduction per step; PyBullet's default 0.2 lets the weld drift 4x further
 RESIDUAL_THRESHOLD = 1e-7  # PyBullet's default early stop of the solver: enough for one loop
 MULTI_LOOP_RESIDUAL_THRESHOLD = 1e-12  # several loops: see the module docstring
@@ -174,6 +176,15 @@ def _wait_while_working(proc, cpu_budget: float):
             last = cpu
 
 
+def solver_iterations(loops: int) -> int:
+    """Solver iterations per step for ``loops`` welded loops: `ITERATIONS`, and `ITERATIONS_PER_LOOP` per
+    loop beyond that. With the multi-loop residual threshold the iteration cap is what stops the solver,
+    and the sequential-impulse solver passes a correction on about one weld of a chain per sweep
+    (measured on fixtures/motion_darboux.yaml, 5 loops, at the defaults: 1.25e-3 rad with 3000 iterations,
+    7.4e-4 with 6000 for 1.3x the CPU; halving the time step instead: 7.3e-4 for 1.8x)."""
+    return max(ITERATIONS, ITERATIONS_PER_LOOP * loops)
+
+
 def residual_threshold(loops: int, tight: bool = False) -> float:
     """The solver's early-stop residual for a linkage of ``loops`` welded loops (module docstring);
     ``tight``: the multi-loop threshold for any linkage (`synth.tools.sim.run.simulate`'s retry)."""
@@ -242,7 +253,8 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
                     p.setCollisionFilterPair(robot, robot, link_index[a], link_index[b], 0, physicsClientId=cid)
         _weld_loops(p, cid, robot, setup, link_index)
         residual = residual_threshold(len(setup.closures), tight)
-        p.setPhysicsEngineParameter(fixedTimeStep=timestep, numSolverIterations=ITERATIONS, numSubSteps=0, erp=ERP,
+        iterations = solver_iterations(len(setup.closures))
+        p.setPhysicsEngineParameter(fixedTimeStep=timestep, numSolverIterations=iterations, numSubSteps=0, erp=ERP,
                                     solverResidualThreshold=residual, physicsClientId=cid)
         start = setup.start_angles()
         for jn in setup.joints:
@@ -277,7 +289,7 @@ def simulate_in_process(setup, urdf_path, *, seconds: float, timestep: float, gr
         tracker.joints({jn: qs[:, i] for i, jn in enumerate(setup.joints)}, targets)
         tracker.frames(frames)
         return tracker.result("pybullet", n, seconds=seconds, timestep=timestep, gravity=gravity,
-                              iterations=ITERATIONS, residual_threshold=residual, shared_inertial=setup.split, contacts=contacts,
+                              iterations=iterations, residual_threshold=residual, shared_inertial=setup.split, contacts=contacts,
                               contact_steps=contact_steps, max_contact_force=max_force,
                               wall_time=time.perf_counter() - t_wall)
     finally:

@@ -1,0 +1,97 @@
+"""`solve_bennett` for many pose sets at once: the batch jobs' fast path (README "Batch and shell pipelines").
+
+``solve_bennett_many(T)`` takes N three-pose sets (N, 3, 4, 4) in metres and returns `BennettSummaries`:
+for every set it decides (``decided[n]``) it gives what `synth.solve.solve_bennett` with the default
+options gives for that set (no physical design, no constraints): the verified linkage's extent (m), its
+``checks`` (the self-check at VERIFY_SAMPLES parameters, `synth.bennett.verify`) and its Bennett
+parameters, the same numbers to the last bit. It runs the pipeline once for all sets
+(`synth.synthesis.bennett_core.solve`) and applies `solve_bennett`'s gates to the arrays: the pipeline's
+own acceptance, the transmission ratio (`synth.synthesis.conditioning`), the 200-sample verification and
+its acceptance (`synth.bennett.verify`) and the extent limit (`synth.design.constraints.admissible`).
+A set that fails a gate, or comes within a factor 2 of a gate's limit (where rounding could decide), or
+that the pipeline leaves to the per-set path, is not decided: its caller runs `solve_bennett` on it,
+which gives the linkage or the refusal with its message.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.checks import VERIFY_SAMPLES, as_checks, check_figures
+from synth.design.constraints import EXTENT_FACTOR
+from synth.algebra.dq import pose_to_dq
+from synth.algebra.geometry import extent, joint_sites, spread
+from synth.blas import one_blas_thread
+from synth.errors import InputError
+from synth.synthesis.bennett_core import ACCEPT_TOL, LOOP, STRUCTURE, acceptance_error, axis_distance, solve
+from synth.synthesis.conditioning import TRANSMISSION_LIMIT, transmission_ratio
+
+BENNETT_PAIRS = ((0, 2), (0, 1), (2, 3), (1, 3))  # joints h1 h2 k1 k2 carried by one link (base, link_h1, link_k1, coupler)
+MARGIN = 0.5  # a set is decided here only with every gate's figure below MARGIN times its limit
+PARAMETERS = ("a", "alpha", "b", "beta")
+CHUNK = 1024  # sets per call of the pipeline
+CHECK_CHUNK = 16  # sets per call of the 200-sample check: its temporaries (~80 kB a set) stay in the caches
+
+
+@dataclass
+class BennettSummaries:
+    """Per-set results of `solve_bennett_many` (arrays over the N sets; rows of undecided sets are NaN).
+    ``figures``: the self-check figures at VERIFY_SAMPLES parameters (`synth.checks.check_figures`:
+    pose_translation, pose_rotation, closure_translation, closure_rotation, motion; m and rad);
+    ``extent`` (N,) m; ``bennett``: a, alpha, b, beta (m, rad) of the loop h1 h2 k2 k1."""
+
+    decided: np.ndarray  # (N,) bool
+    extent: np.ndarray
+    figures: dict
+    bennett: dict
+
+    def checks(self, n: int) -> dict:
+        """linkage.json's ``checks`` of decided set n, as `synth.bennett.verify` stores them."""
+        return as_checks({k: float(v[n]) for k, v in self.figures.items()}, VERIFY_SAMPLES, float(self.extent[n]))
+
+    def parameters(self, n: int) -> dict:
+        """The Bennett parameters a, alpha, b, beta of decided set n (floats)."""
+        return {k: float(self.bennett[k][n]) for k in PARAMETERS}
+
+
+def solve_bennett_many(poses) -> BennettSummaries:
+    """`solve_bennett` (default options) of N three-pose sets (N, 3, 4, 4), metres, where the arrays
+    decide (module docstring). Raises InputError only for a wrong overall shape."""
+    T = np.asarray(poses, float)
+    if T.ndim != 4 or T.shape[1:] != (3, 4, 4):
+        raise InputError(f"solve_bennett_many needs poses of shape (N, 3, 4, 4), got {T.shape}")
+    with one_blas_thread():  # (`synth.blas`: threads only cost in these batched kernels)
+        parts = [_summaries(T[i : i + CHUNK]) for i in range(0, len(T), CHUNK)]
+    if len(parts) == 1:
+        return parts[0]
+    return BennettSummaries(*(np.concatenate([getattr(p, k) for p in parts]) if k in ("decided", "extent") else
+                              {f: np.concatenate([p.__dict__[k][f] for p in parts]) for f in parts[0].__dict__[k]}
+                              for k in ("decided", "extent", "figures", "bennett")))
+
+
+def _summaries(T) -> BennettSummaries:
+    out = solve(T, 0, as_single=True)
+    with np.errstate(all="ignore"):
+        a, b = out.laws[..., 0], out.laws[..., 1]
+        U, M = out.lines[..., 0, :], out.lines[..., 1, :]
+        Q = pose_to_dq(np.where(out.finite[:, None, None, None], T, np.eye(4)))
+        parts = [check_figures(STRUCTURE, U[k], M[k], a[k], b[k], out.pose_angles[k], Q[k], Q[k, 0], out.motion[k],
+                               VERIFY_SAMPLES) for k in map(slice, range(0, len(T), CHECK_CHUNK),
+                                                            range(CHECK_CHUNK, len(T) + CHECK_CHUNK, CHECK_CHUNK))]
+        fig = {f: np.concatenate([p[f] for p in parts]) for f in parts[0]}
+        # `synth.linkage.Linkage.extent`: joint sites and tool positions (pose 0 twice: the reference)
+        positions = np.concatenate([T[:, :, :3, 3], T[:, :1, :3, 3]], axis=1)
+        sites = joint_sites(U, M, BENNETT_PAIRS, np.mean(positions, axis=1))
+        E = extent(np.concatenate([sites, positions], axis=1))
+        # the gates of `verify` (acceptance of the sampled figures, transmission) and of `admissible` (extent)
+        loop = out.lines[:, LOOP]
+        far = axis_distance(loop[..., 0, :], loop[..., 1, :], out.centre)
+        rel = np.maximum(acceptance_error(T, out.scale, far, fig), out.relative_error)
+        limit = EXTENT_FACTOR * spread(T[:, :, :3, 3])[1]
+        decided = (out.good & (rel <= MARGIN * ACCEPT_TOL) & (transmission_ratio(a, b) <= MARGIN * TRANSMISSION_LIMIT)
+                   & (E <= MARGIN * limit))
+    nan = ~decided
+    figures = {k: np.where(nan, np.nan, v) for k, v in fig.items()}
+    params = {k: np.where(nan, np.nan, out.bennett[k]) for k in PARAMETERS}
+    return BennettSummaries(decided=decided, extent=np.where(nan, np.nan, E), figures=figures, bennett=params)
