@@ -122,6 +122,7 @@ def batch_worker(parent: int) -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda signum, frame: os._exit(128 + signum))
+    _exit_with(parent)
     try:
         libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
         ppid = os.getppid()
@@ -131,6 +132,30 @@ def batch_worker(parent: int) -> None:
     except (OSError, AttributeError):  # pragma: no cover - not Linux
         pass
     prepare_worker(parent)
+
+
+def _exit_with(parent: int) -> None:
+    """End this worker as soon as the batch process ``parent`` ends, even by SIGKILL, whatever the worker
+    is doing: a daemon thread waits on a pidfd of ``parent`` (Linux >= 5.3). PR_SET_PDEATHSIG alone is not
+    enough: a worker's parent is the pool's fork server, which every worker keeps alive (each holds the
+    write end of its "alive" pipe), so a worker busy in a long job (a design search, a STEP export) or
+    blocked would outlive the batch and keep writing outputs."""
+    import os
+    import select
+    import threading
+
+    try:
+        fd = os.pidfd_open(parent)
+    except ProcessLookupError:  # already gone
+        os._exit(1)
+    except (AttributeError, OSError):  # pragma: no cover - not Linux >= 5.3: PR_SET_PDEATHSIG only
+        return
+
+    def wait():
+        select.select([fd], [], [])  # readable once the process has ended
+        os._exit(1)
+
+    threading.Thread(target=wait, name="exit-with-batch", daemon=True).start()
 
 
 @contextlib.contextmanager

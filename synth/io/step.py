@@ -26,6 +26,7 @@ import numpy as np
 
 from synth.io.meshes import link_primitives, pin_primitives
 from synth.io.names import MESH_UNIT_SCALE, pin_link_name
+from synth.io import interrupts
 from synth.io.solid import signed_volume
 
 STEP_FILE = "linkage.step"
@@ -203,7 +204,10 @@ def step_text(linkage, design, volumes: dict | None = None) -> str:
     scale = 1.0 / MESH_UNIT_SCALE
     started = gmsh.isInitialized()
     if not started:
-        gmsh.initialize(readConfigFiles=False, interruptible=False)  # keep the CLI's SIGINT handler
+        # gmsh's initialisation resets SIGTERM to its default action (seen in /proc/self/status): inside
+        # `interrupts.held` the handlers installed before (the CLI's) are put back when it is done
+        with interrupts.held():
+            gmsh.initialize(readConfigFiles=False, interruptible=False)  # (interruptible: Python's SIGINT)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("linkage")
