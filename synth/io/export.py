@@ -55,6 +55,16 @@ EXPORTERS = {
 }
 
 
+PREPARE = {"step": step.initialise_kernel}  # what a format must do before an output's temporary directory exists
+
+
+def prepare_formats(formats=tuple(EXPORTERS)) -> None:
+    """Run the `PREPARE` steps of ``formats`` (before `export`, outside the atomic write)."""
+    for f in formats:
+        if f in PREPARE:
+            PREPARE[f]()
+
+
 def export(linkage, result: DesignResult, directory, *, robot_name: str, package: str | None = None,
            formats=tuple(EXPORTERS)) -> list[Path]:
     """Write ``formats`` (keys of `EXPORTERS`) of ``linkage`` with its finished design ``result`` into

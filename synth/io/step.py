@@ -44,6 +44,17 @@ def load_kernel():
     return gmsh
 
 
+def initialise_kernel() -> None:
+    """Initialise gmsh once for this process, if the ``cad`` extra is there (idempotent; `step_text` then
+    leaves it initialised). The writers call it before their temporary directory exists: gmsh's
+    initialisation resets SIGTERM to its default action, and a SIGTERM in that moment must find nothing
+    half written (`synth.io.interrupts.held` puts the CLI's handlers back right after)."""
+    gmsh = load_kernel()
+    if gmsh is not None and not gmsh.isInitialized():
+        with interrupts.held():
+            gmsh.initialize(readConfigFiles=False, interruptible=False)  # (interruptible: Python's SIGINT)
+
+
 def have_kernel() -> bool:
     """True when gmsh (the ``cad`` extra) is installed and loads (`load_kernel`)."""
     return load_kernel() is not None

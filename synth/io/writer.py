@@ -8,7 +8,7 @@ from pathlib import Path
 from synth.io.atomic import (MARKER, MANIFEST_FORMAT, STALE_AGE, atomic_directory,  # noqa: F401
                              atomic_write, check_file_target, check_output_target, check_path, is_mpsynth_output,
                              owned_files, remove_stale_temporaries)
-from synth.io.export import export
+from synth.io.export import export, prepare_formats
 from synth.io.jsonout import write_json
 from synth.io.names import check_package, check_robot_name
 
@@ -30,6 +30,8 @@ def write_output(linkage, out_dir, *, robot_name: str, result, force: bool = Fal
     check_robot_name(robot_name)
     check_package(package)
     out = check_path(out_dir)
+    if result is not None:
+        prepare_formats()
     with atomic_directory(out, force=force) as tmp:
         rel = write_linkage_files(linkage, tmp, robot_name=robot_name, result=result, package=package)
     return [out / r for r in rel]
@@ -38,6 +40,8 @@ def write_output(linkage, out_dir, *, robot_name: str, result, force: bool = Fal
 def write_solutions(out_dir, solutions, index: dict, *, force: bool = False, package: str | None = None) -> None:
     """Write several linkages atomically as OUT/<id>/ (each as `write_linkage_files`) plus OUT/index.json;
     ``solutions``: (id, linkage, robot name, DesignResult) tuples."""
+    if any(result is not None for *_, result in solutions):
+        prepare_formats()
     with atomic_directory(Path(out_dir), force=force) as tmp:
         for sid, linkage, robot_name, result in solutions:
             d = tmp / sid
