@@ -32,8 +32,8 @@ import numpy as np  # noqa: E402
 TARGETS = {"fit_10": 20e-3, "fit_50": 100e-3, "cli_fit": 2.0}
 
 
-def task_sets(n: int, sets: int):
-    """``sets`` tasks of n poses each (PoseSet), seeded."""
+def task_sets(n: int, sets: int, first_seed: int = 100):
+    """``sets`` tasks of n poses each (PoseSet), seeded (``first_seed`` on)."""
     from synth.algebra.dq import dq_mul, dq_to_pose, normalize_dq, pose_to_dq
     from synth.errors import SynthesisError
     from synth.synthesis.bennett import bennett
@@ -43,7 +43,7 @@ def task_sets(n: int, sets: int):
 
     out = []
     for s in range(sets):
-        rng = np.random.default_rng(100 + s)
+        rng = np.random.default_rng(first_seed + s)
         while True:  # a linkage the synthesis accepts (its transmission)
             try:
                 L = bennett(random_poses(rng, 3))

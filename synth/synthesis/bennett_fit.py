@@ -31,7 +31,8 @@ from synth.synthesis.fit import (ERRORS, Layout, LMResult, MotionModel, levenber
 from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, nearest, regauge, to_gauge, zoom
 from synth.synthesis.pointfit import subset_motions
 from synth.synthesis.fit_order import ListedOrder, directions, project_listed
-from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, item_tolerances, select, visiting_order
+from synth.synthesis.taskfit import (FitSummary, annotate, check_fitted, first_built, item_kinds, item_tolerances, select,
+                                    visiting_order)
 from synth.task import Order, PoseSet
 
 __all__ = ["bennett_task", "is_task", "hermite_conic", "fit_motion", "linkage_of", "MAX_TRIPLES", "KEEP"]
@@ -349,27 +350,22 @@ def _hermite(ps: PoseSet):
 
 def _fitted(ps: PoseSet, top: int) -> list:
     coef, ref, phi, cost, violation, cond, summary = fit_motion(ps)
-    out, why, taken = [], None, []
-    for k in range(len(coef)):
+
+    def skip(k, taken):
         if any(np.abs(coef[k] - coef[j]).max() <= 1e-6 * (1 + np.abs(coef[j]).max()) for j in taken):
-            continue  # the same motion from another seed
+            return ""  # the same motion from another seed
         if not violation[k] <= FEASIBLE:
-            why = why or (f"the exact poses and velocities cannot all be met by a Bennett motion (best constraint "
-                          f"violation {violation[k]:.1e}, relative)")
-            continue
-        try:
-            lk = linkage_of(coef[k], ref[k], phi[k], cond, ps, {})
-            check_fitted(lk)
-        except SynthesisError as e:
-            why = why or str(e)
-            continue
-        ts = [r.t for r in lk.poses]
+            return (f"the exact poses and velocities cannot all be met by a Bennett motion (best constraint "
+                    f"violation {violation[k]:.1e}, relative)")
+        return None
+
+    def build(k):
+        lk = linkage_of(coef[k], ref[k], phi[k], cond, ps, {})
         lk.info["_summary"] = FitSummary("fit", summary.seeds, summary.refined, summary.iterations,
-                                         visiting_order(ts))
-        out.append(lk)
-        taken.append(k)
-        if len(out) >= top:
-            break
+                                         visiting_order([r.t for r in lk.poses]))
+        return lk
+
+    out, why = first_built(range(len(coef)), build, top, skip)
     if not out:
         raise SynthesisError(f"{ps.source}: {why or 'no Bennett motion fits the task'}")
     return out

@@ -24,6 +24,7 @@ import numpy as np
 
 from synth.algebra.dq import structure_constants
 from synth.algebra.geometry import cross
+from synth.synthesis.arrow import ArrowJacobian
 
 __all__ = ["sample_combinations", "nth_combination", "TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",
            "homogeneous", "basis", 
@@ -234,6 +235,18 @@ class LMResult:
     iterations: int
 
 
+def _chained(b, db, dE, vel: bool):
+    """Derivatives (S, N, R, 8 n + 6) of item rows in the coefficients and the reference correction, from
+    their complex-step derivatives dE (S, directions, N, R) in C (8), C' (8, with ``vel``), the reference
+    (6) and phi (1, last), and the basis b, db (S, N, n + 1) at the items (`basis`)."""
+    S, dirs, N, R = dE.shape
+    n = b.shape[-1] - 1
+    dcoef = np.einsum("snk,sjnr->snrkj", b[..., :n], dE[:, :8])
+    if vel:
+        dcoef += np.einsum("snk,sjnr->snrkj", db[..., :n], dE[:, 8:16])
+    return np.concatenate([dcoef.reshape(S, N, R, 8 * n), np.moveaxis(dE[:, dirs - 7:dirs - 1], 1, -1)], -1)
+
+
 class MotionModel:
     """The rows of a motion fit (`item_errors`, `study_rows`) as (residuals, constraints) of x."""
 
@@ -253,7 +266,8 @@ class MotionModel:
         return r, c
 
     def jacobians(self, x):
-        """(r, c, J_r, J_c) at x (S, P). The rows depend on the coefficients only through C and dC at the
+        """The rows and Jacobians at x (S, P) as a `synth.synthesis.arrow.ArrowJacobian` (item rows uncompressed:
+        the rows that do not count are 0). The rows depend on the coefficients only through C and dC at the
         items, linearly (`basis`): complex steps in C (8), dC (8, with velocities), the reference (6) and
         all phi at once (each phi_i moves item i's rows only), chained to the coefficients; the Study rows
         by complex steps in the coefficients."""
@@ -278,30 +292,45 @@ class MotionModel:
         E = motion_errors(Cs, dCs, refs, task)  # (S, directions, N, ROWS)
         dE = E.imag / STEP
         E0 = E[:, -1].real
-        dirs = dE.shape[1]
-        dE_coef = np.einsum("snk,sjnr->skjnr", b[..., :n], dE[:, :8])
-        if vel:
-            dE_coef = dE_coef + np.einsum("snk,sjnr->skjnr", db[..., :n], dE[:, 8:16])
-        dE_all = np.concatenate([dE_coef.reshape(S, 8 * n, *dE.shape[2:]), dE[:, dirs - 7:dirs - 1],
-                                 dE[:, dirs - 1:]], 1)  # (S, g+1, N, ROWS): coefficients, reference, phi
-        flat = dE_all.reshape(S, g + 1, -1)
-        dr = (dE_all * task.weight).reshape(S, g + 1, -1)[..., self.free]
+        c, Jc = self._study(coef, x.shape[-1])
+        if self.eq.any():  # the exact rows of the items that have them
+            items = np.nonzero(task.exact.any(1))[0]
+            dg = _chained(b[:, items], db[:, items], dE[:, :, items], vel)  # (S, k, ROWS, g)
+            eq = task.exact[items].ravel()
+            owner = np.repeat(items, ROWS)[eq]
+            Je = np.zeros((S, len(owner), lay.size))
+            Je[..., :g] = dg.reshape(S, -1, g)[:, eq]
+            Je[:, np.arange(len(owner)), g + owner] = dE[:, -1, items].reshape(S, -1)[:, eq]
+            c, Jc = np.concatenate([E0[:, items].reshape(S, -1)[:, eq], c], -1), np.concatenate([Je, Jc], 1)
+        w = task.weight[:, :ERRORS]  # (the twist rows are never residuals)
+        counts = w != 0  # (rows that do not count: 0, whatever their values)
+        dg = _chained(b, db, dE[..., :ERRORS], vel)  # (S, N, ERRORS, g)
+        return ArrowJacobian.of_items(np.where(counts, E0[..., :ERRORS] * w, 0.0),
+                                      np.where(counts[..., None], dg * w[..., None], 0.0),
+                                      np.where(counts, dE[:, -1, :, :ERRORS] * w, 0.0), c, Jc)
+
+    def _study(self, coef, columns: int):
+        """The Study rows (S, 2n) of the coefficients (S, n, 8) and their Jacobian (S, 2n, columns) (complex
+        steps)."""
+        S, n = coef.shape[0], self.layout.n
         kick = coef[:, None] + 1j * STEP * np.eye(8 * n).reshape(8 * n, n, 8)
-        dstudy = np.zeros((S, g + 1, 2 * n))
-        dstudy[:, :8 * n] = study_rows(kick).imag / STEP
-        dc = np.concatenate([flat[..., self.eq], dstudy], -1)
-        r = (E0 * task.weight).reshape(S, -1)[:, self.free]
-        c = np.concatenate([E0.reshape(S, -1)[:, self.eq], study_rows(coef)], -1)
-        Jr = np.zeros((S, r.shape[-1], lay.size))
-        Jc = np.zeros((S, c.shape[-1], lay.size))
-        Jr[:, :, :g] = np.swapaxes(dr[:, :g], 1, 2)
-        Jc[:, :, :g] = np.swapaxes(dc[:, :g], 1, 2)
-        item_r = np.repeat(np.arange(lay.items), ROWS)
-        rows_r, rows_c = item_r[self.free], np.concatenate([item_r[self.eq], np.full(2 * lay.n, -1)])
-        for J, d, owner in ((Jr, dr, rows_r), (Jc, dc, rows_c)):
-            k = np.nonzero(owner >= 0)[0]
-            J[:, k, g + owner[k]] = d[:, g, k]
-        return r, c, Jr, Jc
+        J = np.zeros((S, 2 * n, columns))
+        J[..., :8 * n] = np.swapaxes(study_rows(kick).imag / STEP, 1, 2)
+        return study_rows(coef), J
+
+    def constraints(self, x):
+        """(c (S, E), its Jacobian (S, E, P)) at x (S, P): `jacobians` for the constraints only, of the items
+        with exact rows alone."""
+        items = np.nonzero(self.task.exact.any(1))[0]
+        if not len(items):
+            return self._study(self.layout.split(x)[0], x.shape[-1])
+        t, g = self.task, 8 * self.layout.n + 6
+        sub = MotionModel(Layout(self.layout.n, len(items), np.zeros((0, 3), int)),
+                          TaskArrays(t.Q[items], t.X[items], t.weight[items], t.exact[items], t.perp[items]), self.ref0)
+        jac = sub.jacobians(np.concatenate([x[:, :g], x[:, g + items]], 1))
+        Jc = np.zeros(jac.Jc.shape[:2] + (x.shape[-1],))
+        Jc[..., :g], Jc[..., g + items] = jac.Jc[..., :g], jac.Jc[..., g:]
+        return jac.c, Jc
 
 
 def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
@@ -311,33 +340,24 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
     (lam / 3, else lam * 4) when it lowers |r|^2 and keeps max |c| below max(NEARLY_FEASIBLE, its value), or
     halves max |c| while that is above NEARLY_FEASIBLE (a filter: exact rows never trade against the cost);
     `polish_feasible` then meets c = 0 to rounding. ``fixed`` (S, P) bool: columns held, per seed. ``model``:
-    ``rows(x) -> (r, c)`` and ``jacobians(x) -> (r, c, J_r, J_c)``. Stops after ``iterations`` Jacobians
+    ``rows(x) -> (r, c)``, ``jacobians(x) -> ArrowJacobian`` and ``constraints(x) -> (c, A)`` (its KKT system is solved with the items'
+    columns eliminated, `synth.synthesis.arrow.KKTSystem`: linear in the number of items). Stops after ``iterations`` Jacobians
     or when every seed's step is below 1e-13 (relative) or its cost stops moving (FLAT, relative): counted
     work only."""
     x = np.array(x0, float)
     fixed = np.broadcast_to(np.asarray(fixed, bool), x.shape)
-    S, P = x.shape
+    S = x.shape[0]
     lam = np.full(S, 1e-3)
     done = np.zeros(S, bool)
     it = 0
-    r, c, Jr, Jc = model.jacobians(x)
-    cost, viol = (r * r).sum(-1), np.abs(c).max(-1, initial=0.0)
-    idx = np.arange(P)
+    jac = model.jacobians(x)
+    cost, viol = jac.cost, np.abs(jac.c).max(-1, initial=0.0)
     for it in range(1, iterations + 1):
-        J, A = _held(Jr, fixed), _held(Jc, fixed)
-        H = np.swapaxes(J, 1, 2) @ J
-        g = (np.swapaxes(J, 1, 2) @ r[..., None])[..., 0]
-        ne = A.shape[1]
-        K = np.zeros((S, P + ne, P + ne))
-        K[:, :P, :P] = H
-        K[:, :P, P:] = np.swapaxes(A, 1, 2)
-        K[:, P:, :P] = A
-        rhs = np.concatenate([-g, -c], -1)
-        dH = np.where(fixed, 1.0, H[:, idx, idx] + 1e-12)
+        system = jac.system(fixed)
+        A, ne = system.A, system.A.shape[1]
         pending = ~done
         for _ in range(8):  # damping tries per Jacobian
-            K[:, idx, idx] = np.where(fixed, 1.0, H[:, idx, idx] + lam[:, None] * dH)
-            xn = x + _solve(K, rhs)[:, :P]
+            xn = x + system.step(lam, _solve)
             rn, cn = model.rows(xn)
             for _ in range(CORRECTIONS if ne else 0):  # second-order corrections: back onto c = 0 along A's rows
                 if np.abs(cn[pending]).max(initial=0.0) <= CORRECT_ABOVE:
@@ -360,15 +380,10 @@ def levenberg_marquardt(model, x0, fixed, iterations: int = 60) -> LMResult:
                 break
         if done.all():
             break
-        r, c, Jr, Jc = model.jacobians(x)
+        jac = model.jacobians(x)
     x = polish_feasible(model, x, fixed)
     r, c = model.rows(x)
     return LMResult(x=x, cost=(r * r).sum(-1), violation=np.abs(c).max(-1, initial=0.0), iterations=it)
-
-
-def _held(J, fixed):
-    """J (S, M, P) with the held columns zeroed."""
-    return np.where(fixed[:, None, :], 0.0, J)
 
 
 def _min_norm(A, c):
@@ -386,8 +401,8 @@ def polish_feasible(model, x, fixed, steps: int = POLISH_STEPS):
         c = model.rows(x)[1]  # (cheaper than the Jacobians, which only a violated constraint needs)
         if not c.shape[-1] or np.abs(c).max() <= FEASIBLE_FLOOR:
             break
-        _, c, _, Jc = model.jacobians(x)
-        xn = x - _min_norm(_held(Jc, fixed), c)
+        c, Jc = model.constraints(x)
+        xn = x - _min_norm(np.where(fixed[:, None, :], 0.0, Jc), c)
         cn = model.rows(xn)[1]
         better = np.abs(cn).max(-1) < np.abs(c).max(-1)
         x[better] = xn[better]

@@ -32,7 +32,7 @@ from synth.synthesis.fit_order import ListedOrder, directions
 from synth.synthesis.fit import ERRORS, Layout, LMResult, MotionModel, levenberg_marquardt, reference_pose, task_arrays
 from synth.synthesis.sixbar import LOOP, loop_dh
 from synth.synthesis.sixbar_loops import factor_members, member_geometry, score_loops, score_warnings
-from synth.synthesis.taskfit import FitSummary, check_fitted, item_kinds, item_tolerances, visiting_order, visits_in_order
+from synth.synthesis.taskfit import FitSummary, first_built, item_kinds, item_tolerances, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 
 __all__ = ["CubicFits", "fit_cubics", "fit_candidates", "STAGE1", "STAGE2", "KEEP_FITS"]
@@ -185,17 +185,8 @@ def fit_candidates(ps: PoseSet, top: int = 1) -> list:
     if not rank:
         raise SynthesisError(f"{ps.source}: every fitted cubic motion has a nearly real or repeated norm factor or a "
                              "translation factor: no 6R linkage of it")
-    out, why = [], None
-    for *_, j, p in rank[:MAX_BUILT]:
-        try:
-            lk = _linkage(fits, idx[j], mf, j, int(p), parts, score, ps)
-            check_fitted(lk)
-        except SynthesisError as e:
-            why = why or str(e)
-            continue
-        out.append(lk)
-        if len(out) >= top:
-            break
+    out, why = first_built([(j, int(p)) for *_, j, p in rank[:MAX_BUILT]],
+                           lambda jp: _linkage(fits, idx[jp[0]], mf, jp[0], jp[1], parts, score, ps), top)
     if not out:
         raise SynthesisError(f"{ps.source}: {why}")
     return out

@@ -117,15 +117,18 @@ class _Penalized:
         r, c = self.model.rows(x)
         return np.concatenate([r, self._penalty(x)], -1), c
 
+    def constraints(self, x):
+        return self.model.constraints(x)
+
     def jacobians(self, x):
-        r, c, Jr, Jc = self.model.jacobians(x)
+        jac = self.model.jacobians(x)
         p = self._penalty(x)
         k = self.columns
         steps = x[:, None, :] + FD_STEP * np.eye(x.shape[-1])[:k]  # (S, k, P)
         dp = (self._penalty(steps) - p[:, None, :]) / FD_STEP  # (S, k, 2)
-        Jp = np.zeros((x.shape[0], 2, x.shape[-1]))
+        Jp = np.zeros((x.shape[0], 2, jac.item_g.shape[-1]))
         Jp[:, :, :k] = np.swapaxes(dp, 1, 2)
-        return np.concatenate([r, p], -1), c, np.concatenate([Jr, Jp], 1), Jc
+        return jac.with_rows(p, Jp)
 
 
 def into_base_box(model, res: LMResult, fixed, box: Box, cond, orders=_ORDERS,

@@ -18,7 +18,7 @@ from synth.synthesis.bennett_core import ACCEPT_TOL
 from synth.synthesis.conditioning import transmission_problem
 from synth.task import Order, PoseSet
 
-__all__ = ["make_task", "check_fitted", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem",
+__all__ = ["make_task", "check_fitted", "first_built", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem",
            "error_rows", "item_kinds", "item_tolerances", "select"]
 
 
@@ -190,3 +190,28 @@ def check_fitted(linkage) -> None:
     if not rel <= ACCEPT_TOL:
         raise SynthesisError(f"the fitted linkage does not close to double precision (relative error {rel:.1e})")
     linkage.checks = checks
+
+
+def first_built(candidates, build, top: int, skip=None) -> tuple[list, str | None]:
+    """The first ``top`` checked linkages of ``candidates`` (best first), for the task fits: ``build(c)`` makes
+    a candidate's linkage (a SynthesisError refuses it), `check_fitted` checks it; ``skip(c, kept)`` (optional,
+    given the candidates built so far) passes over one before building it: None builds it, "" passes over
+    silently, any other text is the reason. Returns (the linkages, the first reason a candidate was refused or
+    None)."""
+    out, kept, why = [], [], None
+    for cand in candidates:
+        reason = skip(cand, kept) if skip is not None else None
+        if reason is not None:
+            why = why or reason or None
+            continue
+        try:
+            lk = build(cand)
+            check_fitted(lk)
+        except SynthesisError as e:
+            why = why or str(e)
+            continue
+        out.append(lk)
+        kept.append(cand)
+        if len(out) >= top:
+            break
+    return out, why
