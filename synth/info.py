@@ -32,13 +32,11 @@ class Factorization(Record):
     """A spatial Bennett linkage's motion (docs/conic.md): the factorization residual, the Study form of
     three poses (exact synthesis only) and the conditioning frame of the poses."""
 
+    MARK = "factorization_residual"
+
     factorization_residual: float
     study_form: StudyForm | None = optional()
     conditioning: Conditioning
-
-    @classmethod
-    def matches(cls, d: Mapping) -> bool:
-        return "factorization_residual" in d
 
 
 @record
@@ -105,6 +103,8 @@ class SixbarCandidate(Record):
     lambdas, the score, the factorization orders, norm roots [re, im] and residual, the quadric's Gram
     signature, each family's t3, the items' parameters (fits; None = infinity)."""
 
+    MARK = "pair"  # (a 6R of points has one too: `PointsCandidate` is tried first)
+
     task: str | None = optional()
     family: int | None = optional()
     member: float | None = optional()
@@ -120,10 +120,6 @@ class SixbarCandidate(Record):
     family_t3: Mapping[str, float] | None = optional()
     parameters: tuple[float | None, ...] | None = optional()
     conditioning: Conditioning
-
-    @classmethod
-    def matches(cls, d: Mapping) -> bool:
-        return "pair" in d and "score" in d
 
 
 @record
@@ -197,13 +193,11 @@ class FourBarFigures(Record):
 class FourBarRecord(Record):
     """A planar four-bar: its plane, its figures and the rule that ranked it."""
 
+    MARK = "fourbar"
+
     plane: Plane
     fourbar: FourBarFigures
     score_rule: str
-
-    @classmethod
-    def matches(cls, d: Mapping) -> bool:
-        return "fourbar" in d
 
 
 @record
@@ -240,6 +234,8 @@ class GivenMotion(Record):
     expression, the monic motion, leading coefficient, real content, co-factor R, its degree, the mrpf,
     boundedness, the factorization residual and report, C R, the alternatives (a Darboux 7R chosen)."""
 
+    MARK = "input"
+
     input: tuple
     expression: str | None
     monic: np.ndarray
@@ -255,10 +251,6 @@ class GivenMotion(Record):
     components: tuple[Mapping, ...]
     C_times_R: np.ndarray
     alternatives: tuple[Alternative, ...] | None = optional()
-
-    @classmethod
-    def matches(cls, d: Mapping) -> bool:
-        return "input" in d
 
 
 @record

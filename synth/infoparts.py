@@ -24,7 +24,10 @@ def optional(**kw):
 
 class Record:
     """Base of the info records: ``to_dict`` (fields in order, `optional` ones left out while None) and
-    ``from_dict`` (its inverse for a document read back; a missing key gives None)."""
+    ``from_dict`` (its inverse for a document read back; a missing key gives None). ``MARK``: a key only
+    this record's documents have, which tells it from the others of a union (`matches`)."""
+
+    MARK: typing.ClassVar[str | None] = None
 
     def to_dict(self) -> dict:
         out = {}
@@ -44,7 +47,7 @@ class Record:
     @classmethod
     def matches(cls, d: Mapping) -> bool:
         """Whether the document ``d`` is one of this record (for a field whose type is a union of records)."""
-        return True
+        return cls.MARK is None or cls.MARK in d
 
     def replace(self, **changes):
         """A copy with ``changes`` (`dataclasses.replace`)."""

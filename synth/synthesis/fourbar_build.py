@@ -16,7 +16,7 @@ from synth.algebra.anglelaw import angle_law_inverse
 from synth.algebra.fourbar_loop import ROLES, FourBarLaw, loop_angles
 from synth.algebra.geometry import rotation_about_axis
 from synth.info import LinkageInfo
-from synth.linkage import Joint, Linkage, PoseRecord
+from synth.linkage import Joint, Kind, Linkage, PoseRecord
 from synth.synthesis.fourbar_plane import PlanarTask
 from synth.synthesis.fourbar_rank import FourBars, coupler_poses
 
@@ -61,7 +61,7 @@ def fourbar_linkage(task: PlanarTask, fb: FourBars, n: int, T, names, info: Link
     records = [PoseRecord(str(name), T[i], float(ts[i]), dict(zip(ROLES, map(float, q[:, i]))))
                for i, name in enumerate(names)]
     tool_ref = reference_displacement(task, fb, n) @ T[0]
-    return Linkage("planar_fourbar", joints, {k: list(v) for k, v in LINKS.items()}, [["h1", "h2"], ["k1", "k2"]],
+    return Linkage(Kind.PLANAR_FOURBAR, joints, {k: list(v) for k, v in LINKS.items()}, [["h1", "h2"], ["k1", "k2"]],
                    [("coupler", "coupler_k")], tool_ref, None, records, info=info)
 
 
