@@ -67,8 +67,8 @@ def cpu(fn, arg) -> tuple[float, str]:
     t = time.process_time()
     try:
         lk = fn(arg)[0]
-        f = lk.info["fit"]
-        out = f"ok, within tolerance: {f['within_tolerance']}"
+        f = lk.info.fit
+        out = f"ok, within tolerance: {f.within_tolerance}"
     except SynthesisError as e:
         out = f"refused: {str(e)[:60]}"
     return time.process_time() - t, out

@@ -55,7 +55,7 @@ def main(argv=None) -> int:
             with one_blas_thread():
                 for ps in tasks:
                     try:
-                        solved += bennett_fit.bennett_task(ps)[0].info["fit"]["within_tolerance"]
+                        solved += bennett_fit.bennett_task(ps)[0].info.fit.within_tolerance
                     except SynthesisError:
                         pass
             cpu = (time.process_time() - t) / len(tasks)

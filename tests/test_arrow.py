@@ -133,7 +133,7 @@ def _check_big_fit(lk, ps):
 
     angles = {j.name: np.array([r.joint_angles[j.name] for r in lk.poses]) for j in lk.joints}
     dt, dr = pose_difference(lk.tool_pose(angles), ps.matrices)
-    assert lk.info["fit"]["within_tolerance"]
+    assert lk.info.fit.within_tolerance
     assert np.all(dt <= ps.tolerance[:, 0] * (1 + 1e-9) + 1e-12) and np.all(dr <= ps.tolerance[:, 1] * (1 + 1e-9) + 1e-12)
     pos = ps.matrices[:, :3, 3]
     assert dt[0] < 1e-9 * np.sqrt(np.mean(np.sum((pos - pos.mean(0)) ** 2, 1))) and dr[0] < 1e-9  # pose 0: exact
