@@ -75,8 +75,8 @@ class Designer:
         DesignResult); ``linkage.info["design_choice"]`` says which candidate won; ``what``: the candidates'
         name in it."""
         candidates = list(candidates)
-        ranked = rank_buildable(candidates, lambda lk, ranges, full_work, spent: self.design(
-            lk, ranges=ranges, full_work=full_work, work=spent), limit=limit, work=work)
+        ranked = rank_buildable(candidates, lambda lk, ranges, full_work, spent, effort: self.design(
+            lk, ranges=ranges, full_work=full_work, work=spent, effort=effort), limit=limit, work=work)
         linkage, result = first_in_envelope(
             ranked, [c for c in candidates[:limit] if all(c is not lk for lk, _ in ranked)],
             lambda lk: self.design(lk, ranges=("task",)), constraints, source=self.source, scale=self.scale,
