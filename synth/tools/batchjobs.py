@@ -250,14 +250,15 @@ def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) ->
         if read[n] is None:
             read[n] = _read_job(item, out_dir, defer_out=True)
     fast = [n for n, j in enumerate(read) if isinstance(j, _Job) and _batchable(j, full)]
-    if fast or common is not None and common.index:
-        T = [common.poses] if common is not None else []
-        T += [read[n].ps.matrices[None] for n in fast]
-        done = _solve_many(np.concatenate(T), [read[n] for n in common.index] + [read[n].result for n in fast])
-        for n in fast:
-            read[n].ps = None if read[n].result.get("ok") else read[n].ps
+    if common is not None and (fast or common.index):  # (fast: never with full, as common)
+        T = np.concatenate([common.poses] + [read[n].ps.matrices[None] for n in fast])
+        done = _solve_many(T, [read[n] for n in common.index] + [read[n].result for n in fast])
+        for n, ok in zip(fast, done[len(common.index):]):
+            if ok:
+                read[n].ps = None  # decided: its result is complete
         for n, ok in zip(common.index, done):
-            read[n] = read[n] if ok else None  # undecided: the per-job path, at its turn
+            if not ok:
+                read[n] = None  # undecided: the per-job path, at its turn
     for item, j in zip(chunk, read):
         if stop is not None and stop():
             raise Stopped
