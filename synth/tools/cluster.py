@@ -4,10 +4,12 @@
 (one single-threaded worker process per CPU, or ``workers``), anything else is the address of a running
 scheduler (``tcp://host:8786``, see README "Sweeps on a Dask cluster"). ``run_jobs_on(client, lines)`` is
 `synth.tools.batchjobs.run_jobs` on that cluster: the same (line number, text) items, cut into chunks
-(`synth.tools.batchjobs.chunks`), each chunk one Dask task running `synth.tools.batchjobs.run_chunk` on a
-worker, at most a few tasks per worker thread in flight (bounded memory on both sides), results
-yielded in input order as soon as the chunks before them are done. The result dictionaries are the ones
-of the local run, so the result lines are the same bytes.
+(`synth.tools.batchjobs.chunks`), each chunk one Dask task running `synth.tools.batchjobs.run_chunk_lines` on
+a worker, at most a few tasks per worker thread in flight (bounded memory on both sides), results
+yielded in input order as soon as the chunks before them are done; ``run_chunks_on(client, chunks)`` is
+`synth.tools.batchjobs.run_batch` there (`mpsynth batch --scheduler`: raw line bytes in, one text of
+result lines out per chunk). The results are the ones of the local run, so the result lines are the same
+bytes.
 
 Failures: a job never fails a task (`synth.tools.batchjobs.run_job` turns every error into a result). A
 worker that dies (killed, out of memory, its machine gone) loses no job: the scheduler runs its chunks
