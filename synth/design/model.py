@@ -137,10 +137,11 @@ def axis_point(linkage, joint: str, offset: float, sites=None) -> np.ndarray:
     return sites[joint] + offset * j.direction
 
 
-def capsules(linkage, design: PhysicalDesign) -> list[Capsule]:
+def capsules(linkage, design: PhysicalDesign, sites=None) -> list[Capsule]:
     """The solids of the design as capsules, each fixed to its link: bar segments (bar radius), hubs
-    (hub radius, hub length) and pins (pin radius, on their carrier link)."""
-    sites = linkage.joint_sites()
+    (hub radius, hub length) and pins (pin radius, on their carrier link). ``sites``: the linkage's
+    ``joint_sites()`` when already at hand."""
+    sites = linkage.joint_sites() if sites is None else sites
     out: list[Capsule] = []
     for b in design.bars:
         pts = [axis_point(linkage, b.joints[0], design.mount(b.link, b.joints[0]).offset, sites),

@@ -17,6 +17,7 @@ Deterministic for a given ``seed``.
 """
 from __future__ import annotations
 
+import functools
 import math
 import time
 
@@ -122,26 +123,36 @@ class Layout:
         J = len(self.joints)
         return self.mount_offsets(np.zeros((1, J)), np.ones((1, J)), np.full((1, J), self.gap_min))[0]
 
+    @functools.cached_property
+    def _gathers(self):
+        """Index arrays of `mount_offsets` and `end_offsets`: per mount its joint and place in the stack
+        (k - (n - 1) / 2); per joint its mounts (padded by repeating the first); per end its column in
+        [S | lo | hi | W] and constant."""
+        jidx = {j: i for i, j in enumerate(self.joints)}
+        joint = np.array([jidx[j] for _, j in self.mounts], int)
+        place = np.array([self.links_of[j].index(link) - (len(self.links_of[j]) - 1) / 2 for link, j in self.mounts])
+        width = max((len(self.links_of[j]) for j in self.joints), default=1)
+        stack = np.array([[self.mindex[(ls[min(k, len(ls) - 1)], j)] for k in range(width)]
+                          for j, ls in ((j, self.links_of[j]) for j in self.joints)], int).reshape(-1, width)
+        M, J = len(self.mounts), len(self.joints)
+        start = (0, M, M + J, M + 2 * J)
+        column = np.array([start[kind] + index for kind, index, _ in self.ends], int)
+        const = np.array([const for *_, const in self.ends], float)
+        return joint, place, stack, column, const
+
     def mount_offsets(self, c, sigma, g) -> np.ndarray:
         """(N, M) mount offsets."""
-        S = np.empty((c.shape[0], len(self.mounts)))
-        for ji, j in enumerate(self.joints):
-            links = self.links_of[j]
-            n = len(links)
-            for k, link in enumerate(links):
-                S[:, self.mindex[(link, j)]] = c[:, ji] + sigma[:, ji] * (k - (n - 1) / 2) * g[:, ji]
-        return S
+        joint, place = self._gathers[:2]
+        return c[:, joint] + sigma[:, joint] * place * g[:, joint]
 
     def end_offsets(self, S, W=None) -> np.ndarray:
         """(N, E) end-point offsets of the capsules from the mount offsets S (N, M) and the crank offsets
         W (N, V) (default: zero, the via points on the straight bar)."""
-        lo = np.stack([S[:, [self.mindex[(l, j)] for l in self.links_of[j]]].min(axis=1) for j in self.joints], 1)
-        hi = np.stack([S[:, [self.mindex[(l, j)] for l in self.links_of[j]]].max(axis=1) for j in self.joints], 1)
+        stack, column, const = self._gathers[2:]
+        around = S[:, stack]  # (N, J, width)
         W = np.zeros((len(S), len(self.vias))) if W is None else np.broadcast_to(W, (len(S), len(self.vias)))
-        cols = []
-        for kind, index, const in self.ends:
-            cols.append((S, lo, hi, W)[kind][:, index] + const)
-        return np.stack(cols, axis=1)
+        table = np.concatenate([S, around.min(axis=2), around.max(axis=2), W], axis=1)
+        return table[:, column] + const
 
     def design(self, S, W=None, *, pin_radius, bar_radius, hub_radius, hole_clearance, clearance) -> PhysicalDesign:
         """The `PhysicalDesign` of one mount-offset vector S (M,) and crank offsets W (V,)."""

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.design.model import capsules
 from synth.io.meshes import link_primitives, pin_primitives
 from synth.io.names import MESH_UNIT_SCALE, pin_link_name
 from synth.io import interrupts
@@ -64,12 +65,14 @@ def step_parts(linkage, design) -> dict[str, tuple[list, list]]:
     """{URDF link name: (parts, bores)} (`synth.io.meshes.Primitive` lists, world coordinates, metres):
     every link with joints, then every pin (no bores)."""
     out = {}
+    sites = linkage.joint_sites()
+    caps = capsules(linkage, design, sites)
     for name in linkage.link_names:
-        parts, bores = link_primitives(linkage, design, name)
+        parts, bores = link_primitives(linkage, design, name, sites, caps)
         if parts:
             out[name] = (parts, bores)
     for p in design.pins:
-        out[pin_link_name(p.joint)] = (pin_primitives(linkage, design, p.joint), [])
+        out[pin_link_name(p.joint)] = (pin_primitives(linkage, design, p.joint, sites), [])
     return out
 
 
