@@ -116,7 +116,7 @@ def candidates(linkage, design, screw: Screw) -> list[Mounting]:
         u = linkage.joint(joint).direction
         c = axis_point(linkage, joint, design.mount(BASE, joint).offset)
         side = _neighbour_side(design, linkage, joint)
-        gap = 0.5 * T + 0.5 * design.clearance  # the plate's capsules reach T/2 at most past its end
+        gap = 0.5 * T + design.clearance  # the plate's capsules reach T/2 at most past its end
         length = max(L - gap + OVERLAP * T, screw.head + screw.hole)  # (no end face flush with the hub's)
         mid = c + side * (-0.5 * L + gap + 0.5 * length) * u
         depth = bore + 0.6 * (R - bore) + T  # the face's distance from the axis
@@ -160,14 +160,15 @@ def outermost(m: Mounting, base: list[Capsule]) -> bool:
 def usable_holes(m: Mounting, base: list[Capsule], head: float) -> np.ndarray:
     """The holes of ``m`` (k, 3) above which a screw head (diameter ``head``) and its key fit: the segment
     from the plate's inner face `HEAD_ROOM` head diameters inwards keeps head / 2 from every base capsule."""
-    keep = []
-    for h in m.holes:
-        p0 = h - (m.thickness - m.counterbore[1]) * m.normal  # where the head sits
-        p1 = p0 - HEAD_ROOM * head * m.normal
-        ok = all(float(segment_distance(*(np.asarray(x, float)[:, None] for x in (p0, p1, c.p0, c.p1)))[0])
-                 >= c.radius + 0.5 * head for c in base)
-        keep.append(ok)
-    return m.holes[np.asarray(keep, bool)]
+    if not base:
+        return m.holes
+    q0 = np.array([c.p0 for c in base]).T[:, None, :]  # (3, 1, C)
+    q1 = np.array([c.p1 for c in base]).T[:, None, :]
+    radius = np.array([c.radius for c in base])[None, :]
+    p0 = (m.holes - (m.thickness - m.counterbore[1]) * m.normal).T[:, :, None]  # (3, k, 1): where the heads sit
+    p1 = p0 - HEAD_ROOM * head * np.asarray(m.normal, float)[:, None, None]
+    d = segment_distance(p0, p1, q0, q1)  # (k, C)
+    return m.holes[np.all(d >= radius + 0.5 * head, axis=1)]
 
 
 def inside(m: Mounting, box) -> bool:
@@ -213,13 +214,14 @@ def plate_gap(linkage, design, m: Mounting, rname: str, clearance: float) -> dic
     lo, hi = FULL if rname == "full" else task_phi_range(linkage)
     if not len(cs.pairs):
         return {"certified": True, "lower": math.inf}
-    return certify(linkage, cs, np.zeros(len(cs.ends_body)), lo, hi, clearance)
+    return certify(linkage, cs, np.zeros(len(cs.ends_body)), lo, hi, clearance, samples=CERTIFY_SAMPLES)
 
 
 def _box_distance(p, box) -> float:
     return float(np.linalg.norm(np.maximum(box.lo - p, 0.0) + np.maximum(p - box.hi, 0.0)))
 
 
+CERTIFY_SAMPLES = 64  # the certificate's first samples (it bisects where the bound needs it)
 FOOT_MAX = 0.25  # times the linkage's extent: the most a plate is thickened to reach a base box
 
 

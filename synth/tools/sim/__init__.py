@@ -20,7 +20,11 @@ What every engine does (the closed-loop convention of docs/conventions.md):
   the result counts the steps with such a contact and the largest contact force;
 - start at all-zero angles at rest (a valid configuration: the first pose), release every joint's
   default motor and drive the first joint of the first branch through one full turn in ``seconds``
-  with a position motor, paced for an even joint-space speed of the whole linkage (`DriveProfile`);
+  with a position motor, paced for an even joint-space speed of the whole linkage (`DriveProfile`); when
+  that joint nearly stops somewhere (another joint turns over `STEADY_RATIO` times as fast), the joint
+  whose worst speed ratio is smallest drives instead if it stays within `STEADY_RATIO` (`steady_driver`),
+  else the stretch where the driver nearly stops (a near-singular passage of the loop) is tracked apart
+  (`Unsteady`: there the welds' give is magnified by the speed ratio);
 - after every step compare every joint with the exact motion: the configuration's distance from the
   motion's curve in joint space (`nearest_on_motion`: the driver angle phi whose exact angles, via the
   motion parameter t = a + b cot(phi/2) of the angle laws theta(t) = 2 atan2(b, t - a),
