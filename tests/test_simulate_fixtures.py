@@ -66,7 +66,8 @@ NEAR_SINGULAR = {"sixbar_hermite.yaml"}
 def test_every_fixture_passes_at_the_defaults(outputs, fixture, engine):
     res = simulate_at_defaults(outputs(fixture), engine)
     assert res["engine"] == engine
-    assert ("unsteady" in res) == (fixture in NEAR_SINGULAR and res["driver"] == "h1")
+    if fixture in NEAR_SINGULAR:  # reported on its own, --tol held elsewhere
+        assert res["unsteady"]["speed_ratio"] > 100 and res["max_joint_deviation_steady"] <= 1e-3
 
 
 def test_a_near_singular_passage_is_found_and_no_joint_drives_it_steadily(outputs):

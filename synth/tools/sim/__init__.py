@@ -175,9 +175,27 @@ class Unsteady:
         return self.mask[k] | self.mask[np.maximum(k - 1, 0)]
 
     def span_deg(self) -> tuple[float, float]:
-        """The stretch's first and last driver angles (deg)."""
-        sel = self.phi[self.mask]
-        return float(np.degrees(sel.min())), float(np.degrees(sel.max()))
+        """The first and last driver angle (deg) of the piece of the stretch around the worst point ``at``
+        (over the end of a whole-turn sweep: from below 0)."""
+        k = int(np.argmin(np.abs(self.phi - self.at)))
+        lo = hi = k
+        while lo > 0 and self.mask[lo - 1]:
+            lo -= 1
+        while hi < len(self.mask) - 1 and self.mask[hi + 1]:
+            hi += 1
+        start, end = float(self.phi[lo]), float(self.phi[hi])
+        turn = abs(self.phi[-1] - self.phi[0] - TWO_PI) < 1e-9
+        if turn and lo == 0 and self.mask[-2]:  # the piece runs on from the end of the turn
+            j = len(self.mask) - 2
+            while j > 0 and self.mask[j - 1]:
+                j -= 1
+            start = float(self.phi[j]) - TWO_PI
+        elif turn and hi == len(self.mask) - 1 and self.mask[1]:
+            j = 1
+            while j < len(self.mask) - 1 and self.mask[j + 1]:
+                j += 1
+            end = float(self.phi[j]) + TWO_PI
+        return math.degrees(start), math.degrees(end)
 
 
 def unsteady_stretch(laws, rates, loops, joints, driver, drive, grid: int = 4096) -> Unsteady | None:
