@@ -27,7 +27,8 @@ none is kept (the output then has no mounting).
 
 Screws (`SCREWS`): ISO 273 medium-series clearance holes, 4.5 mm for M4 and 3.4 mm for M3, with the
 head diameters of ISO 4762 socket head cap screws; the largest whose hole is no wider than the pin's
-diameter (no mounting for pins thinner than an M3 hole). Plate thickness: the bar radius, at least 1.2
+diameter (no mounting for pins thinner than an M3 hole, nor for a linkage more than `MIN_HOLE`^-1 hole
+diameters across: M4 screws do not hold a linkage over 4.5 m). Plate thickness: the bar radius, at least 1.2
 hole diameters.
 """
 from __future__ import annotations
@@ -56,6 +57,8 @@ class Screw:
 
 
 SCREWS = (Screw("M4", 4.5e-3, 7.0e-3), Screw("M3", 3.4e-3, 5.5e-3))
+MIN_HOLE = 1e-3  # no screws below this fraction of the linkage's extent (M4: a linkage over 4.5 m; the
+# holes would also fall below the mesh boolean's tolerance, 1e-6 of a part, for parts kilometres long)
 HEAD_ROOM = 2.0  # head diameters above a hole that nothing of the base may enter (the head and a key)
 MARGIN = 5e-4  # metres between a screw head's rim and the hub
 OVERLAP = 0.25  # thicknesses by which a plate reaches past a hub's end face (into a flange's hub, past a
@@ -252,7 +255,8 @@ def place_mounting(linkage, result: DesignResult, *, base=None, envelope=None) -
     design = result.design
     design.mounting = None
     screw = screw_for(design)
-    if screw is None or BASE not in linkage.links or not linkage.links[BASE] or BASE not in bodies(linkage):
+    too_small = screw is None or screw.hole < MIN_HOLE * linkage.extent()
+    if too_small or not linkage.links.get(BASE) or BASE not in bodies(linkage):
         return result
     base_caps = _base_capsules(linkage, design)
     found = candidates(linkage, design, screw)
