@@ -129,7 +129,7 @@ def sixbar_sets(rng, count):
             L = synth.sixbar(T)
         except SynthesisError:
             continue
-        out.append((T, L.info["family"], L.info["member"]))
+        out.append((T, L.info.synthesis.family, L.info.synthesis.member))
     return out
 
 
@@ -299,7 +299,7 @@ def run_rl(python, rng, sets3, sets4, repeat, timeout):
                     skipped += 1        # still returns a complex/approximate result); not compared
                     continue
                 ours_s.append(per_call(synth.sixbar, [T], max(OURS_REPEAT // 20, 5))[1])
-                fam, mem = L.info["family"], L.info["member"]
+                fam, mem = L.info.synthesis.family, L.info.synthesis.member
                 ours_m.append(per_call(lambda x: one_member_loops(x, fam, mem), [T], max(OURS_REPEAT // 20, 5))[1])
     finally:
         proc.stdin.close()

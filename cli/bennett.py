@@ -95,21 +95,22 @@ def emit_two_branch(result, ps, output, summary_line: str | None = None):
     def details():
         if summary_line:
             echo(summary_line)
-        bp = linkage.info.get("bennett")
-        fam = linkage.info.get("family")
-        if isinstance(fam, dict) and bp:  # a planar or spherical four-bar (docs/planar.md)
+        from synth.info import FamilyMember
+
+        bp, s = linkage.info.bennett, linkage.info.synthesis
+        if isinstance(s, FamilyMember) and bp:  # a planar or spherical four-bar (docs/planar.md)
             scale, unit = ps.length_scale, ps.length_unit
-            m = linkage.info["member"]
-            where = (f"axes parallel to ({', '.join(f'{x:.4f}' for x in fam['normal'])})" if fam["kind"] == "planar" else
-                     f"axes through ({', '.join(f'{x / scale:.6g}' for x in fam['centre'])}) {unit}")
-            echo(f"  {fam['kind']} four-bar: member lambda1 = {m['lambda1']:.6g}, lambda2 = {m['lambda2']:.6g} of "
+            fam, m = s.family, s.member
+            where = (f"axes parallel to ({', '.join(f'{x:.4f}' for x in fam.normal)})" if fam.kind == "planar" else
+                     f"axes through ({', '.join(f'{x / scale:.6g}' for x in fam.centre)}) {unit}")
+            echo(f"  {fam.kind} four-bar: member lambda1 = {m.lambda1:.6g}, lambda2 = {m.lambda2:.6g} of "
                  f"the family of quadratic motions through the poses; {where}; " + (
-                 f"links a = {fmt_len(bp['a'], scale, unit)}, b = {fmt_len(bp['b'], scale, unit)}" if fam["kind"] == "planar"
-                 else f"link angles alpha = {math.degrees(bp['alpha']):.4f} deg, beta = {math.degrees(bp['beta']):.4f} deg"))
+                 f"links a = {fmt_len(bp.a, scale, unit)}, b = {fmt_len(bp.b, scale, unit)}" if fam.kind == "planar"
+                 else f"link angles alpha = {math.degrees(bp.alpha):.4f} deg, beta = {math.degrees(bp.beta):.4f} deg"))
         elif bp:
             scale, unit = ps.length_scale, ps.length_unit
-            echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {math.degrees(bp['alpha']):.4f} deg, "
-                 f"b = {fmt_len(bp['b'], scale, unit)}, beta = {math.degrees(bp['beta']):.4f} deg, "
-                 f"a/sin(alpha) - b/sin(beta) relative {bp['bennett_condition_residual']:.1e}")
+            echo(f"  Bennett: a = {fmt_len(bp.a, scale, unit)}, alpha = {math.degrees(bp.alpha):.4f} deg, "
+                 f"b = {fmt_len(bp.b, scale, unit)}, beta = {math.degrees(bp.beta):.4f} deg, "
+                 f"a/sin(alpha) - b/sin(beta) relative {bp.bennett_condition_residual:.1e}")
 
     emit(result, output, details)

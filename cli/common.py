@@ -248,7 +248,7 @@ def print_linkage_summary(linkage, scale: float, unit: str) -> None:
              f"{np.degrees(c['max_pose_rotation_error']):.2e} deg, closure error "
              f"{c['max_closure_translation_error'] / scale:.2e} {unit} + "
              f"{np.degrees(c['max_closure_rotation_error']):.2e} deg over {c.get('samples', 0)} samples")
-    for w in linkage.info.get("warnings", []):
+    for w in linkage.info.warnings or ():
         echo(f"  warning: {w}")
 
 

@@ -95,28 +95,29 @@ def emit_multiloop(result, output) -> None:
     linkage, scale, unit = result.linkage, result.scale, result.unit
 
     def details():
-        counts = linkage.info["counts"]
-        echo(f"  counts: {counts['joints']} revolute joints, {counts['links']} links "
-             f"(+{counts['links_with_duplicates'] - counts['links']} welded loop duplicates), "
-             f"{counts['loops']} loops")
-        mot = linkage.info.get("motion", {})
+        rec = linkage.info.synthesis  # a `synth.info.MultiLoop`
+        counts = rec.counts
+        echo(f"  counts: {counts.joints} revolute joints, {counts.links} links "
+             f"(+{counts.links_with_duplicates - counts.links} welded loop duplicates), "
+             f"{counts.loops} loops")
+        mot = rec.motion
         if linkage.kind == "curve":
-            cur = linkage.info["curve"]
-            echo(f"  curve: x = {cur['x']}, y = {cur['y']}, z = {cur['z']}, w = {cur['w']}; drawn by the "
-                 f"origin of link 'tracer' (method {cur['method']})")
+            cur = rec.curve
+            echo(f"  curve: x = {cur.x}, y = {cur.y}, z = {cur.z}, w = {cur.w}; drawn by the "
+                 f"origin of link 'tracer' (method {cur.method})")
             echo(f"  tracer stays on the curve to {linkage.checks['max_trace_error'] / scale:.2e} {unit}")
-        echo(f"  co-factor R = {mot.get('cofactor_text', '1')} (mrpf = {mot.get('mrpf_text', '1')}), "
-             f"factorization residual {mot.get('factorization_residual', 0.0):.1e}, "
+        echo(f"  co-factor R = {mot.cofactor_text if mot else '1'} (mrpf = {mot.mrpf_text if mot else '1'}), "
+             f"factorization residual {mot.factorization_residual if mot else 0.0:.1e}, "
              f"motion error {linkage.checks.get('max_motion_error', 0.0):.1e}")
-        mob = linkage.info.get("mobility", {})
+        mob = rec.mobility
         if mob:
-            echo(f"  mobility: dof {mob['dof']} at all sampled t, worst conditioning {mob['conditioning']:.1e}")
-        choice = linkage.info.get("darboux", {}).get("member_choice")
-        if choice and choice["member"] != "default":
-            m = choice["member"]
-            echo(f"  member: turn {math.degrees(m['turn']):.1f} deg of the parallel axes, 3R shift "
-                 f"({m['shift'][0] / scale:.3g}, {m['shift'][1] / scale:.3g}) {unit}: {choice['reason']}")
-        crossings = linkage.info.get("darboux", {}).get("singular_driver_deg", [])
+            echo(f"  mobility: dof {mob.dof} at all sampled t, worst conditioning {mob.conditioning:.1e}")
+        choice = rec.darboux.member_choice if rec.darboux else None
+        if choice and choice.member is not None:
+            m = choice.member
+            echo(f"  member: turn {math.degrees(m.turn):.1f} deg of the parallel axes, 3R shift "
+                 f"({m.shift[0] / scale:.3g}, {m.shift[1] / scale:.3g}) {unit}: {choice.reason}")
+        crossings = (rec.darboux.singular_driver_deg if rec.darboux else None) or ()
         if crossings:
             first = linkage.joints[0].name
             where = ", ".join(f"{d:.0f}" for d in sorted(crossings))

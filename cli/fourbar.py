@@ -53,23 +53,23 @@ def fourbar(poses, top, min_transmission, **params):
 
 def design_line(linkage, scale: float, unit: str) -> str:
     """One summary line: the four-bar's links, transmission and task range (and the fit's largest error)."""
-    f = linkage.info["fourbar"]
-    L = f["lengths"]
-    line = (f"  planar four-bar (crank-rocker, driver h1): ground {fmt_len(L['ground'], scale, unit)}, crank "
-            f"{fmt_len(L['crank'], scale, unit)}, coupler {fmt_len(L['coupler'], scale, unit)}, rocker "
-            f"{fmt_len(L['rocker'], scale, unit)}; transmission >= {f['transmission_min_deg']:.1f} deg over the "
-            f"crank's task range {f['task_range_deg'][0]:.1f} .. {f['task_range_deg'][1]:.1f} deg")
-    fit = linkage.info.get("fit")
+    f = linkage.info.synthesis.fourbar
+    L = f.lengths
+    line = (f"  planar four-bar (crank-rocker, driver h1): ground {fmt_len(L.ground, scale, unit)}, crank "
+            f"{fmt_len(L.crank, scale, unit)}, coupler {fmt_len(L.coupler, scale, unit)}, rocker "
+            f"{fmt_len(L.rocker, scale, unit)}; transmission >= {f.transmission_min_deg:.1f} deg over the "
+            f"crank's task range {f.task_range_deg[0]:.1f} .. {f.task_range_deg[1]:.1f} deg")
+    fit = linkage.info.fit
     if fit:
-        line += (f"; largest pose error {fmt_len(fit['max_position_error'], scale, unit)}, "
-                 f"{math.degrees(fit['max_angle_error']):.3g} deg")
+        line += (f"; largest pose error {fmt_len(fit.max_position_error, scale, unit)}, "
+                 f"{math.degrees(fit.max_angle_error):.3g} deg")
     return line
 
 
 def details(linkage, ps) -> None:
     """The four-bar's lines of the summary: the design line, and a task's table of errors (`cli.task.print_fit`)."""
     echo(design_line(linkage, ps.length_scale, ps.length_unit))
-    if "fit" in linkage.info:
+    if linkage.info.fit is not None:
         from .task import print_fit
 
         print_fit(linkage, ps)

@@ -13,12 +13,13 @@ __all__ = ["point_count", "emit_points"]
 
 
 def _design_line(lk) -> str:
-    i, p = lk.info, lk.info["score_parts"]
-    pair = f", pair {i['pair']}" if "pair" in i else ""
-    ts = ", ".join(f"{t:.4g}" for t in i["parameters"][1:] + i["chosen_parameters"])
-    return (f"  point design: parameters t = {ts}{pair}; score {i['score']:.3g} (conditioning "
-            f"{p['conditioning']:.3g}, extent {p['extent']:.3g} x spread, min twist "
-            f"{p['min_twist'] * 57.29577951308232:.1f} deg, min offset {p['min_offset']:.3g} x spread)")
+    s = lk.info.synthesis
+    p = s.score_parts
+    pair = f", pair {s.pair}" if s.pair is not None else ""
+    ts = ", ".join(f"{t:.4g}" for t in s.parameters[1:] + s.chosen_parameters)
+    return (f"  point design: parameters t = {ts}{pair}; score {s.score:.3g} (conditioning "
+            f"{p.conditioning:.3g}, extent {p.extent:.3g} x spread, min twist "
+            f"{p.min_twist * 57.29577951308232:.1f} deg, min offset {p.min_offset:.3g} x spread)")
 
 
 def emit_points(result, ps, output, top: int | None) -> None:
@@ -29,13 +30,14 @@ def emit_points(result, ps, output, top: int | None) -> None:
 
     def details():
         echo(_design_line(linkage))
-        bp = linkage.info.get("bennett")
+        bp = linkage.info.bennett
         if bp:
             scale, unit = ps.length_scale, ps.length_unit
-            echo(f"  Bennett: a = {fmt_len(bp['a'], scale, unit)}, alpha = {math.degrees(bp['alpha']):.4f} deg, "
-                 f"b = {fmt_len(bp['b'], scale, unit)}, beta = {math.degrees(bp['beta']):.4f} deg")
-        if linkage.info["chosen_points"]:
-            pts = "; ".join(" ".join(f"{x / ps.length_scale:.6g}" for x in p) for p in linkage.info["chosen_points"])
+            echo(f"  Bennett: a = {fmt_len(bp.a, scale, unit)}, alpha = {math.degrees(bp.alpha):.4f} deg, "
+                 f"b = {fmt_len(bp.b, scale, unit)}, beta = {math.degrees(bp.beta):.4f} deg")
+        chosen = linkage.info.synthesis.chosen_points
+        if chosen:
+            pts = "; ".join(" ".join(f"{x / ps.length_scale:.6g}" for x in p) for p in chosen)
             echo(f"  chosen points ({ps.length_unit}): {pts}")
 
     emit(result, output, details)

@@ -67,7 +67,7 @@ def sixbar(poses, family, member, pair, top, best_effort, **params):
     if top is None:
         from .bennett import emit_two_branch
 
-        return emit_two_branch(result, ps, output, summary_line=_design_line(result.linkage.info))
+        return emit_two_branch(result, ps, output, summary_line=_design_line(result.linkage.info.synthesis))
     _ranked(result, ps, output, top)
 
 
@@ -86,17 +86,20 @@ def parse_member(text: str):
     return vals[0] if len(vals) == 1 else vals
 
 
-def _design_line(info) -> str:
-    p = info["score_parts"]
-    if isinstance(info.get("family"), dict):  # a planar or spherical Watt six-bar (docs/planar.md)
-        m = info["member"]
-        return (f"  {info['family']['kind']} Watt six-bar (7 joints): member t3 = {m['t3']:.6g}, lambda = "
-                f"({m['lambda1']:.6g}, {m['lambda2']:.6g}, {m['lambda3']:.6g}), chain {info['chain']}; score "
-                f"{info['score']:.3g} (conditioning {p['conditioning']:.3g}, extent {p['extent']:.3g} x spread)")
-    return (f"  6R design: family {info['family']} (t3 = {info['t3']:.6g}), member lambda1 = {info['member']:.6g}, "
-            f"pair {info['pair']}; score {info['score']:.3g} (conditioning {p['conditioning']:.3g}, "
-            f"extent {p['extent']:.3g} x spread, min twist {p['min_twist'] * 57.29577951308232:.1f} deg, "
-            f"min offset {p['min_offset']:.3g} x spread)")
+def _design_line(s) -> str:
+    """The design line of a 6R (`synth.info.SixbarCandidate`) or Watt six-bar (`synth.info.FamilyMember`)."""
+    from synth.info import FamilyMember
+
+    p = s.score_parts
+    if isinstance(s, FamilyMember):  # a planar or spherical Watt six-bar (docs/planar.md)
+        m = s.member
+        return (f"  {s.family.kind} Watt six-bar (7 joints): member t3 = {m.t3:.6g}, lambda = "
+                f"({m.lambda1:.6g}, {m.lambda2:.6g}, {m.lambda3:.6g}), chain {s.chain}; score "
+                f"{s.score:.3g} (conditioning {p.conditioning:.3g}, extent {p.extent:.3g} x spread)")
+    return (f"  6R design: family {s.family} (t3 = {s.t3:.6g}), member lambda1 = {s.member:.6g}, "
+            f"pair {s.pair}; score {s.score:.3g} (conditioning {p.conditioning:.3g}, "
+            f"extent {p.extent:.3g} x spread, min twist {p.min_twist * 57.29577951308232:.1f} deg, "
+            f"min offset {p.min_offset:.3g} x spread)")
 
 
 def ranking_table(doc) -> list[str]:

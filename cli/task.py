@@ -18,10 +18,10 @@ def print_fit(linkage, ps) -> None:
     """The fit's lines of the summary: method, visiting order and the table of errors (library rows)."""
     from synth.synthesis.taskfit import error_rows
 
-    f = linkage.info["fit"]
-    seeds = f" from {f['seeds']} seeds ({f['refined']} refined, {f['iterations']} iterations)" if f["seeds"] else ""
-    echo(f"  task: {f['method']}{seeds}; order {f['order']}, visited {' -> '.join(f['visit_order'] or [])}"
-         + ("" if f["within_tolerance"] else "; TOLERANCES NOT MET (--best-effort)"))
+    f = linkage.info.fit
+    seeds = f" from {f.seeds} seeds ({f.refined} refined, {f.iterations} iterations)" if f.seeds else ""
+    echo(f"  task: {f.method}{seeds}; order {f.order}, visited {' -> '.join(f.visit_order or [])}"
+         + ("" if f.within_tolerance else "; TOLERANCES NOT MET (--best-effort)"))
     rows = [("pose", "position error", "angle error", "tolerance")] + error_rows(linkage, ps)
     widths = [max(len(r[k]) for r in rows) for k in range(4)]
     for r in rows:

@@ -137,7 +137,7 @@ def with_driver(linkage: Linkage, joint: str | None) -> Linkage:
 def task_range(linkage: Linkage, driver: str | None = None) -> tuple[str, float, float]:
     """(driver, start, end) radians: the shortest arc of the driver's angle (``driver``, default
     `driver_joint`) that visits every pose (start in [0, 2 pi), end = start + span); for a task whose
-    poses must be passed in the listed order (``info["fit"]["order"] == "listed"``) the arc from the
+    poses must be passed in the listed order (``info.fit.order == "listed"``) the arc from the
     first pose through the others in that order, one way, when there is one."""
     driver = driver or driver_joint(linkage)
     listed = listed_arc(linkage, driver)
@@ -156,8 +156,8 @@ def listed_arc(linkage: Linkage, driver: str) -> tuple[float, float] | None:
     """[start, end] of the driver's arc through the poses in the listed order (turning one way through
     less than a turn, as ``../shared/docs/OUTPUT.md`` defines it), or None when the order is not
     prescribed or no such arc exists."""
-    fit = linkage.info.get("fit")
-    if not isinstance(fit, dict) or fit.get("order") != "listed" or len(linkage.poses) < 2:
+    fit = linkage.info.fit
+    if fit is None or fit.order != "listed" or len(linkage.poses) < 2:
         return None
     theta = np.array([float(p.joint_angles[driver]) for p in linkage.poses])
     for direction in (1.0, -1.0):

@@ -27,6 +27,7 @@ import numpy as np
 from synth.algebra.anglelaw import angle_law, angle_law_inverse
 from synth.algebra.fourbar_loop import FourBarLaw
 from synth.algebra.geometry import extent, joint_sites, line_point, rotation_about_line
+from synth.info import Counts, LinkageInfo
 
 
 class Kind(enum.StrEnum):
@@ -40,6 +41,7 @@ class Kind(enum.StrEnum):
     SPHERICAL_SIXBAR = "spherical_sixbar"
     MOTION = "motion"  # multi-loop linkage performing a rational motion (docs/exceptional.md)
     CURVE = "curve"  # multi-loop linkage whose tracer draws a rational curve
+    PLANAR_FOURBAR = "planar_fourbar"  # the classical four-bar of 3 or more planar poses (docs/fourbar.md)
 
     @property
     def label(self) -> str:
@@ -121,7 +123,7 @@ class Linkage:
     poses: list[PoseRecord] = field(default_factory=list)
     tool_link: str = "coupler"
     checks: dict[str, float] = field(default_factory=dict)
-    info: dict[str, Any] = field(default_factory=dict)  # kind-specific extras, JSON-serializable
+    info: LinkageInfo = field(default_factory=LinkageInfo)  # what the synthesis found (`synth.info`)
 
     def __post_init__(self):
         self.kind = _KINDS.get(self.kind, self.kind)
@@ -178,11 +180,11 @@ class Linkage:
         pts = [p.matrix[:3, 3] for p in self.poses] + [self.tool_ref[:3, 3]]
         return np.mean(pts, axis=0)
 
-    def counts(self) -> dict[str, int]:
-        """``info["counts"]`` of a multi-loop linkage: joints, links (without the welded duplicates),
-        links with them, loops."""
-        return {"joints": len(self.joints), "links": len(self.links) - len(self.closures),
-                "links_with_duplicates": len(self.links), "loops": len(self.closures)}
+    def counts(self) -> Counts:
+        """Joints, links (without the welded duplicates), links with them, loops (a multi-loop linkage's
+        ``info.synthesis.counts``)."""
+        return Counts(joints=len(self.joints), links=len(self.links) - len(self.closures),
+                      links_with_duplicates=len(self.links), loops=len(self.closures))
 
     def extent(self) -> float:
         """A length scale of the linkage (`synth.algebra.geometry.extent`): RMS distance of the joint sites

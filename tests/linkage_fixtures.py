@@ -11,7 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from synth.algebra.dq import dq_mul, plucker, quat_to_matrix
+from synth.info import LinkageInfo
 from synth.linkage import Joint, Linkage, PoseRecord
+from synth.synthesis.bennett import bennett_parameters_of
 
 C1 = np.array([-38 / 53, 40 / 53, 0, -20 / 53, 0, 15 / 212, -29 / 53, 83 / 212])
 C0 = np.array([15 / 53, 0, 0, 20 / 53, 5 / 53, -15 / 106, 10 / 53, -15 / 212])
@@ -88,7 +90,8 @@ def bennett_linkage(exact: bool = True) -> Linkage:
         lk.poses.append(PoseRecord(name, T, t, {k: float(v) for k, v in lk.angles_at(t).items()}))
     pose_err = max(pose_error(lk.tool_pose(p.joint_angles), p.matrix) for p in lk.poses)
     lk.checks = {"max_pose_error": pose_err, "max_closure_error": closure_error(lk)}
-    lk.info = {"source": "MATH.md 11 D", "norm_roots": [[0.2128367441, 0.3799257778], [0.504144388, 0.9586920209]]}
+    # MATH.md 11 D (norm roots 0.2128367441 + 0.3799257778 i, 0.504144388 + 0.9586920209 i): its Bennett parameters
+    lk.info = LinkageInfo(bennett=bennett_parameters_of(lk))
     return lk
 
 

@@ -25,7 +25,7 @@ def _angle_diff(x, y):
 
 def _same_linkage(A, B, rel=1e-9):
     """Two Bennett linkages agree up to rounding (lengths relative to the pose spread)."""
-    scale = max(1.0, B.info["conditioning"]["scale"], float(np.abs(B.motion).max()))
+    scale = max(1.0, B.info.synthesis.conditioning.scale, float(np.abs(B.motion).max()))
     assert [j.name for j in A.joints] == [j.name for j in B.joints]
     for ja, jb in zip(A.joints, B.joints):
         np.testing.assert_allclose(ja.direction, jb.direction, atol=rel)
@@ -37,12 +37,12 @@ def _same_linkage(A, B, rel=1e-9):
         for k in ra.joint_angles:
             assert _angle_diff(ra.joint_angles[k], rb.joint_angles[k]) <= rel
     for k in ("a", "b"):
-        assert A.info["bennett"][k] == pytest.approx(B.info["bennett"][k], rel=rel, abs=rel * scale)
+        assert A.info.bennett.to_dict()[k] == pytest.approx(B.info.bennett.to_dict()[k], rel=rel, abs=rel * scale)
     for k in ("alpha", "beta"):
-        assert _angle_diff(A.info["bennett"][k], B.info["bennett"][k]) <= rel
-    assert A.info["warnings"] == B.info["warnings"]
+        assert _angle_diff(A.info.bennett.to_dict()[k], B.info.bennett.to_dict()[k]) <= rel
+    assert A.info.warnings == B.info.warnings
     assert set(A.checks) == set(B.checks) and A.checks["samples"] == B.checks["samples"]
-    size = max(A.checks["length_scale"], B.info["conditioning"]["scale"])
+    size = max(A.checks["length_scale"], B.info.synthesis.conditioning.scale)
     # pose and closure errors: certified bounds (synth.checks.pose_bound, loop_bound) within the acceptance
     # limits plus the rounding floor of the coordinates (poses ~100 m from the origin, 1 mm apart)
     floor = 1e3 * np.finfo(float).eps * max(abs(float(x)) for p in B.poses for x in p.matrix[:3, 3])

@@ -43,10 +43,10 @@ def test_example_d_motion_polynomial(example_d):
     c0 = [F(15, 53), 0, 0, F(20, 53), F(5, 53), F(-15, 106), F(10, 53), F(-15, 212)]
     expect = np.array([[float(x) for x in c0], [float(x) for x in c1], [1, 0, 0, 0, 0, 0, 0, 0]])
     np.testing.assert_allclose(example_d.motion, expect, atol=1e-15)
-    B = example_d.info["study_form"]
-    assert B["B01"] == pytest.approx(1 / 10, abs=1e-15)
-    assert B["B02"] == pytest.approx(1 / 20, abs=1e-15)
-    assert B["B12"] == pytest.approx(53 / 500, abs=1e-15)
+    B = example_d.info.synthesis.study_form
+    assert B.B01 == pytest.approx(1 / 10, abs=1e-15)
+    assert B.B02 == pytest.approx(1 / 20, abs=1e-15)
+    assert B.B12 == pytest.approx(53 / 500, abs=1e-15)
 
 
 def test_example_d_factors_axes_and_angles(example_d):
@@ -71,11 +71,11 @@ def test_example_d_factors_axes_and_angles(example_d):
 
 
 def test_example_d_bennett_conditions(example_d):
-    b = example_d.info["bennett"]
-    assert b["opposite_length_mismatch"] < 1e-13
-    assert b["opposite_twist_mismatch"] < 1e-13
-    assert b["bennett_condition_residual"] < 1e-13
-    assert all(abs(row["d"]) < 1e-13 for row in example_d.info["dh"])  # Bennett: zero offsets
+    b = example_d.info.bennett
+    assert b.opposite_length_mismatch < 1e-13
+    assert b.opposite_twist_mismatch < 1e-13
+    assert b.bennett_condition_residual < 1e-13
+    assert all(abs(row.d) < 1e-13 for row in example_d.info.dh)  # Bennett: zero offsets
     assert example_d.checks["max_pose_error"] < 1e-13
     assert example_d.checks["max_closure_error"] < 1e-13
 
@@ -100,8 +100,8 @@ def _check_linkage(L, T, rel=1e-9):
         M = pose_at(L.motion, rec.t) @ L.tool_ref
         assert np.abs(M[:3, :3] - Ti[:3, :3]).max() <= rel
         assert np.linalg.norm(M[:3, 3] - Ti[:3, 3]) <= rel * spread
-    b = L.info["bennett"]
-    assert b["opposite_length_mismatch"] < 1e-7 and b["bennett_condition_residual"] < 1e-7
+    b = L.info.bennett
+    assert b.opposite_length_mismatch < 1e-7 and b.bennett_condition_residual < 1e-7
 
 
 @pytest.mark.parametrize("seed", range(25))
@@ -166,7 +166,7 @@ def test_wrong_shape_is_input_error():
 def test_nearly_pure_translation_is_solved_with_a_warning():
     T = np.array([np.eye(4), screw([0, 0, 1], [1, 0, 0], 1e-3, 1000), EXAMPLE_D[2]])
     L = bennett(T)
-    assert L.info["warnings"]
+    assert L.info.warnings
     assert L.checks["max_pose_error"] < 1e-8 * L.extent()
 
 
@@ -197,7 +197,7 @@ def test_the_linkage_is_fully_computed(example_d):
     assert "_deferred" not in d
     assert set(("checks", "motion", "info")) <= set(d)
     assert d["checks"]["samples"] == 0 and d["checks"]["bounded"] and d["motion"].shape == (3, 8)
-    assert {"bennett", "dh", "relative_error", "warnings", "conditioning", "study_form"} <= set(d["info"])
+    assert {"bennett", "dh", "relative_error", "warnings", "conditioning", "study_form"} <= set(d["info"].to_dict())
 
 
 def test_verify_recomputes_the_checks_and_refuses_failures(monkeypatch):

@@ -132,9 +132,9 @@ def test_hermite_conic_meets_both_poses_and_the_tangent():
 def test_clean_samples_are_met_to_rounding():
     T, _ = sampled(1, 8)
     lk = bennett_task(task(T, (1e-6 * spread_of(T), 1e-6)))[0]
-    f = lk.info["fit"]
-    assert f["method"] == "fit" and f["within_tolerance"]
-    assert f["max_position_error"] <= 1e-9 * spread_of(T) and f["max_angle_error"] <= 1e-9
+    f = lk.info.fit
+    assert f.method == "fit" and f.within_tolerance
+    assert f.max_position_error <= 1e-9 * spread_of(T) and f.max_angle_error <= 1e-9
     assert lk.checks["max_closure_error"] <= 1e-9 * spread_of(T)
 
 
@@ -152,8 +152,8 @@ def _noisy_fit_within_tolerance(seed):
     T, _ = sampled(seed, 9, noise=1e-4, exact=(0, 5))
     tol = (2e-3 * spread_of(T), 2e-3)
     lk = bennett_task(task(T, tol, exact=(0, 5)))[0]
-    f = lk.info["fit"]
-    assert f["within_tolerance"], f
+    f = lk.info.fit
+    assert f.within_tolerance, f
     for i, rec in enumerate(lk.poses):
         if i in (0, 5):
             assert rec.exact and rec.error[0] <= 1e-9 * spread_of(T) and rec.error[1] <= 1e-9
@@ -176,7 +176,7 @@ def test_listed_order_kept_and_refused_when_impossible():
     tol = (3e-3 * spread_of(T), 3e-3)
     lk = bennett_task(task(T, tol, exact=(0,), order=Order.LISTED))[0]
     assert visits_in_order([r.t for r in lk.poses])
-    assert lk.info["fit"]["visit_order"] == [f"p{i}" for i in range(8)]
+    assert lk.info.fit.visit_order == tuple(f"p{i}" for i in range(8))
     shuffled = T[[0, 4, 1, 6, 2, 7, 3, 5]]
     with pytest.raises(SynthesisError, match="listed order"):
         bennett_task(task(shuffled, tol, exact=(0,), order=Order.LISTED))
@@ -195,11 +195,11 @@ def listed_task_with_close_poses(seed=5, noise=0.03):
 
 def test_listed_order_is_a_constraint_of_the_fit(tmp_path):
     T, tol = listed_task_with_close_poses()
-    free = bennett_task(task(T, tol, exact=(0,)))[0].info["fit"]["visit_order"]
-    assert free == ["p0", "p1", "p2", "p4", "p3", "p5", "p6", "p7"]  # (a filter on these fits finds none)
+    free = bennett_task(task(T, tol, exact=(0,)))[0].info.fit.visit_order
+    assert free == ("p0", "p1", "p2", "p4", "p3", "p5", "p6", "p7")  # (a filter on these fits finds none)
     lk = bennett_task(task(T, tol, exact=(0,), order=Order.LISTED))[0]
-    assert visits_in_order([r.t for r in lk.poses]) and lk.info["fit"]["within_tolerance"]
-    assert lk.info["fit"]["visit_order"] == [f"p{i}" for i in range(8)]
+    assert visits_in_order([r.t for r in lk.poses]) and lk.info.fit.within_tolerance
+    assert lk.info.fit.visit_order == tuple(f"p{i}" for i in range(8))
     text = write_pose_yaml(tmp_path / "t.yaml", T).read_text().replace("units: {length: m}", (
         f"units: {{length: m, angle: deg}}\norder: listed\ntolerance: {{position: {tol[0]!r}, angle: 5}}"))
     f = tmp_path / "t.yaml"
@@ -218,7 +218,7 @@ def test_velocity_in_a_fit_is_met_exactly():
     vel = np.full((6, 6), np.nan)
     vel[3] = -np.r_[twist_of(C, Q0, 2.0)]  # direction only (either sense)
     lk = bennett_task(task(T, (1e-3 * spread_of(T), 1e-3), velocity=vel))[0]
-    assert lk.info["fit"]["max_position_error"] < 1e-9 * spread_of(T)
+    assert lk.info.fit.max_position_error < 1e-9 * spread_of(T)
 
 
 def test_more_than_five_points_are_fitted_within_tolerance():
@@ -229,7 +229,7 @@ def test_more_than_five_points_are_fitted_within_tolerance():
     tol[0] = 0.0
     ps = PoseSet(names=[f"q{i}" for i in range(9)], matrices=pts, kinds=["point"] * 9, tolerance=tol)
     lk = bennett_task(ps)[0]
-    assert lk.info["fit"]["within_tolerance"] and lk.poses[0].error[0] < 1e-9 * spread_of(T)
+    assert lk.info.fit.within_tolerance and lk.poses[0].error[0] < 1e-9 * spread_of(T)
     for rec, target in zip(lk.poses, T):
         assert rec.kind == "point" and np.allclose(rec.matrix[:3, 3], target[:3, 3], atol=0)
         assert np.linalg.norm(lk.tool_pose(rec.joint_angles)[:3, 3] - target[:3, 3]) == pytest.approx(rec.error[0],
@@ -243,8 +243,8 @@ def test_clean_points_are_met_to_rounding(seed):
     pts[:, :3, :3] = np.eye(3)
     ps = PoseSet(names=[f"q{i}" for i in range(9)], matrices=pts, kinds=["point"] * 9,
                  tolerance=np.tile([1e-6 * spread_of(T), np.inf], (9, 1)))
-    f = bennett_task(ps)[0].info["fit"]
-    assert f["within_tolerance"] and f["max_position_error"] <= 1e-9 * spread_of(T)
+    f = bennett_task(ps)[0].info.fit
+    assert f.within_tolerance and f.max_position_error <= 1e-9 * spread_of(T)
 
 
 def test_random_poses_are_refused_with_the_failing_poses():
@@ -252,7 +252,7 @@ def test_random_poses_are_refused_with_the_failing_poses():
     with pytest.raises(SynthesisError, match=r"tolerances not met at the best linkage found: pose \d"):
         bennett_task(task(T, (1e-4, 1e-4), exact=(0,)))
     lk = bennett_task(task(T, (1e-4, 1e-4), exact=(0,)), best_effort=True)[0]
-    assert not lk.info["fit"]["within_tolerance"] and lk.info["fit"]["failing"]
+    assert not lk.info.fit.within_tolerance and lk.info.fit.failing
 
 
 def test_error_table_rows_in_input_units():
@@ -340,9 +340,9 @@ def test_python_api_takes_arrays_or_a_task_file():
     tol = np.tile([2e-3 * spread_of(T), 2e-3], (7, 1))
     tol[0] = 0
     lk = synth.fit(T, tolerance=tol, order="listed")[0]
-    assert lk.info["fit"]["within_tolerance"] and lk.poses[0].exact
+    assert lk.info.fit.within_tolerance and lk.poses[0].exact
     fits = synth.fit(load_poses(REPO / "fixtures" / "bennett_fit.yaml"), top=2)
-    assert fits and fits[0].info["fit"]["order"] == "listed"
+    assert fits and fits[0].info.fit.order == "listed"
     with pytest.raises(synth.InputError, match="order"):
         synth.fit(T, tolerance=tol, order="sorted")
 
@@ -353,12 +353,12 @@ def test_hermite_velocity_at_the_second_pose_and_three_toleranced_poses(tmp_path
     vel = np.full((2, 6), np.nan)
     vel[1] = np.r_[twist_of(C, Q0, 1.3)]
     lk = bennett_task(PoseSet(names=["a", "b"], matrices=T, velocity=vel))[0]
-    assert lk.info["fit"]["method"] == "hermite" and lk.poses[0].t == np.inf and lk.poses[1].t == 0.0
+    assert lk.info.fit.method == "hermite" and lk.poses[0].t == np.inf and lk.poses[1].t == 0.0
     assert max(r.error[0] for r in lk.poses) < 1e-9 * spread_of(T)
     # three poses with a tolerance: the exact synthesis, its (zero) misses recorded
     T3 = random_poses(np.random.default_rng(8), 3)
     lk = bennett_task(task(T3, (1e-3, 1e-3)))[0]
-    assert lk.info["fit"]["method"] == "exact" and all(r.error[0] < 1e-9 and not r.exact for r in lk.poses)
+    assert lk.info.fit.method == "exact" and all(r.error[0] < 1e-9 and not r.exact for r in lk.poses)
 
 
 def test_partial_velocity_constrains_its_half_only():
@@ -368,7 +368,7 @@ def test_partial_velocity_constrains_its_half_only():
     vel = np.full((6, 6), np.nan)
     vel[2, 3:] = twist_of(C, Q0, 2.4)[1]  # the tool origin's direction only
     lk = bennett_task(task(T, (1e-3 * spread_of(T), 1e-3), velocity=vel))[0]
-    assert lk.info["fit"]["max_position_error"] < 1e-9 * spread_of(T)
+    assert lk.info.fit.max_position_error < 1e-9 * spread_of(T)
 
 
 @pytest.mark.parametrize("positions", [[[0, 0, 0]] * 4, [[i, 0, 0] for i in range(4)]],

@@ -28,8 +28,8 @@ OTHERS = ["h2", "h3", "k1", "k2", "k3", "k4"]
 def member_out(tmp_path_factory):
     """The member turn 5 pi / 8, 3R shift -0.51 e1 (six singular configurations)."""
     C = np.array(parse_polynomial(GENERAL), float)
-    lk = darboux_linkage(C, turn=5 * np.pi / 8, shift=(-0.51, 0.0), info={"motion": {}}, check_samples=40)
-    assert len(lk.info["darboux"]["singular_t"]) == 6
+    lk = darboux_linkage(C, turn=5 * np.pi / 8, shift=(-0.51, 0.0), check_samples=40)
+    assert len(lk.info.synthesis.darboux.singular_t) == 6
     out = tmp_path_factory.mktemp("cross") / "d7"
     write_output(lk, out, robot_name="d7", result=design_for(lk, ranges=("full",), full_work=1e7))
     return out

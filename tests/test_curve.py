@@ -32,7 +32,7 @@ def _full_cycle(lk, n=4001):
 
 
 def _tracer_points(lk, t):
-    p0 = np.array(lk.info["markers"]["tracer"]["position"])
+    p0 = np.array(lk.info.synthesis.markers["tracer"].position)
     D = lk.displacements(lk.angles_at(t))[lk.tool_link]
     return np.einsum("...ij,j->...i", D[..., :3, :3], p0) + D[..., :3, 3]
 
@@ -46,10 +46,10 @@ def test_ellipse_has_at_most_10_joints(ellipse):
     lk = ellipse
     assert lk.kind == "curve"
     assert len(lk.joints) <= 10
-    assert len(lk.joints) == 10 and lk.info["counts"] == {"joints": 10, "links": 8, "links_with_duplicates": 11,
+    assert len(lk.joints) == 10 and lk.info.synthesis.counts.to_dict() == {"joints": 10, "links": 8, "links_with_duplicates": 11,
                                                          "loops": 3}
-    assert lk.info["curve"]["method"] == "rotation"
-    assert lk.info["motion"]["deg_R"] == 0
+    assert lk.info.synthesis.curve.method == "rotation"
+    assert lk.info.synthesis.motion.deg_R == 0
 
 
 def test_ellipse_tracer_stays_on_the_curve_through_a_full_cycle(ellipse):
@@ -78,8 +78,8 @@ def test_ellipse_tracer_stays_on_the_curve_through_a_full_cycle(ellipse):
 def test_elliptic_translation_has_at_most_13_joints():
     lk = motion_linkage(parse_polynomial("t^2 + 1 + eps*(i + 2*j*t)", exact=True))
     assert lk.kind == "motion" and len(lk.joints) <= 13
-    assert lk.info["counts"]["joints"] == 13 and lk.info["counts"]["links"] == 10
-    assert lk.info["motion"]["deg_R"] == 2 and lk.info["motion"]["bound_met"]
+    assert lk.info.synthesis.counts.joints == 13 and lk.info.synthesis.counts.links == 10
+    assert lk.info.synthesis.motion.deg_R == 2 and lk.info.synthesis.motion.bound_met
     assert lk.checks["max_motion_error"] < 1e-12 and lk.checks["max_closure_error"] < 1e-12
     # the coupler translates: every point draws the ellipse (x + 1)^2 + (y/2)^2 = 1 (origin)
     t = _full_cycle(lk, 2001)
@@ -111,12 +111,12 @@ def test_motion_with_coefficients_and_leading_coefficient():
 def test_motion_real_content_is_removed():
     lk = motion_linkage(parse_polynomial("(t^2 + 4)*(t^2 + 1 + eps*(i + 2*j*t))", exact=True))
     assert len(lk.joints) == 13
-    assert np.allclose(lk.info["motion"]["real_content"], [4, 0, 1])
+    assert np.allclose(lk.info.synthesis.motion.real_content, [4, 0, 1])
 
 
 def test_generic_motion_gives_a_ladder():
     lk = motion_linkage(parse_polynomial("(t - i - eps*j)*(t - 1 - 2*j - eps*(3*i + k))", exact=True))
-    assert len(lk.joints) == 7 and lk.info["motion"]["deg_R"] == 0
+    assert len(lk.joints) == 7 and lk.info.synthesis.motion.deg_R == 0
     assert lk.checks["max_motion_error"] < 1e-12 and lk.checks["max_closure_error"] < 1e-12
 
 
@@ -144,7 +144,7 @@ def test_single_point_is_an_input_error():
 def test_units_scale_to_metres():
     lk = _curve(["1000 - 1000*t^2", "4000*t", "0", "1 + t^2"], scale=1e-3)
     assert len(lk.joints) == 10 and lk.checks["max_trace_error"] < 1e-12
-    assert np.allclose(lk.info["markers"]["tracer"]["position"], [-1, 0, 0])
+    assert np.allclose(lk.info.synthesis.markers["tracer"].position, [-1, 0, 0])
 
 
 @pytest.mark.parametrize("name,texts,joints", [
@@ -157,13 +157,13 @@ def test_other_curves(name, texts, joints):
     lk = _curve(texts)
     assert len(lk.joints) == joints, name
     assert lk.checks["max_trace_error"] < 1e-10 and lk.checks["max_closure_error"] < 1e-10
-    assert lk.info["mobility"]["dof"] == 1
+    assert lk.info.synthesis.mobility.dof == 1
 
 
 def test_repeated_denominator_uses_the_translation():
     """A cardioid-like quartic with w = (1 + t^2)^2 (a k = 2 block, planar)."""
     lk = _curve(["(1-t^2)^2", "2*t*(1-t^2) + 3*t^2", "0", "(1 + t^2)^2"])
-    assert lk.info["curve"]["method"] == "translation" and len(lk.joints) == 25
+    assert lk.info.synthesis.curve.method == "translation" and len(lk.joints) == 25
     assert lk.checks["max_trace_error"] < 1e-10
 
 
@@ -247,9 +247,9 @@ def test_rotation_cofactor_reproduces_e4():
     lk = _curve(["-2", "-4*t", "0", "1 + t^2"])
     C = np.array(parse_polynomial("t^2 + 1 + eps*(i + 2*j*t)"))
     options = [poly_mul(C, np.array(parse_polynomial(h))) for h in ("t - k", "t + k")]
-    coupler = np.asarray(lk.info["motion"]["coupler"])
+    coupler = np.asarray(lk.info.synthesis.motion.coupler)
     assert min(np.max(np.abs(coupler - o)) for o in options) < 1e-12
-    assert len(lk.joints) == 10 and lk.info["motion"]["deg_R"] == 0
+    assert len(lk.joints) == 10 and lk.info.synthesis.motion.deg_R == 0
 
 
 def test_common_factor_of_the_curve_is_cancelled_exactly():
@@ -258,5 +258,5 @@ def test_common_factor_of_the_curve_is_cancelled_exactly():
     lk0 = _curve(base)
     lk = _curve([f"({p})*(t^2 + 2)*(t - 3)" for p in base])
     assert len(lk.joints) == len(lk0.joints) == 10
-    assert np.allclose(lk.info["markers"]["tracer"]["position"], lk0.info["markers"]["tracer"]["position"])
+    assert np.allclose(lk.info.synthesis.markers["tracer"].position, lk0.info.synthesis.markers["tracer"].position)
     assert lk.checks["max_trace_error"] < 1e-10

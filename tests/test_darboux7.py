@@ -80,7 +80,7 @@ def test_random_darboux_motions_get_a_mobile_seven_joint_loop(seed):
     C = _random_darboux(np.random.default_rng(seed))
     lk = darboux_linkage(C, check_samples=60)
     assert lk is not None
-    rh, rg = lk.info["darboux"]["residuals"].values()
+    rh, rg = lk.info.synthesis.darboux.residuals.values()
     assert rh < 1e-12 and rg < 1e-12
     assert len(lk.joints) == 7 and [j.rate for j in lk.joints] == [1, 1, 1, 1, 2, 1, 1]
     assert lk.checks["max_closure_error"] < 1e-10 and lk.checks["max_motion_error"] < 1e-10
@@ -97,7 +97,7 @@ def test_members_of_the_construction():
         H, G = chains(C, turn, shift)
         assert max(chain_residuals(C, H, G)) < 1e-14
         lk = darboux_linkage(C, turn=turn, shift=shift, check_samples=20, singular=False)
-        assert lk.info["mobility"]["dof"] == 1 and lk.checks["max_closure_error"] < 1e-12
+        assert lk.info.synthesis.mobility.dof == 1 and lk.checks["max_closure_error"] < 1e-12
     assert chains(C, np.pi / 2) is not None and darboux_linkage(C, turn=np.pi / 2, singular=False) is None
 
 
@@ -107,8 +107,8 @@ def test_singular_configurations_are_recorded():
     crosses the motion there."""
     lk = darboux_linkage(_C(GENERAL), check_samples=20)
     r2 = np.sqrt(2)
-    assert np.allclose(sorted(lk.info["darboux"]["singular_t"]), [-1 - r2, 1 - r2, r2 - 1, 1 + r2], atol=1e-6)
-    assert lk.info["mobility"]["dof"] == 1
+    assert np.allclose(sorted(lk.info.synthesis.darboux.singular_t), [-1 - r2, 1 - r2, r2 - 1, 1 + r2], atol=1e-6)
+    assert lk.info.synthesis.mobility.dof == 1
 
 
 def test_curve_builds_the_7r_end_to_end(tmp_path):

@@ -20,7 +20,7 @@ GENERAL = "(t^2 + 1)*(t - k) + eps*(i + k/2 - (j + k/2)*t)*(t - k)"  # fixtures/
 @pytest.fixture(scope="module")
 def default():
     C = np.array(parse_polynomial(GENERAL), float)
-    return darboux_linkage(C, info={"motion": {"expression": GENERAL}}, check_samples=20)
+    return darboux_linkage(C, check_samples=20)
 
 
 def test_grid_is_deterministic_default_first():
@@ -35,7 +35,7 @@ def _stand_in(free_keys, calls):
     direction) in ``free_keys``; the design is the straight one, so its size is the member's own."""
     def design(lk, ranges, full_work, effort, work):
         work.charge(full_work)  # as a search that spends its cap
-        m = lk.info["darboux"]["member"]
+        m = lk.info.synthesis.darboux.member.to_dict()
         s = np.sign(np.round(m["shift"], 9)).astype(int)
         key = (round(m["turn"] / (math.pi / 8)), int(s[0]), int(s[1]))
         calls.append((key, ranges, effort))
@@ -51,10 +51,10 @@ def test_fewest_singular_configurations_win(default):
     """Turn 0 keeps 4 singular configurations, turn pi/8 has 6: the turn-0 member wins though screened too."""
     calls = []
     lk, res = choose_member(default, _stand_in({(1, -1, 0), (0, 1, 0)}, calls))
-    m = lk.info["darboux"]["member"]
+    m = lk.info.synthesis.darboux.member.to_dict()
     assert m["turn"] == 0.0 and m["shift"][0] > 0 and res.collision.free
-    choice = lk.info["darboux"]["member_choice"]
-    assert choice["free_found"] == 2 and choice["singular_configurations"] == 4 == len(lk.info["darboux"]["singular_t"])
+    choice = lk.info.synthesis.darboux.member_choice.to_dict()
+    assert choice["free_found"] == 2 and choice["singular_configurations"] == 4 == len(lk.info.synthesis.darboux.singular_t)
     assert choice["tried"] == 6 and calls[0] == ((0, 0, 0), ("full",), 1.0)  # the default first, at full effort
     assert lk.checks["max_closure_error"] < 1e-12 and "fewest singular configurations (4)" in choice["reason"]
 
@@ -67,8 +67,8 @@ def test_then_the_most_compact_design(default):
         other = choose_member(default, _stand_in({(1, int(k[0]), 0)}, []))[0]
         sizes[k] = design_size(other, straight_design(other, pin_radius=0.005, bar_radius=0.01, hub_length=0.02))
     best = min(sizes, key=sizes.get)
-    assert np.sign(lk.info["darboux"]["member"]["shift"][0]) == np.sign(best[0])
-    assert lk.info["darboux"]["member_choice"]["design_size"] == pytest.approx(min(sizes.values()))
+    assert np.sign(lk.info.synthesis.darboux.member.shift[0]) == np.sign(best[0])
+    assert lk.info.synthesis.darboux.member_choice.design_size == pytest.approx(min(sizes.values()))
 
 
 def test_default_kept_when_free_and_none_when_nothing_is(default):
@@ -77,6 +77,6 @@ def test_default_kept_when_free_and_none_when_nothing_is(default):
     assert lk is default and res.collision.free and len(calls) == 1
     calls = []
     lk, res = choose_member(default, _stand_in(set(), calls), work=2 * SCREEN_CAP)
-    assert lk is default and res is None and lk.info["darboux"]["member_choice"]["member"] == "default"
+    assert lk is default and res is None and lk.info.synthesis.darboux.member_choice.member is None
     assert len(calls) == 1 + 3  # the default, then members until the counted budget is spent (not the clock)
-    del default.info["darboux"]["member_choice"]
+    default.info = default.info.with_synthesis(darboux=default.info.synthesis.darboux.replace(member_choice=None))

@@ -194,7 +194,7 @@ def test_bennett_example():
     assert all(abs(x) < 1e-15 for x in ang[0].values())
     for a, (x, y) in zip(ang[1:], ((4.1628830873, 4.1098453272), (0.8993459891, 2.1869341004))):
         assert (a["h1"], a["k2"], a["h2"], a["k1"]) == pytest.approx((x, x, y, y), abs=1e-9)
-    par = bennett_parameters_of(lk)
+    par = bennett_parameters_of(lk).to_dict()
     assert par["a"] == pytest.approx(0.2956964860, abs=1e-10)
     assert par["alpha"] == pytest.approx(-2.0742295787, abs=1e-10)
     assert par["b"] == pytest.approx(0.3293871988, abs=1e-10)
@@ -273,10 +273,10 @@ def test_sixbar_default_choice():
     import synth
 
     lk = synth.sixbar(T_E)
-    assert (lk.info["family"], lk.info["pair"]) == (2, 9)
-    assert lk.info["member"] == pytest.approx(0.3893714696, abs=1e-8)
-    assert lk.info["score"] == pytest.approx(1.2586, abs=1e-4)
-    assert lk.info["orders"] == {"h": [1, 2, 0], "k": [2, 0, 1]}
+    assert (lk.info.synthesis.family, lk.info.synthesis.pair) == (2, 9)
+    assert lk.info.synthesis.member == pytest.approx(0.3893714696, abs=1e-8)
+    assert lk.info.synthesis.score == pytest.approx(1.2586, abs=1e-4)
+    assert lk.info.synthesis.orders.to_dict() == {"h": [1, 2, 0], "k": [2, 0, 1]}
     for p in lk.poses:
         assert np.allclose(lk.tool_pose(p.joint_angles), p.matrix, atol=1e-12)
 

@@ -13,6 +13,7 @@ from synth.algebra.anglelaw import driven_speed, driven_speed_max
 from synth.drive import (base_joints, drive_report, driver_joint, follower_angles, loop_jacobian,
                          loop_conditioning, speed_ratio, task_range, with_driver)
 from synth.errors import InputError
+from synth.infoparts import FitRecord
 from synth.io.poses import load_poses
 
 from conftest import REPO, random_poses
@@ -119,7 +120,9 @@ def test_listed_order_task_range_follows_the_listed_arc():
     down from 360 through 276.6 to 50.8."""
     lk = fixture_linkage("bennett_mm_deg.yaml")
     th = {p.name: math.degrees(p.joint_angles["h1"]) % 360 for p in lk.poses}
-    lk.info["fit"] = {"order": "listed"}
+    lk.info = lk.info.replace(fit=FitRecord(
+        method="exact", seeds=0, refined=0, iterations=0, order="listed", visit_order=None, rms_position_error=0.0,
+        max_position_error=0.0, rms_angle_error=0.0, max_angle_error=0.0, within_tolerance=True, failing=()))
     lk.poses = [lk.poses[0], lk.poses[2], lk.poses[1]]
     _, lo, hi = task_range(lk)
     assert (math.degrees(lo), math.degrees(hi)) == (pytest.approx(0.0, abs=1e-9), pytest.approx(th["via"]))

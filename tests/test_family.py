@@ -99,7 +99,7 @@ def test_darboux_cofactor_has_coincident_neighbours_and_they_are_separated():
 
 def test_darboux_motion_linkage_has_distinct_joints():
     lk = motion_linkage(parse_polynomial(DARBOUX, exact=True))
-    assert len(lk.joints) == 16 and lk.info["separated_pairs"] == [[3, 4]]
+    assert len(lk.joints) == 16 and lk.info.synthesis.separated_pairs == ((3, 4),)
     assert lk.checks["max_closure_error"] < 1e-12 and lk.checks["max_motion_error"] < 1e-12
     lines = {(tuple(np.round(j.direction, 9)), tuple(np.round(j.moment, 9))) for j in lk.joints}
     assert len(lines) == 16
@@ -108,10 +108,10 @@ def test_darboux_motion_linkage_has_distinct_joints():
 # ------------------------------------------------------------------ parallelogram linkages
 def test_circle_and_circular_translation_give_a_parallelogram():
     lk = curve_linkage([F(1), F(0), F(-1)], [F(0), F(2)], [F(0)], [F(1), F(0), F(1)])  # the unit circle
-    assert len(lk.joints) == 4 and len(lk.closures) == 1 and lk.info["curve"]["method"] == "translation"
+    assert len(lk.joints) == 4 and len(lk.closures) == 1 and lk.info.synthesis.curve.method == "translation"
     assert lk.checks["max_trace_error"] < 1e-12
     lk = motion_linkage(parse_polynomial("t^2 + 1 + eps*(i + j*t)", exact=True))
-    assert len(lk.joints) == 4 and lk.info["mobility"]["dof"] == 1
+    assert len(lk.joints) == 4 and lk.info.synthesis.mobility.dof == 1
     pts = {j.name: j.point for j in lk.joints}
     # a rhombus: ground h1-k1 = coupler h2-k2 = (3/5, 4/5, 0), cranks h1-h2 = k1-k2 = (1, 0, 0)
     assert np.allclose(pts["h1"], [-0.5, 0, 0]) and np.allclose(pts["h2"], [0.5, 0, 0])

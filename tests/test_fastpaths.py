@@ -71,10 +71,10 @@ def test_bennett_equals_the_per_set_path(seed):
         for k, v in ra.joint_angles.items():
             d = abs(v - rb.joint_angles[k]) % (2 * np.pi)
             assert min(d, 2 * np.pi - d) <= 1e-9
-    assert fast.info["warnings"] == gen.info["warnings"]
+    assert fast.info.warnings == gen.info.warnings
     # the vectorized path bounds closure and motion over the whole motion (checks["bounded"]); the
     # per-set path samples them
-    assert set(fast.info) == set(gen.info) and set(fast.checks) == set(gen.checks) | {"bounded"}
+    assert set(fast.info.to_dict()) == set(gen.info.to_dict()) and set(fast.checks) == set(gen.checks) | {"bounded"}
     # relative to the linkage's size, plus a rounding floor of 1000 ulps of the coordinates (poses ~100 m
     # from the origin with a spread of 1 mm are only known to ~1e-14 m; ~1% of seeds need the floor)
     floor = 1e3 * np.finfo(float).eps * np.abs(T[:, :3, 3]).max()

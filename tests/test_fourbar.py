@@ -156,7 +156,7 @@ def test_exact_fourbars(k):
     _, T, _, _ = task_poses(k, plane_seed=k)
     lks = fourbar_candidates(T, NAMES[:k], top=2, order=Order.LISTED)
     for lk in lks:
-        c, f = lk.checks, lk.info["fourbar"]
+        c, f = lk.checks, lk.info.synthesis.fourbar.to_dict()
         assert lk.kind == "planar_fourbar" and lk.motion is None
         assert c["max_pose_error"] < 1e-12 and c["max_closure_error"] < 1e-12
         L = f["lengths"]
@@ -175,7 +175,7 @@ def test_exact_fourbars(k):
 def test_min_transmission_is_honoured():
     _, T, _, _ = task_poses(3)
     best = fourbar_candidates(T, NAMES[:3], top=1, min_transmission_deg=60.0)[0]
-    assert best.info["fourbar"]["transmission_min_deg"] >= 60.0
+    assert best.info.synthesis.fourbar.transmission_min_deg >= 60.0
 
 
 def test_no_qualifying_fourbar_is_refused():
@@ -192,7 +192,7 @@ def test_noisy_eight_pose_fit_within_tolerance():
     assert lk.checks["max_closure_error"] < 1e-12
     for rec in lk.poses:
         assert rec.error[0] <= 1e-4 and rec.error[1] <= 1e-3
-    fit = lk.info["fit"]
+    fit = lk.info.fit.to_dict()
     assert fit["within_tolerance"] and fit["visit_order"] == NAMES[:8]
     assert fit["max_position_error"] == pytest.approx(max(r.error[0] for r in lk.poses))
     assert 0.0 < fit["max_position_error"] < 5e-5  # noise up to 2e-5 m: a good fit is near it
@@ -211,7 +211,7 @@ def test_deterministic():
     _, T, _, _ = task_poses(4)
     a = fourbar_candidates(T, NAMES[:4], top=3)
     b = fourbar_candidates(T, NAMES[:4], top=3)
-    assert [x.info["fourbar"]["lengths"] for x in a] == [x.info["fourbar"]["lengths"] for x in b]
+    assert [x.info.synthesis.fourbar.lengths for x in a] == [x.info.synthesis.fourbar.lengths for x in b]
 
 
 def test_document_round_trip():
@@ -231,7 +231,7 @@ def test_exact_task_with_tolerance_records_its_errors():
     """Five poses with a task tolerance: met exactly, and every pose record says so (error and tolerance)."""
     _, T, _, _ = task_poses(5)
     lk = fourbar_candidates(T, NAMES[:5], tolerance=np.tile([1e-3, 1e-2], (5, 1)))[0]
-    assert lk.info["fit"]["method"] == "exact" and lk.info["fit"]["within_tolerance"]
+    assert lk.info.fit.method == "exact" and lk.info.fit.within_tolerance
     for rec in lk.poses:
         assert rec.error[0] < 1e-13 and rec.error[1] < 1e-12 and rec.tolerance == (1e-3, 1e-2)
     doc = linkage_document(lk)
@@ -260,7 +260,7 @@ def test_python_api():
     _, T, _, _ = task_poses(5)
     lk = synth.fourbar(T, min_transmission_deg=45.0)
     assert isinstance(lk, synth.Linkage) and lk.poses[3].name == "p3"
-    assert lk.info["fourbar"]["transmission_min_deg"] >= 45.0
+    assert lk.info.synthesis.fourbar.transmission_min_deg >= 45.0
 
 
 def test_solve_fourbar_entry_point():

@@ -33,7 +33,7 @@ def hermite_task(seed: int, k: int, with_velocity: int):
 
 
 def lengths(lk) -> np.ndarray:
-    d = lk.info["fourbar"]["lengths"]
+    d = lk.info.synthesis.fourbar.lengths.to_dict()
     return np.array([d["ground"], d["crank"], d["coupler"], d["rocker"]])
 
 

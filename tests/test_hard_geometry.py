@@ -195,7 +195,7 @@ def outcome(T):
     st, sr = self_check_errors(L, T)
     assert max(st, sr) <= ACCEPTED, (st, sr, L.checks)
     if max(st, sr) > REL:
-        assert any("less accurately than usual" in w for w in L.info["warnings"]), L.info["warnings"]
+        assert any("less accurately than usual" in w for w in L.info.warnings), L.info.warnings
     et, er = independent_errors(L, T)
     assert et <= REL_INDEPENDENT and er <= REL_INDEPENDENT, (et, er, L.checks)
     return L
@@ -215,11 +215,11 @@ def test_nearly_degenerate_families(fam, e, seed):
     kappa = test_synthesis_sensitivity(T, res)
     if kappa is None:
         return
-    warned = any("sensitive" in w or "pose spreads away" in w for w in res.info["warnings"])
+    warned = any("sensitive" in w or "pose spreads away" in w for w in res.info.warnings)
     if kappa > 1e6:  # a sensitive result must say so
         assert warned, (kappa, res.info)
     if kappa < 1e2:  # and a well-conditioned one must not cry wolf
-        assert not any("sensitive" in w for w in res.info["warnings"]), (kappa, res.info["warnings"])
+        assert not any("sensitive" in w for w in res.info.warnings), (kappa, res.info.warnings)
 
 
 @pytest.mark.slow
@@ -230,7 +230,7 @@ def test_nearly_degenerate_sweep(seed):
     T = family(fam, 10 ** rng.uniform(-9, 0), rng)
     res = outcome(T)
     if not isinstance(res, str) and (test_synthesis_sensitivity(T, res) or 0) > 1e6:
-        assert res.info["warnings"]
+        assert res.info.warnings
 
 
 # ------------------------------------------------------------------ coincident poses
@@ -276,7 +276,7 @@ def test_huge_and_tiny_scales(scale, seed):
     T[:, :3, 3] *= scale
     L = outcome(T)
     assert not isinstance(L, str), L
-    assert not L.info["warnings"], L.info["warnings"]
+    assert not L.info.warnings, L.info.warnings
     # the same linkage scaled: angle laws and directions are scale invariant
     L0 = bennett(T0)
     for j, j0 in zip(L.joints, L0.joints):
@@ -304,7 +304,7 @@ def test_far_from_origin(offset, spread):
         off_line = np.linalg.norm(np.cross(p0 - np.cross(j.direction, j.moment), j.direction))
         assert off_line <= 1e-6 * spread + 64 * EPS * offset * 1e3
     # regression: the "axes far from the poses" warning measured from the origin, not the poses
-    assert not any("pose spreads away" in w for w in L.info["warnings"]), L.info["warnings"]
+    assert not any("pose spreads away" in w for w in L.info.warnings), L.info.warnings
 
 
 def other_warnings(stderr: str) -> list[str]:
@@ -359,8 +359,8 @@ def test_sensitive_result_warns_on_stderr(tmp_path):
     T = near_parallel(1e-4)
     L = outcome(T)
     assert not isinstance(L, str)
-    assert L.info["condition_estimate"] > 1e4
-    assert any("sensitive to the poses" in w for w in L.info["warnings"])
+    assert L.info.condition_estimate > 1e4
+    assert any("sensitive to the poses" in w for w in L.info.warnings)
     f = write_pose_yaml(tmp_path / "sens.yaml", T)
     r = CliRunner().invoke(mpsynth, ["bennett", str(f), "-o", str(tmp_path / "out")])
     assert r.exit_code == 1 and "more than --max-extent" in r.stderr  # 8300 x the poses' spread: refused
@@ -373,7 +373,7 @@ def test_sensitive_result_warns_on_stderr(tmp_path):
 def test_well_conditioned_result_has_no_warning_and_cheap_estimate():
     T = random_poses(np.random.default_rng(0), 3)
     L = bennett(T)
-    assert L.info["warnings"] == []
+    assert L.info.warnings == ()
     assert sensitivity(L) < 1e3
     assert sensitivity(L) == sensitivity(L)  # deterministic
 

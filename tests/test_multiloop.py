@@ -151,11 +151,11 @@ def test_spatial_ladders_have_one_dof(seed):
     rng = np.random.default_rng(seed)
     hs = np.array([_random_rotation(rng) for _ in range(3)])
     m0, lk, score = choose_m0(hs)
-    assert score["dof"] == 1 and score["dof_min"] == 1
+    assert score.dof == 1 and score.dof_min == 1
     chk = self_check(lk, 201)
     assert chk["max_closure_error"] < 1e-11 and chk["max_motion_error"] < 1e-11
-    assert lk.info["ladder"]["flip_residual"] < 1e-12
-    for loop in lk.info["ladder"]["loop_joints"]:  # every loop is a Bennett linkage
+    assert lk.info.synthesis.ladder.flip_residual < 1e-12
+    for loop in lk.info.synthesis.ladder.loop_joints:  # every loop is a Bennett linkage
         J = [lk.joint(n) for n in loop]
         cn = [common_normal(J[i].direction, J[i].moment, J[(i + 1) % 4].direction, J[(i + 1) % 4].moment)
               for i in range(4)]
@@ -167,5 +167,5 @@ def test_spatial_ladders_have_one_dof(seed):
 def test_choose_m0_planar_keeps_the_plane():
     m0, lk, score = choose_m0(np.array([[float(x) for x in h] for h in E2]))
     assert np.allclose(np.abs(m0[1:4]) / np.linalg.norm(m0[1:4]), [0, 0, 1])
-    assert score["dof"] == 1 and score["conditioning"] > 0
-    assert score_linkage(lk)["dof"] == 1
+    assert score.dof == 1 and score.conditioning > 0
+    assert score_linkage(lk).dof == 1

@@ -136,11 +136,11 @@ def test_planar_and_spherical_four_bars(seed):
         if kind == "planar":
             assert np.all(np.abs(np.abs(U[:, 2]) - 1) < 1e-12)  # parallel axes (normal z)
         else:
-            c = np.array(L.info["family"]["centre"])
+            c = np.array(L.info.synthesis.family.centre)
             assert max(np.linalg.norm(np.cross(c - j.point, j.direction)) for j in L.joints) < 1e-12
-        bp = L.info["bennett"]  # opposite sides equal: lengths (planar) or angles (spherical)
-        assert bp["opposite_length_mismatch" if kind == "planar" else "opposite_twist_mismatch"] < 1e-9
-        assert set(L.info["member"]) == {"lambda1", "lambda2"}
+        bp = L.info.bennett  # opposite sides equal: lengths (planar) or angles (spherical)
+        assert (bp.opposite_length_mismatch if kind == "planar" else bp.opposite_twist_mismatch) < 1e-9
+        assert set(L.info.synthesis.member.to_dict()) == {"lambda1", "lambda2"}
 
 
 def test_planar_watt_sixbar_has_mobility_one():
@@ -155,7 +155,7 @@ def test_planar_watt_sixbar_has_mobility_one():
 def test_member_options_and_refusals():
     T = planar_poses(3, 5)
     L = bennett(T, member=(-0.5, 2.0))
-    assert L.info["member"] == {"lambda1": -0.5, "lambda2": 2.0}
+    assert L.info.synthesis.member.to_dict() == {"lambda1": -0.5, "lambda2": 2.0}
     with pytest.raises(InputError, match="nonzero"):
         bennett(T, member=(0.0, 1.0))
     spatial = np.array([np.eye(4), worked_poses()[1], spherical_poses(3, 1)[2]])

@@ -108,15 +108,15 @@ def test_bennett_through_points_of_a_known_linkage(seed):
     L = bennett_points(P, check_samples=50)
     assert L.kind == "bennett" and len(L.joints) == 4
     assert_visits(L, P)
-    bp = L.info["bennett"]
-    assert abs(bp["bennett_condition_residual"]) < 1e-8  # a genuine Bennett linkage
+    bp = L.info.bennett
+    assert abs(bp.bennett_condition_residual) < 1e-8  # a genuine Bennett linkage
 
 
 def test_sixbar_through_points_of_a_known_linkage():
     P = known_sixbar_points(5)
     Ls = point_candidates(P, degree=3, top=3, check_samples=50)
     assert 1 <= len(Ls) <= 3 and all(L.kind == "6r" for L in Ls)
-    assert [L.info["score"] for L in Ls] == sorted((L.info["score"] for L in Ls), reverse=True)
+    assert [L.info.synthesis.score for L in Ls] == sorted((L.info.synthesis.score for L in Ls), reverse=True)
     for L in Ls:
         assert_visits(L, P)
 
@@ -133,8 +133,8 @@ def test_fewer_points_are_completed():
     """Four points for a Bennett linkage: one more is chosen, reported, and not listed as a pose."""
     P = known_bennett_points(7)[:4]
     L = bennett_points(P, check_samples=20)
-    assert len(L.poses) == 4 and len(L.info["chosen_points"]) == 1
-    assert "missing point" in L.info["freedom"]
+    assert len(L.poses) == 4 and len(L.info.synthesis.chosen_points) == 1
+    assert "missing point" in L.info.synthesis.freedom
     assert_visits(L, P)
 
 

@@ -61,7 +61,7 @@ def assert_good(linkage, T, tol=TOL):
     assert [j.name for j in linkage.joints] == ["h1", "h2", "h3", "k1", "k2", "k3"]
     assert linkage.branches == [["h1", "h2", "h3"], ["k1", "k2", "k3"]]
     for key in ("family", "member", "pair", "t3", "score", "score_parts", "dh"):
-        assert key in linkage.info
+        assert key in linkage.info.to_dict()
 
 
 # ----------------------------------------------------------------------------- worked example E
@@ -69,11 +69,11 @@ def test_example_default_linkage():
     T = e_poses()
     lk = sixbar(T, ["T0", "T1", "T2", "T3"])
     assert_good(lk, T, 1e-13)
-    assert lk.info["family"] in (1, 2) and 1 <= lk.info["pair"] <= 9
-    assert lk.info["t3"] == pytest.approx(E_T3[lk.info["family"] - 1], abs=1e-11)
+    assert lk.info.synthesis.family in (1, 2) and 1 <= lk.info.synthesis.pair <= 9
+    assert lk.info.synthesis.t3 == pytest.approx(E_T3[lk.info.synthesis.family - 1], abs=1e-11)
     ts = [p.t for p in lk.poses]
-    assert np.isinf(ts[0]) and ts[1:3] == [0.0, 1.0] and ts[3] == lk.info["t3"]
-    assert lk.info["score"] > 0.5
+    assert np.isinf(ts[0]) and ts[1:3] == [0.0, 1.0] and ts[3] == lk.info.synthesis.t3
+    assert lk.info.synthesis.score > 0.5
 
 
 @pytest.mark.parametrize("pair", range(1, 10))
@@ -82,12 +82,12 @@ def test_example_member_half_all_nine_pairs(pair):
     reproduce the 4 poses and close to <= 3e-14; the 6 angles come in 3 equal pairs."""
     T = e_poses()
     lk = sixbar(T, family=2, member=0.5, pair=pair)
-    assert lk.info["member"] == 0.5 and lk.info["pair"] == pair and lk.info["family"] == 2
+    assert lk.info.synthesis.member == 0.5 and lk.info.synthesis.pair == pair and lk.info.synthesis.family == 2
     c = lk.checks
     assert c["max_pose_error"] <= 3e-14
     assert c["max_closure_error"] <= 3e-14
     assert c["max_motion_error"] <= 3e-14
-    h, k = lk.info["orders"]["h"], lk.info["orders"]["k"]
+    h, k = lk.info.synthesis.orders.h, lk.info.synthesis.orders.k
     assert h[0] != k[0] and h[2] != k[2]
     for rec in lk.poses[1:]:
         ang = sorted(rec.joint_angles.values())
@@ -110,7 +110,7 @@ def test_explicit_selection_reproduces_default():
     """info's (family, member, pair) of the default design select the same linkage explicitly."""
     T = e_poses()
     best = sixbar(T)
-    again = sixbar(T, family=best.info["family"], member=best.info["member"], pair=best.info["pair"])
+    again = sixbar(T, family=best.info.synthesis.family, member=best.info.synthesis.member, pair=best.info.synthesis.pair)
     for a, b in zip(best.joints, again.joints):
         assert np.allclose(a.direction, b.direction, atol=1e-10)
         assert np.allclose(a.moment, b.moment, atol=1e-10)
@@ -121,12 +121,12 @@ def test_selection_restricts_the_scan():
     T = e_poses()
     for fam in (1, 2):
         lk = sixbar(T, family=fam)
-        assert lk.info["family"] == fam
+        assert lk.info.synthesis.family == fam
         assert_good(lk, T)
     lk = sixbar(T, pair=4)
-    assert lk.info["pair"] == 4
+    assert lk.info.synthesis.pair == 4
     lk = sixbar(T, member=0.5)  # best family and pair at this label
-    assert lk.info["member"] == 0.5
+    assert lk.info.synthesis.member == 0.5
 
 
 def test_candidates_ranked_and_distinct():
@@ -136,9 +136,9 @@ def test_candidates_ranked_and_distinct():
     scores = [c.score for c in cands]
     assert scores == sorted(scores, reverse=True)
     assert len({(c.family, round(c.member, 9), c.pair) for c in cands}) == 6
-    assert cands[0].score == pytest.approx(sixbar(T).info["score"], rel=1e-12)
+    assert cands[0].score == pytest.approx(sixbar(T).info.synthesis.score, rel=1e-12)
     built = sixbar_candidates(T, top=3, build=True)
-    assert [lk.info["score"] for lk in built] == pytest.approx(scores[:3], rel=1e-12)
+    assert [lk.info.synthesis.score for lk in built] == pytest.approx(scores[:3], rel=1e-12)
     for lk in built:
         assert_good(lk, T)
 
@@ -159,10 +159,10 @@ def test_score_parts_consistent():
 def test_dh_table_matches_bennett_definition():
     lk = sixbar(e_poses())
     ref = dh_table(lk, LOOP)
-    for a, b in zip(ref, lk.info["dh"]):
-        assert a["joint"] == b["joint"] and a["next"] == b["next"]
-        for key in ("a", "alpha", "d", "theta"):
-            assert b[key] == pytest.approx(a[key], abs=1e-12)
+    for a, b in zip(ref, lk.info.dh):
+        assert a.joint == b.joint and a.next == b.next
+        for x, y in ((a.a, b.a), (a.alpha, b.alpha), (a.d, b.d), (a.theta, b.theta)):
+            assert y == pytest.approx(x, abs=1e-12)
 
 
 # ----------------------------------------------------------------------------- refusals and errors
@@ -213,7 +213,7 @@ def test_pure_rotation_between_two_poses(i, j):
     assert "pure rotation" in problem.missing[2]
     lk = sixbar(T)
     assert_good(lk, T)
-    assert lk.info["family"] == 1
+    assert lk.info.synthesis.family == 1
     with pytest.raises(SynthesisError, match="family 2 .* degenerate"):
         sixbar(T, family=2)
 
@@ -256,13 +256,13 @@ def test_scale_invariance_of_the_choice():
         base = random_poses(np.random.default_rng(seed))
         if gram_signature(base) != (2, 2):
             continue
-        ref = sixbar(base).info
+        ref = sixbar(base).info.synthesis
         for scale in (1e3, 1e-3):
             T = base.copy()
             T[:, :3, 3] *= scale
-            got = sixbar(T).info
-            assert (got["family"], got["pair"]) == (ref["family"], ref["pair"])
-            assert got["member"] == pytest.approx(ref["member"], rel=1e-8, abs=1e-10)
+            got = sixbar(T).info.synthesis
+            assert (got.family, got.pair) == (ref.family, ref.pair)
+            assert got.member == pytest.approx(ref.member, rel=1e-8, abs=1e-10)
 
 
 @pytest.mark.slow
@@ -301,7 +301,7 @@ def test_refinement_never_lowers_the_score():
     for i in range(3):
         assert fine.score(i) >= fine.score(i + 1) or i == 2
     lk = sixbar(e_poses(), refine=2)
-    assert lk.info["score"] >= sixbar(e_poses()).info["score"]
+    assert lk.info.synthesis.score >= sixbar(e_poses()).info.synthesis.score
     assert_good(lk, e_poses())
 
 

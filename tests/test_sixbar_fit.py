@@ -68,7 +68,7 @@ def test_clean_poses_of_a_known_motion_are_fitted_to_rounding(seed):
     lk = sixbar_task(task(T, tol))[0]
     dt, dr = pose_difference(reached(lk), T)
     assert dt.max() < 1e-9 * spread(T) and dr.max() < 1e-9
-    assert lk.info["fit"]["max_position_error"] == pytest.approx(dt.max(), rel=1e-9, abs=1e-15)
+    assert lk.info.fit.max_position_error == pytest.approx(dt.max(), rel=1e-9, abs=1e-15)
     assert lk.checks["max_closure_error"] < 1e-9 * spread(T)
 
 
@@ -85,7 +85,7 @@ def test_noisy_poses_are_fitted_within_tolerance_and_the_exact_ones_exactly():
         dt, dr = pose_difference(reached(lk), T)
         assert np.all(dt[1:7] <= 5e-4 * L * (1 + 1e-9)) and np.all(dr[1:7] <= 5e-4 * (1 + 1e-9))
         assert dt[[0, 7]].max() < 1e-9 * L and dr[[0, 7]].max() < 1e-9
-        assert lk.info["fit"]["within_tolerance"] and lk.poses[0].exact and lk.poses[7].exact
+        assert lk.info.fit.within_tolerance and lk.poses[0].exact and lk.poses[7].exact
         assert np.allclose([rec.error[0] for rec in lk.poses], dt, rtol=1e-9, atol=1e-15)
         assert lk.poses[3].tolerance == (tol[3, 0], tol[3, 1])
 
@@ -119,7 +119,7 @@ def test_listed_order_is_kept_and_the_visiting_order_reported():
     lk = sixbar_task(task(T, tol, order=Order.LISTED))[0]
     ts = [rec.t for rec in lk.poses]
     assert visits_in_order(ts)
-    assert lk.info["fit"]["visit_order"] == [names(8)[i] for i in visiting_order(ts)]
+    assert lk.info.fit.visit_order == tuple(names(8)[i] for i in visiting_order(ts))
     # the same poses in another listed order: the fit is held to that order (hinge rows), so the best linkage
     # in it misses the swapped poses by far more than the tolerance
     with pytest.raises(SynthesisError, match=r'tolerances not met .*pose 1 \("p1"\) missed by 0\.\d+ m'):
@@ -140,7 +140,7 @@ def test_unrealizable_tolerances_exit_with_the_failing_poses():
     with pytest.raises(SynthesisError, match="tolerances not met at the best linkage found: pose"):
         sixbar_task(task(T, tol))
     lk = sixbar_task(task(T, tol), best_effort=True)[0]
-    assert lk.info["fit"]["within_tolerance"] is False
+    assert lk.info.fit.within_tolerance is False
 
 
 def point_task(seed, n, noise=0.0):
@@ -161,15 +161,15 @@ def point_task(seed, n, noise=0.0):
 def test_more_than_seven_clean_points_are_fitted_to_rounding(seed, n):
     ps, L = point_task(seed, n)
     lk = sixbar_task(ps)[0]
-    f = lk.info["fit"]
-    assert f["method"] == "fit" and f["within_tolerance"] and f["max_position_error"] <= 1e-9 * L
+    f = lk.info.fit
+    assert f.method == "fit" and f.within_tolerance and f.max_position_error <= 1e-9 * L
     assert all(rec.kind == "point" for rec in lk.poses) and lk.poses[0].exact
 
 
 def test_noisy_points_are_fitted_within_tolerance():
     ps, L = point_task(2, 12, noise=1e-3)
     lk = sixbar_task(ps)[0]
-    assert lk.info["fit"]["within_tolerance"] and lk.poses[0].error[0] <= 1e-9 * L
+    assert lk.info.fit.within_tolerance and lk.poses[0].error[0] <= 1e-9 * L
     for rec, target in zip(lk.poses, ps.matrices):
         assert rec.error[0] <= 5e-3 * L
         assert np.linalg.norm(lk.tool_pose(rec.joint_angles)[:3, 3] - target[:3, 3]) == pytest.approx(rec.error[0],
@@ -230,7 +230,7 @@ def test_hermite_task_is_annotated_exact():
     T = poses_at(C, X0, [np.inf, 0.7])
     V = np.stack([twist_at(C, X0, t) for t in (np.inf, 0.7)])
     lk = sixbar_task(task(T, vel=V))[0]
-    assert lk.info["fit"]["method"] == "hermite" and all(rec.exact for rec in lk.poses)
+    assert lk.info.fit.method == "hermite" and all(rec.exact for rec in lk.poses)
     assert max(rec.error[0] for rec in lk.poses) < 1e-9 * spread(T)
 
 
@@ -310,5 +310,5 @@ def test_batch_job_and_python_api_take_6r_tasks():
     C, X0 = random_motion(rng)
     T = poses_at(C, X0, TS8)
     lk = synth.fit(T, tolerance=(1e-3 * spread(T), 1e-2), order="listed", kind="6r")[0]
-    assert lk.kind == "6r" and lk.info["fit"]["method"] == "fit" and lk.info["fit"]["within_tolerance"]
+    assert lk.kind == "6r" and lk.info.fit.method == "fit" and lk.info.fit.within_tolerance
     assert synth.fit(T, tolerance=(1e-3 * spread(T), 1e-2), kind="6r", top=2)[0].kind == "6r"

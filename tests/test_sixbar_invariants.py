@@ -187,13 +187,13 @@ def test_default_is_the_best_verified_candidate(seed):
     T, _ = got
     lk = sixbar(T)
     built = sixbar_candidates(T, top=1, build=True)[0]
-    assert lk.info["score"] == built.info["score"]
-    assert (lk.info["family"], lk.info["pair"], lk.info["member"]) == (
-        built.info["family"], built.info["pair"], built.info["member"])
+    assert lk.info.synthesis.score == built.info.synthesis.score
+    assert (lk.info.synthesis.family, lk.info.synthesis.pair, lk.info.synthesis.member) == (
+        built.info.synthesis.family, built.info.synthesis.pair, built.info.synthesis.member)
     cands = sixbar_candidates(T)
     assert [c.score for c in cands] == sorted((c.score for c in cands), reverse=True)
-    first_ok = next(i for i, c in enumerate(cands) if c.score == lk.info["score"] and c.pair == lk.info["pair"])
-    assert all(c.score >= lk.info["score"] for c in cands[:first_ok])
+    first_ok = next(i for i, c in enumerate(cands) if c.score == lk.info.synthesis.score and c.pair == lk.info.synthesis.pair)
+    assert all(c.score >= lk.info.synthesis.score for c in cands[:first_ok])
     assert all(c.parts["residual"] <= RESIDUAL_TOL for c in cands)
     assert checks_pass(lk, prepare(T).cond.scale)
 

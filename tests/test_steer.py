@@ -77,10 +77,10 @@ def test_steering_meets_the_box_where_the_unsteered_fit_misses(seed):
     lk, ps, box = noisy_task(seed)
     assert box_miss(lk, box) == 0.0  # the known solution meets it
     plain = bennett_task(ps, top=16)
-    assert plain[0].info["fit"]["within_tolerance"] and box_miss(plain[0], box) > 2e-5
+    assert plain[0].info.fit.within_tolerance and box_miss(plain[0], box) > 2e-5
     ps.constraints = Constraints(base=box)
     result = solve_bennett(ps, SynthesisOptions())
-    assert result.linkage.info["fit"]["within_tolerance"]
+    assert result.linkage.info.fit.within_tolerance
     assert box_miss(result.linkage, box) <= 1e-9 * result.linkage.extent()
     assert result.constraints_met.startswith("met: base box")
 
@@ -194,5 +194,5 @@ def test_sixbar_fit_is_steered_into_the_box():
     assert min(box_miss(c, box) for c in sixbar_task(ps, top=16)) > 1e-4
     ps.constraints = Constraints(base=box)
     result = solve_sixbar(ps, SynthesisOptions())
-    assert result.linkage.info["fit"]["within_tolerance"]
+    assert result.linkage.info.fit.within_tolerance
     assert box_miss(result.linkage, box) <= 1e-9 * result.linkage.extent()

@@ -170,6 +170,14 @@ def invert_pose(T) -> np.ndarray:
 
 
 # ----------------------------------------------------------------- pairs of lines
+@dataclass
+class Conditioning:
+    """The conditioning frame of a pose set (docs/conic.md): the positions' centroid and RMS spread."""
+
+    centre: np.ndarray  # (3,) metres
+    scale: float  # metres per conditioned unit
+
+
 @dataclass(slots=True)
 class CommonNormals:
     """Common normals of pairs of lines (line 1, line 2), arrays over the pairs' batch shape (...)."""

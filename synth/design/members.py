@@ -20,6 +20,7 @@ import numpy as np
 from synth.design.model import capsules
 from synth.design.search import collision_rank
 from synth.design.work import GAPS_PER_SECOND, Work
+from synth.info import DarbouxMember, MemberChoice
 from synth.synthesis.darboux import add_singular, darboux_member
 
 TURNS = tuple(k * math.pi / 8 for k in (0, 1, 2, 3, 5, 6, 7))  # pi / 2: two degrees of freedom, refused
@@ -46,7 +47,7 @@ def design_size(linkage, design) -> float:
 def choose_member(linkage, design, *, work: float = SCREEN_WORK, want: int = WANT):
     """(linkage, DesignResult or None): ``linkage`` (a `darboux_linkage`) and its full-cycle design when
     that is collision-free; else the preferred collision-free member (module docstring) with its design,
-    ``info["darboux"]["member_choice"]`` saying why; else ``linkage`` and None (the caller designs it as
+    ``info.synthesis.darboux.member_choice`` saying why; else ``linkage`` and None (the caller designs it as
     usual: task range, thinner and cranked bars). ``design(linkage, ranges, full_work, effort, work) ->
     DesignResult`` (`synth.design.search.design_linkage`'s arguments; ``work``: the `Work` every search
     charges); ``work`` here: the screen's budget of gap evaluations."""
@@ -66,21 +67,28 @@ def choose_member(linkage, design, *, work: float = SCREEN_WORK, want: int = WAN
         if collision_rank(result.collision) == 0:
             free.append((turn, shift, lk, result))
     if not free:
-        linkage.info["darboux"]["member_choice"] = {
-            "member": "default", "tried": tried,
-            "reason": f"no collision-free full-cycle design found for the default member nor {tried} others"}
+        _record_choice(linkage, MemberChoice(
+            member=None, tried=tried,
+            reason=f"no collision-free full-cycle design found for the default member nor {tried} others"))
         return linkage, None
     scored = []
     for turn, shift, lk, result in free:
         add_singular(lk)
-        scored.append((len(lk.info["darboux"]["singular_t"]), design_size(lk, result.design), turn, shift, lk, result))
+        scored.append((len(lk.info.synthesis.darboux.singular_t), design_size(lk, result.design), turn, shift, lk,
+                       result))
     scored.sort(key=lambda x: x[:2])
     n_sing, size, turn, shift, lk, result = scored[0]
     final = darboux_member(linkage, turn, shift)  # the same geometry, with the full self-check: same design
-    final.info["darboux"]["member_choice"] = {
-        "member": {"turn": turn, "shift": list(shift)}, "tried": tried, "free_found": len(free),
-        "singular_configurations": n_sing, "design_size": size,
-        "reason": (f"the default member (turn 0, shift 0) has no collision-free design over the full cycle; "
-                   f"of the {tried} other members screened, {len(free)} had one; this one has the fewest "
-                   f"singular configurations ({n_sing}), then the most compact design")}
+    _record_choice(final, MemberChoice(
+        member=DarbouxMember(turn=turn, shift=tuple(shift)), tried=tried, free_found=len(free),
+        singular_configurations=n_sing, design_size=size,
+        reason=(f"the default member (turn 0, shift 0) has no collision-free design over the full cycle; "
+                f"of the {tried} other members screened, {len(free)} had one; this one has the fewest "
+                f"singular configurations ({n_sing}), then the most compact design")))
     return final, result
+
+
+def _record_choice(linkage, choice: MemberChoice) -> None:
+    """Store ``choice`` in the linkage's Darboux record."""
+    darboux = linkage.info.synthesis.darboux.replace(member_choice=choice)
+    linkage.info = linkage.info.with_synthesis(darboux=darboux)

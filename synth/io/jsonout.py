@@ -5,7 +5,7 @@ parameter of the pose, null for t = infinity), ``poses[].kind = "point"`` and ``
 of a point task (docs/points.md), ``joints[].parent/child/angle_law`` (theta(t) =
 rate * 2 atan2(b, t - a); ``rate`` written only when it is not 1; ``fourbar``: a planar four-bar's loop law of
 the crank's angle, docs/fourbar.md), ``links`` (link -> joints it carries), ``tool_link``, ``tool_ref`` and ``info``
-(the linkage's kind-specific extras), ``design`` (the physical design: `PhysicalDesign.to_dict`, with
+(the linkage's kind-specific extras: `synth.info.LinkageInfo.to_dict`), ``design`` (the physical design: `PhysicalDesign.to_dict`, with
 every pin's length and mesh file: the bill of materials) and ``collision`` (what the design achieves:
 `CollisionReport.to_dict`) and ``stl`` (the STL files' unit, millimetres, with the URDF mesh scale 0.001,
 and the density behind the URDF's inertias) and ``print`` (each part in its print orientation on the bed,
@@ -96,11 +96,10 @@ def linkage_document(linkage, design=None, collision=None, drive=None) -> dict:
         "links": {k: list(v) for k, v in linkage.links.items()},
         "tool_link": linkage.tool_link,
         "tool_ref": np.asarray(linkage.tool_ref, float),
-        "info": dict(linkage.info),
+        "info": linkage.info.to_dict(),  # (`synth.info.LinkageInfo`)
     }
-    fit = linkage.info.get("fit")
-    if isinstance(fit, dict) and "within_tolerance" in fit:  # a task's result (docs/fit.md): said at the top too
-        doc["within_tolerance"] = bool(fit["within_tolerance"])
+    if linkage.info.fit is not None:  # a task's result (docs/fit.md): said at the top too
+        doc["within_tolerance"] = bool(linkage.info.fit.within_tolerance)
     doc["stl"] = stl_section()
     if design is not None:
         doc["design"] = design_section(design)

@@ -9,6 +9,7 @@ import numpy as np
 
 from synth.algebra.fourbar_loop import FourBarLaw
 from synth.errors import InputError
+from synth.info import LinkageInfo
 from synth.linkage import Joint, Linkage, PoseRecord
 
 
@@ -133,7 +134,7 @@ def linkage_from_document(doc: dict, where: str = "linkage.json") -> Linkage:
                      tool_ref=tool_ref, motion=motion, poses=poses,
                      tool_link=str(doc.get("tool_link", "coupler")),
                      checks={k: v for k, v in doc.get("checks", {}).items()},
-                     info=dict(doc.get("info", {}) or {}))
+                     info=LinkageInfo.from_dict(doc.get("info", {}) or {}))
     except InputError:
         raise
     except (KeyError, TypeError, ValueError, AttributeError) as e:

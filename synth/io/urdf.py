@@ -31,6 +31,7 @@ import numpy as np
 
 from synth.design.model import axis_point
 from synth.frames import link_origins, rpy_from_matrix, tool_mount_origin
+from synth.info import MultiLoop
 from synth.io.names import MESH_UNIT_SCALE, PIN_PREFIX, mesh_filename, pin_link_name
 
 _MESH_SCALE = f"{MESH_UNIT_SCALE!r} {MESH_UNIT_SCALE!r} {MESH_UNIT_SCALE!r}"
@@ -86,19 +87,20 @@ def _inertial(parent, mass, com, inertia):
 
 
 def marker_frames(linkage, origins=None) -> dict:
-    """``linkage.info["markers"]``: {name: {"link": tree link, "position": [x, y, z]}} -- extra frames
+    """The markers of a multi-loop linkage (``info.synthesis.markers``: {name: `synth.info.Marker`}) -- extra frames
     (e.g. the ``tracer`` of ``mpsynth curve``) fixed to a link, with world-parallel axes and their origin
     at the world ``position`` at the reference configuration. Returns {name: {"link", "xyz"}} with xyz
     in the link's frame; each becomes a link and a fixed joint ``<name>_mount``."""
     origins = link_origins(linkage) if origins is None else origins
     out = {}
-    for name, spec in (linkage.info.get("markers") or {}).items():
+    record = linkage.info.synthesis
+    for name, spec in ((record.markers if isinstance(record, MultiLoop) else None) or {}).items():
         if name in origins or name == TOOL_LINK:
             raise ValueError(f"marker {name!r} clashes with a link name")
-        if spec.get("link") not in origins:
-            raise ValueError(f"marker {name!r} hangs on unknown link {spec.get('link')!r}")
-        xyz = np.asarray(spec["position"], float) - origins[spec["link"]]
-        out[str(name)] = {"link": spec["link"], "xyz": xyz}
+        if spec.link not in origins:
+            raise ValueError(f"marker {name!r} hangs on unknown link {spec.link!r}")
+        xyz = np.asarray(spec.position, float) - origins[spec.link]
+        out[str(name)] = {"link": spec.link, "xyz": xyz}
     return out
 
 
@@ -219,7 +221,7 @@ def _joints(robot, linkage, origins, pins, limits) -> None:
     ET.SubElement(el, "child", link=TOOL_LINK)
     ET.SubElement(el, "origin", xyz=_vec(T[:3, 3]), rpy=_vec(rpy_from_matrix(T[:3, :3])))
 
-    for name, spec in marker_frames(linkage, origins).items():  # info["markers"]: fixed point frames
+    for name, spec in marker_frames(linkage, origins).items():  # the markers: fixed point frames
         _inertial(ET.SubElement(robot, "link", name=name), TINY_MASS, np.zeros(3), np.eye(3) * TINY_INERTIA)
         el = ET.SubElement(robot, "joint", name=f"{name}_mount", type="fixed")
         ET.SubElement(el, "parent", link=spec["link"])

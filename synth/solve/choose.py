@@ -74,7 +74,7 @@ class Designer:
         one first (full cycle, then task range; `synth.design.search.rank_buildable` within ``work`` gap
         evaluations, `synth.design.work`), then the score; with an envelope in ``constraints`` (the task's)
         the first design inside it (`synth.design.constraints.first_in_envelope`). Returns (linkage,
-        DesignResult); ``linkage.info["design_choice"]`` says which candidate won; ``what``: the candidates'
+        DesignResult); ``linkage.info.design_choice`` says which candidate won; ``what``: the candidates'
         name in it."""
         candidates = list(candidates)
         ranked = rank_buildable(candidates, lambda lk, ranges, full_work, spent: self.design(
@@ -84,8 +84,9 @@ class Designer:
             lambda lk: self.design(lk, ranges=("task",)), constraints, source=self.source, scale=self.scale,
             unit=self.unit)
         k = next(i for i, c in enumerate(candidates) if c is linkage)
-        linkage.info["design_choice"] = (f"candidate {k + 1} of the {min(len(candidates), limit)} best-scored {what}: "
-                                         "collision-free first (full cycle, then task range), then the score")
+        linkage.info = linkage.info.replace(design_choice=(
+            f"candidate {k + 1} of the {min(len(candidates), limit)} best-scored {what}: collision-free first (full "
+            "cycle, then task range), then the score"))
         return linkage, result
 
     def rank(self, linkages, *, require_free: bool, what: str, progress=None, constraints=None):

@@ -3,6 +3,9 @@ scores, checks and, with designs, their collision reports and sentences. Lengths
 radians (``input_length_unit``/``input_length_scale`` give the task's unit)."""
 from __future__ import annotations
 
+from synth.info import FamilyMember, PointsCandidate
+from synth.infoparts import document
+
 SIXBAR_FORMAT = "mpsynth.sixbar-index/1"
 POINTS_FORMAT = "mpsynth.points-index/1"
 TASK_FORMAT = "mpsynth.task-index/1"
@@ -15,14 +18,16 @@ UNITS = {"length": "m", "angle": "rad"}
 
 def sixbar_solution_id(rank: int, linkage) -> str:
     """Directory name of a ranked 6R solution: rank, family and pair (planar or spherical: the chain)."""
-    if isinstance(linkage.info.get("family"), dict):
-        return f"{rank:02d}-{linkage.info['family']['kind']}-c{linkage.info['chain']}"
-    return f"{rank:02d}-f{linkage.info['family']}-p{linkage.info['pair']}"
+    s = linkage.info.synthesis
+    if isinstance(s, FamilyMember):
+        return f"{rank:02d}-{s.family.kind}-c{s.chain}"
+    return f"{rank:02d}-f{s.family}-p{s.pair}"
 
 
 def point_solution_id(rank: int, linkage) -> str:
     """Directory name of a ranked point-task solution: rank, kind and (6R) pair."""
-    return f"{rank:02d}-{linkage.kind}" + (f"-p{linkage.info['pair']}" if "pair" in linkage.info else "")
+    pair = linkage.info.synthesis.pair
+    return f"{rank:02d}-{linkage.kind}" + (f"-p{pair}" if pair is not None else "")
 
 
 def sixbar_index(linkages, ids, ps) -> dict:
@@ -31,10 +36,11 @@ def sixbar_index(linkages, ids, ps) -> dict:
 
     sols = []
     for rank, (lk, sid) in enumerate(zip(linkages, ids), start=1):
-        i = lk.info
-        sols.append({"id": sid, "rank": rank, "path": f"{sid}/", "family": i["family"], "member": i["member"],
-                     "pair": i.get("pair", i.get("chain")), "t3": i["t3"], "score": i["score"],
-                     "score_parts": i["score_parts"], "checks": {k: lk.checks[k] for k in SIXBAR_CHECKS}})
+        s = lk.info.synthesis
+        sols.append({"id": sid, "rank": rank, "path": f"{sid}/", "family": document(s.family),
+                     "member": document(s.member), "pair": s.chain if isinstance(s, FamilyMember) else s.pair,
+                     "t3": s.t3, "score": s.score, "score_parts": document(s.score_parts),
+                     "checks": {k: lk.checks[k] for k in SIXBAR_CHECKS}})
     return {"format": SIXBAR_FORMAT, "kind": linkages[0].kind if linkages else "6r", "poses": ps.source,
             "units": dict(UNITS), "input_length_unit": ps.length_unit, "input_length_scale": ps.length_scale,
             "score_rule": SCORE_RULE, "solutions": sols}
@@ -46,16 +52,16 @@ def point_index(linkages, ids, ps) -> dict:
 
     sols = []
     for rank, (lk, sid) in enumerate(zip(linkages, ids), start=1):
-        i = lk.info
-        sol = {"id": sid, "rank": rank, "path": f"{sid}/", "parameters": i["parameters"],
-               "chosen_points": i["chosen_points"], "score": i["score"], "score_parts": i["score_parts"],
+        s: PointsCandidate = lk.info.synthesis
+        sol = {"id": sid, "rank": rank, "path": f"{sid}/", "parameters": document(s.parameters),
+               "chosen_points": document(s.chosen_points), "score": s.score, "score_parts": document(s.score_parts),
                "checks": {k: lk.checks[k] for k in POINT_CHECKS}}
-        if "pair" in i:
-            sol["pair"] = i["pair"]
+        if s.pair is not None:
+            sol["pair"] = s.pair
         sols.append(sol)
     return {"format": POINTS_FORMAT, "kind": linkages[0].kind, "task": "points", "poses": ps.source,
             "units": dict(UNITS), "input_length_unit": ps.length_unit, "input_length_scale": ps.length_scale,
-            "score_rule": SCORE_RULE, "freedom": linkages[0].info["freedom"], "solutions": sols}
+            "score_rule": SCORE_RULE, "freedom": linkages[0].info.synthesis.freedom, "solutions": sols}
 
 
 def task_solution_id(rank: int, linkage) -> str:
@@ -65,7 +71,7 @@ def task_solution_id(rank: int, linkage) -> str:
 
 def task_index(linkages, ids, ps) -> dict:
     """index.json of the ranked fits of a task file ``ps`` (docs/fit.md)."""
-    sols = [{"id": sid, "rank": r, "path": f"{sid}/", "fit": lk.info["fit"]}
+    sols = [{"id": sid, "rank": r, "path": f"{sid}/", "fit": document(lk.info.fit)}
             for r, (sid, lk) in enumerate(zip(ids, linkages), start=1)]
     return {"format": TASK_FORMAT, "kind": linkages[0].kind, "task": "poses", "poses": ps.source,
             "units": dict(UNITS), "solutions": sols}
@@ -75,14 +81,14 @@ def fourbar_index(linkages, ids, ps) -> dict:
     """index.json of ranked four-bars of the task ``ps``: lengths, transmission, extent, cost, checks."""
     sols = []
     for rank, (lk, sid) in enumerate(zip(linkages, ids), start=1):
-        f = lk.info["fourbar"]
-        sols.append({"id": sid, "rank": rank, "path": f"{sid}/", "lengths": f["lengths"],
-                     "transmission_min_deg": f["transmission_min_deg"], "extent": f["extent"], "cost": f["cost"],
+        f = lk.info.synthesis.fourbar
+        sols.append({"id": sid, "rank": rank, "path": f"{sid}/", "lengths": document(f.lengths),
+                     "transmission_min_deg": f.transmission_min_deg, "extent": f.extent, "cost": f.cost,
                      "checks": {k: lk.checks[k] for k in ("max_pose_error", "max_closure_error")},
-                     **({"fit": lk.info["fit"]} if "fit" in lk.info else {})})
+                     **({"fit": document(lk.info.fit)} if lk.info.fit is not None else {})})
     return {"format": FOURBAR_FORMAT, "kind": "planar_fourbar", "poses": ps.source, "units": dict(UNITS),
             "input_length_unit": ps.length_unit, "input_length_scale": ps.length_scale,
-            "score_rule": linkages[0].info["score_rule"], "solutions": sols}
+            "score_rule": linkages[0].info.synthesis.score_rule, "solutions": sols}
 
 
 def add_collisions(solutions: list, results, sentence) -> None:

@@ -18,6 +18,7 @@ from synth.design.constraints import admissible, compact_first, first_in_envelop
 from synth.design.work import GAPS_PER_SECOND
 from synth.drive import drive_report
 from synth.errors import InputError, SynthesisError
+from synth.info import MultiLoop
 from synth.solve.choose import Designer
 from synth.solve.index import (add_collisions, fourbar_index, point_index, point_solution_id, sixbar_index,
                                sixbar_solution_id, task_index, task_solution_id)
@@ -183,13 +184,13 @@ def _solve_task(ps, designer: Designer, options: SynthesisOptions, progress, syn
     want = options.top or (CONSTRAINED if ps.constraints else TASK_CHOICE["limit"] if options.wants_design else 1)
     linkages = synthesize(ps, top=want, best_effort=options.best_effort)
     if not options.best_effort:  # (steered fits may leave the tolerances: `synth.synthesis.steer`)
-        linkages = [lk for lk in linkages if lk.info["fit"]["within_tolerance"]]
+        linkages = [lk for lk in linkages if lk.info.fit.within_tolerance]
     if options.top is not None:
         return _ranked(linkages, designer, options, task_solution_id, lambda lks, ids: task_index(lks, ids, ps),
                        "fits", progress, ps.constraints)
     linkages = _admissible(linkages, designer, options, ps.constraints)
     linkage, result = linkages[0], None
-    within = [lk for lk in linkages if lk.info["fit"]["within_tolerance"]] or linkages
+    within = [lk for lk in linkages if lk.info.fit.within_tolerance] or linkages
     if options.wants_design and len(within) > 1:
         linkage, result = designer.choose(within, what="fits", constraints=ps.constraints, **TASK_CHOICE)
     return _finish(linkage, result, designer, options, ps.constraints)
@@ -322,7 +323,8 @@ def solve_curve(spec, options: SynthesisOptions = SynthesisOptions(), *, scale: 
         notes.append("--method applies to curves only; ignored for a motion")
     linkage = _admissible([spec_linkage(spec, scale=scale, method=options.method)], designer, options)[0]
     result = None
-    if "darboux" in linkage.info and options.wants_design:  # a collision-free member first
+    if isinstance(linkage.info.synthesis, MultiLoop) and linkage.info.synthesis.darboux is not None \
+            and options.wants_design:  # a collision-free member first
         linkage, result = choose_member(linkage, lambda lk, ranges, full_work, effort, spent: designer.design(
             lk, ranges=ranges, full_work=full_work, effort=effort, work=spent))
     return _finish(linkage, result, designer, options, notes=notes)

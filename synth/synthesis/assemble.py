@@ -8,6 +8,7 @@ import numpy as np
 
 from synth.algebra.anglelaw import angle_law
 from synth.algebra.dq import factor_lines
+from synth.info import LinkageInfo
 from synth.linkage import Joint, Linkage, PoseRecord
 
 
@@ -33,7 +34,7 @@ def pose_records(joints, poses, names, ts, angles=None) -> list[PoseRecord]:
     return [PoseRecord(name, T, t, dict(zip(jn, row))) for name, T, t, row in zip(names, poses, ts, ang)]
 
 
-def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None, rates=None, angles=None,
+def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info: LinkageInfo | None = None, rates=None, angles=None,
                        lines=None) -> Linkage:
     """Linkage with branch h: base -h1-> link_h1 ... -hn-> coupler and branch k likewise ending in
     coupler_k. H, K: (n, 8) and (m, 8) factors in the world frame (metres) with C = (t-h1)...(t-hn) =
@@ -55,7 +56,7 @@ def two_branch_linkage(kind: str, H, K, motion, poses, names, ts, info=None, rat
     records = pose_records(joints, poses, names, ts, angles)
     return Linkage(kind, joints, {k: list(v) for k, v in links.items()}, [list(x) for x in branches],
                    [("coupler", "coupler_k")], poses[0], None if motion is None else np.asarray(motion, float),
-                   records, info=dict(info) if info else {})
+                   records, info=info or LinkageInfo())
 
 
 def _joint_lines(factors) -> tuple:
@@ -94,7 +95,7 @@ WATT_LINKS = {"base": ["h1", "g1"], "link_h1": ["h1", "h2", "k2"], "link_h2": ["
               "coupler_k": [], "link_h2_g": []}
 
 
-def watt_linkage(kind: str, F, motion, poses, names, ts, info=None) -> Linkage:
+def watt_linkage(kind: str, F, motion, poses, names, ts, info: LinkageInfo | None = None) -> Linkage:
     """The Watt six-bar of three factorizations of one cubic sharing factors (docs/planar.md, section 4):
     ``C = (t-h1)(t-h2)(t-h3) = (t-h1)(t-k2)(t-k3) = (t-g1)(t-g2)(t-h3)``; F (7, 8) = h1 h2 h3 k2 k3 g1 g2 in
     the world frame (metres). Links: base (h1, g1), link_h1 (h1, h2, k2), link_h2 (h2, h3, g2), coupler
@@ -105,4 +106,4 @@ def watt_linkage(kind: str, F, motion, poses, names, ts, info=None) -> Linkage:
     return Linkage(kind, joints, {k: list(v) for k, v in WATT_LINKS.items()},
                    [["h1", "h2", "h3"], ["h1", "k2", "k3"], ["g1", "g2"]],
                    [("coupler", "coupler_k"), ("link_h2", "link_h2_g")], np.asarray(poses, float)[0],
-                   np.asarray(motion, float), records, info=dict(info) if info else {})
+                   np.asarray(motion, float), records, info=info or LinkageInfo())

@@ -23,6 +23,8 @@ from synth.algebra.geometry import (cross, dh_parameters, pose_difference, ring_
 from synth.algebra.factorize import factorize
 from synth.checks import BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, self_check
 from synth.errors import InputError, NotGenericError, SynthesisError
+from synth.info import Factorization, LinkageInfo
+from synth.infoparts import BennettParameters, DHRow, StudyForm
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, TS, acceptance_error, axis_distance,
                                           bennett_parameters, factor_sets, solve)
@@ -131,7 +133,7 @@ def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
     if linkage.kind in ("planar_4r", "spherical_4r"):  # a member of a family (docs/planar.md)
         linkage.checks = checks
         rel = accepted_error(linkage, T, cond)
-        linkage.info["relative_error"] = _accept(linkage, cond, rel)
+        linkage.info = linkage.info.replace(relative_error=_accept(linkage, cond, rel))
         return checks
     U, M = _loop_lines(linkage)
     errors = {"pose_translation": checks["max_pose_translation_error"],
@@ -140,11 +142,12 @@ def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
               "closure_rotation": checks["max_closure_rotation_error"]}
     far = axis_distance(U, M, cond.centre[None])
     rel = float(acceptance_error(T[None], np.array([cond.scale]), far, {k: np.array([v]) for k, v in errors.items()})[0])
-    info = dict(linkage.info)
-    info["relative_error"] = _accept(linkage, cond, max(rel, info.get("relative_error", 0.0)))
-    B = [info["study_form"][k] / float(cond.scale) for k in ("B01", "B02", "B12")]
-    info["warnings"] = _warnings(linkage, B, cond, info, float(far[0]))
-    linkage.checks, linkage.info = checks, info
+    info = linkage.info
+    rel = _accept(linkage, cond, max(rel, info.relative_error or 0.0))
+    B = [x / float(cond.scale) for x in info.synthesis.study_form.values]
+    warnings, kappa = _warnings(linkage, B, cond, rel, info.condition_estimate, float(far[0]))
+    linkage.checks = checks
+    linkage.info = info.replace(relative_error=rel, condition_estimate=kappa, warnings=warnings)
     return checks
 
 
@@ -165,9 +168,9 @@ def linkage_from_solution(out, i: int, T, names, check_samples: int, perturbed: 
     F = out.factors[i]
     scale = float(out.scale[i])
     cond = Conditioning(centre=out.centre[i], scale=scale)
-    info = {"factorization_residual": float(out.residual[i]),
-            "study_form": dict(zip(("B01", "B02", "B12"), out.study_form[i].tolist())),
-            "conditioning": {"centre": out.centre[i].tolist(), "scale": scale}}
+    info = LinkageInfo(synthesis=Factorization(factorization_residual=float(out.residual[i]),
+                                               study_form=StudyForm.of(out.study_form[i].tolist()),
+                                               conditioning=Conditioning(np.array(out.centre[i], float), scale)))
     linkage = two_branch_linkage("bennett", F[:2], F[2:], out.motion[i], T, names, TS, info,
                                  angles=out.pose_angles[i], lines=(out.lines[i], out.laws[i]))
     figures = {k: float(v[i]) for k, v in out.errors.items()}
@@ -203,35 +206,31 @@ def _loop_lines(linkage, loop=LOOP_NAMES):
     return lines[None, :, 0], lines[None, :, 1]
 
 
-def _complete_info(linkage, info, B, cond, bp, dh, rel, far, perturbed=None, row: int = 0, frame=None) -> dict:
+def _complete_info(linkage, info: LinkageInfo, B, cond, bp, dh, rel, far, perturbed=None, row: int = 0,
+                   frame=None) -> LinkageInfo:
     """``info`` plus the Bennett parameters ``bp`` and DH table ``dh`` (dicts of arrays over sets, of
     which set ``row`` is this linkage's), relative self-check error and warnings; raises SynthesisError
     when the self-check error ``rel`` exceeds ACCEPT_TOL (`_accept`). ``perturbed``, ``frame``: as
     `sensitivity`'s ``solved`` and ``frame``."""
-    info = dict(info)
-    bp = {k: float(v[row]) for k, v in bp.items()}
-    if not math.isfinite(bp["bennett_condition_residual"]):
-        bp["bennett_condition_residual"] = None
-    info["bennett"] = bp
-    info["dh"] = dh.table(LOOP_NAMES, row)
-    info["relative_error"] = _accept(linkage, cond, rel)
-    info["warnings"] = _warnings(linkage, np.asarray(B, float).tolist(), cond, info, far, perturbed, frame)
-    return info
+    rel = _accept(linkage, cond, rel)
+    warnings, kappa = _warnings(linkage, np.asarray(B, float).tolist(), cond, rel, info.condition_estimate, far,
+                                perturbed, frame)
+    return info.replace(bennett=BennettParameters.of_row(bp, row), dh=DHRow.table(dh.table(LOOP_NAMES, row)),
+                        relative_error=rel, condition_estimate=kappa, warnings=warnings)
 
 
-def bennett_parameters_of(linkage) -> dict:
+def bennett_parameters_of(linkage) -> BennettParameters:
     """The Bennett parameters (a, alpha, b, beta, mismatches, Bennett condition residual) of a Bennett
     linkage's loop h1-h2-k2-k1."""
-    bp = bennett_parameters(ring_normals(*_loop_lines(linkage)))
-    return {k: float(v[0]) for k, v in bp.items()}
+    return BennettParameters.of_row(bennett_parameters(ring_normals(*_loop_lines(linkage))))
 
 
-def dh_table(linkage, loop: list[str]) -> list[dict]:
+def dh_table(linkage, loop: list[str]) -> tuple[DHRow, ...]:
     """Denavit-Hartenberg parameters around a closed loop of joints at the reference configuration:
     for joint i, ``a``/``alpha`` to the next joint (signed twist about the common normal), ``d`` the
     offset along axis i between the incoming and outgoing common normals, ``theta`` the angle between
     them about axis i."""
-    return dh_parameters(*_loop_lines(linkage, loop)).table(loop, 0)
+    return DHRow.table(dh_parameters(*_loop_lines(linkage, loop)).table(loop, 0))
 
 
 def _accept(linkage, cond, rel) -> float:
@@ -385,10 +384,10 @@ def _general_factors(T, names):
                                  "1e-3 apart, relative, are needed); give three clearly distinct poses") from e
         raise
     H, K, C, residual = factor_conic(con.C, cond)
-    info = {"factorization_residual": residual,
-            # the Study form is translation invariant and scales with length: report it in metres
-            "study_form": {k: float(v * cond.scale) for k, v in zip(("B01", "B02", "B12"), con.B)},
-            "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)}}
+    # the Study form is translation invariant and scales with length: report it in metres
+    info = LinkageInfo(synthesis=Factorization(factorization_residual=residual,
+                                               study_form=StudyForm.of(v * cond.scale for v in con.B),
+                                               conditioning=Conditioning(cond.centre, float(cond.scale))))
     return H, K, C, con, cond, info
 
 
@@ -418,14 +417,14 @@ def factor_conic(C, cond: Conditioning):
     return to_world(fh.factors, cond), to_world(fk.factors, cond), to_world(C, cond), max(fh.residual, fk.residual)
 
 
-def _warnings(linkage, B, cond, info, far, perturbed=None, frame=None) -> list[str]:
+def _warnings(linkage, B, cond, rel, kappa, far, perturbed=None, frame=None) -> tuple[tuple[str, ...], float | None]:
     """Warnings for a valid result: axes far from the poses, and sensitivity to the poses. The condition
     estimate (`sensitivity`, two extra syntheses) runs only when a cheap indicator suggests trouble:
     axes more than 3 pose spreads away, a Study form value |B| < 1e-2 (nearly zero pitch), or norm
     roots that are close or nearly real. ``perturbed``, ``frame``: as `sensitivity`'s ``solved`` and
-    ``frame``."""
+    ``frame``. ``rel``: the relative self-check error; ``kappa``: the condition estimate when known (else
+    None). Returns the warnings and the condition estimate (None when it did not run)."""
     out = []
-    rel = info.get("relative_error", 0.0)
     if rel > ACCURATE:
         out.append(f"the linkage reproduces the poses less accurately than usual (relative error between "
                    f"{ACCURATE:g} and {ACCEPT_TOL:g}): the poses are close to a degenerate configuration")
@@ -440,10 +439,8 @@ def _warnings(linkage, B, cond, info, far, perturbed=None, frame=None) -> list[s
     roots_close = math.hypot(a1 - a2, b1 - b2) < 1e-2 * max(1.0, abs(a1), abs(b1), abs(a2), abs(b2))
     nearly_real = min(b1, b2) < 1e-2 * max(1.0, abs(a1), abs(a2))
     if far > 3 or min(map(abs, B)) < 1e-2 or roots_close or nearly_real:
-        kappa = info.get("condition_estimate")
         if kappa is None:
             kappa = sensitivity(linkage, solved=perturbed, frame=frame)
-        info["condition_estimate"] = kappa
         if kappa > SENSITIVE:
             # orders of magnitude only: the text must not depend on rounding (batch and single paths agree)
             mag = math.floor(math.log10(kappa)) if math.isfinite(kappa) else None
@@ -452,4 +449,4 @@ def _warnings(linkage, B, cond, info, far, perturbed=None, frame=None) -> list[s
             out.append(f"the result is valid but sensitive to the poses: changing them by 1e-9 (relative) "
                        f"moves the joint axes by up to about {moved} (condition estimate {shown}); small errors "
                        "in the poses give a different linkage")
-    return out
+    return tuple(out), kappa

@@ -137,16 +137,16 @@ def _fill(res: BennettBatch, i, L):
         for k, rec in enumerate(L.poses):
             res.pose_angles[i, k, n] = rec.joint_angles[name]
     res.motion[i] = L.motion
-    res.study_form[i] = [L.info["study_form"][k] for k in ("B01", "B02", "B12")]
-    res.residual[i] = L.info["factorization_residual"]
-    for k in res.bennett:
-        res.bennett[k][i] = L.info["bennett"][k]
+    res.study_form[i] = L.info.synthesis.study_form.values
+    res.residual[i] = L.info.synthesis.factorization_residual
+    for k, v in L.info.bennett.to_dict().items():
+        res.bennett[k][i] = np.nan if v is None else v
     c = L.checks
     res.errors["pose_translation"][i] = c["max_pose_translation_error"]
     res.errors["pose_rotation"][i] = c["max_pose_rotation_error"]
     res.errors["closure_translation"][i] = c["max_closure_translation_error"]
     res.errors["closure_rotation"][i] = c["max_closure_rotation_error"]
     res.errors["motion"][i] = c["max_motion_error"]
-    res.relative_error[i] = L.info.get("relative_error", np.nan)
+    res.relative_error[i] = np.nan if L.info.relative_error is None else L.info.relative_error
     res.ok[i] = True
     res.status[i] = ""

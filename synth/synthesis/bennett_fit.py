@@ -12,7 +12,7 @@ velocities and an order.
   linkage as in exact synthesis.
 
 Every item's miss is then measured on the linkage itself (the tool frame at the recorded joint angles)
-and stored in its `PoseRecord` (``error``, ``tolerance``, ``exact``) and in ``info["fit"]``.
+and stored in its `PoseRecord` (``error``, ``tolerance``, ``exact``) and in ``info.fit``.
 """
 from __future__ import annotations
 
@@ -24,6 +24,8 @@ from synth.algebra.dq import dq_to_pose, dq_translation, normalize_dq, pose_to_d
 from synth.blas import one_blas_thread
 from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError, SynthesisError
+from synth.info import Factorization, LinkageInfo
+from synth.infoparts import FitSummary
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
 from synth.synthesis.fit import (ERRORS, Layout, LMResult, MotionModel, levenberg_marquardt, reference_pose,
@@ -31,7 +33,7 @@ from synth.synthesis.fit import (ERRORS, Layout, LMResult, MotionModel, levenber
 from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, nearest, regauge, to_gauge, zoom
 from synth.synthesis.pointfit import subset_motions
 from synth.synthesis.fit_order import ListedOrder, directions, project_listed
-from synth.synthesis.taskfit import FitSummary, annotate, check_fitted, item_kinds, item_tolerances, select, visiting_order
+from synth.synthesis.taskfit import annotate, check_fitted, item_kinds, item_tolerances, select, visiting_order
 from synth.task import Order, PoseSet
 
 __all__ = ["bennett_task", "is_task", "hermite_conic", "fit_motion", "linkage_of", "MAX_TRIPLES", "KEEP"]
@@ -210,7 +212,7 @@ def _twists(ps: PoseSet, Tc, scale: float) -> dict:
 
 
 # ------------------------------------------------------------------ linkages
-def linkage_of(coef, ref, phi, cond: Conditioning, ps: PoseSet, info: dict):
+def linkage_of(coef, ref, phi, cond: Conditioning, ps: PoseSet):
     """The Bennett linkage of a motion in the conditioned frame: C (coefficients (2, 8), monic), reference
     pose ``ref`` (8,) at t = inf (item 0, phi = 0) and the items' angles ``phi`` (N,) (t = cot phi)."""
     from synth.synthesis.bennett import LOOP_NAMES, bennett_parameters_of, dh_table, factor_conic
@@ -223,12 +225,11 @@ def linkage_of(coef, ref, phi, cond: Conditioning, ps: PoseSet, info: dict):
     ts[phi == np.pi / 2] = 0.0  # (cos(pi/2) is not 0 in floating point)
     Tref = dq_to_pose(ref)
     Tref[:3, 3] = Tref[:3, 3] * cond.scale + cond.centre
-    lk = two_branch_linkage("bennett", H, K, Cw, ps.matrices, ps.names, ts,
-                            {**info, "factorization_residual": residual,
-                             "conditioning": {"centre": np.asarray(cond.centre).tolist(), "scale": float(cond.scale)}})
+    info = LinkageInfo(synthesis=Factorization(factorization_residual=residual, conditioning=Conditioning(
+        np.asarray(cond.centre, float), float(cond.scale))))
+    lk = two_branch_linkage("bennett", H, K, Cw, ps.matrices, ps.names, ts, info)
     lk.tool_ref = Tref
-    lk.info["bennett"] = bennett_parameters_of(lk)
-    lk.info["dh"] = dh_table(lk, LOOP_NAMES)
+    lk.info = lk.info.replace(bennett=bennett_parameters_of(lk), dh=dh_table(lk, LOOP_NAMES))
     return lk
 
 
@@ -283,7 +284,7 @@ def _bennett_task(ps: PoseSet, top: int, best_effort: bool) -> list:
                          f"of them, or 3 or more points, got {got}")
     results = []
     for lk in candidates:
-        s = summary or lk.info.pop("_summary")
+        s = summary or lk.info.fit_summary
         if s.method == "exact" and not ps.has_points:
             from synth.synthesis.bennett import verify
 
@@ -341,9 +342,8 @@ def _hermite(ps: PoseSet):
     if a == 1:  # item 0 to t = inf, item 1 to t = 0
         M = np.array([[0.0, 1.0], [1.0, 0.0]])
         coef, ref, phi = regauge(coef, ref, phi, M[None])
-    summary = FitSummary("hermite", visit=(0, 1))
-    lk = linkage_of(coef[0], ref[0], np.array([0.0, np.pi / 2]), cond, ps, {})
-    lk.info["_summary"] = summary
+    lk = linkage_of(coef[0], ref[0], np.array([0.0, np.pi / 2]), cond, ps)
+    lk.info = lk.info.replace(fit_summary=FitSummary("hermite", visit=(0, 1)))
     return lk
 
 
@@ -358,14 +358,14 @@ def _fitted(ps: PoseSet, top: int) -> list:
                           f"violation {violation[k]:.1e}, relative)")
             continue
         try:
-            lk = linkage_of(coef[k], ref[k], phi[k], cond, ps, {})
+            lk = linkage_of(coef[k], ref[k], phi[k], cond, ps)
             check_fitted(lk)
         except SynthesisError as e:
             why = why or str(e)
             continue
         ts = [r.t for r in lk.poses]
-        lk.info["_summary"] = FitSummary("fit", summary.seeds, summary.refined, summary.iterations,
-                                         visiting_order(ts))
+        lk.info = lk.info.replace(fit_summary=FitSummary("fit", summary.seeds, summary.refined, summary.iterations,
+                                                         visiting_order(ts)))
         out.append(lk)
         taken.append(k)
         if len(out) >= top:

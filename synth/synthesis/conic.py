@@ -12,18 +12,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.algebra.dq import dq_conj, dq_left_matrix, dq_mul, normalize_dq, pose_to_dq, study_form
-from synth.algebra.geometry import spread
+from synth.algebra.geometry import Conditioning, spread
 from synth.errors import SynthesisError
 
 _ONE = np.eye(8)[0]
 TS = np.array([np.inf, 0.0, 1.0])  # the parameters of the three poses on the conic (read-only)
 TS.flags.writeable = False
-
-
-@dataclass
-class Conditioning:
-    centre: np.ndarray  # (3,) metres
-    scale: float  # metres per conditioned unit
 
 
 def position_spread(T) -> tuple[np.ndarray, np.ndarray]:

@@ -14,7 +14,7 @@ t = infinity along the curve. Two motions are tried:
   draws the curve, and for planar curves (axis normal to the plane) C_T H factors with R = 1: the
   ellipse gives 3 rotations -> 10 joints instead of 13.
 ``auto`` keeps the one with fewer joints. The drawing point is the frame ``tracer`` fixed to the coupler
-at p0 (``linkage.info["markers"]``, written by the URDF exporter as link ``tracer`` + fixed joint).
+at p0 (``linkage.info.synthesis.markers``, written by the URDF exporter as link ``tracer`` + fixed joint).
 """
 from __future__ import annotations
 
@@ -30,6 +30,8 @@ from synth.algebra.flip import parallelogram_flip
 from synth.algebra.geometry import perpendicular_basis
 from synth.errors import InputError, SynthesisError
 from synth.synthesis.darboux import DARBOUX_JOINTS, darboux_linkage
+from synth.info import (Alternative, CouplerMotion, CurveRecord, GivenMotion, LinkageInfo, Marker, MultiLoop,
+                        Parallelogram)
 from synth.linkage import Linkage
 from synth.task import CurveSpec
 from synth.algebra.realfactor import UnboundedMotionError, poly_text, real_gcd_exact, real_gcd_numeric
@@ -118,7 +120,7 @@ def _ladder(factors, coupler_motion, kind, info, tool_ref, markers=None, m0=None
     def build(m):
         lk = ladder_linkage(factors, m, kind=kind, motion=coupler_motion, tool_ref=tool_ref, info=info)
         if markers:
-            lk.info["markers"] = markers
+            lk.info = lk.info.with_synthesis(markers=markers)
         return lk
 
     if m0 is None:
@@ -126,10 +128,7 @@ def _ladder(factors, coupler_motion, kind, info, tool_ref, markers=None, m0=None
     else:
         lk = build(np.asarray(m0, float))
         score = score_linkage(lk)
-    lk.info = dict(lk.info)
-    lk.info["m0"] = [float(x) for x in m0]
-    lk.info["mobility"] = score
-    lk.info["counts"] = lk.counts()
+    lk.info = lk.info.with_synthesis(m0=tuple(float(x) for x in m0), mobility=score, counts=lk.counts())
     lk.checks = self_check(lk, CHECK_SAMPLES)
     return lk
 
@@ -163,13 +162,10 @@ def _parallelogram(factors, coupler_motion, kind, info, tool_ref, markers=None):
     hs = np.asarray(factors, float)
     k1, k2, s = parallelogram_flip(hs[0], hs[1])
     lk = two_branch_linkage(kind, hs, np.array([k1, k2]), coupler_motion, [tool_ref], [], [])
-    lk.info = dict(info)
-    if markers:
-        lk.info["markers"] = markers
-    lk.info["parallelogram"] = {"h": hs, "k": np.array([k1, k2]), "shift": s,
-                                "family": "k1 = h1 - eps s, k2 = h2 + eps s, s perpendicular to the axes"}
-    lk.info["mobility"] = score_linkage(lk)
-    lk.info["counts"] = lk.counts()
+    shape = Parallelogram(h=hs, k=np.array([k1, k2]), shift=s,
+                          family="k1 = h1 - eps s, k2 = h2 + eps s, s perpendicular to the axes")
+    lk.info = LinkageInfo(synthesis=info.replace(markers=markers or None, parallelogram=shape,
+                                                 mobility=score_linkage(lk), counts=lk.counts()))
     lk.checks = self_check(lk, CHECK_SAMPLES)
     return lk
 
@@ -182,7 +178,7 @@ def _build(factors, coupler_motion, kind, info, tool_ref, markers=None, m0=None,
     # motion's C (t^2 + 1) has them): move a conjugate pair inside its family (same product)
     factors, moved = separate_coincident(factors)
     if moved:
-        info = dict(info, separated_pairs=[[a + 1, b + 1] for a, b in moved])
+        info = info.replace(separated_pairs=tuple((a + 1, b + 1) for a, b in moved))
     return _ladder(factors, coupler_motion, kind, info, tool_ref, markers=markers, m0=m0, seed=seed)
 
 
@@ -197,19 +193,19 @@ def motion_linkage(C, *, scale: float = 1.0, m0=None, seed: int = 0, text: str |
     res = factorize_with_cofactor(exact_n if exact_n is not None else Cn)
     R8 = np.zeros((len(res.R), 8))
     R8[:, 0] = res.R
-    info = {"motion": {"input": [[float(x) for x in r] for r in (C if not isinstance(C, np.ndarray) else C)],
-                       "expression": text, "monic": Cn, "leading_coefficient": lead,
-                       "real_content": g_real, "cofactor": res.R, "cofactor_text": poly_text(res.R),
-                       "deg_R": res.deg_R, "mrpf": res.g, "mrpf_text": poly_text(res.g),
-                       "bound_met": res.bound_met, "factorization_residual": res.residual,
-                       "components": [_plain_report(r) for r in res.report],
-                       "C_times_R": poly_mul(Cn, R8)}}
+    given = GivenMotion(input=tuple(tuple(float(x) for x in r) for r in C), expression=text, monic=Cn,
+                        leading_coefficient=lead, real_content=g_real, cofactor=res.R, cofactor_text=poly_text(res.R),
+                        deg_R=res.deg_R, mrpf=res.g, mrpf_text=poly_text(res.g), bound_met=res.bound_met,
+                        factorization_residual=res.residual, components=tuple(_plain_report(r) for r in res.report),
+                        C_times_R=poly_mul(Cn, R8))
+    info = MultiLoop(motion=given)
     tool_ref = dq_to_pose(lead / np.linalg.norm(lead[:4]))
     if m0 is None and joint_count(res.factors) > DARBOUX_JOINTS:  # the smaller linkage: a Darboux 7R
         lk = darboux_linkage(Cn, tool_ref=tool_ref, info=info, check_samples=CHECK_SAMPLES)
         if lk is not None:
-            lk.info["motion"]["alternatives"] = [{"method": "darboux 7R", "joints": DARBOUX_JOINTS},
-                                                 {"method": "ladder", "joints": joint_count(res.factors)}]
+            alternatives = (Alternative(method="darboux 7R", joints=DARBOUX_JOINTS),
+                            Alternative(method="ladder", joints=joint_count(res.factors)))
+            lk.info = lk.info.with_synthesis(motion=given.replace(alternatives=alternatives))
             return lk
     return _build(res.factors, Cn, "motion", info, tool_ref, m0=m0, seed=seed)
 
@@ -388,10 +384,10 @@ def trace_error(linkage: Linkage, samples: int = CHECK_SAMPLES) -> float:
     """Largest distance between the tracer point and the curve point at the same parameter t."""
     from synth.checks import sample_parameters
 
-    cur = linkage.info["curve"]
-    X = np.asarray(cur["xyz_coefficients_m"], float)
-    w = np.asarray(cur["w_coefficients"], float)
-    p0 = np.asarray(cur["p0_m"], float)
+    cur = linkage.info.synthesis.curve
+    X = np.asarray(cur.xyz_coefficients_m, float)
+    w = np.asarray(cur.w_coefficients, float)
+    p0 = np.asarray(cur.p0_m, float)
     t = sample_parameters(linkage, samples)[:-1]
     disp = linkage.displacements(linkage.angles_at(t))[linkage.tool_link]
     traced = np.einsum("...ij,j->...i", disp[..., :3, :3], p0) + disp[..., :3, 3]
@@ -410,19 +406,16 @@ def curve_linkage(x, y, z, w, *, scale: float = 1.0, method: str = "auto", m0=No
     res: CofactorResult = best["result"]
     T = np.eye(4)
     T[:3, 3] = p0
-    info = {"curve": {"x": texts[0] if texts else poly_text(x), "y": texts[1] if texts else poly_text(y),
-                      "z": texts[2] if texts else poly_text(z), "w": texts[3] if texts else poly_text(w),
-                      "scale_to_m": scale, "xyz_coefficients_m": X, "w_coefficients": wf, "p0_m": p0,
-                      "tracer": "tracer",
-                      "method": best["method"], "axis": best.get("axis"),
-                      "alternatives": [{"method": c["method"], "joints": c["joints"]} for c in cands]},
-            "motion": {"coupler": best["motion"], "cofactor": res.R, "cofactor_text": poly_text(res.R),
-                       "deg_R": res.deg_R, "mrpf_text": poly_text(res.g),
-                       "factorization_residual": res.residual,
-                       "components": [_plain_report(r) for r in res.report]}}
-    if "H" in best:
-        info["motion"]["rotation_cofactor_H"] = best["H"]
-    markers = {"tracer": {"link": "coupler", "position": p0.tolist()}}
+    curve = CurveRecord(x=texts[0] if texts else poly_text(x), y=texts[1] if texts else poly_text(y),
+                        z=texts[2] if texts else poly_text(z), w=texts[3] if texts else poly_text(w),
+                        scale_to_m=scale, xyz_coefficients_m=X, w_coefficients=wf, p0_m=p0, tracer="tracer",
+                        method=best["method"], axis=best.get("axis"),
+                        alternatives=tuple(Alternative(method=c["method"], joints=c["joints"]) for c in cands))
+    motion = CouplerMotion(coupler=best["motion"], cofactor=res.R, cofactor_text=poly_text(res.R), deg_R=res.deg_R,
+                           mrpf_text=poly_text(res.g), factorization_residual=res.residual,
+                           components=tuple(_plain_report(r) for r in res.report), rotation_cofactor_H=best.get("H"))
+    info = MultiLoop(curve=curve, motion=motion)
+    markers = {"tracer": Marker(link="coupler", position=tuple(p0.tolist()))}
     lk = _build(res.factors, best["motion"], "curve", info, T, markers=markers, m0=m0, seed=seed)
     lk.checks["max_trace_error"] = trace_error(lk)
     return lk

@@ -26,6 +26,7 @@ from synth.algebra.dualsystem import dual_matrix, perp_basis, rot_item, rotation
 from synth.algebra.polynomial import divide_real_quadratic, poly_mul, product_of_linear
 from synth.algebra.realpoly import quad
 from synth.checks import self_check
+from synth.info import Darboux, DarbouxMember, LinkageInfo, MultiLoop
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.multiloop import constraint_jacobian, score_linkage
 
@@ -208,13 +209,13 @@ def chain_residuals(C, H, G) -> tuple[float, float]:
     return float(rh), float(rg)
 
 
-def darboux_linkage(C, *, kind: str = "motion", tool_ref=None, info=None, check_samples: int = 200,
+def darboux_linkage(C, *, kind: str = "motion", tool_ref=None, info: MultiLoop | None = None, check_samples: int = 200,
                     turn: float = 0.0, shift=(0.0, 0.0), singular: bool = True):
     """The 7R loop of a monic cubic Darboux motion C (world frame, metres), or None when `chains` does
     not apply (or, for this ``turn``, the loop has more than one degree of freedom): branch h = h1 h2 h3 (C),
     branch k = k1 k2 k3 k4 = g1 g2 g3 g4 (C M, k2 of rate 2), welded at the coupler (docs/conventions.md,
-    section 6). ``turn``, ``shift``: the member (`chains`). ``info`` is copied into ``linkage.info`` with the
-    key ``darboux`` added (with the singular parameters unless ``singular`` is false: `singular_parameters`);
+    section 6). ``turn``, ``shift``: the member (`chains`). ``info`` (a multi-loop record) becomes
+    ``linkage.info.synthesis`` with its ``darboux`` added (with the singular parameters unless ``singular`` is false: `singular_parameters`);
     ``checks`` holds the sampled self-check (`synth.checks.self_check`; the certified bound does not apply
     to a joint of rate 2)."""
     C = np.asarray(C, float)
@@ -225,17 +226,17 @@ def darboux_linkage(C, *, kind: str = "motion", tool_ref=None, info=None, check_
     rh, rg = chain_residuals(C, H, G)
     T = np.eye(4) if tool_ref is None else np.asarray(tool_ref, float)
     lk = two_branch_linkage(kind, H, G, C, [T], [], [], rates=[1, 1, 1, 1, 2, 1, 1])
-    lk.info = dict(info or {})
-    lk.info["darboux"] = {"h": H, "g": G, "rates": {"k2": 2},
-                          "products": "C = (t - h1)(t - h2)(t - h3),  C M = (t - g1)(t - g2)^2 (t - g3)(t - g4)",
-                          "M": darboux_structure(C)["M"], "residuals": {"h": rh, "g": rg},
-                          "member": {"turn": float(turn), "shift": [float(x) for x in shift]}}
-    lk.info["mobility"] = score_linkage(lk)
-    if lk.info["mobility"]["dof"] != 1:
+    darboux = Darboux(h=H, g=G, rates={"k2": 2},
+                      products="C = (t - h1)(t - h2)(t - h3),  C M = (t - g1)(t - g2)^2 (t - g3)(t - g4)",
+                      M=darboux_structure(C)["M"], residuals={"h": rh, "g": rg},
+                      member=DarbouxMember(turn=float(turn), shift=tuple(float(x) for x in shift)))
+    mobility = score_linkage(lk)
+    lk.info = LinkageInfo(synthesis=(info or MultiLoop()).replace(darboux=darboux, mobility=mobility))
+    if mobility.dof != 1:
         return None
     if singular:
         add_singular(lk)
-    lk.info["counts"] = lk.counts()
+    lk.info = lk.info.with_synthesis(counts=lk.counts())
     lk.checks = self_check(lk, check_samples)
     return lk
 
@@ -244,17 +245,18 @@ def darboux_member(linkage, turn: float, shift=(0.0, 0.0), *, singular: bool = T
     """Another member (`chains`: ``turn`` rad, ``shift`` metres) of the 7R of the Darboux motion of
     ``linkage`` (a `darboux_linkage`), with the same motion, tool frame and info (but its own ``darboux``,
     ``mobility`` and ``counts``); None where `darboux_linkage` refuses it."""
-    info = {k: v for k, v in linkage.info.items() if k not in ("darboux", "mobility", "counts")}
+    info = linkage.info.synthesis.replace(darboux=None, mobility=None, counts=None)
     return darboux_linkage(linkage.motion, kind=linkage.kind, tool_ref=linkage.tool_ref, info=info,
                            check_samples=check_samples, turn=turn, shift=shift, singular=singular)
 
 
 def add_singular(linkage) -> None:
     """Record the singular parameters (`singular_parameters`) and the driver h1's angles there in
-    ``linkage.info["darboux"]``."""
+    ``linkage.info.synthesis.darboux``."""
     sing = singular_parameters(linkage)
-    linkage.info["darboux"]["singular_t"] = sing
-    linkage.info["darboux"]["singular_driver_deg"] = [float(np.degrees(linkage.joints[0].angle(t))) for t in sing]
+    deg = tuple(float(np.degrees(linkage.joints[0].angle(t))) for t in sing)
+    darboux = linkage.info.synthesis.darboux.replace(singular_t=tuple(sing), singular_driver_deg=deg)
+    linkage.info = linkage.info.with_synthesis(darboux=darboux)
 
 
 def singular_parameters(linkage, grid: int = 720, tol: float = 1e-8) -> list[float]:

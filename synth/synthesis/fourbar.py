@@ -13,11 +13,13 @@ import numpy as np
 
 from synth.checks import VERIFY_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
+from synth.info import BarLengths, FourBarFigures, FourBarRecord, LinkageInfo
+from synth.infoparts import FitSummary
 from synth.synthesis.fourbar_build import fourbar_linkage
 from synth.synthesis.fourbar_dyads import FIT_GRID, FIT_ITERATIONS, FIT_SEEDS, task_dyads
 from synth.synthesis.fourbar_plane import plane_of_motion, with_velocities
 from synth.synthesis.fourbar_rank import best_distinct, judge, pairs, rejection_counts
-from synth.synthesis.taskfit import FitSummary, annotate, make_task
+from synth.synthesis.taskfit import annotate, make_task
 from synth.task import Order
 
 MIN_TRANSMISSION_DEG = 40.0  # default lower bound of the transmission angle over the task range
@@ -74,7 +76,7 @@ def fourbar_candidates(T, names, *, top: int = 1, min_transmission_deg: float = 
                                  refined=0 if exact else FIT_SEEDS, iterations=0 if exact else FIT_ITERATIONS,
                                  visit=visit_order(fb, n))
             annotate(linkage, ps, summary)
-            linkage.info["fit"]["dyads"] = dyads.method
+            linkage.info = linkage.info.replace(fit=linkage.info.fit.replace(dyads=dyads.method))
         out.append(linkage)
     return out
 
@@ -93,6 +95,11 @@ def fourbar(T, names=None, **options):
     return fourbar_candidates(T, names, top=1, **options)[0]
 
 
+FOURBAR_RULE = ("crank-rocker (crank shortest, Grashof), no branch defect, no order defect with order: listed, "
+                "transmission angle over the task range at least the minimum; then lowest log10(extent) + 2 (1 - "
+                "sin(min transmission)) + largest pose error / tolerance")
+
+
 def weights(tol, scale: float) -> np.ndarray:
     """Per-pose weights (k, 2) of position (per pose spread) and angle: 1 / tolerance, 0 where free."""
     tc = np.asarray(tol, float) / np.array([scale, 1.0])
@@ -100,25 +107,21 @@ def weights(tol, scale: float) -> np.ndarray:
         return np.where(np.isfinite(tc), 1.0 / tc, 0.0)
 
 
-def describe(task, fb, n: int, method: str, rank: int, count: int, min_transmission_deg: float, listed: bool) -> dict:
-    """linkage.json's ``info`` of four-bar n: the plane, the lengths, the designer's figures and the rank."""
+def describe(task, fb, n: int, method: str, rank: int, count: int, min_transmission_deg: float,
+             listed: bool) -> LinkageInfo:
+    """The info of four-bar n: the plane, the lengths, the designer's figures and the rank."""
     s = task.scale
-    lengths = {"ground": fb.ground[n] * s, "crank": fb.crank[n] * s, "coupler": fb.coupler[n] * s,
-               "rocker": fb.rocker[n] * s}
+    lengths = BarLengths(ground=float(fb.ground[n] * s), crank=float(fb.crank[n] * s),
+                         coupler=float(fb.coupler[n] * s), rocker=float(fb.rocker[n] * s))
     lo, span = fb.task_range[n]
-    return {"plane": task.describe(),
-            "fourbar": {"lengths": {k: float(v) for k, v in lengths.items()}, "grashof": "crank-rocker",
-                        "driver": "h1", "branch": int(fb.branch[n]),
-                        "transmission_min_deg": float(np.degrees(fb.transmission[n])),
-                        "min_transmission_deg": float(min_transmission_deg),
-                        "task_range_deg": [float(np.degrees(lo)), float(np.degrees(lo + span))],
-                        "order": "listed" if listed else "any",
-                        "extent": float(fb.extent[n]), "cost": float(fb.cost[n]), "rank": rank,
-                        "candidates": int(count), "valid_candidates": int(np.sum(fb.valid)), "dyads": method},
-            "score_rule": ("crank-rocker (crank shortest, Grashof), no branch defect, no order defect with order: "
-                           "listed, transmission angle over the task range at least the minimum; then lowest "
-                           "log10(extent) + 2 (1 - sin(min transmission)) + largest pose error / tolerance"),
-            "warnings": []}
+    figures = FourBarFigures(
+        lengths=lengths, grashof="crank-rocker", driver="h1", branch=int(fb.branch[n]),
+        transmission_min_deg=float(np.degrees(fb.transmission[n])), min_transmission_deg=float(min_transmission_deg),
+        task_range_deg=(float(np.degrees(lo)), float(np.degrees(lo + span))), order="listed" if listed else "any",
+        extent=float(fb.extent[n]), cost=float(fb.cost[n]), rank=rank, candidates=int(count),
+        valid_candidates=int(np.sum(fb.valid)), dyads=method)
+    return LinkageInfo(synthesis=FourBarRecord(plane=task.describe(), fourbar=figures, score_rule=FOURBAR_RULE),
+                       warnings=())
 
 
 def accept(linkage, scale: float, exact: bool) -> None:

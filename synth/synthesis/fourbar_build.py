@@ -15,7 +15,8 @@ import numpy as np
 from synth.algebra.anglelaw import angle_law_inverse
 from synth.algebra.fourbar_loop import ROLES, FourBarLaw, loop_angles
 from synth.algebra.geometry import rotation_about_axis
-from synth.linkage import Joint, Linkage, PoseRecord
+from synth.info import LinkageInfo
+from synth.linkage import Joint, Kind, Linkage, PoseRecord
 from synth.synthesis.fourbar_plane import PlanarTask
 from synth.synthesis.fourbar_rank import FourBars, coupler_poses
 
@@ -36,7 +37,7 @@ def reference_pivots(fb: FourBars, n: int) -> np.ndarray:
     return np.array([fb.A0[n], A1, fb.B0[n], A1 + fb.coupler[n] * np.array([np.cos(psi), np.sin(psi)])])
 
 
-def fourbar_linkage(task: PlanarTask, fb: FourBars, n: int, T, names, info: dict) -> Linkage:
+def fourbar_linkage(task: PlanarTask, fb: FourBars, n: int, T, names, info: LinkageInfo) -> Linkage:
     """The Linkage of four-bar ``n`` of ``fb`` through the poses T (k, 4, 4) (metres) named ``names``; its
     pose records carry the joint angles at each pose's crank angle (and ``error``, the tool frame's miss
     there, metres and radians, for a fit)."""
@@ -60,8 +61,8 @@ def fourbar_linkage(task: PlanarTask, fb: FourBars, n: int, T, names, info: dict
     records = [PoseRecord(str(name), T[i], float(ts[i]), dict(zip(ROLES, map(float, q[:, i]))))
                for i, name in enumerate(names)]
     tool_ref = reference_displacement(task, fb, n) @ T[0]
-    return Linkage("planar_fourbar", joints, {k: list(v) for k, v in LINKS.items()}, [["h1", "h2"], ["k1", "k2"]],
-                   [("coupler", "coupler_k")], tool_ref, None, records, info=dict(info))
+    return Linkage(Kind.PLANAR_FOURBAR, joints, {k: list(v) for k, v in LINKS.items()}, [["h1", "h2"], ["k1", "k2"]],
+                   [("coupler", "coupler_k")], tool_ref, None, records, info=info)
 
 
 def reference_displacement(task: PlanarTask, fb: FourBars, n: int) -> np.ndarray:

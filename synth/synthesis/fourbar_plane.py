@@ -16,6 +16,7 @@ import numpy as np
 
 from synth.algebra.geometry import spread as position_spread
 from synth.errors import InputError, SynthesisError
+from synth.info import Plane
 
 COPLANAR_TOL = 1e-9  # |(R_i R_0^T - I) n| and |(p_i - p_0) . n| / spread above this: not a planar task
 ROTATION_MIN = 1e-9  # every relative rotation angle below this: pure translations, no revolute joint
@@ -54,10 +55,10 @@ class PlanarTask:
         x = np.asarray(xc, float) * self.scale + self.centre
         return self.origin + x[..., :1] * self.e1 + x[..., 1:2] * self.e2
 
-    def describe(self) -> dict:
-        """The plane for linkage.json's ``info``: origin, e1, e2, normal (world frame, metres)."""
-        return {"origin": self.origin.tolist(), "e1": self.e1.tolist(), "e2": self.e2.tolist(),
-                "normal": self.normal.tolist()}
+    def describe(self) -> Plane:
+        """The plane for the linkage's info: origin, e1, e2, normal (world frame, metres)."""
+        return Plane(origin=tuple(self.origin.tolist()), e1=tuple(self.e1.tolist()), e2=tuple(self.e2.tolist()),
+                     normal=tuple(self.normal.tolist()))
 
 
 def plane_of_motion(T, names, source: str = "<poses>") -> PlanarTask:

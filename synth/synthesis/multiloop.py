@@ -33,6 +33,7 @@ from synth.algebra.geometry import line_point, perpendicular_basis, ring_normals
 from synth.synthesis.assemble import joint_from_factor
 from synth.errors import SynthesisError
 from synth.algebra.flip import bennett_flip, flip_residual, is_exact
+from synth.info import Ladder, LinkageInfo, Mobility, MultiLoop
 from synth.linkage import Joint, Linkage
 
 
@@ -64,12 +65,13 @@ def _reversed(j: Joint) -> Joint:
 
 
 def ladder_linkage(hs, m0, *, kind: str = "motion", motion=None, coupler: str = "coupler",
-                   tool_ref=None, info=None) -> Linkage:
+                   tool_ref=None, info: MultiLoop | None = None) -> Linkage:
     """The ladder linkage of C' = prod (t - h_i) with the extra rotation t - m0 (section 7).
 
     ``hs`` (N, 8), ``m0`` (8,): floats, or Fractions for exact flips (the Linkage itself is float).
     ``motion``: the coupler's motion polynomial (default: prod (t - h_i)). Raises SynthesisError when a
-    flip does not exist or m0 shares its norm with some h_i."""
+    flip does not exist or m0 shares its norm with some h_i. ``info``: the multi-loop record (curve, motion)
+    the ladder is added to (`synth.info.MultiLoop`)."""
     from synth.algebra.polynomial import product_of_linear
 
     N = len(hs)
@@ -121,14 +123,10 @@ def ladder_linkage(hs, m0, *, kind: str = "motion", motion=None, coupler: str = 
         tool_ref=np.eye(4) if tool_ref is None else np.asarray(tool_ref, float),
         motion=C,
         tool_link=coupler,
-        info=dict(info or {}),
     )
-    linkage.info.setdefault("ladder", {})
-    linkage.info["ladder"].update({
-        "N": N, "loops": N, "joints": 3 * N + 1, "links": 2 * N + 2,
-        "h": Hf, "k": Kf, "m": Mf, "flip_residual": flip_res,
-        "loop_joints": [[f"m{i - 1}", f"h{i}", f"m{i}", f"k{i}"] for i in range(1, N + 1)],
-    })
+    ladder = Ladder(N=N, loops=N, joints=3 * N + 1, links=2 * N + 2, h=Hf, k=Kf, m=Mf, flip_residual=flip_res,
+                    loop_joints=tuple((f"m{i - 1}", f"h{i}", f"m{i}", f"k{i}") for i in range(1, N + 1)))
+    linkage.info = LinkageInfo(synthesis=(info or MultiLoop()).replace(ladder=ladder))
     return linkage
 
 
@@ -194,7 +192,7 @@ def mobility(linkage: Linkage, ts, tol: float = 1e-9) -> tuple[list[int], float]
 def loop_sides(linkage: Linkage) -> list[list[float]]:
     """Per loop (m_{i-1}, h_i, m_i, k_i): distances of the sides m-h and h-m' (opposite sides equal)."""
     out = []
-    for loop in linkage.info["ladder"]["loop_joints"]:
+    for loop in linkage.info.synthesis.ladder.loop_joints:
         J = [linkage.joint(n) for n in loop]
         U = np.array([j.direction for j in J], float)
         M = np.array([j.moment for j in J], float)
@@ -276,7 +274,7 @@ def m0_candidates(hs, count: int = 24, seed: int = 0):
     return out
 
 
-def score_linkage(linkage: Linkage, samples: int = 48) -> dict:
+def score_linkage(linkage: Linkage, samples: int = 48) -> Mobility:
     """Figures used to rank m0 candidates: worst conditioning of the loop equations over the motion,
     dof at the samples, and the size of the linkage relative to the factors' axes."""
     phi = np.linspace(-np.pi / 2, np.pi / 2, samples + 1)[1:]
@@ -287,7 +285,7 @@ def score_linkage(linkage: Linkage, samples: int = 48) -> dict:
     dofs, cond = mobility(linkage, ts)
     pts = np.array([j.point for j in linkage.joints])
     size = float(np.max(np.linalg.norm(pts - pts.mean(axis=0), axis=1)))
-    return {"dof": max(dofs), "dof_min": min(dofs), "conditioning": cond, "size": size}
+    return Mobility(dof=max(dofs), dof_min=min(dofs), conditioning=cond, size=size)
 
 
 def choose_m0(hs, *, count: int = 24, seed: int = 0, build=None):
@@ -303,8 +301,8 @@ def choose_m0(hs, *, count: int = 24, seed: int = 0, build=None):
         except SynthesisError:
             continue
         sc = score_linkage(lk)
-        ok = sc["dof"] == 1 and sc["dof_min"] == 1
-        value = (ok, sc["conditioning"] / max(sc["size"] / ref, 1.0))
+        ok = sc.dof == 1 and sc.dof_min == 1
+        value = (ok, sc.conditioning / max(sc.size / ref, 1.0))
         if best is None or value > best[0]:
             best = (value, m, lk, sc)
     if best is None:

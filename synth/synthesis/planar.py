@@ -24,6 +24,7 @@ import numpy as np
 
 from synth.algebra.dq import dq_to_pose, study_form
 from synth.errors import SynthesisError
+from synth.info import PlanarFamily
 from synth.synthesis.conic import Conditioning, condition, relative_displacements
 from synth.synthesis.multiloop import constraint_jacobian
 
@@ -47,11 +48,12 @@ class ZeroPitch:
     poses: np.ndarray  # (k, 4, 4) world, metres
     names: list
 
-    def describe(self) -> dict:
-        """The subgroup for linkage.json's ``info``: kind plus normal (planar) or centre (spherical, metres)."""
-        if self.kind == "planar":
-            return {"kind": "planar", "normal": self.normal.tolist()}
-        return {"kind": "spherical", "centre": self.centre.tolist()}
+    def describe(self, poses: int, parameters: tuple[str, ...], motion: str) -> PlanarFamily:
+        """The family of motions through the poses for the linkage's info: the subgroup (kind plus normal
+        (planar) or centre (spherical, metres)), the number of poses, the family's parameters and motions."""
+        where = {"normal": tuple(self.normal.tolist())} if self.kind == "planar" else {
+            "centre": tuple(self.centre.tolist())}
+        return PlanarFamily(kind=self.kind, **where, poses=poses, parameters=parameters, motion=motion)
 
 
 def study_forms(D) -> np.ndarray:

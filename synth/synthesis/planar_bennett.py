@@ -26,12 +26,14 @@ from synth.algebra.geometry import dh_parameters, ring_normals
 from synth.algebra.polynomial import norm_poly
 from synth.checks import DEFAULT_CHECK_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
+from synth.info import FamilyMember, LinkageInfo, Member
+from synth.infoparts import BennettParameters, DHRow, ScoreParts, StudyForm
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import ACCEPT_TOL, LOOP, acceptance_error, axis_distance, bennett_parameters
-from synth.synthesis.conic import TS, conic_member, to_world
+from synth.synthesis.conic import TS, Conditioning, conic_member, to_world
 from synth.synthesis.planar import (ZeroPitch, axis_penalties, isogram_margin, isogram_penalty, study_forms,
                                     tracks_motion)
-from synth.synthesis.sixbar_loops import score_warnings
+from synth.synthesis.sixbar_loops import root_pairs, score_warnings
 
 GRID = 2.0 ** np.linspace(-3, 3, 13)  # |lambda| values of the default scan, each with both signs
 ORDERS = np.array([[0, 1], [1, 0]])  # branch h, branch k
@@ -127,25 +129,22 @@ def build(zp: ZeroPitch, sc: Scan, g: int, *, check_samples: int = DEFAULT_CHECK
     H, K, C = W[:2], W[2:4], W[4:]
     l1, l2 = (float(x) for x in sc.lam[g])
     kind = f"{zp.kind}_4r"
-    info = {"family": {**zp.describe(), "poses": 3, "parameters": ["lambda1", "lambda2"], "motion": MOTION},
-            "member": {"lambda1": l1, "lambda2": l2},
-            "member_choice": choice or "given (--member)",
-            "score": float(sc.score[g]), "score_parts": {k: float(v[g]) for k, v in sc.parts.items()},
-            "norm_roots": [[float(z.real), float(z.imag)] for z in sc.roots[g]],
-            "factorization_residual": float(sc.parts["residual"][g]),
-            "study_form": dict(zip(("B01", "B02", "B12"), (study_forms(zp.D) * cond.scale).tolist())),
-            "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)}}
-    linkage = two_branch_linkage(kind, H, K, C, zp.poses, zp.names, TS, info)
+    parts = {k: float(v[g]) for k, v in sc.parts.items()}
+    record = FamilyMember(
+        family=zp.describe(3, ("lambda1", "lambda2"), MOTION), member=Member(lambda1=l1, lambda2=l2),
+        member_choice=choice or "given (--member)", score=float(sc.score[g]),
+        score_parts=ScoreParts.of(parts), norm_roots=root_pairs(sc.roots[g]),
+        factorization_residual=float(sc.parts["residual"][g]), study_form=StudyForm.of(study_forms(zp.D) * cond.scale),
+        conditioning=Conditioning(cond.centre, float(cond.scale)))
+    linkage = two_branch_linkage(kind, H, K, C, zp.poses, zp.names, TS, LinkageInfo(synthesis=record))
     linkage.checks = self_check(linkage, check_samples)
     U = np.array([linkage.joint(n).direction for n in LOOP_NAMES])[None]
     M = np.array([linkage.joint(n).moment for n in LOOP_NAMES])[None]
     geo = ring_normals(U, M)
-    bp = {k: float(v[0]) for k, v in bennett_parameters(geo).items()}
-    info = linkage.info
-    info["bennett"] = {k: (v if math.isfinite(v) else None) for k, v in bp.items()}
-    info["dh"] = dh_parameters(U, normals=geo).table(LOOP_NAMES, 0)
-    info["relative_error"] = accepted_error(linkage, zp.poses, zp.cond)
-    info["warnings"] = warnings(info)
+    linkage.info = linkage.info.replace(
+        bennett=BennettParameters.of_row(bennett_parameters(geo), 0, finite=True),
+        dh=DHRow.table(dh_parameters(U, normals=geo).table(LOOP_NAMES, 0)),
+        relative_error=accepted_error(linkage, zp.poses, zp.cond), warnings=score_warnings(parts))
     return linkage
 
 
@@ -162,10 +161,6 @@ def accepted_error(linkage, T, cond) -> float:
               "closure_translation": np.array([c["max_closure_translation_error"]]),
               "closure_rotation": np.array([c["max_closure_rotation_error"]])}
     return float(acceptance_error(np.asarray(T, float)[None], np.array([float(cond.scale)]), far, errors)[0])
-
-
-def warnings(info) -> list[str]:
-    return score_warnings(info["score_parts"])
 
 
 def candidates(zp: ZeroPitch, member=None, *, top: int = 1, check_samples: int = DEFAULT_CHECK_SAMPLES) -> list:
@@ -190,16 +185,16 @@ def select_tracked(built, explicit: bool, top: int, tol: float) -> list:
     (`tracks_motion`) first, then the others with SWITCH_WARNING. An ``explicit`` member is kept either way."""
     out, switching = [], []
     for linkage in built:
-        if linkage.info["relative_error"] > tol:
+        if linkage.info.relative_error > tol:
             continue
         tracked = tracks_motion(linkage)
         if not tracked and explicit:
-            linkage.info["warnings"].append(SWITCH_WARNING)
+            linkage.info = linkage.info.replace(warnings=linkage.info.warnings + (SWITCH_WARNING,))
         (out if tracked or explicit else switching).append(linkage)
         if len(out) >= top:
             return out
     for linkage in switching[: max(0, top - len(out))]:
-        linkage.info["warnings"].append(SWITCH_WARNING)
+        linkage.info = linkage.info.replace(warnings=linkage.info.warnings + (SWITCH_WARNING,))
         out.append(linkage)
     return out
 

@@ -27,12 +27,14 @@ import numpy as np
 from synth.algebra import algorithm1 as a1
 from synth.checks import DEFAULT_CHECK_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
+from synth.info import FamilyMember, LinkageInfo, Member, Orders
+from synth.infoparts import ScoreParts
 from synth.synthesis.assemble import watt_linkage
-from synth.synthesis.conic import to_world
+from synth.synthesis.conic import Conditioning, to_world
 from synth.synthesis.cubic import PERMS, cubic_member, parameter_separation
 from synth.synthesis.planar import ZeroPitch, axis_penalties, isogram_margin, isogram_penalty
 from synth.synthesis.planar_bennett import COND_WEIGHT, KAPPA_GOOD, RESIDUAL_TOL, accepted_error, select_tracked
-from synth.synthesis.sixbar_loops import edge_normals, factor_members, geometry_parts
+from synth.synthesis.sixbar_loops import edge_normals, factor_members, geometry_parts, root_pairs
 
 T3_GRID = np.array([-3.0, -1.0, -1 / 3, 1 / 3, 2 / 3, 4 / 3, 2.0, 4.0])  # t3 of the default scan (all three arcs)
 LAMBDA_GRID = np.array([-3.0, -1.0, -1 / 3, 1 / 3, 1.0, 3.0])  # lambda1..3 of the default scan
@@ -137,22 +139,22 @@ def build(zp: ZeroPitch, member, chain: int, *, check_samples: int = DEFAULT_CHE
     W = to_world(np.concatenate([sc.F[0, chain], sc.C[0]]), zp.cond)
     t3, l1, l2, l3 = (float(x) for x in sc.members[0])
     A, B, G = (PERMS[CHAINS[chain, n, 0]].tolist() for n in (0, 3, 5))
-    info = {"family": {**zp.describe(), "poses": 4, "parameters": ["t3", "lambda1", "lambda2", "lambda3"],
-                       "motion": MOTION},
-            "member": {"t3": t3, "lambda1": l1, "lambda2": l2, "lambda3": l3},
-            "member_choice": choice or "given (--member)", "chain": chain + 1,
-            "orders": {"h": A, "k": B, "g": G}, "t3": t3,
-            "score": float(sc.score[0, chain]), "score_parts": {k: float(v[0, chain]) for k, v in sc.parts.items()},
-            "norm_roots": [[float(z.real), float(z.imag)] for z in sc.roots[0]],
-            "factorization_residual": float(sc.parts["residual"][0, chain]),
-            "mobility": "Watt six-bar: 6 links, 7 revolute joints, 2 loops; mobility 3 (6 - 1) - 2 * 7 = 1",
-            "conditioning": {"centre": zp.cond.centre.tolist(), "scale": float(zp.cond.scale)}}
-    linkage = watt_linkage(f"{zp.kind}_sixbar", W[:7], W[7:], zp.poses, zp.names, (np.inf, 0.0, 1.0, t3), info)
+    parts = ScoreParts.of({k: v[0, chain] for k, v in sc.parts.items()})
+    record = FamilyMember(
+        family=zp.describe(4, ("t3", "lambda1", "lambda2", "lambda3"), MOTION),
+        member=Member(t3=t3, lambda1=l1, lambda2=l2, lambda3=l3), member_choice=choice or "given (--member)",
+        chain=chain + 1, orders=Orders(h=tuple(A), k=tuple(B), g=tuple(G)), t3=t3, score=float(sc.score[0, chain]),
+        score_parts=parts, norm_roots=root_pairs(sc.roots[0]), factorization_residual=float(sc.parts["residual"][0, chain]),
+        mobility="Watt six-bar: 6 links, 7 revolute joints, 2 loops; mobility 3 (6 - 1) - 2 * 7 = 1",
+        conditioning=Conditioning(zp.cond.centre, float(zp.cond.scale)))
+    linkage = watt_linkage(f"{zp.kind}_sixbar", W[:7], W[7:], zp.poses, zp.names, (np.inf, 0.0, 1.0, t3),
+                           LinkageInfo(synthesis=record))
     linkage.checks = self_check(linkage, check_samples)
-    linkage.info["relative_error"] = accepted_error(linkage, zp.poses, zp.cond)
-    p = linkage.info["score_parts"]
-    linkage.info["warnings"] = ([f"poorly conditioned member (conditioning {p['conditioning']:.2g}): valid but "
-                                 "sensitive to small changes of the poses"] if p["conditioning"] < 1e-3 else [])
+    c = parts.conditioning
+    linkage.info = linkage.info.replace(
+        relative_error=accepted_error(linkage, zp.poses, zp.cond),
+        warnings=(f"poorly conditioned member (conditioning {c:.2g}): valid but sensitive to small changes of the "
+                  "poses",) if c < 1e-3 else ())
     return linkage
 
 

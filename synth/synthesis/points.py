@@ -14,7 +14,7 @@ frame there is ``tool_ref``: the given orientation of point 0 when it has one, e
 points 1..k-1 at -1 = t_1 < t_2 < ... in the order given. Each point is a `PoseRecord` with
 ``kind = "point"``; its matrix is the tool pose reached there (orientation as the motion gives it,
 position as given). Points missing from the task (fewer than 5 or 7) are chosen by the scan and
-reported in ``info["chosen_points"]``.
+reported in ``info.synthesis.chosen_points``.
 """
 from __future__ import annotations
 
@@ -24,12 +24,14 @@ from synth.algebra import algorithm1 as a1
 from synth.algebra.polynomial import pose_at, product_of_linear
 from synth.checks import DEFAULT_CHECK_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
+from synth.info import LinkageInfo, Orders, PointsCandidate
+from synth.infoparts import ScoreParts
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett import LOOP_NAMES, bennett_parameters_of, dh_table
 from synth.synthesis.conic import Conditioning, to_world
 from synth.synthesis.pointfit import PointScan, rereference, scan
 from synth.synthesis.sixbar import CHECK_TOL, LOOP, checks_pass
-from synth.synthesis.sixbar_loops import SCORE_RULE, score_warnings
+from synth.synthesis.sixbar_loops import SCORE_RULE, root_pairs, score_warnings
 
 __all__ = ["bennett_points", "sixbar_points", "point_candidates", "prepare_points", "oriented_item", "PointTask",
            "NEEDED",
@@ -176,31 +178,25 @@ def build_point_linkage(task: PointTask, sc: PointScan, member: int, loop: int, 
         T[task.oriented] = task.ref_pose
     parts = {key: float(v[member, loop]) for key, v in sc.parts.items()}
     chosen = (sc.Y[member, k:] * task.cond.scale + task.cond.centre).tolist()
-    info = {"task": "points", "points": k, "parameters": [None if np.isinf(x) else float(x) for x in ts],
-            "score": float(sc.score[member, loop]), "score_parts": parts,
-            "orders": {"h": sc.orders[oh].tolist(), "k": sc.orders[ok_].tolist()},
-            "norm_roots": [[float(z.real), float(z.imag)] for z in sc.roots[member]],
-            "factorization_residual": res, "chosen_points": chosen,
-            "chosen_parameters": params[k:].tolist(),
-            "conditioning": {"centre": task.cond.centre.tolist(), "scale": float(task.cond.scale)},
-            "freedom": freedom_text(task, len(sc.t))}
-    if n == 3:
-        info["pair"] = int(loop + 1)
-    linkage = two_branch_linkage(KINDS[n], H, K, Cw, T, task.names, ts, info)
+    record = PointsCandidate(
+        points=k, parameters=tuple(None if np.isinf(x) else float(x) for x in ts), score=float(sc.score[member, loop]),
+        score_parts=ScoreParts.of(parts), orders=Orders(h=tuple(sc.orders[oh].tolist()), k=tuple(sc.orders[ok_].tolist())),
+        norm_roots=root_pairs(sc.roots[member]), factorization_residual=res,
+        chosen_points=tuple(tuple(p) for p in chosen), chosen_parameters=tuple(params[k:].tolist()),
+        conditioning=Conditioning(task.cond.centre, float(task.cond.scale)), freedom=freedom_text(task, len(sc.t)),
+        pair=int(loop + 1) if n == 3 else None)
+    linkage = two_branch_linkage(KINDS[n], H, K, Cw, T, task.names, ts, LinkageInfo(synthesis=record))
     for rec, kind in zip(linkage.poses, task.kinds):
         rec.kind = kind
-    if n == 2:
-        linkage.info["bennett"] = bennett_parameters_of(linkage)
-        linkage.info["dh"] = dh_table(linkage, LOOP_NAMES)
-    else:
-        linkage.info["dh"] = dh_table(linkage, LOOP)
-    linkage.info["warnings"] = score_warnings(parts, "motion", "points")
+    linkage.info = linkage.info.replace(
+        bennett=bennett_parameters_of(linkage) if n == 2 else None,
+        dh=dh_table(linkage, LOOP_NAMES if n == 2 else LOOP), warnings=score_warnings(parts, "motion", "points"))
     linkage.checks = self_check(linkage, check_samples)
     return linkage
 
 
 def freedom_text(task: PointTask, samples: int) -> str:
-    """How the free design parameters were chosen, in words (``info["freedom"]``)."""
+    """How the free design parameters were chosen, in words (``info.synthesis.freedom``)."""
     n = task.degree
     free = 2 * n - 2
     text = (f"{len(task.points)} points given; point 0 at t = inf, the others at -1 = t1 < ... < t{2 * n} = 1; "

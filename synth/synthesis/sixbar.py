@@ -24,9 +24,11 @@ from itertools import islice
 import numpy as np
 
 from synth.algebra import algorithm1 as a1
-from synth.algebra.geometry import dh_parameters
+from synth.algebra.geometry import Conditioning, dh_parameters
 from synth.checks import DEFAULT_CHECK_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
+from synth.info import LinkageInfo, Orders, SixbarCandidate
+from synth.infoparts import DHRow, ScoreParts
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett import check_distinct
 from synth.synthesis.conditioning import transmission_problem
@@ -35,7 +37,7 @@ from synth.synthesis.cubic import PAIRS, PERMS, CubicFamily, families, quadric
 from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_sixbar import candidates as planar_candidates
 from synth.synthesis.sixbar_loops import (COND_WEIGHT, PART_KEYS, SCORE_RULE, MemberEval, evaluate_members,
-                                          factor_members, score_warnings)
+                                          factor_members, root_pairs, score_warnings)
 
 __all__ = ["COND_WEIGHT", "PART_KEYS", "SCORE_RULE", "Problem", "prepare", "scan", "sixbar", "sixbar_candidates",
            "build_linkage", "Candidate", "Ranking", "LOOP"]
@@ -326,31 +328,28 @@ def build_linkage(problem: Problem, cand: Candidate, *, check_samples: int = DEF
     cond = problem.cond
     W = to_world(np.concatenate([cand.H, cand.K, cand.C]), cond)  # (3 + 3 + 4, 8)
     H, K, C = W[:3], W[3:6], W[6:]
-    info = {
-        "family": cand.family, "member": cand.member, "pair": cand.pair, "t3": cand.t3,
-        "lambdas": list(cand.lambdas), "score": cand.score, "score_parts": dict(cand.parts),
-        "orders": {"h": list(cand.orders[0]), "k": list(cand.orders[1])},
-        "norm_roots": [[float(z.real), float(z.imag)] for z in cand.roots],
-        "factorization_residual": cand.parts["residual"],
-        "gram_signature": list(problem.quadric.signature),
-        "family_t3": {str(f.index): f.t3 for f in problem.families},
-        "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)},
-    }
+    record = SixbarCandidate(
+        family=cand.family, member=cand.member, pair=cand.pair, t3=cand.t3, lambdas=tuple(cand.lambdas),
+        score=cand.score, score_parts=ScoreParts.of(cand.parts), orders=Orders(h=tuple(cand.orders[0]),
+                                                                              k=tuple(cand.orders[1])),
+        norm_roots=root_pairs(cand.roots), factorization_residual=cand.parts["residual"],
+        gram_signature=tuple(problem.quadric.signature), family_t3={str(f.index): f.t3 for f in problem.families},
+        conditioning=Conditioning(cond.centre, float(cond.scale)))
+    info = LinkageInfo(synthesis=record)
     linkage = two_branch_linkage("6r", H, K, C, problem.poses, problem.names, (np.inf, 0.0, 1.0, cand.t3), info)
-    linkage.info["dh"] = loop_dh(linkage, LOOP)
-    linkage.info["warnings"] = score_warnings(cand.parts)
+    linkage.info = info.replace(dh=loop_dh(linkage, LOOP), warnings=score_warnings(cand.parts))
     if check:
         linkage.checks = self_check(linkage, check_samples)
     return linkage
 
 
-def loop_dh(linkage, loop: list[str]) -> list[dict]:
+def loop_dh(linkage, loop: list[str]) -> tuple[DHRow, ...]:
     """Denavit-Hartenberg parameters around the closed loop of joints ``loop`` at the reference
     configuration (`synth.algebra.geometry.dh_parameters`)."""
     J = {j.name: j for j in linkage.joints}
     U = np.array([J[n].direction for n in loop], float)
     M = np.array([J[n].moment for n in loop], float)
-    return dh_parameters(U, M).table(loop)
+    return DHRow.table(dh_parameters(U, M).table(loop))
 
 
 def checks_pass(linkage, scale: float, tol: float = CHECK_TOL) -> bool:

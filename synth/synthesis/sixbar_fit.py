@@ -23,16 +23,18 @@ from synth.algebra import algorithm1 as a1
 from synth.algebra.dq import dq_to_pose, normalize_dq, pose_to_dq
 from synth.blas import one_blas_thread
 from synth.errors import SynthesisError
+from synth.info import LinkageInfo, Orders, SixbarCandidate
+from synth.infoparts import FitSummary, ScoreParts
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_fit import FEASIBLE
-from synth.synthesis.conic import condition, to_world
+from synth.synthesis.conic import Conditioning, condition, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, chordal_separation
 from synth.synthesis.cubic_fit import point_seeds, seeds
 from synth.synthesis.fit_order import ListedOrder, directions
 from synth.synthesis.fit import ERRORS, Layout, LMResult, MotionModel, levenberg_marquardt, reference_pose, task_arrays
 from synth.synthesis.sixbar import LOOP, loop_dh
-from synth.synthesis.sixbar_loops import factor_members, member_geometry, score_loops, score_warnings
-from synth.synthesis.taskfit import FitSummary, check_fitted, item_kinds, item_tolerances, visiting_order, visits_in_order
+from synth.synthesis.sixbar_loops import factor_members, member_geometry, root_pairs, score_loops, score_warnings
+from synth.synthesis.taskfit import check_fitted, item_kinds, item_tolerances, visiting_order, visits_in_order
 from synth.task import Order, PoseSet
 
 __all__ = ["CubicFits", "fit_cubics", "fit_candidates", "STAGE1", "STAGE2", "KEEP_FITS"]
@@ -163,7 +165,7 @@ def _scored(fits: CubicFits, idx):
 def fit_candidates(ps: PoseSet, top: int = 1) -> list:
     """Built and checked 6R linkages of the fitted motions (best cost first, then the engineering score of
     the loop; with ``order: listed`` only motions visiting the poses in that order), at most ``top``, each
-    with ``info["_summary"]`` (its `FitSummary`) for `synth.synthesis.taskfit.annotate`. SynthesisError
+    with ``info.fit_summary`` (its `FitSummary`) for `synth.synthesis.taskfit.annotate`. SynthesisError
     with the reason when none."""
     fits = fit_cubics(ps)
     idx = _distinct(fits, ps.order is Order.LISTED)
@@ -219,17 +221,16 @@ def _linkage(fits: CubicFits, k, mf, j, p, parts, score, ps: PoseSet):
     W = to_world(np.concatenate([HK[0], HK[1], C]), cond)
     ts = fits.ts(k)
     pp = {key: float(v[j, p]) for key, v in parts.items()}
-    info = {"task": "fit", "pair": p + 1, "score": float(score[j, p]), "score_parts": pp,
-            "orders": {"h": PERMS[oh].tolist(), "k": PERMS[ok_].tolist()},
-            "norm_roots": [[float(z.real), float(z.imag)] for z in mf.roots[j]], "factorization_residual": res,
-            "parameters": [None if np.isinf(t) else float(t) for t in ts],
-            "conditioning": {"centre": np.asarray(cond.centre).tolist(), "scale": float(cond.scale)}}
-    lk = two_branch_linkage("6r", W[:3], W[3:6], W[6:], ps.matrices, ps.names, ts, info)
+    record = SixbarCandidate(
+        task="fit", pair=p + 1, score=float(score[j, p]), score_parts=ScoreParts.of(pp),
+        orders=Orders(h=tuple(PERMS[oh].tolist()), k=tuple(PERMS[ok_].tolist())), norm_roots=root_pairs(mf.roots[j]),
+        factorization_residual=res, parameters=tuple(None if np.isinf(t) else float(t) for t in ts),
+        conditioning=Conditioning(np.asarray(cond.centre, float), float(cond.scale)))
+    lk = two_branch_linkage("6r", W[:3], W[3:6], W[6:], ps.matrices, ps.names, ts, LinkageInfo(synthesis=record))
     ref = dq_to_pose(fits.ref[k])
     ref[:3, 3] = ref[:3, 3] * cond.scale + cond.centre
     lk.tool_ref = ref
-    lk.info["dh"] = loop_dh(lk, LOOP)
-    lk.info["warnings"] = score_warnings(pp, "motion")
     s = fits.summary
-    lk.info["_summary"] = FitSummary("fit", s.seeds, s.refined, s.iterations, visiting_order(ts))
+    lk.info = lk.info.replace(dh=loop_dh(lk, LOOP), warnings=score_warnings(pp, "motion"),
+                              fit_summary=FitSummary("fit", s.seeds, s.refined, s.iterations, visiting_order(ts)))
     return lk

@@ -28,11 +28,13 @@ from synth.algebra import algorithm1 as a1
 from synth.algebra.dq import dq_mul, study_form
 from synth.checks import DEFAULT_CHECK_SAMPLES, self_check
 from synth.errors import InputError, SynthesisError
+from synth.info import LinkageInfo, Orders, SixbarCandidate
+from synth.infoparts import ScoreParts
 from synth.synthesis.assemble import two_branch_linkage
-from synth.synthesis.conic import condition, relative_displacements, to_world
+from synth.synthesis.conic import Conditioning, condition, relative_displacements, to_world
 from synth.synthesis.cubic import PAIRS, PERMS
 from synth.synthesis.sixbar import LOOP, MAX_ATTEMPTS, checks_pass, loop_dh
-from synth.synthesis.sixbar_loops import factor_members, member_geometry, score_loops, score_warnings
+from synth.synthesis.sixbar_loops import factor_members, member_geometry, root_pairs, score_loops, score_warnings
 
 __all__ = ["twist_dq", "hermite_members", "hermite_candidates", "GRID"]
 
@@ -148,15 +150,12 @@ def _build(C, H, roots, k, parts, score, g, label, cond, T, names, check_samples
     res = float(np.max(np.maximum(a1.multiply_back(C, HK), a1.study_violation(HK))))
     W = to_world(np.concatenate([HK[0], HK[1], C]), cond)
     p = {key: float(v[g, k]) for key, v in parts.items()}
-    info = {"task": "hermite", "family": int(label[0]) + 1, "member": float(label[1]), "pair": int(k + 1),
-            "score": float(score[g, k]), "score_parts": p,
-            "orders": {"h": PERMS[oh].tolist(), "k": PERMS[ok_].tolist()},
-            "norm_roots": [[float(z.real), float(z.imag)] for z in roots], "factorization_residual": res,
-            "conditioning": {"centre": cond.centre.tolist(), "scale": float(cond.scale)},
-            "fit": {"method": "Hermite interpolation: the cubic motions through both poses tangent to both twists "
-                              "(exact)", "order": [0, 1], "within_tolerance": True}}
-    lk = two_branch_linkage("6r", W[:3], W[3:6], W[6:], T, names, (np.inf, 0.0), info)
-    lk.info["dh"] = loop_dh(lk, LOOP)
-    lk.info["warnings"] = score_warnings(p, "motion")
+    record = SixbarCandidate(
+        task="hermite", family=int(label[0]) + 1, member=float(label[1]), pair=int(k + 1), score=float(score[g, k]),
+        score_parts=ScoreParts.of(p), orders=Orders(h=tuple(PERMS[oh].tolist()), k=tuple(PERMS[ok_].tolist())),
+        norm_roots=root_pairs(roots), factorization_residual=res,
+        conditioning=Conditioning(cond.centre, float(cond.scale)))
+    lk = two_branch_linkage("6r", W[:3], W[3:6], W[6:], T, names, (np.inf, 0.0), LinkageInfo(synthesis=record))
+    lk.info = lk.info.replace(dh=loop_dh(lk, LOOP), warnings=score_warnings(p, "motion"))
     lk.checks = self_check(lk, check_samples)
     return lk

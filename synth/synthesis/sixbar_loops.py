@@ -224,7 +224,7 @@ def evaluate_members(C, lam, phi, fams, *, polish: bool = False) -> MemberEval:
                       factors=mf, parts=parts, valid=valid, score=score)
 
 
-def score_warnings(parts: dict, what: str = "member", task: str = "poses") -> list[str]:
+def score_warnings(parts: dict, what: str = "member", task: str = "poses") -> tuple[str, ...]:
     """Plain-language warnings from a candidate's score parts (conditioning, extent in task spreads);
     ``what`` names the candidate (member, motion), ``task`` the input (poses, points)."""
     out = []
@@ -235,4 +235,9 @@ def score_warnings(parts: dict, what: str = "member", task: str = "poses") -> li
         spread = "pose" if task == "poses" else "point"
         out.append(f"joint axes reach {parts['extent']:.3g} {spread} spreads from the {task}: valid but "
                    "impractically large")
-    return out
+    return tuple(out)
+
+
+def root_pairs(roots) -> tuple[tuple[float, float], ...]:
+    """Complex norm roots as (re, im) pairs (the info's ``norm_roots``)."""
+    return tuple((float(z.real), float(z.imag)) for z in roots)

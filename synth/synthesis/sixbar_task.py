@@ -8,7 +8,7 @@ the linkages.
   least 22): a fit (`synth.synthesis.sixbar_fit`; more than seven points: seeds from 7-subsets).
 
 Every returned linkage has its poses' misses measured on it (`synth.synthesis.taskfit.annotate`: pose
-records' ``error``, ``tolerance``, ``exact`` and ``info["fit"]``) and answers the order and tolerances
+records' ``error``, ``tolerance``, ``exact`` and ``info.fit``) and answers the order and tolerances
 (`synth.synthesis.taskfit.select`).
 """
 from __future__ import annotations
@@ -17,7 +17,8 @@ import numpy as np
 
 from synth.checks import VERIFY_SAMPLES
 from synth.errors import InputError
-from synth.synthesis.taskfit import FitSummary, annotate, item_kinds, select, visiting_order
+from synth.infoparts import FitSummary
+from synth.synthesis.taskfit import annotate, item_kinds, select, visiting_order
 from synth.task import Order, PoseSet
 
 __all__ = ["task_kind", "is_sixbar_task", "sixbar_task", "CONDITIONS"]
@@ -67,7 +68,7 @@ def sixbar_task(ps: PoseSet, *, top: int | None = 1, best_effort: bool = False,
         from synth.synthesis.sixbar_fit import fit_candidates
 
         out = fit_candidates(ps, top=n)
-        summaries = [lk.info.pop("_summary") for lk in out]
+        summaries = [lk.info.fit_summary for lk in out]
     else:
         from synth.synthesis.sixbar import sixbar_candidates
 

@@ -1,12 +1,11 @@
 """What a task synthesis achieved, for any kind of linkage (docs/fit.md): each item's miss measured on the
 linkage (`annotate`: the tool frame at the recorded joint angles, into the pose records and
-``info["fit"]``), the order in which the first driver visits the items, the summary table and the one-line
+``info.fit``), the order in which the first driver visits the items, the summary table and the one-line
 refusal when tolerances are not met. Used by the Bennett and 6R task syntheses.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -14,24 +13,13 @@ from synth.algebra.geometry import pose_difference
 from synth.checks import VERIFY_SAMPLES, self_check
 import json
 from synth.errors import InputError, SynthesisError
+from synth.infoparts import FitRecord, FitSummary
 from synth.synthesis.bennett_core import ACCEPT_TOL
 from synth.synthesis.conditioning import transmission_problem
 from synth.task import Order, PoseSet
 
-__all__ = ["make_task", "check_fitted", "FitSummary", "annotate", "visits_in_order", "visiting_order", "tolerance_problem",
+__all__ = ["make_task", "check_fitted", "annotate", "visits_in_order", "visiting_order", "tolerance_problem",
            "error_rows", "item_kinds", "item_tolerances", "select"]
-
-
-@dataclass
-class FitSummary:
-    """What a task synthesis achieved: ``method`` ("exact", "hermite", "fit"), seeds tried and refined,
-    iterations, ``visit`` (item indices in the order the first driver visits them, from item 0 on)."""
-
-    method: str
-    seeds: int = 0
-    refined: int = 0
-    iterations: int = 0
-    visit: tuple = ()
 
 
 def visits_in_order(ts) -> bool:
@@ -49,7 +37,7 @@ def visiting_order(ts) -> tuple:
 
 def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
     """Measure every item's miss on the linkage (tool frame at the recorded joint angles), store it in
-    the pose records (``error``, ``tolerance``, ``exact``, ``kind``) and ``info["fit"]``. A point's record
+    the pose records (``error``, ``tolerance``, ``exact``, ``kind``) and ``info.fit`` (a `FitRecord`). A point's record
     becomes the tool pose reached at its position, and ``linkage.checks`` is then re-measured against
     those records (its pose figures would otherwise compare with an orientation the task left free).
     Returns whether every tolerance is met."""
@@ -78,14 +66,15 @@ def annotate(linkage, ps: PoseSet, summary: FitSummary) -> bool:
         linkage.checks = self_check(linkage, int(linkage.checks.get("samples", VERIFY_SAMPLES)))
     rated = ~np.isinf(tol[:, 0])
     names = [ps.names[i] for i in summary.visit] if summary.visit else None
-    linkage.info["fit"] = {
-        "method": summary.method, "seeds": summary.seeds, "refined": summary.refined,
-        "iterations": summary.iterations, "order": ps.order.value, "visit_order": names,
-        "rms_position_error": float(np.sqrt(np.mean(dt[rated] ** 2))) if rated.any() else 0.0,
-        "max_position_error": float(dt.max()),
-        "rms_angle_error": float(np.sqrt(np.mean(dr[~point] ** 2))) if (~point).any() else 0.0,
-        "max_angle_error": float(dr.max()), "within_tolerance": bool(all(ok)),
-        "failing": [i for i, good in enumerate(ok) if not good]}
+    fit = FitRecord(
+        method=summary.method, seeds=summary.seeds, refined=summary.refined, iterations=summary.iterations,
+        order=ps.order.value, visit_order=None if names is None else tuple(names),
+        rms_position_error=float(np.sqrt(np.mean(dt[rated] ** 2))) if rated.any() else 0.0,
+        max_position_error=float(dt.max()),
+        rms_angle_error=float(np.sqrt(np.mean(dr[~point] ** 2))) if (~point).any() else 0.0,
+        max_angle_error=float(dr.max()), within_tolerance=bool(all(ok)),
+        failing=tuple(i for i, good in enumerate(ok) if not good))
+    linkage.info = linkage.info.replace(fit=fit, fit_summary=None)
     return all(ok)
 
 
@@ -98,10 +87,10 @@ def select(linkages, ps: PoseSet, top: int | None, best_effort: bool, what: str)
         listed = [lk for lk in linkages if visits_in_order([r.t for r in lk.poses])]
         if not listed:
             raise SynthesisError(f"{ps.source}: no {what} linkage found visits the poses in the listed order (the "
-                                 f"best visits {', '.join(linkages[0].info['fit']['visit_order'])})")
+                                 f"best visits {', '.join(linkages[0].info.fit.visit_order)})")
         linkages = listed
-    linkages = sorted(linkages, key=lambda lk: not lk.info["fit"]["within_tolerance"])
-    if not linkages[0].info["fit"]["within_tolerance"] and not best_effort:
+    linkages = sorted(linkages, key=lambda lk: not lk.info.fit.within_tolerance)
+    if not linkages[0].info.fit.within_tolerance and not best_effort:
         raise SynthesisError(f"{ps.source}: {tolerance_problem(linkages[0], ps)}")
     return linkages[:top] if top else linkages
 
@@ -138,7 +127,7 @@ def error_rows(linkage, ps: PoseSet) -> list[tuple[str, str, str, str]]:
 def tolerance_problem(linkage, ps: PoseSet) -> str:
     """One line naming the items whose tolerance the linkage misses, by how much (input units)."""
     parts = []
-    for i in linkage.info["fit"]["failing"]:
+    for i in linkage.info.fit.failing:
         rec = linkage.poses[i]
         tol = (0.0, 0.0) if rec.exact else rec.tolerance
         parts.append(f"{rec.kind} {i} ({json.dumps(rec.name, ensure_ascii=False)}) missed by {_length(rec.error[0], ps)} / {_angle(rec.error[1])} "

@@ -66,6 +66,8 @@ except ImportError:
     _orjson = None
 
 from synth.errors import MpsynthError
+from synth.info import FourBarRecord
+from synth.infoparts import document
 from synth.io.jsonout import linkage_document, plain
 from synth.io.names import safe_robot_name
 from synth.io.poses import parse_pose_document
@@ -200,15 +202,17 @@ def _batchable(j: _Job, full: bool) -> bool:
 
 
 def _success(kind: str, linkage, out, full: bool) -> dict:
-    b = linkage.info.get("bennett")
-    f = linkage.info.get("fit")
+    b, f, s = linkage.info.bennett, linkage.info.fit, linkage.info.synthesis
     res = _success_fields(kind, len(linkage.joints), float(linkage.extent()), linkage.checks, out,
-                          {k: b[k] for k in ("a", "alpha", "b", "beta") if k in b} if b else None,
-                          {k: f[k] for k in ("method", "within_tolerance", "max_position_error", "max_angle_error",
-                                             "rms_position_error", "rms_angle_error", "visit_order")} if f else None)
-    fb = linkage.info.get("fourbar")
-    if fb:
-        res["fourbar"] = plain({k: fb[k] for k in ("lengths", "grashof", "transmission_min_deg", "task_range_deg")})
+                          {"a": b.a, "alpha": b.alpha, "b": b.b, "beta": b.beta} if b else None,
+                          {"method": f.method, "within_tolerance": f.within_tolerance,
+                           "max_position_error": f.max_position_error, "max_angle_error": f.max_angle_error,
+                           "rms_position_error": f.rms_position_error, "rms_angle_error": f.rms_angle_error,
+                           "visit_order": f.visit_order} if f else None)
+    if isinstance(s, FourBarRecord):
+        fb = s.fourbar
+        res["fourbar"] = plain({"lengths": document(fb.lengths), "grashof": fb.grashof,
+                                "transmission_min_deg": fb.transmission_min_deg, "task_range_deg": fb.task_range_deg})
     if full:
         res["linkage"] = linkage_document(linkage)
     return res

@@ -195,7 +195,7 @@ class Session:
         files = write_output(result.linkage, str(out), robot_name=safe_robot_name(Path(self.source).stem or "linkage"),
                              force=force, result=result.design)
         return {"out": str(out), "files": len(files), "design": result.sentence() if result.design else None,
-                "choice": result.linkage.info.get("design_choice"), "written": written}
+                "choice": result.linkage.info.design_choice, "written": written}
 
     # ------------------------------------------------------------------ what the page shows
     def state(self) -> dict:
@@ -251,7 +251,7 @@ class Session:
         if job.stage is background.Stage.DONE and r is not None:
             out["design"] = r.sentence() if r.design is not None else None
             out["free"] = bool(r.design.collision.free) if r.design is not None else None
-            out["choice"] = r.linkage.info.get("design_choice")
+            out["choice"] = r.linkage.info.design_choice
             out["scene"] = scene(r.linkage, scale)
             out["clearance"] = clearances(r.linkage, r.design.collision, scale) if r.design is not None else None
         return out
