@@ -22,6 +22,7 @@ from synth.design.layers import LAYER_NODES, layered_design, parallel_axis
 from synth.design.mixed import dominant_axis, mixed_design
 from synth.design.model import PIN_FITS, DesignResult
 from synth.design.coordinate import FULL
+from synth.design.mounting import place_mounting
 from synth.design.search import design_linkage, natural_result, task_phi_range
 from synth.design.sturdy import SLENDERNESS, bar_radius_for
 from synth.design.work import GAPS_PER_SECOND, Work
@@ -65,7 +66,7 @@ def default_hole_clearance(pin_radius: float) -> float:
 
 def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None,
                clearance=None, thin=True, work: Work | None = None, slenderness: float = SLENDERNESS,
-               pin_fit: str = "press", **search) -> DesignResult:
+               pin_fit: str = "press", mount_boxes: tuple = (None, None), **search) -> DesignResult:
     """The physical design of ``linkage`` (`synth.design.search.design_linkage`) with the given or default
     sizes (metres; see `default_sizes`, `default_hole_clearance`; clearance None: the search's default);
     ``search``: further arguments of `design_linkage` (ranges, full_work, effort, seed); ``work``: a
@@ -73,7 +74,9 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     Every budget is counted work, never time: the same input gives the same design on any machine.
     ``slenderness``: no default-sized or thinned bar is longer than this many diameters (`synth.design.sturdy`).
     ``pin_fit``: how the pins hold (`synth.design.model.PIN_FITS`; their heads and grooves lie inside the
-    hubs, so the search is the same for all).
+    hubs, so the search is the same for all). ``mount_boxes``: the task's (base, envelope) boxes
+    (`synth.task.Box` or None) for the mounting plate (`synth.design.mounting.place_mounting`), placed on
+    the base once the design is chosen.
 
     Thinning (docs/design.md): when the search covered the task range and found no free design, and
     neither radius was given (``thin``), it is retried with the bar and pin radii of the default times
@@ -103,7 +106,7 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     result.design.pin_fit = pin_fit
     result.collision.work = work.done - start  # every stage's (full cycle, cranks, task range, thinning)
     result.collision.seconds = time.process_time() - t0  # information only
-    return result
+    return place_mounting(linkage, result, base=mount_boxes[0], envelope=mount_boxes[1])
 
 
 def _design_for(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, work, slenderness,

@@ -6,7 +6,9 @@ A link with joints is ONE closed solid made of exactly the design's geometry (do
   bar's polyline, mount -> via points -> mount;
 - its **hubs**: a cylinder of the hub radius and hub length around the joint axis at each mount;
 - minus a **bore** through every hub along the axis: radius pin radius + hole clearance where the link
-  turns on the pin, pin radius where it carries the pin (glued or pressed in).
+  turns on the pin, pin radius where it carries the pin (glued or pressed in);
+- on the base, its **mounting plate** (`synth.design.mounting`): a box minus its screw holes (and, for a
+  flange on a hub, the bore continued through it).
 Each joint's **pin** is a separate solid (a cylinder of the pin radius from the pin's start to its end
 along the axis), written as ``meshes/pin_<joint>.stl`` and, in the URDF, a link ``pin_<joint>`` fixed
 to its carrier link. Links with no joints (the loop duplicate ``coupler_k``) get no mesh.
@@ -33,7 +35,7 @@ import numpy as np
 
 from synth.design.model import PhysicalDesign, axis_point, capsules
 from synth.frames import link_origins
-from synth.io.solid import (Solid, boolean, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
+from synth.io.solid import (Solid, boolean, box, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
                             mass_properties, read_stl_triangles, signed_volume, stl_bytes, surface_defect, weld)
 from synth.io.names import MESH_UNIT_SCALE, pin_link_name
 
@@ -55,14 +57,16 @@ def have_manifold() -> bool:
 class Primitive:
     """One solid the parts of a link are built from, in world coordinates at the reference configuration
     (metres): a ``"capsule"`` (round bar with round ends) or a ``"cylinder"`` (flat ends) of ``radius``
-    around the segment ``p0``-``p1``; ``phase``: where a cylinder's facets start (`solid.cylinder`). The
-    STL (`link_parts`) and the STEP (`synth.io.step`) build the same primitives."""
+    around the segment ``p0``-``p1``, or a ``"box"``: the rectangle of half-edge vectors ``edges`` (2, 3)
+    centred at ``p0`` extruded to ``p1`` (`solid.box`); ``phase``: where a cylinder's facets start
+    (`solid.cylinder`). The STL (`link_parts`) and the STEP (`synth.io.step`) build the same primitives."""
 
     kind: str
     p0: np.ndarray
     p1: np.ndarray
     radius: float
     phase: float = 0.0
+    edges: np.ndarray | None = None
 
 
 PRESS_INTERFERENCE = 5e-5  # metres, radial: a press fit of a printed pin (at most 2 % of the pin radius)
@@ -121,7 +125,7 @@ def link_primitives(linkage, design: PhysicalDesign, name: str, sites=None,
     carriers = {p.joint: p.carrier for p in design.pins}
     press = min(PRESS_INTERFERENCE, 0.02 * design.pin_radius) if design.pin_fit == "press" else 0.0
     for c in capsules(linkage, design, sites) if caps is None else caps:
-        if c.link != name or c.part == "pin":
+        if c.link != name or c.part in ("pin", "plate"):
             continue
         if c.part == "bar":
             parts.append(Primitive("capsule", c.p0, c.p1, c.radius))
@@ -138,13 +142,38 @@ def link_primitives(linkage, design: PhysicalDesign, name: str, sites=None,
                 face, w = ends.faces[name], ends.outward[name]
                 depth = ends.thickness + design.hole_clearance
                 bores.append(Primitive("cylinder", face - depth * w, face + half * w, ends.counterbore))
+    m = design.mounting
+    if m is not None and m.link == name and parts:
+        plate, holes = plate_primitives(m)
+        parts.append(plate)
+        bores += holes
     return parts, bores
+
+
+def plate_primitives(m) -> tuple[Primitive, list[Primitive]]:
+    """(the box, the holes) of the mounting plate ``m`` (`synth.design.model.Mounting`): the holes run
+    along the normal a fiftieth of the thickness past both faces; a flange's bore likewise; a foot's
+    counterbores from its screw heads' seat to past its inner face."""
+    n, T = np.asarray(m.normal, float), float(m.thickness)
+    plate = Primitive("box", m.origin - T * n, np.asarray(m.origin, float), 0.0,
+                      edges=np.asarray(m.axes, float) * np.asarray(m.half, float)[:, None])
+    ends = (0.02 * T * n, -1.02 * T * n)
+    holes = [Primitive("cylinder", h + ends[0], h + ends[1], 0.5 * m.hole_diameter) for h in m.holes]
+    width, depth = m.counterbore
+    if depth > 0:  # a foot: the heads sunk from its inner face to thickness - depth from the face
+        seat = -(T - depth) * n
+        holes += [Primitive("cylinder", h + seat, h + ends[1], 0.5 * width) for h in m.holes]
+    if m.bore > 0:
+        holes.append(Primitive("cylinder", m.origin + ends[0], m.origin + ends[1], m.bore))
+    return plate, holes
 
 
 def primitive_solid(p: Primitive) -> Solid:
     """The closed mesh of a primitive (`PIN_SECTIONS` for cylinders, `BAR_SECTIONS` for capsules)."""
     if p.kind == "capsule":
         return capsule(p.p0, p.p1, p.radius, BAR_SECTIONS)
+    if p.kind == "box":
+        return box(p.p0, p.p1, p.edges)
     return cylinder(p.p0, p.p1, p.radius, PIN_SECTIONS, phase=p.phase)
 
 

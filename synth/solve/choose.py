@@ -46,18 +46,20 @@ def collision_sentence(report, scale: float, unit: str) -> str:
 class Designer:
     """Physical designs of a task's linkages: the sizes ``sizes`` (metres, `DesignOptions.sizes`) checked
     against each linkage's extent; messages name ``source`` with lengths in ``unit`` (``scale`` metres
-    each)."""
+    each); ``constraints``: the task's (`synth.task.Constraints`), whose base and envelope boxes place the
+    mounting plate."""
 
-    __slots__ = ("sizes", "source", "scale", "unit")
+    __slots__ = ("sizes", "source", "scale", "unit", "boxes")
 
-    def __init__(self, sizes: dict, source: str, scale: float, unit: str):
+    def __init__(self, sizes: dict, source: str, scale: float, unit: str, constraints=None):
         self.sizes, self.source, self.scale, self.unit = sizes, source, scale, unit
+        self.boxes = (None, None) if constraints is None else (constraints.base, constraints.envelope)
 
     def design(self, linkage, **search):
         """The physical design of ``linkage`` (`synth.design.choose.design_for`); ``search``: further
         arguments of the design search (ranges, full_work, effort, work). InputError for sizes absurd for it."""
         check_sizes(self.sizes, linkage.extent(), scale=self.scale, unit=self.unit)
-        return design_for(linkage, **self.sizes, **search)
+        return design_for(linkage, **self.sizes, mount_boxes=self.boxes, **search)
 
     def sentence(self, result) -> str:
         return collision_sentence(result.collision, self.scale, self.unit)
