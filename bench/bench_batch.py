@@ -9,7 +9,8 @@ degrees, ``random.seed(1)``) are run as new processes, stdout to a file:
    skipped when dask is not installed): jobs/s; the three result files must be byte-identical (checked);
 2. `synth.bennett_batch` on the same pose sets (parsed once, in this process): linkages/s, the
    baseline of the ratios printed;
-3. CPU time per job in this process, per-job path against chunk path (steadier than wall time);
+3. CPU time per job in this process, per-job path against chunk path (steadier than wall time), and by
+   stage of the chunk path (reading, `solve_bennett_many`, result lines);
 4. writing outputs (each job with ``"out"``) on the first ``--design-jobs`` jobs: with the design search
    (URDF + STL + linkage.json, collision-free search) and with ``--no-design`` (kinematic outputs only).
 
@@ -82,6 +83,32 @@ def cpu_per_job(lines: list[str], n: int = 1000) -> tuple[float, float]:
     return single, (time.process_time() - t) / len(items) * 1e6
 
 
+def cpu_stages(lines: list[str], n: int = 4096) -> dict:
+    """CPU µs per job of the chunk path's stages on the first n jobs, in this process (chunks of 1024):
+    reading (the full reader job by job, and `read_common_bennett` a chunk at once), `solve_bennett_many`
+    (of which `bennett_batch`'s core), and the result lines (`run_chunk_lines` less the rest)."""
+    from synth import bennett_batch
+    from synth.solve.many import solve_bennett_many
+    from synth.tools.batchjobs import _read_job, run_chunk_lines
+    from synth.tools.jobspec import read_common_bennett
+
+    parts = [lines[k : k + 1024] for k in range(0, min(n, len(lines)), 1024)]
+    count = sum(map(len, parts))
+
+    def cpu(f):
+        t = time.process_time()
+        out = [f(p) for p in parts]
+        return out, (time.process_time() - t) / count * 1e6
+
+    _, full = cpu(lambda p: [_read_job((i, s), None) for i, s in enumerate(p, 1)])
+    read, fast = cpu(read_common_bennett)
+    _, solve = cpu(lambda p: solve_bennett_many(read[parts.index(p)].poses))
+    _, core = cpu(lambda p: bennett_batch(read[parts.index(p)].poses))
+    _, whole = cpu(lambda p: run_chunk_lines((1, [s.encode() for s in p]), False, None))
+    return {"full reader": full, "fast reader": fast, "solve_bennett_many": solve, "bennett_batch": core,
+            "result lines and the rest": whole - fast - solve, "run_chunk_lines": whole}
+
+
 def cpu_outputs(lines: list[str], tmp: Path, n: int = 10) -> tuple[float, float]:
     """CPU ms per job writing OUT, in this process (`run_job`, n jobs): with the design search and with
     ``design=False`` (``--no-design``)."""
@@ -118,6 +145,7 @@ def main():
         lib = library_rate(lines)
         cpu = cpu_per_job(lines) if "cpu" in runs else None
         cpu_out = cpu_outputs(lines, tmp) if "cpu" in runs else None
+        stages = cpu_stages(lines) if "cpu" in runs else None
         results = {}
         for name, args in (("j1", ["-j", 1]), ("j2", ["-j", 2]), ("local", ["--scheduler", "local", "-j", 2])):
             if name not in runs or (name == "local" and not has_dask()):
@@ -151,6 +179,8 @@ def main():
     if cpu:
         print(f"CPU per job in process ({min(len(lines), 1000):,} jobs): per-job path {cpu[0]:,.0f} µs, chunk path {cpu[1]:,.0f} µs "
               f"({cpu[0] / cpu[1]:.1f}x); bennett_batch {1e6 / lib:,.0f} µs wall per set")
+    if stages:
+        print("CPU per job by stage, in process (µs): " + ", ".join(f"{k} {v:,.1f}" for k, v in stages.items()))
     if cpu_out:
         print(f"CPU per job writing OUT in process (10 jobs): with the design search {cpu_out[0]:,.0f} ms, "
               f"--no-design {cpu_out[1]:,.0f} ms")

@@ -102,8 +102,8 @@ def run_sixbar_default(sets, effort: float = 1.0) -> list[dict]:
     for s, _ in sets:
         t = time.process_time()
         cands = sixbar_candidates(random_poses(np.random.default_rng(s), 4), top=SIXBAR_CHOICE["limit"], build=True)
-        ranked = rank_buildable(cands, lambda lk, ranges, full_work, work: design_linkage(
-            lk, **default_sizes(lk), effort=effort, ranges=ranges, full_work=full_work, work=work),
+        ranked = rank_buildable(cands, lambda lk, ranges, full_work, work, eff: design_linkage(
+            lk, **default_sizes(lk), effort=effort * eff, ranges=ranges, full_work=full_work, work=work),
             **SIXBAR_CHOICE)
         r = ranked[0][1].collision
         rows.append({"seed": s, "seconds": time.process_time() - t, "designed": len(ranked),

@@ -9,9 +9,9 @@ import time
 import click
 
 from synth.errors import InputError, OutputError
-from synth.io.docload import open_lines, read_lines
+from synth.io.docload import open_lines, read_chunks
 from synth.tools import cluster
-from synth.tools.batchjobs import Stopped, dumps, run_jobs, worker_count
+from synth.tools.batchjobs import IDLE_SECONDS, Stopped, default_chunksize, run_batch, worker_count
 from synth.tools.resultstable import ResultsTable
 
 from . import signals
@@ -129,7 +129,7 @@ def batch(jobs_file, workers, out_dir, chunksize, full, no_design, scheduler, re
         raise InputError("--scheduler: give an address (tcp://host:8786) or 'local'")
     stream, total = open_lines(jobs_file)
     table = ResultsTable(results_file, avoid=(jobs_file,)) if results_file else contextlib.nullcontext()
-    client = results = None
+    client = answers = None
     start = time.monotonic()
     n = failed = 0
     codes: dict[int, int] = {}
@@ -140,32 +140,36 @@ def batch(jobs_file, workers, out_dir, chunksize, full, no_design, scheduler, re
     stopper = signals.StopOnSignal() if scheduler is None and workers > 1 else None
     try:
         with stream, table, stopper or terminate_as_exit():
-            lines = _read(read_lines(stream), jobs_file)
             if scheduler is None:
                 where = f"-j {workers}"
-                results = run_jobs(lines, jobs=workers, chunksize=chunksize, full=full, total=total,
-                                   initializer=signals.batch_worker,
-                                   out_dir=out_dir, stop=stopper and stopper.requested, design=not no_design)
+                size = chunksize or default_chunksize(workers, total)
+                answers = run_batch(_read(read_chunks(stream, size, idle=None if total else IDLE_SECONDS), jobs_file),
+                                    jobs=workers, full=full, initializer=signals.batch_worker, out_dir=out_dir,
+                                    stop=stopper and stopper.requested, design=not no_design, keep=bool(results_file))
             else:
                 client = cluster.connect(scheduler.strip(), workers)
                 where = f"{cluster.worker_threads(client)} Dask workers"
-                results = cluster.run_jobs_on(client, lines, chunksize=chunksize, full=full, total=total,
-                                              out_dir=out_dir, design=not no_design)
+                size = chunksize or default_chunksize(cluster.worker_threads(client), total)
+                answers = cluster.run_chunks_on(client, _read(read_chunks(stream, size, idle=None if total else IDLE_SECONDS),
+                                                              jobs_file), full=full, out_dir=out_dir,
+                                                design=not no_design, keep=bool(results_file))
             progress = Progress(total) if (not quiet and sys.stderr.isatty()) else None
-            for res in results:
+            for answer in answers:
                 if stopper and stopper.requested():
                     raise Stopped
-                _write(dumps(res) + "\n")
+                _write(answer.text)
                 if results_file:
-                    table.add(res)
-                if progress:
-                    progress.update(res["ok"])
-                if res.get("skipped"):
-                    continue
-                n += 1
-                if not res["ok"]:
-                    failed += 1
-                    codes[res["exit_code"]] = codes.get(res["exit_code"], 0) + 1
+                    for res in answer.results:
+                        table.add(res)
+                for code in answer.codes:
+                    if progress:
+                        progress.update(not code)
+                    if code is None:
+                        continue
+                    n += 1
+                    if code:
+                        failed += 1
+                        codes[code] = codes.get(code, 0) + 1
     except Stopped:  # SIGINT/SIGTERM while the pool ran: it has been shut down, now act on the signal
         stopper.act()
     except BrokenPipeError:  # the reader went away (e.g. `| head`): stop quietly
@@ -174,8 +178,8 @@ def batch(jobs_file, workers, out_dir, chunksize, full, no_design, scheduler, re
     finally:
         if progress:
             progress.close()
-        if results is not None:
-            results.close()  # cancels the chunks still in flight
+        if answers is not None:
+            answers.close()  # cancels the chunks still in flight
         if client is not None:
             cluster.close(client)
     if not quiet:

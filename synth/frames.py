@@ -33,11 +33,22 @@ def _rz(a):
 
 def rpy_from_sincos(sr, cr, sp, cp, sy, cy) -> np.ndarray:
     """URDF roll-pitch-yaw (fixed axes, R = Rz(yaw) @ Ry(pitch) @ Rx(roll)) from the sines and cosines
-    of the three angles (so a caller can pass exact values, e.g. for multiples of 90 degrees)."""
-    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
-    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
-    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
-    return Rz @ Ry @ Rx
+    of the three angles (so a caller can pass exact values, e.g. for multiples of 90 degrees): floats or
+    arrays of one shape (...), giving (..., 3, 3), the product written out entry by entry (the same bits
+    for one rotation and for a batch)."""
+    sr, cr, sp, cp, sy, cy = np.broadcast_arrays(*(np.asarray(v, float) for v in (sr, cr, sp, cp, sy, cy)))
+    R = np.empty(sr.shape + (3, 3))
+    cysp, sysp = cy * sp, sy * sp
+    R[..., 0, 0] = cy * cp
+    R[..., 0, 1] = cysp * sr - sy * cr
+    R[..., 0, 2] = cysp * cr + sy * sr
+    R[..., 1, 0] = sy * cp
+    R[..., 1, 1] = sysp * sr + cy * cr
+    R[..., 1, 2] = sysp * cr - cy * sr
+    R[..., 2, 0] = -sp
+    R[..., 2, 1] = cp * sr
+    R[..., 2, 2] = cp * cr
+    return R
 
 
 def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:

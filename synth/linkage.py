@@ -39,9 +39,9 @@ class Kind(enum.StrEnum):
     SPHERICAL_4R = "spherical_4r"
     PLANAR_SIXBAR = "planar_sixbar"  # Watt six-bar of planar poses (docs/planar.md)
     SPHERICAL_SIXBAR = "spherical_sixbar"
-    PLANAR_FOURBAR = "planar_fourbar"  # the classical four-bar of 3 or more planar poses (docs/fourbar.md)
     MOTION = "motion"  # multi-loop linkage performing a rational motion (docs/exceptional.md)
     CURVE = "curve"  # multi-loop linkage whose tracer draws a rational curve
+    PLANAR_FOURBAR = "planar_fourbar"  # the classical four-bar of 3 or more planar poses (docs/fourbar.md)
 
     @property
     def label(self) -> str:

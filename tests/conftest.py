@@ -104,3 +104,15 @@ def verifier():
     if not VERIFIER.exists():
         pytest.skip("../shared/tools/verify_output.py is not present")
     return VERIFIER
+
+
+@pytest.fixture
+def first_sets_only(monkeypatch):
+    """The search as it was before issue 33's full-cycle work: two sets of starts per range, no cranked bars
+    over the full cycle. With it seed 22 collides at the default radii, which the thinning needs (with the
+    full search no random Bennett set of bench seeds 0-103 collides: tests/test_full_cycle.py)."""
+    from synth.design import choose, search
+
+    monkeypatch.setattr(search, "MORE_WORK", 0.0)
+    monkeypatch.setattr(choose, "CRANK_FULL_WORK", 0.0)
+

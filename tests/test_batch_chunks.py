@@ -226,7 +226,7 @@ def test_result_lines_match_on_random_floats():
 def test_orjson_writes_the_common_lines():
     """With orjson installed the usual result line (floats ~1e-15 and ~0.1, ASCII) is written by it."""
     pytest.importorskip("orjson")
-    from synth.tools.batchjobs import _orjson_line
+    from synth.tools.resultlines import _orjson_line
 
     line = run_chunk([(1, mixed_lines(1)[0])], False, None)[0]
     assert line["ok"] and _orjson_line(line) == json_line(line)

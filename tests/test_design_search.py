@@ -177,7 +177,7 @@ def test_rank_buildable_puts_collision_free_first(fixture_bennett):
     one that is free over the full cycle; the search stops there (the third is not designed)."""
     calls = []
 
-    def design(lk, ranges, full_work, work):
+    def design(lk, ranges, full_work, work, effort):
         calls.append(ranges)
         clearance = 10 * lk.extent() if len(calls) == 1 else None
         return design_linkage(lk, **sizes(lk), clearance=clearance, ranges=ranges, full_work=full_work, work=work)
@@ -189,20 +189,21 @@ def test_rank_buildable_puts_collision_free_first(fixture_bennett):
 
 def test_rank_buildable_falls_back_to_the_task_range_in_kinematic_order():
     """No candidate free over the full cycle: every candidate is tried over the full cycle (within the
-    limit), then over the task range in kinematic order until one is free there; the free one ranks
+    limit; a quick screen of all, then deeper searches), then over the task range in kinematic order until one is free there; the free one ranks
     first, the closest-but-colliding after it."""
     from types import SimpleNamespace
 
     free_over = {"A": set(), "B": {"task"}, "C": {"task"}}
     calls = []
 
-    def design(lk, ranges, full_work, work):
+    def design(lk, ranges, full_work, work, effort):
         calls.append((lk, ranges))
         rng = ranges[0]
         return SimpleNamespace(collision=SimpleNamespace(free=rng in free_over[lk], range=rng))
 
     ranked = rank_buildable(["A", "B", "C"], design, limit=8, work=1e9)
-    assert calls == [("A", ("full",)), ("B", ("full",)), ("C", ("full",)), ("A", ("task",)), ("B", ("task",))]
+    full = [("A", ("full",)), ("B", ("full",)), ("C", ("full",))]
+    assert calls == full + full + [("A", ("task",)), ("B", ("task",))]  # the quick screen, the deep searches
     assert [lk for lk, _ in ranked] == ["B", "A"]
     assert [collision_rank(r.collision) for _, r in ranked] == [1, 2]
 

@@ -34,7 +34,7 @@ def test_thin_scales_halve_then_quarter_above_the_floor():
     assert thin_scales(THIN_MIN_BAR_RADIUS / 2) == []  # below it (a tiny linkage): never thinned
 
 
-def test_explicit_radii_are_kept_and_the_message_says_what_to_change(linkage):
+def test_explicit_radii_are_kept_and_the_message_says_what_to_change(linkage, first_sets_only):
     pin, bar, _ = default_sizes(linkage)
     r = design_for(linkage, link_radius=bar, ranges=("task",))
     assert not r.collision.free and r.collision.thinned is None
@@ -50,7 +50,7 @@ def test_a_full_cycle_only_search_is_not_thinned(linkage):
     assert r.design.bar_radius == default_sizes(linkage)[1]
 
 
-def test_slender_defaults_thin_the_bars(linkage):
+def test_slender_defaults_thin_the_bars(linkage, first_sets_only):
     """With bars as slender as before issue 33 (no slenderness limit), seed 22 collides at the default
     radii and the design thins them."""
     r = design_for(linkage, slenderness=1e9)

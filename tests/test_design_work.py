@@ -36,7 +36,7 @@ def test_budget_and_its_parts_count_together():
     assert whole.spent and free.spent and free.left == 0
 
 
-def test_a_slow_clock_changes_nothing(linkage, monkeypatch):
+def test_a_slow_clock_changes_nothing(linkage, monkeypatch, first_sets_only):
     """The thinning and crank budgets were CPU seconds: a clock that jumps 100 s per reading (a machine
     100 times too busy) would have stopped them at once. Counted, the same design comes out."""
     first = design_for(linkage, slenderness=1e9)  # bars as slender as before issue 33: thinning runs

@@ -82,3 +82,41 @@ def test_parts_command_writes_plates_of_the_parts_and_the_sheet(tmp_path):
     assert "data:image/png;base64," in page
     bad = CliRunner().invoke(mpsynth, ["parts", str(tmp_path / "nothing")])
     assert bad.exit_code == 2
+
+
+def test_3mf_plates_hold_the_parts_named_and_placed(tmp_path):
+    import io
+
+    import trimesh
+
+    from synth.tools.plates import write_parts
+
+    lk = synth.bennett(load_poses(str(REPO / "fixtures/bennett_mm_deg.yaml")).matrices)
+    out = tmp_path / "b"
+    write_output(lk, out, robot_name="b", result=design_for(lk, pin_length=0.01))
+    r = CliRunner().invoke(mpsynth, ["parts", str(out), "--bed", "500", "500", "300", "--format", "3mf", "--json"])
+    assert r.exit_code == 0, r.output
+    plates = sorted((out / "plates").glob("plate_*.3mf"))
+    assert plates and not list((out / "plates").glob("plate_*.stl"))
+    layout, _ = write_parts(out, (500.0, 500.0, 300.0), "3mf")
+    assert plates[0].read_bytes() == (out / "plates" / "plate_1.3mf").read_bytes()  # same parts, same bytes
+    seen = {}
+    for k, f in enumerate(plates):
+        scene = trimesh.load(io.BytesIO(f.read_bytes()), file_type="3mf")  # an independent reader
+        for node in scene.graph.nodes_geometry:
+            T, geom = scene.graph[node]
+            mesh = scene.geometry[geom].copy()
+            mesh.apply_transform(T)
+            seen[geom] = (k, mesh)
+    placed = {p.name: p for p in layout.placements}
+    assert set(seen) == set(placed)  # every part once, named as its link
+    for name, (k, mesh) in seen.items():
+        p = placed[name]
+        assert k == p.plate and mesh.is_watertight and mesh.volume > 0
+        lo, hi = mesh.bounds
+        assert np.allclose(lo, [p.offset[0], p.offset[1], 0.0], atol=1e-3)  # placed on the plate, on the bed
+        assert np.allclose(hi - lo, p.extents, atol=1e-3)
+        stl = read_stl_triangles((out / "meshes" / f"{name}.stl").read_bytes()).astype(float)
+        assert mesh.volume == pytest.approx(signed_volume(stl), rel=1e-4)
+    bad = CliRunner().invoke(mpsynth, ["parts", str(out), "--format", "obj"])
+    assert bad.exit_code == 2

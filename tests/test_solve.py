@@ -102,7 +102,7 @@ def test_ranked_sixbar_index_without_designs():
 
 def test_kind_values_are_the_json_strings():
     assert [k.value for k in Kind] == ["bennett", "6r", "planar_4r", "spherical_4r", "planar_sixbar",
-                                       "spherical_sixbar", "motion", "curve"]
+                                       "spherical_sixbar", "motion", "curve", "planar_fourbar"]
     assert json.dumps(Kind.SIXBAR) == '"6r"' and f"{Kind.PLANAR_4R}" == "planar_4r"
     assert kind_label("6r") == Kind.SIXBAR.label == "spatial 6R" and kind_label("other") == "other"
     L = synth.bennett(load_poses(str(FIX / "bennett_quat.yaml")).matrices)

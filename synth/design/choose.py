@@ -14,13 +14,16 @@ defaults to 0.2 mm (a common 3D-printing fit), but at most a tenth of the pin ra
 from __future__ import annotations
 
 import math
+import time
 
 from synth.design.sizes import check_sizes
 from synth.design.cranks import crank_bars
 from synth.design.layers import LAYER_NODES, layered_design, parallel_axis
 from synth.design.mixed import dominant_axis, mixed_design
 from synth.design.model import PIN_FITS, DesignResult
-from synth.design.search import design_linkage, natural_result
+from synth.design.coordinate import FULL
+from synth.design.mounting import place_mounting
+from synth.design.search import design_linkage, natural_result, task_phi_range
 from synth.design.sturdy import SLENDERNESS, bar_radius_for
 from synth.design.work import GAPS_PER_SECOND, Work
 from synth.errors import InputError
@@ -63,7 +66,7 @@ def default_hole_clearance(pin_radius: float) -> float:
 
 def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole_clearance=None,
                clearance=None, thin=True, work: Work | None = None, slenderness: float = SLENDERNESS,
-               pin_fit: str = "press", **search) -> DesignResult:
+               pin_fit: str = "press", mount_boxes: tuple = (None, None), **search) -> DesignResult:
     """The physical design of ``linkage`` (`synth.design.search.design_linkage`) with the given or default
     sizes (metres; see `default_sizes`, `default_hole_clearance`; clearance None: the search's default);
     ``search``: further arguments of `design_linkage` (ranges, full_work, effort, seed); ``work``: a
@@ -71,7 +74,9 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     Every budget is counted work, never time: the same input gives the same design on any machine.
     ``slenderness``: no default-sized or thinned bar is longer than this many diameters (`synth.design.sturdy`).
     ``pin_fit``: how the pins hold (`synth.design.model.PIN_FITS`; their heads and grooves lie inside the
-    hubs, so the search is the same for all).
+    hubs, so the search is the same for all). ``mount_boxes``: the task's (base, envelope) boxes
+    (`synth.task.Box` or None) for the mounting plate (`synth.design.mounting.place_mounting`), placed on
+    the base once the design is chosen.
 
     Thinning (docs/design.md): when the search covered the task range and found no free design, and
     neither radius was given (``thin``), it is retried with the bar and pin radii of the default times
@@ -94,10 +99,14 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
         raise InputError(f"slenderness must be a positive ratio (bar length / diameter), got {slenderness!r}")
     if pin_fit not in PIN_FITS:
         raise InputError(f"pin fit must be one of {', '.join(PIN_FITS)}, got {pin_fit!r}")
+    t0, work = time.process_time(), Work() if work is None else work
+    start = work.done
     result = _design_for(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, work,
                          slenderness, search)
     result.design.pin_fit = pin_fit
-    return result
+    result.collision.work = work.done - start  # every stage's (full cycle, cranks, task range, thinning)
+    result.collision.seconds = time.process_time() - t0  # information only
+    return place_mounting(linkage, result, base=mount_boxes[0], envelope=mount_boxes[1])
 
 
 def _design_for(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, work, slenderness,
@@ -112,8 +121,14 @@ def _design_for(linkage, pin_radius, link_radius, pin_length, hole_clearance, cl
         first = mixed_design(linkage, natural, nodes=LAYER_NODES, work=work.part(LAYER_WORK))
         if first.collision.free:
             return first
-    result = _straight(linkage, (pin_radius, link_radius, pin_length), hole_clearance, clearance, thin,
-                       {**search, "slenderness": slenderness}, work)
+    sizes = (pin_radius, link_radius, pin_length)
+    ranges = search.get("ranges", ("full", "task"))
+    if "full" in ranges and not partly_planar and parallel_axis(linkage) is None and task_phi_range(linkage) != FULL:
+        full = _full_cycle(linkage, sizes, hole_clearance, clearance, {**search, "slenderness": slenderness}, work)
+        if full.collision.free or not task:
+            return full
+        search = {**search, "ranges": tuple(r for r in ranges if r != "full")}
+    result = _straight(linkage, sizes, hole_clearance, clearance, thin, {**search, "slenderness": slenderness}, work)
     if result.collision.free or not task:
         return result
     if parallel_axis(linkage) is not None:
@@ -121,6 +136,19 @@ def _design_for(linkage, pin_radius, link_radius, pin_length, hole_clearance, cl
     if partly_planar:
         result.collision.message += " (a layering of its parallel joints was searched too)"
     return crank_bars(linkage, result, work=work.part(CRANK_WORK))
+
+
+def _full_cycle(linkage, sizes, hole_clearance, clearance, search, work) -> DesignResult:
+    """The full-cycle part of `design_for` for a spatial linkage: straight bars (the default sizes), then,
+    when they are not free, cranked bars of the colliding bodies over the full cycle (within
+    `CRANK_FULL_WORK`, or `CRANK_SHARE` of the straight search's cap ``full_work``); the straight result when
+    neither is free (docs/design.md, "Full cycle first")."""
+    straight = _straight(linkage, sizes, hole_clearance, clearance, False, {**search, "ranges": ("full",)}, work)
+    if straight.collision.free or straight.collision.range != "full":
+        return straight
+    cap = search.get("full_work")
+    cranked = crank_bars(linkage, straight, work=work.part(CRANK_FULL_WORK if cap is None else CRANK_SHARE * cap))
+    return cranked if cranked.collision.free else straight
 
 
 def _straight(linkage, sizes, hole_clearance, clearance, thin, search, work) -> DesignResult:
@@ -156,6 +184,8 @@ def _straight(linkage, sizes, hole_clearance, clearance, thin, search, work) -> 
 
 # budgets in gap evaluations (synth.design.work; they were CPU seconds: X s -> X * GAPS_PER_SECOND)
 CRANK_WORK = 1.0 * GAPS_PER_SECOND  # the crank search after the straight bars failed
+CRANK_FULL_WORK = 1.0 * GAPS_PER_SECOND  # the crank search over the full cycle, before the task range ...
+CRANK_SHARE = 0.5  # ... or this fraction of the full-cycle cap of a quick search (a choice among candidates)
 LAYER_WORK = 60.0 * GAPS_PER_SECOND  # the search around the layered part of a partly planar linkage
 THIN_SCALES = (0.5, 0.25)  # bar and pin radii tried, times the defaults, when the defaults collide
 THIN_MIN_BAR_RADIUS = 4e-4  # metres: a bar 0.8 mm thick, two extrusion widths of a 0.4 mm nozzle

@@ -21,7 +21,7 @@ Lengths in metres, angles in radians.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -122,6 +122,7 @@ class CapsuleSet:
     body_pair: np.ndarray
     body_pairs: list[tuple[str, str]]
     labels: list[str]
+    paths: dict = field(default_factory=dict, repr=False, compare=False)  # `body_paths` met, by (body, body)
 
 
 def segment_distance(p0, p1, q0, q1) -> np.ndarray:
@@ -138,15 +139,22 @@ def segment_distance(p0, p1, q0, q1) -> np.ndarray:
     ia, ie = 1.0 / np.maximum(a, tiny), 1.0 / np.maximum(e, tiny)
     denom = a * e - b * b
     ok = denom > (1e-12 if denom.dtype == np.float64 else 1e-5) * a * e
-    s = np.where(ok, np.clip((b * f - c * e) / np.where(ok, denom, 1.0), 0.0, 1.0), 0.0)
+    s = np.where(ok, _unit_clip((b * f - c * e) / np.where(ok, denom, 1.0)), 0.0)
     t = (b * s + f) * ie
-    s = np.where(t < 0, np.clip(-c * ia, 0.0, 1.0), np.where(t > 1, np.clip((b - c) * ia, 0.0, 1.0), s))
-    np.clip(t, 0.0, 1.0, out=t)
+    s0 = _unit_clip(-c * ia)  # the point of p closest to q0
+    s = np.where(t < 0, s0, np.where(t > 1, _unit_clip((b - c) * ia), s))
+    t = _unit_clip(t)
     pa, pe = a <= tiny, e <= tiny  # p or q a single point
-    s = np.where(pe, np.where(pa, 0.0, np.clip(-c * ia, 0.0, 1.0)), np.where(pa, 0.0, s))
-    t = np.where(pe, 0.0, np.where(pa, np.clip(f * ie, 0.0, 1.0), t))
+    if pa.any() or pe.any():
+        s = np.where(pe, np.where(pa, 0.0, s0), np.where(pa, 0.0, s))
+        t = np.where(pe, 0.0, np.where(pa, _unit_clip(f * ie), t))
     w = r + s * d1 - t * d2
     return np.sqrt(dot(w, w))
+
+
+def _unit_clip(x) -> np.ndarray:
+    """x clamped to [0, 1] in place (np.clip's result, without its Python-level overhead)."""
+    return np.minimum(np.maximum(x, 0.0, out=x), 1.0, out=x)
 
 
 def world_ends(cs: CapsuleSet, motion: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -201,7 +209,7 @@ def speed_coefficients(linkage, cs: CapsuleSet, offsets: np.ndarray, sites: dict
     speed of each capsule pair: ``V <= coef @ rate_bound`` (see the module docstring)."""
     jindex = {j.name: i for i, j in enumerate(linkage.joints)}
     pts = cs.ends_base + np.asarray(offsets, float)[:, None] * cs.ends_dir  # (E, 3): mounts and via points
-    options: dict[tuple, list] = {}
+    options = cs.paths  # the same for every design of these capsules
     out = []
     P, J = len(cs.pairs), len(linkage.joints)
     per_pair: list[list[np.ndarray]] = [[] for _ in range(P)]

@@ -188,7 +188,7 @@ def envelope_excess(linkage: Linkage, design, box: Box) -> tuple[float, str]:
         ends = np.stack([D[..., :3, :3] @ c.p0 + D[..., :3, 3], D[..., :3, :3] @ c.p1 + D[..., :3, 3]])  # (2, K, 3)
         n = ends[1] - ends[0]
         n = n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
-        pad = c.radius * (1.0 if c.part == "bar" else np.sqrt(np.clip(1.0 - n * n, 0.0, 1.0)))  # (K, 3) or scalar
+        pad = c.radius * (1.0 if c.part in ("bar", "plate") else np.sqrt(np.clip(1.0 - n * n, 0.0, 1.0)))  # (K, 3) or scalar
         out = max(float(np.max(ends + pad - box.hi)), float(np.max(box.lo - (ends - pad))))
         if out > worst:
             worst, where = out, c.link

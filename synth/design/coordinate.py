@@ -124,24 +124,25 @@ class _Critical:
     recently seen entries."""
 
     def __init__(self, mask, cap):
-        self.mask, self.cap, self.keys = mask, cap, {}
+        self.mask, self.cap = mask, cap
+        self.codes = np.zeros(0, int)  # entries p * K + k, least recently seen first
+        self.K = None
 
     def add(self, d):  # d (N, P, K)
         dm = np.where(self.mask[None, None, :], d, np.inf)
         k = dm.argmin(axis=2)  # (N, P): each pair's closest sample
         flat = dm.reshape(len(d), -1)
         top = np.argpartition(flat, min(16, flat.shape[1] - 1), axis=1)[:, :16]
-        new = [(p, int(x)) for row in k for p, x in enumerate(row)]
-        new += [divmod(int(x), d.shape[2]) for row in top for x in row]
-        for key in new:
-            self.keys.pop(key, None)
-            self.keys[key] = None
-        while len(self.keys) > self.cap:
-            self.keys.pop(next(iter(self.keys)))
+        self.K = d.shape[2]
+        seen = np.concatenate([(np.arange(d.shape[1]) * self.K + k).ravel(), top.ravel()])
+        # seen again: moved to the most recent end, in the order of their last sighting
+        codes, last = np.unique(seen[::-1], return_index=True)
+        codes = codes[np.argsort(-last, kind="stable")]
+        kept = self.codes[~np.isin(self.codes, codes)]
+        self.codes = np.concatenate([kept, codes])[-self.cap:]
 
     def arrays(self):
-        pk = np.array(list(self.keys), int)
-        return pk[:, 0], pk[:, 1]
+        return self.codes // self.K, self.codes % self.K
 
 
 def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, iterations, tries=2):

@@ -65,6 +65,52 @@ class Pin:
 
 
 @dataclass
+class Mounting:
+    """The ground link's mounting plate (`synth.design.mounting`; metres, world frame at the reference
+    configuration, which is the base link's frame): a flat plate of ``thickness`` whose mounting face (the
+    face screwed to a table or a bracket) is the rectangle centred at ``origin`` (3,) with outward unit
+    ``normal`` (3,) and half-sides ``half`` (2,) along the in-plane unit vectors ``axes`` (2, 3); the plate
+    lies behind the face (against the normal). Through-holes of ``hole_diameter`` for ``screw`` ("M3",
+    "M4") run along the normal through the points ``holes`` (k, 3) of the face. ``kind``: "parallel" (the
+    face parallel to both base axes, under the hub of ``joint``) or "hub" (a flange on the outer end face
+    of the hub of ``joint``, normal along its axis, the bore continued through it with radius ``bore``).
+    ``counterbore`` (diameter, depth): a plate thickened into a foot (to reach a task's base box) has its
+    holes counterbored from the inside, so the screws' heads sit ``thickness - depth`` from the face;
+    depth 0: none."""
+
+    link: str
+    joint: str
+    kind: str
+    origin: np.ndarray
+    normal: np.ndarray
+    axes: np.ndarray
+    half: np.ndarray
+    thickness: float
+    holes: np.ndarray
+    hole_diameter: float
+    screw: str
+    bore: float = 0.0
+    counterbore: tuple = (0.0, 0.0)
+
+    def to_dict(self) -> dict:
+        return {"link": self.link, "joint": self.joint, "kind": self.kind,
+                "origin": [float(x) for x in self.origin], "normal": [float(x) for x in self.normal],
+                "axes": [[float(x) for x in a] for a in self.axes], "size": [float(2 * h) for h in self.half],
+                "thickness": float(self.thickness), "screw": self.screw, "hole_diameter": float(self.hole_diameter),
+                "holes": [[float(x) for x in h] for h in self.holes], "bore_diameter": float(2 * self.bore),
+                "counterbore": {"diameter": float(self.counterbore[0]), "depth": float(self.counterbore[1])}}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Mounting":
+        return cls(str(d["link"]), str(d["joint"]), str(d["kind"]), np.asarray(d["origin"], float),
+                   np.asarray(d["normal"], float), np.asarray(d["axes"], float).reshape(2, 3),
+                   np.asarray(d["size"], float) / 2, float(d["thickness"]),
+                   np.asarray(d["holes"], float).reshape(-1, 3), float(d["hole_diameter"]), str(d["screw"]),
+                   float(d.get("bore_diameter", 0.0)) / 2,
+                   tuple(float((d.get("counterbore") or {}).get(k, 0.0)) for k in ("diameter", "depth")))
+
+
+@dataclass
 class PhysicalDesign:
     """Every free parameter of a buildable linkage (lengths in metres)."""
 
@@ -78,6 +124,7 @@ class PhysicalDesign:
     bars: list[Bar]
     pins: list[Pin]
     pin_fit: str = "press"  # how a pin holds (`PIN_FITS`): docs/design.md, "Pins"
+    mounting: Mounting | None = None  # the ground link's mounting plate (`synth.design.mounting`)
 
     def mount(self, link: str, joint: str) -> Mount:
         for m in self.mounts:
@@ -102,6 +149,7 @@ class PhysicalDesign:
             "pins": [{"joint": p.joint, "start": p.start, "end": p.end, "length": p.length, "carrier": p.carrier}
                      for p in self.pins],
             "pin_fit": self.pin_fit,
+            **({"mounting": self.mounting.to_dict()} if self.mounting is not None else {}),
         }
 
     @classmethod
@@ -114,13 +162,15 @@ class PhysicalDesign:
             bars=[Bar(b["link"], tuple(b["joints"]), [np.asarray(v, float) for v in b["via"]]) for b in d["bars"]],
             pins=[Pin(p["joint"], float(p["start"]), float(p["end"]), p["carrier"]) for p in d["pins"]],
             pin_fit=str(d.get("pin_fit", "plain")),  # written before pins had heads: plain cylinders
+            mounting=Mounting.from_dict(d["mounting"]) if d.get("mounting") else None,
         )
 
 
 @dataclass
 class Capsule:
     """A segment p0-p1 with a radius, fixed to ``link`` (reference configuration, metres). ``part`` is
-    "bar", "hub" or "pin"; ``joint`` names the joint of a hub or a pin."""
+    "bar", "hub", "pin" or "plate" (the capsules that bound a mounting plate, `plate_capsules`); ``joint``
+    names the joint of a hub, a pin or a plate."""
 
     link: str
     part: str
@@ -137,10 +187,30 @@ def axis_point(linkage, joint: str, offset: float, sites=None) -> np.ndarray:
     return sites[joint] + offset * j.direction
 
 
-def capsules(linkage, design: PhysicalDesign) -> list[Capsule]:
+def plate_capsules(m: Mounting) -> list[Capsule]:
+    """Capsules whose union holds the mounting plate ``m`` (a box of half-sides ``half`` and
+    ``thickness`` / 2 along ``axes`` and the normal): along its longest side, one per strip of its
+    cross-section (the other two sides w >= v cut into k = ceil(w / v) strips of width s = w / k <= v),
+    each of radius sqrt((v/2)^2 + (s/2)^2) around the strip's centre line."""
+    sides = [(float(m.half[0]), np.asarray(m.axes[0], float)), (float(m.half[1]), np.asarray(m.axes[1], float)),
+             (0.5 * float(m.thickness), np.asarray(m.normal, float))]
+    (h_len, d_len), (h_w, d_w), (h_v, _) = sorted(sides, key=lambda x: -x[0])
+    k = max(1, int(np.ceil(h_w / h_v - 1e-9)))
+    s = 2 * h_w / k
+    r = float(np.hypot(h_v, s / 2))
+    centre = np.asarray(m.origin, float) - 0.5 * float(m.thickness) * np.asarray(m.normal, float)
+    out = []
+    for i in range(k):
+        c = centre + (-h_w + s * (i + 0.5)) * d_w
+        out.append(Capsule(m.link, "plate", c - h_len * d_len, c + h_len * d_len, r, m.joint))
+    return out
+
+
+def capsules(linkage, design: PhysicalDesign, sites=None) -> list[Capsule]:
     """The solids of the design as capsules, each fixed to its link: bar segments (bar radius), hubs
-    (hub radius, hub length) and pins (pin radius, on their carrier link)."""
-    sites = linkage.joint_sites()
+    (hub radius, hub length), pins (pin radius, on their carrier link) and the mounting plate
+    (`plate_capsules`). ``sites``: the linkage's ``joint_sites()`` when already at hand."""
+    sites = linkage.joint_sites() if sites is None else sites
     out: list[Capsule] = []
     for b in design.bars:
         pts = [axis_point(linkage, b.joints[0], design.mount(b.link, b.joints[0]).offset, sites),
@@ -156,6 +226,8 @@ def capsules(linkage, design: PhysicalDesign) -> list[Capsule]:
     for p in design.pins:
         out.append(Capsule(p.carrier, "pin", axis_point(linkage, p.joint, p.start, sites),
                            axis_point(linkage, p.joint, p.end, sites), design.pin_radius, p.joint))
+    if design.mounting is not None:
+        out += plate_capsules(design.mounting)
     return out
 
 

@@ -17,6 +17,7 @@ Deterministic for a given ``seed``.
 """
 from __future__ import annotations
 
+import functools
 import math
 import time
 
@@ -32,8 +33,12 @@ TWO_PI = 2 * math.pi
 CLEARANCE_FRACTION = 0.25  # default clearance: this fraction of the bar radius
 SAFETY = 0.5  # the search asks for a sampled gap of clearance * (1 + SAFETY) so that certification holds
 FULL_SAMPLES, TASK_SAMPLES = 24, 12  # search samples per joint, full cycle and task range
-ATTEMPTS = 2  # independent sets of starts per range
+ATTEMPTS = 2  # independent sets of starts per range, always tried (budgets permitting) ...
+MORE_WORK = 1.0 * GAPS_PER_SECOND  # ... and further ones (the next best starts) while the range's search has
+# spent less than this many gap evaluations (times ``effort``): a cheap failure is no proof (fixtures/bennett_matrix.json
+# was free over the full cycle only at its 4th set of starts, 0.3 CPU s)
 SPREADS = (0.25, 0.5, 1.0, 2.0)  # scales (times the extent) of the random stack centres
+SCREEN_WORK, SCREEN_EFFORT = 0.2 * GAPS_PER_SECOND, 0.5  # the quick full-cycle search of each candidate (rank_buildable)
 SEARCH_MERGED = True  # the search scores merged hub+pin capsules (fewer pairs), the certificate the exact ones
 
 
@@ -118,26 +123,36 @@ class Layout:
         J = len(self.joints)
         return self.mount_offsets(np.zeros((1, J)), np.ones((1, J)), np.full((1, J), self.gap_min))[0]
 
+    @functools.cached_property
+    def _gathers(self):
+        """Index arrays of `mount_offsets` and `end_offsets`: per mount its joint and place in the stack
+        (k - (n - 1) / 2); per joint its mounts (padded by repeating the first); per end its column in
+        [S | lo | hi | W] and constant."""
+        jidx = {j: i for i, j in enumerate(self.joints)}
+        joint = np.array([jidx[j] for _, j in self.mounts], int)
+        place = np.array([self.links_of[j].index(link) - (len(self.links_of[j]) - 1) / 2 for link, j in self.mounts])
+        width = max((len(self.links_of[j]) for j in self.joints), default=1)
+        stack = np.array([[self.mindex[(ls[min(k, len(ls) - 1)], j)] for k in range(width)]
+                          for j, ls in ((j, self.links_of[j]) for j in self.joints)], int).reshape(-1, width)
+        M, J = len(self.mounts), len(self.joints)
+        start = (0, M, M + J, M + 2 * J)
+        column = np.array([start[kind] + index for kind, index, _ in self.ends], int)
+        const = np.array([const for *_, const in self.ends], float)
+        return joint, place, stack, column, const
+
     def mount_offsets(self, c, sigma, g) -> np.ndarray:
         """(N, M) mount offsets."""
-        S = np.empty((c.shape[0], len(self.mounts)))
-        for ji, j in enumerate(self.joints):
-            links = self.links_of[j]
-            n = len(links)
-            for k, link in enumerate(links):
-                S[:, self.mindex[(link, j)]] = c[:, ji] + sigma[:, ji] * (k - (n - 1) / 2) * g[:, ji]
-        return S
+        joint, place = self._gathers[:2]
+        return c[:, joint] + sigma[:, joint] * place * g[:, joint]
 
     def end_offsets(self, S, W=None) -> np.ndarray:
         """(N, E) end-point offsets of the capsules from the mount offsets S (N, M) and the crank offsets
         W (N, V) (default: zero, the via points on the straight bar)."""
-        lo = np.stack([S[:, [self.mindex[(l, j)] for l in self.links_of[j]]].min(axis=1) for j in self.joints], 1)
-        hi = np.stack([S[:, [self.mindex[(l, j)] for l in self.links_of[j]]].max(axis=1) for j in self.joints], 1)
+        stack, column, const = self._gathers[2:]
+        around = S[:, stack]  # (N, J, width)
         W = np.zeros((len(S), len(self.vias))) if W is None else np.broadcast_to(W, (len(S), len(self.vias)))
-        cols = []
-        for kind, index, const in self.ends:
-            cols.append((S, lo, hi, W)[kind][:, index] + const)
-        return np.stack(cols, axis=1)
+        table = np.concatenate([S, around.min(axis=2), around.max(axis=2), W], axis=1)
+        return table[:, column] + const
 
     def design(self, S, W=None, *, pin_radius, bar_radius, hub_radius, hole_clearance, clearance) -> PhysicalDesign:
         """The `PhysicalDesign` of one mount-offset vector S (M,) and crank offsets W (V,)."""
@@ -221,7 +236,10 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     coarse = np.zeros(len(scorer.phis), bool)
     coarse[::3] = True
     pk = np.nonzero(np.ones((len(search.cs.pairs), len(scorer.phis)), bool) & coarse[None])
-    d0 = scorer.at(X0, *pk).reshape(len(X0), len(search.cs.pairs), -1)
+    if budget.spent:  # nothing will be searched (the natural stack is certified below): no screen either
+        d0 = np.zeros((len(X0), len(search.cs.pairs), int(coarse.sum())))
+    else:
+        d0 = scorer.at(X0, *pk).reshape(len(X0), len(search.cs.pairs), -1)
     size0 = space.size(X0)
     coarse_task = scorer.is_task[coarse]
 
@@ -229,12 +247,16 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     n_starts = max(2, int(4 * effort))
     ranges = _ranges(ranges, task)
     full = budget.part(None if full_work is None else full_work - (budget.done - start))  # the screen counts
-    for rname, rng_phi, attempt in [(r, p, a) for r, p in ranges for a in range(ATTEMPTS)]:
+    for rname, rng_phi, attempt in _attempts(ranges, len(X0) // n_starts):
         if budget.spent:
             break
         scorer.work = full if rname == "full" else budget
         if scorer.work.spent:  # the full-cycle budget: on to the task range
             continue
+        if attempt == 0:
+            range_start = scorer.work.done
+        elif attempt >= ATTEMPTS and scorer.work.done - range_start >= MORE_WORK * effort:
+            continue  # the later sets of starts only within MORE_WORK
         mask0 = np.ones(coarse.sum(), bool) if rname == "full" else coarse_task
         ranked = np.argsort(-score(violation(d0, target, mask0), size0), kind="stable")
         starts = ranked[attempt * n_starts:(attempt + 1) * n_starts]
@@ -325,6 +347,13 @@ def cranked_result(linkage, layout: Layout, S, W, like, rname: str, cert: dict, 
     return DesignResult(design, report)
 
 
+def _attempts(ranges, sets: int):
+    """(range name, (lo, hi), attempt) in search order: every set of starts (``sets`` of them) of each range."""
+    for rname, rng_phi in ranges:
+        for attempt in range(max(ATTEMPTS, sets)):
+            yield rname, rng_phi, attempt
+
+
 def _ranges(names, task) -> tuple:
     """((name, (lo, hi)), ...) of the ranges to search, in order; a task range that is the whole cycle is
     the full cycle."""
@@ -386,29 +415,40 @@ def collision_rank(report: CollisionReport) -> int:
 
 def rank_buildable(candidates, design, *, limit: int = 8, work: float = 6.0 * GAPS_PER_SECOND,
                    first: float = 2.5 * GAPS_PER_SECOND, per_candidate: float = 1.2 * GAPS_PER_SECOND,
-                   reserve: float = 1.0 * GAPS_PER_SECOND) -> list[tuple]:
+                   reserve: float = 1.0 * GAPS_PER_SECOND, screen: float = SCREEN_WORK) -> list[tuple]:
     """Choose among candidate linkages (given best first by their kinematic score) collision-freedom first.
 
-    ``design(linkage, ranges, full_work, work) -> DesignResult`` (`design_linkage`'s arguments; ``work``:
-    the `Work` every search charges). Budgets in gap evaluations (`synth.design.work`). Phase 1: a
-    full-cycle-only search of at most ``first`` on the best-scored candidate and ``per_candidate`` on
-    each next one, in order, until one is free, ``limit`` were tried, or ``work - reserve`` are spent (a
-    free design is usually found soon; the failures are what costs). Phase 2, when none is free over the
-    full cycle: the task-range search on the candidates in order until one is free over it or ``work``
-    is spent (at least the first). Returns [(linkage, DesignResult)] of the final designs sorted by
-    (`collision_rank`, kinematic order): a phase-1 success alone, else the phase-2 designs."""
+    ``design(linkage, ranges, full_work, work, effort) -> DesignResult`` (`design_linkage`'s arguments;
+    ``work``: the `Work` every search charges). Budgets in gap evaluations (`synth.design.work`). Phase 0
+    (more than one candidate): a quick full-cycle-only search (`SCREEN_EFFORT`, at most ``screen``) on each
+    candidate in order until one is free or ``work - reserve`` is spent (whether a full-cycle design is
+    found differs much more between candidates than between searches on one, and a quick search often
+    finds it: fixtures/sixbar_example.yaml's 8th candidate, 2e6 evaluations, after 7 failed deep ones).
+    Phase 1: a full-cycle-only search of at most ``first`` on the best-scored candidate and
+    ``per_candidate`` on each next one, in order, until one is free, ``limit`` were tried, or ``work -
+    reserve`` are spent (the first is always searched). Phase 2, when none is free over the full cycle:
+    the task-range search on the candidates in order until one is free over it or ``work`` is spent (at
+    least the first). Returns [(linkage, DesignResult)] of the final designs sorted by (`collision_rank`,
+    kinematic order): a phase-0 or phase-1 success alone, else the phase-2 designs."""
     spent = Work()
     candidates = list(candidates)
+    if len(candidates[:limit]) > 1 and screen:
+        for linkage in candidates[:limit]:
+            if spent.done + screen > work - reserve:
+                break
+            result = design(linkage, ("full",), screen, spent, SCREEN_EFFORT)
+            if collision_rank(result.collision) == 0:
+                return [(linkage, result)]
     for k, linkage in enumerate(candidates[:limit]):
         cap = first if k == 0 else per_candidate
         if k and spent.done + cap > work - reserve:
             break
-        result = design(linkage, ("full",), cap, spent)
+        result = design(linkage, ("full",), cap, spent, 1.0)
         if collision_rank(result.collision) == 0:
             return [(linkage, result)]
     done = []
     for k, linkage in enumerate(candidates[:limit]):
-        result = design(linkage, ("task",), None, spent)
+        result = design(linkage, ("task",), None, spent, 1.0)
         done.append((collision_rank(result.collision), k, linkage, result))
         if done[-1][0] <= 1 or spent.done > work:
             break

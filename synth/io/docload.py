@@ -15,6 +15,7 @@ import io
 import json
 import os
 import re
+import select
 import stat
 import sys
 from typing import IO, Any
@@ -334,6 +335,69 @@ def read_lines(stream, limit: int = MAX_LINE_BYTES):
             buf, over, start = bytearray(), False, i + 1
     if buf or over:
         yield lineno + 1, (None if over else buf.decode("utf-8", "replace"))
+
+
+def read_chunks(stream, size: int, max_bytes: int = 1 << 20, idle: float | None = None,
+                limit: int = MAX_LINE_BYTES):
+    """The lines of the binary ``stream`` as `read_lines` splits them, in chunks ``(number of the first
+    line, [line bytes without the newline, or None for a line over limit])`` of at most ``size`` lines
+    and about ``max_bytes``. ``idle`` (seconds; for a pipe or a terminal, whose writer may pause): when
+    nothing arrives within it, the whole lines read so far come at once as a chunk, and then None
+    (nothing new) every ``idle`` seconds while the input stays idle, so that the caller can answer
+    what was read and look at its signals. Which lines are read, and their numbers, never depend on
+    the timing; only when they come does."""
+    fd = _fileno(stream) if idle is not None else None
+    read = getattr(stream, "read1", None) or stream.read
+    lines: list = []
+    first, nbytes = 1, 0
+    held, held_len, over = [], 0, False  # the pieces of the line being read (not held once over the limit)
+    while True:
+        while fd is not None and not _readable(fd, idle):
+            if lines:
+                yield first, lines
+                first, lines, nbytes = first + len(lines), [], 0
+            else:
+                yield None
+        block = read(_CHUNK)
+        if not block:
+            break
+        pieces = block.split(b"\n")
+        last = len(pieces) - 1
+        for k, piece in enumerate(pieces):
+            if not over:
+                held_len += len(piece)
+                if held_len > limit:
+                    over, held = True, []
+                else:
+                    held.append(piece)
+            if k == last:
+                break
+            lines.append(None if over else held[0] if len(held) == 1 else b"".join(held))
+            nbytes += held_len + 1
+            held, held_len, over = [], 0, False
+            if len(lines) >= size or nbytes >= max_bytes:
+                yield first, lines
+                first, lines, nbytes = first + len(lines), [], 0
+    if over or held_len:
+        lines.append(None if over else b"".join(held))
+    if lines:
+        yield first, lines
+
+
+def _fileno(stream) -> int | None:
+    """The file descriptor of ``stream``, None for an in-memory stream (never idle)."""
+    try:
+        return stream.fileno()
+    except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
+        return None
+
+
+def _readable(fd: int, timeout: float) -> bool:
+    """Whether ``fd`` has input (or its end) within ``timeout`` seconds (a signal handler that raises
+    interrupts the wait)."""
+    poller = select.poll()
+    poller.register(fd, select.POLLIN | select.POLLHUP | select.POLLERR)
+    return bool(poller.poll(timeout * 1000.0))
 
 
 def read_source(source, text: str | None) -> tuple[str, str]:

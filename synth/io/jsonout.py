@@ -158,6 +158,8 @@ def write_linkage_json(job, directory: Path) -> list[Path]:
     drive = r.drive if r is not None and r.drive is not None else drive_report(job.linkage)
     doc = linkage_document(job.linkage, r.design if r else None, r.collision if r else None, drive)
     if r is not None:
-        doc["print"] = print_section(job.solids)  # issue 33: each part on the bed (synth.io.printreport)
+        m = r.design.mounting  # the base printed on its mounting face
+        down = {m.link: m.normal} if m is not None else None
+        doc["print"] = print_section(job.solids, down=down)  # issue 33: each part on the bed (synth.io.printreport)
     write_json(doc, directory / "linkage.json")
     return [Path("linkage.json")]

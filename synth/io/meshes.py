@@ -6,7 +6,9 @@ A link with joints is ONE closed solid made of exactly the design's geometry (do
   bar's polyline, mount -> via points -> mount;
 - its **hubs**: a cylinder of the hub radius and hub length around the joint axis at each mount;
 - minus a **bore** through every hub along the axis: radius pin radius + hole clearance where the link
-  turns on the pin, pin radius where it carries the pin (glued or pressed in).
+  turns on the pin, pin radius where it carries the pin (glued or pressed in);
+- on the base, its **mounting plate** (`synth.design.mounting`): a box minus its screw holes (and, for a
+  flange on a hub, the bore continued through it).
 Each joint's **pin** is a separate solid (a cylinder of the pin radius from the pin's start to its end
 along the axis), written as ``meshes/pin_<joint>.stl`` and, in the URDF, a link ``pin_<joint>`` fixed
 to its carrier link. Links with no joints (the loop duplicate ``coupler_k``) get no mesh.
@@ -33,7 +35,7 @@ import numpy as np
 
 from synth.design.model import PhysicalDesign, axis_point, capsules
 from synth.frames import link_origins
-from synth.io.solid import (Solid, boolean, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
+from synth.io.solid import (Solid, boolean, box, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
                             mass_properties, read_stl_triangles, signed_volume, stl_bytes, surface_defect, weld)
 from synth.io.names import MESH_UNIT_SCALE, pin_link_name
 
@@ -55,14 +57,16 @@ def have_manifold() -> bool:
 class Primitive:
     """One solid the parts of a link are built from, in world coordinates at the reference configuration
     (metres): a ``"capsule"`` (round bar with round ends) or a ``"cylinder"`` (flat ends) of ``radius``
-    around the segment ``p0``-``p1``; ``phase``: where a cylinder's facets start (`solid.cylinder`). The
-    STL (`link_parts`) and the STEP (`synth.io.step`) build the same primitives."""
+    around the segment ``p0``-``p1``, or a ``"box"``: the rectangle of half-edge vectors ``edges`` (2, 3)
+    centred at ``p0`` extruded to ``p1`` (`solid.box`); ``phase``: where a cylinder's facets start
+    (`solid.cylinder`). The STL (`link_parts`) and the STEP (`synth.io.step`) build the same primitives."""
 
     kind: str
     p0: np.ndarray
     p1: np.ndarray
     radius: float
     phase: float = 0.0
+    edges: np.ndarray | None = None
 
 
 PRESS_INTERFERENCE = 5e-5  # metres, radial: a press fit of a printed pin (at most 2 % of the pin radius)
@@ -84,10 +88,11 @@ class PinEnds:
     counterbore: float
 
 
-def pin_ends(linkage, design: PhysicalDesign, joint: str) -> PinEnds | None:
+def pin_ends(linkage, design: PhysicalDesign, joint: str, sites=None) -> PinEnds | None:
     """The `PinEnds` of the pin of ``joint``, None for a joint held by one link. The head: radius bore +
     0.4 of the hub's wall, thickness a quarter of the hub length, sunk flush into a counterbore (head
-    radius + hole clearance, one hole clearance deeper) of the hub it sits on: inside that hub."""
+    radius + hole clearance, one hole clearance deeper) of the hub it sits on: inside that hub.
+    ``sites``: the linkage's ``joint_sites()`` when already at hand (as in the functions below)."""
     pin = design.pin(joint)
     mounts = {m.link: m.offset for m in design.mounts if m.joint == joint}
     others = [n for n in mounts if n != pin.carrier]
@@ -99,7 +104,7 @@ def pin_ends(linkage, design: PhysicalDesign, joint: str) -> PinEnds | None:
     ends = {turning: pin.end if out > 0 else pin.start, pin.carrier: pin.start if out > 0 else pin.end}
     bore = design.pin_radius + design.hole_clearance
     head = bore + 0.4 * (design.hub_radius - bore)
-    return PinEnds(pin.carrier, turning, {n: axis_point(linkage, joint, e) for n, e in ends.items()},
+    return PinEnds(pin.carrier, turning, {n: axis_point(linkage, joint, e, sites) for n, e in ends.items()},
                    {turning: out * u, pin.carrier: -out * u}, head, 0.25 * design.hub_length,
                    head + design.hole_clearance)
 
@@ -109,16 +114,18 @@ def _head_side(design: PhysicalDesign, ends: PinEnds) -> tuple[str, str | None]:
     return (ends.carrier, ends.turning) if design.pin_fit == "clip" else (ends.turning, None)
 
 
-def link_primitives(linkage, design: PhysicalDesign, name: str) -> tuple[list[Primitive], list[Primitive]]:
+def link_primitives(linkage, design: PhysicalDesign, name: str, sites=None,
+                    caps=None) -> tuple[list[Primitive], list[Primitive]]:
     """(parts, bores) of link ``name``. Parts: a capsule per bar segment, a cylinder per hub; bores: a
     cylinder per mount, along the axis, through the hub and the bar's round end (the carrier's smaller
     by `PRESS_INTERFERENCE` for a press fit), and a counterbore where a pin's head or clip sits on this
-    link's hub. Both empty for a link without joints."""
+    link's hub. Both empty for a link without joints. ``caps``: the design's `capsules` when at hand."""
+    sites = linkage.joint_sites() if sites is None else sites
     parts, bores = [], []
     carriers = {p.joint: p.carrier for p in design.pins}
     press = min(PRESS_INTERFERENCE, 0.02 * design.pin_radius) if design.pin_fit == "press" else 0.0
-    for c in capsules(linkage, design):
-        if c.link != name or c.part == "pin":
+    for c in capsules(linkage, design, sites) if caps is None else caps:
+        if c.link != name or c.part in ("pin", "plate"):
             continue
         if c.part == "bar":
             parts.append(Primitive("capsule", c.p0, c.p1, c.radius))
@@ -130,37 +137,63 @@ def link_primitives(linkage, design: PhysicalDesign, name: str) -> tuple[list[Pr
             half = 1.01 * max(design.hub_length / 2, design.bar_radius) + 0.01 * design.hub_radius
             r = design.pin_radius - press if carriers.get(c.joint) == name else design.pin_radius + design.hole_clearance
             bores.append(Primitive("cylinder", centre - half * u, centre + half * u, r))
-            ends = pin_ends(linkage, design, c.joint) if design.pin_fit != "plain" and c.joint in carriers else None
+            ends = pin_ends(linkage, design, c.joint, sites) if design.pin_fit != "plain" and c.joint in carriers else None
             if ends is not None and name in _head_side(design, ends):
                 face, w = ends.faces[name], ends.outward[name]
                 depth = ends.thickness + design.hole_clearance
                 bores.append(Primitive("cylinder", face - depth * w, face + half * w, ends.counterbore))
+    m = design.mounting
+    if m is not None and m.link == name and parts:
+        plate, holes = plate_primitives(m)
+        parts.append(plate)
+        bores += holes
     return parts, bores
+
+
+def plate_primitives(m) -> tuple[Primitive, list[Primitive]]:
+    """(the box, the holes) of the mounting plate ``m`` (`synth.design.model.Mounting`): the holes run
+    along the normal a fiftieth of the thickness past both faces; a flange's bore likewise; a foot's
+    counterbores from its screw heads' seat to past its inner face."""
+    n, T = np.asarray(m.normal, float), float(m.thickness)
+    plate = Primitive("box", m.origin - T * n, np.asarray(m.origin, float), 0.0,
+                      edges=np.asarray(m.axes, float) * np.asarray(m.half, float)[:, None])
+    ends = (0.02 * T * n, -1.02 * T * n)
+    holes = [Primitive("cylinder", h + ends[0], h + ends[1], 0.5 * m.hole_diameter) for h in m.holes]
+    width, depth = m.counterbore
+    if depth > 0:  # a foot: the heads sunk from its inner face to thickness - depth from the face
+        seat = -(T - depth) * n
+        holes += [Primitive("cylinder", h + seat, h + ends[1], 0.5 * width) for h in m.holes]
+    if m.bore > 0:
+        holes.append(Primitive("cylinder", m.origin + ends[0], m.origin + ends[1], m.bore))
+    return plate, holes
 
 
 def primitive_solid(p: Primitive) -> Solid:
     """The closed mesh of a primitive (`PIN_SECTIONS` for cylinders, `BAR_SECTIONS` for capsules)."""
     if p.kind == "capsule":
         return capsule(p.p0, p.p1, p.radius, BAR_SECTIONS)
+    if p.kind == "box":
+        return box(p.p0, p.p1, p.edges)
     return cylinder(p.p0, p.p1, p.radius, PIN_SECTIONS, phase=p.phase)
 
 
-def link_parts(linkage, design: PhysicalDesign, name: str) -> tuple[list[Solid], list[Solid]]:
+def link_parts(linkage, design: PhysicalDesign, name: str, sites=None, caps=None) -> tuple[list[Solid], list[Solid]]:
     """(parts, bores) of link ``name`` (`link_primitives`) as closed meshes."""
-    parts, bores = link_primitives(linkage, design, name)
+    parts, bores = link_primitives(linkage, design, name, sites, caps)
     return [primitive_solid(p) for p in parts], [primitive_solid(b) for b in bores]
 
 
-def pin_primitives(linkage, design: PhysicalDesign, joint: str) -> list[Primitive]:
+def pin_primitives(linkage, design: PhysicalDesign, joint: str, sites=None) -> list[Primitive]:
     """The pin of ``joint`` in world coordinates at the reference configuration, as cylinders whose union
     it is: the shaft, and unless the fit is "plain" the head flush in its counterbore (on the turning
     link for a press fit, on the carrier for a clip), and for a clip a groove at the turning link's face
     (the shaft at 0.8 pin radii over a third of the head's thickness, one hole clearance inside the
     counterbore's floor) for a standard retaining clip."""
     p = design.pin(joint)
-    a, b = axis_point(linkage, joint, p.start), axis_point(linkage, joint, p.end)
+    sites = linkage.joint_sites() if sites is None else sites
+    a, b = axis_point(linkage, joint, p.start, sites), axis_point(linkage, joint, p.end, sites)
     r = design.pin_radius
-    ends = pin_ends(linkage, design, joint) if design.pin_fit != "plain" else None
+    ends = pin_ends(linkage, design, joint, sites) if design.pin_fit != "plain" else None
     if ends is None:
         return [Primitive("cylinder", a, b, r)]
     head_on, clip_on = _head_side(design, ends)
@@ -177,17 +210,18 @@ def pin_primitives(linkage, design: PhysicalDesign, joint: str) -> list[Primitiv
                     Primitive("cylinder", lo - 0.05 * t * g_w, hi + 0.05 * t * g_w, 0.8 * r)]
 
 
-def pin_origin(linkage, design: PhysicalDesign, joint: str) -> np.ndarray:
+def pin_origin(linkage, design: PhysicalDesign, joint: str, sites=None) -> np.ndarray:
     """World position (3,) of the frame of link ``pin_<joint>`` at the reference configuration: the pin's
     midpoint (axes parallel to the world's, like every link frame)."""
     p = design.pin(joint)
-    return axis_point(linkage, joint, (p.start + p.end) / 2)
+    return axis_point(linkage, joint, (p.start + p.end) / 2, sites)
 
 
-def pin_solid(linkage, design: PhysicalDesign, joint: str) -> Solid:
+def pin_solid(linkage, design: PhysicalDesign, joint: str, sites=None) -> Solid:
     """The pin of ``joint`` in its own frame (`pin_origin`)."""
-    prims = [primitive_solid(p) for p in pin_primitives(linkage, design, joint)]
-    return _solid(prims).translated(-pin_origin(linkage, design, joint))
+    sites = linkage.joint_sites() if sites is None else sites
+    prims = [primitive_solid(p) for p in pin_primitives(linkage, design, joint, sites)]
+    return _solid(prims).translated(-pin_origin(linkage, design, joint, sites))
 
 
 def _solid(parts, bores=()) -> Solid:
@@ -209,16 +243,18 @@ def design_solids(linkage, design: PhysicalDesign) -> dict[str, Solid]:
     """{URDF link name: Solid}: every link with joints (in its link frame) and every pin as link
     ``pin_<joint>`` (in its pin frame, `pin_origin`), metres. RuntimeError if one is not a closed solid."""
     origins = link_origins(linkage)
+    sites = linkage.joint_sites()
+    caps = capsules(linkage, design, sites)
     out = {}
     for name in linkage.link_names:
-        parts, bores = link_parts(linkage, design, name)
+        parts, bores = link_parts(linkage, design, name, sites, caps)
         if not parts:
             continue
         mesh = _solid(parts, bores).translated(-origins[name])
         check_closed(mesh, f"mesh of link {name}")
         out[name] = mesh
     for p in design.pins:
-        mesh = pin_solid(linkage, design, p.joint)
+        mesh = pin_solid(linkage, design, p.joint, sites)
         check_closed(mesh, f"mesh of pin {p.joint}")
         out[pin_link_name(p.joint)] = mesh
     return out

@@ -156,10 +156,36 @@ def quaternion_matrix(w: float, x: float, y: float, z: float) -> np.ndarray:
 def rpy_matrix_exact(roll: float, pitch: float, yaw: float, unit: str = "rad") -> np.ndarray:
     """URDF fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll); angles in ``unit``, exact for multiples
     of 90 degrees (`synth.frames.rpy_matrix`: radians)."""
-    sr, cr = _sincos(roll, unit)
-    sp, cp = _sincos(pitch, unit)
-    sy, cy = _sincos(yaw, unit)
-    return rpy_from_sincos(sr, cr, sp, cp, sy, cy)
+    return rpy_matrices_exact(np.array([roll, pitch, yaw], float), unit)
+
+
+def rpy_matrices_exact(rpy, unit: str = "rad") -> np.ndarray:
+    """`rpy_matrix_exact` of roll-pitch-yaw triples (..., 3) in ``unit``: rotations (..., 3, 3), each the
+    same bits as one call (the sines and cosines one by one, `_sincos`)."""
+    rpy = np.asarray(rpy, float)
+    sc = np.array([_sincos(a, unit) for a in rpy.ravel().tolist()]).reshape(rpy.shape + (2,))
+    return rpy_from_sincos(sc[..., 0, 0], sc[..., 0, 1], sc[..., 1, 0], sc[..., 1, 1], sc[..., 2, 0], sc[..., 2, 1])
+
+
+def rpy_poses(numbers, length_scale, angle_unit: str | None) -> tuple[np.ndarray, np.ndarray]:
+    """Poses given as ``position`` and ``rpy`` lists, many at once: ``numbers`` (N, k, 6) (x, y, z in the
+    length unit, roll, pitch, yaw in ``angle_unit``; None: none given, radians), ``length_scale`` (N,) metres
+    per unit. Returns (ok (N,), poses (N, k, 4, 4) metres): ``ok[n]`` when every pose of row n passes
+    `pose_matrix`'s checks with a margin (finite numbers within MAX_ABS_NUMBER, angles within 2 pi without a
+    unit, positions well inside MAX_POSITION_M), its poses then the same bits as `pose_matrix` gives; rows
+    not ok are to be read by `pose_matrix` (which says what is wrong, or decides at the margin)."""
+    x = np.asarray(numbers, float)
+    with np.errstate(invalid="ignore"):
+        ok = np.all(np.abs(x) <= MAX_ABS_NUMBER, axis=(1, 2))  # (NaN compares false)
+        if angle_unit is None:
+            ok &= np.all(np.abs(x[..., 3:]) <= TWO_PI, axis=(1, 2))
+        p = x[..., :3] * np.asarray(length_scale, float)[:, None, None]
+        ok &= np.all(np.sqrt(np.sum(p * p, axis=-1)) < 0.5 * MAX_POSITION_M, axis=1)
+    T = np.zeros(x.shape[:2] + (4, 4))
+    T[:, :, 3, 3] = 1.0
+    T[ok, :, :3, 3] = p[ok]
+    T[ok, :, :3, :3] = rpy_matrices_exact(x[ok][..., 3:], angle_unit or "rad")
+    return ok, T
 
 
 def axis_angle_matrix(axis, angle: float, unit: str = "rad") -> np.ndarray:

@@ -72,14 +72,19 @@ def _down_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.concatenate(out)
 
 
-def print_orientation(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+def print_orientation(vertices: np.ndarray, faces: np.ndarray, down=None) -> np.ndarray:
     """A rotation R (3, 3) putting the closed mesh (vertices (n, 3), faces (m, 3)) in its print
     orientation (rows of R: the bed's x, y and up in the mesh's frame): the lowest height among the
     mesh faces that can lie on the bed and `SPHERE` directions (a convex hull's face spanning several
-    primitives is not a mesh face; those directions come within about 2.5 degrees of it); the footprint turned so that an edge of its outline (extreme points in `DIRECTIONS`
-    directions) runs along x, smallest bounding rectangle, x the longer side."""
-    normals = np.concatenate([_down_faces(vertices, faces), sphere_directions(SPHERE)])
-    up = -normals[np.argmin(np.ptp(vertices @ normals.T, axis=0))]  # the face on the bed points down
+    primitives is not a mesh face; those directions come within about 2.5 degrees of it), or the face
+    whose outward unit normal is ``down`` (3,) (a base's mounting face); the footprint turned so that an
+    edge of its outline (extreme points in `DIRECTIONS` directions) runs along x, smallest bounding
+    rectangle, x the longer side."""
+    if down is not None:
+        up = -np.asarray(down, float) / np.linalg.norm(down)
+    else:
+        normals = np.concatenate([_down_faces(vertices, faces), sphere_directions(SPHERE)])
+        up = -normals[np.argmin(np.ptp(vertices @ normals.T, axis=0))]  # the face on the bed points down
     e1 = np.cross(up, np.eye(3)[np.argmin(np.abs(up))])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(up, e1)
@@ -108,22 +113,28 @@ def fit_scale(extents, bed=BED) -> float:
     return float(min(1.0, bx / x, by / y, bed[2] / z))
 
 
-def print_part(name: str, mesh, bed=BED, density: float = MATERIAL[1]) -> PrintPart:
-    """The `PrintPart` of the closed mesh ``mesh`` (`synth.io.solid.Solid`, metres) of URDF link ``name``."""
+def print_part(name: str, mesh, bed=BED, density: float = MATERIAL[1], down=None) -> PrintPart:
+    """The `PrintPart` of the closed mesh ``mesh`` (`synth.io.solid.Solid`, metres) of URDF link ``name``;
+    ``down``: the outward normal of the face to print on (`print_orientation`) when the part fits the bed
+    so; None (or when it does not fit on that face): the lowest way."""
     v = np.asarray(mesh.vertices, float) / MESH_UNIT_SCALE  # mm
-    R = print_orientation(v, np.asarray(mesh.faces))
-    ext = tuple(float(e) for e in np.ptp(v @ R.T, axis=0))
-    scale = fit_scale(ext, bed)
+    for face in ([down, None] if down is not None else [None]):
+        R = print_orientation(v, np.asarray(mesh.faces), face)
+        ext = tuple(float(e) for e in np.ptp(v @ R.T, axis=0))
+        scale = fit_scale(ext, bed)
+        if scale >= 1.0:
+            break
     volume = float(signed_volume(mesh.triangles)) / MESH_UNIT_SCALE ** 3
     return PrintPart(mesh_filename(name), ext, scale >= 1.0, scale, volume, volume * density * 1e-3)
 
 
-def print_section(solids: dict, bed=BED, material=MATERIAL) -> dict:
+def print_section(solids: dict, bed=BED, material=MATERIAL, down: dict | None = None) -> dict:
     """The ``print`` section: ``bed`` (mm), ``material`` {name, density g/cm^3} and ``parts`` (one
-    `PrintPart` per solid of ``solids`` {URDF link: Solid}, as dicts; ``scale`` only when it does not fit)."""
+    `PrintPart` per solid of ``solids`` {URDF link: Solid}, as dicts; ``scale`` only when it does not fit);
+    ``down`` {URDF link: outward normal (3,)}: the parts printed on a given face (the base's mounting face)."""
     parts = []
     for name, mesh in solids.items():
-        p = print_part(name, mesh, bed, material[1])
+        p = print_part(name, mesh, bed, material[1], (down or {}).get(name))
         d = {"mesh": p.mesh, "extents": list(p.extents), "fits_bed": p.fits_bed, "volume": p.volume,
              "mass": p.mass}
         if not p.fits_bed:

@@ -95,6 +95,21 @@ def cylinder(a, b, radius: float, sections: int, phase: float = 0.0) -> Solid:
     return Solid(vertices, faces.astype(np.int64))
 
 
+def box(a, b, edges) -> Solid:
+    """Closed box (a flat plate) over the rectangle centred at point ``a`` with half-edge vectors
+    ``edges`` (2, 3) (perpendicular), extruded to the same rectangle centred at ``b`` (``b - a``
+    perpendicular to both edges): 8 corners, 12 triangles wound outwards."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    e1, e2 = (np.asarray(e, float) for e in edges)
+    if np.dot(np.cross(e1, e2), b - a) < 0:  # keep (e1, e2, b - a) right-handed: outward winding below
+        e1, e2 = e2, e1
+    square = [-e1 - e2, e1 - e2, e1 + e2, -e1 + e2]
+    vertices = np.array([a + q for q in square] + [b + q for q in square])
+    faces = np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7],  # bottom (normal -(b - a)), top
+                      [0, 1, 5], [0, 5, 4], [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7]])
+    return Solid(vertices, faces.astype(np.int64))
+
+
 def capsule(a, b, radius: float, sections: int, rings: int | None = None) -> Solid:
     """Closed capsule (round bar with round ends) of ``radius`` around the segment a-b: a cylinder of
     ``sections``-gons capped by two hemispheres of ``rings`` latitude rings each (default sections / 4).
@@ -196,9 +211,14 @@ def weld(triangles) -> Solid:
     """The indexed mesh of a triangle soup (m, 3, 3): corners with bit-equal coordinates become one
     vertex (what a reader of an STL file sees). -0.0 and 0.0 count as equal."""
     tri = np.asarray(triangles)
-    corners = np.ascontiguousarray(tri.reshape(-1, 3) + tri.dtype.type(0.0))
-    vertices, index = np.unique(corners, axis=0, return_inverse=True)
-    return Solid(vertices.astype(np.float64), index.reshape(-1, 3).astype(np.int64))
+    corners = tri.reshape(-1, 3) + tri.dtype.type(0.0)
+    order = np.lexsort(corners.T[::-1])  # by x, then y, then z: the order of np.unique(corners, axis=0)
+    ranked = corners[order]
+    first = np.ones(len(ranked), bool)
+    first[1:] = (ranked[1:] != ranked[:-1]).any(axis=1)
+    index = np.empty(len(ranked), np.int64)
+    index[order] = np.cumsum(first) - 1
+    return Solid(ranked[first].astype(np.float64), index.reshape(-1, 3))
 
 
 def degenerate_free(faces) -> np.ndarray:

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.design.model import capsules
 from synth.io.meshes import link_primitives, pin_primitives
 from synth.io.names import MESH_UNIT_SCALE, pin_link_name
 from synth.io import interrupts
@@ -64,12 +65,14 @@ def step_parts(linkage, design) -> dict[str, tuple[list, list]]:
     """{URDF link name: (parts, bores)} (`synth.io.meshes.Primitive` lists, world coordinates, metres):
     every link with joints, then every pin (no bores)."""
     out = {}
+    sites = linkage.joint_sites()
+    caps = capsules(linkage, design, sites)
     for name in linkage.link_names:
-        parts, bores = link_primitives(linkage, design, name)
+        parts, bores = link_primitives(linkage, design, name, sites, caps)
         if parts:
             out[name] = (parts, bores)
     for p in design.pins:
-        out[pin_link_name(p.joint)] = (pin_primitives(linkage, design, p.joint), [])
+        out[pin_link_name(p.joint)] = (pin_primitives(linkage, design, p.joint, sites), [])
     return out
 
 
@@ -103,6 +106,15 @@ def _occ_capsule(occ, a, b, r) -> int:
     return next(t for dim, t in out if dim == 3)
 
 
+def _occ_box(occ, a, b, edges) -> int:
+    """The gmsh volume of a `meshes.Primitive` box (millimetres): its rectangle at ``a`` extruded to ``b``."""
+    e1, e2 = edges
+    corners = [occ.addPoint(*(a + s1 * e1 + s2 * e2)) for s1, s2 in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    lines = [occ.addLine(corners[k], corners[(k + 1) % 4]) for k in range(4)]
+    out = occ.extrude([(2, occ.addPlaneSurface([occ.addCurveLoop(lines)]))], *(b - a))
+    return next(t for dim, t in out if dim == 3)
+
+
 def _occ_balls(occ, a, b, r, spheres) -> list[int]:
     """A round bar as a cylinder and a sphere at each end not already in ``spheres`` (list of (centre, r),
     appended to): consecutive segments of a cranked bar share one sphere."""
@@ -123,7 +135,9 @@ def _occ_solids(occ, prims, bores, scale: float, revolved: bool = True) -> list[
     for p in prims:
         a, b = np.asarray(p.p0) * scale, np.asarray(p.p1) * scale
         r = p.radius * scale
-        if p.kind != "capsule":
+        if p.kind == "box":
+            tags.append(_occ_box(occ, a, b, np.asarray(p.edges) * scale))
+        elif p.kind != "capsule":
             tags.append(occ.addCylinder(*a, *(b - a), r))
         else:
             tags += [_occ_capsule(occ, a, b, r)] if revolved else _occ_balls(occ, a, b, r, spheres)

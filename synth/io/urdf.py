@@ -134,10 +134,11 @@ def _mesh_geometry(link, n, fn, offset):
 def _pin_frames(linkage, design, origins) -> dict:
     """{pin link: (carrier link, (3,) origin of the pin frame in the carrier's frame)}."""
     out = {}
+    sites = linkage.joint_sites() if design is not None and design.pins else None
     for p in design.pins if design is not None else ():
         if p.carrier not in origins:
             raise ValueError(f"pin {p.joint} is carried by unknown link {p.carrier!r}")
-        mid = axis_point(linkage, p.joint, (p.start + p.end) / 2)
+        mid = axis_point(linkage, p.joint, (p.start + p.end) / 2, sites)
         out[pin_link_name(p.joint)] = (p.carrier, mid - origins[p.carrier])
     return out
 

@@ -46,18 +46,20 @@ def collision_sentence(report, scale: float, unit: str) -> str:
 class Designer:
     """Physical designs of a task's linkages: the sizes ``sizes`` (metres, `DesignOptions.sizes`) checked
     against each linkage's extent; messages name ``source`` with lengths in ``unit`` (``scale`` metres
-    each)."""
+    each); ``constraints``: the task's (`synth.task.Constraints`), whose base and envelope boxes place the
+    mounting plate."""
 
-    __slots__ = ("sizes", "source", "scale", "unit")
+    __slots__ = ("sizes", "source", "scale", "unit", "boxes")
 
-    def __init__(self, sizes: dict, source: str, scale: float, unit: str):
+    def __init__(self, sizes: dict, source: str, scale: float, unit: str, constraints=None):
         self.sizes, self.source, self.scale, self.unit = sizes, source, scale, unit
+        self.boxes = (None, None) if constraints is None else (constraints.base, constraints.envelope)
 
     def design(self, linkage, **search):
         """The physical design of ``linkage`` (`synth.design.choose.design_for`); ``search``: further
         arguments of the design search (ranges, full_work, effort, work). InputError for sizes absurd for it."""
         check_sizes(self.sizes, linkage.extent(), scale=self.scale, unit=self.unit)
-        return design_for(linkage, **self.sizes, **search)
+        return design_for(linkage, **self.sizes, mount_boxes=self.boxes, **search)
 
     def sentence(self, result) -> str:
         return collision_sentence(result.collision, self.scale, self.unit)
@@ -75,8 +77,8 @@ class Designer:
         DesignResult); ``linkage.info.design_choice`` says which candidate won; ``what``: the candidates'
         name in it."""
         candidates = list(candidates)
-        ranked = rank_buildable(candidates, lambda lk, ranges, full_work, spent: self.design(
-            lk, ranges=ranges, full_work=full_work, work=spent), limit=limit, work=work)
+        ranked = rank_buildable(candidates, lambda lk, ranges, full_work, spent, effort: self.design(
+            lk, ranges=ranges, full_work=full_work, work=spent, effort=effort), limit=limit, work=work)
         linkage, result = first_in_envelope(
             ranked, [c for c in candidates[:limit] if all(c is not lk for lk, _ in ranked)],
             lambda lk: self.design(lk, ranges=("task",)), constraints, source=self.source, scale=self.scale,

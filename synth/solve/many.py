@@ -54,6 +54,18 @@ class BennettSummaries:
         """The Bennett parameters a, alpha, b, beta of decided set n (floats)."""
         return {k: float(self.bennett[k][n]) for k in PARAMETERS}
 
+    def rows(self, index) -> tuple[list, list]:
+        """(`checks`, `parameters`) of the decided sets ``index`` (a list), at once: lists of dicts."""
+        checks = as_checks({k: v[index] for k, v in self.figures.items()}, VERIFY_SAMPLES, self.extent[index])
+        return _rows(checks, len(index)), _rows({k: self.bennett[k][index] for k in PARAMETERS}, len(index))
+
+
+def _rows(columns: dict, n: int) -> list:
+    """The n dicts of plain floats (or the scalars given) of a dict of columns (arrays (n,) or scalars)."""
+    cols = [v.tolist() if isinstance(v, np.ndarray) else [v] * n for v in columns.values()]
+    keys = list(columns)
+    return [dict(zip(keys, row)) for row in zip(*cols)]
+
 
 def solve_bennett_many(poses) -> BennettSummaries:
     """`solve_bennett` (default options) of N three-pose sets (N, 3, 4, 4), metres, where the arrays

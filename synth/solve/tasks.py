@@ -71,7 +71,8 @@ class Result:
 
 
 def _designer(ps, options: SynthesisOptions) -> Designer:
-    return Designer(options.design.sizes(ps.length_scale), ps.source, ps.length_scale, ps.length_unit)
+    return Designer(options.design.sizes(ps.length_scale), ps.source, ps.length_scale, ps.length_unit,
+                    getattr(ps, "constraints", None))
 
 
 def _finish(linkage, result, designer: Designer, options: SynthesisOptions, constraints=None, **extra) -> Result:

@@ -49,21 +49,13 @@ from __future__ import annotations
 import collections
 import contextlib
 import importlib
-import json
-import math
 import multiprocessing
 import os
-import re
 import sys
 from dataclasses import dataclass
 from typing import Any, Iterable, Iterator
 
 import numpy as np
-
-try:  # optional (mpsynth[fast]): result lines ~50x faster, the same bytes (`dumps`)
-    import orjson as _orjson
-except ImportError:
-    _orjson = None
 
 from synth.errors import MpsynthError
 from synth.info import FourBarRecord
@@ -75,10 +67,12 @@ from synth.io.writer import write_output
 from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_fourbar, solve_points, solve_sixbar
 from synth.solve.many import solve_bennett_many
 from synth.synthesis.points import MINIMUM, NEEDED
+from synth.tools.resultlines import dumps, dumps_lines  # noqa: F401 (dumps: the API of this module too)
 from synth.tools.jobspec import (DEGREES, KINDS, SIZE_KEYS, TASK_KEYS, JobError, check_job, echo_id, is_task_job,
-                                 one_line_message, parse_job, prepare_out, resolve_out)
+                                 one_line_message, parse_job, prepare_out, read_common_bennett, resolve_out)
 
 MAX_CHUNK = 1024  # jobs per chunk at most (`default_chunksize`)
+PIPE_CHUNK = 256  # jobs per chunk from a pipe (an unknown count: some chunks for every worker)
 
 
 def _synthesize(kind: str, ps, options: SynthesisOptions):
@@ -218,14 +212,15 @@ def _success(kind: str, linkage, out, full: bool) -> dict:
     return res
 
 
-def _success_fields(kind: str, joints: int, extent: float, checks, out, bennett=None, fit=None) -> dict:
-    """The fields of a successful result line, in their order."""
+def _success_fields(kind: str, joints: int, extent: float, checks, out, bennett=None, fit=None, clean=plain) -> dict:
+    """The fields of a successful result line, in their order (``clean``: how nested values become plain
+    JSON values; `_solve_many` passes plain floats already)."""
     res = {"ok": True, "kind": kind, "joints": joints, "extent": extent, "extent_unit": "m",
-           "checks": plain(dict(checks)), "out": out}
+           "checks": clean(dict(checks)), "out": out}
     if bennett is not None:
-        res["bennett"] = plain(bennett)
+        res["bennett"] = clean(bennett)
     if fit is not None:
-        res["fit"] = plain(fit)
+        res["fit"] = clean(fit)
     return res
 
 
@@ -248,11 +243,26 @@ def run_chunk(chunk, full: bool, out_dir, design: bool = True) -> list[dict]:
 
 def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) -> Iterator[dict]:
     """`run_chunk`'s results as they are ready (the batched jobs first, at once); ``stop``: as `run_jobs`,
-    asked before every result."""
-    read = [_read_job(item, out_dir, defer_out=True) for item in chunk]
+    asked before every result. The lines of the common Bennett shape are read for the whole chunk at once
+    (`synth.tools.jobspec.read_common_bennett`), the others one by one (`_read_job`)."""
+    common = read_common_bennett([text for _, text in chunk]) if not full else None
+    read: list = [None] * len(chunk)
+    if common is not None:
+        for n, jid in zip(common.index, common.ids):
+            read[n] = {"id": echo_id(jid), "line": chunk[n][0]}
+    for n, item in enumerate(chunk):
+        if read[n] is None:
+            read[n] = _read_job(item, out_dir, defer_out=True)
     fast = [n for n, j in enumerate(read) if isinstance(j, _Job) and _batchable(j, full)]
-    if fast:
-        _solve_many([read[n] for n in fast])
+    if common is not None and (fast or common.index):  # (fast: never with full, as common)
+        T = np.concatenate([common.poses] + [read[n].ps.matrices[None] for n in fast])
+        done = _solve_many(T, [read[n] for n in common.index] + [read[n].result for n in fast])
+        for n, ok in zip(fast, done[len(common.index):]):
+            if ok:
+                read[n].ps = None  # decided: its result is complete
+        for n, ok in zip(common.index, done):
+            if not ok:
+                read[n] = None  # undecided: the per-job path, at its turn
     for item, j in zip(chunk, read):
         if stop is not None and stop():
             raise Stopped
@@ -260,17 +270,26 @@ def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) ->
                j.result if j.ps is None else _solve_job(j, full, design))
 
 
-def _solve_many(jobs: list) -> None:
-    """Results for the jobs (`_Job`, three Bennett poses each) `solve_bennett_many` decides: each such
-    job's ``result`` completed (ok) and its ``ps`` set to None; the others are left as they are."""
+def _solve_many(T, results: list) -> list:
+    """Which of the three-pose Bennett sets T (n, 3, 4, 4) `solve_bennett_many` decides (a list of bools):
+    the result dict of each such set (``results[n]``) completed with its success fields; the others are
+    left as they are."""
     try:
-        many = solve_bennett_many(np.stack([j.ps.matrices for j in jobs]))
+        many = solve_bennett_many(T)
     except Exception:  # (never: the per-job path then gives every job its own result)
-        return
-    for n in np.flatnonzero(many.decided).tolist():
-        j = jobs[n]
-        j.result.update(_success_fields("bennett", 4, float(many.extent[n]), many.checks(n), None, many.parameters(n)))
-        j.ps = None  # done
+        return [False] * len(results)
+    index = np.flatnonzero(many.decided).tolist()
+    finite = np.isfinite(many.extent) & np.all([np.isfinite(v) for v in (*many.figures.values(), *many.bennett.values())],
+                                               axis=0)
+    checks, parameters = many.rows(index)
+    for n, c, b in zip(index, checks, parameters):  # (finite: plain floats, as `plain` leaves them)
+        results[n].update(_success_fields("bennett", 4, c["length_scale"], c, None, b,
+                                          clean=_same if finite[n] else plain))
+    return many.decided.tolist()
+
+
+def _same(x):
+    return x
 
 
 def chunks(items, size: int, max_bytes: int = 1 << 20):
@@ -289,9 +308,10 @@ def chunks(items, size: int, max_bytes: int = 1 << 20):
 
 def default_chunksize(workers: int, total: int | None) -> int:
     """Jobs per chunk: about 8 chunks per worker for a known job count, between 1 and MAX_CHUNK (a chunk's
-    Bennett jobs run as one batch: bigger chunks vectorize better); 64 for an unknown count (a pipe)."""
+    Bennett jobs run as one batch: bigger chunks vectorize better); PIPE_CHUNK for an unknown count (a pipe:
+    `synth.io.docload.read_chunks` answers what was read whenever the pipe is idle)."""
     if total is None:
-        return 64
+        return PIPE_CHUNK
     return max(1, min(MAX_CHUNK, total // (8 * max(workers, 1))))
 
 
@@ -313,17 +333,92 @@ class Stopped(Exception):
 
 
 POLL_SECONDS = 0.1  # how often a waiting `run_jobs` asks ``stop()`` (a reaction time, not a work budget)
+IDLE_SECONDS = 0.05  # a pipe without input this long: answer what was read (`synth.io.docload.read_chunks`)
+
+
+@dataclass
+class ChunkLines:
+    """The answer to a chunk of job lines: ``text``, its result lines (each ending in a newline, in input
+    order), ``codes`` per input line (0 ok, the exit code of a failed job, None a skipped blank line)
+    and, when asked for, the result dicts (``results``; else None)."""
+
+    text: str
+    codes: list
+    results: list | None = None
+
+
+def run_chunk_lines(chunk, full: bool, out_dir, design: bool = True, keep: bool = False) -> ChunkLines:
+    """`run_chunk` of a chunk given as (line number, text) pairs or as `synth.io.docload.read_chunks`
+    gives it, (first line number, [line bytes, or None for a line over the limit]): the raw bytes go to
+    a worker (no parsed objects), the result lines come back as one text (`dumps_lines`); ``keep``:
+    with the result dicts too."""
+    if isinstance(chunk, tuple):
+        first, raw = chunk
+        chunk = [(first + i, None if b is None else b.decode("utf-8", "replace")) for i, b in enumerate(raw)]
+    results = run_chunk(chunk, full, out_dir, design)
+    return ChunkLines(dumps_lines(results), [None if r.get("skipped") else 0 if r["ok"] else r["exit_code"]
+                                             for r in results], results if keep else None)
+
+
+def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializer=None, stop=None,
+              design: bool = True, keep: bool = False) -> Iterator[ChunkLines]:
+    """`ChunkLines` of ``chunks`` (`synth.io.docload.read_chunks`: chunks, or None while the input is
+    idle), in input order, as soon as each is ready and every one before it. ``jobs`` worker processes
+    (the caller caps it, `worker_count`), each set up by ``initializer(parent pid)`` (an importable
+    function; default `prepare_worker`), each chunk a task of one worker, at most two chunks per
+    worker ahead of the output (bounded memory). ``stop``: a callable asked before every chunk, on
+    every idle tick and, while waiting for a worker, every `POLL_SECONDS`; when it returns true the pool
+    is terminated (from this loop, never from inside the pool's own bookkeeping) and `Stopped` is
+    raised; asked while the input is idle, the chunks already read are answered first (every line read
+    gets its result). ``full``, ``out_dir``, ``design``: as `run_job`; ``keep``: as `run_chunk_lines`."""
+    stop = stop or (lambda: False)
+    if jobs <= 1:
+        for chunk in chunks:
+            if stop():
+                raise Stopped
+            if chunk is not None:
+                yield run_chunk_lines(chunk, full, out_dir, design, keep)
+        return
+    ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
+    pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
+    pending: collections.deque = collections.deque()
+
+    def first_done(finish: bool = False):
+        while not (stop() and not finish or pending[0].ready()):
+            pending[0].wait(POLL_SECONDS)
+        if not pending[0].ready():
+            raise Stopped
+        return pending.popleft().get()
+
+    try:
+        for chunk in chunks:
+            if stop():
+                while chunk is None and pending:  # idle: what was read is answered, then stop
+                    yield first_done(finish=True)
+                raise Stopped
+            if chunk is not None:
+                pending.append(pool.apply_async(run_chunk_lines, (chunk, full, out_dir, design, keep)))
+            while len(pending) > 2 * jobs:
+                yield first_done()
+            while pending and pending[0].ready():
+                yield first_done()
+        while pending:
+            yield first_done()
+        pool.close()
+    except BaseException:
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
 
 
 def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = False,
              total: int | None = None, out_dir=None, initializer=None, stop=None,
              design: bool = True) -> Iterator[dict]:
     """Results of the jobs in ``lines``, in input order. ``lines``: an iterable of (line number, text)
-    pairs (`synth.io.docload.read_lines`) or of text lines. ``jobs`` worker processes (the caller caps
-    it, `worker_count`), each set up by ``initializer(parent pid)`` (an importable function; default
-    `prepare_worker`). ``stop``: a callable asked before every job (chunk of jobs, with workers) and,
-    while waiting for a worker, every `POLL_SECONDS`; when it returns true the pool is terminated (from this loop, never from inside the
-    pool's own bookkeeping) and `Stopped` is raised. ``design``: as `run_job`."""
+    pairs (`synth.io.docload.read_lines`) or of text lines. ``jobs``, ``initializer``, ``design``: as
+    `run_batch`; ``stop``: asked before every job, and as `run_batch` asks it; when it returns true the
+    pool is terminated and `Stopped` is raised."""
     items = numbered(lines)
     stop = stop or (lambda: False)
     if chunksize is None:
@@ -332,34 +427,13 @@ def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = Fa
         for chunk in chunks(items, chunksize):
             yield from chunk_results(chunk, full, out_dir, design, stop)
         return
-    ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
-    pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
-    pending: collections.deque = collections.deque()
-
-    def first_done():
-        while not (stop() or pending[0].ready()):
-            pending[0].wait(POLL_SECONDS)
-        if stop():
-            raise Stopped
-        return pending.popleft().get()
-
-    try:
-        for chunk in chunks(items, chunksize):
-            if stop():
-                raise Stopped
-            pending.append(pool.apply_async(run_chunk, (chunk, full, out_dir, design)))
-            while len(pending) > 2 * jobs:
-                yield from first_done()
-            while pending and pending[0].ready():
-                yield from first_done()
-        while pending:
-            yield from first_done()
-        pool.close()
-    except BaseException:
-        pool.terminate()
-        raise
-    finally:
-        pool.join()
+    with contextlib.closing(run_batch(chunks(items, chunksize), jobs, full, out_dir, initializer, stop, design,
+                                      keep=True)) as answers:
+        for answer in answers:
+            for res in answer.results:
+                if stop():
+                    raise Stopped
+                yield res
 
 
 class _QuietWhenOrphaned:
@@ -393,37 +467,3 @@ def prepare_worker(parent: int | None = None) -> None:
         importlib.import_module("synth.synthesis.sixbar")
     except ImportError:
         pass
-
-
-def dumps(result: dict) -> str:
-    """One result line (never raises: a result JSON cannot carry becomes an internal-error line): the
-    bytes of ``json.dumps(result, separators=(",", ":"))``, by orjson when installed (``mpsynth[fast]``;
-    ~50x faster) wherever its text is provably the same (`_orjson_line`)."""
-    fast = _orjson_line(result)
-    if fast is not None:
-        return fast
-    try:
-        return json.dumps(result, separators=(",", ":"), allow_nan=False)
-    except (TypeError, ValueError) as e:
-        return json.dumps({"id": None, "line": result.get("line"), "ok": False, "exit_code": 3,
-                           "error": one_line_message(f"internal error: result not serializable: {e}")},
-                          separators=(",", ":"))
-
-
-# where orjson's text can differ from json.dumps': a non-ASCII byte (json escapes it), a float below 1e-4
-# (orjson: 0.00001, json: 1e-05) or with a one-digit negative exponent (orjson: 1.5e-7, json: 1.5e-07)
-_ORJSON_DIFFERS = re.compile(rb"[\x80-\xff]|0\.0000|e-\d(?!\d)")
-
-
-def _orjson_line(result: dict) -> str | None:
-    """``result`` as orjson writes it when that is json.dumps' text, else None (no orjson, a non-finite
-    float at the top level (orjson writes null; json refuses it: nested values went through
-    `synth.io.jsonout.plain`, which makes them null), a type or an integer orjson refuses, or text
-    `_ORJSON_DIFFERS` flags)."""
-    if _orjson is None or any(type(v) is float and not math.isfinite(v) for v in result.values()):
-        return None
-    try:
-        out = _orjson.dumps(result)
-    except TypeError:
-        return None
-    return None if _ORJSON_DIFFERS.search(out) else out.decode("ascii")

@@ -4,10 +4,12 @@
 (one single-threaded worker process per CPU, or ``workers``), anything else is the address of a running
 scheduler (``tcp://host:8786``, see README "Sweeps on a Dask cluster"). ``run_jobs_on(client, lines)`` is
 `synth.tools.batchjobs.run_jobs` on that cluster: the same (line number, text) items, cut into chunks
-(`synth.tools.batchjobs.chunks`), each chunk one Dask task running `synth.tools.batchjobs.run_chunk` on a
-worker, at most a few tasks per worker thread in flight (bounded memory on both sides), results
-yielded in input order as soon as the chunks before them are done. The result dictionaries are the ones
-of the local run, so the result lines are the same bytes.
+(`synth.tools.batchjobs.chunks`), each chunk one Dask task running `synth.tools.batchjobs.run_chunk_lines` on
+a worker, at most a few tasks per worker thread in flight (bounded memory on both sides), results
+yielded in input order as soon as the chunks before them are done; ``run_chunks_on(client, chunks)`` is
+`synth.tools.batchjobs.run_batch` there (`mpsynth batch --scheduler`: raw line bytes in, one text of
+result lines out per chunk). The results are the ones of the local run, so the result lines are the same
+bytes.
 
 Failures: a job never fails a task (`synth.tools.batchjobs.run_job` turns every error into a result). A
 worker that dies (killed, out of memory, its machine gone) loses no job: the scheduler runs its chunks
@@ -26,6 +28,7 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures
+import contextlib
 import logging
 import os
 import socket
@@ -33,7 +36,8 @@ import uuid
 from typing import Iterator
 
 from synth.errors import InputError, MpsynthError
-from synth.tools.batchjobs import chunks, default_chunksize, numbered, run_chunk, worker_count
+from synth.tools.batchjobs import ChunkLines, chunks, default_chunksize, numbered, run_chunk_lines, worker_count
+from synth.tools.resultlines import dumps_lines
 
 CONNECT_TIMEOUT = 30.0  # seconds to reach the scheduler
 WORKER_TIMEOUT = 60.0  # seconds to wait for a first worker
@@ -44,6 +48,20 @@ class ClusterError(MpsynthError):
     """The cluster itself failed (the scheduler went away, a task was cancelled). Exit code 2."""
 
     exit_code = 2
+
+
+# the worker's statistical profiler samples the task's stack every 10 ms from the worker's event loop, taking
+# the GIL from the task: CPU of a chunk of 1,024 README jobs in a Dask worker against a multiprocessing pool
+# worker, same machine, same run (loaded): 0.71-0.92 s against 0.59 s with it, 0.61-0.70 s against
+# 0.54-0.62 s without it. A local cluster's workers run without it.
+LOCAL_WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
+
+
+def dask_config():
+    """``dask.config`` (Dask installed: `import_distributed` first)."""
+    import dask
+
+    return dask.config
 
 
 def import_distributed():
@@ -75,8 +93,9 @@ def connect(address: str, workers: int | None = None, timeout: float = CONNECT_T
     if address == "local":
         n = worker_count(workers or 0, None)
         try:
-            cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                               dashboard_address=None, silence_logs=logging.ERROR)
+            with dask_config().set(LOCAL_WORKER_CONFIG):  # (handed to the worker processes by their nannies)
+                cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                                   dashboard_address=None, silence_logs=logging.ERROR)
         except Exception as e:
             raise ClusterError(f"--scheduler local: cannot start a local Dask cluster ({type(e).__name__}: {e})") from None
         return distributed.Client(cluster)
@@ -140,26 +159,39 @@ def run_jobs_on(client, lines, chunksize: int | None = None, full: bool = False,
                 out_dir=None, window: int | None = None, design: bool = True) -> Iterator[dict]:
     """Results of the jobs in ``lines`` ((line number, text) pairs or text lines) computed on the Dask
     cluster of ``client``, in input order, streamed; the same dictionaries as
-    `synth.tools.batchjobs.run_jobs`. ``window``: tasks in flight (default 3 per worker thread, at
-    least 4). Pending tasks are cancelled when the generator is closed early."""
-    threads = worker_threads(client)
+    `synth.tools.batchjobs.run_jobs` (`run_chunks_on`)."""
     if chunksize is None:
-        chunksize = default_chunksize(threads, total)
+        chunksize = default_chunksize(worker_threads(client), total)
+    with contextlib.closing(run_chunks_on(client, chunks(numbered(lines), chunksize), full, out_dir, window, design,
+                                          keep=True)) as answers:
+        for answer in answers:
+            yield from answer.results
+
+
+def run_chunks_on(client, chunks, full: bool = False, out_dir=None, window: int | None = None, design: bool = True,
+                  keep: bool = False) -> Iterator[ChunkLines]:
+    """`synth.tools.batchjobs.run_batch` on the Dask cluster of ``client``: `ChunkLines` of ``chunks``
+    (`synth.io.docload.read_chunks`, None: the input is idle) in input order, streamed, each chunk one
+    task (`run_chunk_lines`: line bytes in, one text of result lines out). ``window``: tasks in flight
+    (default 3 per worker thread, at least 4). Pending tasks are cancelled when the generator is closed
+    early."""
+    threads = worker_threads(client)
     base = os.path.abspath(os.fspath(out_dir) if out_dir is not None else os.curdir)
     window = window or max(4, 3 * threads)
     token = uuid.uuid4().hex[:12]
     pending: collections.deque = collections.deque()  # (future, chunk) in input order
     try:
-        for chunk in chunks(numbered(lines), chunksize):
-            fut = client.submit(run_chunk, chunk, full, base, design, pure=False,
-                                key=f"mpsynth-batch-{token}-{chunk[0][0]}")
-            pending.append((fut, chunk))
+        for chunk in chunks:
+            if chunk is not None:
+                fut = client.submit(run_chunk_lines, chunk, full, base, design, keep, pure=False,
+                                    key=f"mpsynth-batch-{token}-{_first(chunk)}")
+                pending.append((fut, chunk))
             while len(pending) >= window:
-                yield from _collect(client, *pending.popleft(), full, base, design)
+                yield _collect(client, *pending.popleft(), full, base, design, keep)
             while pending and pending[0][0].done():
-                yield from _collect(client, *pending.popleft(), full, base, design)
+                yield _collect(client, *pending.popleft(), full, base, design, keep)
         while pending:
-            yield from _collect(client, *pending.popleft(), full, base, design)
+            yield _collect(client, *pending.popleft(), full, base, design, keep)
     finally:
         if pending:
             try:
@@ -168,22 +200,37 @@ def run_jobs_on(client, lines, chunksize: int | None = None, full: bool = False,
                 pass
 
 
-def _collect(client, fut, chunk, full, base, design=True) -> list[dict]:
-    """The results of one submitted chunk; a chunk that killed workers is run job by job."""
+def _first(chunk) -> int:
+    """The number of the first line of ``chunk`` (either form `run_chunk_lines` takes)."""
+    return chunk[0] if isinstance(chunk, tuple) else chunk[0][0]
+
+
+def _singles(chunk) -> list:
+    """The one-line chunks of ``chunk`` (either form `run_chunk_lines` takes)."""
+    if isinstance(chunk, tuple):
+        return [(chunk[0] + i, [b]) for i, b in enumerate(chunk[1])]
+    return [[item] for item in chunk]
+
+
+def _collect(client, fut, chunk, full, base, design=True, keep=False) -> ChunkLines:
+    """The answer to one submitted chunk; a chunk that killed workers is run job by job."""
     distributed = import_distributed()
     try:
         return fut.result()
     except distributed.KilledWorker:
-        if len(chunk) == 1:
-            lineno = chunk[0][0]
-            return [{"id": None, "line": lineno, "ok": False, "exit_code": 3,
-                     "error": "internal error: this job killed every Dask worker that ran it "
-                              "(out of memory, a crash); it was not completed"}]
-        singles = [client.submit(run_chunk, [item], full, base, design, pure=False) for item in chunk]
-        return [r for f, item in zip(singles, chunk) for r in _collect(client, f, [item], full, base, design)]
+        singles = _singles(chunk)
+        if len(singles) == 1:
+            res = {"id": None, "line": _first(chunk), "ok": False, "exit_code": 3,
+                   "error": "internal error: this job killed every Dask worker that ran it "
+                            "(out of memory, a crash); it was not completed"}
+            return ChunkLines(dumps_lines([res]), [3], [res] if keep else None)
+        futures = [client.submit(run_chunk_lines, one, full, base, design, keep, pure=False) for one in singles]
+        parts = [_collect(client, f, one, full, base, design, keep) for f, one in zip(futures, singles)]
+        return ChunkLines("".join(p.text for p in parts), [c for p in parts for c in p.codes],
+                          [r for p in parts for r in p.results] if keep else None)
     except ImportError as e:  # the worker's Python has no (or another) mpsynth
         raise ClusterError(f"a Dask worker cannot run mpsynth's jobs ({type(e).__name__}: {e}); install "
                            f"the same mpsynth on every worker ({INSTALL_HINT})") from None
     except (concurrent.futures.CancelledError, OSError, TimeoutError) as e:
-        raise ClusterError(f"the Dask cluster failed while running the jobs from line {chunk[0][0]} on "
+        raise ClusterError(f"the Dask cluster failed while running the jobs from line {_first(chunk)} on "
                            f"({type(e).__name__}: {' '.join(str(e).split())}); the results before them are complete") from None

@@ -7,12 +7,16 @@ import difflib
 import json
 import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from synth.errors import InputError, MpsynthError
 from synth.io.atomic import check_path
 from synth.io.docload import json_object_pairs
 from synth.io.names import check_robot_name
+from synth.io.posespec import ANGLE_UNITS, LENGTH_UNITS, MAX_ABS_NUMBER, rpy_poses
 from synth.io.writer import check_output_target
 
 KINDS = {"bennett": 3, "sixbar": 4, "fourbar": (2, None)}  # pose counts (fourbar: its own refusals below 3)
@@ -154,3 +158,86 @@ def prepare_out(out: str, force: bool, created: list) -> None:
     except OSError as e:
         raise JobError(f"{parent}: cannot create the output's parent directory ({e.strerror or e})") from None
     check_output_target(out, force=force)
+
+
+# ------------------------------------------------------------------ the common Bennett job, a chunk at once
+COMMON_KEYS = frozenset(("id", "kind", "units", "poses"))
+UNIT_KEYS = frozenset(("length", "angle"))
+
+
+@dataclass
+class CommonBennett:
+    """The lines of a chunk `read_common_bennett` has read: their positions in the chunk (``index``), their
+    ids as a result echoes them and their poses (n, 3, 4, 4) in metres."""
+
+    index: list
+    ids: list
+    poses: np.ndarray
+
+
+def read_common_bennett(texts) -> CommonBennett:
+    """The job lines among ``texts`` (str, or None for a line over the limit) of the common shape ``{"id",
+    "kind": "bennett", "units": {"length", ["angle"]}, "poses": [3 x {"position", "rpy"}]}`` (any key order,
+    no other key) that the full reader (`parse_job`, `check_job`, `synth.io.poses.parse_pose_document`)
+    accepts, with the pose matrices it gives, bit for bit: parsed by the json module's C scanner without
+    hooks (the same numbers), refused here (left to the full reader, which says what is wrong) when a line
+    has a backslash, a duplicate key (the colons outside strings must equal the keys parsed), a number
+    that is not finite or is beyond the limits (with a margin: `synth.io.posespec.rpy_poses`), or any
+    other shape. Every other line is the full reader's."""
+    rows = [(n, _common_bennett(t)) for n, t in enumerate(texts)]
+    rows = [(n, r) for n, r in rows if r is not None]
+    out = CommonBennett([], [], np.empty((0, 3, 4, 4)))
+    parts = []
+    for unit in ("deg", "rad", None):
+        group = [(n, r) for n, r in rows if r[3] == unit]
+        if not group:
+            continue
+        ok, T = rpy_poses([r[1] for _, r in group], [r[2] for _, r in group], unit)
+        keep = np.flatnonzero(ok).tolist()
+        out.index += [group[k][0] for k in keep]
+        out.ids += [group[k][1][0] for k in keep]
+        parts.append(T[ok])
+    if parts:
+        order = np.argsort(out.index, kind="stable")
+        out.index = [out.index[k] for k in order]
+        out.ids = [out.ids[k] for k in order]
+        out.poses = np.concatenate(parts)[order]
+    return out
+
+
+def _common_bennett(text):
+    """(id, numbers (3, 6), metres per length unit, angle unit or None) of one line of the common shape
+    (`read_common_bennett`), else None."""
+    if text is None or "\\" in text or len(text) > MAX_LINE:
+        return None
+    try:
+        job = json.loads(text)
+    except (ValueError, RecursionError):
+        return None
+    if type(job) is not dict or job.get("kind") != "bennett" or not job.keys() <= COMMON_KEYS:
+        return None
+    units, poses, jid = job.get("units"), job.get("poses"), job.get("id")
+    if type(units) is not dict or not units.keys() <= UNIT_KEYS or type(poses) is not list or len(poses) != 3:
+        return None
+    length, angle = units.get("length"), units.get("angle")
+    if type(length) is not str or length not in LENGTH_UNITS or (
+            "angle" in units and (type(angle) is not str or angle not in ANGLE_UNITS)):
+        return None
+    if jid is not None and type(jid) not in (str, int, float):
+        return None
+    numbers = []
+    for p in poses:
+        if type(p) is not dict or len(p) != 2:
+            return None
+        position, rpy = p.get("position"), p.get("rpy")
+        if type(position) is not list or type(rpy) is not list or len(position) != 3 or len(rpy) != 3:
+            return None
+        numbers.append(position + rpy)
+    if not all(type(x) is float or type(x) is int and -MAX_ABS_NUMBER <= x <= MAX_ABS_NUMBER
+               for row in numbers for x in row):
+        return None
+    if type(jid) is float and not math.isfinite(jid):
+        return None
+    if "".join(text.split('"')[::2]).count(":") != len(job) + len(units) + 6:  # a duplicate key
+        return None
+    return jid, numbers, LENGTH_UNITS[length], angle

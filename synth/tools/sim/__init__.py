@@ -20,7 +20,11 @@ What every engine does (the closed-loop convention of docs/conventions.md):
   the result counts the steps with such a contact and the largest contact force;
 - start at all-zero angles at rest (a valid configuration: the first pose), release every joint's
   default motor and drive the first joint of the first branch through one full turn in ``seconds``
-  with a position motor, paced for an even joint-space speed of the whole linkage (`DriveProfile`);
+  with a position motor, paced for an even joint-space speed of the whole linkage (`DriveProfile`); when
+  that joint nearly stops somewhere (another joint turns over `STEADY_RATIO` times as fast), the joint
+  whose worst speed ratio is smallest drives instead if it stays within `STEADY_RATIO` (`steady_driver`),
+  else the stretch where the driver nearly stops (a near-singular passage of the loop) is tracked apart
+  (`Unsteady`: there the welds' give is magnified by the speed ratio);
 - after every step compare every joint with the exact motion: the configuration's distance from the
   motion's curve in joint space (`nearest_on_motion`: the driver angle phi whose exact angles, via the
   motion parameter t = a + b cot(phi/2) of the angle laws theta(t) = 2 atan2(b, t - a),
@@ -87,6 +91,8 @@ class SimSetup:
     rates: dict = field(default_factory=dict)  # joint -> rate of its angle law (absent: 1)
     singular_deg: tuple = ()  # driver angles (deg) of singular configurations (linkage.json info.darboux)
     loops: dict = field(default_factory=dict)  # joint -> its planar four-bar loop law (docs/fourbar.md)
+    driver_choice: object = None  # a `DriverChoice` when another joint than the first is driven
+    unsteady: object = None  # the `Unsteady` stretch of the sweep: where the driver nearly stops
 
     def start_angles(self) -> dict:
         """Joint angles at the start of the sweep: all zero, or the exact motion at the lower limit."""
@@ -139,8 +145,141 @@ def load_setup(out) -> SimSetup:
     lim = u.joints[driver].limit if u.joints[driver].kind == "revolute" else None
     if lim is not None and 0 < lim[1] - lim[0] < TWO_PI - 1e-9:  # a task-range design: stay inside
         drive = (float(lim[0]), float(lim[1]))
-    return SimSetup(Path(out).resolve(), u, u.name or "linkage", laws, driver, joints, closures, names, refs,
-                    inertials, split, size, drive, angle_rates(doc), _singular_deg(doc, driver), loop_laws(doc))
+    rates, loops, singular = angle_rates(doc), loop_laws(doc), _singular_deg(doc, driver)
+    choice = steady_driver(laws, rates, loops, joints, driver, drive) if not singular else None
+    setup = SimSetup(Path(out).resolve(), u, u.name or "linkage", laws, driver, joints, closures, names, refs,
+                     inertials, split, size, drive, rates, singular, loops)
+    if choice is not None:
+        setup.driver, setup.drive_range, setup.driver_choice = choice.joint, choice.drive_range, choice
+    elif not singular:
+        setup.unsteady = unsteady_stretch(laws, rates, loops, joints, driver, drive)
+    return setup
+
+
+@dataclass(frozen=True)
+class Unsteady:
+    """Where the driver nearly stops: over the driver angles ``phi`` (n,) (rad, its sweep) the steps
+    ``mask`` (n,) where some joint turns more than `STEADY_RATIO` times as fast as the driver, and no joint
+    of the linkage would drive that stretch steadily (`steady_driver` found none); the worst: ``fastest``
+    turns ``ratio`` times as fast as the driver at its angle ``at`` (rad)."""
+
+    phi: np.ndarray
+    mask: np.ndarray
+    ratio: float
+    fastest: str
+    at: float
+
+    def contains(self, angles) -> np.ndarray:
+        """(n,) bool: which driver angles (rad, in the sweep's coordinates) lie in the stretch."""
+        k = np.clip(np.searchsorted(self.phi, np.asarray(angles, float)), 0, len(self.phi) - 1)
+        return self.mask[k] | self.mask[np.maximum(k - 1, 0)]
+
+    def span_deg(self) -> tuple[float, float]:
+        """The first and last driver angle (deg) of the piece of the stretch around the worst point ``at``
+        (over the end of a whole-turn sweep: from below 0)."""
+        k = int(np.argmin(np.abs(self.phi - self.at)))
+        lo = hi = k
+        while lo > 0 and self.mask[lo - 1]:
+            lo -= 1
+        while hi < len(self.mask) - 1 and self.mask[hi + 1]:
+            hi += 1
+        start, end = float(self.phi[lo]), float(self.phi[hi])
+        turn = abs(self.phi[-1] - self.phi[0] - TWO_PI) < 1e-9
+        if turn and lo == 0 and self.mask[-2]:  # the piece runs on from the end of the turn
+            j = len(self.mask) - 2
+            while j > 0 and self.mask[j - 1]:
+                j -= 1
+            start = float(self.phi[j]) - TWO_PI
+        elif turn and hi == len(self.mask) - 1 and self.mask[1]:
+            j = 1
+            while j < len(self.mask) - 1 and self.mask[j + 1]:
+                j += 1
+            end = float(self.phi[j]) + TWO_PI
+        return math.degrees(start), math.degrees(end)
+
+
+def unsteady_stretch(laws, rates, loops, joints, driver, drive, grid: int = 4096) -> Unsteady | None:
+    """The `Unsteady` stretch of the driver's sweep ``drive`` (rad), or None when every joint stays within
+    `STEADY_RATIO` times the driver's speed."""
+    if driver not in laws or driver in (loops or {}):
+        return None
+    phi, _, dq = joint_speeds(laws, rates, loops, joints, driver, drive, grid)
+    ratio = dq / np.maximum(dq[joints.index(driver)], 1e-300)  # (J, n)
+    worst = ratio.max(axis=0)
+    if worst.max() <= STEADY_RATIO:
+        return None
+    k = int(worst.argmax())
+    return Unsteady(phi, worst > STEADY_RATIO, float(worst[k]), joints[int(ratio[:, k].argmax())], float(phi[k]))
+
+
+STEADY_RATIO = 10.0  # the first joint drives unless another joint turns this many times as fast somewhere
+
+
+@dataclass(frozen=True)
+class DriverChoice:
+    """Why the simulation drives ``joint`` and not the first joint ``first``: somewhere in its sweep
+    ``fastest`` turns ``ratio`` times as fast as ``first`` (at ``first``'s angle ``at``, rad), while no joint
+    ever turns more than ``joint_ratio`` times as fast as ``joint``; ``drive_range``: ``joint``'s sweep
+    (rad) over the same arc of the motion."""
+
+    first: str
+    ratio: float
+    fastest: str
+    at: float
+    joint: str
+    joint_ratio: float
+    drive_range: tuple
+
+    def sentence(self) -> str:
+        return (f"driving {self.joint} (no joint turns more than {self.joint_ratio:.3g} times as fast) instead of "
+                f"{self.first}, which nearly stops where {self.fastest} turns {self.ratio:.3g} times as fast "
+                f"({self.first} = {math.degrees(self.at) % 360:.1f} deg)")
+
+
+def joint_speeds(laws, rates, loops, joints, driver, drive, grid: int = 4096):
+    """(phi (n,), angles (J, n) unwrapped, speeds (J, n) |d theta_j / d phi|) of ``joints`` over the
+    driver's sweep ``drive`` (rad) on a grid of n = ``grid`` + 1 driver angles phi."""
+    phi = np.linspace(drive[0], drive[1], grid + 1)
+    ex = law_angles(laws, driver, np.mod(phi, TWO_PI), rates, loops)
+    q = np.unwrap(np.array([np.broadcast_to(ex[jn], phi.shape) for jn in joints]), axis=1)
+    return phi, q, np.abs(np.gradient(q, phi, axis=1))
+
+
+def speed_ratios(laws, rates, loops, joints, driver, drive, grid: int = 4096):
+    """(ratios (J,), fastest joint index (J,), driver-grid index of it (J,), phi grid, angles (J, n)) over
+    the driver's sweep ``drive`` (rad): for every joint k of ``joints`` the largest |d theta_i / d theta_k|
+    over the sweep and the joints i (the joint whose speed a motor on k would have to multiply most)."""
+    phi, q, dq = joint_speeds(laws, rates, loops, joints, driver, drive, grid)
+    ratio = dq[None, :, :] / np.maximum(dq[:, None, :], 1e-300)  # [k, i, n]: joint i per unit of joint k
+    worst = ratio.max(axis=1)  # (J, n)
+    at = worst.argmax(axis=1)
+    fastest = ratio[np.arange(len(joints)), :, at].argmax(axis=1)
+    return worst.max(axis=1), fastest, at, phi, q
+
+
+def steady_driver(laws, rates, loops, joints, driver, drive) -> DriverChoice | None:
+    """The joint to drive instead of ``driver`` over the same arc of the motion, or None to keep it: when
+    some joint turns more than `STEADY_RATIO` times as fast as ``driver`` somewhere in its sweep ``drive``
+    (the driver nearly stops at a near-singular configuration: a position motor on it barely constrains the
+    rest of the loop, whose welds then give way by the speed ratio), the joint whose worst speed ratio is
+    smallest, when that one stays within `STEADY_RATIO` (else no joint drives the passage steadily: the
+    first joint is kept); candidates: joints with their own angle law of rate 1 (no four-bar loop law)."""
+    ok = [k for k, jn in enumerate(joints) if jn in laws and jn not in (loops or {}) and rates.get(jn, 1) == 1]
+    if driver not in [joints[k] for k in ok]:
+        return None
+    worst, fastest, at, phi, q = speed_ratios(laws, rates, loops, joints, driver, drive)
+    d = joints.index(driver)
+    if worst[d] <= STEADY_RATIO:
+        return None
+    best = min(ok, key=lambda k: (worst[k], k))
+    if worst[best] > STEADY_RATIO:  # no steady joint: a near-singular passage of the loop (`run.simulate`)
+        return None
+    lo, hi = float(q[best, 0]), float(q[best, -1])
+    if (lo, hi) != (0.0, 0.0) and tuple(drive) == (0.0, TWO_PI):
+        lo, hi = 0.0, TWO_PI  # a whole turn of the driver is a whole turn of every joint of rate 1
+    lo, hi = min(lo, hi), max(lo, hi)
+    return DriverChoice(driver, float(worst[d]), joints[int(fastest[d])], float(phi[at[d]]), joints[best],
+                        float(worst[best]), (lo, hi))
 
 
 def _singular_deg(doc: dict, driver: str) -> tuple:
@@ -290,6 +429,8 @@ class Tracker:
         self.max_gap_angle = 0.0
         self.max_driver_error = 0.0
         self.max_at_driver = 0.0
+        self.max_dev_steady = 0.0  # outside the setup's `Unsteady` stretch (all of the sweep without one)
+        self.max_dev_unsteady = 0.0  # inside it
         self.samples = 0
 
     def joints(self, q: dict, target=None) -> None:
@@ -305,6 +446,12 @@ class Tracker:
                 self.max_at_driver = max(self.max_at_driver, float(np.abs(wrap_angle(q[jn] - exact[jn])).max()))
         _, res = nearest_on_motion(s, q)
         dev = np.abs(res)  # (joints, steps)
+        inside = s.unsteady.contains(q[s.driver]) if s.unsteady is not None else np.zeros(dev.shape[1], bool)
+        step = dev.max(axis=0)
+        if (~inside).any():
+            self.max_dev_steady = max(self.max_dev_steady, float(step[~inside].max()))
+        if inside.any():
+            self.max_dev_unsteady = max(self.max_dev_unsteady, float(step[inside].max()))
         j, i = np.unravel_index(int(np.argmax(dev)), dev.shape)
         if dev[j, i] > self.max_dev or self.worst_joint is None:
             self.max_dev, self.worst_joint = float(dev[j, i]), s.joints[j]
@@ -327,4 +474,13 @@ class Tracker:
                 "worst_joint": self.worst_joint, "worst_driver_angle": self.worst_angle,
                 "driver": self.setup.driver, "max_driver_error": self.max_driver_error,
                 "drive_range": [float(v) for v in self.setup.drive_range],
-                "max_deviation_at_driver_angle": self.max_at_driver, **extra}
+                "max_deviation_at_driver_angle": self.max_at_driver,
+                **({"driver_choice": self.setup.driver_choice.sentence(),
+                    "first_joint_speed_ratio": self.setup.driver_choice.ratio} if self.setup.driver_choice else {}),
+                **(self._unsteady() if self.setup.unsteady is not None else {}), **extra}
+
+    def _unsteady(self) -> dict:
+        u = self.setup.unsteady
+        return {"max_joint_deviation_steady": self.max_dev_steady,
+                "unsteady": {"driver_deg": list(u.span_deg()), "speed_ratio": u.ratio, "fastest": u.fastest,
+                             "at_deg": math.degrees(u.at), "max_joint_deviation": self.max_dev_unsteady}}

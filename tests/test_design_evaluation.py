@@ -1,0 +1,97 @@
+"""The design search's evaluation kept exact while made cheaper (issue 36): every shortcut gives the numbers
+of the plain formulation bit for bit, so the search's choices cannot change (synth.design.coordinate's
+critical entries, synth.design.search.Layout's offsets, synth.io.solid.weld). (The segment distance's
+rewrite is held to the smallest distance of points and to worked numbers in test_design_search.py.)"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from conftest import REPO
+from synth.design.coordinate import _Critical
+from synth.design.search import Layout, resolved_sizes
+from synth.io.poses import load_poses
+from synth.io.solid import capsule, concatenate, cylinder, weld
+from synth.synthesis.bennett import bennett
+
+
+class PlainCritical:
+    """The critical entries as an ordered dict (least recently seen first): the reference of `_Critical`."""
+
+    def __init__(self, mask, cap):
+        self.mask, self.cap, self.keys = mask, cap, {}
+
+    def add(self, d):
+        dm = np.where(self.mask[None, None, :], d, np.inf)
+        k = dm.argmin(axis=2)
+        flat = dm.reshape(len(d), -1)
+        top = np.argpartition(flat, min(16, flat.shape[1] - 1), axis=1)[:, :16]
+        new = [(p, int(x)) for row in k for p, x in enumerate(row)]
+        new += [divmod(int(x), d.shape[2]) for row in top for x in row]
+        for key in new:
+            self.keys.pop(key, None)
+            self.keys[key] = None
+        while len(self.keys) > self.cap:
+            self.keys.pop(next(iter(self.keys)))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.integers(1, 5), st.integers(1, 7), st.integers(2, 30), st.integers(4, 200))
+def test_critical_entries_keep_the_order_of_the_plain_bookkeeping(seed, n, P, K, cap):
+    rng = np.random.default_rng(seed)
+    mask = rng.random(K) < 0.7
+    mask[0] = True
+    fast, plain = _Critical(mask, cap), PlainCritical(mask, cap)
+    for _ in range(4):
+        d = np.round(rng.normal(size=(n, P, K)), 1)  # ties too
+        fast.add(d)
+        plain.add(d)
+        p, k = fast.arrays()
+        assert list(zip(p.tolist(), k.tolist())) == list(plain.keys)
+
+
+@pytest.fixture(scope="module")
+def layout():
+    lk = bennett(load_poses(REPO / "fixtures" / "bennett_mm_deg.yaml").matrices)
+    e = lk.extent()
+    sizes = resolved_sizes(0.02 * e, 0.015 * e, 0.06 * e, 0.002 * e)
+    return Layout(lk, merged=True, **sizes), Layout(lk, merged=False, **sizes)
+
+
+def test_layout_offsets_are_the_per_joint_formulas(layout):
+    """Mount offsets c + sigma (k - (n - 1) / 2) g per mount and end offsets (mount, lowest or highest
+    mount of the joint, crank offset, plus a constant) per end, as the loops over joints wrote them."""
+    rng = np.random.default_rng(5)
+    for lay in layout:
+        J = len(lay.joints)
+        c, sigma, g = rng.normal(size=(6, J)), rng.choice([-1.0, 1.0], size=(6, J)), rng.random((6, J)) + 0.1
+        S = lay.mount_offsets(c, sigma, g)
+        for ji, j in enumerate(lay.joints):
+            links = lay.links_of[j]
+            for k, link in enumerate(links):
+                want = c[:, ji] + sigma[:, ji] * (k - (len(links) - 1) / 2) * g[:, ji]
+                assert np.array_equal(S[:, lay.mindex[(link, j)]], want)
+        E = lay.end_offsets(S)
+        lo = np.stack([S[:, [lay.mindex[(l, j)] for l in lay.links_of[j]]].min(axis=1) for j in lay.joints], 1)
+        hi = np.stack([S[:, [lay.mindex[(l, j)] for l in lay.links_of[j]]].max(axis=1) for j in lay.joints], 1)
+        for e, (kind, index, const) in enumerate(lay.ends):
+            assert np.array_equal(E[:, e], (S, lo, hi)[kind][:, index] + const)
+        assert {kind for kind, _, _ in lay.ends} == {0, 1, 2}  # mounts, lowest and highest of a stack
+
+
+def test_weld_is_numpys_unique_rows():
+    """`weld` (one lexsort) gives np.unique(rows)'s vertices and indices; -0.0 and 0.0 are one vertex."""
+    mesh = concatenate([capsule(np.zeros(3), np.array([0.3, -0.2, 0.1]), 0.05, 32),
+                        cylinder(np.zeros(3), np.array([0.0, 0.0, 0.2]), 0.07, 48)])
+    for dtype in (np.float32, np.float64):
+        tri = mesh.triangles.astype(dtype)
+        tri[0, 0] = [0.0, 0.0, 0.0]
+        tri[1, 1] = [-0.0, 0.0, -0.0]
+        got = weld(tri)
+        corners = np.ascontiguousarray(tri.reshape(-1, 3) + dtype(0.0))
+        vertices, index = np.unique(corners, axis=0, return_inverse=True)
+        assert np.array_equal(got.vertices, vertices.astype(np.float64))
+        assert np.array_equal(got.faces, index.reshape(-1, 3))
+        assert got.faces[0, 0] == got.faces[1, 1]
