@@ -9,7 +9,7 @@ from __future__ import annotations
 import types
 import typing
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields, is_dataclass, replace
+from dataclasses import dataclass, field, fields, is_dataclass
 
 import numpy as np
 
@@ -50,8 +50,15 @@ class Record:
         return cls.MARK is None or cls.MARK in d
 
     def replace(self, **changes):
-        """A copy with ``changes`` (`dataclasses.replace`)."""
-        return replace(self, **changes)
+        """A copy with ``changes``: `dataclasses.replace` without a second ``__init__`` (records have no
+        ``__post_init__``; the copy is on every synthesis's path)."""
+        unknown = changes.keys() - self.__dataclass_fields__.keys()
+        if unknown:
+            raise TypeError(f"{type(self).__name__} has no fields {sorted(unknown)}")
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new.__dict__.update(changes)
+        return new
 
 
 def document(v):
