@@ -55,7 +55,7 @@ def _coplanar(ps) -> bool:
     return True
 
 
-def load_spec(kind: Kind | None) -> dict:
+def reader_options(kind: Kind | None) -> dict:
     """The counts `parse_pose_document` checks for ``kind``, as its command does (None: any task)."""
     from synth.solve.tasks import point_count
 
@@ -75,7 +75,7 @@ def kind_problems(doc, source: str, normalize: bool = False) -> dict[Kind, str |
     out: dict[Kind, str | None] = {}
     for kind in Kind:
         try:
-            ps = parse_pose_document(copy.deepcopy(doc), source=source, normalize=normalize, **load_spec(kind))
+            ps = parse_pose_document(copy.deepcopy(doc), source=source, normalize=normalize, **reader_options(kind))
             out[kind] = None
             if kind is Kind.FOURBAR and (ps.has_points or not _coplanar(ps)):
                 out[kind] = ("a four-bar needs poses, not points" if ps.has_points else
@@ -137,10 +137,10 @@ def synthesize(doc, source: str, kind: Kind | None, normalize: bool = False) -> 
     out = Synthesis(kind or Kind.BENNETT)
     try:
         if kind is None:
-            out.ps = parse_pose_document(copy.deepcopy(doc), source=source, normalize=normalize, **load_spec(None))
+            out.ps = parse_pose_document(copy.deepcopy(doc), source=source, normalize=normalize, **reader_options(None))
             kind = default_kind(out.ps)
         out.kind = kind
-        out.ps = ps = parse_pose_document(copy.deepcopy(doc), source=source, normalize=normalize, **load_spec(kind))
+        out.ps = ps = parse_pose_document(copy.deepcopy(doc), source=source, normalize=normalize, **reader_options(kind))
         top = TOP if ranks(kind, ps) else None
         result = SOLVERS[kind](ps, SynthesisOptions(top=top))
         if result.solutions:
