@@ -16,7 +16,7 @@ from synth.tools.resultstable import ResultsTable
 
 from . import signals
 from .common import debug_option, echo, nonempty_path, run_guarded
-from .streams import silence_stdout, terminate_as_exit
+from .streams import WRITING, silence_stdout, terminate_as_exit
 
 
 class Progress:
@@ -65,10 +65,14 @@ def _read(lines, source):
 
 
 def _write(text: str) -> None:
-    """One result line on stdout, flushed; a full disk or closed stdout is an OutputError."""
+    """Result lines on stdout, flushed; a full disk or closed stdout is an OutputError."""
     try:
-        sys.stdout.write(text)
-        sys.stdout.flush()
+        with WRITING:  # a forced exit after a signal (`cli.streams.exit_after_cleanup`) never cuts a line
+            # line by line: a signal's exception inside a write of the whole text lost the rest of a line
+            # (stdout's buffer takes each line whole or not at all; what it holds is flushed at exit)
+            for line in text.splitlines(keepends=True):
+                sys.stdout.write(line)
+            sys.stdout.flush()
     except BrokenPipeError:
         raise
     except (OSError, ValueError, AttributeError) as e:  # ValueError/AttributeError: stdout closed

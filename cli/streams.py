@@ -42,12 +42,16 @@ def environment_error(e: BaseException) -> str | None:
     return None
 
 
+WRITING = threading.Lock()  # held while whole result lines go to stdout (`mpsynth batch`); a forced exit waits for it
+
+
 def _exit_after(seconds: float, code: int) -> None:
     """Exit with ``code`` after ``seconds`` unless the process has ended by then: a worker pool's clean-up
     (terminate, join) can block for good when SIGTERM interrupted the pool's own bookkeeping, and a
     terminated command must end. Whole result lines already written are flushed first."""
 
     def exit_now():
+        WRITING.acquire(timeout=seconds)  # a result text being written is finished first (never half a line)
         flush = threading.Thread(target=sys.stdout.flush, daemon=True)  # not here: it may wait on a held lock
         flush.start()
         flush.join(1.0)
