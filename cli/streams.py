@@ -51,7 +51,7 @@ def _exit_after(seconds: float, code: int) -> None:
     terminated command must end. Whole result lines already written are flushed first."""
 
     def exit_now():
-        WRITING.acquire(timeout=seconds)  # a result text being written is finished first (never half a line)
+        WRITING.acquire(timeout=1.0)  # a result text being written is finished first (never half a line)
         flush = threading.Thread(target=sys.stdout.flush, daemon=True)  # not here: it may wait on a held lock
         flush.start()
         flush.join(1.0)
