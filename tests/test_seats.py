@@ -89,3 +89,16 @@ def test_face_clear_is_the_margin_outside_the_opening(angle, bar, sign):
     e = 0.5 * design.hub_length * math.tan(a)
     want = sign < 0 or e + design.bar_radius >= opening + min(0.5 * design.bar_radius, 1.2e-3)
     assert face_clear(d, np.array([0.0, 0.0, 1.0]), design, opening) == want
+
+
+def test_the_assembly_sheet_inserts_each_pin_from_its_head_side():
+    """synth.tools.plates.assembly_steps: the pin enters at the face that takes its head and ends in the
+    blind bore (bennett_spherical's h1 after the rule: from the base's face into link_h1)."""
+    from synth.tools.plates import assembly_steps
+
+    lk, design = _fixture("bennett_spherical", "press")
+    steps = {s["joint"]: s for s in assembly_steps({"design": seat_pins(lk, design).to_dict()})}
+    assert steps["h1"]["through"] == ["base", "link_h1"] and steps["h1"]["head"] == "base"
+    assert steps["h1"]["blind"] == ["link_h1"]
+    for s in steps.values():  # every head on the first link the pin goes through, never on a blind one
+        assert s["head"] == s["through"][0] and s["head"] not in s["blind"]

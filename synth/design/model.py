@@ -359,33 +359,61 @@ def head_radius(design: PhysicalDesign) -> float:
     return bore + HEAD_WALL * (design.hub_radius - bore)
 
 
-def pin_ends(linkage, design: PhysicalDesign, joint: str, sites=None) -> PinEnds | None:
-    """The `PinEnds` of the pin of ``joint``, None for a joint held by one link. The head: radius
-    `head_radius`, thickness `CAP` of the hub length, sunk flush into a counterbore (head radius + hole
-    clearance, one hole clearance deeper) of the hub it sits on: inside that hub. ``sites``: the linkage's
-    ``joint_sites()`` when already at hand."""
+@dataclass(frozen=True)
+class PinSeat:
+    """How the pin of a joint sits, from the design alone (offsets along the axis, metres): the
+    ``carrier`` and ``turning`` link, ``out`` = +1 when the turning link's hub lies further along the axis
+    direction (else -1), the hubs' outer ``faces`` {link: offset}, ``blind``: the links whose bore stops
+    short of their outer face (the pin ends inside), ``head_on`` / ``groove_on``: the link whose face holds
+    the head / a clip's groove (None: none); a head goes in from its own face."""
+
+    carrier: str
+    turning: str
+    out: float
+    faces: dict
+    blind: tuple
+    head_on: str | None
+    groove_on: str | None
+
+
+def pin_seat(design: PhysicalDesign, joint: str) -> PinSeat | None:
+    """The `PinSeat` of ``joint``'s pin, None for a joint held by one link. The head goes on the link the
+    fit prefers (press: the turning link, clip: the carrier) when the pin reaches its face, else on the
+    other's (`synth.design.seats`); a plain pin has none."""
     stack = _stack(design, joint)
     if stack is None:
         return None
     carrier, turning, out = stack
     pin = design.pin(joint)
-    u = linkage.joint(joint).direction
     h = design.hub_length / 2
-    face_offset = {turning: design.mount(turning, joint).offset + out * h,
-                   carrier: design.mount(carrier, joint).offset - out * h}
+    faces = {turning: design.mount(turning, joint).offset + out * h,
+             carrier: design.mount(carrier, joint).offset - out * h}
     pin_end = {turning: pin.end if out > 0 else pin.start, carrier: pin.start if out > 0 else pin.end}
     tol = 1e-6 * design.hub_length
-    blind = tuple(n for n in (carrier, turning) if abs(pin_end[n] - face_offset[n]) > tol)
+    blind = tuple(n for n in (carrier, turning) if abs(pin_end[n] - faces[n]) > tol)
     head_on = groove_on = None
     if design.pin_fit != "plain":
         first, second = (carrier, turning) if design.pin_fit == "clip" else (turning, carrier)
         head_on = first if first not in blind else (second if second not in blind else None)
         if design.pin_fit == "clip" and head_on == carrier and turning not in blind:
             groove_on = turning
+    return PinSeat(carrier, turning, out, faces, blind, head_on, groove_on)
+
+
+def pin_ends(linkage, design: PhysicalDesign, joint: str, sites=None) -> PinEnds | None:
+    """The `PinEnds` of the pin of ``joint`` (`pin_seat` in world coordinates), None for a joint held by
+    one link. The head: radius `head_radius`, thickness `CAP` of the hub length, sunk flush into a
+    counterbore (head radius + hole clearance, one hole clearance deeper) of the hub it sits on: inside
+    that hub. ``sites``: the linkage's ``joint_sites()`` when already at hand."""
+    seat = pin_seat(design, joint)
+    if seat is None:
+        return None
+    u = linkage.joint(joint).direction
     head = head_radius(design)
-    return PinEnds(carrier, turning, {n: axis_point(linkage, joint, f, sites) for n, f in face_offset.items()},
-                   {turning: out * u, carrier: -out * u}, head, CAP * design.hub_length,
-                   head + design.hole_clearance, head_on, groove_on, blind)
+    return PinEnds(seat.carrier, seat.turning,
+                   {n: axis_point(linkage, joint, f, sites) for n, f in seat.faces.items()},
+                   {seat.turning: seat.out * u, seat.carrier: -seat.out * u}, head, CAP * design.hub_length,
+                   head + design.hole_clearance, seat.head_on, seat.groove_on, seat.blind)
 
 
 @dataclass
