@@ -102,3 +102,24 @@ def test_the_assembly_sheet_inserts_each_pin_from_its_head_side():
     assert steps["h1"]["blind"] == ["link_h1"]
     for s in steps.values():  # every head on the first link the pin goes through, never on a blind one
         assert s["head"] == s["through"][0] and s["head"] not in s["blind"]
+
+
+def test_a_part_in_pieces_is_named_by_the_print_report_and_failed_by_check(tmp_path):
+    """Two disjoint cylinders: the print report's part gets "bodies": 2 and a summary sentence, and
+    `mpsynth check`'s mesh test fails the STL (`solid.shell_count`, trimesh's split agrees)."""
+    import trimesh
+
+    from synth.io.printreport import in_pieces, print_section
+    from synth.io.solid import concatenate, cylinder, stl_bytes
+    from synth.tools.check.meshes import MeshChecks
+
+    one = cylinder([0, 0, 0], [0, 0, 0.01], 0.005, 16)
+    two = concatenate([one, cylinder([0.02, 0, 0], [0.02, 0, 0.01], 0.005, 16)])
+    assert shell_count(one.faces) == 1 and shell_count(two.faces) == 2
+    section = print_section({"link_a": two})
+    assert section["parts"][0]["bodies"] == 2
+    assert in_pieces(section) == ["meshes/link_a.stl is 2 separate bodies, not one part (a bore cuts a bar off its hub)"]
+    path = tmp_path / "two.stl"
+    path.write_bytes(stl_bytes(two.triangles))
+    assert len(trimesh.load(path).split(only_watertight=False)) == 2
+    assert MeshChecks._mesh_problem(None, trimesh, path, (1.0, 1.0, 1.0), 0.03) == "is 2 separate bodies, not one part"
