@@ -3,8 +3,13 @@ motion (docs/conventions.md). Errors are translation (metres) and rotation angle
 
 One implementation, vectorized over a leading batch axis of linkages of the same structure
 (`check_figures`); `self_check` is the batch of one for a `Linkage`. Forward kinematics uses unit dual
-quaternions: a joint at angle theta about the line (u, m) is ``cos(theta/2) + sin(theta/2) (u - eps m)``,
-one batched product per joint for all poses and samples at once.
+quaternions: a joint at theta about the line (u, m) is ``cos(theta/2) + sin(theta/2) (u - eps m)``; a
+link's displacement, the product of its chain's joints, is expanded over products of the joint lines
+(per linkage) weighted by products of the joints' cosines and sines (per linkage and sample), and every
+comparison runs in the split layout (`synth.algebra.dq.dq_mul_split`): plain arithmetic on (linkages,
+samples) arrays per component. The figures are rounding-level numbers: any other order of the same
+arithmetic gives other last digits (the BLAS dot products used before, with fused multiply-adds, changed
+them by up to 2e-14 on README's 20,000 batch jobs).
 """
 from __future__ import annotations
 
