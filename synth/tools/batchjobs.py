@@ -52,6 +52,7 @@ import importlib
 import multiprocessing
 import os
 import sys
+import threading
 from dataclasses import dataclass
 from typing import Any, Iterable, Iterator
 
@@ -382,7 +383,9 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
                 yield run_chunk_lines(chunk, full, out_dir, design, keep)
         return
     ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
+    before = set(multiprocessing.active_children())
     pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
+    workers = [p for p in multiprocessing.active_children() if p not in before]  # (no replacements: no maxtasks)
     pending: collections.deque = collections.deque()
 
     def first_done(finish: bool = False):
@@ -408,10 +411,31 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
             yield first_done()
         pool.close()
     except BaseException:
-        pool.terminate()
+        terminate_pool(pool, workers)
         raise
-    finally:
-        pool.join()
+    pool.join()
+
+
+TERMINATE_SECONDS = 2.0  # how long a pool's terminate may take before its workers are killed (a shutdown bound)
+
+
+def terminate_pool(pool, workers) -> bool:
+    """``pool.terminate()``, bounded: when the pool still waits for a worker after `TERMINATE_SECONDS`
+    (seen once in ~175 stops of a loaded machine here and once in CI: it then waited for good), the
+    workers still running are killed (SIGKILL) and the terminate is given as long again. ``workers``:
+    the pool's processes. Returns whether the pool is shut down and joined."""
+    done = threading.Thread(target=pool.terminate, name="terminate-pool", daemon=True)
+    done.start()
+    done.join(TERMINATE_SECONDS)
+    if done.is_alive():
+        for w in workers:
+            if w.exitcode is None:
+                w.kill()
+        done.join(TERMINATE_SECONDS)
+    if done.is_alive():
+        return False
+    pool.join()
+    return True
 
 
 def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = False,
