@@ -3,13 +3,8 @@ motion (docs/conventions.md). Errors are translation (metres) and rotation angle
 
 One implementation, vectorized over a leading batch axis of linkages of the same structure
 (`check_figures`); `self_check` is the batch of one for a `Linkage`. Forward kinematics uses unit dual
-quaternions: a joint at theta about the line (u, m) is ``cos(theta/2) + sin(theta/2) (u - eps m)``; a
-link's displacement, the product of its chain's joints, is expanded over products of the joint lines
-(per linkage) weighted by products of the joints' cosines and sines (per linkage and sample), and every
-comparison runs in the split layout (`synth.algebra.dq.dq_mul_split`): plain arithmetic on (linkages,
-samples) arrays per component. The figures are rounding-level numbers: any other order of the same
-arithmetic gives other last digits (the BLAS dot products used before, with fused multiply-adds, changed
-them by up to 2e-14 on README's 20,000 batch jobs).
+quaternions: a joint at angle theta about the line (u, m) is ``cos(theta/2) + sin(theta/2) (u - eps m)``,
+one batched product per joint for all poses and samples at once.
 """
 from __future__ import annotations
 
@@ -20,12 +15,10 @@ import numpy as np
 
 from synth.algebra.algorithm1 import identity
 from synth.algebra.anglelaw import half_angle
-from synth.algebra.dq import dot, dq_mul, dq_mul_split, dq_right_matrix, pose_to_dq, product_support
-from synth.algebra.geometry import (dq_pose_difference, feature_difference, pose_difference, pose_difference_split,
-                                    pose_features_split)
+from synth.algebra.dq import dot, dq_mul, dq_mul_split, dq_right_matrix, pose_to_dq
+from synth.algebra.geometry import dq_pose_difference, pose_difference, pose_difference_split
 from synth.algebra.polynomial import evaluate, exponents, product_of_linear
 from synth.linkage import Linkage
-from synth.memory import pages_kept
 
 _EPS = float(np.finfo(float).eps)
 _ULPS16 = 16 * _EPS  # the rounding allowance of `loop_bound`
@@ -73,7 +66,7 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
     every component an (N, P + samples) array over linkages x (poses, then samples)."""
     closures = structure[2]
     N, P, J = pose_angles.shape
-    rows = max(1, (ROW_ELEMENTS_KEPT if pages_kept() else ROW_ELEMENTS) // (P + samples * (1 + len(closures))))
+    rows = max(1, ROW_ELEMENTS // (P + samples * (1 + len(closures))))
     rate = np.broadcast_to(rate, a.shape) if np.ndim(rate) else rate
     parts = [_check_rows(structure, *(x[k] for x in (U, M, a, b, pose_angles, pose_dq, tool_ref_dq, motion)), samples,
                          rate[k] if np.ndim(rate) else rate) for k in map(slice, range(0, N, rows), range(rows, N + rows, rows))]
@@ -83,9 +76,8 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
 
 
 _FIGURES = ("pose_translation", "pose_rotation", "closure_translation", "closure_rotation", "motion")
-ROW_ELEMENTS = 8_000  # `check_figures` takes linkages in groups whose (group, P + S (1 + closures)) arrays hold
-# at most this many numbers (64 kB: below the C allocator's threshold for fresh pages, `synth.memory`), or
-ROW_ELEMENTS_KEPT = 64_000  # this many in a process that keeps freed pages (fewer numpy calls per linkage)
+ROW_ELEMENTS = 8_000  # `check_figures` takes linkages in groups whose (group, P + S (1 + closures)) arrays stay
+# below this many numbers (64 kB: below the allocator's default threshold for fresh pages, and in the cache)
 
 
 def _check_rows(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, motion, samples: int, rate) -> dict:
@@ -94,79 +86,35 @@ def _check_rows(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, motion
     N, P, J = pose_angles.shape
     t = sample_parameters_batch(a, b, samples) if samples > 0 else np.zeros((N, 0))  # (N, S), the last t = inf
     S = t.shape[1]
-    lines = np.zeros((N, J, 8))  # the joints' lines u - eps m
-    lines[..., 1:4] = U
-    np.negative(M, out=lines[..., 5:8])
     disp = {}
     for j, (parent, child) in enumerate(joints):
+        # the joint displacement cos + sin (u - eps m), u and m per linkage (N, 1)
         c, s = _joint_cos_sin(a[:, j], b[:, j], t, pose_angles[..., j], rate if np.ndim(rate) == 0 else rate[:, j])
-        disp[child] = _joint_product(disp.get(parent), c, s, lines[:, j])
-    split = {}
-
-    def link(name):  # a link's displacement in components
-        if name not in split:
-            split[name] = _components(disp[name])
-        return split[name]
-
-    # the pairs compared: the tool at the poses against the poses, the tool link along the motion against
-    # C(t), the closure links against their duplicates (the features of each link once)
-    tool = link(tool_link)
-    poses, along = slice(None, P), slice(P, None)
+        G = [c, s * U[:, j, 0:1], s * U[:, j, 1:2], s * U[:, j, 2:3], None, s * -M[:, j, 0:1],
+             s * -M[:, j, 1:2], s * -M[:, j, 2:3]]
+        disp[child] = G if parent == "base" else dq_mul_split(disp[parent], G)
+    tool = disp[tool_link]
+    # the pairs compared, side by side per component (8 arrays (N, P + S (1 + closures)) a side): (tool at
+    # the poses, tool link along the motion, closure links) against (the poses, C(t), the duplicate links)
+    XY = [[np.empty((N, P + S * (1 + len(closures)))) for _ in range(8)] for _ in range(2)]
     ref = [tool_ref_dq[:, k : k + 1] for k in range(8)]
-    dt_p, dr_p = pose_difference_split(dq_mul_split(_columns(tool, poses), ref), pose_dq.transpose(2, 0, 1))
-    features = {}
-
-    def moving(name):
-        if name not in features:
-            features[name] = pose_features_split(_columns(link(name), along))
-        return features[name]
-
-    dt_m, dr_m = feature_difference(moving(tool_link), pose_features_split(_motion_at(motion, t)))
-    closed = [feature_difference(moving(x), moving(y)) for x, y in closures]
-    clo_t = np.concatenate([np.zeros((N, 0))] + [c[0] for c in closed], axis=1)
-    clo_r = np.concatenate([np.zeros((N, 0))] + [c[1] for c in closed], axis=1)
-    return {"pose_translation": dt_p.max(axis=1, initial=0.0), "pose_rotation": dr_p.max(axis=1, initial=0.0),
+    poses, along = slice(None, P), slice(P, None)
+    pairs = [(dq_mul_split(_columns(tool, poses), ref), pose_dq.transpose(2, 0, 1)),
+             (_columns(tool, along), _motion_at(motion, t))]
+    pairs += [(_columns(disp[c], along), _columns(disp[d], along)) for c, d in closures]
+    start = 0
+    for pair, width in zip(pairs, [P] + [S] * (1 + len(closures))):
+        for side, X in zip(XY, pair):
+            for k in range(8):
+                side[k][:, start : start + width] = 0.0 if X[k] is None else X[k]
+        start += width
+    dt, dr = pose_difference_split(XY[0], XY[1])
+    clo_t, clo_r = dt[:, P + S :], dr[:, P + S :]
+    return {"pose_translation": dt[:, :P].max(axis=1, initial=0.0),
+            "pose_rotation": dr[:, :P].max(axis=1, initial=0.0),
             "closure_translation": clo_t.max(axis=1, initial=0.0),
             "closure_rotation": clo_r.max(axis=1, initial=0.0),
-            "motion": (dt_m + dr_m).max(axis=1, initial=0.0)}
-
-
-MAX_TERMS = 8  # a link's displacement is kept expanded over products of joint lines up to this many terms
-_ONE, _LINE = frozenset((0,)), frozenset((1, 2, 3, 5, 6, 7))  # the nonzero components of 1 and of a line
-
-
-def _joint_product(parent, c, s, line) -> list:
-    """The displacement of a joint's child link, ``parent`` (None: the base) times the joint's cos + sin
-    line (c, s (N, R); line (N, 8) = u - eps m): expanded, a list of terms (weight (N, R), dual quaternion
-    (N, 8), its nonzero components) (the base's 1 times the joint: c 1 + s line; a term w B times it:
-    w c B + w s (B line)), or, once that would exceed MAX_TERMS terms, its split components
-    (`synth.algebra.dq.dq_mul_split`)."""
-    if parent is None:
-        one = np.zeros_like(line)
-        one[:, 0] = 1.0
-        return [(c, one, _ONE), (s, line, _LINE)]
-    if isinstance(parent, list) and 2 * len(parent) <= MAX_TERMS:
-        return ([(w * c, B, nz) for w, B, nz in parent]
-                + [(w * s, dq_mul(B, line), product_support(nz, _LINE)) for w, B, nz in parent])
-    X = _components(parent)
-    G = [c] + [s * line[:, k : k + 1] if k in _LINE else None for k in range(1, 8)]
-    return dq_mul_split(X, G)
-
-
-def _components(disp) -> list:
-    """The split components (8 arrays (N, R), None where zero) of a displacement of `_joint_product`."""
-    if not isinstance(disp[0], tuple):
-        return disp
-    out = []
-    for k in range(8):
-        acc = None
-        for w, B, nz in disp:
-            if k not in nz:
-                continue
-            x = w if nz is _ONE else w * B[:, k : k + 1]
-            acc = (x.copy() if x is w else x) if acc is None else np.add(acc, x, out=acc)
-        out.append(acc)
-    return out
+            "motion": (dt[:, P : P + S] + dr[:, P : P + S]).max(axis=1, initial=0.0)}
 
 
 def _columns(X, columns) -> list:

@@ -426,12 +426,6 @@ def dq_mul_split(a, b) -> list:
     return bilinear_split(a, b, _DQ_TERMS)
 
 
-def product_support(a, b) -> frozenset:
-    """The components of a product of dual quaternions that can be nonzero when only the components ``a``
-    of the left and ``b`` of the right factor are (sets of indices 0-7)."""
-    return frozenset(k for k, terms in enumerate(_DQ_TERMS) if any(i in a and j in b for i, j, _ in terms))
-
-
 def translation_split(h, pp=None) -> list:
     """The translation (3 components) of the pose of split dual quaternions h (Study condition assumed,
     p != 0, any scale): d = 2 vec(p q~) / |p|^2, as `dq_translation`. ``pp``: |p|^2 when the caller has it."""

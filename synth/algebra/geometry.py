@@ -149,31 +149,22 @@ def dq_pose_difference(A, B=None):
 def pose_difference_split(A, B):
     """(translation distance, rotation angle) between the poses of split dual quaternions A, B (8
     components each, broadcast, None: zero; `synth.algebra.dq.dq_mul_split`), Study condition assumed, any
-    nonzero scale: `feature_difference` of their `pose_features_split`. Plain arithmetic per component (no
-    small matrix products)."""
-    return feature_difference(pose_features_split(A), pose_features_split(B))
-
-
-def pose_features_split(X) -> tuple[list, list]:
-    """(translation d, 3 components; unit primal part u, 4 components, None where zero) of the poses of
-    split dual quaternions X: d = 2 vec(p q~)/|p|^2 (`synth.algebra.dq.translation_split`), u = p / |p|."""
-    n = square_sum(X[:4])
-    r = 1.0 / np.sqrt(n)
-    return translation_split(X, n), [r * x if x is not None else None for x in X[:4]]
-
-
-def feature_difference(F, G):
-    """(translation distance, rotation angle) between poses given by `pose_features_split` F, G: |d_F - d_G|,
-    and the angle of p_F~ p_G in [0, pi] as 4 asin(|u_F - s u_G| / 2) (s = sign(u_F . u_G)), accurate for
-    small and large angles."""
-    (d, u), (e, v) = F, G
-    dt = np.sqrt(square_sum([x - y for x, y in zip(d, e)]))
-    c = square_sum([])  # u . v
-    for x, y in zip(u, v):
+    nonzero scale: |d_A - d_B| with d = 2 vec(p q~)/|p|^2, and the angle of p_A~ p_B in [0, pi] as
+    4 asin(|u_A - s u_B| / 2) for the unit primal parts u (s = sign(u_A . u_B)), accurate for small and
+    large angles. Plain arithmetic per component (no small matrix products)."""
+    d, u = [], []
+    for X in (A, B):
+        n = square_sum(X[:4])
+        d.append(translation_split(X, n))
+        r = 1.0 / np.sqrt(n)
+        u.append([r * x if x is not None else None for x in X[:4]])
+    dt = np.sqrt(square_sum([x - y for x, y in zip(*d)]))
+    c = square_sum([])  # u_A . u_B
+    for x, y in zip(*u):
         if x is not None and y is not None:
             c = c + x * y
     s = np.copysign(1.0, c)
-    w = [x if y is None else -s * y if x is None else x - s * y for x, y in zip(u, v) if x is not None or y is not None]
+    w = [x if y is None else -s * y if x is None else x - s * y for x, y in zip(*u) if x is not None or y is not None]
     dr = 4.0 * np.arcsin(0.5 * np.sqrt(square_sum(w)))
     return dt, dr
 

@@ -65,7 +65,6 @@ from synth.io.jsonout import linkage_document, plain
 from synth.io.names import safe_robot_name
 from synth.io.poses import parse_pose_document
 from synth.io.writer import write_output
-from synth.memory import keep_freed_pages
 from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_fourbar, solve_points, solve_sixbar
 from synth.solve.many import solve_bennett_many
 from synth.synthesis.points import MINIMUM, NEEDED
@@ -247,7 +246,6 @@ def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) ->
     """`run_chunk`'s results as they are ready (the batched jobs first, at once); ``stop``: as `run_jobs`,
     asked before every result. The lines of the common Bennett shape are read for the whole chunk at once
     (`synth.tools.jobspec.read_common_bennett`), the others one by one (`_read_job`)."""
-    keep_freed_pages()  # (a batch process: `synth.memory`)
     common = read_common_bennett([text for _, text in chunk]) if not full else None
     read: list = [None] * len(chunk)
     if common is not None:
