@@ -1,6 +1,7 @@
 """Collision-free rates with parts sized to be built (issue 33), before and after, in one script.
 
     .venv/bin/python bench/bench_sturdy.py [--bennett 24] [--sixbar 26] [--repo PATH] [--slenderness 25] [--choice]
+                                           [--pieces]
 
 The seeded random solvable pose sets of bench/bench_design.py (Bennett: 3 poses, 6R: 4), minus the
 near-translational ones whose linkage is over `FAR` metres across (extent; the poses are ~1 m apart).
@@ -10,7 +11,9 @@ Each linkage gets the library's design choice, `synth.design.choose.design_for` 
 collision-free first (`synth.design.search.rank_buildable`), else the best-scored linkage alone. Printed
 per kind: sets, certified free over the full cycle, free over the task range (full included), the
 slenderness of the written bars (longest bar length / bar diameter, max over sets), the bore wall (min,
-mm) and the CPU seconds of the designs (median, max; process time: the machine is shared).
+mm) and the CPU seconds of the designs (median, max; process time: the machine is shared). With
+``--pieces`` also the parts whose mesh (`synth.io.meshes.design_solids`) is not one body (trimesh's split,
+an independent count) and the slenderness of the bars as written (mount -> via points -> mount).
 
 ``--repo PATH`` imports ``synth`` from another checkout (e.g. main, for the "before" numbers); the
 sets are the same (same seeds, same synthesis there).
@@ -34,6 +37,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repo", default=str(Path(__file__).resolve().parents[1]))
     ap.add_argument("--slenderness", type=float, default=None, help="design_for's slenderness (when it has one)")
     ap.add_argument("--choice", action="store_true", help="6R: the CLI's choice among the best-scored candidates")
+    ap.add_argument("--pieces", action="store_true", help="count the parts not one body (builds the meshes)")
     args = ap.parse_args(argv)
     sys.path.insert(0, args.repo)
     sys.path.insert(0, str(Path(args.repo) / "bench"))  # its bench_design puts its repo first on the path
@@ -60,7 +64,7 @@ def main(argv=None) -> int:
         if not count:
             continue
         full = task = n = 0
-        slender, wall, cpu = 0.0, np.inf, []
+        slender, wall, cpu, pieces, written = 0.0, np.inf, [], 0, 0.0
         for seed, lk in solvable_sets(kind, count, args.seed):
             if lk.extent() > FAR:
                 continue
@@ -76,14 +80,37 @@ def main(argv=None) -> int:
                        for a, b in zip(names, names[1:])]
             slender = max(slender, max(lengths) / (2 * d.bar_radius))
             wall = min(wall, d.hub_radius - d.pin_radius - d.hole_clearance)
+            split = ""
+            if args.pieces:
+                broken, bars = _pieces(lk, d)
+                pieces += len(broken)
+                written = max(written, bars)
+                split = f", written 1:{bars:.1f}, in pieces: {broken or 'none'}"
             print(f"{kind} seed {seed}: {'full' if c.free and c.range == 'full' else 'task' if c.free else 'none'} "
                   f"bar r {1e3 * d.bar_radius:.1f} mm, slenderness {max(lengths) / (2 * d.bar_radius):.1f}, "
-                  f"cpu {cpu[-1]:.2f} s", flush=True)
+                  f"cpu {cpu[-1]:.2f} s{split}", flush=True)
         print(f"{kind}{' (choice)' if args.choice and kind == 'sixbar' else ''}: sets {n} (of {count}; over {FAR:g} m "
               f"excluded)  full cycle {full}/{n}  task range {task}/{n}  max slenderness 1:{slender:.1f}  "
-              f"min bore wall {1e3 * wall:.2f} mm  cpu s median {statistics.median(cpu):.2f} max {max(cpu):.2f}",
-              flush=True)
+              f"min bore wall {1e3 * wall:.2f} mm  cpu s median {statistics.median(cpu):.2f} max {max(cpu):.2f}"
+              + (f"  parts in pieces {pieces}  written bars max 1:{written:.1f}" if args.pieces else ""), flush=True)
     return 0
+
+
+def _pieces(lk, design) -> tuple[list[str], float]:
+    """(the parts of ``design`` whose mesh is more than one body, the largest length / diameter of its bars
+    as written: mount -> via points -> mount)."""
+    import numpy as np
+    from synth.design.model import axis_point
+    from synth.io.meshes import design_solids
+
+    broken = [n for n, s in design_solids(lk, design).items() if len(s.to_trimesh().split(only_watertight=False)) != 1]
+    sites = lk.joint_sites()
+    worst = 0.0
+    for b in design.bars:
+        pts = [axis_point(lk, b.joints[0], design.mount(b.link, b.joints[0]).offset, sites), *b.via,
+               axis_point(lk, b.joints[1], design.mount(b.link, b.joints[1]).offset, sites)]
+        worst = max(worst, sum(float(np.linalg.norm(q - p)) for p, q in zip(pts, pts[1:])) / (2 * design.bar_radius))
+    return broken, worst
 
 
 if __name__ == "__main__":

@@ -28,3 +28,11 @@ def unraisable_hook(info, _previous=sys.unraisablehook):
 
 sys.excepthook = interrupted_hook
 sys.unraisablehook = unraisable_hook
+
+# One BLAS thread for the whole command, set before numpy loads its BLAS (docs/architecture.md, "Threads"):
+# a run's few large products (the print orientations' vertices x directions) gain nothing from a second
+# thread whose spinning cost 0.2-0.3 s of CPU per `mpsynth bennett` (about 12 %), and a product's last
+# bits depend on how many threads split it, so one thread also gives the same digits on every machine.
+# An explicit setting in the environment wins.
+for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")

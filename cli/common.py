@@ -280,6 +280,8 @@ def emit(result, output: Output, details=None) -> None:
             echo(f"  warning: {w}")
         if design is not None:
             echo(f"  design: {result.sentence()}")
+            if design.design.mounting is not None and design.design.mounting.box_sentence():
+                echo(f"  mounting: {design.design.mounting.box_sentence(scale, unit)}")
         if files is not None:
             n_pin = sum(1 for f in files if f.name.startswith("pin_") and str(f).endswith(".stl"))
             n_mesh = sum(1 for f in files if str(f).endswith(".stl")) - n_pin

@@ -3,8 +3,13 @@ motion (docs/conventions.md). Errors are translation (metres) and rotation angle
 
 One implementation, vectorized over a leading batch axis of linkages of the same structure
 (`check_figures`); `self_check` is the batch of one for a `Linkage`. Forward kinematics uses unit dual
-quaternions: a joint at angle theta about the line (u, m) is ``cos(theta/2) + sin(theta/2) (u - eps m)``,
-one batched product per joint for all poses and samples at once.
+quaternions: a joint at theta about the line (u, m) is ``cos(theta/2) + sin(theta/2) (u - eps m)``; a
+link's displacement, the product of its chain's joints, is expanded over products of the joint lines
+(per linkage) weighted by products of the joints' cosines and sines (per linkage and sample), and every
+comparison runs in the split layout (`synth.algebra.dq.dq_mul_split`): plain arithmetic on (linkages,
+samples) arrays per component. The figures are rounding-level numbers: any other order of the same
+arithmetic gives other last digits (the BLAS dot products used before, with fused multiply-adds, changed
+them by up to 2e-14 on README's 20,000 batch jobs).
 """
 from __future__ import annotations
 
@@ -15,12 +20,13 @@ import numpy as np
 
 from synth.algebra.algorithm1 import identity
 from synth.algebra.anglelaw import half_angle
-from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq
-from synth.algebra.geometry import dq_pose_difference, pose_difference
+from synth.algebra.dq import dot, dq_mul, dq_mul_split, dq_right_matrix, pose_to_dq, product_support
+from synth.algebra.geometry import (dq_pose_difference, feature_difference, pose_difference, pose_difference_split,
+                                    pose_features_split)
 from synth.algebra.polynomial import evaluate, exponents, product_of_linear
 from synth.linkage import Linkage
+from synth.memory import pages_kept
 
-_E0 = np.eye(8)[0]
 _EPS = float(np.finfo(float).eps)
 _ULPS16 = 16 * _EPS  # the rounding allowance of `loop_bound`
 DEFAULT_CHECK_SAMPLES = 4  # synthesis functions check closure and motion at this many parameters
@@ -63,55 +69,160 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
     ``pose_rotation`` (tool frame at the reported angles vs the poses), ``closure_translation`` /
     ``closure_rotation`` (every welded pair at ``samples`` parameters covering R, t = inf included) and
     ``motion`` (tool link vs C(t), translation + rotation); ``samples`` = 0: poses only (closure and
-    motion 0; see `loop_bound`)."""
+    motion 0; see `loop_bound`). Forward kinematics in the split layout (`synth.algebra.dq.dq_mul_split`):
+    every component an (N, P + samples) array over linkages x (poses, then samples)."""
+    closures = structure[2]
+    N, P, J = pose_angles.shape
+    rows = max(1, (ROW_ELEMENTS_KEPT if pages_kept() else ROW_ELEMENTS) // (P + samples * (1 + len(closures))))
+    rate = np.broadcast_to(rate, a.shape) if np.ndim(rate) else rate
+    parts = [_check_rows(structure, *(x[k] for x in (U, M, a, b, pose_angles, pose_dq, tool_ref_dq, motion)), samples,
+                         rate[k] if np.ndim(rate) else rate) for k in map(slice, range(0, N, rows), range(rows, N + rows, rows))]
+    if len(parts) == 1:
+        return parts[0]
+    return {f: np.concatenate([p[f] for p in parts]) for f in parts[0]} if parts else {f: np.zeros(0) for f in _FIGURES}
+
+
+_FIGURES = ("pose_translation", "pose_rotation", "closure_translation", "closure_rotation", "motion")
+ROW_ELEMENTS = 8_000  # `check_figures` takes linkages in groups whose (group, P + S (1 + closures)) arrays hold
+# at most this many numbers (64 kB: below the C allocator's threshold for fresh pages, `synth.memory`), or
+ROW_ELEMENTS_KEPT = 64_000  # this many in a process that keeps freed pages (fewer numpy calls per linkage)
+
+
+def _check_rows(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, motion, samples: int, rate) -> dict:
+    """`check_figures` of a group of linkages."""
     joints, tool_link, closures = structure
     N, P, J = pose_angles.shape
     t = sample_parameters_batch(a, b, samples) if samples > 0 else np.zeros((N, 0))  # (N, S), the last t = inf
     S = t.shape[1]
-    inf = np.isinf(t)
-    half_s = half_angle(a[:, None, :], b[:, None, :], t[..., None], np.asarray(rate)[..., None, :] if np.ndim(rate) else rate)
-    half = np.concatenate([0.5 * pose_angles, half_s], axis=1)  # (N, P + S, J)
-    cos, sin = np.cos(half)[..., None], np.sin(half)[..., None]
-    # the joint displacement G = cos + sin (u - eps m) multiplies on the right: x G = cos x + sin x R(line),
-    # with R the right-multiplication matrix of the line (one 8x8 matrix per set and joint)
-    lines = np.zeros(U.shape[:-1] + (8,))
+    lines = np.zeros((N, J, 8))  # the joints' lines u - eps m
     lines[..., 1:4] = U
-    lines[..., 5:8] = M
-    lines[..., 5:8] *= -1.0
-    inner = [j for j, (parent, _) in enumerate(joints) if parent != "base"]
-    R = dict(zip(inner, np.moveaxis(dq_right_matrix(lines[:, inner]), 1, 0)))  # (N, 8, 8) each
+    np.negative(M, out=lines[..., 5:8])
     disp = {}
     for j, (parent, child) in enumerate(joints):
-        if parent == "base":
-            disp[child] = cos[..., j, :] * _E0 + sin[..., j, :] * lines[:, None, j]
-        else:
-            x = disp[parent]
-            disp[child] = cos[..., j, :] * x + sin[..., j, :] * (x @ R[j])
-    tool = disp[tool_link]
-    # the pairs compared, stacked: X[0] (tool at the poses, tool link along the motion, closure links)
-    # against X[1] (the poses, C(t), the duplicate links)
-    X = np.empty((2, N, P + S * (1 + len(closures)), 8))
-    np.matmul(tool[:, :P], dq_right_matrix(tool_ref_dq), out=X[0, :, :P])
-    X[1, :, :P] = pose_dq
-    X[0, :, P : P + S] = tool[:, P:]
-    # C(t) by Horner; t = inf gives the leading coefficient
-    tf = np.where(inf, 0.0, t)[..., None]
-    Ct = X[1, :, P : P + S]
-    Ct[...] = motion[:, -1:, :]
-    for k in range(motion.shape[-2] - 2, -1, -1):
-        Ct *= tf
-        Ct += motion[:, k : k + 1, :]
-    np.copyto(Ct, motion[:, -1:, :], where=inf[..., None])
-    for i, (x, y) in enumerate(closures):
-        X[0, :, P + S * (i + 1) : P + S * (i + 2)] = disp[x][:, P:]
-        X[1, :, P + S * (i + 1) : P + S * (i + 2)] = disp[y][:, P:]
-    dt, dr = dq_pose_difference(X)
-    clo_t, clo_r = dt[:, P + S :], dr[:, P + S :]
-    return {"pose_translation": dt[:, :P].max(axis=1, initial=0.0),
-            "pose_rotation": dr[:, :P].max(axis=1, initial=0.0),
+        c, s = _joint_cos_sin(a[:, j], b[:, j], t, pose_angles[..., j], rate if np.ndim(rate) == 0 else rate[:, j])
+        disp[child] = _joint_product(disp.get(parent), c, s, lines[:, j])
+    split = {}
+
+    def link(name):  # a link's displacement in components
+        if name not in split:
+            split[name] = _components(disp[name])
+        return split[name]
+
+    # the pairs compared: the tool at the poses against the poses, the tool link along the motion against
+    # C(t), the closure links against their duplicates (the features of each link once)
+    tool = link(tool_link)
+    poses, along = slice(None, P), slice(P, None)
+    ref = [tool_ref_dq[:, k : k + 1] for k in range(8)]
+    dt_p, dr_p = pose_difference_split(dq_mul_split(_columns(tool, poses), ref), pose_dq.transpose(2, 0, 1))
+    features = {}
+
+    def moving(name):
+        if name not in features:
+            features[name] = pose_features_split(_columns(link(name), along))
+        return features[name]
+
+    dt_m, dr_m = feature_difference(moving(tool_link), pose_features_split(_motion_at(motion, t)))
+    closed = [feature_difference(moving(x), moving(y)) for x, y in closures]
+    clo_t = np.concatenate([np.zeros((N, 0))] + [c[0] for c in closed], axis=1)
+    clo_r = np.concatenate([np.zeros((N, 0))] + [c[1] for c in closed], axis=1)
+    return {"pose_translation": dt_p.max(axis=1, initial=0.0), "pose_rotation": dr_p.max(axis=1, initial=0.0),
             "closure_translation": clo_t.max(axis=1, initial=0.0),
             "closure_rotation": clo_r.max(axis=1, initial=0.0),
-            "motion": (dt[:, P : P + S] + dr[:, P : P + S]).max(axis=1, initial=0.0)}
+            "motion": (dt_m + dr_m).max(axis=1, initial=0.0)}
+
+
+MAX_TERMS = 8  # a link's displacement is kept expanded over products of joint lines up to this many terms
+_ONE, _LINE = frozenset((0,)), frozenset((1, 2, 3, 5, 6, 7))  # the nonzero components of 1 and of a line
+
+
+def _joint_product(parent, c, s, line) -> list:
+    """The displacement of a joint's child link, ``parent`` (None: the base) times the joint's cos + sin
+    line (c, s (N, R); line (N, 8) = u - eps m): expanded, a list of terms (weight (N, R), dual quaternion
+    (N, 8), its nonzero components) (the base's 1 times the joint: c 1 + s line; a term w B times it:
+    w c B + w s (B line)), or, once that would exceed MAX_TERMS terms, its split components
+    (`synth.algebra.dq.dq_mul_split`)."""
+    if parent is None:
+        one = np.zeros_like(line)
+        one[:, 0] = 1.0
+        return [(c, one, _ONE), (s, line, _LINE)]
+    if isinstance(parent, list) and 2 * len(parent) <= MAX_TERMS:
+        return ([(w * c, B, nz) for w, B, nz in parent]
+                + [(w * s, dq_mul(B, line), product_support(nz, _LINE)) for w, B, nz in parent])
+    X = _components(parent)
+    G = [c] + [s * line[:, k : k + 1] if k in _LINE else None for k in range(1, 8)]
+    return dq_mul_split(X, G)
+
+
+def _components(disp) -> list:
+    """The split components (8 arrays (N, R), None where zero) of a displacement of `_joint_product`."""
+    if not isinstance(disp[0], tuple):
+        return disp
+    out = []
+    for k in range(8):
+        acc = None
+        for w, B, nz in disp:
+            if k not in nz:
+                continue
+            x = w if nz is _ONE else w * B[:, k : k + 1]
+            acc = (x.copy() if x is w else x) if acc is None else np.add(acc, x, out=acc)
+        out.append(acc)
+    return out
+
+
+def _columns(X, columns) -> list:
+    """The columns of the (N, P + S) components of split X (None stays None)."""
+    return [None if x is None else x[:, columns] for x in X]
+
+
+def _joint_cos_sin(a, b, t, pose_angles, rate):
+    """cos and sin (N, P + S) of one joint's half angle at the reported pose angles (N, P) and at the
+    parameters t (N, S) (a, b (N,)): for a joint of rate 1 ``atan2(b, t - a)`` by its cosine (t - a) / r
+    and sine b / r, r = sqrt((t - a)^2 + b^2) (1 and 0 at t = inf), else by `half_angle`."""
+    N, P = pose_angles.shape
+    S = t.shape[1]
+    cos = np.empty((N, P + S))
+    sin = np.empty((N, P + S))
+    half = 0.5 * pose_angles
+    np.cos(half, out=cos[:, :P])
+    np.sin(half, out=sin[:, :P])
+    if S == 0:
+        return cos, sin
+    a, b = a[:, None], b[:, None]
+    if np.ndim(rate) or rate != 1:
+        half_s = half_angle(a, b, t, rate[:, None] if np.ndim(rate) else rate)
+        np.cos(half_s, out=cos[:, P:])
+        np.sin(half_s, out=sin[:, P:])
+        return cos, sin
+    x = cos[:, P:]
+    np.subtract(t, a, out=x)  # t - a
+    r = x * x
+    r += b * b
+    with np.errstate(invalid="ignore", divide="ignore"):
+        np.sqrt(r, out=r)
+        np.divide(1.0, r, out=r)
+        np.multiply(b, r, out=sin[:, P:])
+        x *= r
+    inf = np.isinf(t)
+    np.copyto(x, 1.0, where=inf)
+    np.copyto(sin[:, P:], 0.0, where=inf)
+    return cos, sin
+
+
+def _motion_at(motion, t) -> list:
+    """C(t) (8 components (N, S)) of motion polynomials (N, n+1, 8) by Horner; t = inf gives the leading
+    coefficient."""
+    inf = np.isinf(t)
+    tf = np.where(inf, 0.0, t)
+    out = []
+    for k in range(8):
+        c = motion[:, :, k]
+        y = np.repeat(c[:, -1:], t.shape[1], axis=1)
+        for i in range(motion.shape[1] - 2, -1, -1):
+            y *= tf
+            y += c[:, i : i + 1]
+        np.copyto(y, c[:, -1:], where=inf)
+        out.append(y)
+    return out
 
 
 def loop_bound(U, M, a, b, branches, motion) -> dict:

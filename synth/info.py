@@ -1,4 +1,4 @@
-"""`Linkage.info`: what a synthesis found besides the linkage itself, as typed, frozen records.
+"""`Linkage.info`: what a synthesis found besides the linkage itself, as typed records.
 
 A `LinkageInfo` holds one *synthesis record* (``synthesis``: what the synthesis scanned, scored and chose;
 one type per synthesis: `Factorization` (spatial Bennett), `FamilyMember` (planar and spherical families),
@@ -24,7 +24,7 @@ __all__ = ["Factorization", "PlanarFamily", "Member", "Orders", "FamilyMember", 
            "CouplerMotion", "Ladder", "Parallelogram", "DarbouxMember", "MemberChoice", "Darboux", "Mobility",
            "Counts", "Marker", "MultiLoop", "RECORDS", "LinkageInfo"]
 
-record = dataclass(frozen=True, kw_only=True)
+record = dataclass(kw_only=True)
 
 
 @record
@@ -402,7 +402,7 @@ class MultiLoop(Record):
 RECORDS = (FourBarRecord, MultiLoop, PointsCandidate, FamilyMember, SixbarCandidate, Factorization)
 
 
-@dataclass(frozen=True)
+@dataclass
 class LinkageInfo(Record):
     """Everything a synthesis says about its linkage (module docstring). ``fit_summary`` (not written):
     a task synthesis's `FitSummary`, until `synth.synthesis.taskfit.annotate` turns it into ``fit``."""

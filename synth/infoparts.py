@@ -96,7 +96,7 @@ def load(tp, v):
     return v
 
 
-@dataclass(frozen=True)
+@dataclass
 class BennettParameters(Record):
     """The Bennett parameters of a four-joint loop h1-h2-k2-k1 (`synth.algebra.geometry.bennett_parameters`):
     link lengths a, b (metres) and twists alpha, beta (rad), the mismatches of opposite sides, a / sin alpha,
@@ -115,7 +115,7 @@ class BennettParameters(Record):
     @classmethod
     def of_row(cls, bp: Mapping, row: int = 0, finite: bool = False) -> BennettParameters:
         """Set ``row`` of a dict of arrays (`bennett_parameters`); ``finite``: non-finite values become None."""
-        vals = {k: float(np.asarray(v)[row]) for k, v in bp.items()}
+        vals = {k: float(np.asarray(v).item(row)) for k, v in bp.items()}
         if finite:
             vals = {k: (x if np.isfinite(x) else None) for k, x in vals.items()}
         elif not np.isfinite(vals["bennett_condition_residual"]):
@@ -123,7 +123,7 @@ class BennettParameters(Record):
         return cls(**vals)
 
 
-@dataclass(frozen=True)
+@dataclass
 class DHRow(Record):
     """One joint's Denavit-Hartenberg parameters around a closed loop (`DHParameters.table`): the joint,
     the next one, a (m), alpha (rad), d (m), theta (rad)."""
@@ -141,7 +141,7 @@ class DHRow(Record):
         return tuple(DHRow(**r) for r in rows)
 
 
-@dataclass(frozen=True)
+@dataclass
 class StudyForm(Record):
     """The mixed Study form values B(D_i, D_j) of the poses' relative displacements (metres)."""
 
@@ -151,14 +151,14 @@ class StudyForm(Record):
 
     @classmethod
     def of(cls, values) -> StudyForm:
-        return cls(*(float(x) for x in values))
+        return cls(*map(float, values))
 
     @property
     def values(self) -> tuple[float, float, float]:
         return self.B01, self.B02, self.B12
 
 
-@dataclass(frozen=True)
+@dataclass
 class ScoreParts(Record):
     """The engineering score's named figures (`synth.synthesis.sixbar_loops.score_loops`), in the order of
     the score rule that made them (the rules differ in which figures they have)."""
@@ -185,7 +185,7 @@ class ScoreParts(Record):
     min_offset = property(lambda self: self._get("min_offset"), doc="the smallest offset per pose spread")
 
 
-@dataclass(frozen=True)
+@dataclass
 class FitSummary:
     """What a task synthesis achieved, before `synth.synthesis.taskfit.annotate` measures it: ``method``
     ("exact", "hermite", "fit"), seeds tried and refined, iterations, ``visit`` (item indices in the order
@@ -198,7 +198,7 @@ class FitSummary:
     visit: tuple = ()
 
 
-@dataclass(frozen=True)
+@dataclass
 class FitRecord(Record):
     """A task's result (`synth.synthesis.taskfit.annotate`, docs/fit.md): method, seeds, refinement, the
     task's order ("any" | "listed") and the items in the order the first driver visits them, the RMS and

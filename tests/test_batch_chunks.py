@@ -223,6 +223,15 @@ def test_result_lines_match_on_random_floats():
     check()
 
 
+@pytest.mark.parametrize("text", ["\x7f", "a\x7fb", "\x1f", "\u00e9"])
+def test_result_lines_match_on_the_characters_json_escapes(text):
+    """DEL (0x7f) is ASCII, yet json.dumps escapes it and orjson does not (hypothesis found it in an id)."""
+    from synth.tools.batchjobs import dumps
+
+    res = {"id": text, "line": 1, "ok": True, "extent": 0.5}
+    assert dumps(res) == json_line(res)
+
+
 def test_orjson_writes_the_common_lines():
     """With orjson installed the usual result line (floats ~1e-15 and ~0.1, ASCII) is written by it."""
     pytest.importorskip("orjson")

@@ -88,3 +88,54 @@ def test_stop_on_signal_only_records_the_first_signal(monkeypatch):
         assert e.value.code == 143
     assert signal.getsignal(signal.SIGTERM) == previous
 
+
+
+class _StuckPool:
+    """A pool whose terminate waits for good on a worker that never acts on SIGTERM, until it is killed
+    (what a loaded machine showed: `terminate_pool`'s docstring)."""
+
+    def __init__(self, workers):
+        self.workers, self.joined = workers, False
+
+    def terminate(self):
+        for w in self.workers:
+            w.gone.wait()
+
+    def join(self):
+        self.joined = True
+
+
+class _Worker:
+    def __init__(self, stuck: bool):
+        import threading
+
+        self.gone, self.killed = threading.Event(), False
+        if not stuck:
+            self.gone.set()
+
+    @property
+    def exitcode(self):
+        return 0 if self.gone.is_set() else None
+
+    def kill(self):
+        self.killed = True
+        self.gone.set()
+
+
+def test_a_pool_whose_terminate_hangs_on_a_worker_is_shut_down_by_killing_it(monkeypatch):
+    from synth.tools import batchjobs
+
+    monkeypatch.setattr(batchjobs, "TERMINATE_SECONDS", 0.2)
+    done, stuck = _Worker(stuck=False), _Worker(stuck=True)
+    pool = _StuckPool([done, stuck])
+    assert batchjobs.terminate_pool(pool, [done, stuck]) and pool.joined
+    assert stuck.killed and not done.killed  # only the worker still running
+
+
+def test_a_pool_that_stays_stuck_is_left_unjoined(monkeypatch):
+    from synth.tools import batchjobs
+
+    monkeypatch.setattr(batchjobs, "TERMINATE_SECONDS", 0.1)
+    pool = _StuckPool([_Worker(stuck=True)])
+    assert not batchjobs.terminate_pool(pool, []) and not pool.joined  # (the caller's process ends anyway)
+    pool.workers[0].kill()

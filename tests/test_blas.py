@@ -41,3 +41,25 @@ def test_large_batches_run_on_one_blas_thread(monkeypatch):
     assert seen and all(n == len(T) and set(threads) <= {1} for n, threads in seen)
     bennett_core.solve(T[:3], 0)
     assert seen[-1][0] == 3  # small batches: BLAS untouched (the limit costs more than it saves there)
+
+
+def test_the_command_runs_blas_on_one_thread_unless_told_otherwise():
+    """cli/__init__.py sets one BLAS thread before numpy loads (docs/architecture.md, "Threads"); an explicit
+    OPENBLAS_NUM_THREADS in the environment wins."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = ("import cli.main, numpy, threadpoolctl; numpy.ones((4, 4)) @ numpy.ones((4, 4)); "
+            "print(sorted({i['num_threads'] for i in threadpoolctl.threadpool_info() if i['user_api'] == 'blas'}))")
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OMP_NUM_THREADS")}
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=root, capture_output=True, text=True, check=True)
+    if out.stdout.strip() == "[]":
+        pytest.skip("no BLAS library that threadpoolctl can see")
+    assert out.stdout.strip() == "[1]"
+    if (os.cpu_count() or 1) > 1:
+        env["OPENBLAS_NUM_THREADS"] = env["MKL_NUM_THREADS"] = "2"
+        out = subprocess.run([sys.executable, "-c", code], env=env, cwd=root, capture_output=True, text=True, check=True)
+        assert out.stdout.strip() == "[2]"

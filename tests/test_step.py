@@ -62,6 +62,9 @@ def test_step_holds_one_named_solid_per_stl_with_its_volume(tmp_path, fixture, k
     stl = _stl_volumes(out)
     assert len(re.findall(r"MANIFOLD_SOLID_BREP\(", text)) == len(stl)  # the file itself, not gmsh's reading
     assert "Open CASCADE STEP translator" not in text
+    assert "SI_UNIT(.MILLI.,.METRE.)" in text  # built in metres, written in mm (synth/io/step.py)
+    accuracy = float(re.search(r"LENGTH_MEASURE\(([^)]*)\),#\d+,\s*'distance_accuracy_value'", text).group(1))
+    assert accuracy <= 1e-3  # mm: OpenCASCADE's confusion tolerance, 1e-7 m
     solids = _step_solids(out / "linkage.step")
     assert set(solids) == set(stl)
     for name, v in stl.items():

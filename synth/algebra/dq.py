@@ -328,20 +328,11 @@ def translated(h, v):
 _HALF_VECTOR = -0.5 * _QT_FLAT[1:]  # (3, 16): -(v/2) p = p @ (v @ this) (4, 4) (exact: a power of two)
 
 
-_TRANSLATION = (2.0 * _QT * _CONJ_F[:4, None])[:, :, 1:].reshape(4, 12)  # 2 vec(p q~) = q @ (p @ this) (4, 3)
-
-
 def dq_translation(h, pp=None):
     """Translations (..., 3) of the poses of dual quaternions h (..., 8) (Study condition assumed, p != 0,
-    any scale): d = 2 vec(p q~) / |p|^2, as q times a (4, 3) matrix linear in p. ``pp``: |p|^2 (...,),
-    when the caller has it."""
+    any scale): d = 2 vec(p q~) / |p|^2 (`translation_split`). ``pp``: |p|^2 (...,), when the caller has it."""
     h = np.asarray(h, float)
-    p = h[..., :4]
-    if pp is None:
-        pp = dot(p, p)
-    d = _VECMAT(h[..., 4:], _linear_matrices(p, _TRANSLATION, (4, 3)))
-    d *= (1.0 / pp)[..., None]
-    return d
+    return np.stack(translation_split(np.moveaxis(h, -1, 0), pp), axis=-1)
 
 
 _DT_CONJ_LEFT = _dual_tensor(_QT) * _CONJ[:, None, None]  # (a~ b)_k = sum_ij a_i b_j this[i, j, k]
@@ -392,6 +383,76 @@ def normalize_dq(h):
     n = np.sqrt(dot(h[..., :4], h[..., :4]))[..., None]
     np.negative(n, out=n, where=h[..., :1] < 0)
     return h / n
+
+
+# ----------------------------------------------------------------- split layout
+# A "split" dual quaternion is a sequence of its 8 components, each an array (shapes broadcast) or None for
+# a component known to be zero: plain arithmetic per component for large batches (the self-checks: jobs x
+# samples), no small matrix products. The structure constants are `dq_mul`'s.
+def _split_terms(T) -> tuple:
+    """Per output component k of the structure constants T (n, n, m) (entries 0, +-1): the terms (i, j,
+    negative) of its nonzero T[i, j, k], positive ones first."""
+    return tuple(tuple(sorted(((int(i), int(j), bool(T[i, j, k] < 0)) for i, j in zip(*np.nonzero(T[:, :, k]))),
+                              key=lambda term: term[2])) for k in range(T.shape[2]))
+
+
+_DQ_TERMS = _split_terms(_dual_tensor(_QT))
+_VEC_TERMS = _split_terms((_QT * _CONJ_F[:4, None])[:, :, 1:])  # vec(p q~)_k = sum_ij p_i q_j T[i, j, k]
+
+
+def bilinear_split(a, b, terms) -> list:
+    """The bilinear product of split a and b with the structure constants ``terms`` (`_split_terms`):
+    components sum_ij +-a_i b_j in the order of the terms, None where every term has a zero factor."""
+    shape = np.broadcast_shapes(*(np.shape(x) for x in (*a, *b) if x is not None))
+    out, tmp = [], None
+    for k_terms in terms:
+        acc = None
+        for i, j, neg in k_terms:
+            if a[i] is None or b[j] is None:
+                continue
+            if acc is None:
+                acc = np.multiply(a[i], b[j], out=np.empty(shape))
+                if neg:
+                    np.negative(acc, out=acc)
+                continue
+            tmp = np.multiply(a[i], b[j], out=tmp if tmp is not None else np.empty(shape))
+            (np.subtract if neg else np.add)(acc, tmp, out=acc)
+        out.append(acc)
+    return out
+
+
+def dq_mul_split(a, b) -> list:
+    """`dq_mul` of split dual quaternions a, b (8 components each, broadcast; None: zero): a list of 8."""
+    return bilinear_split(a, b, _DQ_TERMS)
+
+
+def product_support(a, b) -> frozenset:
+    """The components of a product of dual quaternions that can be nonzero when only the components ``a``
+    of the left and ``b`` of the right factor are (sets of indices 0-7)."""
+    return frozenset(k for k, terms in enumerate(_DQ_TERMS) if any(i in a and j in b for i, j, _ in terms))
+
+
+def translation_split(h, pp=None) -> list:
+    """The translation (3 components) of the pose of split dual quaternions h (Study condition assumed,
+    p != 0, any scale): d = 2 vec(p q~) / |p|^2, as `dq_translation`. ``pp``: |p|^2 when the caller has it."""
+    if pp is None:
+        pp = square_sum(h[:4])
+    scale = 2.0 / pp
+    return [x * scale if x is not None else np.zeros(np.shape(scale)) for x in bilinear_split(h[:4], h[4:], _VEC_TERMS)]
+
+
+def square_sum(x) -> np.ndarray:
+    """sum_k x_k^2 of the components x (arrays, or None: zero), in order."""
+    acc = None
+    for c in x:
+        if c is not None:
+            if acc is None:
+                acc = np.multiply(c, c)
+            elif isinstance(acc, np.ndarray) and acc.ndim and acc.shape == np.shape(c):
+                acc += c * c
+            else:
+                acc = acc + c * c
+    return acc if acc is not None else np.zeros(())
 
 
 # ----------------------------------------------------------------- lines

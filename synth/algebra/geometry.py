@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.algebra.dq import dot, dq_translation
+from synth.algebra.dq import dot, square_sum, translation_split
 
 PARALLEL_TOL = 1e-9  # |u1 x u2| below this: parallel lines (see the module docstring)
 INTERSECT_TOL = 1e-12  # a common normal at most this long: intersecting lines (normal = u1 x u2 / |u1 x u2|)
@@ -139,22 +139,42 @@ def pose_difference(A, B):
 def dq_pose_difference(A, B=None):
     """(translation distance, rotation angle) between the poses of dual quaternions A, B (..., 8) (Study
     condition assumed, any nonzero scale), or of X[0] and X[1] for one stacked array X = A (2, ..., 8)
-    when B is None (one evaluation for both): |d_A - d_B| with d = 2 vec(p q~)/|p|^2, and the angle of
-    p_A~ p_B in [0, pi] as 4 asin(|p_A - s p_B| / 2) for the unit primal parts (s = sign(p_A . p_B)),
-    accurate for small and large angles."""
+    when B is None: `pose_difference_split` of their components."""
     if B is None:
-        X = A
-    else:
-        A, B = np.broadcast_arrays(np.asarray(A, float), np.asarray(B, float))
-        X = np.stack([A, B])
-    P = X[..., :4]
-    n = dot(P, P)
-    d = dq_translation(X, n)
-    d = d[0] - d[1]
-    dt = np.sqrt(dot(d, d))
-    u = P / np.sqrt(n)[..., None]
-    w = u[0] - np.copysign(1.0, dot(u[0], u[1]))[..., None] * u[1]  # |w| <= sqrt(2)
-    dr = 4.0 * np.arcsin(0.5 * np.sqrt(dot(w, w)))
+        A, B = A[0], A[1]
+    A, B = np.broadcast_arrays(np.asarray(A, float), np.asarray(B, float))
+    return pose_difference_split(np.moveaxis(A, -1, 0), np.moveaxis(B, -1, 0))
+
+
+def pose_difference_split(A, B):
+    """(translation distance, rotation angle) between the poses of split dual quaternions A, B (8
+    components each, broadcast, None: zero; `synth.algebra.dq.dq_mul_split`), Study condition assumed, any
+    nonzero scale: `feature_difference` of their `pose_features_split`. Plain arithmetic per component (no
+    small matrix products)."""
+    return feature_difference(pose_features_split(A), pose_features_split(B))
+
+
+def pose_features_split(X) -> tuple[list, list]:
+    """(translation d, 3 components; unit primal part u, 4 components, None where zero) of the poses of
+    split dual quaternions X: d = 2 vec(p q~)/|p|^2 (`synth.algebra.dq.translation_split`), u = p / |p|."""
+    n = square_sum(X[:4])
+    r = 1.0 / np.sqrt(n)
+    return translation_split(X, n), [r * x if x is not None else None for x in X[:4]]
+
+
+def feature_difference(F, G):
+    """(translation distance, rotation angle) between poses given by `pose_features_split` F, G: |d_F - d_G|,
+    and the angle of p_F~ p_G in [0, pi] as 4 asin(|u_F - s u_G| / 2) (s = sign(u_F . u_G)), accurate for
+    small and large angles."""
+    (d, u), (e, v) = F, G
+    dt = np.sqrt(square_sum([x - y for x, y in zip(d, e)]))
+    c = square_sum([])  # u . v
+    for x, y in zip(u, v):
+        if x is not None and y is not None:
+            c = c + x * y
+    s = np.copysign(1.0, c)
+    w = [x if y is None else -s * y if x is None else x - s * y for x, y in zip(u, v) if x is not None or y is not None]
+    dr = 4.0 * np.arcsin(0.5 * np.sqrt(square_sum(w)))
     return dt, dr
 
 

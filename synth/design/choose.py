@@ -24,6 +24,7 @@ from synth.design.model import PIN_FITS, DesignResult
 from synth.design.coordinate import FULL
 from synth.design.mounting import place_mounting
 from synth.design.search import design_linkage, natural_result, task_phi_range
+from synth.design.seats import seat_pins
 from synth.design.sturdy import SLENDERNESS, bar_radius_for
 from synth.design.work import GAPS_PER_SECOND, Work
 from synth.errors import InputError
@@ -104,6 +105,7 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     result = _design_for(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, work,
                          slenderness, search)
     result.design.pin_fit = pin_fit
+    result.design = seat_pins(linkage, result.design)  # blind bores where a bar covers the face (synth.design.seats)
     result.collision.work = work.done - start  # every stage's (full cycle, cranks, task range, thinning)
     result.collision.seconds = time.process_time() - t0  # information only
     return place_mounting(linkage, result, base=mount_boxes[0], envelope=mount_boxes[1])

@@ -91,6 +91,8 @@ class Mounting:
     screw: str
     bore: float = 0.0
     counterbore: tuple = (0.0, 0.0)
+    box_distance: float = 0.0  # metres from the task's base box to the face's centre (0: in it, or no box)
+    box_reasons: dict = field(default_factory=dict)  # {why: count} of the candidates nearer the box, refused
 
     def to_dict(self) -> dict:
         return {"link": self.link, "joint": self.joint, "kind": self.kind,
@@ -98,7 +100,17 @@ class Mounting:
                 "axes": [[float(x) for x in a] for a in self.axes], "size": [float(2 * h) for h in self.half],
                 "thickness": float(self.thickness), "screw": self.screw, "hole_diameter": float(self.hole_diameter),
                 "holes": [[float(x) for x in h] for h in self.holes], "bore_diameter": float(2 * self.bore),
-                "counterbore": {"diameter": float(self.counterbore[0]), "depth": float(self.counterbore[1])}}
+                "counterbore": {"diameter": float(self.counterbore[0]), "depth": float(self.counterbore[1])},
+                **({"base_box": {"distance": float(self.box_distance), "nearer_refused": dict(self.box_reasons)}}
+                   if self.box_distance > 0 else {})}
+
+    def box_sentence(self, scale: float = 1.0, unit: str = "m") -> str:
+        """Why the face is outside the task's base box (lengths in ``unit``, metres / ``scale``), or ""."""
+        if not self.box_distance > 0:
+            return ""
+        why = "; ".join(f"{n} {w}" for w, n in self.box_reasons.items()) or "none nearer"
+        return (f"the mounting face is {self.box_distance / scale:.3g} {unit} outside the base box; the plates "
+                f"nearer it were refused: {why}")
 
     @classmethod
     def from_dict(cls, d: dict) -> "Mounting":
@@ -107,7 +119,9 @@ class Mounting:
                    np.asarray(d["size"], float) / 2, float(d["thickness"]),
                    np.asarray(d["holes"], float).reshape(-1, 3), float(d["hole_diameter"]), str(d["screw"]),
                    float(d.get("bore_diameter", 0.0)) / 2,
-                   tuple(float((d.get("counterbore") or {}).get(k, 0.0)) for k in ("diameter", "depth")))
+                   tuple(float((d.get("counterbore") or {}).get(k, 0.0)) for k in ("diameter", "depth")),
+                   float((d.get("base_box") or {}).get("distance", 0.0)),
+                   dict((d.get("base_box") or {}).get("nearer_refused", {})))
 
 
 @dataclass
@@ -300,6 +314,106 @@ def pins_for(linkage, design: PhysicalDesign) -> list[Pin]:
         h = design.hub_length / 2
         pins.append(Pin(joint, min(offs) - h, max(offs) + h, links[0]))
     return pins
+
+
+CAP = 0.25  # a blind bore's cap (and a pin head's thickness), times the hub length (synth.design.seats)
+HEAD_WALL = 0.4  # a pin head's radius: the bore plus this fraction of the hub's wall
+
+
+@dataclass(frozen=True)
+class PinEnds:
+    """Where a pin's head and retention go (docs/design.md, "Pins"): ``outward`` (3,) unit vectors along
+    the axis pointing out of the stack at the carrier's and at the turning link's outer face, the hubs'
+    outer faces ``faces`` (3,) each (world, reference configuration), head radius ``head`` and thickness
+    ``thickness``, counterbore radius ``counterbore`` (metres); ``head_on``: the link whose face holds the
+    head (None: no head, a plain pin), ``groove_on``: the link whose face holds a clip's groove (or None),
+    ``blind``: the links whose bore stops short of their outer face (`seat_pins`)."""
+
+    carrier: str
+    turning: str
+    faces: dict
+    outward: dict
+    head: float
+    thickness: float
+    counterbore: float
+    head_on: str | None = None
+    groove_on: str | None = None
+    blind: tuple = ()
+
+
+def _stack(design: PhysicalDesign, joint: str):
+    """(carrier, turning, sign) of ``joint``'s pin, sign = +1 when the turning link's hub lies further along
+    the axis direction; None for a joint held by one link."""
+    pin = design.pin(joint)
+    mounts = {m.link: m.offset for m in design.mounts if m.joint == joint}
+    others = [n for n in mounts if n != pin.carrier]
+    if pin.carrier not in mounts or not others:
+        return None
+    turning = others[0]
+    return pin.carrier, turning, 1.0 if mounts[turning] > mounts[pin.carrier] else -1.0
+
+
+def head_radius(design: PhysicalDesign) -> float:
+    """The radius (metres) of a pin's head: the bore plus `HEAD_WALL` of the hub's wall."""
+    bore = design.pin_radius + design.hole_clearance
+    return bore + HEAD_WALL * (design.hub_radius - bore)
+
+
+@dataclass(frozen=True)
+class PinSeat:
+    """How the pin of a joint sits, from the design alone (offsets along the axis, metres): the
+    ``carrier`` and ``turning`` link, ``out`` = +1 when the turning link's hub lies further along the axis
+    direction (else -1), the hubs' outer ``faces`` {link: offset}, ``blind``: the links whose bore stops
+    short of their outer face (the pin ends inside), ``head_on`` / ``groove_on``: the link whose face holds
+    the head / a clip's groove (None: none); a head goes in from its own face."""
+
+    carrier: str
+    turning: str
+    out: float
+    faces: dict
+    blind: tuple
+    head_on: str | None
+    groove_on: str | None
+
+
+def pin_seat(design: PhysicalDesign, joint: str) -> PinSeat | None:
+    """The `PinSeat` of ``joint``'s pin, None for a joint held by one link. The head goes on the link the
+    fit prefers (press: the turning link, clip: the carrier) when the pin reaches its face, else on the
+    other's (`synth.design.seats`); a plain pin has none."""
+    stack = _stack(design, joint)
+    if stack is None:
+        return None
+    carrier, turning, out = stack
+    pin = design.pin(joint)
+    h = design.hub_length / 2
+    faces = {turning: design.mount(turning, joint).offset + out * h,
+             carrier: design.mount(carrier, joint).offset - out * h}
+    pin_end = {turning: pin.end if out > 0 else pin.start, carrier: pin.start if out > 0 else pin.end}
+    tol = 1e-6 * design.hub_length
+    blind = tuple(n for n in (carrier, turning) if abs(pin_end[n] - faces[n]) > tol)
+    head_on = groove_on = None
+    if design.pin_fit != "plain":
+        first, second = (carrier, turning) if design.pin_fit == "clip" else (turning, carrier)
+        head_on = first if first not in blind else (second if second not in blind else None)
+        if design.pin_fit == "clip" and head_on == carrier and turning not in blind:
+            groove_on = turning
+    return PinSeat(carrier, turning, out, faces, blind, head_on, groove_on)
+
+
+def pin_ends(linkage, design: PhysicalDesign, joint: str, sites=None) -> PinEnds | None:
+    """The `PinEnds` of the pin of ``joint`` (`pin_seat` in world coordinates), None for a joint held by
+    one link. The head: radius `head_radius`, thickness `CAP` of the hub length, sunk flush into a
+    counterbore (head radius + hole clearance, one hole clearance deeper) of the hub it sits on: inside
+    that hub. ``sites``: the linkage's ``joint_sites()`` when already at hand."""
+    seat = pin_seat(design, joint)
+    if seat is None:
+        return None
+    u = linkage.joint(joint).direction
+    head = head_radius(design)
+    return PinEnds(seat.carrier, seat.turning,
+                   {n: axis_point(linkage, joint, f, sites) for n, f in seat.faces.items()},
+                   {seat.turning: seat.out * u, seat.carrier: -seat.out * u}, head, CAP * design.hub_length,
+                   head + design.hole_clearance, seat.head_on, seat.groove_on, seat.blind)
 
 
 @dataclass

@@ -41,7 +41,8 @@ import numpy as np
 from synth.algebra.geometry import perpendicular_basis
 from synth.design.collision import CapsuleSet, bodies, certify, segment_distance
 from synth.design.coordinate import FULL
-from synth.design.model import Capsule, DesignResult, Mounting, axis_point, capsules, joint_links, plate_capsules
+from synth.design.model import (Capsule, DesignResult, Mounting, axis_point, capsules, head_radius, joint_links,
+                                plate_capsules)
 from synth.design.search import task_phi_range
 
 BASE = "base"
@@ -133,7 +134,7 @@ def candidates(linkage, design, screw: Screw) -> list[Mounting]:
         e1, e2 = perpendicular_basis(n)
         a = across / math.sqrt(2.0) + 0.5 * screw.head
         holes = [face + s1 * a * e1 + s2 * a * e2 for s1 in (1, -1) for s2 in (1, -1)]
-        counterbore = bore + 0.4 * (R - bore) + design.hole_clearance  # room for a pin's head (meshes.pin_ends)
+        counterbore = head_radius(design) + design.hole_clearance  # room for a pin's head (seats.pin_ends)
         out.append(_plate(BASE, joint, "hub", face, n, e1, (a + screw.hole, a + screw.hole), (1 + OVERLAP) * T,
                           screw, holes, counterbore))
     return out
@@ -265,16 +266,34 @@ def place_mounting(linkage, result: DesignResult, *, base=None, envelope=None) -
         found = [f for f in feet if f is not None] + found
         found.sort(key=lambda m: _box_distance(m.origin, base))  # (stable: parallel first at equal distance)
     report = result.collision
+    refused: dict[str, int] = {}
     for m in found:
-        if not (outermost(m, base_caps) and inside(m, envelope)):
+        why = _refusal(linkage, design, m, base_caps, envelope, screw, report)
+        if isinstance(why, str):
+            refused[why] = refused.get(why, 0) + 1
             continue
-        holes = usable_holes(m, base_caps, screw.head)
-        if len(holes) < 2:
-            continue
-        m = replace(m, holes=holes)
-        cert = plate_gap(linkage, design, m, report.range, report.clearance)
-        if cert["certified"]:
-            design.mounting = m
-            report.min_distance = min(report.min_distance, cert["lower"])
-            return result
+        m, cert = why
+        if base is not None and _box_distance(m.origin, base) > 0:  # say why none nearer the box was kept
+            m = replace(m, box_distance=_box_distance(m.origin, base), box_reasons=refused)
+        design.mounting = m
+        report.min_distance = min(report.min_distance, cert["lower"])
+        return result
     return result
+
+
+def _refusal(linkage, design, m: Mounting, base_caps, envelope, screw, report):
+    """Why the candidate ``m`` is refused (a phrase), else (``m`` with its usable holes, its certificate)."""
+    if not outermost(m, base_caps):
+        return "not the base's outermost face"
+    if not inside(m, envelope):
+        return "outside the envelope"
+    holes = usable_holes(m, base_caps, screw.head)
+    if len(holes) < 2:
+        return "without room for two screw heads"
+    m = replace(m, holes=holes)
+    cert = plate_gap(linkage, design, m, report.range, report.clearance)
+    if not cert["certified"]:
+        cs = plate_set(linkage, design, m)
+        body = cs.body_pairs[int(cs.body_pair[int(np.argmin(cert["sampled"]))])][1]
+        return f"within the clearance of {body} ({report.range} range)"
+    return m, cert

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.design.model import PhysicalDesign, axis_point, capsules
+from synth.design.model import PhysicalDesign, PinEnds, axis_point, capsules, pin_ends  # noqa: F401  (PinEnds: what pin_ends returns)
 from synth.frames import link_origins
 from synth.io.solid import (Solid, boolean, box, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
                             mass_properties, read_stl_triangles, signed_volume, stl_bytes, surface_defect, weld)
@@ -72,48 +72,6 @@ class Primitive:
 PRESS_INTERFERENCE = 5e-5  # metres, radial: a press fit of a printed pin (at most 2 % of the pin radius)
 
 
-@dataclass(frozen=True)
-class PinEnds:
-    """Where a pin's head and retention go (docs/design.md, "Pins"): ``outward`` (3,) unit vectors along
-    the axis pointing out of the stack at the carrier's and at the turning link's outer face, the faces
-    ``faces`` (3,) each (world, reference configuration), head radius ``head`` and thickness
-    ``thickness``, counterbore radius ``counterbore`` (metres)."""
-
-    carrier: str
-    turning: str
-    faces: dict
-    outward: dict
-    head: float
-    thickness: float
-    counterbore: float
-
-
-def pin_ends(linkage, design: PhysicalDesign, joint: str, sites=None) -> PinEnds | None:
-    """The `PinEnds` of the pin of ``joint``, None for a joint held by one link. The head: radius bore +
-    0.4 of the hub's wall, thickness a quarter of the hub length, sunk flush into a counterbore (head
-    radius + hole clearance, one hole clearance deeper) of the hub it sits on: inside that hub.
-    ``sites``: the linkage's ``joint_sites()`` when already at hand (as in the functions below)."""
-    pin = design.pin(joint)
-    mounts = {m.link: m.offset for m in design.mounts if m.joint == joint}
-    others = [n for n in mounts if n != pin.carrier]
-    if pin.carrier not in mounts or not others:
-        return None
-    turning = others[0]
-    u = linkage.joint(joint).direction
-    out = 1.0 if mounts[turning] > mounts[pin.carrier] else -1.0  # the turning link's side, along u
-    ends = {turning: pin.end if out > 0 else pin.start, pin.carrier: pin.start if out > 0 else pin.end}
-    bore = design.pin_radius + design.hole_clearance
-    head = bore + 0.4 * (design.hub_radius - bore)
-    return PinEnds(pin.carrier, turning, {n: axis_point(linkage, joint, e, sites) for n, e in ends.items()},
-                   {turning: out * u, pin.carrier: -out * u}, head, 0.25 * design.hub_length,
-                   head + design.hole_clearance)
-
-
-def _head_side(design: PhysicalDesign, ends: PinEnds) -> tuple[str, str | None]:
-    """(the link whose face the head sits on, the link whose face holds the clip groove or None)."""
-    return (ends.carrier, ends.turning) if design.pin_fit == "clip" else (ends.turning, None)
-
-
 def link_primitives(linkage, design: PhysicalDesign, name: str, sites=None,
                     caps=None) -> tuple[list[Primitive], list[Primitive]]:
     """(parts, bores) of link ``name``. Parts: a capsule per bar segment, a cylinder per hub; bores: a
@@ -136,9 +94,15 @@ def link_primitives(linkage, design: PhysicalDesign, name: str, sites=None,
             centre = (c.p0 + c.p1) / 2
             half = 1.01 * max(design.hub_length / 2, design.bar_radius) + 0.01 * design.hub_radius
             r = design.pin_radius - press if carriers.get(c.joint) == name else design.pin_radius + design.hole_clearance
-            bores.append(Primitive("cylinder", centre - half * u, centre + half * u, r))
-            ends = pin_ends(linkage, design, c.joint, sites) if design.pin_fit != "plain" and c.joint in carriers else None
-            if ends is not None and name in _head_side(design, ends):
+            ends = pin_ends(linkage, design, c.joint, sites) if c.joint in carriers else None
+            if ends is not None and name in ends.blind:  # a closed face: the bore stops past the pin's end
+                w = ends.outward[name]
+                pin = design.pin(c.joint)
+                stop = axis_point(linkage, c.joint, pin.end if np.dot(u, w) > 0 else pin.start, sites)  # its tip
+                bores.append(Primitive("cylinder", centre - half * w, stop + design.hole_clearance * w, r))
+            else:
+                bores.append(Primitive("cylinder", centre - half * u, centre + half * u, r))
+            if ends is not None and name in (ends.head_on, ends.groove_on):
                 face, w = ends.faces[name], ends.outward[name]
                 depth = ends.thickness + design.hole_clearance
                 bores.append(Primitive("cylinder", face - depth * w, face + half * w, ends.counterbore))
@@ -193,10 +157,10 @@ def pin_primitives(linkage, design: PhysicalDesign, joint: str, sites=None) -> l
     sites = linkage.joint_sites() if sites is None else sites
     a, b = axis_point(linkage, joint, p.start, sites), axis_point(linkage, joint, p.end, sites)
     r = design.pin_radius
-    ends = pin_ends(linkage, design, joint, sites) if design.pin_fit != "plain" else None
-    if ends is None:
+    ends = pin_ends(linkage, design, joint, sites)
+    if ends is None or ends.head_on is None:
         return [Primitive("cylinder", a, b, r)]
-    head_on, clip_on = _head_side(design, ends)
+    head_on, clip_on = ends.head_on, ends.groove_on
     face, w, t = ends.faces[head_on], ends.outward[head_on], ends.thickness
     other = b if np.dot(b - face, w) < np.dot(a - face, w) else a  # the shaft's far end (press)
     shaft_end = face - 0.5 * t * w  # inside the head: no coplanar caps

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.io.names import MESH_UNIT_SCALE, mesh_filename
-from synth.io.solid import signed_volume
+from synth.io.solid import shell_count, signed_volume
 
 BED = (220.0, 220.0, 250.0)  # mm: a common printer's build volume
 MATERIAL = ("PLA", 1.24)  # name, density g/cm^3
@@ -28,7 +28,7 @@ MATERIAL = ("PLA", 1.24)  # name, density g/cm^3
 class PrintPart:
     """One part on the bed: ``mesh`` (relative path), ``extents`` (3,) mm in print orientation (x >= y,
     z = height), ``fits_bed``, ``scale`` (<= 1: the uniform scale that makes it fit), ``volume`` mm^3,
-    ``mass`` g."""
+    ``mass`` g, ``bodies``: its separate pieces (1 for a sound part; `synth.io.solid.shell_count`)."""
 
     mesh: str
     extents: tuple[float, float, float]
@@ -36,6 +36,7 @@ class PrintPart:
     scale: float
     volume: float
     mass: float
+    bodies: int = 1
 
 
 DIRECTIONS = 720  # footprint directions sampled for its outline (its extreme points)
@@ -125,7 +126,8 @@ def print_part(name: str, mesh, bed=BED, density: float = MATERIAL[1], down=None
         if scale >= 1.0:
             break
     volume = float(signed_volume(mesh.triangles)) / MESH_UNIT_SCALE ** 3
-    return PrintPart(mesh_filename(name), ext, scale >= 1.0, scale, volume, volume * density * 1e-3)
+    return PrintPart(mesh_filename(name), ext, scale >= 1.0, scale, volume, volume * density * 1e-3,
+                     shell_count(mesh.faces))
 
 
 def print_section(solids: dict, bed=BED, material=MATERIAL, down: dict | None = None) -> dict:
@@ -139,6 +141,8 @@ def print_section(solids: dict, bed=BED, material=MATERIAL, down: dict | None = 
              "mass": p.mass}
         if not p.fits_bed:
             d["scale"] = p.scale
+        if p.bodies != 1:  # a part in pieces (docs/design.md, "Pins": a bore that cuts a bar off its hub)
+            d["bodies"] = p.bodies
         parts.append(d)
     return {"bed": list(map(float, bed)), "material": {"name": material[0], "density": material[1]},
             "parts": parts}
@@ -152,7 +156,14 @@ def too_large(section: dict) -> list[str]:
             for p in section["parts"] if not p["fits_bed"]]
 
 
+def in_pieces(section: dict) -> list[str]:
+    """Sentences naming the parts of a ``print`` section that are not one body (for the CLI's summary)."""
+    return [f"{p['mesh']} is {p['bodies']} separate bodies, not one part (a bore cuts a bar off its hub)"
+            for p in section["parts"] if p.get("bodies", 1) != 1]
+
+
 def print_notes(directory) -> list[str]:
-    """`too_large` of the ``print`` section of ``directory``/linkage.json (none when it has no such section)."""
+    """`in_pieces` and `too_large` of the ``print`` section of ``directory``/linkage.json (none when it has
+    no such section)."""
     doc = json.loads((Path(directory) / "linkage.json").read_text(encoding="utf-8"))
-    return too_large(doc["print"]) if "print" in doc else []
+    return in_pieces(doc["print"]) + too_large(doc["print"]) if "print" in doc else []

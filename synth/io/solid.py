@@ -221,6 +221,23 @@ def weld(triangles) -> Solid:
     return Solid(ranked[first].astype(np.float64), index.reshape(-1, 3))
 
 
+def shell_count(faces) -> int:
+    """The number of connected pieces of the surface with faces (m, 3) (triangles that share a vertex are
+    connected): the bodies a slicer or a CAD program sees. Label propagation with pointer jumping."""
+    f = np.asarray(faces, np.int64)
+    if not len(f):
+        return 0
+    label = np.arange(int(f.max()) + 1)
+    while True:
+        low = label[f].min(axis=1)
+        new = label.copy()
+        np.minimum.at(new, f.ravel(), np.repeat(low, 3))
+        new = new[new]
+        if np.array_equal(new, label):
+            return int(len(np.unique(label[f.ravel()])))
+        label = new
+
+
 def degenerate_free(faces) -> np.ndarray:
     """Indices of the faces (m, 3) that repeat no vertex. After `weld` has merged the two ends of an edge
     shorter than the float32 step, the two triangles on that edge degenerate and the others are the edge

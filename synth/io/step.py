@@ -8,6 +8,15 @@ configuration, world coordinates). Each solid is built from the same primitives 
 segment, a hub or a pin part a cylinder, minus a cylinder per bore; exact cylinders and spheres where the
 STL has facets, so the volumes agree to the facets' accuracy (under 1 %).
 
+Units: the solids are built in metres, the primitives' own unit, and the STEP writer converts them to the
+file's millimetres (``Geometry.OCCTargetUnit`` "M": the unit of the model, not of the file). OpenCASCADE
+approximates the intersection curves of a boolean (a bar's cylinder with a hub's or a bore's: no conic)
+to its fixed confusion tolerance, 1e-7 model units: 0.1 um in metres, where the same solids built in
+millimetres asked for 0.1 nm at twice the CPU time (bench/RESULTS_fit.md, session 32) for the same
+analytic faces and volumes equal to 1e-6. That unit is a process-wide setting of OpenCASCADE, which gmsh
+sets only when it reads or writes a file: `_restore_unit` writes a one-point model in millimetres after
+the linkage, so a STEP file read later in the same process (a test's) is read in millimetres again.
+
 The kernel (bench/RESULTS.md, "STEP kernel"): gmsh's PyPI wheel (about 140 MB installed, 0.3 s import)
 over cadquery-ocp (over 900 MB with its dependencies). gmsh's STEP writer names every part
 "Open CASCADE STEP translator ..."; `name_products` gives them the URDF's names (the PRODUCT entities of
@@ -127,7 +136,7 @@ def _occ_balls(occ, a, b, r, spheres) -> list[int]:
 
 
 def _occ_solids(occ, prims, bores, scale: float, revolved: bool = True) -> list[int]:
-    """The gmsh volume tags of the union of ``prims`` minus the union of ``bores`` (millimetres): one
+    """The gmsh volume tags of the union of ``prims`` minus the union of ``bores`` (times ``scale``): one
     volume, or several where the bores cut the union apart (as they cut the STL's mesh: a bar thinner
     than a bore running along that bore's axis). Round bars revolved (`_occ_capsule`) or, not
     ``revolved``, cylinders and balls (`_occ_balls`). RuntimeError when nothing is left."""
@@ -201,7 +210,7 @@ VOLUME_TOLERANCE = 0.02  # relative: a B-rep solid's volume against its faceted 
 
 def _checked_solids(occ, prims, bores, scale: float, volume: float | None) -> list[int]:
     """`_occ_solids` with revolved round bars, else with cylinders and balls, whichever first gives the
-    ``volume`` (mm^3, the STL's; None: unchecked) within `VOLUME_TOLERANCE`: OpenCASCADE's booleans of
+    ``volume`` (the STL's, in the model's unit; None: unchecked) within `VOLUME_TOLERANCE`: OpenCASCADE's booleans of
     solids whose faces coincide or touch (the balls of a cranked bar's segments, a bar's rims) may fail
     or lose pieces without a word. RuntimeError when neither does."""
     got = []
@@ -215,7 +224,7 @@ def _checked_solids(occ, prims, bores, scale: float, volume: float | None) -> li
             return tags
         got.append(total)
         occ.remove([(3, t) for t in tags], recursive=True)
-    raise RuntimeError(f"the B-rep booleans gave volumes {got} mm^3, not the mesh's {volume} mm^3")
+    raise RuntimeError(f"the B-rep booleans gave volumes {got}, not the mesh's {volume} (model units cubed)")
 
 
 def step_text(linkage, design, volumes: dict | None = None) -> str:
@@ -226,7 +235,7 @@ def step_text(linkage, design, volumes: dict | None = None) -> str:
         raise ImportError("linkage.step needs gmsh: pip install 'mpsynth[cad]'")
 
     parts = step_parts(linkage, design)
-    scale = 1.0 / MESH_UNIT_SCALE
+    scale, to_model = 1.0, MESH_UNIT_SCALE ** 3  # built in metres (module docstring); volumes from mm^3
     started = gmsh.isInitialized()
     if not started:
         # gmsh's initialisation resets SIGTERM to its default action (seen in /proc/self/status): inside
@@ -237,8 +246,8 @@ def step_text(linkage, design, volumes: dict | None = None) -> str:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("linkage")
         occ = gmsh.model.occ
-        pieces = {name: _checked_solids(occ, prims, bores, scale, (volumes or {}).get(name))
-                  for name, (prims, bores) in parts.items()}
+        want = {name: v * to_model for name, v in (volumes or {}).items()}  # m^3
+        pieces = {name: _checked_solids(occ, prims, bores, scale, want.get(name)) for name, (prims, bores) in parts.items()}
         occ.synchronize()
         _hide_free_entities(gmsh)
         tags = {t: name if k == 0 else f"{name}_piece{k + 1}" for name, ts in pieces.items() for k, t in enumerate(ts)}
@@ -246,17 +255,32 @@ def step_text(linkage, design, volumes: dict | None = None) -> str:
         if volumes != sorted(tags):
             raise RuntimeError(f"the B-rep model holds volumes {volumes}, expected {sorted(tags)}")
         order = [tags[t] for t in volumes]  # the writer's order: by volume tag
-        gmsh.option.setString("Geometry.OCCTargetUnit", "MM")
+        gmsh.option.setString("Geometry.OCCTargetUnit", "M")  # the model's unit; the file's stays mm
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / STEP_FILE
-            with _quiet_stdout():
-                gmsh.write(str(path))
+            try:
+                with _quiet_stdout():
+                    gmsh.write(str(path))
+            finally:
+                gmsh.model.remove()
+                _restore_unit(gmsh, Path(tmp))
             text = path.read_text(encoding="ascii")
-        gmsh.model.remove()
     finally:
         if not started:
             gmsh.finalize()
     return name_products(text, order)
+
+
+def _restore_unit(gmsh, directory: Path) -> None:
+    """OpenCASCADE's process-wide STEP unit back to millimetres (its default), after a write in metres
+    (module docstring): gmsh sets it when it writes a file, so a one-point model goes to ``directory``."""
+    gmsh.model.add("unit")
+    gmsh.model.occ.addPoint(0, 0, 0)
+    gmsh.model.occ.synchronize()
+    gmsh.option.setString("Geometry.OCCTargetUnit", "MM")
+    with _quiet_stdout():
+        gmsh.write(str(directory / "unit.step"))
+    gmsh.model.remove()
 
 
 def write_step(job, directory: Path) -> list[Path]:

@@ -28,7 +28,7 @@ from synth.info import Factorization, LinkageInfo
 from synth.infoparts import FitSummary
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.conic import Conditioning, condition, conic, relative_displacements_dq
-from synth.synthesis.fit import (ERRORS, Layout, LMResult, MotionModel, levenberg_marquardt, reference_pose,
+from synth.synthesis.fit import (ERRORS, Layout, LMResult, MotionModel, levenberg_marquardt, rank_seeds, reference_pose,
                                  sample_combinations, task_arrays)
 from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, nearest, regauge, to_gauge, zoom
 from synth.synthesis.pointfit import subset_motions
@@ -136,7 +136,7 @@ def fit_motion(ps: PoseSet):
         (phi, miss), h = nearest(coef, ref, task), np.pi / GRID
     tried = len(coef)
     keep = PRESCORED if sum(k != "point" for k in item_kinds(ps)) >= 3 else PRESCORED_POINTS
-    best = np.argsort(np.nan_to_num(miss, nan=np.inf), kind="stable")[:keep]  # the cheap pre-score
+    best = rank_seeds(miss)[:keep]  # the cheap pre-score
     coef, ref = coef[best], ref[best]
     coef, ref, phi, gauge = to_gauge(coef, ref, zoom(coef, ref, task, phi[best], h))
     layout = Layout(DEGREE, len(T), gauge)
@@ -146,7 +146,7 @@ def fit_motion(ps: PoseSet):
     with np.errstate(all="ignore"):
         r, c = model.rows(x0)
     merit = np.nan_to_num((r * r).sum(-1) + EXACT_WEIGHT**2 * (c * c).sum(-1), nan=np.inf)
-    ranked = np.lexsort((merit, ~_in_order(phi))) if ps.order is Order.LISTED else np.argsort(merit, kind="stable")
+    ranked = rank_seeds(merit, ~_in_order(phi)) if ps.order is Order.LISTED else rank_seeds(merit)
     positions_only = not (task.weight[:, 3:ERRORS].any() or task.exact[:, 3:].any())
     for start in range(0, min(len(ranked), ROUNDS * KEEP), KEEP):  # (listed order first, when asked for)
         keep = ranked[start:start + KEEP]  # the next seeds, when none of these meets the exact rows
@@ -159,7 +159,7 @@ def fit_motion(ps: PoseSet):
                                       fixed, ITERATIONS)
         if (res.violation <= FEASIBLE).any():
             break
-    order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
+    order = rank_seeds(res.cost, ~(res.violation <= FEASIBLE))
     b, more = order[:1], 0  # the finish: the best seed goes on alone (a curved valley can take many short steps)
     if res.iterations >= ITERATIONS:  # (not when every seed converged)
         with np.errstate(all="ignore"), one_blas_thread():
@@ -178,7 +178,7 @@ def fit_motion(ps: PoseSet):
         res = LMResult(np.concatenate([res.x, steered.x]), np.concatenate([res.cost, steered.cost]),
                        np.concatenate([res.violation, steered.violation]), res.iterations + steered.iterations)
         keep = np.concatenate([keep, keep[seed]])
-        order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
+        order = rank_seeds(res.cost, ~(res.violation <= FEASIBLE))
     coef, x_ref, phi = layout.split(res.x)
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
     summary = FitSummary("fit", seeds=tried, refined=refined, iterations=res.iterations + more)

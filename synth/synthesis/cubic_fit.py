@@ -18,7 +18,7 @@ import numpy as np
 from synth.errors import SynthesisError
 from synth.synthesis.conic import relative_displacements_dq
 from synth.synthesis.cubic import families, quadric
-from synth.synthesis.fit import ERRORS, TaskArrays, item_errors, nth_combination
+from synth.synthesis.fit import ERRORS, TaskArrays, item_errors, nth_combination, rank_seeds
 from synth.synthesis.fit_seeds import EXACT_WEIGHT, GRID, nearest, project, to_gauge, zoom
 from synth.synthesis.sixbar import grid_members
 
@@ -93,7 +93,7 @@ def seeds(Q, task: TaskArrays):
     keep = []
     for quad in np.unique(qi, axis=0):
         rows = np.nonzero((qi == quad).all(1))[0]
-        keep += rows[np.argsort(cost[rows], kind="stable")[:KEEP]].tolist()
+        keep += rows[rank_seeds(cost[rows])[:KEEP]].tolist()
     keep = np.array(keep, int)
     return coef[keep], np.array(ref[keep]), phi[keep], qi[keep, :3], len(np.unique(qi, axis=0))
 
@@ -111,7 +111,7 @@ def point_seeds(X, task: TaskArrays):
         raise SynthesisError("no seed motion: every 7-subset of the points is degenerate")
     coef, ref = coef[ok], ref[ok]
     phi, miss = nearest(coef, ref, task)
-    best = np.argsort(np.nan_to_num(miss, nan=np.inf), kind="stable")[:POINT_PRESCORED]
+    best = rank_seeds(miss)[:POINT_PRESCORED]
     coef, ref = coef[best], ref[best]
     coef, ref, phi, gauge = to_gauge(coef, ref, zoom(coef, ref, task, phi[best], np.pi / GRID))
     return coef, ref, phi, gauge, int(ok.sum())

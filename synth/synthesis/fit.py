@@ -27,9 +27,7 @@ from synth.algebra.geometry import cross
 from synth.synthesis.arrow import ArrowJacobian
 
 __all__ = ["sample_combinations", "nth_combination", "TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",
-           "homogeneous", "basis", 
-          
-           "ERRORS", "ROWS"]
+           "homogeneous", "basis", "cost_classes", "rank_seeds", "ERRORS", "ROWS"]
 
 ERRORS = 6  # per item: position error (3, spreads), rotation error 2 sin(angle/2) axis (3)
 ROWS = ERRORS + 5  # and 5 velocity rows (components of the twist direction across the prescribed one)
@@ -40,6 +38,8 @@ CORRECTIONS = 2  # second-order corrections per trial step, while the violation 
 CORRECT_ABOVE = 1e-9
 POLISH_STEPS = 4
 FLAT = 1e-10  # a relative decrease of the cost below this ends a seed's refinement
+COST_TIE = 1e-12  # relative: seeds whose costs differ by less are tied (rounding), ranked by seed index
+COST_FLOOR = 1e-20  # and costs this close (squared misses over tolerance: 1e-10 of a tolerance) likewise
 _DQ = structure_constants().reshape(64, 8).astype(float)
 _Q = structure_constants()[:4, :4, :4].reshape(16, 4).astype(float)
 _CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
@@ -449,3 +449,24 @@ def sample_combinations(items, k: int, size: int, first=()) -> list:
     first = list(first)
     pick = np.random.default_rng(0).choice(total, size=size - len(first), replace=False)
     return first + [tuple(items[i] for i in nth_combination(len(items), k, int(r))) for r in sorted(pick)]
+
+
+def cost_classes(cost, rel: float = COST_TIE) -> np.ndarray:
+    """(S,) int: the rank of each of the costs ``cost`` (S,) (NaN as inf) with rounding-level ties merged:
+    walking the costs upwards, a cost within ``rel`` (relative, plus `COST_FLOOR`) of the first cost of
+    its class joins that class. Two seeds that converge to one minimum get costs that differ in their last
+    bits, in an order that rounding decides; ranking by (class, seed index) makes it the seeds' order."""
+    cost = np.nan_to_num(np.asarray(cost, float), nan=np.inf)
+    out = np.empty(len(cost), int)
+    k, base = -1, np.nan
+    for i in np.argsort(cost, kind="stable"):
+        if not cost[i] - base <= rel * abs(base) + COST_FLOOR:  # (NaN for the first and for inf - inf: a new class)
+            k, base = k + 1, cost[i]
+        out[i] = k
+    return out
+
+
+def rank_seeds(cost, *before) -> np.ndarray:
+    """The seed indices (S,) ordered by the keys ``before`` (each (S,), most significant first, e.g. "not
+    feasible"), then by cost (`cost_classes`: ties within `COST_TIE`), then by seed index."""
+    return np.lexsort((np.arange(len(cost)), cost_classes(cost), *reversed(before)))

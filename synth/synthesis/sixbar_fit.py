@@ -31,7 +31,8 @@ from synth.synthesis.conic import Conditioning, condition, to_world
 from synth.synthesis.cubic import PAIRS, PERMS, chordal_separation
 from synth.synthesis.cubic_fit import point_seeds, seeds
 from synth.synthesis.fit_order import ListedOrder, directions
-from synth.synthesis.fit import ERRORS, Layout, LMResult, MotionModel, levenberg_marquardt, reference_pose, task_arrays
+from synth.synthesis.fit import (ERRORS, Layout, LMResult, MotionModel, cost_classes, levenberg_marquardt, rank_seeds,
+                                 reference_pose, task_arrays)
 from synth.synthesis.sixbar import LOOP, loop_dh
 from synth.synthesis.sixbar_loops import factor_members, member_geometry, root_pairs, score_loops, score_warnings
 from synth.synthesis.taskfit import first_built, item_kinds, item_tolerances, visiting_order, visits_in_order
@@ -110,10 +111,10 @@ def fit_cubics(ps: PoseSet) -> CubicFits:
         sign = directions(phi) if ps.order is Order.LISTED else None  # steer toward the listed order
         _, first = _refine(task, ref, x0, gauge, STAGE1, sign)
         merit = np.nan_to_num(first.cost + 1e6 * first.violation, nan=np.inf)
-        keep = np.argsort(merit, kind="stable")
         if ps.order is Order.LISTED:  # the seeds that visit the poses in the listed order first
-            listed = np.array([visits_in_order(_cot(p)) for p in layout.split(first.x)[2]])
-            keep = keep[np.argsort(~listed[keep], kind="stable")]
+            keep = rank_seeds(merit, ~np.array([visits_in_order(_cot(p)) for p in layout.split(first.x)[2]]))
+        else:
+            keep = rank_seeds(merit)
         keep = keep[:KEEP_FITS]
         layout, res = _refine(task, ref[keep], first.x[keep], gauge[keep], STAGE2, None if sign is None else sign[keep])
         if ps.constraints is not None and ps.constraints.base is not None:  # a loop's ground axes into the box
@@ -128,7 +129,7 @@ def fit_cubics(ps: PoseSet) -> CubicFits:
             layout = Layout(DEGREE, len(T), gauge[keep])
     c, x_ref, ph = layout.split(res.x)
     refs = normalize_dq(reference_pose(ref[keep], x_ref))
-    order = np.lexsort((res.cost, ~(res.violation <= FEASIBLE)))
+    order = rank_seeds(res.cost, ~(res.violation <= FEASIBLE))
     summary = FitSummary("fit", seeds=len(coef), refined=len(set(keep.tolist())),
                          iterations=first.iterations + res.iterations)
     return CubicFits(c[order], refs[order], np.mod(ph[order], np.pi), res.cost[order], res.violation[order], cond,
@@ -182,7 +183,8 @@ def fit_candidates(ps: PoseSet, top: int = 1) -> list:
         from synth.synthesis.steer import conditioned_box, ground_box_distance
 
         miss = ground_box_distance(mf.H, PAIRS, conditioned_box(ps.constraints.base, fits.cond)) > 1e-9
-    rank = sorted((bool(miss[j, p]), fits.cost[k], -score[j, p], j, p) for j, k in enumerate(idx)
+    tie = cost_classes(fits.cost)  # (fits whose costs differ in rounding only: by their rank, `rank_seeds`)
+    rank = sorted((bool(miss[j, p]), tie[k], -score[j, p], j, p) for j, k in enumerate(idx)
                   for p in _best_loops(score[j], valid[j], miss[j]))
     if not rank:
         raise SynthesisError(f"{ps.source}: every fitted cubic motion has a nearly real or repeated norm factor or a "

@@ -52,6 +52,7 @@ import importlib
 import multiprocessing
 import os
 import sys
+import threading
 from dataclasses import dataclass
 from typing import Any, Iterable, Iterator
 
@@ -64,6 +65,7 @@ from synth.io.jsonout import linkage_document, plain
 from synth.io.names import safe_robot_name
 from synth.io.poses import parse_pose_document
 from synth.io.writer import write_output
+from synth.memory import keep_freed_pages
 from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_fourbar, solve_points, solve_sixbar
 from synth.solve.many import solve_bennett_many
 from synth.synthesis.points import MINIMUM, NEEDED
@@ -245,6 +247,7 @@ def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) ->
     """`run_chunk`'s results as they are ready (the batched jobs first, at once); ``stop``: as `run_jobs`,
     asked before every result. The lines of the common Bennett shape are read for the whole chunk at once
     (`synth.tools.jobspec.read_common_bennett`), the others one by one (`_read_job`)."""
+    keep_freed_pages()  # (a batch process: `synth.memory`)
     common = read_common_bennett([text for _, text in chunk]) if not full else None
     read: list = [None] * len(chunk)
     if common is not None:
@@ -332,6 +335,9 @@ class Stopped(Exception):
     """``run_jobs`` gave up because its ``stop()`` said so (the caller's request, e.g. a signal)."""
 
 
+PRELOAD = (__name__, "synth.synthesis.sixbar")  # what a worker needs, imported by the fork server (a missing
+# optional module is skipped there); without it each worker imported them itself: README's 20,000 jobs took
+# longer with -j 2 than with -j 1 on the loaded 2-core machine
 POLL_SECONDS = 0.1  # how often a waiting `run_jobs` asks ``stop()`` (a reaction time, not a work budget)
 IDLE_SECONDS = 0.05  # a pipe without input this long: answer what was read (`synth.io.docload.read_chunks`)
 
@@ -380,7 +386,11 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
                 yield run_chunk_lines(chunk, full, out_dir, design, keep)
         return
     ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
+    if os.name == "posix":  # the fork server imports the batch once; each worker forks with it imported
+        ctx.set_forkserver_preload(list(PRELOAD))
+    before = set(multiprocessing.active_children())
     pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
+    workers = [p for p in multiprocessing.active_children() if p not in before]  # (no replacements: no maxtasks)
     pending: collections.deque = collections.deque()
 
     def first_done(finish: bool = False):
@@ -406,10 +416,31 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
             yield first_done()
         pool.close()
     except BaseException:
-        pool.terminate()
+        terminate_pool(pool, workers)
         raise
-    finally:
-        pool.join()
+    pool.join()
+
+
+TERMINATE_SECONDS = 2.0  # how long a pool's terminate may take before its workers are killed (a shutdown bound)
+
+
+def terminate_pool(pool, workers) -> bool:
+    """``pool.terminate()``, bounded: when the pool still waits for a worker after `TERMINATE_SECONDS`
+    (seen once in ~175 stops of a loaded machine here and once in CI: it then waited for good), the
+    workers still running are killed (SIGKILL) and the terminate is given as long again. ``workers``:
+    the pool's processes. Returns whether the pool is shut down and joined."""
+    done = threading.Thread(target=pool.terminate, name="terminate-pool", daemon=True)
+    done.start()
+    done.join(TERMINATE_SECONDS)
+    if done.is_alive():
+        for w in workers:
+            if w.exitcode is None:
+                w.kill()
+        done.join(TERMINATE_SECONDS)
+    if done.is_alive():
+        return False
+    pool.join()
+    return True
 
 
 def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = False,

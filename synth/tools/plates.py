@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.design.model import PhysicalDesign, pin_seat
 from synth.errors import InputError
 from synth.io.atomic import atomic_write
 from synth.io.printreport import BED, fit_scale, print_orientation
@@ -128,16 +129,39 @@ def plate_triangles(layout: PartsLayout, plate: int) -> np.ndarray:
 
 
 def assembly_steps(document: dict) -> list[dict]:
-    """Per joint of linkage.json's ``design``: {"joint", "pin", "through": [links in order along the
-    axis from the pin's start], "carrier": the link holding the pin, "turning": the others}."""
+    """Per joint of linkage.json's ``design``: {"joint", "pin", "through": [links in the order the pin
+    enters them: from the face that takes its head (`synth.design.model.pin_seat`), else along the axis from
+    the pin's start], "carrier": the link holding the pin, "turning": the others, "head": the link whose
+    face takes the head (or None), "blind": the links whose bore the pin ends in}."""
     design = document.get("design") or {}
+    seats = {}
+    if design.get("pins") and design.get("mounts"):
+        model = PhysicalDesign.from_dict(design)
+        seats = {p.joint: pin_seat(model, p.joint) for p in model.pins}
     steps = []
     for pin in design.get("pins", []):
         mounts = sorted((m["offset"], m["link"]) for m in design.get("mounts", []) if m["joint"] == pin["joint"])
         through = [link for _, link in mounts]
+        seat = seats.get(pin["joint"])
+        head = seat.head_on if seat is not None else None
+        if head is not None and through and through[0] != head:
+            through = through[::-1]
         steps.append({"joint": pin["joint"], "pin": f"pin_{pin['joint']}", "through": through,
-                      "carrier": pin["carrier"], "turning": [n for n in through if n != pin["carrier"]]})
+                      "carrier": pin["carrier"], "turning": [n for n in through if n != pin["carrier"]],
+                      "head": head, "blind": list(seat.blind) if seat is not None else []})
     return steps
+
+
+def _step_html(s: dict) -> str:
+    """One joint's line of the assembly sheet."""
+    e = html.escape
+    order = " then ".join(e(t) + (" (its bore is blind: the pin ends inside)" if t in s["blind"] else "")
+                          for t in s["through"])
+    side = (f"in from the face of <b>{e(s['head'])}</b>, where its head sits" if s["head"]
+            else "in this order along the axis")
+    return (f"<li>Joint <b>{e(s['joint'])}</b>: push <b>{e(s['pin'])}</b> through the bores of {order} ({side}); "
+            f"it is pressed or glued into <b>{e(s['carrier'])}</b> and "
+            f"{', '.join(e(t) for t in s['turning']) or 'nothing'} turns on it.</li>")
 
 
 def sheet_html(name: str, layout: PartsLayout, steps: list[dict], picture: bytes | None, fmt: str = "stl") -> str:
@@ -147,11 +171,7 @@ def sheet_html(name: str, layout: PartsLayout, steps: list[dict], picture: bytes
                    for p in layout.placements)
     rows += "".join(f"<tr><td>{e(n)}</td><td>does not fit the bed: print at scale {s:.3g}</td><td></td></tr>"
                     for n, s in layout.too_large.items())
-    items = "".join(
-        f"<li>Joint <b>{e(s['joint'])}</b>: push <b>{e(s['pin'])}</b> through the bores of "
-        f"{' then '.join(e(t) for t in s['through'])} (in this order along the axis); it is pressed or glued into "
-        f"<b>{e(s['carrier'])}</b> and {', '.join(e(t) for t in s['turning']) or 'nothing'} turns on it.</li>"
-        for s in steps)
+    items = "".join(_step_html(s) for s in steps)
     img = (f'<img alt="exploded view" src="data:image/png;base64,{base64.b64encode(picture).decode()}">'
            if picture else "<p>(no picture: pip install 'mpsynth[viz]')</p>")
     bed = " x ".join(f"{b:g}" for b in layout.bed)

@@ -30,7 +30,7 @@ def dumps(result: dict) -> str:
                           separators=(",", ":"))
 
 
-# where orjson's text can differ from json.dumps': a non-ASCII byte (json escapes it), a float below 1e-4
+# where orjson's text can differ from json.dumps': a non-ASCII byte or DEL (json escapes them), a float below 1e-4
 # (orjson: 0.00001, json: 1e-05) or with a one-digit negative exponent (orjson: 1.5e-7, json: 1.5e-07)
 _SHORT_EXPONENT = re.compile(rb"e-\d(?!\d)")
 
@@ -38,7 +38,8 @@ _SHORT_EXPONENT = re.compile(rb"e-\d(?!\d)")
 def _orjson_differs(out: bytes) -> bool:
     """Whether orjson's text ``out`` may differ from json.dumps' (see above; plain substring tests
     first: one regex with the three alternatives took 26 µs a result line)."""
-    return not out.isascii() or b"0.0000" in out or (b"e-" in out and _SHORT_EXPONENT.search(out) is not None)
+    return (not out.isascii() or b"\x7f" in out or b"0.0000" in out
+            or (b"e-" in out and _SHORT_EXPONENT.search(out) is not None))
 
 
 def _orjson_bytes(result: dict) -> bytes | None:

@@ -1,5 +1,5 @@
 """Check 2 of `mpsynth check` (`synth.tools.check.verify`): every referenced mesh file is a watertight
-binary STL of a plausible size."""
+binary STL of a plausible size, one body (a part in pieces cannot be printed or assembled as one)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.io.readback import mesh_file_problem, mesh_path
+from synth.io.solid import shell_count
 
 
 class MeshChecks:
@@ -59,6 +60,9 @@ class MeshChecks:
         vol = float(mesh.volume) * float(np.prod(scale))
         if not (vol > 0 and mesh.is_winding_consistent):
             return f"is not a solid of positive volume (volume {vol:.3g} m^3)"
+        pieces = shell_count(mesh.faces)
+        if pieces != 1:
+            return f"is {pieces} separate bodies, not one part"
         size = float(np.linalg.norm(mesh.extents * np.abs(scale)))
         if size > 100 * spread or size < 1e-4 * spread:
             return f"is {size:.3g} m across for a linkage {spread:.3g} m across (wrong unit or scale?)"
