@@ -2,8 +2,9 @@
 
 Each fixture runs once as it is and once while busy-loop processes hog every CPU (a real load: the
 scheduler, not a patched clock, slows the command), and once in-process with every clock running 1000x
-slow; the linkage.json bytes must be equal. Searches stop on counted work, never on CPU or wall time
-(docs/architecture.md), so any difference is a bug."""
+slow; the linkage.json bytes (under the real load every file written, the STL meshes too) must be equal.
+Searches stop on counted work, never on CPU or wall time (docs/architecture.md), so any difference is a
+bug."""
 from __future__ import annotations
 
 import os
@@ -42,17 +43,21 @@ def hogged_cpus():
             h.wait()
 
 
-def linkage_json(fixture: str, out) -> bytes:
+def output_files(fixture: str, out) -> dict:
+    """relative path -> bytes of every file the command writes to OUT (linkage.json, URDF, STL meshes, ...)."""
     code, _, err = run_process([command_for(fixture), REPO / "fixtures" / fixture, "-o", out, "-q"], timeout=1800)
     assert code == 0, err
-    return (out / "linkage.json").read_bytes()
+    return {str(p.relative_to(out)): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()}
 
 
 def check_same_when_loaded(tmp_path, fixture: str) -> None:
-    idle = linkage_json(fixture, tmp_path / "idle")
+    idle = output_files(fixture, tmp_path / "idle")
     with hogged_cpus():
-        loaded = linkage_json(fixture, tmp_path / "loaded")
-    assert idle == loaded, f"{fixture}: linkage.json differs between an idle and a loaded machine"
+        loaded = output_files(fixture, tmp_path / "loaded")
+    assert "linkage.json" in idle and any(name.endswith(".stl") for name in idle)
+    assert idle.keys() == loaded.keys(), f"{fixture}: other files on a loaded machine"
+    differ = [name for name in idle if idle[name] != loaded[name]]
+    assert not differ, f"{fixture}: {', '.join(differ)} differ between an idle and a loaded machine"
 
 
 def test_same_linkage_json_on_a_loaded_machine(tmp_path):

@@ -78,13 +78,22 @@ def test_export_mjcf_loads_anywhere(outputs, tmp_path, monkeypatch):
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     assert abs(data.efc_pos[:data.nefc]).max() < 1e-12  # the weld holds at all-zero angles
+    # the torquescale the run used (weld_torquescales: the angular rows as stiff as MuJoCo's impedance says)
+    from synth.tools.sim import load_setup
+    from synth.tools.sim.mujoco_sim import export_torquescales
+
+    ts = float(weld.get("torquescale"))
+    assert ts > 1 and model.eq_data[0, 10] == ts and [ts] == list(export_torquescales(load_setup(outputs["bennett"])))
 
 
 def test_export_mjcf_without_mujoco_run(outputs, tmp_path):
     """--export-mjcf writes the file even when the run uses PyBullet (or PyBullet is missing)."""
     dest = tmp_path / "m.xml"
     run("simulate", outputs["bennett"], "--engine", "pybullet", "--seconds", "0.05", "-q", "--export-mjcf", dest)
-    assert ET.parse(dest).getroot().tag == "mujoco"
+    root = ET.parse(dest).getroot()
+    assert root.tag == "mujoco"
+    mujoco_there = importlib.util.find_spec("mujoco") is not None  # it sets the weld's torquescale, else 1
+    assert (float(root.find("equality/weld").get("torquescale")) > 1) == mujoco_there
 
 
 @pytest.mark.parametrize("engine", ["pybullet", "mujoco"])

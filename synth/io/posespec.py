@@ -136,16 +136,24 @@ number, vector = _number, _vector  # public names for synth.io.taskspec
 
 
 # ============================================================== rotations
-def _sincos(angle: float, unit: str) -> tuple[float, float]:
-    """sin and cos of an angle given in ``unit``; exact for multiples of 90 degrees."""
-    if unit == "deg":
-        q, r = divmod(angle, 90.0)
-        if r == 0.0 and abs(q) < 2**52:
-            return ((0.0, 1.0), (1.0, 0.0), (0.0, -1.0), (-1.0, 0.0))[int(q) % 4]
-    a = angle * ANGLE_UNITS[unit]
-    if a == 0.0:
-        return 0.0, 1.0
-    return math.sin(a), math.cos(a)
+def sincos_exact(angles, unit: str) -> tuple[np.ndarray, np.ndarray]:
+    """sin and cos (arrays) of angles (an array) given in ``unit``; exact for multiples of 90 degrees."""
+    x = np.asarray(angles, float)
+    with np.errstate(invalid="ignore"):
+        a = x * ANGLE_UNITS[unit]
+        s, c = np.array(np.sin(a)), np.array(np.cos(a))  # (arrays also for a single angle)
+        s += 0.0  # (sin -0 is +0 here, as for an angle of 0)
+        if unit == "deg":
+            q, r = np.divmod(x, 90.0)
+            exact = (r == 0.0) & (np.abs(q) < 2**52)
+            if exact.any():
+                k = np.where(exact, q, 0.0) % 4
+                np.copyto(s, _QUARTER_SIN[k.astype(int)], where=exact)
+                np.copyto(c, _QUARTER_COS[k.astype(int)], where=exact)
+    return s, c
+
+
+_QUARTER_SIN, _QUARTER_COS = np.array([0.0, 1.0, 0.0, -1.0]), np.array([1.0, 0.0, -1.0, 0.0])  # at k quarter turns
 
 
 def quaternion_matrix(w: float, x: float, y: float, z: float) -> np.ndarray:
@@ -161,10 +169,9 @@ def rpy_matrix_exact(roll: float, pitch: float, yaw: float, unit: str = "rad") -
 
 def rpy_matrices_exact(rpy, unit: str = "rad") -> np.ndarray:
     """`rpy_matrix_exact` of roll-pitch-yaw triples (..., 3) in ``unit``: rotations (..., 3, 3), each the
-    same bits as one call (the sines and cosines one by one, `_sincos`)."""
-    rpy = np.asarray(rpy, float)
-    sc = np.array([_sincos(a, unit) for a in rpy.ravel().tolist()]).reshape(rpy.shape + (2,))
-    return rpy_from_sincos(sc[..., 0, 0], sc[..., 0, 1], sc[..., 1, 0], sc[..., 1, 1], sc[..., 2, 0], sc[..., 2, 1])
+    same bits as one call (`sincos_exact`, elementwise)."""
+    s, c = sincos_exact(rpy, unit)
+    return rpy_from_sincos(s[..., 0], c[..., 0], s[..., 1], c[..., 1], s[..., 2], c[..., 2])
 
 
 def rpy_poses(numbers, length_scale, angle_unit: str | None) -> tuple[np.ndarray, np.ndarray]:
@@ -192,7 +199,8 @@ def axis_angle_matrix(axis, angle: float, unit: str = "rad") -> np.ndarray:
     """Rodrigues' formula (`synth.algebra.geometry.rotation_about_axis`); ``axis`` is normalized here (must be
     nonzero)."""
     k = np.asarray(axis, dtype=float)
-    return rotation_about_axis_sincos(k / math.hypot(*k), *_sincos(angle, unit))
+    s, c = sincos_exact(angle, unit)
+    return rotation_about_axis_sincos(k / math.hypot(*k), float(s), float(c))
 
 
 def _checked_rotation(R: np.ndarray, what: str, normalize: bool) -> np.ndarray:

@@ -140,7 +140,8 @@ def _fill(res: BennettBatch, i, L):
     res.study_form[i] = L.info.synthesis.study_form.values
     res.residual[i] = L.info.synthesis.factorization_residual
     for k, v in L.info.bennett.to_dict().items():
-        res.bennett[k][i] = np.nan if v is None else v
+        if k in res.bennett:  # (the record also has derived figures the batch's columns leave out)
+            res.bennett[k][i] = np.nan if v is None else v
     c = L.checks
     res.errors["pose_translation"][i] = c["max_pose_translation_error"]
     res.errors["pose_rotation"][i] = c["max_pose_rotation_error"]

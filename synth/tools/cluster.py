@@ -53,8 +53,11 @@ class ClusterError(MpsynthError):
 # the worker's statistical profiler samples the task's stack every 10 ms from the worker's event loop, taking
 # the GIL from the task: CPU of a chunk of 1,024 README jobs in a Dask worker against a multiprocessing pool
 # worker, same machine, same run (loaded): 0.71-0.92 s against 0.59 s with it, 0.61-0.70 s against
-# 0.54-0.62 s without it. A local cluster's workers run without it.
-LOCAL_WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
+# 0.54-0.62 s without it. A local cluster's workers run without it, and start from a fork server (which has
+# imported distributed, numpy and Dask's other packages once) instead of each a new interpreter importing
+# them: a one-job run with --scheduler local -j 2 took 5.3 s of wall time against 7.3 s (load ~19, 2 CPUs).
+LOCAL_WORKER_CONFIG = {"distributed.worker.profile.enabled": False,
+                       "distributed.worker.multiprocessing-method": "forkserver"}
 
 
 def dask_config():

@@ -13,7 +13,9 @@ every link and joint name of the URDF and needs no MuJoCo to run (``--export-mjc
   millimetres), visual and collision alike; ``<contact><exclude>`` for every pair of the linkage's
   bodies, so the links never touch each other (they may still touch anything you add);
 - one ``<equality><weld>`` per loop between ``coupler`` and ``coupler_k`` with the all-zero relative
-  pose (``relpose``), stiff ``solref``/``solimp``;
+  pose (``relpose``), stiff ``solref``/``solimp`` and the ``torquescale`` (weight of its angular rows)
+  that holds the angular rows as stiffly as the linear ones (`synth.tools.sim.mujoco_sim.weld_torquescales`;
+  1 when not given);
 - a ``<position>`` actuator ``drive_<joint>`` on the first joint, ``ctrl`` = the target angle; ``kp``/``kv``
   make a critically damped servo with a time constant of 20 time steps for the smallest inertia the
   driver sees (`servo_gains`);
@@ -37,6 +39,7 @@ from synth.io.atomic import atomic_write
 DEFAULT_TIMESTEP = 5e-4
 ITERATIONS = 200
 SERVO_STEPS = 20  # servo time constant in time steps
+WELD_SOLIMP = "0.9999 0.9999 0.001 0.5 2"  # the loop welds' impedance: MuJoCo's stiffest (d <= 0.9999)
 
 
 def _f(x) -> str:
@@ -102,9 +105,9 @@ def _body(setup, parent_el, link, T, joint, mesh_names, caps):
 
 
 def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, mesh_base: Path | None = None,
-              kp: float | None = None, kv: float | None = None, contacts: bool = False) -> str:
+              kp: float | None = None, kv: float | None = None, contacts: bool = False, torquescale=None) -> str:
     """The MJCF document. Mesh files are written relative to ``mesh_base`` (the directory of the MJCF
-    file) when given, else as absolute paths. ``contacts``: exclude only the pairs of
+    file) when given, else as absolute paths. ``torquescale``: one per loop weld (None: 1 each). ``contacts``: exclude only the pairs of
     `synth.tools.sim.contact_exclusions` (else every pair), and collide the design's capsules
     (`synth.tools.sim.contact.contact_capsules`) instead of the meshes when linkage.json has a design."""
     u = setup.urdf
@@ -148,10 +151,11 @@ def mjcf_text(setup, *, timestep: float | None = None, gravity: bool = False, me
                 ET.SubElement(contact, "exclude", body1=a, body2=b)
 
     eq = ET.SubElement(root, "equality")
-    for name, (a, b), R in zip(setup.closure_names, setup.closures, setup.refs):
+    scales = [1.0] * len(setup.closures) if torquescale is None else list(torquescale)
+    for name, (a, b), R, ts in zip(setup.closure_names, setup.closures, setup.refs, scales):
         # relpose: pose of body2 in the frame of body1 (the all-zero relative pose)
         ET.SubElement(eq, "weld", name=name, body1=a, body2=b, relpose=_v(list(R[:3, 3]) + list(matrix_to_quat(R[:3, :3]))),
-                      solref=_v([2 * dt, 1.0]), solimp="0.9999 0.9999 0.001 0.5 2")
+                      solref=_v([2 * dt, 1.0]), solimp=WELD_SOLIMP, torquescale=_f(ts))
 
     act = ET.SubElement(root, "actuator")
     ET.SubElement(act, "position", name=f"drive_{setup.driver}", joint=setup.driver, kp=_f(kp), kv=_f(kv))
@@ -253,11 +257,13 @@ def _subtree(u, joint: str) -> list[str]:
     return out
 
 
-def write_mjcf(setup, path, *, timestep: float | None = None, gravity: bool = False, contacts: bool = False) -> Path:
+def write_mjcf(setup, path, *, timestep: float | None = None, gravity: bool = False, contacts: bool = False,
+               torquescale=None) -> Path:
     """Write the MJCF to ``path`` (mesh paths relative to its directory)."""
     path = Path(path)
     if not path.parent.exists():
         raise InputError(f"{path.parent}: directory does not exist (for --export-mjcf)")
-    text = mjcf_text(setup, timestep=timestep, gravity=gravity, mesh_base=path.parent.resolve(), contacts=contacts)
+    text = mjcf_text(setup, timestep=timestep, gravity=gravity, mesh_base=path.parent.resolve(), contacts=contacts,
+                     torquescale=torquescale)
     atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
     return path

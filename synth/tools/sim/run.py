@@ -6,7 +6,7 @@ import math
 from synth.errors import InputError
 from synth.tools.sim import load_setup, require_engine
 from synth.tools.sim.mjcf import write_mjcf
-from synth.tools.sim.mujoco_sim import run as run_mujoco
+from synth.tools.sim.mujoco_sim import export_torquescales, run as run_mujoco
 from synth.tools.sim.pybullet_sim import run_in_subprocess
 
 
@@ -122,7 +122,8 @@ def simulate(out, engine: str, *, seconds: float | None = None, timestep: float 
 
 def _run(setup, engine, *, seconds, timestep, gravity, export_mjcf, timeout, contacts, tight=False) -> dict:
     if export_mjcf and engine != "mujoco":  # the MuJoCo run writes (and loads) it itself
-        write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity, contacts=contacts)
+        write_mjcf(setup, export_mjcf, timestep=timestep, gravity=gravity, contacts=contacts,
+                   torquescale=export_torquescales(setup, timestep=timestep, gravity=gravity, contacts=contacts))
     require_engine(engine)
     if engine == "pybullet":
         return run_in_subprocess(setup, seconds=seconds, timestep=timestep, gravity=gravity, timeout=timeout,
