@@ -9,12 +9,13 @@ volume (mm^3) of the boolean intersection of every pair whose bounding boxes mee
 precision). Pairs are classed
 
 - ``joint``: two links that share a joint (not tested by the design search nor by the judge);
-- ``pin``: a pin with the carrier it is pressed into or the link that turns on it (a press fit overlaps
-  by design: about 2 pi r L x 0.05 mm);
+- ``press``: a pin with the carrier it is pressed into (a press fit overlaps by design: about
+  2 pi r L x 0.05 mm for pin radius r and hub length L; a plain or clip pin should not);
+- ``bore``: a pin with the link that turns on it (the bore clears it: should be 0);
 - ``other``: every other pair (the search keeps these a clearance apart).
 
-Prints one line per pair above 1e-3 mm^3 and one summary line per output (largest joint / other
-overlap). Exit 1 when a ``joint`` or ``other`` pair overlaps by more than ``--tol`` mm^3.
+Prints one line per pair above 1e-3 mm^3 and one summary line per output (the largest overlap of each
+class). Exit 1 when a ``joint``, ``bore`` or ``other`` pair overlaps by more than ``--tol`` mm^3.
 """
 from __future__ import annotations
 
@@ -62,7 +63,8 @@ def placed_parts(out) -> tuple[dict, dict, dict]:
             joint = j.child[len("pin_"):]
             if joint in revolute:
                 a, b = (duplicate.get(x, x) for x in revolute[joint])
-                pins[j.child] = (j.parent, b if duplicate.get(j.parent, j.parent) == a else a)
+                carrier = duplicate.get(j.parent, j.parent)
+                pins[j.child] = (carrier, b if carrier == a else a)
     return parts, pins, shared
 
 
@@ -90,8 +92,9 @@ def overlaps(out) -> list[tuple[str, str, str, float]]:
     for a, b in itertools.combinations(sorted(parts), 2):
         if np.any(boxes[a][1] < boxes[b][0]) or np.any(boxes[b][1] < boxes[a][0]):
             continue
-        if a in pins and b in pins[a] or b in pins and a in pins[b]:
-            kind = "pin"
+        pin, link = (a, b) if a in pins else (b, a)
+        if pin in pins and link in pins[pin]:
+            kind = "press" if link == pins[pin][0] else "bore"
         elif frozenset((a, b)) in shared:
             kind = "joint"
         else:
@@ -108,15 +111,15 @@ def main(argv=None) -> int:
     bad = 0
     for out in [o for o in args.outs if Path(o).is_dir()]:
         rows = overlaps(out)
-        worst = {"joint": 0.0, "other": 0.0, "pin": 0.0}
+        worst = {"joint": 0.0, "bore": 0.0, "other": 0.0, "press": 0.0}
         for kind, a, b, vol in rows:
             worst[kind] = max(worst[kind], vol)
             if vol > 1e-3:
-                print(f"  {Path(out).name}: {kind:5s} {a} x {b}: {vol:,.1f} mm^3")
-        flag = max(worst["joint"], worst["other"]) > args.tol
+                print(f"  {Path(out).name}: {kind:6s} {a} x {b}: {vol:,.1f} mm^3")
+        flag = max(worst["joint"], worst["bore"], worst["other"]) > args.tol
         bad += flag
-        print(f"{Path(out).name}: joint {worst['joint']:,.1f}  other {worst['other']:,.1f}  "
-              f"pin {worst['pin']:,.1f} mm^3{'  OVERLAP' if flag else ''}", flush=True)
+        print(f"{Path(out).name}: " + "  ".join(f"{k} {v:,.1f}" for k, v in worst.items())
+              + f" mm^3{'  OVERLAP' if flag else ''}", flush=True)
     return 1 if bad else 0
 
 

@@ -53,5 +53,5 @@ def test_links_sharing_a_joint_do_not_overlap(tmp_path):
     assert r.exit_code == 0, r.stderr
     rows = _bench().overlaps(out)
     assert rows, "no pair of parts measured"
-    worst = max((v for kind, _, _, v in rows if kind != "pin"), default=0.0)
+    worst = max((v for kind, _, _, v in rows if kind != "press"), default=0.0)
     assert worst < 1.0, rows
