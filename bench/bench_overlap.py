@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.io import solid
 from synth.io.readback import mesh_file_problem, mesh_path, read_files, resolve_output
 
 
@@ -69,19 +70,9 @@ def placed_parts(out) -> tuple[dict, dict, dict]:
 
 
 def intersection_volume(p, q) -> float:
-    """Volume of the intersection of two closed meshes (vertices, faces), in their units cubed."""
-    import manifold3d
-
-    lo = np.minimum(p[0].min(axis=0), q[0].min(axis=0))
-    hi = np.maximum(p[0].max(axis=0), q[0].max(axis=0))
-    centre, size = (lo + hi) / 2, float(np.max(hi - lo))
-
-    def solid(m):
-        return manifold3d.Manifold(manifold3d.Mesh64(
-            vert_properties=np.ascontiguousarray((m[0] - centre) / size, dtype=np.float64),
-            tri_verts=np.ascontiguousarray(m[1], dtype=np.uint64)))
-
-    return float((solid(p) ^ solid(q)).volume()) * size ** 3
+    """Volume of the intersection of two closed meshes (vertices, faces), in their units cubed
+    (`synth.io.solid.intersection_volume`)."""
+    return solid.intersection_volume(solid.Solid(*p), solid.Solid(*q))
 
 
 def overlaps(out) -> list[tuple[str, str, str, float]]:

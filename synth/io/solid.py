@@ -189,21 +189,38 @@ def boolean(parts, cut=()) -> Solid:
     edge that cannot collapse may remain, and the STL writer drops the triangles it makes degenerate
     (`degenerate_free`)."""
     manifold3d = import_manifold3d()
-    lo = np.min([p.vertices.min(axis=0) for p in parts], axis=0)
-    hi = np.max([p.vertices.max(axis=0) for p in parts], axis=0)
-    centre, size = (lo + hi) / 2, float(np.max(hi - lo))
-
-    def solids(ps):
-        return [manifold3d.Manifold(manifold3d.Mesh64(
-            vert_properties=np.ascontiguousarray((p.vertices - centre) / size, dtype=np.float64),
-            tri_verts=np.ascontiguousarray(p.faces, dtype=np.uint64))) for p in ps]
-
-    body = manifold3d.Manifold.batch_boolean(solids(parts), manifold3d.OpType.Add)
+    centre, size = _unit_frame(parts)
+    body = manifold3d.Manifold.batch_boolean(_unit_manifolds(parts, centre, size), manifold3d.OpType.Add)
     if len(cut):
-        body = body - manifold3d.Manifold.batch_boolean(solids(cut), manifold3d.OpType.Add)
+        body = body - manifold3d.Manifold.batch_boolean(_unit_manifolds(cut, centre, size), manifold3d.OpType.Add)
     mesh = body.set_tolerance(BOOLEAN_TOLERANCE).to_mesh64()
     vertices = np.asarray(mesh.vert_properties, np.float64)[:, :3] * size + centre
     return Solid(vertices, np.asarray(mesh.tri_verts, np.int64).reshape(-1, 3))
+
+
+def intersection_volume(a: Solid, b: Solid) -> float:
+    """The volume of the intersection of the closed meshes a and b (their units cubed), with manifold3d at
+    unit size in double precision as `boolean`."""
+    centre, size = _unit_frame([a, b])
+    p, q = _unit_manifolds([a, b], centre, size)
+    return float((p ^ q).volume()) * size ** 3
+
+
+def _unit_frame(parts) -> tuple[np.ndarray, float]:
+    """The centre and size (largest side) of the bounding box of ``parts``: the map into a unit box
+    around the origin in which manifold3d works (`boolean`: relative tolerances)."""
+    lo = np.min([p.vertices.min(axis=0) for p in parts], axis=0)
+    hi = np.max([p.vertices.max(axis=0) for p in parts], axis=0)
+    return (lo + hi) / 2, float(np.max(hi - lo))
+
+
+def _unit_manifolds(parts, centre, size) -> list:
+    """manifold3d solids (``Mesh64``, double precision) of the closed ``parts`` mapped by `_unit_frame`'s
+    ``centre`` and ``size``."""
+    manifold3d = import_manifold3d()
+    return [manifold3d.Manifold(manifold3d.Mesh64(
+        vert_properties=np.ascontiguousarray((p.vertices - centre) / size, dtype=np.float64),
+        tri_verts=np.ascontiguousarray(p.faces, dtype=np.uint64))) for p in parts]
 
 
 # ---------------------------------------------------------------------- checks and integrals
