@@ -220,6 +220,15 @@ def plate_capsules(m: Mounting) -> list[Capsule]:
     return out
 
 
+def bar_polyline(linkage, design: PhysicalDesign, bar, sites=None) -> list[np.ndarray]:
+    """The centre line of ``bar`` at the reference configuration: its first mount's point on the axis, its
+    crank points (``via``), its second mount's point (each (3,), metres)."""
+    sites = linkage.joint_sites() if sites is None else sites
+    return [axis_point(linkage, bar.joints[0], design.mount(bar.link, bar.joints[0]).offset, sites),
+            *[np.asarray(v, float) for v in bar.via],
+            axis_point(linkage, bar.joints[1], design.mount(bar.link, bar.joints[1]).offset, sites)]
+
+
 def capsules(linkage, design: PhysicalDesign, sites=None) -> list[Capsule]:
     """The solids of the design as capsules, each fixed to its link: bar segments (bar radius), hubs
     (hub radius, hub length), pins (pin radius, on their carrier link) and the mounting plate
@@ -227,9 +236,7 @@ def capsules(linkage, design: PhysicalDesign, sites=None) -> list[Capsule]:
     sites = linkage.joint_sites() if sites is None else sites
     out: list[Capsule] = []
     for b in design.bars:
-        pts = [axis_point(linkage, b.joints[0], design.mount(b.link, b.joints[0]).offset, sites),
-               *[np.asarray(v, float) for v in b.via],
-               axis_point(linkage, b.joints[1], design.mount(b.link, b.joints[1]).offset, sites)]
+        pts = bar_polyline(linkage, design, b, sites)
         for p0, p1 in zip(pts, pts[1:]):
             out.append(Capsule(b.link, "bar", p0, p1, design.bar_radius))
     for m in design.mounts:

@@ -32,7 +32,7 @@ import dataclasses
 
 import numpy as np
 
-from synth.design.model import CAP, MIN_WALL, PhysicalDesign, Pin, axis_point, joint_links, pin_ends
+from synth.design.model import CAP, MIN_WALL, PhysicalDesign, Pin, bar_polyline, joint_links, pin_ends
 
 
 def bar_directions(linkage, design: PhysicalDesign, link: str, joint: str, sites=None) -> np.ndarray:
@@ -43,9 +43,7 @@ def bar_directions(linkage, design: PhysicalDesign, link: str, joint: str, sites
     for b in design.bars:
         if b.link != link or joint not in b.joints:
             continue
-        pts = [axis_point(linkage, b.joints[0], design.mount(link, b.joints[0]).offset, sites),
-               *[np.asarray(v, float) for v in b.via],
-               axis_point(linkage, b.joints[1], design.mount(link, b.joints[1]).offset, sites)]
+        pts = bar_polyline(linkage, design, b, sites)
         d = pts[1] - pts[0] if b.joints[0] == joint else pts[-2] - pts[-1]
         n = float(np.linalg.norm(d))
         if n > 0:
