@@ -8,8 +8,9 @@ parameters, the same numbers to the last bit. It runs the pipeline once for all 
 (`synth.synthesis.bennett_core.solve`) and applies `solve_bennett`'s gates to the arrays: the pipeline's
 own acceptance, the transmission ratio (`synth.synthesis.conditioning`), the 200-sample verification and
 its acceptance (`synth.bennett.verify`) and the extent limit (`synth.design.constraints.admissible`).
-A set that fails a gate, or comes within a factor 2 of a gate's limit (where rounding could decide), or
-that the pipeline leaves to the per-set path, is not decided: its caller runs `solve_bennett` on it,
+A set that fails a gate, or comes within a factor 2 of a gate's limit (where rounding could decide; not
+the transmission ratio, which is `verify`'s own figure bit for bit), or that the pipeline leaves to the
+per-set path, is not decided: its caller runs `solve_bennett` on it,
 which gives the linkage or the refusal with its message.
 """
 from __future__ import annotations
@@ -31,7 +32,6 @@ BENNETT_PAIRS = ((0, 2), (0, 1), (2, 3), (1, 3))  # joints h1 h2 k1 k2 carried b
 MARGIN = 0.5  # a set is decided here only with every gate's figure below MARGIN times its limit
 PARAMETERS = ("a", "alpha", "b", "beta")
 CHUNK = 1024  # sets per call of the pipeline
-CHECK_CHUNK = 16  # sets per call of the 200-sample check: its temporaries (~80 kB a set) stay in the caches
 
 
 @dataclass
@@ -88,10 +88,7 @@ def _summaries(T) -> BennettSummaries:
         a, b = out.laws[..., 0], out.laws[..., 1]
         U, M = out.lines[..., 0, :], out.lines[..., 1, :]
         Q = pose_to_dq(np.where(out.finite[:, None, None, None], T, np.eye(4)))
-        parts = [check_figures(STRUCTURE, U[k], M[k], a[k], b[k], out.pose_angles[k], Q[k], Q[k, 0], out.motion[k],
-                               VERIFY_SAMPLES) for k in map(slice, range(0, len(T), CHECK_CHUNK),
-                                                            range(CHECK_CHUNK, len(T) + CHECK_CHUNK, CHECK_CHUNK))]
-        fig = {f: np.concatenate([p[f] for p in parts]) for f in parts[0]}
+        fig = check_figures(STRUCTURE, U, M, a, b, out.pose_angles, Q, Q[:, 0], out.motion, VERIFY_SAMPLES)
         # `synth.linkage.Linkage.extent`: joint sites and tool positions (pose 0 twice: the reference)
         positions = np.concatenate([T[:, :, :3, 3], T[:, :1, :3, 3]], axis=1)
         sites = joint_sites(U, M, BENNETT_PAIRS, np.mean(positions, axis=1))
@@ -101,7 +98,8 @@ def _summaries(T) -> BennettSummaries:
         far = axis_distance(loop[..., 0, :], loop[..., 1, :], out.centre)
         rel = np.maximum(acceptance_error(T, out.scale, far, fig), out.relative_error)
         limit = EXTENT_FACTOR * spread(T[:, :, :3, 3])[1]
-        decided = (out.good & (rel <= MARGIN * ACCEPT_TOL) & (transmission_ratio(a, b) <= MARGIN * TRANSMISSION_LIMIT)
+        # the transmission ratio is `verify`'s own figure, bit for bit (the same laws and formula): no margin
+        decided = (out.good & (rel <= MARGIN * ACCEPT_TOL) & (transmission_ratio(a, b) <= TRANSMISSION_LIMIT)
                    & (E <= MARGIN * limit))
     nan = ~decided
     figures = {k: np.where(nan, np.nan, v) for k, v in fig.items()}
