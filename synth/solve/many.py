@@ -25,8 +25,9 @@ from synth.algebra.dq import pose_to_dq
 from synth.algebra.geometry import extent, joint_sites, spread
 from synth.blas import one_blas_thread
 from synth.errors import InputError
-from synth.synthesis.bennett_core import ACCEPT_TOL, LOOP, STRUCTURE, acceptance_error, axis_distance, solve
-from synth.synthesis.conditioning import TRANSMISSION_LIMIT, transmission_ratio
+from synth.synthesis.bennett import transmission_refusal
+from synth.synthesis.bennett_core import ACCEPT_TOL, JOINTS, LOOP, STRUCTURE, acceptance_error, axis_distance, solve
+from synth.synthesis.conditioning import TRANSMISSION_LIMIT, worst_pairs
 
 BENNETT_PAIRS = ((0, 2), (0, 1), (2, 3), (1, 3))  # joints h1 h2 k1 k2 carried by one link (base, link_h1, link_k1, coupler)
 MARGIN = 0.5  # a set is decided here only with every gate's figure below MARGIN times its limit
@@ -39,12 +40,23 @@ class BennettSummaries:
     """Per-set results of `solve_bennett_many` (arrays over the N sets; rows of undecided sets are NaN).
     ``figures``: the self-check figures at VERIFY_SAMPLES parameters (`synth.checks.check_figures`:
     pose_translation, pose_rotation, closure_translation, closure_rotation, motion; m and rad);
-    ``extent`` (N,) m; ``bennett``: a, alpha, b, beta (m, rad) of the loop h1 h2 k2 k1."""
+    ``extent`` (N,) m; ``bennett``: a, alpha, b, beta (m, rad) of the loop h1 h2 k2 k1; ``refused`` (N,)
+    bool: decided sets that `solve_bennett` refuses at the transmission gate, with ``worst`` = (ratio,
+    faster joint, slower joint) (N,) arrays (`synth.synthesis.conditioning.worst_pairs`; joints index
+    JOINTS) for its message (`synth.synthesis.bennett.transmission_refusal`)."""
 
     decided: np.ndarray  # (N,) bool
     extent: np.ndarray
     figures: dict
     bennett: dict
+    refused: np.ndarray  # (N,) bool
+    worst: tuple
+
+    def refusal(self, n: int, T, names) -> str:
+        """The message of refused set n (poses T (3, 4, 4) named ``names``), as `solve_bennett` gives it
+        (without the source's prefix)."""
+        rho, fast, slow = (w[n] for w in self.worst)
+        return transmission_refusal(T, names, float(rho), JOINTS[int(fast)], JOINTS[int(slow)])
 
     def checks(self, n: int) -> dict:
         """linkage.json's ``checks`` of decided set n, as `synth.bennett.verify` stores them."""
@@ -77,9 +89,10 @@ def solve_bennett_many(poses) -> BennettSummaries:
         parts = [_summaries(T[i : i + CHUNK]) for i in range(0, len(T), CHUNK)]
     if len(parts) == 1:
         return parts[0]
-    return BennettSummaries(*(np.concatenate([getattr(p, k) for p in parts]) if k in ("decided", "extent") else
+    return BennettSummaries(*(np.concatenate([getattr(p, k) for p in parts]) if k in ("decided", "extent", "refused") else
+                              tuple(np.concatenate(w) for w in zip(*(p.worst for p in parts))) if k == "worst" else
                               {f: np.concatenate([p.__dict__[k][f] for p in parts]) for f in parts[0].__dict__[k]}
-                              for k in ("decided", "extent", "figures", "bennett")))
+                              for k in ("decided", "extent", "figures", "bennett", "refused", "worst")))
 
 
 def _summaries(T) -> BennettSummaries:
@@ -98,10 +111,14 @@ def _summaries(T) -> BennettSummaries:
         far = axis_distance(loop[..., 0, :], loop[..., 1, :], out.centre)
         rel = np.maximum(acceptance_error(T, out.scale, far, fig), out.relative_error)
         limit = EXTENT_FACTOR * spread(T[:, :, :3, 3])[1]
-        # the transmission ratio is `verify`'s own figure, bit for bit (the same laws and formula): no margin
-        decided = (out.good & (rel <= MARGIN * ACCEPT_TOL) & (transmission_ratio(a, b) <= TRANSMISSION_LIMIT)
-                   & (E <= MARGIN * limit))
+        # the transmission ratio is `verify`'s own figure, bit for bit (the same laws and formula): no margin;
+        # a set above it is refused whatever the other gates say (`bennett_candidates` checks it first)
+        worst = worst_pairs(a, b)
+        transmits = worst[0] <= TRANSMISSION_LIMIT
+        refused = out.good & ~transmits
+        decided = out.good & (rel <= MARGIN * ACCEPT_TOL) & transmits & (E <= MARGIN * limit)
     nan = ~decided
     figures = {k: np.where(nan, np.nan, v) for k, v in fig.items()}
     params = {k: np.where(nan, np.nan, out.bennett[k]) for k in PARAMETERS}
-    return BennettSummaries(decided=decided, extent=np.where(nan, np.nan, E), figures=figures, bennett=params)
+    return BennettSummaries(decided=decided | refused, extent=np.where(nan, np.nan, E), figures=figures, bennett=params,
+                            refused=refused, worst=worst)
