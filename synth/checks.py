@@ -85,7 +85,7 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
         return out
     links = tuple(dict.fromkeys([tool_link] + [x for x, _ in closures] + [y for _, y in closures]))
     terms = sample_terms(tuple(joints), links, tuple(_rates(rate, N, J).tolist()), motion.shape[-2] - 1)
-    const = _constants(terms, U, M, b, motion)  # (N, 8 (L + 1), K)
+    const, lead = _constants(terms, U, M, b, motion)  # (N, 8 (L + 1), K), (N, 8 (L + 1))
     t = sample_parameters_batch(a, b, samples)  # (N, S), the last t = inf
     L = len(links) + 1
     A = np.array([links.index(tool_link)] + [links.index(x) for x, _ in closures])  # compared with
@@ -95,7 +95,8 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
     with np.errstate(invalid="ignore"):
         for g in range(0, N, group):
             k = slice(g, g + group)
-            X = np.matmul(const[k], _weights(terms, t[k], a[k]))  # (G, 8 L, S)
+            X = np.matmul(const[k], _weights(terms[0], t[k], a[k]))  # (G, 8 L, S)
+            X[:, :, -1] = lead[k]
             H = np.ascontiguousarray(X.reshape(X.shape[0], L, 8, samples).transpose(2, 1, 0, 3))  # (8, L, G, S)
             dt2, w2 = pose_difference_squares(H, A, B)  # (1 + K, G, S) each
             fig[0, k] = (np.sqrt(dt2[0]) + 4.0 * np.arcsin(0.5 * np.sqrt(w2[0]))).max(axis=-1)
@@ -143,12 +144,15 @@ def _rates(rate, N: int, J: int) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=64)
-def sample_terms(joints: tuple, links: tuple, rates: tuple, n: int) -> tuple:
-    """The terms of `check_figures`' samples: for each link, its chain's factors from the base (joint
-    indices, a joint of rate r r times) and every subset of them as (factors taking their scalar t - a_j,
-    factors taking w_j in order); then the motion C's powers t^0 .. t^n. Returns (terms, rows): terms a
-    tuple of (link row, scalar joints, w joints), the motion's as (L, ('t',) * k, ()) (cached)."""
+def sample_terms(joints: tuple, links: tuple, rates: tuple, n: int) -> tuple[tuple, tuple]:
+    """The terms of `check_figures`' samples: each link's chain of factors from the base (joint indices,
+    a joint of rate r r times) split every way into the factors that give their scalar t - a_j and the
+    others, which give w_j in order; then the motion C's powers t^0 .. t^n. Returns (weights, terms):
+    the distinct weights (() for 1, sorted joint tuples for products of scalars, ('t',) * k for t^k,
+    the J single scalars first after 1) and the terms (link row, weight index, w joints in order; the
+    motion's row L with k for t^k) (cached)."""
     up = {child: (parent, j) for j, (parent, child) in enumerate(joints)}
+    weights = {(): 0, **{(j,): j + 1 for j in range(len(joints))}}
     terms = []
     for row, link in enumerate(links):
         chain = []
@@ -156,67 +160,60 @@ def sample_terms(joints: tuple, links: tuple, rates: tuple, n: int) -> tuple:
             link, j = up[link]
             chain[:0] = [j] * int(rates[j])
         for mask in range(1 << len(chain)):
-            take = tuple(j for i, j in enumerate(chain) if mask >> i & 1)
-            terms.append((row, take, tuple(j for i, j in enumerate(chain) if not mask >> i & 1)))
-    terms += [(len(links), ("t",) * k, ()) for k in range(n + 1)]
-    return tuple(terms)
+            key = tuple(sorted(j for i, j in enumerate(chain) if mask >> i & 1))
+            rest = tuple(j for i, j in enumerate(chain) if not mask >> i & 1)
+            terms.append((row, weights.setdefault(key, len(weights)), rest))
+    terms += [(len(links), weights.setdefault(("t",) * k, len(weights)), k) for k in range(n + 1)]
+    return tuple(weights), tuple(terms)
 
 
-def _constants(terms, U, M, b, motion) -> np.ndarray:
-    """The constants of `sample_terms` (N, 8 (L + 1), K): column k holds term k's ordered product of
-    the w_j = b_j (u_j - eps m_j) (1 for none; the motion's terms: C_k) in the rows of its link."""
+def _constants(terms, U, M, b, motion) -> tuple[np.ndarray, np.ndarray]:
+    """The constants of `sample_terms` (N, 8 (L + 1), K), K weights: column k sums the terms of weight k,
+    each the ordered product of its w_j = b_j (u_j - eps m_j) (1 for none; the motion's: C_k) in the
+    rows of its link; and every link's value at t = inf (N, 8 (L + 1)): its leading term's constant (1,
+    and C's leading coefficient)."""
+    weights, terms = terms
     N = U.shape[0]
     L = terms[-1][0] + 1
     w = np.zeros(U.shape[:-1] + (8,))
     bb = b[..., None]
     np.multiply(U, bb, out=w[..., 1:4])
     np.multiply(M, -bb, out=w[..., 5:8])
-    out = np.zeros((N, L, 8, len(terms)))
-    for k, (row, take, rest) in enumerate(terms):
-        if row == L - 1:  # C's t^k
-            out[:, row, :, k] = motion[:, len(take)]
+    out = np.zeros((N, L, 8, len(weights)))
+    lead = np.zeros((N, L, 8))
+    lead[..., 0] = 1.0
+    for row, k, rest in terms:
+        if row == L - 1:  # C's t^rest
+            out[:, row, :, k] = motion[:, rest]
         elif not rest:
-            out[:, row, 0, k] = 1.0
+            out[:, row, 0, k] += 1.0
         else:
             x = w[:, rest[0]]
             for j in rest[1:]:
                 x = dq_mul(x, w[:, j])
-            out[:, row, :, k] = x
-    return out.reshape(N, 8 * L, len(terms))
+            out[:, row, :, k] += x
+    lead[:, -1] = motion[:, -1]
+    return out.reshape(N, 8 * L, len(weights)), lead.reshape(N, 8 * L)
 
 
-def _weights(terms, t, a) -> np.ndarray:
-    """The weights of `sample_terms` at the parameters t (G, S) (the last one inf): (G, K, S) products
-    of the scalars t - a_j (and the powers t^k); at t = inf the leading term of every link and of C
-    (all scalars; t^n) weighs 1, the others 0."""
-    inf = np.isinf(t[:, -1:])
-    tf = np.where(inf, 0.0, t)
-    x = tf[:, None, :] - a[:, :, None]  # (G, J, S)
-    W = np.empty((t.shape[0], len(terms), t.shape[1]))
-    for k, (row, take, rest) in enumerate(terms):
-        if not take:
-            W[:, k] = 1.0
+def _weights(weights, t, a) -> np.ndarray:
+    """The weights of `sample_terms` at the parameters t (G, S) (the last one inf, where they are 0: the
+    values there are the leading constants, `_constants`): (G, K, S) products of the scalars t - a_j and
+    the powers t^k."""
+    G, J = a.shape
+    W = np.empty((G, len(weights), t.shape[1]))
+    W[:, 0] = 1.0
+    np.subtract(t[:, None, :], a[:, :, None], out=W[:, 1 : J + 1])
+    for k, key in enumerate(weights[J + 1 :], J + 1):
+        x = [t if j == "t" else W[:, j + 1] for j in key]
+        if len(x) == 1:
+            W[:, k] = x[0]
             continue
-        y = tf if take[0] == "t" else x[:, take[0]]
-        for j in take[1:]:
-            y = y * (tf if j == "t" else x[:, j])
-        W[:, k] = y
-    W[:, :, -1] = np.where(inf, _leading(terms), W[:, :, -1])
+        np.multiply(x[0], x[1], out=W[:, k])
+        for y in x[2:]:
+            W[:, k] *= y
+    W[:, :, -1] = 0.0
     return W
-
-
-@functools.lru_cache(maxsize=64)
-def _leading(terms) -> np.ndarray:
-    """1 for the term of each link (and of C) that leads at t = inf (all scalars; t^n), else 0 (K,)
-    (read-only, cached)."""
-    longest = {}
-    for k, (row, take, rest) in enumerate(terms):
-        if row not in longest or len(take) > len(terms[longest[row]][1]):
-            longest[row] = k
-    out = np.zeros(len(terms))
-    out[list(longest.values())] = 1.0
-    out.flags.writeable = False
-    return out
 
 
 def loop_bound(U, M, a, b, branches, motion) -> dict:
