@@ -11,7 +11,9 @@ its acceptance (`synth.bennett.verify`) and the extent limit (`synth.design.cons
 A set that fails a gate, or comes within a factor 2 of a gate's limit (where rounding could decide; not
 the transmission ratio, which is `verify`'s own figure bit for bit), or that the pipeline leaves to the
 per-set path, is not decided: its caller runs `solve_bennett` on it,
-which gives the linkage or the refusal with its message.
+which gives the linkage or the refusal with its message. A set the pipeline judges whose transmission
+ratio is above the limit is decided as refused (``refused``), with `solve_bennett`'s message
+(`BennettSummaries.refusal`).
 """
 from __future__ import annotations
 
