@@ -245,7 +245,8 @@ def test_the_torquescale_brings_every_angular_row_of_the_weld_to_mujocos_softeni
 
 @pytest.mark.xfail(strict=True, reason="since the bars as written are at most 1:25 (issue 33: sixbar_hermite's "
                    "straight 24.4 mm bars instead of cranked 7.7 mm ones) MuJoCo at the defaults fails on this "
-                   "fixture (max_joint_deviation 0.128 rad in the near-singular stretch, 3.1 rad retried slower): "
+                   "fixture (the 2 s turn deviates 3.1 rad; the 16 s retry 1.007e-3 rad outside the near-singular "
+                   "stretch, over the 1e-3 tolerance): "
                    "open, for the simulation's owner")
 def test_sixbar_hermite_passes_in_mujoco_at_the_defaults_and_failed_with_a_soft_angular_weld(outputs, monkeypatch):
     """The MuJoCo failure of issue 35: with torquescale 1 the weld's angular rows give way ~100 times more
