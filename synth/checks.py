@@ -14,9 +14,8 @@ import math
 import numpy as np
 
 from synth.algebra.algorithm1 import identity
-from synth.algebra.anglelaw import half_angle
 from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq
-from synth.algebra.geometry import dq_pose_difference, pose_difference
+from synth.algebra.geometry import dq_pose_difference, pose_difference, pose_difference_squares
 from synth.algebra.polynomial import evaluate, exponents, product_of_linear
 from synth.linkage import Linkage
 
@@ -26,6 +25,7 @@ _ULPS16 = 16 * _EPS  # the rounding allowance of `loop_bound`
 DEFAULT_CHECK_SAMPLES = 4  # synthesis functions check closure and motion at this many parameters
 BOUND_CHECK_SAMPLES = 0  # Bennett: closure and motion bounded over the whole motion (`loop_bound`), no samples
 VERIFY_SAMPLES = 200  # the CLI verifies this many before writing anything
+CHECK_ROWS = 4096  # linkage samples per group of `check_figures` (its component arrays stay in the caches)
 
 
 def sample_parameters_batch(a, b, samples: int) -> np.ndarray:
@@ -58,60 +58,162 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
 
     ``structure`` = (joints [(parent link, child link)] in tree order, tool link, closures [(link,
     duplicate)]); U, M (N, J, 3) Plücker lines (unit direction, moment) at the reference configuration;
-    a, b (N, J) angle laws (``rate`` (N, J) or a scalar: their rates, `synth.algebra.anglelaw`); pose_angles (N, P, J) the reported joint angles at the poses, given as unit
-    dual quaternions pose_dq (N, P, 8) (`synth.algebra.dq.pose_to_dq`); tool_ref_dq (N, 8); motion (N, n+1, 8) the motion polynomial. Figures: ``pose_translation`` /
-    ``pose_rotation`` (tool frame at the reported angles vs the poses), ``closure_translation`` /
-    ``closure_rotation`` (every welded pair at ``samples`` parameters covering R, t = inf included) and
-    ``motion`` (tool link vs C(t), translation + rotation); ``samples`` = 0: poses only (closure and
-    motion 0; see `loop_bound`)."""
+    a, b (N, J) angle laws (``rate`` (N, J) or a scalar: their integer rates, the same in every row,
+    `synth.algebra.anglelaw`); pose_angles (N, P, J) the reported joint angles at the poses, given as unit
+    dual quaternions pose_dq (N, P, 8) (`synth.algebra.dq.pose_to_dq`); tool_ref_dq (N, 8); motion (N, n+1,
+    8) the motion polynomial. Figures: ``pose_translation`` / ``pose_rotation`` (tool frame at the
+    reported angles vs the poses), ``closure_translation`` / ``closure_rotation`` (every welded pair at
+    ``samples`` parameters covering R, t = inf included) and ``motion`` (tool link vs C(t), translation
+    + rotation); ``samples`` = 0: poses only (closure and motion 0; see `loop_bound`).
+
+    The poses by forward kinematics at the reported angles. The samples through the angle laws: a joint
+    at t is (t - a) + w, w = b (u - eps m), up to a positive scale that no pose figure sees (rate r: r such
+    factors), so a link is a sum over the subsets of its chain's factors of the products of their
+    scalars t - a_j (the weights, per sample) times the ordered products of the other factors' w_j (the
+    constants, per linkage): `sample_terms`; C(t) = sum C_k t^k likewise. Every link of a linkage at every
+    sample is one matrix product (constants x weights), compared in component arrays over linkages x
+    samples (`synth.algebra.geometry.pose_difference_squares`), in groups of about CHECK_ROWS linkage
+    samples: one code path, cheap for one linkage and per linkage in batches; a linkage's figures do not
+    depend on the batch it is in. (The weights are products of the accurate t - a_j, so rounding stays
+    relative to the product of the factors' sizes, as in forward kinematics.)"""
     joints, tool_link, closures = structure
     N, P, J = pose_angles.shape
-    t = sample_parameters_batch(a, b, samples) if samples > 0 else np.zeros((N, 0))  # (N, S), the last t = inf
-    S = t.shape[1]
-    inf = np.isinf(t)
-    half_s = half_angle(a[:, None, :], b[:, None, :], t[..., None], np.asarray(rate)[..., None, :] if np.ndim(rate) else rate)
-    half = np.concatenate([0.5 * pose_angles, half_s], axis=1)  # (N, P + S, J)
+    out = _pose_figures(joints, tool_link, U, M, pose_angles, pose_dq, tool_ref_dq)
+    zero = np.zeros(N)
+    out.update(closure_translation=zero, closure_rotation=zero, motion=zero.copy())
+    if samples <= 0 or N == 0:
+        return out
+    links = tuple(dict.fromkeys([tool_link] + [x for x, _ in closures] + [y for _, y in closures]))
+    terms = sample_terms(tuple(joints), links, tuple(_rates(rate, N, J).tolist()), motion.shape[-2] - 1)
+    const, lead = _constants(terms, U, M, b, motion)  # (N, 8 (L + 1), K), (N, 8 (L + 1))
+    t = sample_parameters_batch(a, b, samples)  # (N, S), the last t = inf
+    L = len(links) + 1
+    A = np.array([links.index(tool_link)] + [links.index(x) for x, _ in closures])  # compared with
+    B = np.array([L - 1] + [links.index(y) for _, y in closures])  # C, the duplicates
+    group = max(1, CHECK_ROWS // samples)
+    fig = np.empty((3, N))
+    with np.errstate(invalid="ignore"):
+        for g in range(0, N, group):
+            k = slice(g, g + group)
+            X = np.matmul(const[k], _weights(terms[0], t[k], a[k]))  # (G, 8 L, S)
+            X[:, :, -1] = lead[k]
+            H = np.ascontiguousarray(X.reshape(X.shape[0], L, 8, samples).transpose(2, 1, 0, 3))  # (8, L, G, S)
+            dt2, w2 = pose_difference_squares(H, A, B)  # (1 + K, G, S) each
+            fig[0, k] = (np.sqrt(dt2[0]) + 4.0 * np.arcsin(0.5 * np.sqrt(w2[0]))).max(axis=-1)
+            fig[1, k] = dt2[1:].max(axis=(0, 2), initial=0.0)
+            fig[2, k] = w2[1:].max(axis=(0, 2), initial=0.0)
+    out["motion"] = fig[0]
+    out["closure_translation"] = np.sqrt(fig[1])
+    out["closure_rotation"] = 4.0 * np.arcsin(0.5 * np.sqrt(fig[2]))
+    return out
+
+
+def _pose_figures(joints, tool_link, U, M, pose_angles, pose_dq, tool_ref_dq) -> dict:
+    """``pose_translation`` / ``pose_rotation`` (N,) of `check_figures`: the tool frame by forward
+    kinematics at the reported angles (N, P, J) against the poses."""
+    N, P, J = pose_angles.shape
+    half = 0.5 * pose_angles
     cos, sin = np.cos(half)[..., None], np.sin(half)[..., None]
     # the joint displacement G = cos + sin (u - eps m) multiplies on the right: x G = cos x + sin x R(line),
     # with R the right-multiplication matrix of the line (one 8x8 matrix per set and joint)
     lines = np.zeros(U.shape[:-1] + (8,))
     lines[..., 1:4] = U
-    lines[..., 5:8] = M
-    lines[..., 5:8] *= -1.0
-    inner = [j for j, (parent, _) in enumerate(joints) if parent != "base"]
-    R = dict(zip(inner, np.moveaxis(dq_right_matrix(lines[:, inner]), 1, 0)))  # (N, 8, 8) each
+    np.negative(M, out=lines[..., 5:8])
     disp = {}
     for j, (parent, child) in enumerate(joints):
         if parent == "base":
             disp[child] = cos[..., j, :] * _E0 + sin[..., j, :] * lines[:, None, j]
         else:
             x = disp[parent]
-            disp[child] = cos[..., j, :] * x + sin[..., j, :] * (x @ R[j])
-    tool = disp[tool_link]
-    # the pairs compared, stacked: X[0] (tool at the poses, tool link along the motion, closure links)
-    # against X[1] (the poses, C(t), the duplicate links)
-    X = np.empty((2, N, P + S * (1 + len(closures)), 8))
-    np.matmul(tool[:, :P], dq_right_matrix(tool_ref_dq), out=X[0, :, :P])
-    X[1, :, :P] = pose_dq
-    X[0, :, P : P + S] = tool[:, P:]
-    # C(t) by Horner; t = inf gives the leading coefficient
-    tf = np.where(inf, 0.0, t)[..., None]
-    Ct = X[1, :, P : P + S]
-    Ct[...] = motion[:, -1:, :]
-    for k in range(motion.shape[-2] - 2, -1, -1):
-        Ct *= tf
-        Ct += motion[:, k : k + 1, :]
-    np.copyto(Ct, motion[:, -1:, :], where=inf[..., None])
-    for i, (x, y) in enumerate(closures):
-        X[0, :, P + S * (i + 1) : P + S * (i + 2)] = disp[x][:, P:]
-        X[1, :, P + S * (i + 1) : P + S * (i + 2)] = disp[y][:, P:]
+            disp[child] = cos[..., j, :] * x + sin[..., j, :] * (x @ dq_right_matrix(lines[:, j]))
+    X = np.empty((2, N, P, 8))
+    np.matmul(disp[tool_link], dq_right_matrix(tool_ref_dq), out=X[0])
+    X[1] = pose_dq
     dt, dr = dq_pose_difference(X)
-    clo_t, clo_r = dt[:, P + S :], dr[:, P + S :]
-    return {"pose_translation": dt[:, :P].max(axis=1, initial=0.0),
-            "pose_rotation": dr[:, :P].max(axis=1, initial=0.0),
-            "closure_translation": clo_t.max(axis=1, initial=0.0),
-            "closure_rotation": clo_r.max(axis=1, initial=0.0),
-            "motion": (dt[:, P : P + S] + dr[:, P : P + S]).max(axis=1, initial=0.0)}
+    return {"pose_translation": dt.max(axis=1, initial=0.0), "pose_rotation": dr.max(axis=1, initial=0.0)}
+
+
+def _rates(rate, N: int, J: int) -> np.ndarray:
+    """The joints' integer rates (J,) (the same in every one of the N rows)."""
+    if isinstance(rate, int) and rate == 1:
+        return np.ones(J, int)
+    r = np.broadcast_to(np.asarray(rate), (N, J))
+    if (r != r[:1]).any() or (r[0] != np.round(r[0])).any() or (r[0] < 1).any():
+        raise ValueError("check_figures needs positive integer rates, the same for every linkage")
+    return r[0].astype(int)
+
+
+@functools.lru_cache(maxsize=64)
+def sample_terms(joints: tuple, links: tuple, rates: tuple, n: int) -> tuple[tuple, tuple]:
+    """The terms of `check_figures`' samples: each link's chain of factors from the base (joint indices,
+    a joint of rate r r times) split every way into the factors that give their scalar t - a_j and the
+    others, which give w_j in order; then the motion C's powers t^0 .. t^n. Returns (weights, terms):
+    the distinct weights (() for 1, sorted joint tuples for products of scalars, ('t',) * k for t^k,
+    the J single scalars first after 1) and the terms (link row, weight index, w joints in order; the
+    motion's row L with k for t^k) (cached)."""
+    up = {child: (parent, j) for j, (parent, child) in enumerate(joints)}
+    weights = {(): 0, **{(j,): j + 1 for j in range(len(joints))}}
+    terms = []
+    for row, link in enumerate(links):
+        chain = []
+        while link != "base":
+            link, j = up[link]
+            chain[:0] = [j] * int(rates[j])
+        for mask in range(1 << len(chain)):
+            key = tuple(sorted(j for i, j in enumerate(chain) if mask >> i & 1))
+            rest = tuple(j for i, j in enumerate(chain) if not mask >> i & 1)
+            terms.append((row, weights.setdefault(key, len(weights)), rest))
+    terms += [(len(links), weights.setdefault(("t",) * k, len(weights)), k) for k in range(n + 1)]
+    return tuple(weights), tuple(terms)
+
+
+def _constants(terms, U, M, b, motion) -> tuple[np.ndarray, np.ndarray]:
+    """The constants of `sample_terms` (N, 8 (L + 1), K), K weights: column k sums the terms of weight k,
+    each the ordered product of its w_j = b_j (u_j - eps m_j) (1 for none; the motion's: C_k) in the
+    rows of its link; and every link's value at t = inf (N, 8 (L + 1)): its leading term's constant (1,
+    and C's leading coefficient)."""
+    weights, terms = terms
+    N = U.shape[0]
+    L = terms[-1][0] + 1
+    w = np.zeros(U.shape[:-1] + (8,))
+    bb = b[..., None]
+    np.multiply(U, bb, out=w[..., 1:4])
+    np.multiply(M, -bb, out=w[..., 5:8])
+    out = np.zeros((N, L, 8, len(weights)))
+    lead = np.zeros((N, L, 8))
+    lead[..., 0] = 1.0
+    for row, k, rest in terms:
+        if row == L - 1:  # C's t^rest
+            out[:, row, :, k] = motion[:, rest]
+        elif not rest:
+            out[:, row, 0, k] += 1.0
+        else:
+            x = w[:, rest[0]]
+            for j in rest[1:]:
+                x = dq_mul(x, w[:, j])
+            out[:, row, :, k] += x
+    lead[:, -1] = motion[:, -1]
+    return out.reshape(N, 8 * L, len(weights)), lead.reshape(N, 8 * L)
+
+
+def _weights(weights, t, a) -> np.ndarray:
+    """The weights of `sample_terms` at the parameters t (G, S) (the last one inf, where they are 0: the
+    values there are the leading constants, `_constants`): (G, K, S) products of the scalars t - a_j and
+    the powers t^k."""
+    G, J = a.shape
+    W = np.empty((G, len(weights), t.shape[1]))
+    W[:, 0] = 1.0
+    np.subtract(t[:, None, :], a[:, :, None], out=W[:, 1 : J + 1])
+    for k, key in enumerate(weights[J + 1 :], J + 1):
+        x = [t if j == "t" else W[:, j + 1] for j in key]
+        if len(x) == 1:
+            W[:, k] = x[0]
+            continue
+        np.multiply(x[0], x[1], out=W[:, k])
+        for y in x[2:]:
+            W[:, k] *= y
+    W[:, :, -1] = 0.0
+    return W
 
 
 def loop_bound(U, M, a, b, branches, motion) -> dict:

@@ -132,6 +132,31 @@ def test_summaries_decide_the_common_sets():
     assert checks["samples"] == 200 and checks["max_pose_error"] < 1e-9 and checks["length_scale"] == S.extent[n]
 
 
+def test_sets_near_and_beyond_the_transmission_gate_are_decided_in_the_batch():
+    """The transmission gate needs no margin (the batch's ratio is `verify`'s, bit for bit) and its refusals
+    get their message in the batch: README jobs whose ratio is above half the limit (refused, or accepted
+    near the gate), some with pose names, print the per-job path's lines, and none goes one by one."""
+    import random
+
+    from synth.synthesis.conditioning import TRANSMISSION_LIMIT, worst_pairs
+    from synth.tools.jobspec import read_common_bennett
+
+    rnd = random.Random(1)
+    jobs = [readme_job(rnd, i) for i in range(3000)]
+    T = read_common_bennett([json.dumps(j) for j in jobs]).poses
+    out = solve(T, 0, as_single=True)
+    rho = worst_pairs(out.laws[..., 0], out.laws[..., 1])[0]
+    near = np.flatnonzero(out.good & (rho > 0.5 * TRANSMISSION_LIMIT)).tolist()
+    assert sum(rho[near] > TRANSMISSION_LIMIT) >= 3 and sum(rho[near] <= TRANSMISSION_LIMIT) >= 3
+    for k, n in enumerate(near[::2]):  # named poses: the job takes the (non-common) reader's path
+        for i, p in enumerate(jobs[n]["poses"]):
+            p["name"] = f"q{k}_{i}"
+    items = [(n + 1, json.dumps(jobs[n])) for n in near]
+    assert [dumps(r) for r in run_chunk(items, False, None)] == [dumps(run_job(it)) for it in items]
+    S = solve_bennett_many(T[near])
+    assert S.decided.all() and S.refused.sum() == sum(rho[near] > TRANSMISSION_LIMIT)
+
+
 def test_full_and_outputs_take_the_per_job_path(tmp_path):
     """--full (the whole linkage.json) and jobs with out (here kinematic outputs; one OUT named by several
     jobs, each rewriting it after the one before, as job by job): the per-job path's lines."""

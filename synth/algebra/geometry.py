@@ -158,6 +158,36 @@ def dq_pose_difference(A, B=None):
     return dt, dr
 
 
+_NEXT, _AFTER = np.array([1, 2, 0]), np.array([2, 0, 1])  # cyclic index shifts of a cross product
+
+
+def pose_difference_squares(H, A, B) -> tuple[np.ndarray, np.ndarray]:
+    """Squared pose differences of pairs of dual quaternions given by components: H (8, L, ...) (Study
+    condition assumed, any nonzero scale), pose A[i] against pose B[i] of the L axis (index arrays of equal
+    length K). Returns (K, ...) arrays dt2 = |d_A - d_B|^2 (d = 2 vec(p q~) / |p|^2, the translation) and
+    w2 = |u_A - s u_B|^2 (u = p / |p|, s = sign(u_A . u_B)): the rotation angle is 4 asin(|w| / 2) in
+    [0, pi], accurate for small and large angles. `dq_pose_difference`'s formulas in the component layout
+    for many poses (e.g. `synth.checks.check_figures`' samples): each pose's features once, plain
+    component arithmetic over long arrays, no small matrix products (for a few poses, where the count of
+    numpy calls is the cost, `dq_pose_difference` is ~2x cheaper: measured, bench/RESULTS.md issue 36)."""
+    p, pv, qv = H[:4], H[1:4], H[5:8]
+    n = (p * p).sum(axis=0)
+    d = H[4] * pv
+    d -= p[0] * qv
+    d -= pv.take(_NEXT, axis=0) * qv.take(_AFTER, axis=0)  # - pv x qv
+    d += pv.take(_AFTER, axis=0) * qv.take(_NEXT, axis=0)
+    d *= 2.0 / n
+    u = p * (1.0 / np.sqrt(n))
+    dd = d.take(A, axis=1)
+    dd -= d.take(B, axis=1)
+    dd *= dd
+    uA, uB = u.take(A, axis=1), u.take(B, axis=1)
+    uB *= np.copysign(1.0, (uA * uB).sum(axis=0))
+    uA -= uB
+    uA *= uA
+    return dd.sum(axis=0), uA.sum(axis=0)
+
+
 def invert_pose(T) -> np.ndarray:
     """Inverses of rigid motions T (..., 4, 4): rotation R^T, translation -R^T d (no general inverse)."""
     T = np.asarray(T, float)

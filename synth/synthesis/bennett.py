@@ -28,14 +28,15 @@ from synth.infoparts import BennettParameters, DHRow, StudyForm
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, TS, acceptance_error, axis_distance,
                                           bennett_parameters, factor_sets, solve)
-from synth.synthesis.conditioning import TRANSMISSION_LIMIT, transmission_problem
+from synth.synthesis.conditioning import TRANSMISSION_LIMIT, transmission_sentence, worst_pair
 from synth.synthesis.conic import (Conditioning, condition, conditioning, conic, relative_displacements,
                                    position_spread, to_world)
 from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_bennett import accepted_error
 from synth.synthesis.planar_bennett import candidates as planar_candidates
 
-__all__ = ["bennett", "bennett_candidates", "per_set_candidates", "verify", "check_distinct", "check_transmission", "sensitivity",
+__all__ = ["bennett", "bennett_candidates", "per_set_candidates", "verify", "check_distinct", "check_transmission",
+           "transmission_refusal", "sensitivity",
            "perturbed_poses", "dh_table", "bennett_parameters_of", "EPS", "FLOOR_ULPS", "ACCEPT_TOL"]
 
 COINCIDENT_TOL = 1e-9  # relative to the pose spread (translation) and radians (rotation)
@@ -154,11 +155,17 @@ def verify(linkage, samples: int = VERIFY_SAMPLES) -> dict:
 def check_transmission(linkage) -> None:
     """SynthesisError when two joints' speeds differ by more than TRANSMISSION_LIMIT somewhere in the
     cycle (`synth.synthesis.conditioning.transmission_problem`), naming the pair of poses nearly related
-    by a pure translation or rotation, or nearly coinciding, when there is one."""
-    why = transmission_problem(linkage)
-    if why:
+    by a pure translation or rotation, or nearly coinciding, when there is one (`transmission_refusal`)."""
+    rho, fast, slow = worst_pair(linkage)
+    if not rho <= TRANSMISSION_LIMIT:
         T = np.array([p.matrix for p in linkage.poses], float)
-        raise SynthesisError(why + _near_degenerate(T, [p.name for p in linkage.poses], _spread(T)))
+        raise SynthesisError(transmission_refusal(T, [p.name for p in linkage.poses], rho, fast, slow))
+
+
+def transmission_refusal(T, names, rho: float, fast: str, slow: str) -> str:
+    """`check_transmission`'s message for poses T (3, 4, 4) named ``names`` whose linkage's joint ``fast``
+    turns ``rho`` times faster than joint ``slow`` somewhere (`synth.synthesis.conditioning.worst_pairs`)."""
+    return transmission_sentence(rho, fast, slow) + _near_degenerate(T, names, _spread(T))
 
 
 def linkage_from_solution(out, i: int, T, names, check_samples: int, perturbed: dict | None = None):

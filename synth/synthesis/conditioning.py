@@ -47,14 +47,33 @@ def transmission_ratio(a, b) -> np.ndarray:
     return np.max(transmission_ratios(a, b), axis=(-2, -1))
 
 
+def worst_pairs(a, b) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The largest ratio of `transmission_ratios` of N linkages' laws a, b (N, J), its faster joint (the
+    one with the smaller |b|: it turns fastest where t is near its a) and its slower joint (indices):
+    three (N,) arrays."""
+    R = transmission_ratios(a, b)
+    N, J = R.shape[0], R.shape[-1]
+    flat = R.reshape(N, J * J)
+    k = np.argmax(flat, axis=1)
+    i, j = np.divmod(k, J)
+    rows = np.arange(N)
+    first = np.abs(np.asarray(b, float)[rows, i]) <= np.abs(np.asarray(b, float)[rows, j])
+    return flat[rows, k], np.where(first, i, j), np.where(first, j, i)
+
+
 def worst_pair(linkage) -> tuple[float, str, str]:
-    """(largest ratio, faster joint, slower joint) of a `synth.linkage.Linkage`; the faster joint is the
-    one with the smaller b (it turns fastest where t is near its a)."""
+    """(largest ratio, faster joint, slower joint) of a `synth.linkage.Linkage` (`worst_pairs`)."""
     js = linkage.joints
-    R = transmission_ratios([j.a for j in js], [j.b for j in js])
-    i, k = np.unravel_index(int(np.argmax(R)), R.shape)
-    fast, slow = (js[i], js[k]) if abs(js[i].b) <= abs(js[k].b) else (js[k], js[i])
-    return float(R[i, k]), fast.name, slow.name
+    rho, fast, slow = worst_pairs(np.array([[j.a for j in js]], float), np.array([[j.b for j in js]], float))
+    return float(rho[0]), js[int(fast[0])].name, js[int(slow[0])].name
+
+
+def transmission_sentence(rho: float, fast: str, slow: str, limit: float = TRANSMISSION_LIMIT) -> str:
+    """The sentence saying that joint ``fast`` turns ``rho`` times faster than joint ``slow`` somewhere,
+    more than ``limit`` allows."""
+    return (f"the linkage is ill-conditioned (nearly degenerate): at one point of its cycle joint {fast} "
+            f"turns {rho:.2g} times faster than joint {slow} (transmission ratio {rho:.2g}, at most "
+            f"{limit:.0e} is accepted), a motion no drive and no double-precision check can follow")
 
 
 def transmission_problem(linkage, limit: float = TRANSMISSION_LIMIT) -> str | None:
@@ -62,7 +81,4 @@ def transmission_problem(linkage, limit: float = TRANSMISSION_LIMIT) -> str | No
     rho, fast, slow = worst_pair(linkage)
     if rho <= limit:
         return None
-    return (f"the linkage is ill-conditioned (nearly degenerate): at one point of its cycle joint {fast} "
-            f"turns {rho:.2g} times faster than joint {slow} (transmission ratio {rho:.2g}, at most "
-            f"{limit:.0e} is accepted), a motion no drive and no double-precision check can follow")
-
+    return transmission_sentence(rho, fast, slow, limit)

@@ -58,7 +58,7 @@ from typing import Any, Iterable, Iterator
 
 import numpy as np
 
-from synth.errors import MpsynthError
+from synth.errors import MpsynthError, SynthesisError
 from synth.info import FourBarRecord
 from synth.infoparts import document
 from synth.io.jsonout import linkage_document, plain
@@ -73,6 +73,8 @@ from synth.tools.jobspec import (DEGREES, KINDS, SIZE_KEYS, TASK_KEYS, JobError,
                                  one_line_message, parse_job, prepare_out, read_common_bennett, resolve_out)
 
 MAX_CHUNK = 1024  # jobs per chunk at most (`default_chunksize`)
+JOB_SOURCE = "poses"  # a job's poses as messages name them
+DEFAULT_NAMES = ["p0", "p1", "p2"]  # the names of three poses without names (`synth.io.poses`), the common lines' (`read_common_bennett`)
 PIPE_CHUNK = 256  # jobs per chunk from a pipe (an unknown count: some chunks for every worker)
 
 
@@ -133,7 +135,7 @@ def _read_job(item, out_dir, defer_out: bool = False) -> _Job | dict | None:
             if out_path is not None:
                 prepare_out(out_path, bool(job.get("force", False)), created)
             task = is_task_job(job)
-            ps = parse_pose_document(doc, source="poses", normalize=bool(job.get("normalize", False)),
+            ps = parse_pose_document(doc, source=JOB_SOURCE, normalize=bool(job.get("normalize", False)),
                                      count=((2, None) if task else KINDS[kind], f"kind {kind!r}"),
                                      points=((MINIMUM[DEGREES.get(kind, 2)], NEEDED[DEGREES.get(kind, 2)]),
                                              f"kind {kind!r}"))
@@ -257,7 +259,8 @@ def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) ->
     fast = [n for n, j in enumerate(read) if isinstance(j, _Job) and _batchable(j, full)]
     if common is not None and (fast or common.index):  # (fast: never with full, as common)
         T = np.concatenate([common.poses] + [read[n].ps.matrices[None] for n in fast])
-        done = _solve_many(T, [read[n] for n in common.index] + [read[n].result for n in fast])
+        done = _solve_many(T, [read[n] for n in common.index] + [read[n].result for n in fast],
+                           [DEFAULT_NAMES] * len(common.index) + [read[n].ps.names for n in fast])
         for n, ok in zip(fast, done[len(common.index):]):
             if ok:
                 read[n].ps = None  # decided: its result is complete
@@ -271,21 +274,24 @@ def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) ->
                j.result if j.ps is None else _solve_job(j, full, design))
 
 
-def _solve_many(T, results: list) -> list:
+def _solve_many(T, results: list, names: list) -> list:
     """Which of the three-pose Bennett sets T (n, 3, 4, 4) `solve_bennett_many` decides (a list of bools):
-    the result dict of each such set (``results[n]``) completed with its success fields; the others are
-    left as they are."""
+    the result dict of each such set (``results[n]``, poses named ``names[n]``) completed with its success
+    fields or its refusal; the others are left as they are."""
     try:
         many = solve_bennett_many(T)
     except Exception:  # (never: the per-job path then gives every job its own result)
         return [False] * len(results)
-    index = np.flatnonzero(many.decided).tolist()
+    index = np.flatnonzero(many.decided & ~many.refused).tolist()
     finite = np.isfinite(many.extent) & np.all([np.isfinite(v) for v in (*many.figures.values(), *many.bennett.values())],
                                                axis=0)
     checks, parameters = many.rows(index)
     for n, c, b in zip(index, checks, parameters):  # (finite: plain floats, as `plain` leaves them)
         results[n].update(_success_fields("bennett", 4, c["length_scale"], c, None, b,
                                           clean=_same if finite[n] else plain))
+    for n in np.flatnonzero(many.refused).tolist():  # `solve_bennett`'s SynthesisError, as `_solve_job` words it
+        message = f"{JOB_SOURCE}: {many.refusal(n, T[n], names[n])}"
+        results[n].update({"ok": False, "exit_code": SynthesisError.exit_code, "error": one_line_message(message)})
     return many.decided.tolist()
 
 
