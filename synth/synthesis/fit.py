@@ -124,11 +124,19 @@ def homogeneous(coef, phi, derivative: bool = False):
 
 def basis(phi, n: int):
     """cos^k sin^(n-k) of phi (..., N) for k = 0 .. n, and their derivatives: two (..., N, n+1) arrays."""
-    c, s = _powers(np.cos(phi), n + 1), _powers(np.sin(phi), n + 1)  # (..., N, n+2)
-    k = np.arange(n + 1)
-    # d/dphi cos^k sin^(n-k) = -k cos^(k-1) sin^(n-k+1) + (n-k) cos^(k+1) sin^(n-k-1)
-    d = -k * c[..., np.maximum(k - 1, 0)] * s[..., n - k + 1] + (n - k) * c[..., k + 1] * s[..., np.maximum(n - k - 1, 0)]
-    return c[..., k] * s[..., n - k], d
+    pw = _powers(np.stack([np.cos(phi), np.sin(phi)], -1), n + 1)  # (..., N, 2, n+2): cos^j, sin^j
+    c, s = pw[..., 0, :], pw[..., 1, :]
+    k = _COUNTS[:n + 1]
+    # d/dphi cos^k sin^(n-k) = -k cos^(k-1) sin^(n-k+1) + (n-k) cos^(k+1) sin^(n-k-1), by slices (views)
+    down = -k[1:] * c[..., :n] * s[..., n:0:-1]  # k = 1 .. n
+    up = k[n:0:-1] * c[..., 1:n + 1] * s[..., n - 1::-1]  # k = 0 .. n-1
+    d = np.empty(up.shape[:-1] + (n + 1,), up.dtype)
+    d[..., 0], d[..., n] = up[..., 0], down[..., n - 1]
+    np.add(down[..., :n - 1], up[..., 1:], out=d[..., 1:n])
+    return c[..., :n + 1] * s[..., n::-1], d
+
+
+_COUNTS = np.arange(16.0)
 
 
 def _powers(x, m: int):

@@ -129,14 +129,17 @@ def distances(coef, ref, task, cand, exact_weight: float = EXACT_WEIGHT):
         x = dq_translation(P)
         p = P[..., :4] / np.sqrt((P[..., :4] ** 2).sum(-1))[..., None]
     w = task.weight[:, [0, 3]] + exact_weight * task.exact[:, [0, 3]]  # (N, 2): position, angle
-    if shared:
-        d2 = ((x[:, :, None, :] - task.X) ** 2).sum(-1) * w[:, 0] ** 2
-        cos = np.abs(p @ task.Q[:, :4].T)  # |p . q|: (S, G, N)
-        d2 = np.swapaxes(d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1] ** 2, 1, 2)  # (S, N, G)
+    if shared:  # (S, N, G): the samples' components as rows, each item's target against all of them
+        xt = np.swapaxes(x, 1, 2)[:, :, None, :]  # (S, 3, 1, G)
+        X = task.X[:, :, None]
+        cos = np.swapaxes(np.abs(p @ task.Q[:, :4].T), 1, 2)  # |p . q|: (S, N, G)
     else:
         N = cand.shape[1]
-        x, p = x.reshape(S, N, K, 3), p.reshape(S, N, K, 4)
-        d2 = ((x - task.X[:, None]) ** 2).sum(-1) * w[:, :1] ** 2
-        cos = np.abs((p * task.Q[:, None, :4]).sum(-1))
-        d2 = d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1:] ** 2
+        xt = np.moveaxis(x.reshape(S, N, K, 3), -1, 1)  # (S, 3, N, K)
+        X = task.X[:, :, None]
+        cos = np.abs((p.reshape(S, N, K, 4) * task.Q[:, None, :4]).sum(-1))
+    d = xt - np.swapaxes(X, 0, 1)  # (S, 3, N, K): the components of the misses
+    d *= d
+    d2 = (d[:, 0] + d[:, 1] + d[:, 2]) * w[:, :1] ** 2  # (the order of a sum over the last axis)
+    d2 += 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1:] ** 2
     return np.nan_to_num(d2, nan=np.inf)
