@@ -22,12 +22,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.algebra.dq import structure_constants
+from synth.algebra.dq import dq_left_matrix, dq_right_matrix, structure_constants
 from synth.algebra.geometry import cross
 from synth.synthesis.arrow import ArrowJacobian
 
-__all__ = ["sample_combinations", "nth_combination", "TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",
-           "homogeneous", "basis", "cost_classes", "rank_seeds", "ERRORS", "ROWS"]
+__all__ = ["sample_combinations", "nth_combination", "TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "pose_errors", "study_rows", "levenberg_marquardt",
+           "homogeneous", "monic", "basis", "cost_classes", "rank_seeds", "ERRORS", "ROWS"]
 
 ERRORS = 6  # per item: position error (3, spreads), rotation error 2 sin(angle/2) axis (3)
 ROWS = ERRORS + 5  # and 5 velocity rows (components of the twist direction across the prescribed one)
@@ -43,6 +43,8 @@ COST_FLOOR = 1e-20  # and costs this close (squared misses over tolerance: 1e-10
 _DQ = structure_constants().reshape(64, 8).astype(float)
 _Q = structure_constants()[:4, :4, :4].reshape(16, 4).astype(float)
 _CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
+_POSE_STEPS = 1j * STEP * np.eye(8)[:, None, :]  # complex steps in the 8 components of a pose
+_REF_STEPS = 1j * STEP * np.eye(6)  # and in the 6 of the reference correction
 
 
 def _product(a, b, table):
@@ -85,6 +87,11 @@ class TaskArrays:
     exact: np.ndarray
     perp: np.ndarray
 
+    @functools.cached_property
+    def has_velocity(self) -> bool:
+        """Whether an item has a prescribed twist direction (the rows use C' then)."""
+        return bool(self.exact[:, ERRORS:].any())
+
 
 def task_arrays(Q, X, tolerance, velocity, scale: float) -> TaskArrays:
     """TaskArrays of targets Q (N, 8), X (N, 3) (conditioned, lengths / ``scale``), ``tolerance`` (N, 2)
@@ -117,9 +124,19 @@ def homogeneous(coef, phi, derivative: bool = False):
     """C(phi) (..., N, 8) = sum_k c_k cos^k sin^(n-k) with c_n = 1, coefficients ``coef`` (..., n, 8)
     (c_0 .. c_{n-1}) and angles ``phi`` (..., N); with ``derivative`` also dC/dphi."""
     n = coef.shape[-2]
-    full = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], coef.shape[:-2] + (1, 8)).astype(coef.dtype)], -2)
+    full = monic(coef)
     b, db = basis(phi, n)
     return (b @ full, db @ full) if derivative else b @ full
+
+
+def monic(coef):
+    """The coefficients c_0 .. c_n (..., n+1, 8) of the monic C: ``coef`` (c_0 .. c_{n-1}, (..., n, 8), any
+    dtype) and c_n = 1."""
+    n = coef.shape[-2]
+    full = np.zeros(coef.shape[:-2] + (n + 1, 8), coef.dtype)
+    full[..., :n, :] = coef
+    full[..., n, 0] = 1.0
+    return full
 
 
 def basis(phi, n: int):
@@ -151,9 +168,12 @@ def _powers(x, m: int):
 def reference_pose(ref0, x_ref):
     """The seed's reference pose ref0 (..., 8) corrected by x_ref (..., 6) = (w, dp): first the rotation
     (1, w/2), then the translation by dp, both before ref0 (world frame)."""
-    r = np.concatenate([np.ones(x_ref.shape[:-1] + (1,), x_ref.dtype), 0.5 * x_ref[..., :3]], -1)
-    dp = np.concatenate([np.zeros(x_ref.shape[:-1] + (1,), x_ref.dtype), -0.5 * x_ref[..., 3:]], -1)
-    return _mul(np.concatenate([r, _qmul(dp, r)], -1), ref0)
+    D = np.zeros(x_ref.shape[:-1] + (8,), x_ref.dtype)  # (r, dp r): r = (1, w/2), dp = (0, -dp/2)
+    D[..., 0] = 1.0
+    np.multiply(x_ref[..., :3], 0.5, out=D[..., 1:4])
+    np.multiply(x_ref[..., 3:], -0.5, out=D[..., 5:8])
+    D[..., 4:] = _qmul(D[..., 4:], D[..., :4])
+    return _mul(D, ref0)
 
 
 def item_errors(coef, ref, phi, task: TaskArrays):
@@ -161,23 +181,27 @@ def item_errors(coef, ref, phi, task: TaskArrays):
     2 sin(angle / 2) times its axis, and the prescribed-twist rows ``perp @ [w, v] / |[w, v]|`` (w the
     angular velocity, v the velocity of the tool origin, along phi). coef (..., n, 8), ref (..., 8),
     phi (..., N); any float or complex dtype."""
-    C, dC = homogeneous(coef, phi, derivative=True)
-    return motion_errors(C, dC, ref[..., None, :], task)
+    vel = task.has_velocity
+    C = homogeneous(coef, phi, derivative=vel)
+    r = ref[..., None, :]
+    if vel:
+        return pose_errors(_times_fixed(C[0], r, _DQ), _times_fixed(C[1], r, _DQ), task)
+    return pose_errors(_times_fixed(C, r, _DQ), None, task)
 
 
-def motion_errors(C, dC, ref, task: TaskArrays):
-    """`item_errors` from the motion's values C (..., N, 8) and derivatives dC at the items and the reference
-    ``ref`` (..., 1, 8) (broadcast)."""
-    P = _times_fixed(C, ref, _DQ)
+def pose_errors(P, dP, task: TaskArrays):
+    """`item_errors` from the tool's poses P = C Q (..., N, 8) at the items and their derivatives dP = C' Q
+    along phi (needed for the twist rows only: None when the task prescribes no velocity)."""
     p, q = P[..., :4], P[..., 4:]
     x = 2.0 * _qmul(p, q * _CONJ[:4])[..., 1:] / _vdot(p, p)[..., None]  # translation (synth.algebra.dq)
     e = _times_fixed(p, task.Q[:, :4] * _CONJ[:4], _Q)  # rotation from the target to the prediction (times |p|)
     sign = np.where(e[..., :1].real < 0, -1.0, 1.0)
     rot = 2.0 * sign * e[..., 1:] / np.sqrt(_vdot(e, e))[..., None]
     out = [x - task.X, rot]
-    if task.exact[:, ERRORS:].any():
-        # C' C~: vector parts (w, -(velocity of the body point at the origin)) times |C|^2 / 2
-        tw = _mul(dC, C * _CONJ)
+    if dP is not None:
+        # P' P~ = |Q|^2 C' C~ (Q on the Study quadric): vector parts (w, -(velocity of the body point at the
+        # origin)) times a positive factor, which the normalization removes
+        tw = _mul(dP, P * _CONJ)
         w = tw[..., 1:4]
         z = np.concatenate([w, cross(w, x) - tw[..., 5:8]], -1)
         z = z / np.sqrt(_vdot(z, z))[..., None]
@@ -191,7 +215,7 @@ def study_rows(coef):
     """The Study condition of the monic C with coefficients c_0 .. c_{n-1} (..., n, 8): the 2n dual parts
     of C C~ (halved), sum_{j+k=m} p_j . q_k for m = 0 .. 2n-1 (c_n = 1). Returns (..., 2n)."""
     n = coef.shape[-2]
-    p = np.concatenate([coef[..., :4], np.broadcast_to(np.eye(4)[0], coef.shape[:-2] + (1, 4))], -2)
+    p = monic(coef)[..., :4]
     pq = (p[..., :, None, :] * coef[..., None, :, 4:]).sum(-1)  # (..., n+1, n): p_j . q_k
     return pq.reshape(pq.shape[:-2] + (-1,)) @ _study_sums(n)
 
@@ -243,16 +267,16 @@ class LMResult:
     iterations: int
 
 
-def _chained(b, db, dE, vel: bool):
-    """Derivatives (S, N, R, 8 n + 6) of item rows in the coefficients and the reference correction, from
-    their complex-step derivatives dE (S, directions, N, R) in C (8), C' (8, with ``vel``), the reference
-    (6) and phi (1, last), and the basis b, db (S, N, n + 1) at the items (`basis`)."""
-    S, dirs, N, R = dE.shape
+def _chained(b, db, dEC, dEdC):
+    """Derivatives (S, N, R, 8 n) of item rows in the coefficients c_0 .. c_{n-1}, from their derivatives
+    dEC (S, N, R, 8) in C and dEdC in C' (None: the rows do not depend on C') at the items, and the basis
+    b, db (S, N, n + 1) there (`basis`: C = b @ [c; 1], C' = db @ [c; 1])."""
+    S, N, R, _ = dEC.shape
     n = b.shape[-1] - 1
-    dcoef = np.einsum("snk,sjnr->snrkj", b[..., :n], dE[:, :8])
-    if vel:
-        dcoef += np.einsum("snk,sjnr->snrkj", db[..., :n], dE[:, 8:16])
-    return np.concatenate([dcoef.reshape(S, N, R, 8 * n), np.moveaxis(dE[:, dirs - 7:dirs - 1], 1, -1)], -1)
+    dcoef = b[:, :, None, :n, None] * dEC[:, :, :, None, :]
+    if dEdC is not None:
+        dcoef += db[:, :, None, :n, None] * dEdC[:, :, :, None, :]
+    return dcoef.reshape(S, N, R, 8 * n)
 
 
 class MotionModel:
@@ -275,47 +299,58 @@ class MotionModel:
 
     def jacobians(self, x):
         """The rows and Jacobians at x (S, P) as a `synth.synthesis.arrow.ArrowJacobian` (item rows uncompressed:
-        the rows that do not count are 0). The rows depend on the coefficients only through C and dC at the
-        items, linearly (`basis`): complex steps in C (8), dC (8, with velocities), the reference (6) and
-        all phi at once (each phi_i moves item i's rows only), chained to the coefficients; the Study rows
-        by complex steps in the coefficients."""
+        the rows that do not count are 0). The rows are a function of the tool poses P = C Q at the items
+        (and of P' = C' Q, with velocities) alone (`pose_errors`): its derivatives in P (and P') by complex
+        steps, 8 (16) directions for all items at once, then chained by matrix products: to C (P = C Q: Q's
+        right-multiplication matrix) and the coefficients (`basis`), to the reference correction (P = C Q:
+        C's left-multiplication matrix times dQ / dx_ref) and to phi (dP / dphi = P'); the Study rows by
+        complex steps in the coefficients."""
         lay, task = self.layout, self.task
         n, g, S = lay.n, 8 * lay.n + 6, x.shape[0]
         coef, x_ref, phi = lay.split(x)
-        b, db = basis(phi, n)
-        full = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], (S, 1, 8))], -2)
-        C, dC = b @ full, db @ full  # (S, N, 8)
-        ref = reference_pose(self.ref0, x_ref)[:, None, None, :]  # (S, 1, 1, 8)
-        vel = bool(task.exact[:, ERRORS:].any())
-        step = 1j * STEP * np.eye(8)[:, None, :]  # (8, 1, 8): one complex step per component
-        c_phi, dc_phi = homogeneous(coef, phi + 1j * STEP, derivative=True)
-        ref_steps = reference_pose(self.ref0[:, None], x_ref[:, None] + 1j * STEP * np.eye(6))[:, :, None, :]
-        blocks = [(C[:, None] + step, dC[:, None], ref)]  # d/dC
+        vel = task.has_velocity
+        bc, dbc = basis(phi + 1j * STEP, n)  # real parts: the basis and its derivative; imaginary / STEP: d / dphi
+        b, db = bc.real, dbc.real
+        full = monic(coef)[:, None]  # (S, 1, n+1, 8)
+        W = np.stack([b, db, dbc.imag / STEP], -2) if vel else np.stack([b, db], -2)  # (S, N, 2|3, n+1)
+        CC = W @ full  # C, C' (and C'') at the items: (S, N, 2|3, 8)
+        ref = reference_pose(self.ref0, x_ref)  # (S, 8)
+        dref = reference_pose(self.ref0[:, None], x_ref[:, None] + _REF_STEPS).imag / STEP  # (S, 6, 8)
+        PP = CC @ dq_right_matrix(ref)[:, None]  # P, P' (and P''): (S, N, 2|3, 8)
+        P, dP = PP[:, :, 0], PP[:, :, 1]
+        step = _POSE_STEPS  # (8, 1, 8): one complex step per component
         if vel:
-            blocks.append((C[:, None], dC[:, None] + step, ref))  # d/dC'
-        blocks += [(C[:, None], dC[:, None], ref_steps), (c_phi[:, None], dc_phi[:, None], ref)]  # reference, phi
-        sizes = [max(x.shape[1] for x in blk) for blk in blocks]
-        Cs, dCs, refs = (np.concatenate([np.broadcast_to(blk[i], (S, k) + blk[i].shape[2:]).astype(complex)
-                                         for blk, k in zip(blocks, sizes)], 1) for i in range(3))
-        E = motion_errors(Cs, dCs, refs, task)  # (S, directions, N, ROWS)
-        dE = E.imag / STEP
-        E0 = E[:, -1].real
+            Pz = np.concatenate([P[:, None] + step, np.broadcast_to(P[:, None], (S, 8) + P.shape[1:])], 1)
+            dPz = np.concatenate([np.broadcast_to(dP[:, None], (S, 8) + P.shape[1:]), dP[:, None] + step], 1)
+            E = pose_errors(Pz, dPz, task)  # (S, 16, N, ROWS)
+        else:
+            E = pose_errors(P[:, None] + step, None, task)  # (S, 8, N, ROWS)
+        E0 = E[:, 0].real
+        dE = np.moveaxis(E.imag, 1, -1) / STEP  # (S, N, ROWS, 8|16): in P (and P')
+        JP, JdP = dE[..., :8], (dE[..., 8:] if vel else None)
+        RT = np.swapaxes(dq_right_matrix(ref), 1, 2)[:, None]  # (S, 1, 8, 8): dP / dC = Q's right matrix
+        dref_T = np.swapaxes(dref, 1, 2)[:, None]  # (S, 1, 8, 6)
+        dcoef = _chained(b, db, JP @ RT, None if JdP is None else JdP @ RT)
+        dx_ref = JP @ np.swapaxes(dq_left_matrix(CC[:, :, 0]), -1, -2) @ dref_T  # (S, N, ROWS, 6)
+        dphi = (JP @ dP[..., None])[..., 0]  # (S, N, ROWS)
+        if vel:
+            dx_ref += JdP @ np.swapaxes(dq_left_matrix(CC[:, :, 1]), -1, -2) @ dref_T
+            dphi += (JdP @ PP[:, :, 2, :, None])[..., 0]
+        Jg = np.concatenate([dcoef, dx_ref], -1)  # (S, N, ROWS, g)
         c, Jc = self._study(coef, x.shape[-1])
         if self.eq.any():  # the exact rows of the items that have them
             items = np.nonzero(task.exact.any(1))[0]
-            dg = _chained(b[:, items], db[:, items], dE[:, :, items], vel)  # (S, k, ROWS, g)
             eq = task.exact[items].ravel()
             owner = np.repeat(items, ROWS)[eq]
             Je = np.zeros((S, len(owner), lay.size))
-            Je[..., :g] = dg.reshape(S, -1, g)[:, eq]
-            Je[:, np.arange(len(owner)), g + owner] = dE[:, -1, items].reshape(S, -1)[:, eq]
+            Je[..., :g] = Jg[:, items].reshape(S, -1, g)[:, eq]
+            Je[:, np.arange(len(owner)), g + owner] = dphi[:, items].reshape(S, -1)[:, eq]
             c, Jc = np.concatenate([E0[:, items].reshape(S, -1)[:, eq], c], -1), np.concatenate([Je, Jc], 1)
         w = task.weight[:, :ERRORS]  # (the twist rows are never residuals)
         counts = w != 0  # (rows that do not count: 0, whatever their values)
-        dg = _chained(b, db, dE[..., :ERRORS], vel)  # (S, N, ERRORS, g)
         return ArrowJacobian.of_items(np.where(counts, E0[..., :ERRORS] * w, 0.0),
-                                      np.where(counts[..., None], dg * w[..., None], 0.0),
-                                      np.where(counts, dE[:, -1, :, :ERRORS] * w, 0.0), c, Jc)
+                                      np.where(counts[..., None], Jg[:, :, :ERRORS] * w[..., None], 0.0),
+                                      np.where(counts, dphi[..., :ERRORS] * w, 0.0), c, Jc)
 
     def _study(self, coef, columns: int):
         """The Study rows (S, 2n) of the coefficients (S, n, 8) and their Jacobian (S, 2n, columns) (complex

@@ -8,7 +8,7 @@ import numpy as np
 
 from synth.algebra.dq import dq_inv, dq_mul, dq_translation, normalize_dq
 from synth.errors import SynthesisError
-from synth.synthesis.fit import basis, homogeneous
+from synth.synthesis.fit import basis, homogeneous, monic
 
 __all__ = ["project", "nearest", "zoom", "distances", "regauge", "to_gauge", "gauge_matrix", "gauge_items", "inv2", "GAUGE_ANGLES", "GRID",
            "EXACT_WEIGHT"]
@@ -123,7 +123,7 @@ def distances(coef, ref, task, cand, exact_weight: float = EXACT_WEIGHT):
     shared = cand.shape[1] == 1
     ang = cand[:, 0] if shared else cand.reshape(S, -1)
     n = coef.shape[-2]
-    full = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], (S, 1, 8))], -2)
+    full = monic(coef)
     with np.errstate(all="ignore"):
         P = basis(ang, n)[0] @ dq_mul(full, ref[:, None])  # (S, G, 8): C(phi) Q, linear in the basis
         x = dq_translation(P)
