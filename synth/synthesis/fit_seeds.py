@@ -129,17 +129,24 @@ def distances(coef, ref, task, cand, exact_weight: float = EXACT_WEIGHT):
         x = dq_translation(P)
         p = P[..., :4] / np.sqrt((P[..., :4] ** 2).sum(-1))[..., None]
     w = task.weight[:, [0, 3]] + exact_weight * task.exact[:, [0, 3]]  # (N, 2): position, angle
-    if shared:  # (S, N, G): the samples' components as rows, each item's target against all of them
-        xt = np.swapaxes(x, 1, 2)[:, :, None, :]  # (S, 3, 1, G)
-        X = task.X[:, :, None]
+    if shared:  # (S, N, G): each item's target against all the samples
+        xt, X = np.swapaxes(x, 1, 2)[:, :, None, :], task.X[:, :, None]  # (S, 3, 1, G), (N, 3, 1)
         cos = np.swapaxes(np.abs(p @ task.Q[:, :4].T), 1, 2)  # |p . q|: (S, N, G)
     else:
         N = cand.shape[1]
-        xt = np.moveaxis(x.reshape(S, N, K, 3), -1, 1)  # (S, 3, N, K)
-        X = task.X[:, :, None]
+        xt, X = np.moveaxis(x.reshape(S, N, K, 3), -1, 1), task.X[:, :, None]  # (S, 3, N, K), (N, 3, 1)
         cos = np.abs((p.reshape(S, N, K, 4) * task.Q[:, None, :4]).sum(-1))
-    d = xt - np.swapaxes(X, 0, 1)  # (S, 3, N, K): the components of the misses
-    d *= d
-    d2 = (d[:, 0] + d[:, 1] + d[:, 2]) * w[:, :1] ** 2  # (the order of a sum over the last axis)
-    d2 += 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1:] ** 2
-    return np.nan_to_num(d2, nan=np.inf)
+    d2 = np.subtract(xt[:, 0], X[:, 0])  # the squared position miss, component by component (few temporaries)
+    d2 *= d2
+    part = np.empty_like(d2)
+    for i in (1, 2):
+        np.subtract(xt[:, i], X[:, i], out=part)
+        part *= part
+        d2 += part
+    d2 *= w[:, :1] ** 2
+    np.minimum(cos, 1.0, out=part)  # the angle miss, 8 (1 - |p . q|)
+    np.subtract(1.0, part, out=part)
+    part *= 8.0
+    part *= w[:, 1:] ** 2
+    d2 += part
+    return np.nan_to_num(d2, copy=False, nan=np.inf)
