@@ -26,7 +26,7 @@ from synth.algebra.dq import dq_left_matrix, dq_right_matrix, structure_constant
 from synth.algebra.geometry import cross
 from synth.synthesis.arrow import ArrowJacobian
 
-__all__ = ["sample_combinations", "nth_combination", "TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "pose_errors", "study_rows", "levenberg_marquardt",
+__all__ = ["sample_combinations", "nth_combination", "TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "pose_errors", "pose_rows", "twist_rows", "reference_steps", "study_rows", "study_jacobian", "levenberg_marquardt",
            "homogeneous", "monic", "basis", "cost_classes", "rank_seeds", "ERRORS", "ROWS"]
 
 ERRORS = 6  # per item: position error (3, spreads), rotation error 2 sin(angle/2) axis (3)
@@ -43,8 +43,11 @@ COST_FLOOR = 1e-20  # and costs this close (squared misses over tolerance: 1e-10
 _DQ = structure_constants().reshape(64, 8).astype(float)
 _Q = structure_constants()[:4, :4, :4].reshape(16, 4).astype(float)
 _CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
+_Q_P = _Q.reshape(4, 4, 4).transpose(0, 2, 1).reshape(4, 16)  # (p @ this)[k, j] = d (p q)_k / d q_j
+_Q_Q = _Q.reshape(4, 4, 4).transpose(1, 2, 0).reshape(4, 16)  # (q @ this)[k, i] = d (p q)_k / d p_i
+_EYE4 = np.eye(4)
+_HALF_UNITS = 0.5 * np.eye(4)[1:]  # i/2, j/2, k/2
 _POSE_STEPS = 1j * STEP * np.eye(8)[:, None, :]  # complex steps in the 8 components of a pose
-_REF_STEPS = 1j * STEP * np.eye(6)  # and in the 6 of the reference correction
 
 
 def _product(a, b, table):
@@ -61,9 +64,13 @@ def _mul(a, b):
 def _times_fixed(a, b, table):
     """The product of a (..., k) by a broadcast factor b (..., k) of fewer elements (a reference pose, a
     target): a @ the matrix of right multiplication by b (k x k per b), k^2 products per a instead of k^3."""
+    return (a[..., None, :] @ _right_matrix(b, table))[..., 0, :]
+
+
+def _right_matrix(b, table):
+    """(..., k, k): the matrix M of right multiplication by b (..., k), a b = a @ M."""
     k = b.shape[-1]
-    right = (b @ table.reshape(k, k, k).transpose(1, 0, 2).reshape(k, k * k)).reshape(b.shape[:-1] + (k, k))
-    return (a[..., None, :] @ right)[..., 0, :]
+    return (b @ table.reshape(k, k, k).transpose(1, 0, 2).reshape(k, k * k)).reshape(b.shape[:-1] + (k, k))
 
 
 def _qmul(a, b):
@@ -86,6 +93,11 @@ class TaskArrays:
     weight: np.ndarray
     exact: np.ndarray
     perp: np.ndarray
+
+    @functools.cached_property
+    def target_right(self) -> np.ndarray:
+        """(N, 4, 4): right multiplication by the targets' conjugate rotations (p q_i~ = p @ this[i])."""
+        return _right_matrix(self.Q[:, :4] * _CONJ[:4], _Q)
 
     @functools.cached_property
     def has_velocity(self) -> bool:
@@ -176,6 +188,22 @@ def reference_pose(ref0, x_ref):
     return _mul(D, ref0)
 
 
+def reference_steps(ref0, x_ref):
+    """(..., 6, 8): the derivatives of `reference_pose` (ref0 (..., 8), x_ref (..., 6)) in x_ref = (w, dp): of
+    D = (r, dp r) (r = (1, w/2), dp = (0, -dp/2)) times ref0, dD / dw_a = (e_a / 2, dp e_a / 2) and dD / ddp_a =
+    (0, -e_a r / 2) (e_a the quaternion units i, j, k)."""
+    dD = np.zeros(x_ref.shape[:-1] + (6, 8))
+    dp = np.zeros(x_ref.shape[:-1] + (1, 4))
+    dp[..., 0, 1:] = -0.5 * x_ref[..., 3:]
+    r = np.zeros(x_ref.shape[:-1] + (1, 4))
+    r[..., 0, 0] = 1.0
+    r[..., 0, 1:] = 0.5 * x_ref[..., :3]
+    dD[..., :3, :4] = _HALF_UNITS
+    dD[..., :3, 4:] = _qmul(dp, _HALF_UNITS)
+    dD[..., 3:, 4:] = _qmul(-_HALF_UNITS, r)
+    return _mul(dD, ref0[..., None, :])
+
+
 def item_errors(coef, ref, phi, task: TaskArrays):
     """Rows (..., N, ROWS) of the items: position error (predicted - target, conditioned), rotation error
     2 sin(angle / 2) times its axis, and the prescribed-twist rows ``perp @ [w, v] / |[w, v]|`` (w the
@@ -192,23 +220,53 @@ def item_errors(coef, ref, phi, task: TaskArrays):
 def pose_errors(P, dP, task: TaskArrays):
     """`item_errors` from the tool's poses P = C Q (..., N, 8) at the items and their derivatives dP = C' Q
     along phi (needed for the twist rows only: None when the task prescribes no velocity)."""
-    p, q = P[..., :4], P[..., 4:]
-    x = 2.0 * _qmul(p, q * _CONJ[:4])[..., 1:] / _vdot(p, p)[..., None]  # translation (synth.algebra.dq)
-    e = _times_fixed(p, task.Q[:, :4] * _CONJ[:4], _Q)  # rotation from the target to the prediction (times |p|)
+    e = pose_rows(P, task)[0]
+    tw = np.zeros(e.shape[:-1] + (5,), e.dtype) if dP is None else twist_rows(P, dP, task)
+    return np.concatenate([e, tw], -1)
+
+
+def _translation(P):
+    """The tool origins 2 vec(p q~) / |p|^2 (..., 3) of poses P (..., 8) (synth.algebra.dq) and |p|^2."""
+    p = P[..., :4]
+    pp = _vdot(p, p)
+    return 2.0 * _qmul(p, P[..., 4:] * _CONJ[:4])[..., 1:] / pp[..., None], pp
+
+
+def pose_rows(P, task: TaskArrays, jacobian: bool = False):
+    """The first ERRORS rows of `item_errors` (position error, rotation error 2 sin(angle / 2) times its
+    axis) of the tool poses P (..., N, 8) (any dtype), and with ``jacobian`` their derivatives in P
+    (..., N, ERRORS, 8) (real P): x = 2 vec(p q~) / |p|^2 is linear in q and, times |p|^2, in p; the
+    rotation error is the normalized vector part of e = p t~ (t the target), linear in p."""
+    p = P[..., :4]
+    x, pp = _translation(P)
+    e = (p[..., None, :] @ task.target_right)[..., 0, :]  # rotation from the target to the prediction (times |p|)
     sign = np.where(e[..., :1].real < 0, -1.0, 1.0)
-    rot = 2.0 * sign * e[..., 1:] / np.sqrt(_vdot(e, e))[..., None]
-    out = [x - task.X, rot]
-    if dP is not None:
-        # P' P~ = |Q|^2 C' C~ (Q on the Study quadric): vector parts (w, -(velocity of the body point at the
-        # origin)) times a positive factor, which the normalization removes
-        tw = _mul(dP, P * _CONJ)
-        w = tw[..., 1:4]
-        z = np.concatenate([w, cross(w, x) - tw[..., 5:8]], -1)
-        z = z / np.sqrt(_vdot(z, z))[..., None]
-        out.append((task.perp @ z[..., None])[..., 0])
-    else:
-        out.append(np.zeros(x.shape[:-1] + (5,), x.dtype))
-    return np.concatenate(out, -1)
+    norm = np.sqrt(_vdot(e, e))[..., None]
+    rot = 2.0 * sign * e[..., 1:] / norm
+    rows = np.concatenate([x - task.X, rot], -1)
+    if not jacobian:
+        return rows, None
+    J = np.zeros(rows.shape + (8,))
+    inv = (1.0 / pp)[..., None, None]
+    qc = P[..., 4:] * _CONJ[:4]
+    J[..., :3, 4:] = (2.0 * inv) * (p @ _Q_P).reshape(p.shape + (4,))[..., 1:, :] * _CONJ[:4]  # dx / dq
+    J[..., :3, :4] = (2.0 * inv) * (qc @ _Q_Q).reshape(p.shape + (4,))[..., 1:, :] - (2.0 * inv) * x[..., None] * p[..., None, :]
+    u = e / norm  # d rot / d e = 2 sign (I - u u^T)[1:] / |e|, then d e / d p = target_right^T
+    de = (2.0 * sign / norm)[..., None] * (_EYE4[1:] - u[..., 1:, None] * u[..., None, :])
+    J[..., 3:, :4] = de @ np.swapaxes(task.target_right, -1, -2)
+    return rows, J
+
+
+def twist_rows(P, dP, task: TaskArrays):
+    """The twist rows of `item_errors` (..., N, 5) from the poses P and dP = C' Q (..., N, 8): P' P~ =
+    |Q|^2 C' C~ (Q on the Study quadric) has the vector parts (w, -(velocity of the body point at the
+    origin)) times a positive factor, which the normalization removes. Any dtype (complex steps)."""
+    x = _translation(P)[0]
+    tw = _mul(dP, P * _CONJ)
+    w = tw[..., 1:4]
+    z = np.concatenate([w, cross(w, x) - tw[..., 5:8]], -1)
+    z = z / np.sqrt(_vdot(z, z))[..., None]
+    return (task.perp @ z[..., None])[..., 0]
 
 
 def study_rows(coef):
@@ -218,6 +276,17 @@ def study_rows(coef):
     p = monic(coef)[..., :4]
     pq = (p[..., :, None, :] * coef[..., None, :, 4:]).sum(-1)  # (..., n+1, n): p_j . q_k
     return pq.reshape(pq.shape[:-2] + (-1,)) @ _study_sums(n)
+
+
+def study_jacobian(coef):
+    """(..., 2n, 8n): the derivatives of `study_rows` in the coefficients c_0 .. c_{n-1} (..., n, 8) (their
+    8 components in order): row m in p_j is q_{m-j}, in q_k is p_{m-k} (bilinear; p_n = 1, q_n = 0)."""
+    n = coef.shape[-2]
+    T = _study_sums(n).reshape(n + 1, n, 2 * n)  # [j, k, m]: j + k == m
+    J = np.empty(coef.shape[:-2] + (2 * n, n, 8))
+    J[..., :4] = np.einsum("jkm,...ka->...mja", T[:n], coef[..., 4:])  # in p_j (j < n)
+    J[..., 4:] = np.einsum("jkm,...ja->...mka", T, monic(coef)[..., :4])  # in q_k
+    return J.reshape(coef.shape[:-2] + (2 * n, 8 * n))
 
 
 @functools.lru_cache(maxsize=4)
@@ -300,48 +369,51 @@ class MotionModel:
     def jacobians(self, x):
         """The rows and Jacobians at x (S, P) as a `synth.synthesis.arrow.ArrowJacobian` (item rows uncompressed:
         the rows that do not count are 0). The rows are a function of the tool poses P = C Q at the items
-        (and of P' = C' Q, with velocities) alone (`pose_errors`): its derivatives in P (and P') by complex
-        steps, 8 (16) directions for all items at once, then chained by matrix products: to C (P = C Q: Q's
-        right-multiplication matrix) and the coefficients (`basis`), to the reference correction (P = C Q:
-        C's left-multiplication matrix times dQ / dx_ref) and to phi (dP / dphi = P'); the Study rows by
-        complex steps in the coefficients."""
+        (and of P' = C' Q, with velocities) alone: their derivatives in P (`pose_rows`; the twist rows by
+        complex steps in P and P'), chained by matrix products to C (P = C Q: Q's right-multiplication
+        matrix) and the coefficients (`basis`), to the reference correction (C's left-multiplication matrix
+        times dQ / dx_ref, `reference_steps`) and to phi (dP / dphi = P'); the Study rows' by `study_jacobian`."""
         lay, task = self.layout, self.task
         n, g, S = lay.n, 8 * lay.n + 6, x.shape[0]
         coef, x_ref, phi = lay.split(x)
         vel = task.has_velocity
-        bc, dbc = basis(phi + 1j * STEP, n)  # real parts: the basis and its derivative; imaginary / STEP: d / dphi
-        b, db = bc.real, dbc.real
-        full = monic(coef)[:, None]  # (S, 1, n+1, 8)
-        W = np.stack([b, db, dbc.imag / STEP], -2) if vel else np.stack([b, db], -2)  # (S, N, 2|3, n+1)
-        CC = W @ full  # C, C' (and C'') at the items: (S, N, 2|3, 8)
+        if vel:  # the second derivative too: real parts the basis and its derivative, imaginary / STEP d / dphi
+            bc, dbc = basis(phi + 1j * STEP, n)
+            b, db = bc.real, dbc.real
+            W = np.stack([b, db, dbc.imag / STEP], -2)  # (S, N, 3, n+1)
+        else:
+            b, db = basis(phi, n)
+            W = np.stack([b, db], -2)
+        CC = W @ monic(coef)[:, None]  # C, C' (and C'') at the items: (S, N, 2|3, 8)
         ref = reference_pose(self.ref0, x_ref)  # (S, 8)
-        dref = reference_pose(self.ref0[:, None], x_ref[:, None] + _REF_STEPS).imag / STEP  # (S, 6, 8)
-        PP = CC @ dq_right_matrix(ref)[:, None]  # P, P' (and P''): (S, N, 2|3, 8)
+        right = dq_right_matrix(ref)  # (S, 8, 8): P = C @ right
+        PP = CC @ right[:, None]  # P, P' (and P''): (S, N, 2|3, 8)
         P, dP = PP[:, :, 0], PP[:, :, 1]
-        step = _POSE_STEPS  # (8, 1, 8): one complex step per component
-        if vel:
+        E0, JP = pose_rows(P, task, jacobian=True)  # (S, N, ERRORS), (S, N, ERRORS, 8)
+        JdP = None
+        if vel:  # the twist rows: complex steps in P and P' (8 + 8 directions)
+            step = _POSE_STEPS
             Pz = np.concatenate([P[:, None] + step, np.broadcast_to(P[:, None], (S, 8) + P.shape[1:])], 1)
             dPz = np.concatenate([np.broadcast_to(dP[:, None], (S, 8) + P.shape[1:]), dP[:, None] + step], 1)
-            E = pose_errors(Pz, dPz, task)  # (S, 16, N, ROWS)
-        else:
-            E = pose_errors(P[:, None] + step, None, task)  # (S, 8, N, ROWS)
-        E0 = E[:, 0].real
-        dE = np.moveaxis(E.imag, 1, -1) / STEP  # (S, N, ROWS, 8|16): in P (and P')
-        JP, JdP = dE[..., :8], (dE[..., 8:] if vel else None)
-        RT = np.swapaxes(dq_right_matrix(ref), 1, 2)[:, None]  # (S, 1, 8, 8): dP / dC = Q's right matrix
-        dref_T = np.swapaxes(dref, 1, 2)[:, None]  # (S, 1, 8, 6)
+            T = twist_rows(Pz, dPz, task)  # (S, 16, N, 5)
+            dT = np.moveaxis(T.imag, 1, -1) / STEP  # (S, N, 5, 16)
+            E0 = np.concatenate([E0, T[:, 0].real], -1)
+            JdP = np.concatenate([np.zeros(JP.shape), dT[..., 8:]], -2)
+            JP = np.concatenate([JP, dT[..., :8]], -2)
+        RT = np.swapaxes(right, 1, 2)[:, None]  # (S, 1, 8, 8): dP / dC
+        dref_T = np.swapaxes(reference_steps(self.ref0, x_ref), 1, 2)[:, None]  # (S, 1, 8, 6)
         dcoef = _chained(b, db, JP @ RT, None if JdP is None else JdP @ RT)
-        dx_ref = JP @ np.swapaxes(dq_left_matrix(CC[:, :, 0]), -1, -2) @ dref_T  # (S, N, ROWS, 6)
-        dphi = (JP @ dP[..., None])[..., 0]  # (S, N, ROWS)
+        dx_ref = JP @ (np.swapaxes(dq_left_matrix(CC[:, :, 0]), -1, -2) @ dref_T)  # (S, N, rows, 6)
+        dphi = (JP @ dP[..., None])[..., 0]  # (S, N, rows)
         if vel:
-            dx_ref += JdP @ np.swapaxes(dq_left_matrix(CC[:, :, 1]), -1, -2) @ dref_T
+            dx_ref += JdP @ (np.swapaxes(dq_left_matrix(CC[:, :, 1]), -1, -2) @ dref_T)
             dphi += (JdP @ PP[:, :, 2, :, None])[..., 0]
-        Jg = np.concatenate([dcoef, dx_ref], -1)  # (S, N, ROWS, g)
+        Jg = np.concatenate([dcoef, dx_ref], -1)  # (S, N, rows, g): rows = ROWS (ERRORS without velocities)
         c, Jc = self._study(coef, x.shape[-1])
         if self.eq.any():  # the exact rows of the items that have them
             items = np.nonzero(task.exact.any(1))[0]
-            eq = task.exact[items].ravel()
-            owner = np.repeat(items, ROWS)[eq]
+            eq = task.exact[items, :Jg.shape[2]].ravel()
+            owner = np.repeat(items, Jg.shape[2])[eq]
             Je = np.zeros((S, len(owner), lay.size))
             Je[..., :g] = Jg[:, items].reshape(S, -1, g)[:, eq]
             Je[:, np.arange(len(owner)), g + owner] = dphi[:, items].reshape(S, -1)[:, eq]
@@ -353,12 +425,11 @@ class MotionModel:
                                       np.where(counts, dphi[..., :ERRORS] * w, 0.0), c, Jc)
 
     def _study(self, coef, columns: int):
-        """The Study rows (S, 2n) of the coefficients (S, n, 8) and their Jacobian (S, 2n, columns) (complex
-        steps)."""
-        S, n = coef.shape[0], self.layout.n
-        kick = coef[:, None] + 1j * STEP * np.eye(8 * n).reshape(8 * n, n, 8)
-        J = np.zeros((S, 2 * n, columns))
-        J[..., :8 * n] = np.swapaxes(study_rows(kick).imag / STEP, 1, 2)
+        """The Study rows (S, 2n) of the coefficients (S, n, 8) and their Jacobian (S, 2n, columns)
+        (`study_jacobian`)."""
+        n = self.layout.n
+        J = np.zeros((coef.shape[0], 2 * n, columns))
+        J[..., :8 * n] = study_jacobian(coef)
         return study_rows(coef), J
 
     def constraints(self, x):
