@@ -209,12 +209,18 @@ def item_errors(coef, ref, phi, task: TaskArrays):
     2 sin(angle / 2) times its axis, and the prescribed-twist rows ``perp @ [w, v] / |[w, v]|`` (w the
     angular velocity, v the velocity of the tool origin, along phi). coef (..., n, 8), ref (..., 8),
     phi (..., N); any float or complex dtype."""
-    vel = task.has_velocity
-    C = homogeneous(coef, phi, derivative=vel)
-    r = ref[..., None, :]
-    if vel:
-        return pose_errors(_times_fixed(C[0], r, _DQ), _times_fixed(C[1], r, _DQ), task)
-    return pose_errors(_times_fixed(C, r, _DQ), None, task)
+    e = _item_rows(coef, ref, phi, task)
+    return e if e.shape[-1] == ROWS else np.concatenate([e, np.zeros(e.shape[:-1] + (ROWS - ERRORS,), e.dtype)], -1)
+
+
+def _item_rows(coef, ref, phi, task: TaskArrays):
+    """`item_errors` without the twist rows (..., N, ERRORS) when the task prescribes no velocity. The poses
+    P = C(phi) Q = basis @ (the coefficients times Q)."""
+    b, db = basis(phi, coef.shape[-2])
+    CQ = monic(coef) @ _right_matrix(ref, _DQ)  # (..., n+1, 8): the coefficients of C Q
+    P = b @ CQ
+    e = pose_rows(P, task)[0]
+    return np.concatenate([e, twist_rows(P, db @ CQ, task)], -1) if task.has_velocity else e
 
 
 def pose_errors(P, dP, task: TaskArrays):
@@ -353,16 +359,17 @@ class MotionModel:
 
     def __init__(self, layout: Layout, task: TaskArrays, ref0):
         self.layout, self.task, self.ref0 = layout, task, np.asarray(ref0, float)
-        self.free = (task.weight != 0).ravel()
-        self.eq = task.exact.ravel()
+        width = ROWS if task.has_velocity else ERRORS  # (`_item_rows`)
+        self.free = (task.weight[:, :width] != 0).ravel()
+        self.eq = task.exact[:, :width].ravel()
 
     def rows(self, x):
         """(residuals (..., M), constraints (..., E)) at x (..., P); leading axes broadcast with ref0's."""
         coef, x_ref, phi = self.layout.split(x)
         ref = reference_pose(self.ref0.reshape(self.ref0.shape[:1] + (1,) * (x.ndim - 2) + (8,)), x_ref)
-        e = item_errors(coef, ref, phi, self.task)
+        e = _item_rows(coef, ref, phi, self.task)
         flat = e.reshape(e.shape[:-2] + (-1,))
-        r = (e * self.task.weight).reshape(flat.shape)[..., self.free]
+        r = (e * self.task.weight[:, :e.shape[-1]]).reshape(flat.shape)[..., self.free]
         c = np.concatenate([flat[..., self.eq], study_rows(coef)], -1)
         return r, c
 
@@ -384,10 +391,12 @@ class MotionModel:
         else:
             b, db = basis(phi, n)
             W = np.stack([b, db], -2)
-        CC = W @ monic(coef)[:, None]  # C, C' (and C'') at the items: (S, N, 2|3, 8)
+        N, k = phi.shape[1], W.shape[2]
+        CC = W.reshape(S, N * k, n + 1) @ monic(coef)  # C, C' (and C'') at the items: (S, N k, 8)
         ref = reference_pose(self.ref0, x_ref)  # (S, 8)
         right = dq_right_matrix(ref)  # (S, 8, 8): P = C @ right
-        PP = CC @ right[:, None]  # P, P' (and P''): (S, N, 2|3, 8)
+        PP = (CC @ right).reshape(S, N, k, 8)  # P, P' (and P'')
+        CC = CC.reshape(S, N, k, 8)
         P, dP = PP[:, :, 0], PP[:, :, 1]
         E0, JP = pose_rows(P, task, jacobian=True)  # (S, N, ERRORS), (S, N, ERRORS, 8)
         JdP = None
