@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from synth.algebra.dq import dq_inv, dq_mul, dq_translation, normalize_dq
+from synth.algebra.dq import dot, dq_inv, dq_mul, dq_translation, normalize_dq
 from synth.errors import SynthesisError
 from synth.synthesis.fit import basis, homogeneous, monic
 
@@ -126,8 +126,9 @@ def distances(coef, ref, task, cand, exact_weight: float = EXACT_WEIGHT):
     full = monic(coef)
     with np.errstate(all="ignore"):
         P = basis(ang, n)[0] @ dq_mul(full, ref[:, None])  # (S, G, 8): C(phi) Q, linear in the basis
-        x = dq_translation(P)
-        p = P[..., :4] / np.sqrt((P[..., :4] ** 2).sum(-1))[..., None]
+        pp = dot(P[..., :4], P[..., :4])
+        x = dq_translation(P, pp)
+        p = P[..., :4] / np.sqrt(pp)[..., None]
     w = task.weight[:, [0, 3]] + exact_weight * task.exact[:, [0, 3]]  # (N, 2): position, angle
     if shared:  # (S, N, G): each item's target against all the samples
         xt, X = np.swapaxes(x, 1, 2)[:, :, None, :], task.X[:, :, None]  # (S, 3, 1, G), (N, 3, 1)
@@ -135,7 +136,7 @@ def distances(coef, ref, task, cand, exact_weight: float = EXACT_WEIGHT):
     else:
         N = cand.shape[1]
         xt, X = np.moveaxis(x.reshape(S, N, K, 3), -1, 1), task.X[:, :, None]  # (S, 3, N, K), (N, 3, 1)
-        cos = np.abs((p.reshape(S, N, K, 4) * task.Q[:, None, :4]).sum(-1))
+        cos = np.abs(dot(p.reshape(S, N, K, 4), task.Q[:, None, :4]))
     d2 = np.subtract(xt[:, 0], X[:, 0])  # the squared position miss, component by component (few temporaries)
     d2 *= d2
     part = np.empty_like(d2)
