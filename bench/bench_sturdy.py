@@ -10,10 +10,11 @@ Each linkage gets the library's design choice, `synth.design.choose.design_for` 
 ``mpsynth sixbar -o`` designs: its best-scored candidates (`synth.solve.tasks.SIXBAR_CHOICE`) chosen
 collision-free first (`synth.design.search.rank_buildable`), else the best-scored linkage alone. Printed
 per kind: sets, certified free over the full cycle, free over the task range (full included), the
-slenderness of the written bars (longest bar length / bar diameter, max over sets), the bore wall (min,
-mm) and the CPU seconds of the designs (median, max; process time: the machine is shared). With
-``--pieces`` also the parts whose mesh (`synth.io.meshes.design_solids`) is not one body (trimesh's split,
-an independent count) and the slenderness of the bars as written (mount -> via points -> mount).
+slenderness of the bars between joint sites (longest distance / bar diameter, max over sets: the rule
+before issue 33's written rule) and of the bars as written (mount -> via points -> mount,
+`synth.design.model.bar_polyline`: the rule now), the bore wall (min, mm) and the CPU seconds of the
+designs (median, max; process time: the machine is shared). With ``--pieces`` also the parts whose mesh
+(`synth.io.meshes.design_solids`) is not one body (trimesh's split, an independent count).
 
 ``--repo PATH`` imports ``synth`` from another checkout (e.g. main, for the "before" numbers); the
 sets are the same (same seeds, same synthesis there).
@@ -80,37 +81,44 @@ def main(argv=None) -> int:
                        for a, b in zip(names, names[1:])]
             slender = max(slender, max(lengths) / (2 * d.bar_radius))
             wall = min(wall, d.hub_radius - d.pin_radius - d.hole_clearance)
+            bars = _written(lk, d)
+            written = max(written, bars)
             split = ""
             if args.pieces:
-                broken, bars = _pieces(lk, d)
+                broken = _pieces(lk, d)
                 pieces += len(broken)
-                written = max(written, bars)
-                split = f", written 1:{bars:.1f}, in pieces: {broken or 'none'}"
+                split = f", in pieces: {broken or 'none'}"
             print(f"{kind} seed {seed}: {'full' if c.free and c.range == 'full' else 'task' if c.free else 'none'} "
                   f"bar r {1e3 * d.bar_radius:.1f} mm, slenderness {max(lengths) / (2 * d.bar_radius):.1f}, "
-                  f"cpu {cpu[-1]:.2f} s{split}", flush=True)
+                  f"written 1:{bars:.2f}, cpu {cpu[-1]:.2f} s{split}", flush=True)
         print(f"{kind}{' (choice)' if args.choice and kind == 'sixbar' else ''}: sets {n} (of {count}; over {FAR:g} m "
-              f"excluded)  full cycle {full}/{n}  task range {task}/{n}  max slenderness 1:{slender:.1f}  "
-              f"min bore wall {1e3 * wall:.2f} mm  cpu s median {statistics.median(cpu):.2f} max {max(cpu):.2f}"
-              + (f"  parts in pieces {pieces}  written bars max 1:{written:.1f}" if args.pieces else ""), flush=True)
+              f"excluded)  full cycle {full}/{n}  task range {task}/{n}  max slenderness (sites) 1:{slender:.1f}  "
+              f"written bars max 1:{written:.2f}  min bore wall {1e3 * wall:.2f} mm  cpu s median "
+              f"{statistics.median(cpu):.2f} max {max(cpu):.2f}"
+              + (f"  parts in pieces {pieces}" if args.pieces else ""), flush=True)
     return 0
 
 
-def _pieces(lk, design) -> tuple[list[str], float]:
-    """(the parts of ``design`` whose mesh is more than one body, the largest length / diameter of its bars
-    as written: mount -> via points -> mount)."""
-    import numpy as np
-    from synth.design.model import axis_point
+def _pieces(lk, design) -> list[str]:
+    """The parts of ``design`` whose mesh is more than one body."""
     from synth.io.meshes import design_solids
 
-    broken = [n for n, s in design_solids(lk, design).items() if len(s.to_trimesh().split(only_watertight=False)) != 1]
-    sites = lk.joint_sites()
-    worst = 0.0
-    for b in design.bars:
-        pts = [axis_point(lk, b.joints[0], design.mount(b.link, b.joints[0]).offset, sites), *b.via,
-               axis_point(lk, b.joints[1], design.mount(b.link, b.joints[1]).offset, sites)]
-        worst = max(worst, sum(float(np.linalg.norm(q - p)) for p, q in zip(pts, pts[1:])) / (2 * design.bar_radius))
-    return broken, worst
+    return [n for n, s in design_solids(lk, design).items() if len(s.to_trimesh().split(only_watertight=False)) != 1]
+
+
+def _written(lk, design) -> float:
+    """The largest length / diameter of the bars of ``design`` as written (mount -> via points -> mount):
+    `synth.design.sturdy.written_slenderness`, or, in a checkout without it (``--repo``, before), the same
+    from `synth.design.model.bar_polyline`."""
+    try:
+        from synth.design.sturdy import written_slenderness
+    except ImportError:
+        import numpy as np
+        from synth.design.model import bar_polyline
+
+        return max(float(np.linalg.norm(np.diff(np.array(bar_polyline(lk, design, b)), axis=0), axis=-1).sum())
+                   for b in design.bars) / (2 * design.bar_radius)
+    return written_slenderness(lk, design).ratio
 
 
 if __name__ == "__main__":

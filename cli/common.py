@@ -152,8 +152,8 @@ def design_option_list(unit: str) -> list:
                      help=f"Radial clearance in {unit} of each bore around its pin (default 0.2 mm, at most a tenth "
                           "of the pin radius)."),
         click.option("--slenderness", type=float,
-                     help="Longest bar length over bar diameter, at most (default 25): default bars are made "
-                          "thick enough for this."),
+                     help="Longest bar length (as written: mount to mount through its cranks) over bar "
+                          "diameter, at most (default 25): default bars are made thick enough for this."),
         click.option("--pin-fit", type=click.Choice(["press", "clip", "plain"]), default=None,
                      help="Pins with a head sunk into a counterbore: 'press' (default; pressed into the carrier's "
                           "bore), 'clip' (a groove for a retaining clip); 'plain': bare cylinders."),
@@ -282,6 +282,8 @@ def emit(result, output: Output, details=None) -> None:
             echo(f"  design: {result.sentence()}")
             if design.design.mounting is not None and design.design.mounting.box_sentence():
                 echo(f"  mounting: {design.design.mounting.box_sentence(scale, unit)}")
+            if design.slenderness is not None and not design.slenderness.met:
+                echo(f"  bars: {design.slenderness.sentence(scale, unit)}")
         if files is not None:
             n_pin = sum(1 for f in files if f.name.startswith("pin_") and str(f).endswith(".stl"))
             n_mesh = sum(1 for f in files if str(f).endswith(".stl")) - n_pin
@@ -292,7 +294,7 @@ def emit(result, output: Output, details=None) -> None:
             echo("  no files written (give -o OUT to write URDF, STL and JSON)")
     if output.as_json:
         print_json(linkage_document(linkage, *((design.design, design.collision) if design else (None, None)),
-                                    result.drive))
+                                    result.drive, design.slenderness if design else None))
 
 
 def write_ranked(result, output: Output) -> None:

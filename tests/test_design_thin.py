@@ -47,7 +47,7 @@ def test_a_full_cycle_only_search_is_not_thinned(linkage):
     """rank_buildable's quick full-cycle pass: its failure is no reason to thin (the task range may work)."""
     r = design_for(linkage, ranges=("full",), full_work=3e6)
     assert r.collision.thinned is None
-    assert r.design.bar_radius == default_sizes(linkage)[1]
+    assert r.design.bar_radius >= default_sizes(linkage)[1]  # (raised when the written bars are too slender)
 
 
 def test_slender_defaults_thin_the_bars(linkage, first_sets_only):

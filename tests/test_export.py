@@ -334,7 +334,8 @@ def test_write_output_files(bennett, written):
 
     printed = doc.pop("print")  # the parts on the bed (tests/test_printreport.py)
     assert sorted(p["mesh"] for p in printed["parts"]) == sorted(f"meshes/{n}.stl" for n in GEOMETRIC | PINS)
-    assert doc == linkage_document(bennett, result.design, result.collision, drive_report(bennett))
+    assert doc == linkage_document(bennett, result.design, result.collision, drive_report(bennett), result.slenderness)
+    assert doc["design"]["slenderness"]["met"]  # the bars as written (tests/test_sturdy.py)
     assert doc["drive"]["driver"] == "h1" and doc["drive"]["max_speed_ratio"] > 0
     assert set(doc["design"]) >= {"pin_radius", "bar_radius", "hub_radius", "hub_length", "hole_clearance",
                                   "clearance", "mounts", "bars", "pins"}

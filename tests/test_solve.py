@@ -50,7 +50,7 @@ def test_notebook_gets_the_clis_planar_member_and_design():
     res = solve_bennett(ps, SynthesisOptions(physical=True))
     assert res.linkage.kind == Kind.PLANAR_4R and res.design is not None
     assert res.linkage.info.design_choice is not None and res.sentence().startswith(("collision-free", "NOT"))
-    doc = plain(linkage_document(res.linkage, res.design.design, res.design.collision, res.drive))
+    doc = plain(linkage_document(res.linkage, res.design.design, res.design.collision, res.drive, res.design.slenderness))
     _same(json.loads(json.dumps(doc)), _cli_json("bennett", path))
 
 

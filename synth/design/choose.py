@@ -6,15 +6,17 @@ parallel part, cranked bars, in this order, until a design is free.
 (`synth.io.export`) write the finished `DesignResult`.
 
 Default sizes scale with ``linkage.extent()`` (E, the RMS spread of the joints' feet and tool
-positions): pin radius 0.02 E, bar radius 0.015 E (raised to keep every bar within the slenderness,
-`synth.design.sturdy`), hub length 0.06 E (``--pin-length`` sets the hub
-length: a joint's pin spans the hubs of its two links, so it is at least that long). The hole clearance
+positions): pin radius 0.02 E, bar radius 0.015 E (raised to keep every bar as written within the
+slenderness, `synth.design.sturdy`, in counted sizing rounds after the search), hub length 0.06 E
+(``--pin-length`` sets the hub length: a joint's pin spans the hubs of its two links, so it is at least
+that long). The hole clearance
 defaults to 0.2 mm (a common 3D-printing fit), but at most a tenth of the pin radius for tiny linkages.
 """
 from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 from synth.design.sizes import check_sizes
 from synth.design.cranks import crank_bars
@@ -23,9 +25,9 @@ from synth.design.mixed import dominant_axis, mixed_design
 from synth.design.model import PIN_FITS, DesignResult
 from synth.design.coordinate import FULL
 from synth.design.mounting import place_mounting
-from synth.design.search import design_linkage, natural_result, task_phi_range
+from synth.design.search import collision_rank, design_linkage, natural_result, task_phi_range
 from synth.design.seats import seat_pins
-from synth.design.sturdy import SLENDERNESS, bar_radius_for
+from synth.design.sturdy import ROUND_MARGIN, SLENDERNESS, bar_radius_for, next_radius, written_slenderness
 from synth.design.work import GAPS_PER_SECOND, Work
 from synth.errors import InputError
 
@@ -73,7 +75,9 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     ``search``: further arguments of `design_linkage` (ranges, full_work, effort, seed); ``work``: a
     `synth.design.work.Work` that every search below charges (its limit, if any, stops them all).
     Every budget is counted work, never time: the same input gives the same design on any machine.
-    ``slenderness``: no default-sized or thinned bar is longer than this many diameters (`synth.design.sturdy`).
+    ``slenderness``: no default-sized or thinned bar is longer than this many diameters, as written (mount
+    to mount through its cranks, `synth.design.sturdy`): when the search's bars are, the design is searched
+    again with thicker ones (`_sturdy`); the result's ``slenderness`` states it (also for a given radius).
     ``pin_fit``: how the pins hold (`synth.design.model.PIN_FITS`; their heads and grooves lie inside the
     hubs, so the search is the same for all). ``mount_boxes``: the task's (base, envelope) boxes
     (`synth.task.Box` or None) for the mounting plate (`synth.design.mounting.place_mounting`), placed on
@@ -102,13 +106,55 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
         raise InputError(f"pin fit must be one of {', '.join(PIN_FITS)}, got {pin_fit!r}")
     t0, work = time.process_time(), Work() if work is None else work
     start = work.done
-    result = _design_for(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, work,
-                         slenderness, search)
+    args = (pin_length, hole_clearance, clearance, thin, work, slenderness, search)
+    result = _design_for(linkage, pin_radius, link_radius, *args)
+    searched = 0.0
+    if link_radius is None:
+        result, searched = _sturdy(linkage, result, pin_radius, args)
     result.design.pin_fit = pin_fit
     result.design = seat_pins(linkage, result.design)  # blind bores where a bar covers the face (synth.design.seats)
     result.collision.work = work.done - start  # every stage's (full cycle, cranks, task range, thinning)
     result.collision.seconds = time.process_time() - t0  # information only
-    return place_mounting(linkage, result, base=mount_boxes[0], envelope=mount_boxes[1])
+    result = place_mounting(linkage, result, base=mount_boxes[0], envelope=mount_boxes[1])
+    result.slenderness = replace(written_slenderness(linkage, result.design, slenderness, link_radius is not None),
+                                 searched=searched)
+    return result
+
+
+def _sturdy(linkage, first: DesignResult, pin_radius, args) -> tuple[DesignResult, float]:
+    """`design_for`'s sizing rounds (docs/design.md, "Parts sized to be built"): while the bars as written
+    (`synth.design.sturdy.written_slenderness`) are more slender than the limit, the whole design is searched
+    again with the bar radius `next_radius` (the default clearance stays the first design's), at most
+    `STURDY_ROUNDS` times; a design much sturdier than asked (below `STURDY_SLACK` of the limit: its mounts
+    moved closer) is searched once more with the radius its own bars ask, when that is thinner than its
+    own and not below the first design's. Returned: the thinnest design that meets the limit and is as
+    free as any that does (`collision_rank`), else the least slender of the most free; but when the
+    search covered the task range (a final answer, not a quick full-cycle search that falls back to it)
+    and no design that meets the limit is free over any range, the free one. Also returned: the thickest
+    bar radius searched (0: no round)."""
+    slenderness = args[5]
+    pins = first.design.pin_radius if first.collision.thinned and pin_radius is None else pin_radius
+    if args[2] is None:  # the default clearance stays the first design's: a printer's gap, not the bar's
+        args = (*args[:2], first.design.clearance, *args[3:])
+    done = [(first, written_slenderness(linkage, first.design, slenderness))]
+    thinner = False
+    for _ in range(STURDY_ROUNDS):
+        last = done[-1][1]
+        if last.met and (thinner or last.ratio >= STURDY_SLACK * slenderness):
+            break
+        if last.met:
+            radius, thinner = max(last.sturdier * (1 + ROUND_MARGIN), first.design.bar_radius), True
+            if radius >= done[-1][0].design.bar_radius:  # already as thin as the sizes before the rounds
+                break
+        else:
+            radius = next_radius([(r.design.bar_radius, s.length) for r, s in done], slenderness)
+        r = _design_for(linkage, pins, radius, *args)
+        done.append((r, written_slenderness(linkage, r.design, slenderness)))
+    best = min(done, key=lambda x: (not x[1].met, collision_rank(x[0].collision),
+                                    x[0].design.bar_radius if x[1].met else x[1].ratio))[0]
+    if "task" in args[-1].get("ranges", ("full", "task")) and not best.collision.free:
+        best = min(done, key=lambda x: (collision_rank(x[0].collision), x[1].ratio))[0]
+    return best, (max(r.design.bar_radius for r, _ in done) if len(done) > 1 else 0.0)
 
 
 def _design_for(linkage, pin_radius, link_radius, pin_length, hole_clearance, clearance, thin, work, slenderness,
@@ -183,6 +229,9 @@ def _straight(linkage, sizes, hole_clearance, clearance, thin, search, work) -> 
         result.collision.message += f" (the search tried bars and pins down to {tried:g} x the default radii too)"
     return result
 
+
+STURDY_ROUNDS = 3  # searches with a thicker bar when the written bars are more slender than the limit
+STURDY_SLACK = 0.8  # a design below this fraction of the limit is searched again with thinner bars (once)
 
 # budgets in gap evaluations (synth.design.work; they were CPU seconds: X s -> X * GAPS_PER_SECOND)
 CRANK_WORK = 1.0 * GAPS_PER_SECOND  # the crank search after the straight bars failed

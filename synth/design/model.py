@@ -469,8 +469,10 @@ class CollisionReport:
 @dataclass
 class DesignResult:
     """A finished design: what the exporters write (`synth.io.export`); ``drive``: the linkage's
-    `synth.drive.DriveReport` when already made (else the JSON exporter makes it)."""
+    `synth.drive.DriveReport` when already made (else the JSON exporter makes it); ``slenderness``: its bars
+    as written against the limit (`synth.design.sturdy.Slenderness`, set by `synth.design.choose.design_for`)."""
 
     design: PhysicalDesign
     collision: CollisionReport
     drive: object | None = None
+    slenderness: object | None = None

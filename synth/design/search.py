@@ -413,6 +413,14 @@ def collision_rank(report: CollisionReport) -> int:
     return 0 if report.free and report.range == "full" else (1 if report.free else 2)
 
 
+def design_rank(result: DesignResult) -> float:
+    """`collision_rank` of ``result``'s report, plus 0.5 when its bars as written are more slender than
+    the limit although their radius was sized (``result.slenderness``, `synth.design.sturdy`): a
+    candidate whose sturdy bars are free comes first."""
+    s = getattr(result, "slenderness", None)
+    return collision_rank(result.collision) + (0.5 if s is not None and not s.met and not s.given else 0.0)
+
+
 def rank_buildable(candidates, design, *, limit: int = 8, work: float = 6.0 * GAPS_PER_SECOND,
                    first: float = 2.5 * GAPS_PER_SECOND, per_candidate: float = 1.2 * GAPS_PER_SECOND,
                    reserve: float = 1.0 * GAPS_PER_SECOND, screen: float = SCREEN_WORK) -> list[tuple]:
@@ -428,8 +436,9 @@ def rank_buildable(candidates, design, *, limit: int = 8, work: float = 6.0 * GA
     ``per_candidate`` on each next one, in order, until one is free, ``limit`` were tried, or ``work -
     reserve`` are spent (the first is always searched). Phase 2, when none is free over the full cycle:
     the task-range search on the candidates in order until one is free over it or ``work`` is spent (at
-    least the first). Returns [(linkage, DesignResult)] of the final designs sorted by (`collision_rank`,
-    kinematic order): a phase-0 or phase-1 success alone, else the phase-2 designs."""
+    least the first). A success is a design of `design_rank` 0 (phases 0, 1) or at most 1 (phase 2): free,
+    with bars as sturdy as the slenderness asks. Returns [(linkage, DesignResult)] of the final designs
+    sorted by (`design_rank`, kinematic order): a phase-0 or phase-1 success alone, else the phase-2 designs."""
     spent = Work()
     candidates = list(candidates)
     if len(candidates[:limit]) > 1 and screen:
@@ -437,19 +446,19 @@ def rank_buildable(candidates, design, *, limit: int = 8, work: float = 6.0 * GA
             if spent.done + screen > work - reserve:
                 break
             result = design(linkage, ("full",), screen, spent, SCREEN_EFFORT)
-            if collision_rank(result.collision) == 0:
+            if design_rank(result) == 0:
                 return [(linkage, result)]
     for k, linkage in enumerate(candidates[:limit]):
         cap = first if k == 0 else per_candidate
         if k and spent.done + cap > work - reserve:
             break
         result = design(linkage, ("full",), cap, spent, 1.0)
-        if collision_rank(result.collision) == 0:
+        if design_rank(result) == 0:
             return [(linkage, result)]
     done = []
     for k, linkage in enumerate(candidates[:limit]):
         result = design(linkage, ("task",), None, spent, 1.0)
-        done.append((collision_rank(result.collision), k, linkage, result))
+        done.append((design_rank(result), k, linkage, result))
         if done[-1][0] <= 1 or spent.done > work:
             break
     done.sort(key=lambda x: x[:2])

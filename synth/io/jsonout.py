@@ -66,10 +66,11 @@ def stl_section() -> dict:
             "material": "aluminium", "masses": "URDF <inertial>: kg, kg m^2, solid parts of this density"}
 
 
-def linkage_document(linkage, design=None, collision=None, drive=None) -> dict:
+def linkage_document(linkage, design=None, collision=None, drive=None, slenderness=None) -> dict:
     """The linkage.json document (a dict of plain JSON types); ``design`` (`PhysicalDesign`),
     ``collision`` (`CollisionReport`) and ``drive`` (`synth.drive.DriveReport`) add their sections when
-    given."""
+    given; ``slenderness`` (`synth.design.sturdy.Slenderness`, the bars as written) the design's
+    ``slenderness``."""
     doc = {
         "format": FORMAT,
         "kind": linkage.kind,
@@ -103,6 +104,8 @@ def linkage_document(linkage, design=None, collision=None, drive=None) -> dict:
     doc["stl"] = stl_section()
     if design is not None:
         doc["design"] = design_section(design)
+        if slenderness is not None:
+            doc["design"]["slenderness"] = slenderness.to_dict()
     if collision is not None:
         doc["collision"] = collision if isinstance(collision, dict) else collision.to_dict()
     if drive is not None:
@@ -156,7 +159,8 @@ def write_linkage_json(job, directory: Path) -> list[Path]:
     """The ``json`` exporter (`synth.io.export`): ``linkage.json`` of ``job``'s linkage and design."""
     r = job.result
     drive = r.drive if r is not None and r.drive is not None else drive_report(job.linkage)
-    doc = linkage_document(job.linkage, r.design if r else None, r.collision if r else None, drive)
+    doc = linkage_document(job.linkage, r.design if r else None, r.collision if r else None, drive,
+                           r.slenderness if r else None)
     if r is not None:
         m = r.design.mounting  # the base printed on its mounting face
         down = {m.link: m.normal} if m is not None else None

@@ -248,7 +248,10 @@ def step_text(linkage, design, volumes: dict | None = None) -> str:
         occ = gmsh.model.occ
         want = {name: v * to_model for name, v in (volumes or {}).items()}  # m^3
         pieces = {name: _checked_solids(occ, prims, bores, scale, want.get(name)) for name, (prims, bores) in parts.items()}
-        occ.synchronize()
+        try:
+            occ.synchronize()
+        except Exception as e:  # noqa: BLE001  (a boolean that failed above may surface only here, bare)
+            raise RuntimeError(f"OpenCASCADE could not build the model: {e}") from e
         _hide_free_entities(gmsh)
         tags = {t: name if k == 0 else f"{name}_piece{k + 1}" for name, ts in pieces.items() for k, t in enumerate(ts)}
         volumes = [t for _, t in gmsh.model.getEntities(3)]
