@@ -85,6 +85,10 @@ class KKTSystem:
         item_g = np.where(fixed[:, None, None, :G], 0.0, jac.item_g)
         item_p = np.where(fixed[:, G:, None], 0.0, jac.item_p)
         cols, vals = jac.extra_cols, np.where(fixed[:, G:][:, jac.extra_cols], 0.0, jac.extra_vals)
+        extra_g = np.where(fixed[:, None, :G], 0.0, jac.extra_g)
+        # extra rows that are 0 with their derivatives for every seed add nothing (inactive hinge rows): left out
+        live = (vals != 0).any((0, 2)) | (jac.extra_r != 0).any(0) | (extra_g != 0).any((0, 2))
+        cols, vals, extra_g, extra_r = cols[live], vals[:, live], extra_g[:, live], jac.extra_r[:, live]
         self.A = np.where(fixed[:, None, :], 0.0, jac.Jc)
         core = self._core(self.A[:, :, G:], cols, vals, N)
         local = np.nonzero(~core)[0]
@@ -96,22 +100,23 @@ class KKTSystem:
         Ji = np.zeros((S, N, R, width))  # the item rows in the core columns
         Ji[..., :G] = item_g
         Ji[:, core, :, pos[core]] = np.moveaxis(item_p[:, core], 1, 0)
-        m = jac.extra_r.shape[1]
+        m = extra_r.shape[1]
         Je = np.zeros((S, m, width))  # the extra rows in the core columns
-        Je[..., :G] = np.where(fixed[:, None, :G], 0.0, jac.extra_g)
-        for slot in range(cols.shape[1]):
+        Je[..., :G] = extra_g
+        for slot in range(cols.shape[1] if m else 0):
             on = pos[cols[:, slot]] >= 0
             Je[:, np.nonzero(on)[0], pos[cols[on, slot]]] += vals[:, on, slot]
         flat = Ji.reshape(S, N * R, width)
         self.H = np.swapaxes(flat, 1, 2) @ flat + np.swapaxes(Je, 1, 2) @ Je
         self.g = (np.swapaxes(flat, 1, 2) @ jac.item_r.reshape(S, -1, 1))[..., 0] + \
-            (np.swapaxes(Je, 1, 2) @ jac.extra_r[..., None])[..., 0]
+            (np.swapaxes(Je, 1, 2) @ extra_r[..., None])[..., 0]
         pl = item_p[:, local]  # (S, L, R): the eliminated columns
         self.d = (pl * pl).sum(-1)  # their block of J^T J: diagonal, and self.e above it
         self.e = np.zeros((S, max(len(local) - 1, 0)))
         self.border = np.einsum("slr,slrc->slc", pl, Ji[:, local])  # (S, L, width)
         self.g_local = (pl * jac.item_r[:, local]).sum(-1)
-        self._extra_local(cols, vals, Je, jac.extra_r, N)
+        if m:
+            self._extra_local(cols, vals, Je, extra_r, N)
         self.fixed_core = np.concatenate([fixed[:, :G], fixed[:, G + core]], 1)
         self.fixed_local = fixed[:, G + local]
         self.Acore = np.concatenate([self.A[:, :, :G], self.A[:, :, G + core]], 2)

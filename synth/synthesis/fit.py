@@ -10,28 +10,30 @@ translation, 6) and the item parameters phi_i (N; three of them fixed to remove 
 t -> (a t + b) / (c t + d)). Equality constraints: the Study condition (2 n dual parts of C C~), the
 exact components of items and the direction of prescribed velocities; the other components are
 weighted residuals (error / tolerance). `levenberg_marquardt` solves this for a batch of seeds at once
-(KKT steps, Jacobians by complex steps), and is generic: any model given as a batched residual
-function with the same row/column structure can use it.
+(KKT steps; Jacobians chained from the rows' derivatives in the tool poses, `MotionModel.jacobians`), and
+is generic: any model given as a batched residual function with the same row/column structure can use it.
+The rows themselves: `synth.synthesis.fit_rows`.
 """
 from __future__ import annotations
 
-import functools
 import itertools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from synth.algebra.dq import structure_constants
-from synth.algebra.geometry import cross
+from synth.algebra.dq import dq_left_matrix, dq_right_matrix
 from synth.synthesis.arrow import ArrowJacobian
+from synth.synthesis.fit_rows import (ERRORS, POSE_STEPS, ROWS, STEP, TaskArrays, basis, homogeneous, item_errors,
+                                      item_rows, monic, pose_rows, reference_pose, reference_steps, study_jacobian,
+                                      study_rows, task_arrays, twist_rows)
 
-__all__ = ["sample_combinations", "nth_combination", "TaskArrays", "Layout", "LMResult", "task_arrays", "item_errors", "study_rows", "levenberg_marquardt",
-           "homogeneous", "basis", "cost_classes", "rank_seeds", "ERRORS", "ROWS"]
+__all__ = ["sample_combinations", "nth_combination", "Layout", "LMResult", "MotionModel", "levenberg_marquardt",
+           "cost_classes", "rank_seeds",
+           # the rows (`synth.synthesis.fit_rows`), here for the fits that import them with the solver
+           "TaskArrays", "task_arrays", "item_errors", "study_rows", "homogeneous", "monic", "basis", "reference_pose",
+           "ERRORS", "ROWS"]
 
-ERRORS = 6  # per item: position error (3, spreads), rotation error 2 sin(angle/2) axis (3)
-ROWS = ERRORS + 5  # and 5 velocity rows (components of the twist direction across the prescribed one)
-STEP = 1e-30  # complex step
 FEASIBLE_FLOOR = 1e-14  # constraint violation (conditioned units) counted as met
 NEARLY_FEASIBLE = 1e-6  # during the damped steps: cost-lowering steps may leave this much (`polish_feasible` ends)
 CORRECTIONS = 2  # second-order corrections per trial step, while the violation is above CORRECT_ABOVE
@@ -40,159 +42,6 @@ POLISH_STEPS = 4
 FLAT = 1e-10  # a relative decrease of the cost below this ends a seed's refinement
 COST_TIE = 1e-12  # relative: seeds whose costs differ by less are tied (rounding), ranked by seed index
 COST_FLOOR = 1e-20  # and costs this close (squared misses over tolerance: 1e-10 of a tolerance) likewise
-_DQ = structure_constants().reshape(64, 8).astype(float)
-_Q = structure_constants()[:4, :4, :4].reshape(16, 4).astype(float)
-_CONJ = np.array([1.0, -1, -1, -1, 1, -1, -1, -1])
-
-
-def _product(a, b, table):
-    """The bilinear product sum_ij a_i b_j table[i, j, :] of (..., k) arrays of any dtype (complex for complex
-    steps), broadcast: the dual quaternion (``_DQ``) or quaternion (``_Q``) product."""
-    outer = a[..., :, None] * b[..., None, :]  # broadcast, a new contiguous array
-    return outer.reshape(outer.shape[:-2] + (-1,)) @ table
-
-
-def _mul(a, b):
-    return _product(a, b, _DQ)
-
-
-def _times_fixed(a, b, table):
-    """The product of a (..., k) by a broadcast factor b (..., k) of fewer elements (a reference pose, a
-    target): a @ the matrix of right multiplication by b (k x k per b), k^2 products per a instead of k^3."""
-    k = b.shape[-1]
-    right = (b @ table.reshape(k, k, k).transpose(1, 0, 2).reshape(k, k * k)).reshape(b.shape[:-1] + (k, k))
-    return (a[..., None, :] @ right)[..., 0, :]
-
-
-def _qmul(a, b):
-    return _product(a, b, _Q)
-
-
-def _vdot(a, b):
-    return (a * b).sum(axis=-1)
-
-
-@dataclass(frozen=True)
-class TaskArrays:
-    """A task in the conditioned frame: target poses ``Q`` (N, 8) (unit), positions ``X`` (N, 3),
-    ``weight`` (N, ROWS) (1 / tolerance of free residual rows, 0 for rows that do not count), ``exact``
-    (N, ROWS) bool (equality rows), ``perp`` (N, 5, 6) (rows spanning the complement of a prescribed
-    twist direction [w, v], zero rows where there is none)."""
-
-    Q: np.ndarray
-    X: np.ndarray
-    weight: np.ndarray
-    exact: np.ndarray
-    perp: np.ndarray
-
-
-def task_arrays(Q, X, tolerance, velocity, scale: float) -> TaskArrays:
-    """TaskArrays of targets Q (N, 8), X (N, 3) (conditioned, lengths / ``scale``), ``tolerance`` (N, 2)
-    [metres, radians] (None: all exact) and ``velocity`` (N, 6) [w rad/s, v m/s] (NaN: not given)."""
-    n = len(Q)
-    tol = np.zeros((n, 2)) if tolerance is None else np.asarray(tolerance, float).copy()
-    tol[:, 0] /= scale
-    tol_rows = np.repeat(tol, 3, axis=1)  # (N, 6)
-    weight = np.zeros((n, ROWS))
-    exact = np.zeros((n, ROWS), bool)
-    exact[:, :ERRORS] = tol_rows == 0
-    free = np.isfinite(tol_rows) & (tol_rows > 0)
-    weight[:, :ERRORS][free] = 1.0 / tol_rows[free]
-    perp = np.zeros((n, 5, 6))
-    if velocity is not None:
-        for i, v in enumerate(np.asarray(velocity, float)):
-            given = ~np.isnan(v)
-            if not given.any():
-                continue
-            g = np.where(given, v, 0.0)
-            g[3:] /= scale
-            basis = np.linalg.svd(np.eye(6)[given] - np.outer(g[given] / np.linalg.norm(g), g / np.linalg.norm(g)))[2]
-            k = int(given.sum()) - 1
-            perp[i, :k] = basis[:k] * given  # rows across g within the given components
-            exact[i, ERRORS:ERRORS + k] = True
-    return TaskArrays(Q=np.asarray(Q, float), X=np.asarray(X, float), weight=weight, exact=exact, perp=perp)
-
-
-def homogeneous(coef, phi, derivative: bool = False):
-    """C(phi) (..., N, 8) = sum_k c_k cos^k sin^(n-k) with c_n = 1, coefficients ``coef`` (..., n, 8)
-    (c_0 .. c_{n-1}) and angles ``phi`` (..., N); with ``derivative`` also dC/dphi."""
-    n = coef.shape[-2]
-    full = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], coef.shape[:-2] + (1, 8)).astype(coef.dtype)], -2)
-    b, db = basis(phi, n)
-    return (b @ full, db @ full) if derivative else b @ full
-
-
-def basis(phi, n: int):
-    """cos^k sin^(n-k) of phi (..., N) for k = 0 .. n, and their derivatives: two (..., N, n+1) arrays."""
-    c, s = _powers(np.cos(phi), n + 1), _powers(np.sin(phi), n + 1)  # (..., N, n+2)
-    k = np.arange(n + 1)
-    # d/dphi cos^k sin^(n-k) = -k cos^(k-1) sin^(n-k+1) + (n-k) cos^(k+1) sin^(n-k-1)
-    d = -k * c[..., np.maximum(k - 1, 0)] * s[..., n - k + 1] + (n - k) * c[..., k + 1] * s[..., np.maximum(n - k - 1, 0)]
-    return c[..., k] * s[..., n - k], d
-
-
-def _powers(x, m: int):
-    """x^0 .. x^m (..., m+1) by products (exact for complex steps)."""
-    out = np.empty(x.shape + (m + 1,), x.dtype)
-    out[..., 0] = 1.0
-    for j in range(1, m + 1):
-        out[..., j] = out[..., j - 1] * x
-    return out
-
-
-def reference_pose(ref0, x_ref):
-    """The seed's reference pose ref0 (..., 8) corrected by x_ref (..., 6) = (w, dp): first the rotation
-    (1, w/2), then the translation by dp, both before ref0 (world frame)."""
-    r = np.concatenate([np.ones(x_ref.shape[:-1] + (1,), x_ref.dtype), 0.5 * x_ref[..., :3]], -1)
-    dp = np.concatenate([np.zeros(x_ref.shape[:-1] + (1,), x_ref.dtype), -0.5 * x_ref[..., 3:]], -1)
-    return _mul(np.concatenate([r, _qmul(dp, r)], -1), ref0)
-
-
-def item_errors(coef, ref, phi, task: TaskArrays):
-    """Rows (..., N, ROWS) of the items: position error (predicted - target, conditioned), rotation error
-    2 sin(angle / 2) times its axis, and the prescribed-twist rows ``perp @ [w, v] / |[w, v]|`` (w the
-    angular velocity, v the velocity of the tool origin, along phi). coef (..., n, 8), ref (..., 8),
-    phi (..., N); any float or complex dtype."""
-    C, dC = homogeneous(coef, phi, derivative=True)
-    return motion_errors(C, dC, ref[..., None, :], task)
-
-
-def motion_errors(C, dC, ref, task: TaskArrays):
-    """`item_errors` from the motion's values C (..., N, 8) and derivatives dC at the items and the reference
-    ``ref`` (..., 1, 8) (broadcast)."""
-    P = _times_fixed(C, ref, _DQ)
-    p, q = P[..., :4], P[..., 4:]
-    x = 2.0 * _qmul(p, q * _CONJ[:4])[..., 1:] / _vdot(p, p)[..., None]  # translation (synth.algebra.dq)
-    e = _times_fixed(p, task.Q[:, :4] * _CONJ[:4], _Q)  # rotation from the target to the prediction (times |p|)
-    sign = np.where(e[..., :1].real < 0, -1.0, 1.0)
-    rot = 2.0 * sign * e[..., 1:] / np.sqrt(_vdot(e, e))[..., None]
-    out = [x - task.X, rot]
-    if task.exact[:, ERRORS:].any():
-        # C' C~: vector parts (w, -(velocity of the body point at the origin)) times |C|^2 / 2
-        tw = _mul(dC, C * _CONJ)
-        w = tw[..., 1:4]
-        z = np.concatenate([w, cross(w, x) - tw[..., 5:8]], -1)
-        z = z / np.sqrt(_vdot(z, z))[..., None]
-        out.append((task.perp @ z[..., None])[..., 0])
-    else:
-        out.append(np.zeros(x.shape[:-1] + (5,), x.dtype))
-    return np.concatenate(out, -1)
-
-
-def study_rows(coef):
-    """The Study condition of the monic C with coefficients c_0 .. c_{n-1} (..., n, 8): the 2n dual parts
-    of C C~ (halved), sum_{j+k=m} p_j . q_k for m = 0 .. 2n-1 (c_n = 1). Returns (..., 2n)."""
-    n = coef.shape[-2]
-    p = np.concatenate([coef[..., :4], np.broadcast_to(np.eye(4)[0], coef.shape[:-2] + (1, 4))], -2)
-    pq = (p[..., :, None, :] * coef[..., None, :, 4:]).sum(-1)  # (..., n+1, n): p_j . q_k
-    return pq.reshape(pq.shape[:-2] + (-1,)) @ _study_sums(n)
-
-
-@functools.lru_cache(maxsize=4)
-def _study_sums(n: int) -> np.ndarray:
-    """(n+1) n x 2n 0/1 matrix summing p_j . q_k over j + k = m."""
-    j, k = np.meshgrid(np.arange(n + 1), np.arange(n), indexing="ij")
-    return ((j + k).reshape(-1, 1) == np.arange(2 * n)).astype(float)
 
 
 @dataclass(frozen=True)
@@ -235,16 +84,16 @@ class LMResult:
     iterations: int
 
 
-def _chained(b, db, dE, vel: bool):
-    """Derivatives (S, N, R, 8 n + 6) of item rows in the coefficients and the reference correction, from
-    their complex-step derivatives dE (S, directions, N, R) in C (8), C' (8, with ``vel``), the reference
-    (6) and phi (1, last), and the basis b, db (S, N, n + 1) at the items (`basis`)."""
-    S, dirs, N, R = dE.shape
+def _chained(b, db, dEC, dEdC):
+    """Derivatives (S, N, R, 8 n) of item rows in the coefficients c_0 .. c_{n-1}, from their derivatives
+    dEC (S, N, R, 8) in C and dEdC in C' (None: the rows do not depend on C') at the items, and the basis
+    b, db (S, N, n + 1) there (`basis`: C = b @ [c; 1], C' = db @ [c; 1])."""
+    S, N, R, _ = dEC.shape
     n = b.shape[-1] - 1
-    dcoef = np.einsum("snk,sjnr->snrkj", b[..., :n], dE[:, :8])
-    if vel:
-        dcoef += np.einsum("snk,sjnr->snrkj", db[..., :n], dE[:, 8:16])
-    return np.concatenate([dcoef.reshape(S, N, R, 8 * n), np.moveaxis(dE[:, dirs - 7:dirs - 1], 1, -1)], -1)
+    dcoef = b[:, :, None, :n, None] * dEC[:, :, :, None, :]
+    if dEdC is not None:
+        dcoef += db[:, :, None, :n, None] * dEdC[:, :, :, None, :]
+    return dcoef.reshape(S, N, R, 8 * n)
 
 
 class MotionModel:
@@ -252,70 +101,86 @@ class MotionModel:
 
     def __init__(self, layout: Layout, task: TaskArrays, ref0):
         self.layout, self.task, self.ref0 = layout, task, np.asarray(ref0, float)
-        self.free = (task.weight != 0).ravel()
-        self.eq = task.exact.ravel()
+        width = ROWS if task.has_velocity else ERRORS  # (`item_rows`)
+        self.free = (task.weight[:, :width] != 0).ravel()
+        self.eq = task.exact[:, :width].ravel()
 
     def rows(self, x):
         """(residuals (..., M), constraints (..., E)) at x (..., P); leading axes broadcast with ref0's."""
         coef, x_ref, phi = self.layout.split(x)
         ref = reference_pose(self.ref0.reshape(self.ref0.shape[:1] + (1,) * (x.ndim - 2) + (8,)), x_ref)
-        e = item_errors(coef, ref, phi, self.task)
+        e = item_rows(coef, ref, phi, self.task)
         flat = e.reshape(e.shape[:-2] + (-1,))
-        r = (e * self.task.weight).reshape(flat.shape)[..., self.free]
+        r = (e * self.task.weight[:, :e.shape[-1]]).reshape(flat.shape)[..., self.free]
         c = np.concatenate([flat[..., self.eq], study_rows(coef)], -1)
         return r, c
 
     def jacobians(self, x):
         """The rows and Jacobians at x (S, P) as a `synth.synthesis.arrow.ArrowJacobian` (item rows uncompressed:
-        the rows that do not count are 0). The rows depend on the coefficients only through C and dC at the
-        items, linearly (`basis`): complex steps in C (8), dC (8, with velocities), the reference (6) and
-        all phi at once (each phi_i moves item i's rows only), chained to the coefficients; the Study rows
-        by complex steps in the coefficients."""
+        the rows that do not count are 0). The rows are a function of the tool poses P = C Q at the items
+        (and of P' = C' Q, with velocities) alone: their derivatives in P (`pose_rows`; the twist rows by
+        complex steps in P and P'), chained by matrix products to C (P = C Q: Q's right-multiplication
+        matrix) and the coefficients (`basis`), to the reference correction (C's left-multiplication matrix
+        times dQ / dx_ref, `reference_steps`) and to phi (dP / dphi = P'); the Study rows' by `study_jacobian`."""
         lay, task = self.layout, self.task
         n, g, S = lay.n, 8 * lay.n + 6, x.shape[0]
         coef, x_ref, phi = lay.split(x)
-        b, db = basis(phi, n)
-        full = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], (S, 1, 8))], -2)
-        C, dC = b @ full, db @ full  # (S, N, 8)
-        ref = reference_pose(self.ref0, x_ref)[:, None, None, :]  # (S, 1, 1, 8)
-        vel = bool(task.exact[:, ERRORS:].any())
-        step = 1j * STEP * np.eye(8)[:, None, :]  # (8, 1, 8): one complex step per component
-        c_phi, dc_phi = homogeneous(coef, phi + 1j * STEP, derivative=True)
-        ref_steps = reference_pose(self.ref0[:, None], x_ref[:, None] + 1j * STEP * np.eye(6))[:, :, None, :]
-        blocks = [(C[:, None] + step, dC[:, None], ref)]  # d/dC
+        vel = task.has_velocity
+        if vel:  # the second derivative too: real parts the basis and its derivative, imaginary / STEP d / dphi
+            bc, dbc = basis(phi + 1j * STEP, n)
+            b, db = bc.real, dbc.real
+            W = np.stack([b, db, dbc.imag / STEP], -2)  # (S, N, 3, n+1)
+        else:
+            b, db = basis(phi, n)
+            W = np.stack([b, db], -2)
+        N, k = phi.shape[1], W.shape[2]
+        CC = W.reshape(S, N * k, n + 1) @ monic(coef)  # C, C' (and C'') at the items: (S, N k, 8)
+        ref = reference_pose(self.ref0, x_ref)  # (S, 8)
+        right = dq_right_matrix(ref)  # (S, 8, 8): P = C @ right
+        PP = (CC @ right).reshape(S, N, k, 8)  # P, P' (and P'')
+        CC = CC.reshape(S, N, k, 8)
+        P, dP = PP[:, :, 0], PP[:, :, 1]
+        E0, JP = pose_rows(P, task, jacobian=True)  # (S, N, ERRORS), (S, N, ERRORS, 8)
+        JdP = None
+        if vel:  # the twist rows: complex steps in P and P' (8 + 8 directions)
+            step = POSE_STEPS
+            Pz = np.concatenate([P[:, None] + step, np.broadcast_to(P[:, None], (S, 8) + P.shape[1:])], 1)
+            dPz = np.concatenate([np.broadcast_to(dP[:, None], (S, 8) + P.shape[1:]), dP[:, None] + step], 1)
+            T = twist_rows(Pz, dPz, task)  # (S, 16, N, 5)
+            dT = np.moveaxis(T.imag, 1, -1) / STEP  # (S, N, 5, 16)
+            E0 = np.concatenate([E0, T[:, 0].real], -1)
+            JdP = np.concatenate([np.zeros(JP.shape), dT[..., 8:]], -2)
+            JP = np.concatenate([JP, dT[..., :8]], -2)
+        RT = np.swapaxes(right, 1, 2)[:, None]  # (S, 1, 8, 8): dP / dC
+        dref_T = np.swapaxes(reference_steps(self.ref0, x_ref), 1, 2)[:, None]  # (S, 1, 8, 6)
+        dcoef = _chained(b, db, JP @ RT, None if JdP is None else JdP @ RT)
+        dx_ref = JP @ (np.swapaxes(dq_left_matrix(CC[:, :, 0]), -1, -2) @ dref_T)  # (S, N, rows, 6)
+        dphi = (JP @ dP[..., None])[..., 0]  # (S, N, rows)
         if vel:
-            blocks.append((C[:, None], dC[:, None] + step, ref))  # d/dC'
-        blocks += [(C[:, None], dC[:, None], ref_steps), (c_phi[:, None], dc_phi[:, None], ref)]  # reference, phi
-        sizes = [max(x.shape[1] for x in blk) for blk in blocks]
-        Cs, dCs, refs = (np.concatenate([np.broadcast_to(blk[i], (S, k) + blk[i].shape[2:]).astype(complex)
-                                         for blk, k in zip(blocks, sizes)], 1) for i in range(3))
-        E = motion_errors(Cs, dCs, refs, task)  # (S, directions, N, ROWS)
-        dE = E.imag / STEP
-        E0 = E[:, -1].real
+            dx_ref += JdP @ (np.swapaxes(dq_left_matrix(CC[:, :, 1]), -1, -2) @ dref_T)
+            dphi += (JdP @ PP[:, :, 2, :, None])[..., 0]
+        Jg = np.concatenate([dcoef, dx_ref], -1)  # (S, N, rows, g): rows = ROWS (ERRORS without velocities)
         c, Jc = self._study(coef, x.shape[-1])
         if self.eq.any():  # the exact rows of the items that have them
             items = np.nonzero(task.exact.any(1))[0]
-            dg = _chained(b[:, items], db[:, items], dE[:, :, items], vel)  # (S, k, ROWS, g)
-            eq = task.exact[items].ravel()
-            owner = np.repeat(items, ROWS)[eq]
+            eq = task.exact[items, :Jg.shape[2]].ravel()
+            owner = np.repeat(items, Jg.shape[2])[eq]
             Je = np.zeros((S, len(owner), lay.size))
-            Je[..., :g] = dg.reshape(S, -1, g)[:, eq]
-            Je[:, np.arange(len(owner)), g + owner] = dE[:, -1, items].reshape(S, -1)[:, eq]
+            Je[..., :g] = Jg[:, items].reshape(S, -1, g)[:, eq]
+            Je[:, np.arange(len(owner)), g + owner] = dphi[:, items].reshape(S, -1)[:, eq]
             c, Jc = np.concatenate([E0[:, items].reshape(S, -1)[:, eq], c], -1), np.concatenate([Je, Jc], 1)
         w = task.weight[:, :ERRORS]  # (the twist rows are never residuals)
         counts = w != 0  # (rows that do not count: 0, whatever their values)
-        dg = _chained(b, db, dE[..., :ERRORS], vel)  # (S, N, ERRORS, g)
         return ArrowJacobian.of_items(np.where(counts, E0[..., :ERRORS] * w, 0.0),
-                                      np.where(counts[..., None], dg * w[..., None], 0.0),
-                                      np.where(counts, dE[:, -1, :, :ERRORS] * w, 0.0), c, Jc)
+                                      np.where(counts[..., None], Jg[:, :, :ERRORS] * w[..., None], 0.0),
+                                      np.where(counts, dphi[..., :ERRORS] * w, 0.0), c, Jc)
 
     def _study(self, coef, columns: int):
-        """The Study rows (S, 2n) of the coefficients (S, n, 8) and their Jacobian (S, 2n, columns) (complex
-        steps)."""
-        S, n = coef.shape[0], self.layout.n
-        kick = coef[:, None] + 1j * STEP * np.eye(8 * n).reshape(8 * n, n, 8)
-        J = np.zeros((S, 2 * n, columns))
-        J[..., :8 * n] = np.swapaxes(study_rows(kick).imag / STEP, 1, 2)
+        """The Study rows (S, 2n) of the coefficients (S, n, 8) and their Jacobian (S, 2n, columns)
+        (`study_jacobian`)."""
+        n = self.layout.n
+        J = np.zeros((coef.shape[0], 2 * n, columns))
+        J[..., :8 * n] = study_jacobian(coef)
         return study_rows(coef), J
 
     def constraints(self, x):

@@ -90,9 +90,10 @@ class ListedOrder:
         """(rows (S, N), d rows / d phi (S, N, N)) of the gaps between consecutive angles."""
         phi = x[..., -self.items:]
         s = self.sign.reshape(self.sign.shape + (1,) * (phi.ndim - 1))
-        ends = np.where(s > 0, np.pi, 0.0)
-        seq = np.concatenate([phi[..., 1:], np.broadcast_to(ends, phi[..., :1].shape)], -1)
-        start = np.concatenate([np.broadcast_to(np.pi - ends, phi[..., :1].shape), phi[..., 1:]], -1)
+        ends = np.where(s > 0, np.pi, 0.0)[..., 0]
+        seq, start = np.empty_like(phi), np.empty_like(phi)  # the gaps' ends and starts
+        seq[..., :-1], seq[..., -1] = phi[..., 1:], ends
+        start[..., 0], start[..., 1:] = np.pi - ends, phi[..., 1:]
         gap = s * (seq - start)  # (S, N - 1 + 1): item 0 -> 1, ..., N-1 -> the turn's end
         active = gap < ORDER_MARGIN
         rows = ORDER_WEIGHT * np.where(active, ORDER_MARGIN - gap, 0.0)

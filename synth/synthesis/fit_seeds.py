@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from synth.algebra.dq import dq_inv, dq_mul, dq_translation, normalize_dq
+from synth.algebra.dq import dot, dq_inv, dq_mul, dq_translation, normalize_dq
 from synth.errors import SynthesisError
-from synth.synthesis.fit import basis, homogeneous
+from synth.synthesis.fit import basis, homogeneous, monic
 
 __all__ = ["project", "nearest", "zoom", "distances", "regauge", "to_gauge", "gauge_matrix", "gauge_items", "inv2", "GAUGE_ANGLES", "GRID",
            "EXACT_WEIGHT"]
@@ -123,20 +123,31 @@ def distances(coef, ref, task, cand, exact_weight: float = EXACT_WEIGHT):
     shared = cand.shape[1] == 1
     ang = cand[:, 0] if shared else cand.reshape(S, -1)
     n = coef.shape[-2]
-    full = np.concatenate([coef, np.broadcast_to(np.eye(8)[0], (S, 1, 8))], -2)
+    full = monic(coef)
     with np.errstate(all="ignore"):
         P = basis(ang, n)[0] @ dq_mul(full, ref[:, None])  # (S, G, 8): C(phi) Q, linear in the basis
-        x = dq_translation(P)
-        p = P[..., :4] / np.sqrt((P[..., :4] ** 2).sum(-1))[..., None]
+        pp = dot(P[..., :4], P[..., :4])
+        x = dq_translation(P, pp)
+        p = P[..., :4] / np.sqrt(pp)[..., None]
     w = task.weight[:, [0, 3]] + exact_weight * task.exact[:, [0, 3]]  # (N, 2): position, angle
-    if shared:
-        d2 = ((x[:, :, None, :] - task.X) ** 2).sum(-1) * w[:, 0] ** 2
-        cos = np.abs(p @ task.Q[:, :4].T)  # |p . q|: (S, G, N)
-        d2 = np.swapaxes(d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1] ** 2, 1, 2)  # (S, N, G)
+    if shared:  # (S, N, G): each item's target against all the samples
+        xt, X = np.swapaxes(x, 1, 2)[:, :, None, :], task.X[:, :, None]  # (S, 3, 1, G), (N, 3, 1)
+        cos = np.swapaxes(np.abs(p @ task.Q[:, :4].T), 1, 2)  # |p . q|: (S, N, G)
     else:
         N = cand.shape[1]
-        x, p = x.reshape(S, N, K, 3), p.reshape(S, N, K, 4)
-        d2 = ((x - task.X[:, None]) ** 2).sum(-1) * w[:, :1] ** 2
-        cos = np.abs((p * task.Q[:, None, :4]).sum(-1))
-        d2 = d2 + 8.0 * (1.0 - np.minimum(cos, 1.0)) * w[:, 1:] ** 2
-    return np.nan_to_num(d2, nan=np.inf)
+        xt, X = np.moveaxis(x.reshape(S, N, K, 3), -1, 1), task.X[:, :, None]  # (S, 3, N, K), (N, 3, 1)
+        cos = np.abs(dot(p.reshape(S, N, K, 4), task.Q[:, None, :4]))
+    d2 = np.subtract(xt[:, 0], X[:, 0])  # the squared position miss, component by component (few temporaries)
+    d2 *= d2
+    part = np.empty_like(d2)
+    for i in (1, 2):
+        np.subtract(xt[:, i], X[:, i], out=part)
+        part *= part
+        d2 += part
+    d2 *= w[:, :1] ** 2
+    np.minimum(cos, 1.0, out=part)  # the angle miss, 8 (1 - |p . q|)
+    np.subtract(1.0, part, out=part)
+    part *= 8.0
+    part *= w[:, 1:] ** 2
+    d2 += part
+    return np.nan_to_num(d2, copy=False, nan=np.inf)
