@@ -77,7 +77,8 @@ def simulate(out, engine, seconds, timestep, gravity, tol, export_mjcf, contacts
         if "retried" in res:
             r = res["retried"]
             echo(f"  (the default {r['seconds']:g} s turn deviated {r['max_joint_deviation']:.2e} rad: "
-                 f"retried at {res['seconds']:.3g} s" + (", tighter solver)" if engine == "pybullet" else ")"))
+                 + ("retried" if res["retries"] == 1 else f"retried {res['retries']} times, the last")
+                 + f" at {res['seconds']:.3g} s" + (", tighter solver)" if engine == "pybullet" else ")"))
         if contacts:
             echo(f"  contacts between bodies that share no joint: {res['contact_steps']} of {res['steps']} steps, "
                  f"largest contact force {res['max_contact_force']:.3g} N")

@@ -69,7 +69,7 @@ def test_default_engine_is_mujoco(tmp_path):
 @pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
 def test_planar_four_bar_passes_with_the_defaults(tmp_path, engine):
     """The planar fixture's anti-parallelogram passes its flat configurations, where some joints turn
-    several times faster than the driver: with no --seconds, a default turn that deviates is retried once,
+    several times faster than the driver: with no --seconds, a default turn that deviates is retried,
     slower (and with PyBullet's tight solver threshold), and the run passes."""
     if importlib.util.find_spec(engine) is None:
         pytest.skip(f"{engine} is not installed")
