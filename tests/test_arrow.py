@@ -153,3 +153,46 @@ def test_a_6r_fit_of_a_thousand_poses_is_within_tolerance():
 
     ps = _big_task("sixbar", 1000)
     _check_big_fit(sixbar_task(ps)[0], ps)
+
+
+@pytest.mark.parametrize("n, velocity", [(2, False), (2, True), (3, False), (3, True)])
+def test_motion_jacobians_are_the_derivatives_of_the_rows(n, velocity):
+    """`MotionModel.jacobians` (the closed-form pose rows chained through P = C Q, complex steps only for
+    the twist rows) against central differences of `MotionModel.rows` along random directions: item rows,
+    their phi columns and the constraints (exact items and the Study condition), with and without a
+    prescribed twist direction, for a conic and a cubic."""
+    from conftest import random_poses
+    from synth.algebra.dq import pose_to_dq
+    from synth.synthesis.fit import Layout, MotionModel, task_arrays
+
+    rng = np.random.default_rng(11 + n + 2 * velocity)
+    N = 7
+    T = random_poses(rng, N)
+    tol = np.tile([0.1, 0.05], (N, 1))
+    tol[0] = 0.0
+    vel = None
+    if velocity:
+        vel = np.full((N, 6), np.nan)
+        vel[2] = [0.3, -0.2, 0.5, 0.1, 0.4, -0.3]  # a full twist direction
+        vel[5, 3:] = [1.0, 0.5, -0.2]  # a linear velocity only
+    task = task_arrays(pose_to_dq(T), T[:, :3, 3], tol, vel, 1.0)
+    layout = Layout(n, N, np.zeros((0, 3), int))
+    model = MotionModel(layout, task, pose_to_dq(T[[0, 1]]))
+    x = rng.normal(size=(2, layout.size)) * 0.3
+    jac = model.jacobians(x)
+    G = jac.item_g.shape[-1]
+    assert G + N == layout.size and not jac.extra_r.size
+    for _ in range(3):
+        v = rng.normal(size=x.shape)
+        h = 1e-6
+        (rp, cp), (rm, cm) = model.rows(x + h * v), model.rows(x - h * v)
+        Jv = np.einsum("snrg,sg->snr", jac.item_g, v[:, :G]) + jac.item_p * v[:, G:, None]
+        free = model.free.reshape(N, -1)  # the twist rows (past the item rows' width) are constraints
+        assert not free[:, Jv.shape[-1]:].any()
+        free = free[:, :Jv.shape[-1]].ravel()
+        Jv = Jv.reshape(2, -1)[:, free]
+        r0, c0 = model.rows(x)
+        assert np.allclose(jac.item_r.reshape(2, -1)[:, free], r0, rtol=1e-12, atol=1e-12)
+        assert np.allclose(Jv, (rp - rm) / (2 * h), rtol=1e-5, atol=1e-6 * np.abs(Jv).max())
+        Jcv = np.einsum("seg,sg->se", jac.Jc, v)
+        assert np.allclose(Jcv, (cp - cm) / (2 * h), rtol=1e-5, atol=1e-6 * np.abs(Jcv).max())
