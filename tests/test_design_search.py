@@ -199,7 +199,7 @@ def test_rank_buildable_falls_back_to_the_task_range_in_kinematic_order():
     def design(lk, ranges, full_work, work, effort):
         calls.append((lk, ranges))
         rng = ranges[0]
-        return SimpleNamespace(collision=SimpleNamespace(free=rng in free_over[lk], range=rng))
+        return SimpleNamespace(collision=SimpleNamespace(free=rng in free_over[lk], range=rng), slenderness=None)
 
     ranked = rank_buildable(["A", "B", "C"], design, limit=8, work=1e9)
     full = [("A", ("full",)), ("B", ("full",)), ("C", ("full",))]

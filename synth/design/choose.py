@@ -106,11 +106,16 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
         raise InputError(f"pin fit must be one of {', '.join(PIN_FITS)}, got {pin_fit!r}")
     t0, work = time.process_time(), Work() if work is None else work
     start = work.done
-    args = (pin_length, hole_clearance, clearance, thin, work, slenderness, search)
-    result = _design_for(linkage, pin_radius, link_radius, *args)
+
+    def again(pins, bar_radius, gap):  # the whole design with these sizes, the rest as given
+        return _design_for(linkage, pins, bar_radius, pin_length, hole_clearance, gap, thin, work, slenderness,
+                           search)
+
+    result = again(pin_radius, link_radius, clearance)
     searched = 0.0
     if link_radius is None:
-        result, searched = _sturdy(linkage, result, pin_radius, args)
+        task = "task" in search.get("ranges", ("full", "task"))
+        result, searched = _sturdy(linkage, result, again, pin_radius, clearance, slenderness, task)
     result.design.pin_fit = pin_fit
     result.design = seat_pins(linkage, result.design)  # blind bores where a bar covers the face (synth.design.seats)
     result.collision.work = work.done - start  # every stage's (full cycle, cranks, task range, thinning)
@@ -121,7 +126,8 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     return result
 
 
-def _sturdy(linkage, first: DesignResult, pin_radius, args) -> tuple[DesignResult, float]:
+def _sturdy(linkage, first: DesignResult, again, pin_radius, clearance, slenderness: float,
+            task: bool) -> tuple[DesignResult, float]:
     """`design_for`'s sizing rounds (docs/design.md, "Parts sized to be built"): while the bars as written
     (`synth.design.sturdy.written_slenderness`) are more slender than the limit, the whole design is searched
     again with the bar radius `next_radius` (the default clearance stays the first design's), at most
@@ -129,13 +135,14 @@ def _sturdy(linkage, first: DesignResult, pin_radius, args) -> tuple[DesignResul
     moved closer) is searched once more with the radius its own bars ask, when that is thinner than its
     own and not below the first design's. Returned: the thinnest design that meets the limit and is as
     free as any that does (`collision_rank`), else the least slender of the most free; but when the
-    search covered the task range (a final answer, not a quick full-cycle search that falls back to it)
-    and no design that meets the limit is free over any range, the free one. Also returned: the thickest
-    bar radius searched (0: no round)."""
-    slenderness = args[5]
+    search covered the task range (``task``: a final answer, not a quick full-cycle search that falls
+    back to it) and no design that meets the limit is free over any range, the free one. ``again(pin
+    radius, bar radius, clearance)``: the whole design with those sizes (`_design_for`); ``pin_radius``,
+    ``clearance``: as given to `design_for` (None: default). Also returned: the thickest bar radius
+    searched (0: no round)."""
     pins = first.design.pin_radius if first.collision.thinned and pin_radius is None else pin_radius
-    if args[2] is None:  # the default clearance stays the first design's: a printer's gap, not the bar's
-        args = (*args[:2], first.design.clearance, *args[3:])
+    if clearance is None:  # the default clearance stays the first design's: a printer's gap, not the bar's
+        clearance = first.design.clearance
     done = [(first, written_slenderness(linkage, first.design, slenderness))]
     thinner = False
     for _ in range(STURDY_ROUNDS):
@@ -148,11 +155,11 @@ def _sturdy(linkage, first: DesignResult, pin_radius, args) -> tuple[DesignResul
                 break
         else:
             radius = next_radius([(r.design.bar_radius, s.length) for r, s in done], slenderness)
-        r = _design_for(linkage, pins, radius, *args)
+        r = again(pins, radius, clearance)
         done.append((r, written_slenderness(linkage, r.design, slenderness)))
     best = min(done, key=lambda x: (not x[1].met, collision_rank(x[0].collision),
                                     x[0].design.bar_radius if x[1].met else x[1].ratio))[0]
-    if "task" in args[-1].get("ranges", ("full", "task")) and not best.collision.free:
+    if task and not best.collision.free:
         best = min(done, key=lambda x: (collision_rank(x[0].collision), x[1].ratio))[0]
     return best, (max(r.design.bar_radius for r, _ in done) if len(done) > 1 else 0.0)
 

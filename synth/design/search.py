@@ -417,7 +417,7 @@ def design_rank(result: DesignResult) -> float:
     """`collision_rank` of ``result``'s report, plus 0.5 when its bars as written are more slender than
     the limit although their radius was sized (``result.slenderness``, `synth.design.sturdy`): a
     candidate whose sturdy bars are free comes first."""
-    s = getattr(result, "slenderness", None)
+    s = result.slenderness
     return collision_rank(result.collision) + (0.5 if s is not None and not s.met and not s.given else 0.0)
 
 
