@@ -15,7 +15,7 @@ import numpy as np
 
 from synth.algebra.algorithm1 import identity
 from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq
-from synth.algebra.geometry import dq_pose_difference, pose_difference, pose_difference_squares
+from synth.algebra.geometry import chord_angle, dq_pose_difference, pose_difference, pose_difference_squares
 from synth.algebra.polynomial import evaluate, exponents, product_of_linear
 from synth.linkage import Linkage
 
@@ -99,12 +99,12 @@ def check_figures(structure, U, M, a, b, pose_angles, pose_dq, tool_ref_dq, moti
             X[:, :, -1] = lead[k]
             H = np.ascontiguousarray(X.reshape(X.shape[0], L, 8, samples).transpose(2, 1, 0, 3))  # (8, L, G, S)
             dt2, w2 = pose_difference_squares(H, A, B)  # (1 + K, G, S) each
-            fig[0, k] = (np.sqrt(dt2[0]) + 4.0 * np.arcsin(0.5 * np.sqrt(w2[0]))).max(axis=-1)
+            fig[0, k] = (np.sqrt(dt2[0]) + chord_angle(w2[0])).max(axis=-1)
             fig[1, k] = dt2[1:].max(axis=(0, 2), initial=0.0)
             fig[2, k] = w2[1:].max(axis=(0, 2), initial=0.0)
     out["motion"] = fig[0]
     out["closure_translation"] = np.sqrt(fig[1])
-    out["closure_rotation"] = 4.0 * np.arcsin(0.5 * np.sqrt(fig[2]))
+    out["closure_rotation"] = chord_angle(fig[2])
     return out
 
 

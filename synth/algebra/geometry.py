@@ -7,7 +7,7 @@ matrices (rotation R, translation d: a body point b sits at R b + d) or unit dua
 
 - vectors: `cross`, `skew`, `perpendicular_basis`, `line_point`;
 - rotations: `rotation_about_axis` (Rodrigues), `rotation_about_line` (4x4), `rotation_angle`, `pose_difference`,
-  `dq_pose_difference`, `invert_pose`; quaternion <-> matrix are `synth.algebra.dq.quat_to_matrix` and
+  `dq_pose_difference`, `pose_difference_squares`, `chord_angle`, `invert_pose`; quaternion <-> matrix are `synth.algebra.dq.quat_to_matrix` and
   `matrix_to_quat` (the dual-quaternion algebra builds on them);
 - pairs of lines: `common_normal`, `ring_normals` (consecutive axes around closed loops),
   `dh_parameters` (Denavit-Hartenberg), `line_distance`;
@@ -154,8 +154,13 @@ def dq_pose_difference(A, B=None):
     dt = np.sqrt(dot(d, d))
     u = P / np.sqrt(n)[..., None]
     w = u[0] - np.copysign(1.0, dot(u[0], u[1]))[..., None] * u[1]  # |w| <= sqrt(2)
-    dr = 4.0 * np.arcsin(0.5 * np.sqrt(dot(w, w)))
-    return dt, dr
+    return dt, chord_angle(dot(w, w))
+
+
+def chord_angle(w2):
+    """The rotation angle in [0, pi] between unit quaternions u_A, u_B from w2 = |u_A - s u_B|^2 (s =
+    sign(u_A . u_B), so w2 <= 2): 4 asin(|w| / 2), accurate for small and large angles."""
+    return 4.0 * np.arcsin(0.5 * np.sqrt(w2))
 
 
 _NEXT, _AFTER = np.array([1, 2, 0]), np.array([2, 0, 1])  # cyclic index shifts of a cross product
@@ -165,8 +170,8 @@ def pose_difference_squares(H, A, B) -> tuple[np.ndarray, np.ndarray]:
     """Squared pose differences of pairs of dual quaternions given by components: H (8, L, ...) (Study
     condition assumed, any nonzero scale), pose A[i] against pose B[i] of the L axis (index arrays of equal
     length K). Returns (K, ...) arrays dt2 = |d_A - d_B|^2 (d = 2 vec(p q~) / |p|^2, the translation) and
-    w2 = |u_A - s u_B|^2 (u = p / |p|, s = sign(u_A . u_B)): the rotation angle is 4 asin(|w| / 2) in
-    [0, pi], accurate for small and large angles. `dq_pose_difference`'s formulas in the component layout
+    w2 = |u_A - s u_B|^2 (u = p / |p|, s = sign(u_A . u_B)): the rotation angle is `chord_angle` (w2).
+    `dq_pose_difference`'s formulas in the component layout
     for many poses (e.g. `synth.checks.check_figures`' samples): each pose's features once, plain
     component arithmetic over long arrays, no small matrix products (for a few poses, where the count of
     numpy calls is the cost, `dq_pose_difference` is ~2x cheaper: measured, bench/RESULTS.md issue 36)."""
