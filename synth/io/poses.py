@@ -72,6 +72,12 @@ UNIT_KEYS = ("length", "angle")
 
 
 # ============================================================== the document
+
+def default_name(i: int) -> str:
+    """The name of item ``i`` of a task file that names none: ``p<i>``."""
+    return f"p{i}"
+
+
 def _count_spec(count) -> tuple[int, int | None, str | None]:
     """count: int | (int, label) | ((lo, hi), label) | (lo, hi) with hi None for 'at least'."""
     label = None
@@ -189,7 +195,7 @@ def parse_pose_document(
             mats[i] = pose_matrix(spec, scale, reading["angle"], normalize, reading["order"])
         except PoseProblem as e:
             raise InputError(f"{name}: {label}: {e}") from None
-        final = pname if pname is not None else f"p{i}"
+        final = pname if pname is not None else default_name(i)
         if final in first_with:
             j = first_with[final]
             how = "" if named[j] else " by default"
@@ -272,7 +278,7 @@ def _point_document(doc, name, scale, length_unit, angle_unit, count, normalize,
                 kinds.append("pose")
         except PoseProblem as e:
             raise InputError(f"{name}: {label}: {e}") from None
-        final = pname if pname is not None else f"p{i}"
+        final = pname if pname is not None else default_name(i)
         if final in first_with:
             raise InputError(f"{name}: {label}: duplicate name {quote_text(final)} (item {first_with[final]} has it)")
         first_with[final] = i

@@ -63,7 +63,7 @@ from synth.info import FourBarRecord
 from synth.infoparts import document
 from synth.io.jsonout import linkage_document, plain
 from synth.io.names import safe_robot_name
-from synth.io.poses import parse_pose_document
+from synth.io.poses import default_name, parse_pose_document
 from synth.io.writer import write_output
 from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_fourbar, solve_points, solve_sixbar
 from synth.solve.many import solve_bennett_many
@@ -74,7 +74,6 @@ from synth.tools.jobspec import (DEGREES, KINDS, SIZE_KEYS, TASK_KEYS, JobError,
 
 MAX_CHUNK = 1024  # jobs per chunk at most (`default_chunksize`)
 JOB_SOURCE = "poses"  # a job's poses as messages name them
-DEFAULT_NAMES = ["p0", "p1", "p2"]  # the names of three poses without names (`synth.io.poses`), the common lines' (`read_common_bennett`)
 PIPE_CHUNK = 256  # jobs per chunk from a pipe (an unknown count: some chunks for every worker)
 
 
@@ -260,7 +259,7 @@ def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) ->
     if common is not None and (fast or common.index):  # (fast: never with full, as common)
         T = np.concatenate([common.poses] + [read[n].ps.matrices[None] for n in fast])
         done = _solve_many(T, [read[n] for n in common.index] + [read[n].result for n in fast],
-                           [DEFAULT_NAMES] * len(common.index) + [read[n].ps.names for n in fast])
+                           [[default_name(i) for i in range(3)]] * len(common.index) + [read[n].ps.names for n in fast])
         for n, ok in zip(fast, done[len(common.index):]):
             if ok:
                 read[n].ps = None  # decided: its result is complete
