@@ -48,7 +48,7 @@ from synth.io.docload import MAX_FILE_BYTES, MAX_POSES, json_object_pairs, load_
 from synth.io.constraints import parse_constraints
 from synth.io.taskspec import TOP_TASK_KEYS, task_fields
 from synth.io.posespec import (ANGLE_UNITS, LENGTH_UNITS, QUATERNION_ORDERS, PoseProblem, axis_angle_matrix, check_keys,
-                               describe_value, is_point_spec, point_position, pose_from_spec, pose_matrix,
+                               default_name, describe_value, is_point_spec, point_position, pose_from_spec, pose_matrix,
                                quaternion_matrix, rpy_matrix_exact)
 
 __all__ = [
@@ -72,11 +72,6 @@ UNIT_KEYS = ("length", "angle")
 
 
 # ============================================================== the document
-
-def default_name(i: int) -> str:
-    """The name of item ``i`` of a task file that names none: ``p<i>``."""
-    return f"p{i}"
-
 
 def _count_spec(count) -> tuple[int, int | None, str | None]:
     """count: int | (int, label) | ((lo, hi), label) | (lo, hi) with hi None for 'at least'."""

@@ -59,15 +59,8 @@ from typing import Any, Iterable, Iterator
 import numpy as np
 
 from synth.errors import MpsynthError, SynthesisError
-from synth.info import FourBarRecord
-from synth.infoparts import document
-from synth.io.jsonout import linkage_document, plain
-from synth.io.names import safe_robot_name
-from synth.io.poses import default_name, parse_pose_document
-from synth.io.writer import write_output
-from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_fourbar, solve_points, solve_sixbar
+from synth.io.posespec import default_name
 from synth.solve.many import solve_bennett_many
-from synth.synthesis.points import MINIMUM, NEEDED
 from synth.tools.resultlines import dumps, dumps_lines  # noqa: F401 (dumps: the API of this module too)
 from synth.tools.jobspec import (DEGREES, KINDS, SIZE_KEYS, TASK_KEYS, JobError, check_job, echo_id, is_task_job,
                                  one_line_message, parse_job, prepare_out, read_common_bennett, resolve_out)
@@ -77,8 +70,12 @@ JOB_SOURCE = "poses"  # a job's poses as messages name them
 PIPE_CHUNK = 256  # jobs per chunk from a pipe (an unknown count: some chunks for every worker)
 
 
-def _synthesize(kind: str, ps, options: SynthesisOptions):
-    """The job's Result: the entry point the CLI calls for the same task (`synth.solve`)."""
+def _synthesize(kind: str, ps, options):
+    """The job's Result: the entry point the CLI calls for the same task (`synth.solve`; imported at the
+    first job that needs it, like every module of the per-job path: `mpsynth batch`'s start-up imports the
+    chunk path only)."""
+    from synth.solve import solve_bennett, solve_fourbar, solve_points, solve_sixbar
+
     if kind == "fourbar":
         return solve_fourbar(ps, options)
     if kind == "bennett" or ps.has_points:
@@ -106,7 +103,7 @@ class _Job:
     result: dict
     job: dict
     ps: Any
-    design: DesignOptions
+    design: Any  # synth.solve.DesignOptions
     out_path: str | None
     created: list
 
@@ -129,6 +126,10 @@ def _read_job(item, out_dir, defer_out: bool = False) -> _Job | dict | None:
             return None
         doc = {k: job[k] for k in ("poses", "points", "units", "quaternion_order") + TASK_KEYS if k in job}
         kind = job["kind"]
+        from synth.io.poses import parse_pose_document
+        from synth.solve import DesignOptions
+        from synth.synthesis.points import MINIMUM, NEEDED
+
         try:
             out_path = resolve_out(job["out"], out_dir) if "out" in job else None
             if out_path is not None:
@@ -149,6 +150,10 @@ def _read_job(item, out_dir, defer_out: bool = False) -> _Job | dict | None:
 def _solve_job(j: _Job, full: bool, design: bool = True) -> dict:
     """The result of a checked job: the synthesis (`synth.solve`), OUT written when asked for (with the
     physical design, or with ``design`` False the kinematic outputs only)."""
+    from synth.io.names import safe_robot_name
+    from synth.io.writer import write_output
+    from synth.solve import SynthesisOptions
+
     job, result = j.job, j.result
     with _one_result(result, j.created):
         kind = job["kind"]
@@ -198,6 +203,10 @@ def _batchable(j: _Job, full: bool) -> bool:
 
 
 def _success(kind: str, linkage, out, full: bool) -> dict:
+    from synth.info import FourBarRecord
+    from synth.infoparts import document
+    from synth.io.jsonout import linkage_document, plain
+
     b, f, s = linkage.info.bennett, linkage.info.fit, linkage.info.synthesis
     res = _success_fields(kind, len(linkage.joints), float(linkage.extent()), linkage.checks, out,
                           {"a": b.a, "alpha": b.alpha, "b": b.b, "beta": b.beta} if b else None,
@@ -214,9 +223,11 @@ def _success(kind: str, linkage, out, full: bool) -> dict:
     return res
 
 
-def _success_fields(kind: str, joints: int, extent: float, checks, out, bennett=None, fit=None, clean=plain) -> dict:
+def _success_fields(kind: str, joints: int, extent: float, checks, out, bennett=None, fit=None, clean=None) -> dict:
     """The fields of a successful result line, in their order (``clean``: how nested values become plain
-    JSON values; `_solve_many` passes plain floats already)."""
+    JSON values, default `synth.io.jsonout.plain`; `_solve_many` passes plain floats already)."""
+    if clean is None:
+        from synth.io.jsonout import plain as clean
     res = {"ok": True, "kind": kind, "joints": joints, "extent": extent, "extent_unit": "m",
            "checks": clean(dict(checks)), "out": out}
     if bennett is not None:
@@ -287,7 +298,7 @@ def _solve_many(T, results: list, names: list) -> list:
     checks, parameters = many.rows(index)
     for n, c, b in zip(index, checks, parameters):  # (finite: plain floats, as `plain` leaves them)
         results[n].update(_success_fields("bennett", 4, c["length_scale"], c, None, b,
-                                          clean=_same if finite[n] else plain))
+                                          clean=_same if finite[n] else None))
     for n in np.flatnonzero(many.refused).tolist():  # `solve_bennett`'s SynthesisError, as `_solve_job` words it
         message = f"{JOB_SOURCE}: {many.refusal(n, T[n], names[n])}"
         results[n].update({"ok": False, "exit_code": SynthesisError.exit_code, "error": one_line_message(message)})
@@ -388,9 +399,7 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
             if chunk is not None:
                 yield run_chunk_lines(chunk, full, out_dir, design, keep)
         return
-    ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
-    if os.name == "posix":  # the fork server imports the batch once; each worker forks with it imported
-        ctx.set_forkserver_preload(list(PRELOAD))
+    ctx = pool_context()
     before = set(multiprocessing.active_children())
     pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
     workers = [p for p in multiprocessing.active_children() if p not in before]  # (no replacements: no maxtasks)
@@ -422,6 +431,23 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
         terminate_pool(pool, workers)
         raise
     pool.join()
+
+
+def pool_context():
+    """The multiprocessing context of `run_batch`'s workers: on Linux, when this process runs one thread
+    (nothing another thread holds can be copied locked), ``fork``: the workers start at once with what
+    this process has imported (README's 20,000 jobs: a fork server first started a new interpreter that
+    imported the batch again, ~0.25 s of CPU before any job); else the fork server with `PRELOAD` (POSIX)
+    or ``spawn``."""
+    if sys.platform.startswith("linux") and threading.active_count() == 1:
+        for stream in (sys.stdout, sys.stderr):  # (a worker would write out what the buffers held again)
+            with contextlib.suppress(Exception):
+                stream.flush()
+        return multiprocessing.get_context("fork")
+    ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
+    if os.name == "posix":  # the fork server imports the batch once; each worker forks with it imported
+        ctx.set_forkserver_preload(list(PRELOAD))
+    return ctx
 
 
 TERMINATE_SECONDS = 2.0  # how long a pool's terminate may take before its workers are killed (a shutdown bound)

@@ -13,11 +13,9 @@ from pathlib import Path
 import numpy as np
 
 from synth.errors import InputError, MpsynthError
-from synth.io.atomic import check_path
 from synth.io.docload import json_object_pairs
 from synth.io.names import check_robot_name
 from synth.io.posespec import ANGLE_UNITS, LENGTH_UNITS, MAX_ABS_NUMBER, rpy_poses
-from synth.io.writer import check_output_target
 
 KINDS = {"bennett": 3, "sixbar": 4, "fourbar": (2, None)}  # pose counts (fourbar: its own refusals below 3)
 DEGREES = {"bennett": 2, "sixbar": 3}  # degree of the motion of a point task
@@ -125,6 +123,8 @@ def echo_id(jid):
 
 def resolve_out(out: str, out_dir) -> str:
     """``out`` resolved under the base directory; JobError when it is absolute or leaves it."""
+    from synth.io.atomic import check_path  # (a job with OUT: the writers are imported at the first)
+
     base = os.path.abspath(os.fspath(out_dir) if out_dir is not None else os.curdir)
     try:
         check_path(out, "'out'")
@@ -143,6 +143,8 @@ def resolve_out(out: str, out_dir) -> str:
 def prepare_out(out: str, force: bool, created: list) -> None:
     """Create OUT's missing parent directories and refuse an unusable OUT before any work. A job never
     replaces a file (the jobs or the results file, say), not even with "force"."""
+    from synth.io.writer import check_output_target
+
     if os.path.lexists(out) and (os.path.islink(out) or not os.path.isdir(out)):
         raise JobError(f"'out' {out}: exists and is not a directory; a batch job never replaces a file")
     parent = Path(os.path.abspath(out)).parent
