@@ -197,3 +197,28 @@ def test_a_signal_while_waiting_on_stdin_stops_the_batch_at_once(args, sig, code
     finally:
         p.kill()
         p.wait()
+
+
+def test_result_lines_without_dicts_are_the_dict_paths_bytes():
+    """Issue #36, fifth pass: `run_chunk_lines` without ``keep`` writes the batched successes from columns
+    (`batchjobs._success_lines`), the same bytes and codes as the result dicts through `dumps`; ids of
+    every kind a line may carry."""
+    lines = mixed_lines(80, seed=11)
+    rnd = random.Random(5)
+    for k, jid in enumerate(["a\u00e9", "q\"x", 2.5, -0.0, 10**30, "%s{0}", None, 7]):
+        job = readme_job(rnd, k)
+        job["id"] = jid
+        lines.append(json.dumps(job))
+    expected = run_chunk(list(enumerate(lines, 1)), False, None)
+    got = run_chunk_lines((1, [s.encode() for s in lines]), False, None)
+    assert got.results is None
+    assert got.text == "".join(dumps(r) + "\n" for r in expected)
+    assert got.codes == [None if r.get("skipped") else 0 if r["ok"] else r["exit_code"] for r in expected]
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(allow_nan=False, allow_infinity=False), max_size=12))
+def test_float_texts_are_json_dumps_texts(values):
+    from synth.tools.resultlines import float_texts
+
+    assert float_texts(values) == [json.dumps(x) for x in values]

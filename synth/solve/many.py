@@ -67,10 +67,16 @@ class BennettSummaries:
         """The Bennett parameters a, alpha, b, beta of decided set n (floats)."""
         return {k: float(self.bennett[k][n]) for k in PARAMETERS}
 
+    def columns(self, index) -> tuple[dict, dict]:
+        """(`checks`, `parameters`) of the decided sets ``index`` (a list) as columns: dicts of arrays (n,)
+        (or the scalars every row has, e.g. ``samples``), in the order of `checks` and `parameters`."""
+        checks = as_checks({k: v[index] for k, v in self.figures.items()}, VERIFY_SAMPLES, self.extent[index])
+        return checks, {k: self.bennett[k][index] for k in PARAMETERS}
+
     def rows(self, index) -> tuple[list, list]:
         """(`checks`, `parameters`) of the decided sets ``index`` (a list), at once: lists of dicts."""
-        checks = as_checks({k: v[index] for k, v in self.figures.items()}, VERIFY_SAMPLES, self.extent[index])
-        return _rows(checks, len(index)), _rows({k: self.bennett[k][index] for k in PARAMETERS}, len(index))
+        checks, parameters = self.columns(index)
+        return _rows(checks, len(index)), _rows(parameters, len(index))
 
 
 def _rows(columns: dict, n: int) -> list:

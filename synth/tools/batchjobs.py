@@ -49,6 +49,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import importlib
+import json
 import multiprocessing
 import os
 import sys
@@ -61,7 +62,7 @@ import numpy as np
 from synth.errors import MpsynthError, SynthesisError
 from synth.io.posespec import default_name
 from synth.solve.many import solve_bennett_many
-from synth.tools.resultlines import dumps, dumps_lines  # noqa: F401 (dumps: the API of this module too)
+from synth.tools.resultlines import dumps, dumps_lines, float_texts  # (dumps: the API of this module too)
 from synth.tools.jobspec import (DEGREES, KINDS, SIZE_KEYS, TASK_KEYS, JobError, check_job, echo_id, is_task_job,
                                  one_line_message, parse_job, prepare_out, read_common_bennett, resolve_out)
 
@@ -128,7 +129,7 @@ def _read_job(item, out_dir, defer_out: bool = False) -> _Job | dict | None:
         kind = job["kind"]
         from synth.io.poses import parse_pose_document
         from synth.solve import DesignOptions
-        from synth.synthesis.points import MINIMUM, NEEDED
+        from synth.task import MINIMUM, NEEDED
 
         try:
             out_path = resolve_out(job["out"], out_dir) if "out" in job else None
@@ -150,8 +151,6 @@ def _read_job(item, out_dir, defer_out: bool = False) -> _Job | dict | None:
 def _solve_job(j: _Job, full: bool, design: bool = True) -> dict:
     """The result of a checked job: the synthesis (`synth.solve`), OUT written when asked for (with the
     physical design, or with ``design`` False the kinematic outputs only)."""
-    from synth.io.names import safe_robot_name
-    from synth.io.writer import write_output
     from synth.solve import SynthesisOptions
 
     job, result = j.job, j.result
@@ -162,6 +161,9 @@ def _solve_job(j: _Job, full: bool, design: bool = True) -> dict:
                                                               best_effort=bool(job.get("best_effort", False))))
             linkage, out = solved.linkage, None
             if "out" in job:
+                from synth.io.names import safe_robot_name
+                from synth.io.writer import write_output
+
                 name = job.get("name") or safe_robot_name(str(result["id"]) if result["id"] is not None else "")
                 write_output(linkage, j.out_path, robot_name=name, force=bool(job.get("force", False)),
                              result=solved.design)
@@ -254,10 +256,11 @@ def run_chunk(chunk, full: bool, out_dir, design: bool = True) -> list[dict]:
     return list(chunk_results(chunk, full, out_dir, design))
 
 
-def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) -> Iterator[dict]:
+def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None, lines: bool = False) -> Iterator:
     """`run_chunk`'s results as they are ready (the batched jobs first, at once); ``stop``: as `run_jobs`,
     asked before every result. The lines of the common Bennett shape are read for the whole chunk at once
-    (`synth.tools.jobspec.read_common_bennett`), the others one by one (`_read_job`)."""
+    (`synth.tools.jobspec.read_common_bennett`), the others one by one (`_read_job`). ``lines``: the
+    successes of the batched jobs come as their result lines (str, `_success_lines`), not dicts."""
     common = read_common_bennett([text for _, text in chunk]) if not full else None
     read: list = [None] * len(chunk)
     if common is not None:
@@ -269,25 +272,30 @@ def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) ->
     fast = [n for n, j in enumerate(read) if isinstance(j, _Job) and _batchable(j, full)]
     if common is not None and (fast or common.index):  # (fast: never with full, as common)
         T = np.concatenate([common.poses] + [read[n].ps.matrices[None] for n in fast])
+        rendered = {} if lines else None
         done = _solve_many(T, [read[n] for n in common.index] + [read[n].result for n in fast],
-                           [[default_name(i) for i in range(3)]] * len(common.index) + [read[n].ps.names for n in fast])
+                           [[default_name(i) for i in range(3)]] * len(common.index) + [read[n].ps.names for n in fast],
+                           rendered)
         for n, ok in zip(fast, done[len(common.index):]):
             if ok:
                 read[n].ps = None  # decided: its result is complete
         for n, ok in zip(common.index, done):
             if not ok:
                 read[n] = None  # undecided: the per-job path, at its turn
+        for k, text in (rendered or {}).items():
+            read[(common.index + fast)[k] if k >= len(common.index) else common.index[k]] = text
     for item, j in zip(chunk, read):
         if stop is not None and stop():
             raise Stopped
-        yield (run_job(item, full, out_dir, design) if j is None else j if isinstance(j, dict) else
+        yield (run_job(item, full, out_dir, design) if j is None else j if isinstance(j, (dict, str)) else
                j.result if j.ps is None else _solve_job(j, full, design))
 
 
-def _solve_many(T, results: list, names: list) -> list:
+def _solve_many(T, results: list, names: list, lines: dict | None = None) -> list:
     """Which of the three-pose Bennett sets T (n, 3, 4, 4) `solve_bennett_many` decides (a list of bools):
     the result dict of each such set (``results[n]``, poses named ``names[n]``) completed with its success
-    fields or its refusal; the others are left as they are."""
+    fields or its refusal; the others are left as they are. ``lines`` (a dict): a success with finite
+    figures goes there instead, as its result line (``lines[n]``: `dumps`' text, `_success_lines`)."""
     try:
         many = solve_bennett_many(T)
     except Exception:  # (never: the per-job path then gives every job its own result)
@@ -295,6 +303,9 @@ def _solve_many(T, results: list, names: list) -> list:
     index = np.flatnonzero(many.decided & ~many.refused).tolist()
     finite = np.isfinite(many.extent) & np.all([np.isfinite(v) for v in (*many.figures.values(), *many.bennett.values())],
                                                axis=0)
+    if lines is not None:
+        lines.update(_success_lines(many, [n for n in index if finite[n]], results))
+        index = [n for n in index if not finite[n]]
     checks, parameters = many.rows(index)
     for n, c, b in zip(index, checks, parameters):  # (finite: plain floats, as `plain` leaves them)
         results[n].update(_success_fields("bennett", 4, c["length_scale"], c, None, b,
@@ -307,6 +318,34 @@ def _solve_many(T, results: list, names: list) -> list:
 
 def _same(x):
     return x
+
+
+def _success_lines(many, index: list, results: list) -> dict:
+    """{n: result line} of the decided successful sets ``index`` (finite figures) of `solve_bennett_many`'s
+    ``many``, each the text `dumps` gives for ``results[n]`` (id, line) completed by `_success_fields`:
+    the fields' layout from that function (one `json.dumps` of the fields with a marker in every value
+    that varies), the floats a column at a time (`synth.tools.resultlines.float_texts`)."""
+    if not index:
+        return {}
+    checks, parameters = many.columns(index)
+    columns: list = []
+
+    def mark(values):  # a column's place in the layout (scalars every row has stay in it)
+        if not isinstance(values, np.ndarray):
+            return values
+        columns.append(float_texts(values.tolist()))
+        return f"@@{len(columns) - 1}@@"
+
+    marked = {k: mark(v) for k, v in checks.items()}
+    fields = _success_fields("bennett", 4, marked["length_scale"], marked, None,
+                             {k: mark(v) for k, v in parameters.items()}, clean=_same)
+    layout = json.dumps({"id": "@@id@@", "line": "@@line@@", **fields}, separators=(",", ":"), allow_nan=False)
+    layout = layout.replace("{", "{{").replace("}", "}}").replace('"@@id@@"', "{0}").replace('"@@line@@"', "{1}")
+    for k in range(len(columns)):  # (a column may have several places: the extent is the length scale)
+        layout = layout.replace(f'"@@{k}@@"', f"{{{k + 2}}}")
+    ids = [results[n]["id"] for n in index]
+    ids = [str(i) if type(i) is int else json.dumps(i) for i in ids]
+    return {n: layout.format(i, results[n]["line"], *row) for n, i, *row in zip(index, ids, *columns)}
 
 
 def chunks(items, size: int, max_bytes: int = 1 << 20):
@@ -375,9 +414,19 @@ def run_chunk_lines(chunk, full: bool, out_dir, design: bool = True, keep: bool 
     if isinstance(chunk, tuple):
         first, raw = chunk
         chunk = [(first + i, None if b is None else b.decode("utf-8", "replace")) for i, b in enumerate(raw)]
-    results = run_chunk(chunk, full, out_dir, design)
-    return ChunkLines(dumps_lines(results), [None if r.get("skipped") else 0 if r["ok"] else r["exit_code"]
-                                             for r in results], results if keep else None)
+    if keep:
+        results = run_chunk(chunk, full, out_dir, design)
+        return ChunkLines(dumps_lines(results), [_code(r) for r in results], results)
+    results = list(chunk_results(chunk, full, out_dir, design, lines=True))  # (successes as their lines)
+    if all(type(r) is str for r in results):
+        return ChunkLines("\n".join(results) + "\n" if results else "", [0] * len(results))
+    return ChunkLines("".join((r if type(r) is str else dumps(r)) + "\n" for r in results),
+                      [0 if type(r) is str else _code(r) for r in results])
+
+
+def _code(result: dict):
+    """A result's code in `ChunkLines.codes`: 0 ok, the exit code of a failed job, None a skipped line."""
+    return None if result.get("skipped") else 0 if result["ok"] else result["exit_code"]
 
 
 def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializer=None, stop=None,

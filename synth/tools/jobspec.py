@@ -4,6 +4,7 @@ its ``id`` as a result echoes it, and its ``out`` directory resolved and prepare
 from __future__ import annotations
 
 import difflib
+import itertools
 import json
 import math
 import os
@@ -170,6 +171,7 @@ def prepare_out(out: str, force: bool, created: list) -> None:
 # ------------------------------------------------------------------ the common Bennett job, a chunk at once
 COMMON_KEYS = frozenset(("id", "kind", "units", "poses"))
 UNIT_KEYS = frozenset(("length", "angle"))
+_NUMBER_TYPES = frozenset((float, int))
 
 
 @dataclass
@@ -262,8 +264,9 @@ def _common_bennett(text):
         if type(position) is not list or type(rpy) is not list or len(position) != 3 or len(rpy) != 3:
             return None
         numbers.append(position + rpy)
-    if not all(type(x) is float or type(x) is int and -MAX_ABS_NUMBER <= x <= MAX_ABS_NUMBER
-               for row in numbers for x in row):
+    kinds = set(map(type, itertools.chain.from_iterable(numbers)))  # (floats: the usual line, checked in C)
+    if not kinds <= _NUMBER_TYPES or int in kinds and not all(
+            type(x) is float or -MAX_ABS_NUMBER <= x <= MAX_ABS_NUMBER for row in numbers for x in row):
         return None
     if type(jid) is float and not math.isfinite(jid):
         return None
