@@ -50,3 +50,12 @@ def test_workers_fork_from_a_single_threaded_process_only():
     finally:
         done.set()
         other.join()
+
+
+def test_the_collector_is_off_only_while_the_programs_modules_load():
+    code = ("import sys, gc; sys.argv[0] = sys.argv[1]; import cli; off = not gc.isenabled(); "
+            "from cli.main import mpsynth; from click.testing import CliRunner; "
+            "CliRunner().invoke(mpsynth, ['batch', '--help']); print(off, gc.isenabled())")
+    for argv0, off in (("/venv/bin/mpsynth", "True"), ("notebook.py", "False")):
+        out = subprocess.run([sys.executable, "-c", code, argv0], cwd=REPO, capture_output=True, text=True, check=True)
+        assert out.stdout.split() == [off, "True"], out.stdout + out.stderr

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import gc
 import importlib
 import json
 import multiprocessing
@@ -450,7 +451,11 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
         return
     ctx = pool_context()
     before = set(multiprocessing.active_children())
-    pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
+    gc.freeze()  # (forked workers: the collector never visits, so never copies, the pages of what is imported)
+    try:
+        pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
+    finally:
+        gc.unfreeze()
     workers = [p for p in multiprocessing.active_children() if p not in before]  # (no replacements: no maxtasks)
     pending: collections.deque = collections.deque()
 
