@@ -56,8 +56,13 @@ class ClusterError(MpsynthError):
 # 0.54-0.62 s without it. A local cluster's workers run without it, and start from a fork server (which has
 # imported distributed, numpy and Dask's other packages once) instead of each a new interpreter importing
 # them: a one-job run with --scheduler local -j 2 took 5.3 s of wall time against 7.3 s (load ~19, 2 CPUs).
+# Dask's nannies also start their workers with MALLOC_TRIM_THRESHOLD_=65536 (memory back to the system at once):
+# glibc then maps and unmaps a chunk's numpy temporaries again and again; a chunk of 1,024 README jobs took
+# ~80,000 page faults and 0.25-0.30 s of CPU (0.15-0.18 s of it system time) in a local worker against 0.06 s
+# in the batch process. A local cluster's workers keep glibc's defaults (None unsets the variable).
 LOCAL_WORKER_CONFIG = {"distributed.worker.profile.enabled": False,
-                       "distributed.worker.multiprocessing-method": "forkserver"}
+                       "distributed.worker.multiprocessing-method": "forkserver",
+                       "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
 
 
 def dask_config():
