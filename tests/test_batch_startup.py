@@ -12,7 +12,7 @@ import threading
 
 import pytest
 
-from synth.tools import batchjobs
+from synth.tools import workerpool as batchjobs
 
 from conftest import REPO
 from test_batch_chunks import readme_job
