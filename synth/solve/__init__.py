@@ -9,7 +9,7 @@
 for a shell user and a notebook user. Layer: below `synth.io` (which writes a Result), above
 `synth.design` and `synth.synthesis`.
 """
-import importlib
+from synth import lazy_names
 
 __all__ = ["DesignOptions", "SynthesisOptions", "Result", "Solution", "solve_bennett", "solve_sixbar", "solve_fourbar", "solve_points",
            "solve_curve", "design_solution"]
@@ -17,16 +17,4 @@ __all__ = ["DesignOptions", "SynthesisOptions", "Result", "Solution", "solve_ben
 # loaded on first use (PEP 562), as `synth`'s names: `synth.solve.many` (the batch's chunk path) is imported
 # without the design search and the writers that `synth.solve.tasks` brings
 _LAZY = {name: "synth.solve.options" if name.endswith("Options") else "synth.solve.tasks" for name in __all__}
-
-
-def __getattr__(name):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'synth.solve' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(_LAZY, globals(), "synth.solve")
