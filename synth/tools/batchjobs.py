@@ -281,8 +281,9 @@ def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None, li
         for n, ok in zip(common.index, done):
             if not ok:
                 read[n] = None  # undecided: the per-job path, at its turn
+        where = common.index + fast  # (the sets of T, in order)
         for k, text in (rendered or {}).items():
-            read[(common.index + fast)[k] if k >= len(common.index) else common.index[k]] = text
+            read[where[k]] = text
     for item, j in zip(chunk, read):
         if stop is not None and stop():
             raise Stopped
