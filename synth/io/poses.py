@@ -43,12 +43,12 @@ from typing import Any
 import numpy as np
 
 from synth.errors import InputError
-from synth.task import PoseSet
+from synth.task import PoseSet, default_name
 from synth.io.docload import MAX_FILE_BYTES, MAX_POSES, json_object_pairs, load_document, quote_text, read_source
 from synth.io.constraints import parse_constraints
 from synth.io.taskspec import TOP_TASK_KEYS, task_fields
 from synth.io.posespec import (ANGLE_UNITS, LENGTH_UNITS, QUATERNION_ORDERS, PoseProblem, axis_angle_matrix, check_keys,
-                               default_name, describe_value, is_point_spec, point_position, pose_from_spec, pose_matrix,
+                               describe_value, is_point_spec, point_position, pose_from_spec, pose_matrix,
                                quaternion_matrix, rpy_matrix_exact)
 
 __all__ = [

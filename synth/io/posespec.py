@@ -47,11 +47,6 @@ class PoseProblem(Exception):
     """A problem inside one pose or section, without the file/pose prefix."""
 
 
-def default_name(i: int) -> str:
-    """The name of item ``i`` of a task file that names none: ``p<i>``."""
-    return f"p{i}"
-
-
 def _key(key: Any) -> str:
     if isinstance(key, str):
         return quote_text(key, 40)

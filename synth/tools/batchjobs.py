@@ -58,7 +58,7 @@ from typing import Any, Iterable, Iterator
 import numpy as np
 
 from synth.errors import MpsynthError, SynthesisError
-from synth.io.posespec import default_name
+from synth.task import default_name
 from synth.solve.many import solve_bennett_many
 from synth.tools.resultlines import dumps, dumps_lines, float_texts  # (dumps: the API of this module too)
 from synth.tools.workerpool import pool_context, prepare_worker, terminate_pool, worker_count  # noqa: F401
