@@ -17,7 +17,7 @@ from conftest import REPO  # noqa: E402
 import synth  # noqa: E402
 from synth.design.choose import design_for  # noqa: E402
 from synth.io import step as step_mod  # noqa: E402
-from synth.io.meshes import pin_ends  # noqa: E402
+from synth.io.meshes import Primitive, pin_ends  # noqa: E402
 from synth.io.names import MESH_UNIT_SCALE  # noqa: E402
 from synth.io.poses import load_poses  # noqa: E402
 from synth.io.solid import read_stl_triangles, signed_volume  # noqa: E402
@@ -147,3 +147,49 @@ def test_products_are_renamed_in_order_or_refused():
     assert named.index("'pin_h1'") < named.index("'base'")  # by the translator's number, not file order
     with pytest.raises(ValueError):
         step_mod.name_products(text, ["base", "pin_h1", "coupler"])
+
+
+def _cyl(a, b, r):
+    return Primitive("cylinder", np.asarray(a, float), np.asarray(b, float), r)
+
+
+def test_a_pin_is_its_profile_revolved_with_the_fused_volume():
+    """Coaxial cylinders (shaft, head) make one profile: axial position and radius corners, from the axis
+    round to the axis; a gap, an end off the axis or another kind of primitive makes none."""
+    shaft, head = _cyl([0, 0, 0], [0, 0, 10], 1.0), _cyl([0, 0, 11], [0, 0, 8], 2.0)  # head reversed
+    o, d, prof = step_mod.coaxial_profile([shaft, head])
+    np.testing.assert_allclose(o, 0, atol=0)
+    np.testing.assert_allclose(d, [0, 0, 1])
+    np.testing.assert_allclose(prof, [[0, 0], [0, 1], [8, 1], [8, 2], [11, 2], [11, 0]], atol=1e-12)
+    assert step_mod.coaxial_profile([shaft, _cyl([0, 0, 12], [0, 0, 13], 2.0)]) is None  # a gap
+    assert step_mod.coaxial_profile([shaft, _cyl([0, 1e-3, 8], [0, 1e-3, 11], 2.0)]) is None  # off the axis
+    assert step_mod.coaxial_profile([Primitive("capsule", shaft.p0, shaft.p1, 1.0), head]) is None
+    gmsh = _kernel()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("pin")
+        tags = step_mod._occ_solids(gmsh.model.occ, [shaft, head], [], 1.0)
+        assert len(tags) == 1 and gmsh.model.occ.getMass(3, tags[0]) == pytest.approx(np.pi * (8 + 4 * 3), rel=1e-9)
+        gmsh.model.occ.synchronize()
+        assert {gmsh.model.getType(2, t) for _, t in gmsh.model.getEntities(2)} <= {"Cylinder", "Plane"}
+    finally:
+        gmsh.finalize()
+
+
+def test_a_solid_in_more_pieces_than_the_mesh_is_refused():
+    """`_checked_solids` keeps a B-rep part only with the STL's volume in the STL's number of bodies: two
+    disjoint cylinders are two solids (accepted for 2 bodies, refused for 1)."""
+    prims = [_cyl([0, 0, 0], [1, 0, 0], 0.1), _cyl([0, 0, 1], [1, 0, 1], 0.1)]  # parallel, 1 apart
+    volume = 2 * np.pi * 0.01
+    gmsh = _kernel()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("two")
+        occ = gmsh.model.occ
+        assert len(step_mod._checked_solids(occ, prims, [], 1.0, volume, 2)) == 2
+        with pytest.raises(RuntimeError, match="in 2 solids, not the mesh"):
+            step_mod._checked_solids(occ, prims, [], 1.0, volume, 1)
+    finally:
+        gmsh.finalize()
