@@ -193,3 +193,23 @@ def test_a_solid_in_more_pieces_than_the_mesh_is_refused():
             step_mod._checked_solids(occ, prims, [], 1.0, volume, 1)
     finally:
         gmsh.finalize()
+
+
+@pytest.mark.parametrize("revolved", [True, False])
+def test_one_boolean_at_a_time_builds_the_same_link(revolved):
+    """The fallback of `_checked_solids` (a fuse per primitive, a cut per bore) gives the batch's solid: a
+    hub with a bar ending in it, minus the bore, is one solid with the same volume either way."""
+    prims = [_cyl([0, 0, -1], [0, 0, 1], 1.0), Primitive("capsule", np.zeros(3), np.array([5.0, 0, 0]), 0.8)]
+    bores = [_cyl([0, 0, -1.5], [0, 0, 1.5], 0.4)]
+    gmsh = _kernel()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("link")
+        occ = gmsh.model.occ
+        batch, single = (step_mod._occ_solids(occ, prims, bores, 1.0, revolved, k) for k in (False, True))
+        assert len(batch) == len(single) == 1
+        assert occ.getMass(3, single[0]) == pytest.approx(occ.getMass(3, batch[0]), rel=1e-9)
+        assert 2 * np.pi < occ.getMass(3, batch[0]) < 2 * np.pi + np.pi * 0.64 * 5  # the hub, plus part of the bar
+    finally:
+        gmsh.finalize()
