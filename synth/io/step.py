@@ -5,7 +5,8 @@ One solid per link with joints and per pin, named as in the URDF (``base``, ``li
 ``pin_<joint>``), in millimetres, at the home configuration (all joint angles 0: the reference
 configuration, world coordinates). Each solid is built from the same primitives as its STL
 (`synth.io.meshes.link_primitives`, `pin_primitives`): a round bar is its profile revolved about its
-segment, a hub or a pin part a cylinder, minus a cylinder per bore; exact cylinders and spheres where the
+segment, a hub a cylinder, minus a cylinder per bore, a pin (coaxial cylinders: shaft, head, groove) its
+stepped profile revolved, with no boolean; exact cylinders and spheres where the
 STL has facets, so the volumes agree to the facets' accuracy (under 1 %).
 
 Units: the solids are built in metres, the primitives' own unit, and the STEP writer converts them to the
