@@ -2,6 +2,7 @@
 STL's volume; nothing imported or written without the cad extra."""
 from __future__ import annotations
 
+import contextlib
 import re
 import subprocess
 import sys
@@ -149,6 +150,19 @@ def test_products_are_renamed_in_order_or_refused():
         step_mod.name_products(text, ["base", "pin_h1", "coupler"])
 
 
+@contextlib.contextmanager
+def _occ_model(name: str):
+    """gmsh initialised with an empty model ``name``: yields its OpenCASCADE kernel (finalised after)."""
+    gmsh = _kernel()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(name)
+        yield gmsh.model.occ
+    finally:
+        gmsh.finalize()
+
+
 def _cyl(a, b, r):
     return Primitive("cylinder", np.asarray(a, float), np.asarray(b, float), r)
 
@@ -164,17 +178,12 @@ def test_a_pin_is_its_profile_revolved_with_the_fused_volume():
     assert step_mod.coaxial_profile([shaft, _cyl([0, 0, 12], [0, 0, 13], 2.0)]) is None  # a gap
     assert step_mod.coaxial_profile([shaft, _cyl([0, 1e-3, 8], [0, 1e-3, 11], 2.0)]) is None  # off the axis
     assert step_mod.coaxial_profile([Primitive("capsule", shaft.p0, shaft.p1, 1.0), head]) is None
-    gmsh = _kernel()
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("pin")
-        tags = step_mod._occ_solids(gmsh.model.occ, [shaft, head], [], 1.0)
-        assert len(tags) == 1 and gmsh.model.occ.getMass(3, tags[0]) == pytest.approx(np.pi * (8 + 4 * 3), rel=1e-9)
-        gmsh.model.occ.synchronize()
-        assert {gmsh.model.getType(2, t) for _, t in gmsh.model.getEntities(2)} <= {"Cylinder", "Plane"}
-    finally:
-        gmsh.finalize()
+    with _occ_model("pin") as occ:
+        tags = step_mod._occ_solids(occ, [shaft, head], [], 1.0)
+        assert len(tags) == 1 and occ.getMass(3, tags[0]) == pytest.approx(np.pi * (8 + 4 * 3), rel=1e-9)
+        occ.synchronize()
+        model = step_mod.load_kernel().model
+        assert {model.getType(2, t) for _, t in model.getEntities(2)} <= {"Cylinder", "Plane"}
 
 
 def test_a_solid_in_more_pieces_than_the_mesh_is_refused():
@@ -182,17 +191,10 @@ def test_a_solid_in_more_pieces_than_the_mesh_is_refused():
     disjoint cylinders are two solids (accepted for 2 bodies, refused for 1)."""
     prims = [_cyl([0, 0, 0], [1, 0, 0], 0.1), _cyl([0, 0, 1], [1, 0, 1], 0.1)]  # parallel, 1 apart
     volume = 2 * np.pi * 0.01
-    gmsh = _kernel()
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("two")
-        occ = gmsh.model.occ
+    with _occ_model("two") as occ:
         assert len(step_mod._checked_solids(occ, prims, [], 1.0, volume, 2)) == 2
         with pytest.raises(RuntimeError, match="in 2 solids, not the mesh"):
             step_mod._checked_solids(occ, prims, [], 1.0, volume, 1)
-    finally:
-        gmsh.finalize()
 
 
 @pytest.mark.parametrize("revolved", [True, False])
@@ -201,15 +203,8 @@ def test_one_boolean_at_a_time_builds_the_same_link(revolved):
     hub with a bar ending in it, minus the bore, is one solid with the same volume either way."""
     prims = [_cyl([0, 0, -1], [0, 0, 1], 1.0), Primitive("capsule", np.zeros(3), np.array([5.0, 0, 0]), 0.8)]
     bores = [_cyl([0, 0, -1.5], [0, 0, 1.5], 0.4)]
-    gmsh = _kernel()
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("link")
-        occ = gmsh.model.occ
+    with _occ_model("link") as occ:
         batch, single = (step_mod._occ_solids(occ, prims, bores, 1.0, revolved, k) for k in (False, True))
         assert len(batch) == len(single) == 1
         assert occ.getMass(3, single[0]) == pytest.approx(occ.getMass(3, batch[0]), rel=1e-9)
         assert 2 * np.pi < occ.getMass(3, batch[0]) < 2 * np.pi + np.pi * 0.64 * 5  # the hub, plus part of the bar
-    finally:
-        gmsh.finalize()
