@@ -21,9 +21,14 @@ import numpy as np
 
 from synth.algebra.dq import pose_to_dq
 
-__all__ = ["Order", "Box", "Constraints", "PoseSet", "CurveSpec", "MotionSpec", "MAX_DEGREE"]
+__all__ = ["Order", "Box", "Constraints", "PoseSet", "CurveSpec", "MotionSpec", "MAX_DEGREE", "default_name"]
 
 MAX_DEGREE = 16  # of a curve component or a motion polynomial (`mpsynth curve`)
+
+
+def default_name(i: int) -> str:
+    """The name of item ``i`` of a task that names none: ``p<i>``."""
+    return f"p{i}"
 
 
 class Order(str, enum.Enum):

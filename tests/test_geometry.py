@@ -110,6 +110,21 @@ def test_joint_sites_mean_of_feet_else_nearest_point():
     assert np.allclose(sites, [[0, 0, 4], [3, 0, 4], [5, 0, 9]])
 
 
+def test_common_normal_of_nearly_parallel_lines_far_from_their_feet():
+    """Lines 6e-8 rad apart whose feet lie 7e7 out: the feet's difference cancels to ~1e-5 rad off the
+    true normal; the normal is u1 x u2 / |u1 x u2|, signed from foot 1 to foot 2 (a hypothesis example)."""
+    u1 = np.array([2.0**-9, 0, 1]) / np.linalg.norm([2.0**-9, 0, 1])
+    u2 = np.array([2.0**-9, 2.0**-24, 1]) / np.linalg.norm([2.0**-9, 2.0**-24, 1])
+    p2 = np.array([0, 4.25, 1.0])
+    cn = common_normal(u1, np.zeros(3), u2, np.cross(p2, u2))
+    assert np.abs(cn.feet).max() > 7e7
+    assert abs(cn.normal @ u1) < 1e-12 and abs(cn.normal @ u2) < 1e-12
+    assert cn.normal @ (cn.feet[1] - cn.feet[0]) > 0
+    c = np.cross(u1, u2)
+    assert cn.distance == pytest.approx(abs(p2 @ c) / np.linalg.norm(c), rel=1e-6)
+    assert cn.twist == pytest.approx(np.arcsin(np.linalg.norm(c)), rel=1e-6)
+
+
 # ----------------------------------------------------------------- properties
 unit = st.tuples(*[st.floats(-1, 1)] * 3).filter(lambda v: 0.1 < np.linalg.norm(v)).map(
     lambda v: np.array(v) / np.linalg.norm(v))

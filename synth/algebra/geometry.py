@@ -282,14 +282,19 @@ def _normals(UU, PP, c) -> CommonNormals:
     dt = np.empty((2,) + s2.shape)  # distance, twist
     dist = np.sqrt(dot(dv, dv), out=dt[0, ...])
     apart = dist > INTERSECT_TOL
-    if np.count_nonzero(apart) == apart.size:
-        n = dv / dist[..., None]
+    # Lines not parallel: the normal is c / |c|, signed from foot 1 to foot 2 (the feet's difference
+    # cancels when the feet lie far out along nearly parallel lines); parallel lines: the feet's difference.
+    nc = np.sqrt(s2)
+    signed = np.copysign(nc, dot(dv, c))
+    if not some_parallel and np.count_nonzero(apart) == apart.size:
+        n = c * (signed / s2)[..., None]
     else:  # intersecting lines: the normal of their plane (0 when they also coincide)
-        nc = np.sqrt(s2)[..., None]
-        n = np.where(apart[..., None], dv / np.where(apart, dist, 1.0)[..., None],
-                     np.where(nc > INTERSECT_TOL, c / np.where(nc > INTERSECT_TOL, nc, 1.0), 0.0))
+        signed = np.where(apart, signed, nc)
+        n = np.where((par & apart)[..., None], dv / np.where(apart, dist, 1.0)[..., None],
+                     np.where(nc[..., None] > INTERSECT_TOL, c * (signed / np.where(s2 > 0, s2, 1.0))[..., None], 0.0))
+        signed = dot(c, n)
     cosine = dot(u1, u2)
-    np.arctan2(dot(c, n), cosine, out=dt[1, ...])
+    np.arctan2(signed, cosine, out=dt[1, ...])
     return CommonNormals(feet=feet, distance_twist=dt, normal=n, cross=c, cosine=cosine, parallel=par,
                          some_parallel=some_parallel)
 

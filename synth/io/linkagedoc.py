@@ -11,6 +11,7 @@ from synth.algebra.fourbar_loop import FourBarLaw
 from synth.errors import InputError
 from synth.info import LinkageInfo
 from synth.linkage import Joint, Linkage, PoseRecord
+from synth.task import default_name
 
 
 def is_number(v) -> bool:
@@ -114,7 +115,7 @@ def linkage_from_document(doc: dict, where: str = "linkage.json") -> Linkage:
         poses = []
         for i, pd in enumerate(doc.get("poses", [])):
             t = pd.get("t", None)
-            poses.append(PoseRecord(str(pd.get("name", f"p{i}")), _arr(pd["matrix"], (4, 4), f"{where}: pose {i}"),
+            poses.append(PoseRecord(str(pd.get("name", default_name(i))), _arr(pd["matrix"], (4, 4), f"{where}: pose {i}"),
                                     float("inf") if t is None else _number(t, f"{where}: pose {i}: t"),
                                     {k: _number(v, f"{where}: pose {i}: joint angle {k}")
                                      for k, v in pd.get("joint_angles", {}).items()},

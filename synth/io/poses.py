@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from synth.errors import InputError
-from synth.task import PoseSet
+from synth.task import PoseSet, default_name
 from synth.io.docload import MAX_FILE_BYTES, MAX_POSES, json_object_pairs, load_document, quote_text, read_source
 from synth.io.constraints import parse_constraints
 from synth.io.taskspec import TOP_TASK_KEYS, task_fields
@@ -72,11 +72,6 @@ UNIT_KEYS = ("length", "angle")
 
 
 # ============================================================== the document
-
-def default_name(i: int) -> str:
-    """The name of item ``i`` of a task file that names none: ``p<i>``."""
-    return f"p{i}"
-
 
 def _count_spec(count) -> tuple[int, int | None, str | None]:
     """count: int | (int, label) | ((lo, hi), label) | (lo, hi) with hi None for 'at least'."""

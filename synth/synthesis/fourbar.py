@@ -20,7 +20,7 @@ from synth.synthesis.fourbar_dyads import FIT_GRID, FIT_ITERATIONS, FIT_SEEDS, t
 from synth.synthesis.fourbar_plane import plane_of_motion, with_velocities
 from synth.synthesis.fourbar_rank import best_distinct, judge, pairs, rejection_counts
 from synth.synthesis.taskfit import annotate, make_task
-from synth.task import Order
+from synth.task import Order, default_name
 
 MIN_TRANSMISSION_DEG = 40.0  # default lower bound of the transmission angle over the task range
 EXACT_TOL = 1e-9  # relative pose and closure error of an exact four-bar (times the pose spread)
@@ -91,7 +91,7 @@ def visit_order(fb, n: int) -> tuple:
 def fourbar(T, names=None, **options):
     """The best planar four-bar through the poses T (k, 4, 4), metres (`fourbar_candidates` with ``top=1``;
     ``options``: its keyword arguments)."""
-    names = list(names) if names is not None else [f"p{i}" for i in range(len(T))]
+    names = list(names) if names is not None else [default_name(i) for i in range(len(T))]
     return fourbar_candidates(T, names, top=1, **options)[0]
 
 

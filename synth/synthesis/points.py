@@ -32,6 +32,7 @@ from synth.synthesis.conic import Conditioning, to_world
 from synth.synthesis.pointfit import PointScan, rereference, scan
 from synth.synthesis.sixbar import CHECK_TOL, LOOP, checks_pass
 from synth.synthesis.sixbar_loops import SCORE_RULE, root_pairs, score_warnings
+from synth.task import default_name
 
 __all__ = ["bennett_points", "sixbar_points", "point_candidates", "prepare_points", "oriented_item", "PointTask",
            "NEEDED",
@@ -91,7 +92,7 @@ def prepare_points(points, names=None, *, degree: int, tool_rotation=None, orien
                          f"by the design search), got {k}")
     if not np.isfinite(P).all():
         raise InputError("the points contain NaN or infinity")
-    names = list(names) if names is not None else [f"p{i}" for i in range(k)]
+    names = list(names) if names is not None else [default_name(i) for i in range(k)]
     c = P.mean(axis=0)
     L = float(np.sqrt(np.mean(np.sum((P - c) ** 2, axis=-1))))
     i, j = np.triu_indices(k, 1)

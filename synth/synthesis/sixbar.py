@@ -38,6 +38,7 @@ from synth.synthesis.planar import zero_pitch
 from synth.synthesis.planar_sixbar import candidates as planar_candidates
 from synth.synthesis.sixbar_loops import (COND_WEIGHT, PART_KEYS, SCORE_RULE, MemberEval, evaluate_members,
                                           factor_members, root_pairs, score_warnings)
+from synth.task import default_name
 
 __all__ = ["COND_WEIGHT", "PART_KEYS", "SCORE_RULE", "Problem", "prepare", "scan", "sixbar", "sixbar_candidates",
            "build_linkage", "Candidate", "Ranking", "LOOP"]
@@ -96,7 +97,7 @@ def _checked(poses, names):
     T = np.asarray(poses, float)
     if T.shape != (4, 4, 4):
         raise InputError(f"a 6R linkage needs exactly 4 poses (array of shape (4, 4, 4)), got {T.shape}")
-    names = list(names) if names is not None else [f"p{i}" for i in range(4)]
+    names = list(names) if names is not None else [default_name(i) for i in range(4)]
     try:
         check_distinct(T, names)
     except SynthesisError as e:

@@ -16,7 +16,7 @@ from synth.errors import InputError, SynthesisError
 from synth.infoparts import FitRecord, FitSummary
 from synth.synthesis.bennett_core import ACCEPT_TOL
 from synth.synthesis.conditioning import transmission_problem
-from synth.task import Order, PoseSet
+from synth.task import Order, PoseSet, default_name
 
 __all__ = ["make_task", "check_fitted", "first_built", "annotate", "visits_in_order", "visiting_order", "tolerance_problem",
            "error_rows", "item_kinds", "item_tolerances", "select"]
@@ -152,7 +152,7 @@ def make_task(poses, names=None, tolerance=None, velocity=None, order=None) -> P
     if T.ndim != 3 or T.shape[1:] != (4, 4) or not np.all(np.isfinite(T)):
         raise InputError(f"poses must be a finite array of shape (N, 4, 4), got {T.shape}")
     n = len(T)
-    names = list(names) if names is not None else [f"p{i}" for i in range(n)]
+    names = list(names) if names is not None else [default_name(i) for i in range(n)]
     tol = None
     if tolerance is not None:
         tol = np.broadcast_to(np.asarray(tolerance, float), (n, 2)).copy()

@@ -63,7 +63,8 @@ from synth.info import FourBarRecord
 from synth.infoparts import document
 from synth.io.jsonout import linkage_document, plain
 from synth.io.names import safe_robot_name
-from synth.io.poses import default_name, parse_pose_document
+from synth.io.poses import parse_pose_document
+from synth.task import default_name
 from synth.io.writer import write_output
 from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_fourbar, solve_points, solve_sixbar
 from synth.solve.many import solve_bennett_many

@@ -51,6 +51,7 @@ from synth.io.readback import OutputFiles, read_files, solution_dirs
 from synth.tools.check.meshes import MeshChecks
 from synth.tools.check.structure import StructureChecks, matrix_or_none
 from synth.synthesis.conditioning import transmission_ratio
+from synth.task import default_name
 
 
 # ----------------------------------------------------------------------------- checker
@@ -129,7 +130,7 @@ class _Checker(StructureChecks, MeshChecks):
                 self.fail(f"{self.poses_file.source}: {len(file_T)} poses, linkage.json has {len(recs)}")
         pt = pr = ft = fr = ct = cr = 0.0
         for i, rec in enumerate(recs):
-            name = rec.get("name", f"p{i}")
+            name = rec.get("name", default_name(i))
             ang = rec.get("joint_angles")
             if not isinstance(ang, dict):
                 self.fail(f"linkage.json: pose {i} ({name}) has no joint_angles")
@@ -155,7 +156,7 @@ class _Checker(StructureChecks, MeshChecks):
                     ft, fr = max(ft, dt), max(fr, dr)
                     if dt > self.tol_len or dr > self.tol_ang:
                         names = getattr(self.poses_file, "names", None) or []
-                        fname = names[i] if i < len(names) else f"p{i}"
+                        fname = names[i] if i < len(names) else default_name(i)
                         self.fail(f"tool frame misses pose {i} ({fname}) of {self.poses_file.source} "
                                   f"by {dt:.3g} m, {dr:.3g} rad"
                                   + (f" (linkage.json calls pose {i} {name})" if fname != name else ""))
