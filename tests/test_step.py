@@ -2,6 +2,7 @@
 STL's volume; nothing imported or written without the cad extra."""
 from __future__ import annotations
 
+import contextlib
 import re
 import subprocess
 import sys
@@ -17,7 +18,7 @@ from conftest import REPO  # noqa: E402
 import synth  # noqa: E402
 from synth.design.choose import design_for  # noqa: E402
 from synth.io import step as step_mod  # noqa: E402
-from synth.io.meshes import pin_ends  # noqa: E402
+from synth.io.meshes import Primitive, pin_ends  # noqa: E402
 from synth.io.names import MESH_UNIT_SCALE  # noqa: E402
 from synth.io.poses import load_poses  # noqa: E402
 from synth.io.solid import read_stl_triangles, signed_volume  # noqa: E402
@@ -147,3 +148,63 @@ def test_products_are_renamed_in_order_or_refused():
     assert named.index("'pin_h1'") < named.index("'base'")  # by the translator's number, not file order
     with pytest.raises(ValueError):
         step_mod.name_products(text, ["base", "pin_h1", "coupler"])
+
+
+@contextlib.contextmanager
+def _occ_model(name: str):
+    """gmsh initialised with an empty model ``name``: yields its OpenCASCADE kernel (finalised after)."""
+    gmsh = _kernel()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(name)
+        yield gmsh.model.occ
+    finally:
+        gmsh.finalize()
+
+
+def _cyl(a, b, r):
+    return Primitive("cylinder", np.asarray(a, float), np.asarray(b, float), r)
+
+
+def test_a_pin_is_its_profile_revolved_with_the_fused_volume():
+    """Coaxial cylinders (shaft, head) make one profile: axial position and radius corners, from the axis
+    round to the axis; a gap, an end off the axis or another kind of primitive makes none."""
+    shaft, head = _cyl([0, 0, 0], [0, 0, 10], 1.0), _cyl([0, 0, 11], [0, 0, 8], 2.0)  # head reversed
+    o, d, prof = step_mod.coaxial_profile([shaft, head])
+    np.testing.assert_allclose(o, 0, atol=0)
+    np.testing.assert_allclose(d, [0, 0, 1])
+    np.testing.assert_allclose(prof, [[0, 0], [0, 1], [8, 1], [8, 2], [11, 2], [11, 0]], atol=1e-12)
+    assert step_mod.coaxial_profile([shaft, _cyl([0, 0, 12], [0, 0, 13], 2.0)]) is None  # a gap
+    assert step_mod.coaxial_profile([shaft, _cyl([0, 1e-3, 8], [0, 1e-3, 11], 2.0)]) is None  # off the axis
+    assert step_mod.coaxial_profile([Primitive("capsule", shaft.p0, shaft.p1, 1.0), head]) is None
+    with _occ_model("pin") as occ:
+        tags = step_mod._occ_solids(occ, [shaft, head], [], 1.0)
+        assert len(tags) == 1 and occ.getMass(3, tags[0]) == pytest.approx(np.pi * (8 + 4 * 3), rel=1e-9)
+        occ.synchronize()
+        model = step_mod.load_kernel().model
+        assert {model.getType(2, t) for _, t in model.getEntities(2)} <= {"Cylinder", "Plane"}
+
+
+def test_a_solid_in_more_pieces_than_the_mesh_is_refused():
+    """`_checked_solids` keeps a B-rep part only with the STL's volume in the STL's number of bodies: two
+    disjoint cylinders are two solids (accepted for 2 bodies, refused for 1)."""
+    prims = [_cyl([0, 0, 0], [1, 0, 0], 0.1), _cyl([0, 0, 1], [1, 0, 1], 0.1)]  # parallel, 1 apart
+    volume = 2 * np.pi * 0.01
+    with _occ_model("two") as occ:
+        assert len(step_mod._checked_solids(occ, prims, [], 1.0, volume, 2)) == 2
+        with pytest.raises(RuntimeError, match="in 2 solids, not the mesh"):
+            step_mod._checked_solids(occ, prims, [], 1.0, volume, 1)
+
+
+@pytest.mark.parametrize("revolved", [True, False])
+def test_one_boolean_at_a_time_builds_the_same_link(revolved):
+    """The fallback of `_checked_solids` (a fuse per primitive, a cut per bore) gives the batch's solid: a
+    hub with a bar ending in it, minus the bore, is one solid with the same volume either way."""
+    prims = [_cyl([0, 0, -1], [0, 0, 1], 1.0), Primitive("capsule", np.zeros(3), np.array([5.0, 0, 0]), 0.8)]
+    bores = [_cyl([0, 0, -1.5], [0, 0, 1.5], 0.4)]
+    with _occ_model("link") as occ:
+        batch, single = (step_mod._occ_solids(occ, prims, bores, 1.0, revolved, k) for k in (False, True))
+        assert len(batch) == len(single) == 1
+        assert occ.getMass(3, single[0]) == pytest.approx(occ.getMass(3, batch[0]), rel=1e-9)
+        assert 2 * np.pi < occ.getMass(3, batch[0]) < 2 * np.pi + np.pi * 0.64 * 5  # the hub, plus part of the bar

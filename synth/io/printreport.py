@@ -68,7 +68,7 @@ def _down_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     out = []
     for chunk in np.array_split(n, max(1, len(n) // 512)):
         proj = vertices @ chunk.T  # (v, c)
-        on = np.isclose(proj, proj.max(axis=0), atol=1e-9 * size, rtol=0).sum(axis=0) >= 3
+        on = (np.abs(proj - proj.max(axis=0)) <= 1e-9 * size).sum(axis=0) >= 3  # (np.isclose, rtol 0)
         out.append(chunk[on])
     return np.concatenate(out)
 

@@ -5,7 +5,8 @@ One solid per link with joints and per pin, named as in the URDF (``base``, ``li
 ``pin_<joint>``), in millimetres, at the home configuration (all joint angles 0: the reference
 configuration, world coordinates). Each solid is built from the same primitives as its STL
 (`synth.io.meshes.link_primitives`, `pin_primitives`): a round bar is its profile revolved about its
-segment, a hub or a pin part a cylinder, minus a cylinder per bore; exact cylinders and spheres where the
+segment, a hub a cylinder, minus a cylinder per bore, a pin (coaxial cylinders: shaft, head, groove) its
+stepped profile revolved, with no boolean; exact cylinders and spheres where the
 STL has facets, so the volumes agree to the facets' accuracy (under 1 %).
 
 Units: the solids are built in metres, the primitives' own unit, and the STEP writer converts them to the
@@ -37,7 +38,7 @@ from synth.design.model import capsules
 from synth.io.meshes import link_primitives, pin_primitives
 from synth.io.names import MESH_UNIT_SCALE, pin_link_name
 from synth.io import interrupts
-from synth.io.solid import signed_volume
+from synth.io.solid import shell_count, signed_volume
 
 STEP_FILE = "linkage.step"
 
@@ -135,11 +136,54 @@ def _occ_balls(occ, a, b, r, spheres) -> list[int]:
     return tags
 
 
-def _occ_solids(occ, prims, bores, scale: float, revolved: bool = True) -> list[int]:
+def coaxial_profile(prims) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The union of ``prims`` as a solid of revolution, when every one is a cylinder on one axis line
+    (a pin: shaft, head, groove) and they leave no gap along it: (origin (3,), unit direction (3,),
+    profile (k, 2) of (axial position, radius) corners from the axis round to the axis). None otherwise."""
+    if not prims or any(p.kind != "cylinder" for p in prims):
+        return None
+    o = np.asarray(prims[0].p0, float)
+    d = np.asarray(prims[0].p1, float) - o
+    d /= np.linalg.norm(d)
+    ends = np.array([[p.p0, p.p1] for p in prims], float)  # (n, 2, 3)
+    s = (ends - o) @ d
+    size = max(float(np.ptp(s)), max(p.radius for p in prims))
+    if np.abs(ends - o - s[..., None] * d).max() > 1e-9 * size:  # an end off the axis line
+        return None
+    lo, hi = s.min(axis=1), s.max(axis=1)
+    cuts = np.unique(s)
+    mid = (cuts[:-1] + cuts[1:]) / 2
+    r = np.array([max((p.radius for p, a, b in zip(prims, lo, hi) if a < m < b), default=0.0) for m in mid])
+    if not r.all():  # a gap: pieces, not one solid of revolution
+        return None
+    keep = np.r_[True, r[1:] != r[:-1]]  # steps of the radius
+    starts, radii = cuts[:-1][keep], r[keep]
+    corners = [(cuts[0], 0.0)] + [(x, q) for a, b, q in zip(starts, np.r_[starts[1:], cuts[-1]], radii)
+                                  for x in (a, b)] + [(cuts[-1], 0.0)]
+    return o, d, np.array(corners)
+
+
+def _occ_revolution(occ, origin, direction, profile, scale: float) -> int:
+    """The gmsh volume of the `coaxial_profile` (times ``scale``) revolved a full turn about its axis:
+    cylinders and flat rings, no boolean."""
+    n = np.cross(direction, [1.0, 0, 0] if abs(direction[0]) < 0.9 else [0, 1.0, 0])
+    n /= np.linalg.norm(n)
+    pts = [occ.addPoint(*((origin + s * direction + r * n) * scale)) for s, r in profile]
+    loop = occ.addCurveLoop([occ.addLine(pts[k], pts[(k + 1) % len(pts)]) for k in range(len(pts))])
+    out = occ.revolve([(2, occ.addPlaneSurface([loop]))], *(origin * scale), *direction, 2 * np.pi)
+    return next(t for dim, t in out if dim == 3)
+
+
+def _occ_solids(occ, prims, bores, scale: float, revolved: bool = True, one_by_one: bool = False) -> list[int]:
     """The gmsh volume tags of the union of ``prims`` minus the union of ``bores`` (times ``scale``): one
     volume, or several where the bores cut the union apart (as they cut the STL's mesh: a bar thinner
     than a bore running along that bore's axis). Round bars revolved (`_occ_capsule`) or, not
-    ``revolved``, cylinders and balls (`_occ_balls`). RuntimeError when nothing is left."""
+    ``revolved``, cylinders and balls (`_occ_balls`). ``one_by_one``: a boolean per primitive and per bore
+    (slower; OpenCASCADE's batch of nearly tangent hubs and bars can leave nothing where the sequence does
+    not). RuntimeError when nothing is left."""
+    profile = None if bores or len(prims) < 2 else coaxial_profile(prims)
+    if profile is not None:  # a pin: its profile revolved, no fuse (whose cost is the same as a link's)
+        return [_occ_revolution(occ, *profile, scale)]
     tags, spheres = [], []
     for p in prims:
         a, b = np.asarray(p.p0) * scale, np.asarray(p.p1) * scale
@@ -150,15 +194,14 @@ def _occ_solids(occ, prims, bores, scale: float, revolved: bool = True) -> list[
             tags.append(occ.addCylinder(*a, *(b - a), r))
         else:
             tags += [_occ_capsule(occ, a, b, r)] if revolved else _occ_balls(occ, a, b, r, spheres)
-    body = [(3, tags[0])]
-    if len(tags) > 1:
-        body, _ = occ.fuse(body, [(3, t) for t in tags[1:]])
-    if bores:
-        cuts = []
-        for p in bores:
-            a, b = np.asarray(p.p0) * scale, np.asarray(p.p1) * scale
-            cuts.append((3, occ.addCylinder(*a, *(b - a), p.radius * scale)))
-        body, _ = occ.cut(body, cuts)
+    body, step = [(3, tags[0])], 1 if one_by_one else max(len(tags), 1)
+    for k in range(1, len(tags), step):
+        body, _ = occ.fuse(body, [(3, t) for t in tags[k : k + step]])
+    cuts = [(3, occ.addCylinder(*(np.asarray(p.p0) * scale), *((np.asarray(p.p1) - p.p0) * scale), p.radius * scale))
+            for p in bores]
+    step = 1 if one_by_one else max(len(cuts), 1)
+    for k in range(0, len(cuts), step):
+        body, _ = occ.cut(body, cuts[k : k + step]) if body else (body, None)
     if not body:
         raise RuntimeError("the B-rep boolean left no solid")
     return [t for _, t in body]
@@ -208,28 +251,43 @@ def name_products(text: str, names: list[str]) -> str:
 VOLUME_TOLERANCE = 0.02  # relative: a B-rep solid's volume against its faceted STL's (measured: +0.3 to +0.7 %)
 
 
-def _checked_solids(occ, prims, bores, scale: float, volume: float | None) -> list[int]:
-    """`_occ_solids` with revolved round bars, else with cylinders and balls, whichever first gives the
-    ``volume`` (the STL's, in the model's unit; None: unchecked) within `VOLUME_TOLERANCE`: OpenCASCADE's booleans of
-    solids whose faces coincide or touch (the balls of a cranked bar's segments, a bar's rims) may fail
-    or lose pieces without a word. RuntimeError when neither does."""
+def _checked_solids(occ, prims, bores, scale: float, volume: float | None, bodies: int | None = None) -> list[int]:
+    """`_occ_solids` with revolved round bars, else with cylinders and balls, then both again one boolean at
+    a time (measured: 2 of 20 README jobs' bases, a hub 0.9 times the bar's radius), whichever first gives the
+    ``volume`` (the STL's, in the model's unit; None: unchecked) within `VOLUME_TOLERANCE` in as many solids
+    as the STL has ``bodies`` (None: unchecked): OpenCASCADE's booleans of solids whose faces coincide or
+    touch (the balls of a cranked bar's segments, a bar's rims) may fail, lose pieces or leave a sliver
+    solid (a bore through a bar's rim: measured on 3 of 20 README jobs, whose STEP model then failed as a
+    whole) without a word. RuntimeError when none does."""
     got = []
-    for revolved in (True, False):
+    for revolved, one_by_one in ((True, False), (False, False), (True, True), (False, True)):
+        before = set(occ.getEntities(3))
         try:
-            tags = _occ_solids(occ, prims, bores, scale, revolved)
+            tags = _occ_solids(occ, prims, bores, scale, revolved, one_by_one)
         except Exception:  # noqa: BLE001  (gmsh reports a failed boolean as a bare Exception)
+            occ.remove(sorted(set(occ.getEntities(3)) - before), recursive=True)  # what it left half done
             continue
         total = sum(occ.getMass(3, t) for t in tags)
-        if volume is None or abs(total / volume - 1) <= VOLUME_TOLERANCE:
+        if (volume is None or abs(total / volume - 1) <= VOLUME_TOLERANCE) and bodies in (None, len(tags)):
             return tags
-        got.append(total)
+        got.append(f"{total} in {len(tags)} solids")
         occ.remove([(3, t) for t in tags], recursive=True)
-    raise RuntimeError(f"the B-rep booleans gave volumes {got}, not the mesh's {volume} (model units cubed)")
+    raise RuntimeError(f"the B-rep booleans gave volumes {', '.join(got) or 'none'}, not the mesh's {volume} "
+                       f"(model units cubed){f' in {bodies} solids' if bodies is not None else ''}")
 
 
-def step_text(linkage, design, volumes: dict | None = None) -> str:
+def mesh_figures(solids: dict) -> tuple[dict, dict]:
+    """({URDF link: volume mm^3}, {URDF link: separate bodies}) of the meshes ``solids`` {URDF link:
+    `synth.io.solid.Solid`, metres}: what `step_text` checks each B-rep solid against."""
+    return ({n: signed_volume(m.triangles) / MESH_UNIT_SCALE ** 3 for n, m in solids.items()},
+            {n: shell_count(m.faces) for n, m in solids.items()})
+
+
+def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None = None) -> str:
     """The ``linkage.step`` file of ``linkage`` with its physical ``design`` (see the module docstring);
-    ``volumes`` {URDF link: mm^3}: the STL solids' volumes each B-rep solid is checked against. Imports gmsh (ImportError without the ``cad`` extra); RuntimeError when a boolean fails."""
+    ``volumes`` {URDF link: mm^3} and ``bodies`` {URDF link: count}: the STL solids' volumes and pieces each
+    B-rep solid is checked against (`mesh_figures`). Imports gmsh (ImportError without the ``cad`` extra);
+    RuntimeError when a boolean fails."""
     gmsh = load_kernel()
     if gmsh is None:
         raise ImportError("linkage.step needs gmsh: pip install 'mpsynth[cad]'")
@@ -247,7 +305,8 @@ def step_text(linkage, design, volumes: dict | None = None) -> str:
         gmsh.model.add("linkage")
         occ = gmsh.model.occ
         want = {name: v * to_model for name, v in (volumes or {}).items()}  # m^3
-        pieces = {name: _checked_solids(occ, prims, bores, scale, want.get(name)) for name, (prims, bores) in parts.items()}
+        pieces = {name: _checked_solids(occ, prims, bores, scale, want.get(name), (bodies or {}).get(name))
+                  for name, (prims, bores) in parts.items()}
         try:
             occ.synchronize()
         except Exception as e:  # noqa: BLE001  (a boolean that failed above may surface only here, bare)
@@ -292,9 +351,8 @@ def write_step(job, directory: Path) -> list[Path]:
     output's geometry: an optional format does not fail a run; `mpsynth export OUT --step` says why)."""
     if job.result is None or not have_kernel():  # kinematic outputs only: no design, no solids
         return []
-    volumes = {n: signed_volume(m.triangles) / MESH_UNIT_SCALE ** 3 for n, m in job.solids.items()}
     try:
-        text = step_text(job.linkage, job.result.design, volumes)
+        text = step_text(job.linkage, job.result.design, *mesh_figures(job.solids))
     except RuntimeError:
         return []
     (Path(directory) / STEP_FILE).write_text(text, encoding="ascii")

@@ -14,9 +14,7 @@ from synth.errors import InputError, SynthesisError
 from synth.io.atomic import atomic_write, owned_files, write_manifest
 from synth.io.readback import read_output, solution_dirs
 from synth.io.meshes import design_solids
-from synth.io.names import MESH_UNIT_SCALE
-from synth.io.solid import signed_volume
-from synth.io.step import STEP_FILE, have_kernel, step_text
+from synth.io.step import STEP_FILE, have_kernel, mesh_figures, step_text
 
 
 def export_step(out) -> list[Path]:
@@ -37,8 +35,7 @@ def export_step(out) -> list[Path]:
             raise InputError(f"{rb.root / 'linkage.json'}: unreadable 'design' section ({e})") from None
         solids = design_solids(rb.linkage, design)
         try:
-            text = step_text(rb.linkage, design, {n: signed_volume(m.triangles) / MESH_UNIT_SCALE ** 3
-                                                  for n, m in solids.items()})
+            text = step_text(rb.linkage, design, *mesh_figures(solids))
         except RuntimeError as e:
             raise SynthesisError(f"{rb.root}: no linkage.step: {e}") from None
         path = rb.root / STEP_FILE
