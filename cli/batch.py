@@ -10,9 +10,7 @@ import click
 
 from synth.errors import InputError, OutputError
 from synth.io.docload import open_lines, read_chunks
-from synth.tools import cluster
 from synth.tools.batchjobs import IDLE_SECONDS, Stopped, default_chunksize, run_batch, worker_count
-from synth.tools.resultstable import ResultsTable
 
 from . import signals
 from .common import debug_option, echo, nonempty_path, run_guarded
@@ -132,6 +130,8 @@ def batch(jobs_file, workers, out_dir, chunksize, full, no_design, scheduler, re
     if scheduler is not None and not scheduler.strip():
         raise InputError("--scheduler: give an address (tcp://host:8786) or 'local'")
     stream, total = open_lines(jobs_file)
+    if results_file:  # (pyarrow only for --results)
+        from synth.tools.resultstable import ResultsTable
     table = ResultsTable(results_file, avoid=(jobs_file,)) if results_file else contextlib.nullcontext()
     client = answers = None
     start = time.monotonic()
@@ -151,6 +151,8 @@ def batch(jobs_file, workers, out_dir, chunksize, full, no_design, scheduler, re
                                     jobs=workers, full=full, initializer=signals.batch_worker, out_dir=out_dir,
                                     stop=stopper and stopper.requested, design=not no_design, keep=bool(results_file))
             else:
+                from synth.tools import cluster  # (Dask's modules only for --scheduler)
+
                 client = cluster.connect(scheduler.strip(), workers)
                 where = f"{cluster.worker_threads(client)} Dask workers"
                 size = chunksize or default_chunksize(cluster.worker_threads(client), total)

@@ -1,6 +1,7 @@
 """The `mpsynth` command: a click group whose subcommands are imported only when run (fast --help)."""
 from __future__ import annotations
 
+import gc
 import importlib
 import importlib.util
 import sys
@@ -46,7 +47,11 @@ class LazyGroup(click.Group):
         if name not in COMMANDS or not _available(COMMANDS[name][0]):
             return None
         module, func = COMMANDS[name][0].split(":")
-        return getattr(importlib.import_module(module), func)
+        command = getattr(importlib.import_module(module), func)
+        if not gc.isenabled():  # (cli/__init__.py: off while the modules loaded)
+            gc.freeze()
+            gc.enable()
+        return command
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         """click's main, but usage errors (bad option values, missing arguments, unknown commands) are

@@ -118,7 +118,7 @@ def batch_worker(parent: int) -> None:
     import ctypes.util
     import os
 
-    from synth.tools.batchjobs import prepare_worker
+    from synth.tools.workerpool import prepare_worker
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda signum, frame: os._exit(128 + signum))

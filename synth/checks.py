@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,7 +18,9 @@ from synth.algebra.algorithm1 import identity
 from synth.algebra.dq import dot, dq_mul, dq_right_matrix, pose_to_dq
 from synth.algebra.geometry import chord_angle, dq_pose_difference, pose_difference, pose_difference_squares
 from synth.algebra.polynomial import evaluate, exponents, product_of_linear
-from synth.linkage import Linkage
+
+if TYPE_CHECKING:  # (annotations only: the batch's chunk path runs without the Linkage modules)
+    from synth.linkage import Linkage
 
 _E0 = np.eye(8)[0]
 _EPS = float(np.finfo(float).eps)

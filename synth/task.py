@@ -24,6 +24,8 @@ from synth.algebra.dq import pose_to_dq
 __all__ = ["Order", "Box", "Constraints", "PoseSet", "CurveSpec", "MotionSpec", "MAX_DEGREE", "default_name"]
 
 MAX_DEGREE = 16  # of a curve component or a motion polynomial (`mpsynth curve`)
+NEEDED = {2: 5, 3: 7}  # points that fix a point task's motion of degree 2, 3 up to its free parameters (docs/points.md)
+MINIMUM = {2: 3, 3: 4}  # fewest points a point task of degree 2, 3 accepts (the rest is chosen: `synth.synthesis.points`)
 
 
 def default_name(i: int) -> str:

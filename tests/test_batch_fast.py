@@ -197,3 +197,52 @@ def test_a_signal_while_waiting_on_stdin_stops_the_batch_at_once(args, sig, code
     finally:
         p.kill()
         p.wait()
+
+
+def test_result_lines_without_dicts_are_the_dict_paths_bytes():
+    """Issue #36, fifth pass: `run_chunk_lines` without ``keep`` writes the batched successes from columns
+    (`batchjobs._success_lines`), the same bytes and codes as the result dicts through `dumps`; ids of
+    every kind a line may carry."""
+    lines = mixed_lines(80, seed=11)
+    rnd = random.Random(5)
+    for k, jid in enumerate(["a\u00e9", "q\"x", 2.5, -0.0, 10**30, "%s{0}", None, 7]):
+        job = readme_job(rnd, k)
+        job["id"] = jid
+        lines.append(json.dumps(job))
+    expected = run_chunk(list(enumerate(lines, 1)), False, None)
+    got = run_chunk_lines((1, [s.encode() for s in lines]), False, None)
+    assert got.results is None
+    assert got.text == "".join(dumps(r) + "\n" for r in expected)
+    assert got.codes == [None if r.get("skipped") else 0 if r["ok"] else r["exit_code"] for r in expected]
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(allow_nan=False, allow_infinity=False), max_size=12))
+def test_float_texts_are_json_dumps_texts(values):
+    from synth.tools.resultlines import float_texts
+
+    assert float_texts(values) == [json.dumps(x) for x in values]
+
+
+NUMBER_FORMS = (repr, lambda x: "%.17g" % x, lambda x: "%.25f" % x, lambda x: "%.3e" % x, lambda x: "%.40g" % x,
+                lambda x: "%.1f" % x)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.floats(-179.9, 179.9, allow_subnormal=True), min_size=18, max_size=18),
+       st.lists(st.sampled_from(range(len(NUMBER_FORMS))), min_size=18, max_size=18), st.booleans())
+def test_numbers_in_any_form_read_as_the_full_reader_reads_them(values, forms, compact):
+    """Issue #36, fifth pass: a line is read by orjson only where it is orjson's own text but for spaces
+    (`jobspec._canonical`); numbers written any other way go to the json module: the same bits either way,
+    and README's lines (json.dumps) take the orjson path."""
+    texts = [NUMBER_FORMS[f](v) for f, v in zip(forms, values)]
+    poses = ", ".join('{"position": [%s, %s, %s], "rpy": [%s, %s, %s]}' % tuple(texts[6 * k: 6 * k + 6]) for k in range(3))
+    line = '{"id": 3, "kind": "bennett", "units": {"length": "mm", "angle": "deg"}, "poses": [%s]}' % poses
+    if compact:
+        line = line.replace(", ", ",").replace(": ", ":")
+    got = assert_as_the_full_reader([line])
+    assert got.index == ([0] if full_reader(line) is not None else [])
+    from synth.tools import jobspec
+
+    readme = json.dumps(readme_job(random.Random(len(line)), 1))
+    assert jobspec._orjson is None or jobspec._canonical(readme) == json.loads(readme)

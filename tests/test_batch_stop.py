@@ -123,7 +123,7 @@ class _Worker:
 
 
 def test_a_pool_whose_terminate_hangs_on_a_worker_is_shut_down_by_killing_it(monkeypatch):
-    from synth.tools import batchjobs
+    from synth.tools import workerpool as batchjobs
 
     monkeypatch.setattr(batchjobs, "TERMINATE_SECONDS", 0.2)
     done, stuck = _Worker(stuck=False), _Worker(stuck=True)
@@ -133,7 +133,7 @@ def test_a_pool_whose_terminate_hangs_on_a_worker_is_shut_down_by_killing_it(mon
 
 
 def test_a_pool_that_stays_stuck_is_left_unjoined(monkeypatch):
-    from synth.tools import batchjobs
+    from synth.tools import workerpool as batchjobs
 
     monkeypatch.setattr(batchjobs, "TERMINATE_SECONDS", 0.1)
     pool = _StuckPool([_Worker(stuck=True)])

@@ -372,10 +372,10 @@ def test_batch_workers_die_with_a_killed_parent(tmp_path):
                          env=dict(os.environ, PYTHONPATH=str(REPO)), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     t0 = time.monotonic()
     family: set[int] = set()
-    while time.monotonic() - t0 < 60 and len([q for q in family if _alive(q)]) < 3:
-        family |= _descendants(p.pid)
+    while time.monotonic() - t0 < 60 and len([q for q in family if _alive(q)]) < 2:  # the two workers (forked
+        family |= _descendants(p.pid)  # from the batch process on Linux; elsewhere a fork server's children too)
         time.sleep(0.05)
-    assert len(family) >= 3, "the pool did not start"
+    assert len(family) >= 2, "the pool did not start"
     p.send_signal(signal.SIGKILL)
     p.wait()
     deadline = time.monotonic() + 20

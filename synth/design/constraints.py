@@ -30,6 +30,7 @@ from synth.algebra.geometry import line_box_distance, spread
 from synth.design.collision import even_samples, t_of_phi
 from synth.design.model import capsules
 from synth.design.search import task_phi_range
+from synth.design.sizes import EXTENT_FACTOR
 from synth.drive import base_joints, driver_joint, speed_ratio, task_range, with_driver
 from synth.errors import SynthesisError
 from synth.linkage import Linkage
@@ -38,7 +39,6 @@ from synth.task import Box, Constraints
 __all__ = ["Violation", "default_max_extent", "compact_first", "kinematic_violations", "admissible",
            "envelope_excess", "envelope_violation", "refusal"]
 
-EXTENT_FACTOR = 100.0  # default --max-extent: this many times the task's spread
 BOX_TOL = 1e-9  # an axis within this fraction of the linkage's extent of the box passes through it
 ENVELOPE_SAMPLES = 48  # samples per joint over the task range for the envelope
 COMPACT_FACTOR = 3.0  # with limits (constraints, --max-extent): candidates up to this many times the smallest first

@@ -15,6 +15,7 @@ from synth.errors import InputError
 
 SIZE_RANGE = (1e-6, 10.0)  # explicit part sizes relative to the extent
 MIN_EXTENT = 1e-5  # metres (10 µm): the smallest linkage whose meshes are built
+EXTENT_FACTOR = 100.0  # default --max-extent: this many times the task's spread (`synth.design.constraints`)
 SIZE_KEYS = ("pin_radius", "link_radius", "pin_length")
 CLEARANCE_KEYS = ("clearance", "hole_clearance")
 

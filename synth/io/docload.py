@@ -363,21 +363,39 @@ def read_chunks(stream, size: int, max_bytes: int = 1 << 20, idle: float | None 
             break
         pieces = block.split(b"\n")
         last = len(pieces) - 1
-        for k, piece in enumerate(pieces):
+        k = 0
+        while k < last:
+            if not held and not over:  # whole lines, none over the limit, that fit the chunk: at once
+                run = pieces[k : min(last, k + size - len(lines))]
+                lengths = list(map(len, run))
+                total = nbytes + sum(lengths) + len(run)
+                if max(lengths) <= limit and total < max_bytes:
+                    lines += run
+                    nbytes, k = total, k + len(run)
+                    if len(lines) >= size:
+                        yield first, lines
+                        first, lines, nbytes = first + len(lines), [], 0
+                    continue
+            piece = pieces[k]  # a line's last piece, one at a time
             if not over:
                 held_len += len(piece)
                 if held_len > limit:
                     over, held = True, []
                 else:
                     held.append(piece)
-            if k == last:
-                break
             lines.append(None if over else held[0] if len(held) == 1 else b"".join(held))
             nbytes += held_len + 1
             held, held_len, over = [], 0, False
+            k += 1
             if len(lines) >= size or nbytes >= max_bytes:
                 yield first, lines
                 first, lines, nbytes = first + len(lines), [], 0
+        if not over:  # the start of the next line
+            held_len += len(pieces[last])
+            if held_len > limit:
+                over, held = True, []
+            else:
+                held.append(pieces[last])
     if over or held_len:
         lines.append(None if over else b"".join(held))
     if lines:

@@ -22,14 +22,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.checks import VERIFY_SAMPLES, as_checks, check_figures
-from synth.design.constraints import EXTENT_FACTOR
+from synth.design.sizes import EXTENT_FACTOR
 from synth.algebra.dq import pose_to_dq
 from synth.algebra.geometry import extent, joint_sites, spread
 from synth.blas import one_blas_thread
 from synth.errors import InputError
-from synth.synthesis.bennett import transmission_refusal
 from synth.synthesis.bennett_core import ACCEPT_TOL, JOINTS, LOOP, STRUCTURE, acceptance_error, axis_distance, solve
-from synth.synthesis.conditioning import TRANSMISSION_LIMIT, worst_pairs
+from synth.synthesis.conditioning import TRANSMISSION_LIMIT, transmission_refusal, worst_pairs
 
 BENNETT_PAIRS = ((0, 2), (0, 1), (2, 3), (1, 3))  # joints h1 h2 k1 k2 carried by one link (base, link_h1, link_k1, coupler)
 MARGIN = 0.5  # a set is decided here only with every gate's figure below MARGIN times its limit
@@ -45,7 +44,7 @@ class BennettSummaries:
     ``extent`` (N,) m; ``bennett``: a, alpha, b, beta (m, rad) of the loop h1 h2 k2 k1; ``refused`` (N,)
     bool: decided sets that `solve_bennett` refuses at the transmission gate, with ``worst`` = (ratio,
     faster joint, slower joint) (N,) arrays (`synth.synthesis.conditioning.worst_pairs`; joints index
-    JOINTS) for its message (`synth.synthesis.bennett.transmission_refusal`)."""
+    JOINTS) for its message (`synth.synthesis.conditioning.transmission_refusal`)."""
 
     decided: np.ndarray  # (N,) bool
     extent: np.ndarray
@@ -68,10 +67,16 @@ class BennettSummaries:
         """The Bennett parameters a, alpha, b, beta of decided set n (floats)."""
         return {k: float(self.bennett[k][n]) for k in PARAMETERS}
 
+    def columns(self, index) -> tuple[dict, dict]:
+        """(`checks`, `parameters`) of the decided sets ``index`` (a list) as columns: dicts of arrays (n,)
+        (or the scalars every row has, e.g. ``samples``), in the order of `checks` and `parameters`."""
+        checks = as_checks({k: v[index] for k, v in self.figures.items()}, VERIFY_SAMPLES, self.extent[index])
+        return checks, {k: self.bennett[k][index] for k in PARAMETERS}
+
     def rows(self, index) -> tuple[list, list]:
         """(`checks`, `parameters`) of the decided sets ``index`` (a list), at once: lists of dicts."""
-        checks = as_checks({k: v[index] for k, v in self.figures.items()}, VERIFY_SAMPLES, self.extent[index])
-        return _rows(checks, len(index)), _rows({k: self.bennett[k][index] for k in PARAMETERS}, len(index))
+        checks, parameters = self.columns(index)
+        return _rows(checks, len(index)), _rows(parameters, len(index))
 
 
 def _rows(columns: dict, n: int) -> list:

@@ -272,7 +272,7 @@ def solve_fourbar(ps, options: SynthesisOptions = SynthesisOptions(), *, min_tra
 
 def point_count(degree: int):
     """The count spec of a point file for `synth.io.poses.parse_pose_document` (``points=``)."""
-    from synth.synthesis.points import MINIMUM, NEEDED
+    from synth.task import MINIMUM, NEEDED
 
     return (MINIMUM[degree], NEEDED[degree]), POINT_COMMAND[degree]
 

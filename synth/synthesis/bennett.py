@@ -18,8 +18,7 @@ import numpy as np
 
 from synth.algebra.algorithm1 import index_pairs
 from synth.algebra.dq import dq_right_matrix, factor_lines, pose_to_dq
-from synth.algebra.geometry import (cross, dh_parameters, pose_difference, ring_normals, rotation_about_axis,
-                                    rotation_angle)
+from synth.algebra.geometry import cross, dh_parameters, pose_difference, ring_normals, rotation_about_axis
 from synth.algebra.factorize import factorize
 from synth.checks import BOUND_CHECK_SAMPLES, DEFAULT_CHECK_SAMPLES, VERIFY_SAMPLES, as_checks, self_check
 from synth.errors import InputError, NotGenericError, SynthesisError
@@ -28,7 +27,8 @@ from synth.infoparts import BennettParameters, DHRow, StudyForm
 from synth.synthesis.assemble import two_branch_linkage
 from synth.synthesis.bennett_core import (ACCEPT_TOL, EPS, FLOOR_ULPS, TS, acceptance_error, axis_distance,
                                           bennett_parameters, factor_sets, solve)
-from synth.synthesis.conditioning import TRANSMISSION_LIMIT, transmission_sentence, worst_pair
+from synth.synthesis.conditioning import (TRANSMISSION_LIMIT, near_degenerate, near_relations, pose_spread,
+                                          transmission_refusal, worst_pair)
 from synth.synthesis.conic import (Conditioning, condition, conditioning, conic, relative_displacements,
                                    position_spread, to_world)
 from synth.synthesis.planar import zero_pitch
@@ -36,7 +36,7 @@ from synth.synthesis.planar_bennett import accepted_error
 from synth.synthesis.planar_bennett import candidates as planar_candidates
 
 __all__ = ["bennett", "bennett_candidates", "per_set_candidates", "verify", "check_distinct", "check_transmission",
-           "transmission_refusal", "sensitivity",
+           "sensitivity",
            "perturbed_poses", "dh_table", "bennett_parameters_of", "EPS", "FLOOR_ULPS", "ACCEPT_TOL"]
 
 COINCIDENT_TOL = 1e-9  # relative to the pose spread (translation) and radians (rotation)
@@ -50,7 +50,7 @@ def check_distinct(T, names, tol=COINCIDENT_TOL):
     """Refuse coincident poses (k, 4, 4) with a message naming them: translations within ``tol`` of
     the RMS spread of the positions and rotations within ``tol`` radians."""
     T = np.asarray(T, float)
-    L = _spread(T)
+    L = pose_spread(T)
     i, j = index_pairs(len(T))
     dt, dr = pose_difference(T[i], T[j])
     same = ((dt <= tol * L) & (dr <= tol)) | ((dt == 0) & (dr <= tol))
@@ -162,12 +162,6 @@ def check_transmission(linkage) -> None:
         raise SynthesisError(transmission_refusal(T, [p.name for p in linkage.poses], rho, fast, slow))
 
 
-def transmission_refusal(T, names, rho: float, fast: str, slow: str) -> str:
-    """`check_transmission`'s message for poses T (3, 4, 4) named ``names`` whose linkage's joint ``fast``
-    turns ``rho`` times faster than joint ``slow`` somewhere (`synth.synthesis.conditioning.worst_pairs`)."""
-    return transmission_sentence(rho, fast, slow) + _near_degenerate(T, names, _spread(T))
-
-
 def linkage_from_solution(out, i: int, T, names, check_samples: int, perturbed: dict | None = None):
     """The `Linkage` of set i of a `synth.synthesis.bennett_core.solve` result (checks and info from
     its arrays). ``perturbed``: ``good`` and ``factors`` of `perturbed_poses` (T) (`factor_sets`), when
@@ -250,40 +244,10 @@ def _accept(linkage, cond, rel) -> float:
         T = np.array([p.matrix for p in linkage.poses])
         names = [p.name for p in linkage.poses]
         raise SynthesisError(
-            f"the poses are too close to a degenerate configuration{_near_degenerate(T, names, float(cond.scale))}: the "
+            f"the poses are too close to a degenerate configuration{near_degenerate(T, names, float(cond.scale))}: the "
             f"linkage computed in double precision misses them by {rel:.1e} (relative; at most {ACCEPT_TOL:g} "
             "is accepted), so no reliable linkage can be given; move the poses further apart")
     return rel
-
-
-def _near_degenerate(T, names, spread) -> str:
-    """' (poses i and j ...)' naming the pair of poses closest to a degenerate relation, or ''."""
-    found = _near_relations(T, names, spread)
-    if sum(1 for k, _ in found if k == 2) == 3:
-        return " (the three poses are nearly related by planar motions)"
-    return f" ({min(found)[1]})" if found else ""
-
-
-def _near_relations(T, names, spread) -> list[tuple[int, str]]:
-    """(kind, text) for each pair of poses nearly coinciding (0), nearly related by a pure translation
-    (1) or by a pure rotation (2), within 1e-3 (relative); the text says by how much."""
-    found = []
-    for i, j in ((0, 1), (0, 2), (1, 2)):
-        R = T[j, :3, :3] @ T[i, :3, :3].T
-        d = T[j, :3, 3] - R @ T[i, :3, 3]
-        ang = float(rotation_angle(R))
-        w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-        along = abs(float(np.dot(d, w / np.linalg.norm(w)))) if np.linalg.norm(w) > 1e-300 else 0.0
-        trans = float(np.linalg.norm(d)) / spread
-        pair = f"poses {i} ({names[i]!r}) and {j} ({names[j]!r})"
-        if ang < 1e-3 and trans < 1e-3:
-            found.append((0, f"{pair} nearly coincide (they differ by {max(ang, trans):.1e}, relative)"))
-        elif ang < 1e-3:
-            found.append((1, f"{pair} differ by nearly a pure translation (rotation {ang:.1e} rad)"))
-        elif along / spread < 1e-3 * max(ang, 1e-300) or along / spread < 1e-6:
-            found.append((2, f"{pair} differ by nearly a pure rotation (translation along the axis "
-                             f"{along / spread:.1e}, relative)"))
-    return found
 
 
 def perturbed_poses(T, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int = 0) -> np.ndarray:
@@ -293,14 +257,8 @@ def perturbed_poses(T, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int 
     apply the same motions to the conditioned poses' dual quaternions, `_small_motion_matrices`.)"""
     T = np.asarray(T, float)
     M = _small_motions(eps, seed, trials).copy()  # (trials, 3, 4, 4), translations of unit length
-    M[..., :3, 3] *= _spread(T)
+    M[..., :3, 3] *= pose_spread(T)
     return T @ M
-
-
-def _spread(T) -> float:
-    """RMS distance of the positions of poses (k, 4, 4) from their centroid, at least 1e-300
-    (`synth.synthesis.conic.position_spread`)."""
-    return max(float(position_spread(T)[1]), 1e-300)
 
 
 def sensitivity(linkage, eps: float = SENSITIVITY_EPS, trials: int = 2, seed: int = 0, solved=None,
@@ -385,7 +343,7 @@ def _general_factors(T, names):
     try:
         con = conic(D)
     except SynthesisError as e:
-        close = [text for kind, text in _near_relations(T, names, float(cond.scale)) if kind == 0]
+        close = [text for kind, text in near_relations(T, names, float(cond.scale)) if kind == 0]
         if close:  # the Study form of nearly equal poses vanishes quadratically: say what really happens
             raise SynthesisError(f"{close[0]}: the conic through them is numerically degenerate (poses "
                                  "1e-3 apart, relative, are needed); give three clearly distinct poses") from e

@@ -17,6 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from synth.algebra.geometry import rotation_angle
+from synth.synthesis.conic import position_spread
+
 TRANSMISSION_LIMIT = 1e4  # largest accepted speed ratio of two joints anywhere in the cycle (module docstring)
 
 
@@ -82,3 +85,45 @@ def transmission_problem(linkage, limit: float = TRANSMISSION_LIMIT) -> str | No
     if rho <= limit:
         return None
     return transmission_sentence(rho, fast, slow, limit)
+
+
+def transmission_refusal(T, names, rho: float, fast: str, slow: str) -> str:
+    """`synth.synthesis.bennett.check_transmission`'s message for poses T (3, 4, 4) named ``names`` whose
+    linkage's joint ``fast`` turns ``rho`` times faster than joint ``slow`` somewhere (`worst_pairs`)."""
+    return transmission_sentence(rho, fast, slow) + near_degenerate(T, names, pose_spread(T))
+
+
+def near_degenerate(T, names, spread) -> str:
+    """' (poses i and j ...)' naming the pair of poses closest to a degenerate relation, or ''."""
+    found = near_relations(T, names, spread)
+    if sum(1 for k, _ in found if k == 2) == 3:
+        return " (the three poses are nearly related by planar motions)"
+    return f" ({min(found)[1]})" if found else ""
+
+
+def near_relations(T, names, spread) -> list[tuple[int, str]]:
+    """(kind, text) for each pair of poses nearly coinciding (0), nearly related by a pure translation
+    (1) or by a pure rotation (2), within 1e-3 (relative); the text says by how much."""
+    found = []
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        R = T[j, :3, :3] @ T[i, :3, :3].T
+        d = T[j, :3, 3] - R @ T[i, :3, 3]
+        ang = float(rotation_angle(R))
+        w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+        along = abs(float(np.dot(d, w / np.linalg.norm(w)))) if np.linalg.norm(w) > 1e-300 else 0.0
+        trans = float(np.linalg.norm(d)) / spread
+        pair = f"poses {i} ({names[i]!r}) and {j} ({names[j]!r})"
+        if ang < 1e-3 and trans < 1e-3:
+            found.append((0, f"{pair} nearly coincide (they differ by {max(ang, trans):.1e}, relative)"))
+        elif ang < 1e-3:
+            found.append((1, f"{pair} differ by nearly a pure translation (rotation {ang:.1e} rad)"))
+        elif along / spread < 1e-3 * max(ang, 1e-300) or along / spread < 1e-6:
+            found.append((2, f"{pair} differ by nearly a pure rotation (translation along the axis "
+                             f"{along / spread:.1e}, relative)"))
+    return found
+
+
+def pose_spread(T) -> float:
+    """RMS distance of the positions of poses (k, 4, 4) from their centroid, at least 1e-300
+    (`synth.synthesis.conic.position_spread`)."""
+    return max(float(position_spread(T)[1]), 1e-300)

@@ -32,15 +32,13 @@ from synth.synthesis.conic import Conditioning, to_world
 from synth.synthesis.pointfit import PointScan, rereference, scan
 from synth.synthesis.sixbar import CHECK_TOL, LOOP, checks_pass
 from synth.synthesis.sixbar_loops import SCORE_RULE, root_pairs, score_warnings
-from synth.task import default_name
+from synth.task import MINIMUM, NEEDED, default_name
 
 __all__ = ["bennett_points", "sixbar_points", "point_candidates", "prepare_points", "oriented_item", "PointTask",
            "NEEDED",
            "MINIMUM", "KINDS", "SCORE_RULE"]
 
 KINDS = {2: "bennett", 3: "6r"}
-NEEDED = {2: 5, 3: 7}  # points that fix the motion up to its free parameters
-MINIMUM = {2: 3, 3: 4}  # fewest points accepted (the rest is chosen)
 COINCIDENT_TOL = 1e-9  # relative to the points' RMS spread
 COLLINEAR_TOL = 1e-9
 MAX_ATTEMPTS = 8

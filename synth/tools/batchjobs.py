@@ -48,28 +48,20 @@ from __future__ import annotations
 
 import collections
 import contextlib
-import importlib
+import gc
+import json
 import multiprocessing
 import os
-import sys
-import threading
 from dataclasses import dataclass
 from typing import Any, Iterable, Iterator
 
 import numpy as np
 
 from synth.errors import MpsynthError, SynthesisError
-from synth.info import FourBarRecord
-from synth.infoparts import document
-from synth.io.jsonout import linkage_document, plain
-from synth.io.names import safe_robot_name
-from synth.io.poses import parse_pose_document
 from synth.task import default_name
-from synth.io.writer import write_output
-from synth.solve import DesignOptions, SynthesisOptions, solve_bennett, solve_fourbar, solve_points, solve_sixbar
 from synth.solve.many import solve_bennett_many
-from synth.synthesis.points import MINIMUM, NEEDED
-from synth.tools.resultlines import dumps, dumps_lines  # noqa: F401 (dumps: the API of this module too)
+from synth.tools.resultlines import dumps, dumps_lines, float_texts  # (dumps: the API of this module too)
+from synth.tools.workerpool import pool_context, prepare_worker, terminate_pool, worker_count  # noqa: F401
 from synth.tools.jobspec import (DEGREES, KINDS, SIZE_KEYS, TASK_KEYS, JobError, check_job, echo_id, is_task_job,
                                  one_line_message, parse_job, prepare_out, read_common_bennett, resolve_out)
 
@@ -78,8 +70,12 @@ JOB_SOURCE = "poses"  # a job's poses as messages name them
 PIPE_CHUNK = 256  # jobs per chunk from a pipe (an unknown count: some chunks for every worker)
 
 
-def _synthesize(kind: str, ps, options: SynthesisOptions):
-    """The job's Result: the entry point the CLI calls for the same task (`synth.solve`)."""
+def _synthesize(kind: str, ps, options):
+    """The job's Result: the entry point the CLI calls for the same task (`synth.solve`; imported at the
+    first job that needs it, like every module of the per-job path: `mpsynth batch`'s start-up imports the
+    chunk path only)."""
+    from synth.solve import solve_bennett, solve_fourbar, solve_points, solve_sixbar
+
     if kind == "fourbar":
         return solve_fourbar(ps, options)
     if kind == "bennett" or ps.has_points:
@@ -107,7 +103,7 @@ class _Job:
     result: dict
     job: dict
     ps: Any
-    design: DesignOptions
+    design: Any  # synth.solve.DesignOptions
     out_path: str | None
     created: list
 
@@ -130,6 +126,10 @@ def _read_job(item, out_dir, defer_out: bool = False) -> _Job | dict | None:
             return None
         doc = {k: job[k] for k in ("poses", "points", "units", "quaternion_order") + TASK_KEYS if k in job}
         kind = job["kind"]
+        from synth.io.poses import parse_pose_document
+        from synth.solve import DesignOptions
+        from synth.task import MINIMUM, NEEDED
+
         try:
             out_path = resolve_out(job["out"], out_dir) if "out" in job else None
             if out_path is not None:
@@ -150,6 +150,8 @@ def _read_job(item, out_dir, defer_out: bool = False) -> _Job | dict | None:
 def _solve_job(j: _Job, full: bool, design: bool = True) -> dict:
     """The result of a checked job: the synthesis (`synth.solve`), OUT written when asked for (with the
     physical design, or with ``design`` False the kinematic outputs only)."""
+    from synth.solve import SynthesisOptions
+
     job, result = j.job, j.result
     with _one_result(result, j.created):
         kind = job["kind"]
@@ -158,6 +160,9 @@ def _solve_job(j: _Job, full: bool, design: bool = True) -> dict:
                                                               best_effort=bool(job.get("best_effort", False))))
             linkage, out = solved.linkage, None
             if "out" in job:
+                from synth.io.names import safe_robot_name
+                from synth.io.writer import write_output
+
                 name = job.get("name") or safe_robot_name(str(result["id"]) if result["id"] is not None else "")
                 write_output(linkage, j.out_path, robot_name=name, force=bool(job.get("force", False)),
                              result=solved.design)
@@ -199,6 +204,10 @@ def _batchable(j: _Job, full: bool) -> bool:
 
 
 def _success(kind: str, linkage, out, full: bool) -> dict:
+    from synth.info import FourBarRecord
+    from synth.infoparts import document
+    from synth.io.jsonout import linkage_document, plain
+
     b, f, s = linkage.info.bennett, linkage.info.fit, linkage.info.synthesis
     res = _success_fields(kind, len(linkage.joints), float(linkage.extent()), linkage.checks, out,
                           {"a": b.a, "alpha": b.alpha, "b": b.b, "beta": b.beta} if b else None,
@@ -215,9 +224,11 @@ def _success(kind: str, linkage, out, full: bool) -> dict:
     return res
 
 
-def _success_fields(kind: str, joints: int, extent: float, checks, out, bennett=None, fit=None, clean=plain) -> dict:
+def _success_fields(kind: str, joints: int, extent: float, checks, out, bennett=None, fit=None, clean=None) -> dict:
     """The fields of a successful result line, in their order (``clean``: how nested values become plain
-    JSON values; `_solve_many` passes plain floats already)."""
+    JSON values, default `synth.io.jsonout.plain`; `_solve_many` passes plain floats already)."""
+    if clean is None:
+        from synth.io.jsonout import plain as clean
     res = {"ok": True, "kind": kind, "joints": joints, "extent": extent, "extent_unit": "m",
            "checks": clean(dict(checks)), "out": out}
     if bennett is not None:
@@ -244,10 +255,11 @@ def run_chunk(chunk, full: bool, out_dir, design: bool = True) -> list[dict]:
     return list(chunk_results(chunk, full, out_dir, design))
 
 
-def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) -> Iterator[dict]:
+def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None, lines: bool = False) -> Iterator:
     """`run_chunk`'s results as they are ready (the batched jobs first, at once); ``stop``: as `run_jobs`,
     asked before every result. The lines of the common Bennett shape are read for the whole chunk at once
-    (`synth.tools.jobspec.read_common_bennett`), the others one by one (`_read_job`)."""
+    (`synth.tools.jobspec.read_common_bennett`), the others one by one (`_read_job`). ``lines``: the
+    successes of the batched jobs come as their result lines (str, `_success_lines`), not dicts."""
     common = read_common_bennett([text for _, text in chunk]) if not full else None
     read: list = [None] * len(chunk)
     if common is not None:
@@ -259,25 +271,31 @@ def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None) ->
     fast = [n for n, j in enumerate(read) if isinstance(j, _Job) and _batchable(j, full)]
     if common is not None and (fast or common.index):  # (fast: never with full, as common)
         T = np.concatenate([common.poses] + [read[n].ps.matrices[None] for n in fast])
+        rendered = {} if lines else None
         done = _solve_many(T, [read[n] for n in common.index] + [read[n].result for n in fast],
-                           [[default_name(i) for i in range(3)]] * len(common.index) + [read[n].ps.names for n in fast])
+                           [[default_name(i) for i in range(3)]] * len(common.index) + [read[n].ps.names for n in fast],
+                           rendered)
         for n, ok in zip(fast, done[len(common.index):]):
             if ok:
                 read[n].ps = None  # decided: its result is complete
         for n, ok in zip(common.index, done):
             if not ok:
                 read[n] = None  # undecided: the per-job path, at its turn
+        where = common.index + fast  # (the sets of T, in order)
+        for k, text in (rendered or {}).items():
+            read[where[k]] = text
     for item, j in zip(chunk, read):
         if stop is not None and stop():
             raise Stopped
-        yield (run_job(item, full, out_dir, design) if j is None else j if isinstance(j, dict) else
+        yield (run_job(item, full, out_dir, design) if j is None else j if isinstance(j, (dict, str)) else
                j.result if j.ps is None else _solve_job(j, full, design))
 
 
-def _solve_many(T, results: list, names: list) -> list:
+def _solve_many(T, results: list, names: list, lines: dict | None = None) -> list:
     """Which of the three-pose Bennett sets T (n, 3, 4, 4) `solve_bennett_many` decides (a list of bools):
     the result dict of each such set (``results[n]``, poses named ``names[n]``) completed with its success
-    fields or its refusal; the others are left as they are."""
+    fields or its refusal; the others are left as they are. ``lines`` (a dict): a success with finite
+    figures goes there instead, as its result line (``lines[n]``: `dumps`' text, `_success_lines`)."""
     try:
         many = solve_bennett_many(T)
     except Exception:  # (never: the per-job path then gives every job its own result)
@@ -285,10 +303,13 @@ def _solve_many(T, results: list, names: list) -> list:
     index = np.flatnonzero(many.decided & ~many.refused).tolist()
     finite = np.isfinite(many.extent) & np.all([np.isfinite(v) for v in (*many.figures.values(), *many.bennett.values())],
                                                axis=0)
+    if lines is not None:
+        lines.update(_success_lines(many, [n for n in index if finite[n]], results))
+        index = [n for n in index if not finite[n]]
     checks, parameters = many.rows(index)
     for n, c, b in zip(index, checks, parameters):  # (finite: plain floats, as `plain` leaves them)
         results[n].update(_success_fields("bennett", 4, c["length_scale"], c, None, b,
-                                          clean=_same if finite[n] else plain))
+                                          clean=_same if finite[n] else None))
     for n in np.flatnonzero(many.refused).tolist():  # `solve_bennett`'s SynthesisError, as `_solve_job` words it
         message = f"{JOB_SOURCE}: {many.refusal(n, T[n], names[n])}"
         results[n].update({"ok": False, "exit_code": SynthesisError.exit_code, "error": one_line_message(message)})
@@ -297,6 +318,34 @@ def _solve_many(T, results: list, names: list) -> list:
 
 def _same(x):
     return x
+
+
+def _success_lines(many, index: list, results: list) -> dict:
+    """{n: result line} of the decided successful sets ``index`` (finite figures) of `solve_bennett_many`'s
+    ``many``, each the text `dumps` gives for ``results[n]`` (id, line) completed by `_success_fields`:
+    the fields' layout from that function (one `json.dumps` of the fields with a marker in every value
+    that varies), the floats a column at a time (`synth.tools.resultlines.float_texts`)."""
+    if not index:
+        return {}
+    checks, parameters = many.columns(index)
+    columns: list = []
+
+    def mark(values):  # a column's place in the layout (scalars every row has stay in it)
+        if not isinstance(values, np.ndarray):
+            return values
+        columns.append(float_texts(values.tolist()))
+        return f"@@{len(columns) - 1}@@"
+
+    marked = {k: mark(v) for k, v in checks.items()}
+    fields = _success_fields("bennett", 4, marked["length_scale"], marked, None,
+                             {k: mark(v) for k, v in parameters.items()}, clean=_same)
+    layout = json.dumps({"id": "@@id@@", "line": "@@line@@", **fields}, separators=(",", ":"), allow_nan=False)
+    layout = layout.replace("{", "{{").replace("}", "}}").replace('"@@id@@"', "{0}").replace('"@@line@@"', "{1}")
+    for k in range(len(columns)):  # (a column may have several places: the extent is the length scale)
+        layout = layout.replace(f'"@@{k}@@"', f"{{{k + 2}}}")
+    ids = [results[n]["id"] for n in index]
+    ids = [str(i) if type(i) is int else json.dumps(i) for i in ids]
+    return {n: layout.format(i, results[n]["line"], *row) for n, i, *row in zip(index, ids, *columns)}
 
 
 def chunks(items, size: int, max_bytes: int = 1 << 20):
@@ -322,26 +371,10 @@ def default_chunksize(workers: int, total: int | None) -> int:
     return max(1, min(MAX_CHUNK, total // (8 * max(workers, 1))))
 
 
-def worker_count(requested: int, total: int | None) -> int:
-    """Worker processes actually used for ``requested`` (0: one per CPU): at most the CPUs this
-    process may run on and the number of jobs (when known), at least 1."""
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        cpus = os.cpu_count() or 1
-    n = cpus if requested == 0 else min(requested, cpus)
-    if total is not None:
-        n = min(n, total)
-    return max(1, n)
-
-
 class Stopped(Exception):
     """``run_jobs`` gave up because its ``stop()`` said so (the caller's request, e.g. a signal)."""
 
 
-PRELOAD = (__name__, "synth.synthesis.sixbar")  # what a worker needs, imported by the fork server (a missing
-# optional module is skipped there); without it each worker imported them itself: README's 20,000 jobs took
-# longer with -j 2 than with -j 1 on the loaded 2-core machine
 POLL_SECONDS = 0.1  # how often a waiting `run_jobs` asks ``stop()`` (a reaction time, not a work budget)
 IDLE_SECONDS = 0.05  # a pipe without input this long: answer what was read (`synth.io.docload.read_chunks`)
 
@@ -365,9 +398,19 @@ def run_chunk_lines(chunk, full: bool, out_dir, design: bool = True, keep: bool 
     if isinstance(chunk, tuple):
         first, raw = chunk
         chunk = [(first + i, None if b is None else b.decode("utf-8", "replace")) for i, b in enumerate(raw)]
-    results = run_chunk(chunk, full, out_dir, design)
-    return ChunkLines(dumps_lines(results), [None if r.get("skipped") else 0 if r["ok"] else r["exit_code"]
-                                             for r in results], results if keep else None)
+    if keep:
+        results = run_chunk(chunk, full, out_dir, design)
+        return ChunkLines(dumps_lines(results), [_code(r) for r in results], results)
+    results = list(chunk_results(chunk, full, out_dir, design, lines=True))  # (successes as their lines)
+    if all(type(r) is str for r in results):
+        return ChunkLines("\n".join(results) + "\n" if results else "", [0] * len(results))
+    return ChunkLines("".join((r if type(r) is str else dumps(r)) + "\n" for r in results),
+                      [0 if type(r) is str else _code(r) for r in results])
+
+
+def _code(result: dict):
+    """A result's code in `ChunkLines.codes`: 0 ok, the exit code of a failed job, None a skipped line."""
+    return None if result.get("skipped") else 0 if result["ok"] else result["exit_code"]
 
 
 def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializer=None, stop=None,
@@ -389,11 +432,13 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
             if chunk is not None:
                 yield run_chunk_lines(chunk, full, out_dir, design, keep)
         return
-    ctx = multiprocessing.get_context("forkserver" if os.name == "posix" else "spawn")
-    if os.name == "posix":  # the fork server imports the batch once; each worker forks with it imported
-        ctx.set_forkserver_preload(list(PRELOAD))
+    ctx = pool_context()
     before = set(multiprocessing.active_children())
-    pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
+    gc.freeze()  # (forked workers: the collector never visits, so never copies, the pages of what is imported)
+    try:
+        pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
+    finally:
+        gc.unfreeze()
     workers = [p for p in multiprocessing.active_children() if p not in before]  # (no replacements: no maxtasks)
     pending: collections.deque = collections.deque()
 
@@ -425,28 +470,6 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
     pool.join()
 
 
-TERMINATE_SECONDS = 2.0  # how long a pool's terminate may take before its workers are killed (a shutdown bound)
-
-
-def terminate_pool(pool, workers) -> bool:
-    """``pool.terminate()``, bounded: when the pool still waits for a worker after `TERMINATE_SECONDS`
-    (seen once in ~175 stops of a loaded machine here and once in CI: it then waited for good), the
-    workers still running are killed (SIGKILL) and the terminate is given as long again. ``workers``:
-    the pool's processes. Returns whether the pool is shut down and joined."""
-    done = threading.Thread(target=pool.terminate, name="terminate-pool", daemon=True)
-    done.start()
-    done.join(TERMINATE_SECONDS)
-    if done.is_alive():
-        for w in workers:
-            if w.exitcode is None:
-                w.kill()
-        done.join(TERMINATE_SECONDS)
-    if done.is_alive():
-        return False
-    pool.join()
-    return True
-
-
 def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = False,
              total: int | None = None, out_dir=None, initializer=None, stop=None,
              design: bool = True) -> Iterator[dict]:
@@ -469,36 +492,3 @@ def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = Fa
                 if stop():
                     raise Stopped
                 yield res
-
-
-class _QuietWhenOrphaned:
-    """A worker's stderr that drops what is written once the batch process is gone (a result sent to a
-    dead parent is a BrokenPipeError traceback nobody asked for); else the real stream."""
-
-    def __init__(self, stream, parent: int):
-        self.stream, self.parent = stream, parent
-
-    def write(self, text):
-        try:
-            os.kill(self.parent, 0)
-        except ProcessLookupError:
-            return len(text)
-        except OSError:
-            pass
-        return self.stream.write(text)
-
-    def __getattr__(self, name):
-        return getattr(self.stream, name)
-
-
-def prepare_worker(parent: int | None = None) -> None:
-    """A pool worker's set-up: its stderr goes quiet once the batch process ``parent`` is gone, and the
-    optional sixbar synthesis is imported once (bennett and the pose reader come with this module). The
-    command line adds its signal policy (cli/signals.py `batch_worker`: ^C ignored, SIGTERM a quiet
-    exit, killed with its parent); the library installs no handler."""
-    if parent is not None and sys.stderr is not None:
-        sys.stderr = _QuietWhenOrphaned(sys.stderr, parent)
-    try:
-        importlib.import_module("synth.synthesis.sixbar")
-    except ImportError:
-        pass

@@ -32,6 +32,7 @@ import contextlib
 import logging
 import os
 import socket
+import sys
 import uuid
 from typing import Iterator
 
@@ -53,11 +54,19 @@ class ClusterError(MpsynthError):
 # the worker's statistical profiler samples the task's stack every 10 ms from the worker's event loop, taking
 # the GIL from the task: CPU of a chunk of 1,024 README jobs in a Dask worker against a multiprocessing pool
 # worker, same machine, same run (loaded): 0.71-0.92 s against 0.59 s with it, 0.61-0.70 s against
-# 0.54-0.62 s without it. A local cluster's workers run without it, and start from a fork server (which has
-# imported distributed, numpy and Dask's other packages once) instead of each a new interpreter importing
-# them: a one-job run with --scheduler local -j 2 took 5.3 s of wall time against 7.3 s (load ~19, 2 CPUs).
+# 0.54-0.62 s without it. A local cluster's workers run without it, and start from a process that has imported
+# distributed, numpy and Dask's other packages once instead of each a new interpreter importing them: a
+# one-job run with --scheduler local -j 2 took 5.3 s of wall time from a fork server against 7.3 s (load ~19).
+# Dask's nannies also start their workers with MALLOC_TRIM_THRESHOLD_=65536 (memory back to the system at once):
+# glibc then maps and unmaps a chunk's numpy temporaries again and again; a chunk of 1,024 README jobs took
+# ~80,000 page faults and 0.25-0.30 s of CPU (0.15-0.18 s of it system time) in a local worker against 0.06 s
+# in the batch process. A local cluster's workers keep glibc's defaults (None unsets the variable).
+# On Linux the workers are forked from this process (a method Dask offers: "fork"), which has imported
+# distributed and the batch already: the cluster started in 0.26-0.35 s against 1.3-1.6 s from the fork
+# server (2 workers, load ~6.5, distributed imported before either).
 LOCAL_WORKER_CONFIG = {"distributed.worker.profile.enabled": False,
-                       "distributed.worker.multiprocessing-method": "forkserver"}
+                       "distributed.worker.multiprocessing-method": "fork" if sys.platform.startswith("linux") else "forkserver",
+                       "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
 
 
 def dask_config():

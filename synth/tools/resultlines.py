@@ -61,6 +61,16 @@ def _orjson_line(result: dict) -> str | None:
     return None if out is None or _orjson_differs(out) else out.decode("ascii")
 
 
+def float_texts(values: list) -> list[str]:
+    """The JSON texts of finite floats as ``json.dumps`` writes them (``float.__repr__``): by orjson for the
+    whole list at once where its text is provably the same (`_orjson_differs`), else one by one."""
+    if _orjson is not None and values:
+        out = _orjson.dumps(values)
+        if not _orjson_differs(out):
+            return out[1:-1].decode("ascii").split(",")
+    return [float.__repr__(x) for x in values]
+
+
 def dumps_lines(results) -> str:
     """The result lines of ``results``, each ending in a newline: ``"".join(dumps(r) + "\n" ...)``, checked
     as one text when orjson wrote them all."""

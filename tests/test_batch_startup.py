@@ -1,0 +1,61 @@
+"""Issue #36, fifth pass: `mpsynth batch`'s start-up. The command imports the chunk path only (the per-job
+path's modules, the design search, the writers and Dask come with the first job or option that needs
+them), and `-j N`'s workers are forked from the batch process when it runs one thread (no second
+interpreter importing the batch again)."""
+from __future__ import annotations
+
+import json
+import random
+import subprocess
+import sys
+import threading
+
+import pytest
+
+from synth.tools import workerpool as batchjobs
+
+from conftest import REPO
+from test_batch_chunks import readme_job
+
+# modules the chunk path of README's Bennett jobs does not need (each was imported at start-up before)
+NOT_AT_START = ("synth.solve.tasks", "synth.design.constraints", "synth.design.search", "synth.io.writer",
+                "synth.io.poses", "synth.synthesis.bennett", "synth.linkage", "synth.tools.cluster",
+                "synth.tools.resultstable", "distributed", "pyarrow", "scipy", "sympy", "trimesh")
+
+
+def test_the_batch_command_imports_the_chunk_path_only():
+    code = ("import sys, cli.batch, synth.tools.batchjobs; "
+            f"print(sorted(m for m in {NOT_AT_START!r} if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_the_per_job_path_imports_what_it_needs_when_it_runs():
+    job = json.dumps({**readme_job(random.Random(1), 0), "name": "r0"})  # (a name: the per-job path)
+    code = ("import sys; from synth.tools.batchjobs import run_job; r = run_job((1, sys.argv[1])); "
+            "print(r['ok'], 'synth.solve.tasks' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code, job], cwd=REPO, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["True", "True"], out.stdout + out.stderr
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fork is the Linux choice")
+def test_workers_fork_from_a_single_threaded_process_only():
+    if threading.active_count() == 1:
+        assert batchjobs.pool_context().get_start_method() == "fork"
+    done = threading.Event()
+    other = threading.Thread(target=done.wait)
+    other.start()
+    try:
+        assert batchjobs.pool_context().get_start_method() == "forkserver"
+    finally:
+        done.set()
+        other.join()
+
+
+def test_the_collector_is_off_only_while_the_programs_modules_load():
+    code = ("import sys, gc; sys.argv[0] = sys.argv[1]; import cli; off = not gc.isenabled(); "
+            "from cli.main import mpsynth; from click.testing import CliRunner; "
+            "CliRunner().invoke(mpsynth, ['batch', '--help']); print(off, gc.isenabled())")
+    for argv0, off in (("/venv/bin/mpsynth", "True"), ("notebook.py", "False")):
+        out = subprocess.run([sys.executable, "-c", code, argv0], cwd=REPO, capture_output=True, text=True, check=True)
+        assert out.stdout.split() == [off, "True"], out.stdout + out.stderr
