@@ -4,6 +4,7 @@ that need it skip cleanly without it, the others run on a plain copy of the repo
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -13,6 +14,12 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 VERIFIER = REPO.parent / "shared" / "tools" / "verify_output.py"
+
+# A shell without job control starts its background commands with SIGINT ignored (POSIX), and an ignored
+# signal stays ignored in every child: the tests of ^C would then see nothing arrive. The suite runs as if
+# started in the foreground: Python's own handler here, so the command lines the tests start get the default.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def run(*args, input=None):
