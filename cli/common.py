@@ -259,6 +259,8 @@ def emit(result, output: Output, details=None) -> None:
     linkage.json on stdout with --json."""
     from synth.io.jsonout import linkage_document
     from synth.io.printreport import print_notes
+    from synth.io.step import STEP_FILE
+    from synth.io.step import missing_sentence as step_missing
     from synth.io.writer import write_output
 
     linkage, design, scale, unit = result.linkage, result.design, result.scale, result.unit
@@ -287,7 +289,10 @@ def emit(result, output: Output, details=None) -> None:
         if files is not None:
             n_pin = sum(1 for f in files if f.name.startswith("pin_") and str(f).endswith(".stl"))
             n_mesh = sum(1 for f in files if str(f).endswith(".stl")) - n_pin
-            echo(f"  wrote {output.dir}/: linkage.urdf, linkage.json, {n_mesh} link meshes and {n_pin} pins in meshes/")
+            step = ", linkage.step" if any(f.name == STEP_FILE for f in files) else ""
+            echo(f"  wrote {output.dir}/: linkage.urdf, linkage.json{step}, {n_mesh} link meshes and {n_pin} pins in meshes/")
+            if design is not None and (missing := step_missing(files)):
+                echo(f"  warning: {missing}")
             for line in print_notes(output.dir):
                 echo(f"  print: {line}")
         elif not output.as_json:

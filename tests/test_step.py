@@ -118,6 +118,25 @@ def test_export_step_writes_it_for_an_existing_output(tmp_path):
     assert "linkage.step" in (out / ".mpsynth-output").read_text()
 
 
+def test_the_summary_names_linkage_step_or_warns_that_it_is_missing(tmp_path, monkeypatch):
+    _kernel()
+    from cli.main import mpsynth as cli
+
+    fixture = str(REPO / "fixtures/bennett_mm_deg.yaml")
+    r = CliRunner().invoke(cli, ["bennett", fixture, "-o", str(tmp_path / "a")])
+    assert r.exit_code == 0 and "linkage.json, linkage.step, 4 link meshes" in r.output
+    assert "no linkage.step" not in r.output
+
+    def failing(*args, **kwargs):
+        raise RuntimeError("a boolean failed")
+
+    monkeypatch.setattr(step_mod, "step_text", failing)
+    r = CliRunner().invoke(cli, ["bennett", fixture, "-o", str(tmp_path / "b")])
+    assert r.exit_code == 0 and not (tmp_path / "b" / "linkage.step").exists()
+    assert "linkage.json, 4 link meshes" in r.output
+    assert "warning: no linkage.step: OpenCASCADE could not build every part" in r.output
+
+
 def test_without_the_extra_nothing_is_written_and_export_says_why(tmp_path, monkeypatch):
     from cli.main import mpsynth as cli
 

@@ -71,6 +71,15 @@ def have_kernel() -> bool:
     return load_kernel() is not None
 
 
+def missing_sentence(files) -> str | None:
+    """The summary's line for an output whose paths ``files`` hold no ``linkage.step`` although the ``cad``
+    extra is installed (`write_step` left it out: a B-rep boolean failed); None otherwise."""
+    if any(Path(f).name == STEP_FILE for f in files) or not have_kernel():
+        return None
+    return ("no linkage.step: OpenCASCADE could not build every part as one solid (the STL meshes are the "
+            "geometry; `mpsynth export OUT --step` names the part)")
+
+
 def step_parts(linkage, design) -> dict[str, tuple[list, list]]:
     """{URDF link name: (parts, bores)} (`synth.io.meshes.Primitive` lists, world coordinates, metres):
     every link with joints, then every pin (no bores)."""
