@@ -341,7 +341,13 @@ def test_far_and_tiny_cli_end_to_end(tmp_path):
     out = tmp_path / "out"
     r = CliRunner().invoke(mpsynth, ["bennett", str(f), "-o", str(out)])
     assert r.exit_code == 0, r.stderr
-    assert not other_warnings(r.stderr)
+    # millimetre parts 1e9 mm from the origin are past OpenCASCADE's booleans: when its linkage.step is
+    # missing the summary says so, and that is the only other warning
+    missing = "no linkage.step" in r.stderr
+    from synth.io.step import have_kernel
+
+    assert missing == (have_kernel() and not (out / "linkage.step").exists())
+    assert not [w for w in other_warnings(r.stderr) if "no linkage.step" not in w]
     doc = json.loads((out / "linkage.json").read_text())
     assert doc["checks"]["max_pose_error"] < 1e-8
     import trimesh
