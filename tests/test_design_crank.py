@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from synth.design.cranks import crank_bars, crank_direction
-from synth.design.model import CollisionReport, DesignResult
-from synth.design.search import Layout
+from synth.design.model import CollisionReport, DesignResult, pins_for
+from synth.design.search import Layout, stack_gap
 from synth.design.choose import design_for
 from synth.io.meshes import design_solids
 from synth.io.poses import load_poses
@@ -31,15 +31,22 @@ def test_crank_direction_worked_numbers():
     assert abs(np.dot(n, [1, 0, 0])) < 1e-12 and np.linalg.norm(n) == pytest.approx(1)
 
 
+HALF = {("base", "h1"): -1, ("link_h1", "h1"): 1, ("link_h1", "h2"): 1, ("coupler", "h2"): -1,
+        ("base", "k1"): 1, ("link_k1", "k1"): -1, ("link_k1", "k2"): -1, ("coupler", "k2"): 1}
+
+
 @pytest.fixture(scope="module")
 def flat():
-    """The planar four-bar with every mount in one plane (offset 0): the straight bars of the two
-    cranks (link_h1, link_k1) cross during the motion, whatever else is done; the cranked design."""
+    """The planar four-bar with the two cranks in two planes, link_h1 half a stack (`stack_gap`) above the
+    plane of the sites and link_k1 half a stack below it (base and coupler across): the straight bar of
+    each crank runs through the other's hubs during the motion, whatever else is done; the cranked design."""
     ps = load_poses(str(PLANAR))
     lk = bennett(ps.matrices, ps.names)
     design = design_for(lk).design
+    g = stack_gap(design.bar_radius, design.hub_radius, design.hub_length, design.clearance)
     for m in design.mounts:
-        m.offset = 0.0
+        m.offset = HALF[(m.link, m.joint)] * g / 2
+    design.pins = pins_for(lk, design)
     report = CollisionReport(free=False, range="full", clearance=design.clearance, min_distance=-1.0, driver="h1",
                              driver_range=(0.0, 2 * math.pi), pairs=[{"bodies": ["link_h1", "link_k1"]}])
     return lk, design, crank_bars(lk, DesignResult(design, report))
@@ -65,9 +72,10 @@ def test_straight_bars_in_one_plane_collide_and_cranks_free_them(flat):
     assert sorted(map(tuple, r.cranked)) == [("link_h1", "h1", "h2"), ("link_k1", "k1", "k2")]
     bars = {b.link: b for b in result.design.bars}
     assert len(bars["link_h1"].via) == 2 and len(bars["link_k1"].via) == 2 and not bars["base"].via
-    # mounts and pins are kept; the via points leave the plane of the mounts (the z = const plane)
-    assert all(m.offset == 0.0 for m in result.design.mounts)
-    z0 = lk.joint_sites()["h1"][2]
+    # mounts and pins are kept; the via points leave the plane of the mounts (a z = const plane)
+    assert [(m.link, m.joint, m.offset) for m in result.design.mounts] == [(m.link, m.joint, m.offset)
+                                                                          for m in straight.mounts]
+    z0 = lk.joint_sites()["h1"][2] + straight.mount("link_h1", "h1").offset * lk.joint("h1").direction[2]
     assert max(abs(v[2] - z0) for v in bars["link_h1"].via) > result.design.bar_radius
     assert gaps(lk, result.design, True) >= r.min_distance - 1e-12 >= r.clearance - 1e-12
 

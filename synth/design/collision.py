@@ -5,14 +5,17 @@ Conventions:
 - the motion is sampled by ``phi`` with ``t = tan(phi)``: phi in [-pi/2, pi/2] is the whole cycle
   (phi = +-pi/2 is t = infinity, the reference configuration);
 - a *body* is a link that holds joints (``linkage.links``; a loop's duplicate link holds none and is the
-  same rigid body as its partner); two bodies that share a joint are *adjacent* and never tested;
+  same rigid body as its partner); two bodies that share a joint are *adjacent* (only the capsule pairs
+  their `CapsuleSet` names are tested: `synth.design.search.tested`);
 - the geometry is a set of capsules whose end points move along lines fixed in their bodies: an end
   point is ``base + offset * direction`` (reference configuration; a mount: the joint's site and axis
   direction, the offset affine in the design's mount offsets; a via point of a cranked bar: a point and
   a crank direction), so one pass evaluates a batch of designs (leading axis N) at every sample;
 - the certificate: along a path of joints j_1..j_m from body A to body B, a point x of B moves
   relative to A at speed at most ``sum_i |dtheta_i/dphi| * |x - q_i|``, q_i the site of j_i, and
-  ``|x - q_i|`` is bounded by constant site-to-site lengths along the path; ``|dtheta/dphi| =
+  ``|x - q_i|`` is bounded by constant site-to-site lengths along the path; for the last joint j_m
+  (fixed in B) by x's distance from its axis (0 for a capsule on that axis: a rotation about it moves
+  nothing); ``|dtheta/dphi| =
   2|b| / Q(phi)`` with ``Q = (sin phi - a cos phi)^2 + b^2 cos^2 phi`` whose minimum on an interval is
   closed-form. A distance d that is V-Lipschitz on [phi_0, phi_1] stays above
   ``(d_0 + d_1 - V (phi_1 - phi_0)) / 2``.
@@ -21,7 +24,7 @@ Lengths in metres, angles in radians.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -38,6 +41,38 @@ def bodies(linkage) -> list[str]:
 def adjacent_pairs(linkage) -> set[frozenset]:
     """Pairs of bodies that share a joint."""
     return {frozenset(ls) for ls in joint_links(linkage).values() if len(ls) == 2}
+
+
+def tested(a: tuple, b: tuple, shared) -> bool:
+    """Whether two capsules of two bodies are a tested pair; ``a``, ``b``: (part, joint) (part "bar" (joint:
+    {joint: end} where the leg meets that joint's axis, at a mount), "hub", "pin" or "cyl": a hub as a
+    cylinder),
+    ``shared``: the joints the bodies share (None: not adjacent). Bodies that share no joint: every pair
+    but the cylinders. Bodies that share a joint (their relative motion about it a turn): bar against
+    bar, and a leg from the shared joint against the other's hub there as a cylinder (its flat face
+    towards the leg; the pin in it too). Not tested: the two hubs of the shared joint (kept apart by the
+    stack, `stack_gap` of `synth.design.search`), its pin in its bores (which run along the whole pin,
+    `synth.io.meshes.link_primitives`), a bar against the hubs and pins of the other's other joints
+    (docs/design.md, "Overlap of links that share a joint": the rates)."""
+    if a[0] == "cyl" or b[0] == "cyl":
+        bar, other = (a, b) if b[0] == "cyl" else (b, a)
+        return shared is not None and bar[0] == "bar" and other[1] in shared and other[1] in bar[1]
+    return shared is None or (a[0] == "bar" and b[0] == "bar")
+
+
+def axial_kind(x: tuple, y: tuple, shared) -> tuple[int, tuple]:
+    """(`CapsuleSet.axial` kind, end indices (a0, a1, b0, b1)) of the tested pair of capsules x, y of
+    `synth.design.search.Layout` (body, label, end0, end1, radius, part, joint); ``shared``: the joints of
+    their bodies (None: none).
+    Kind 1 (2): x (y) a hub as a cylinder; 3: two legs that leave one shared axis (ordered from it)."""
+    row = (x[2], x[3], y[2], y[3])
+    if x[5] == "cyl" or y[5] == "cyl":
+        return (1 if x[5] == "cyl" else 2), row
+    on = [j for j in (shared or ()) if x[5] == y[5] == "bar" and j in x[6] and j in y[6]]
+    if not on:
+        return 0, row
+    a0, b0 = x[6][on[0]], y[6][on[0]]
+    return 3, (a0, x[3] if a0 == x[2] else x[2], b0, y[3] if b0 == y[2] else y[2])
 
 
 def body_paths(linkage, a: str, b: str, limit: int = 8) -> list[list[str]]:
@@ -112,7 +147,11 @@ class CapsuleSet:
     ``ends_base``, ``ends_dir``: (E, 3) each end point is ``base + offset * dir`` (a mount: the joint's
     site and direction); ``ends_body``: its body; ``pairs``: (P, 4) end indices (a0, a1, b0, b1) of the
     tested capsule pairs; ``radii``: (P,) sum of the two radii; ``body_pair``: (P,) index into
-    ``body_pairs`` (list of (body A, body B)); ``cap``: (P, 2) capsule indices (of ``labels``)."""
+    ``body_pairs`` (list of (body A, body B)); ``axial``: None, or (P, 2) rows (kind,
+    radius) of the pairs of two bodies that turn about a shared axis and whose gap that turn does not
+    change: kind 1 (2) when the pair's a (b) segment is the axis of a cylinder of that radius (flat ends:
+    a hub) and the other a leg that meets that axis at an end (gap: `axial_distance` minus ``radii``, the
+    leg's), kind 3 two legs that leave the axis at a0 and b0 (`legs_distance`); kind 0 the other pairs."""
 
     ends_base: np.ndarray
     ends_dir: np.ndarray
@@ -122,6 +161,7 @@ class CapsuleSet:
     body_pair: np.ndarray
     body_pairs: list[tuple[str, str]]
     labels: list[str]
+    axial: np.ndarray | None = None
     paths: dict = field(default_factory=dict, repr=False, compare=False)  # `body_paths` met, by (body, body)
 
 
@@ -150,6 +190,103 @@ def segment_distance(p0, p1, q0, q1) -> np.ndarray:
         t = np.where(pe, 0.0, np.where(pa, _unit_clip(f * ie), t))
     w = r + s * d1 - t * d2
     return np.sqrt(dot(w, w))
+
+
+def axial_distance(p0, p1, q0, q1, radius) -> np.ndarray:
+    """Distance between the segment p0-p1, which meets the line q0-q1 at p0 or p1, and the cylinder of
+    ``radius`` (flat ends) around the segment q0-q1; component-first arrays (3, ...) (broadcast). In the
+    half-plane (r, z) of the distance from the axis and the height along it, the segment is a segment and
+    the cylinder the box [0, radius] x [-h, h] (the distance does not change with a turn of either about
+    the axis): 0 where they meet (clipped as in Liang-Barsky), else the least distance between an end of
+    one and the other."""
+    def dot(x, y):
+        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
+
+    axis, m = q1 - q0, 0.5 * (q0 + q1)
+    length = np.sqrt(dot(axis, axis))
+    u = axis / np.maximum(length, 1e-30)
+    h = 0.5 * length
+
+    def rz(p):
+        w = p - m
+        c = np.stack([u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]])
+        return np.sqrt(dot(c, c)), dot(w, u)
+
+    (r0, z0), (r1, z1) = rz(p0), rz(p1)
+    dr, dz = r1 - r0, z1 - z0
+    enter, leave = np.zeros_like(r0), np.ones_like(r0)
+    for a, d, lo, hi in ((r0, dr, 0.0, radius), (z0, dz, -h, h)):
+        flat = np.abs(d) < 1e-30
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t1, t2 = (lo - a) / np.where(flat, 1.0, d), (hi - a) / np.where(flat, 1.0, d)
+        inside = (a >= lo) & (a <= hi)
+        enter = np.maximum(enter, np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2)))
+        leave = np.minimum(leave, np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)))
+
+    def to_box(r, z):
+        return np.hypot(np.maximum(r - radius, 0.0), np.maximum(np.abs(z) - h, 0.0))
+
+    def to_segment(cr, cz):
+        t = np.clip(((cr - r0) * dr + (cz - z0) * dz) / np.maximum(dr * dr + dz * dz, 1e-30), 0.0, 1.0)
+        return np.hypot(r0 + t * dr - cr, z0 + t * dz - cz)
+
+    rim = radius + np.zeros_like(h)
+    corners = to_segment(np.stack([0 * rim, 0 * rim, rim, rim]), np.stack([h, -h, h, -h])).min(axis=0)
+    d = np.minimum(np.minimum(to_box(r0, z0), to_box(r1, z1)), corners)
+    return np.where(enter <= leave, 0.0, d)
+
+
+def legs_distance(p0, p1, q0, q1) -> np.ndarray:
+    """Least distance, over every turn of one about the axis through p0 and q0, between the segments
+    p0-p1 and q0-q1 that leave that axis at p0 and q0 (two bars of links that share a joint); component-
+    first arrays (3, ...) (broadcast). In the half-plane (r, z) of the distance from the axis and the
+    height along it each is a segment that a turn does not move: their distance there (`segment_distance`)."""
+    def dot(x, y):
+        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
+
+    axis = q0 - p0
+    u = axis / np.maximum(np.sqrt(dot(axis, axis)), 1e-30)
+
+    def rz(p):
+        w = p - p0
+        z = dot(w, u)
+        return np.stack([np.sqrt(np.maximum(dot(w, w) - z * z, 0.0)), z, np.zeros_like(z)])
+
+    return segment_distance(np.zeros_like(p0), rz(p1), rz(q0), rz(q1))
+
+
+def _gaps(cs: CapsuleSet, pts, rows, radii) -> np.ndarray:
+    """Gaps of the capsule pairs ``rows`` (indices into ``cs.pairs``, the shape of pts[i][0]) from the end
+    points ``pts`` (4 arrays (3, ...)): segment distance minus ``radii``; `axial_distance` and
+    `legs_distance` for the pairs of ``cs.axial``'s kinds 1, 2 and 3."""
+    if cs.axial is None or not cs.axial[rows, 0].any():
+        return segment_distance(*pts) - radii
+    kind = np.broadcast_to(cs.axial[rows, 0], pts[0].shape[1:])
+    d = np.empty(kind.shape, pts[0].dtype)
+    for group in ((0,), (1, 2), (3,)):
+        sel = np.nonzero(kind == group[0]) if len(group) == 1 else np.nonzero((kind == 1) | (kind == 2))
+        if not len(sel[0]):
+            continue
+        p0, p1, q0, q1 = (p[(slice(None),) + sel] for p in pts)
+        if group == (0,):
+            d[sel] = segment_distance(p0, p1, q0, q1)
+        elif group == (3,):
+            d[sel] = legs_distance(p0, p1, q0, q1)
+        else:  # the leg first: b's segment where a's is the hub (kind 1)
+            a_hub = kind[sel] == 1
+            rad = np.broadcast_to(cs.axial[rows, 1], kind.shape)[sel].astype(d.dtype)
+            d[sel] = axial_distance(np.where(a_hub, q0, p0), np.where(a_hub, q1, p1), np.where(a_hub, p0, q0),
+                                    np.where(a_hub, p1, q1), rad)
+    return d - radii
+
+
+def subset(cs: CapsuleSet, rows) -> CapsuleSet:
+    """The capsule set with only the pairs ``rows`` (a boolean mask or indices) tested."""
+    rows = np.asarray(rows)
+    keep = np.flatnonzero(rows) if rows.dtype == bool else rows
+    return replace(cs, pairs=cs.pairs[keep], radii=cs.radii[keep], body_pair=cs.body_pair[keep],
+                   labels=[cs.labels[i] for i in keep], axial=None if cs.axial is None else cs.axial[keep],
+                   paths=cs.paths)
 
 
 def _unit_clip(x) -> np.ndarray:
@@ -182,7 +319,7 @@ def pair_distances(cs: CapsuleSet, Q, U, offsets, chunk: int = 1 << 16) -> np.nd
     for n0 in range(0, N, step):
         o = offsets[n0:n0 + step][:, idx]  # (n, 4, P)
         pts = [Q[c][:, None] + o[None, :, c, :, None] * U[c][:, None] for c in range(4)]  # (3, n, P, K)
-        out[n0:n0 + step] = segment_distance(*pts) - cs.radii[None, :, None]
+        out[n0:n0 + step] = _gaps(cs, pts, np.arange(P)[None, :, None], cs.radii[None, :, None])
     return out
 
 
@@ -199,7 +336,7 @@ def pair_distances_at(cs: CapsuleSet, Q, U, offsets, pidx, kidx, chunk: int = 1 
     for n0 in range(0, N, step):
         o = offsets[n0:n0 + step][:, cols]  # (n, 4, L)
         pts = [Qs[c][:, None] + o[None, :, c] * Us[c][:, None] for c in range(4)]
-        out[n0:n0 + step] = segment_distance(*pts) - radii
+        out[n0:n0 + step] = _gaps(cs, pts, np.asarray(pidx)[None], radii)
     return out
 
 
@@ -212,9 +349,17 @@ def speed_coefficients(linkage, cs: CapsuleSet, offsets: np.ndarray, sites: dict
     options = cs.paths  # the same for every design of these capsules
     out = []
     P, J = len(cs.pairs), len(linkage.joints)
+    S = np.array([sites[j.name] for j in linkage.joints]).reshape(-1, 3)
+    w = pts[:, None] - S[None]  # (E, J, 3)
+    u = np.array([j.direction for j in linkage.joints]).reshape(-1, 3)
+    reach = np.linalg.norm(w, axis=2)  # (E, J): from each site; from each axis (the last one is fixed in dst)
+    off_axis = np.sqrt(np.maximum(reach ** 2 - np.einsum("ejk,jk->ej", w, u) ** 2, 0.0))
     per_pair: list[list[np.ndarray]] = [[] for _ in range(P)]
     for p, (a0, a1, b0, b1) in enumerate(cs.pairs):
         A, B = cs.body_pairs[cs.body_pair[p]]
+        if cs.axial is not None and cs.axial[p, 0]:  # a turn about their shared axis changes nothing of
+            per_pair[p].append(np.zeros(J))  # their gap (`CapsuleSet.axial`)
+            continue
         for src, (e0, e1), dst in ((A, (b0, b1), B), (B, (a0, a1), A)):
             key = (src, dst)
             if key not in options:
@@ -223,10 +368,9 @@ def speed_coefficients(linkage, cs: CapsuleSet, offsets: np.ndarray, sites: dict
                 if not path:  # one body (e.g. merged by a loop weld): nothing moves between them
                     continue
                 coef = np.zeros(J)
-                last = path[-1]
-                reach = max(np.linalg.norm(pts[e0] - sites[last]), np.linalg.norm(pts[e1] - sites[last]))
-                acc = reach
-                coef[jindex[last]] = acc
+                last = jindex[path[-1]]
+                acc = max(reach[e0, last], reach[e1, last])
+                coef[last] = max(off_axis[e0, last], off_axis[e1, last])
                 for i in range(len(path) - 2, -1, -1):
                     acc += np.linalg.norm(sites[path[i + 1]] - sites[path[i]])
                     coef[jindex[path[i]]] = acc

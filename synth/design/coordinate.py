@@ -10,21 +10,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.design.collision import body_motion, even_samples, pair_distances, pair_distances_at, world_ends
+from synth.design.collision import body_motion, even_samples, pair_distances, pair_distances_at, subset, world_ends
 from synth.design.work import Work
 
 FULL = (-math.pi / 2, math.pi / 2)  # phi of the whole cycle
 SEARCH_DTYPE = np.float32  # the search's sampled gaps (the certificate: float64)
+BEHIND = 1.25  # once a start is feasible, the others are moved only while at most this many times its size
 ROUNDS = 4  # search rounds, each adding the samples where the last certificate failed
 
 
 class Scorer:
     """Sampled capsule gaps of batches of candidates X (N, D) over the full cycle and the task range at
     once (task samples are flagged in ``is_task``); ``to_offsets(X)`` gives their end offsets (N, E).
+    A pair whose gap does not change with the motion (``once``: `CapsuleSet.axial`, two links' parts about
+    their shared axis) is evaluated at one sample (``once_k``; inf at the others): a violation weighs as
+    much as one sampled contact, not as many as there are samples; its gap is certified as sampled, so it
+    gets no safety margin: ``settled`` (metres) is added to it.
     Every gap evaluated is charged to ``work`` (`synth.design.work.Work`), which the searches check."""
 
     def __init__(self, layout: Layout, full_samples: int, task_samples: int, task: tuple[float, float], to_offsets,
-                 work: Work | None = None):
+                 work: Work | None = None, settled: float = 0.0):
         lk = layout.linkage
         pf = even_samples(lk, *FULL, full_samples)
         pt = even_samples(lk, *task, task_samples)
@@ -35,6 +40,15 @@ class Scorer:
         self.to_offsets = to_offsets
         Q, U = world_ends(layout.cs, body_motion(lk, self.phis))
         self.Q, self.U = Q.astype(SEARCH_DTYPE), U.astype(SEARCH_DTYPE)
+        axial = layout.cs.axial
+        self.once = np.zeros(len(layout.cs.pairs), bool) if axial is None else axial[:, 0] > 0
+        self.once_k = len(pf)  # a sample of both ranges: where the pairs that do not move (`once`) count
+        self.settled = settled
+        self._moving = subset(layout.cs, ~self.once), subset(layout.cs, self.once)
+        self._position = np.zeros(len(self.once), int)  # each pair's row in its part of ``_moving``
+        self._position[~self.once] = np.arange(int((~self.once).sum()))
+        self._position[self.once] = np.arange(int(self.once.sum()))
+        self._split()
         self.evaluations = 0
         self.work = Work() if work is None else work
 
@@ -47,20 +61,47 @@ class Scorer:
         self.is_task = np.concatenate([self.is_task, _inside(phis, self.task)])
         self.Q = np.concatenate([self.Q, Q.astype(SEARCH_DTYPE)], axis=3)
         self.U = np.concatenate([self.U, U.astype(SEARCH_DTYPE)], axis=3)
+        self._split()
+
+    def _split(self) -> None:
+        """The end points of the moving pairs at every sample and of the `once` pairs at ``once_k``."""
+        m, k = ~self.once, self.once_k
+        self._ends = (self.Q[:, :, m], self.U[:, :, m], self.Q[:, :, ~m, k:k + 1], self.U[:, :, ~m, k:k + 1])
 
     def offsets(self, X):
         return self.to_offsets(X).astype(SEARCH_DTYPE)
 
     def full(self, X) -> np.ndarray:
-        """(N, P, K) gaps at every sample."""
+        """(N, P, K) gaps at every sample (the `once` pairs': inf but at ``once_k``)."""
         self.evaluations += len(X)
-        self.work.charge(len(X) * self.Q.shape[2] * self.Q.shape[3])  # N x P x K
-        return pair_distances(self.layout.cs, self.Q, self.U, self.offsets(X))
+        o, (P, K), m = self.offsets(X), self.Q.shape[2:], ~self.once
+        if not self.once.any():
+            self.work.charge(len(X) * P * K)  # N x P x K
+            return pair_distances(self.layout.cs, self.Q, self.U, o)
+        self.work.charge(len(X) * (int(m.sum()) * K + int(self.once.sum())))
+        moving, once = self._moving
+        Qm, Um, Qo, Uo = self._ends
+        d = np.full((len(X), P, K), np.inf)
+        d[:, m] = pair_distances(moving, Qm, Um, o)
+        d[:, self.once, self.once_k] = pair_distances(once, Qo, Uo, o)[:, :, 0] + self.settled
+        return d
 
     def at(self, X, pidx, kidx) -> np.ndarray:
-        """(N, L) gaps at chosen (pair, sample) entries."""
-        self.work.charge(len(X) * len(pidx))
-        return pair_distances_at(self.layout.cs, self.Q, self.U, self.offsets(X), pidx, kidx)
+        """(N, L) gaps at chosen (pair, sample) entries (a `once` pair's: inf but at ``once_k``)."""
+        pidx, kidx = np.asarray(pidx), np.asarray(kidx)
+        if not self.once.any():
+            self.work.charge(len(X) * len(pidx))
+            return pair_distances_at(self.layout.cs, self.Q, self.U, self.offsets(X), pidx, kidx)
+        o, once = self.offsets(X), self.once[pidx]
+        moving, at_k = ~once, once & (kidx == self.once_k)
+        self.work.charge(len(X) * int(moving.sum() + at_k.sum()))
+        (mcs, ocs), (Qm, Um, Qo, Uo), pos = self._moving, self._ends, self._position
+        d = np.full((len(X), len(pidx)), np.inf)
+        if moving.any():
+            d[:, moving] = pair_distances_at(mcs, Qm, Um, o, pos[pidx[moving]], kidx[moving])
+        if at_k.any():
+            d[:, at_k] = pair_distances_at(ocs, Qo, Uo, o, pos[pidx[at_k]], np.zeros(int(at_k.sum()), int)) + self.settled
+        return d
 
 
 @dataclass
@@ -145,10 +186,17 @@ class _Critical:
         return self.codes // self.K, self.codes % self.K
 
 
+def _behind(best) -> np.ndarray:
+    """(n,) the feasible starts no longer moved: those more than `BEHIND` times as large as the smallest
+    feasible one (`score`: 1e6 - size when feasible)."""
+    return (best > 0) & (1e6 - best > BEHIND * (1e6 - best.max()) + 1e-9)
+
+
 def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, iterations, tries=2):
     """Coordinate moves of ``space`` from each start (rows of X). Moves are screened on the critical
     entries; the best per start is evaluated fully and taken when it improves; after ``tries`` failures
-    (or when no move passes the screen) the step halves. Stops early once ``scorer.work`` is spent."""
+    (or when no move passes the screen) the step halves. Once a start is feasible, only it and the
+    feasible starts nearly as compact move on (`_behind`). Stops early once ``scorer.work`` is spent."""
     n, D = X.shape
     nm = len(space.col)
     crit = _Critical(mask, cap=4 * scorer.Q.shape[2] + 64)
@@ -159,32 +207,36 @@ def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, i
     stall = np.zeros(n, int)
     rows_m = np.arange(nm)
     for _ in range(iterations):
-        if (step < step_min).all() or scorer.work.spent:
+        live = np.flatnonzero((step >= step_min) & ~_behind(best))
+        if not len(live) or scorer.work.spent:
             break
-        C = np.repeat(X[None], nm, axis=0)  # (moves, n, D)
-        moved = X[:, space.col].T * space.mul[:, None] + space.add[:, None] * step[None]
+        m = len(live)
+        C = np.repeat(X[live][None], nm, axis=0)  # (moves, m, D)
+        moved = X[live][:, space.col].T * space.mul[:, None] + space.add[:, None] * step[live][None]
         C[rows_m, :, space.col] = np.maximum(space.lo[space.col][:, None], moved)
-        C = C.reshape(nm * n, D)
+        C = C.reshape(nm * m, D)
         pidx, kidx = crit.arrays()
-        ub = score(violation(scorer.at(C, pidx, kidx), target), space.size(C)).reshape(nm, n)
-        kbest = np.argmax(ub, axis=0)  # (n,)
-        hopeful = ub[kbest, np.arange(n)] > best + 1e-12
+        ub = score(violation(scorer.at(C, pidx, kidx), target), space.size(C)).reshape(nm, m)
+        kbest = np.argmax(ub, axis=0)  # (m,)
+        hopeful = ub[kbest, np.arange(m)] > best[live] + 1e-12
         rows = np.flatnonzero(hopeful)
-        pick = kbest[rows] * n + rows
-        accepted = np.zeros(n, bool)
+        pick = kbest[rows] * m + rows
+        accepted = np.zeros(m, bool)
         if len(pick):
             d = scorer.full(C[pick])
             crit.add(d)
             sc = score(violation(d, target, mask), space.size(C[pick]))
-            for i, w, v in zip(rows, pick, sc):
+            for r, w, v in zip(rows, pick, sc):
+                i = live[r]
                 if v > best[i] + 1e-12:
                     X[i], best[i] = C[w], v
-                    accepted[i] = True
+                    accepted[r] = True
         # a hopeful move that failed its full evaluation taught the screen something: retry once
-        stall = np.where(accepted, 0, stall + np.where(hopeful, 1, tries))
-        halve = stall >= tries
-        step = np.where(halve, step / 2, step)
-        stall = np.where(halve, 0, stall)
+        s = stall[live] + np.where(hopeful, 1, tries)
+        s[accepted] = 0
+        halve = s >= tries
+        step[live] = np.where(halve, step[live] / 2, step[live])
+        stall[live] = np.where(halve, 0, s)
     return X, best
 
 

@@ -9,8 +9,9 @@ import numpy as np
 from synth.algebra.geometry import perpendicular_basis
 from synth.design.coordinate import FULL, Scorer, crank_space, search_rounds
 from synth.design.work import Work
-from synth.design.search import (CLEARANCE_FRACTION, FULL_SAMPLES, SAFETY, SEARCH_MERGED, SPREADS, TASK_SAMPLES,
-                                 DesignResult, Layout, certify_layout, cranked_result, sizes_of, task_phi_range)
+from synth.design.search import (FULL_SAMPLES, SEARCH_MERGED, SPREADS, TASK_SAMPLES, DesignResult, Layout,
+                                 certify_layout, cranked_result, search_target, settled_margin, sizes_of,
+                                 task_phi_range)
 
 CRANK_FRACTIONS = (0.25, 0.75)  # where along a bar its two via points sit (from its first mount)
 
@@ -61,10 +62,11 @@ def crank_bars(linkage, result: DesignResult, *, seed: int = 0, effort: float = 
     scale = linkage.extent()
     task = task_phi_range(linkage)
     rng_phi = FULL if result.collision.range == "full" else task
-    target = max(old.clearance, 0.25 * CLEARANCE_FRACTION * old.bar_radius) * (1 + SAFETY)
+    target = search_target(old.clearance, old.bar_radius)
     effort = effort * min(1.0, (6 / J) ** 2)
     scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task,
-                     lambda W: search.end_offsets(np.broadcast_to(S, (len(W), len(S))), W), work)
+                     lambda W: search.end_offsets(np.broadcast_to(S, (len(W), len(S))), W), work,
+                     settled_margin(target))
     rng = np.random.default_rng(seed)
     n_starts = max(2, int(4 * effort))
     # straight bars, then random cranks of up to a few bar thicknesses to half the extent

@@ -27,7 +27,7 @@ from synth.algebra.geometry import perpendicular_basis
 from synth.design.collision import adjacent_pairs, body_motion, even_samples
 from synth.design.coordinate import FULL
 from synth.design.model import DesignResult, joint_links
-from synth.design.search import SAFETY, Layout, certify_layout, cranked_result, sizes_of, task_phi_range
+from synth.design.search import SAFETY, Layout, certify_layout, cranked_result, sizes_of, stack_gap, task_phi_range
 
 PIECES = 2  # pieces per bar (each on its own level)
 SAMPLES_PER_JOINT = 160  # samples of the motion per joint for the constraints
@@ -267,9 +267,10 @@ def layer_levels(linkage, u, rng_phi, reach, nodes, keep=None, exits=()):
 def level_pitch(design) -> float:
     """Metres between two levels: stacked hubs (hub length + clearance) and a bar clear of a hub's capsule
     one level away (half a hub length + hub radius + bar radius + clearance: the capsules the certificate
-    uses reach a radius beyond a hub's flat end), with the search's safety factor on the clearance."""
-    return max(design.hub_length, design.hub_length / 2 + design.hub_radius + design.bar_radius,
-               2 * design.bar_radius) + (1 + SAFETY) * design.clearance
+    uses reach a radius beyond a hub's flat end), with the search's safety factor on the clearance, and at
+    least the stack of a joint (`stack_gap`: the round ends of two bars on one joint)."""
+    return max(design.hub_length / 2 + design.hub_radius + design.bar_radius + (1 + SAFETY) * design.clearance,
+               stack_gap(design.bar_radius, design.hub_radius, design.hub_length, design.clearance))
 
 
 def stack_geometry(linkage, levels: dict, u, pitch: float, keep=None) -> tuple[dict, dict, list, list]:
@@ -353,7 +354,7 @@ def layered_design(linkage, result: DesignResult, *, nodes: int = LAYER_NODES) -
         result.collision.message += " (no layering of the planar linkage was found either)"
         return result
     heights, cranks, W, _ = stack_geometry(linkage, levels, u, level_pitch(old))
-    exact = Layout(linkage, merged=False, cranks=cranks, **sizes_of(old))
+    exact = Layout(linkage, merged=False, cranks=cranks, **sizes_of(old), adjacent=False)
     S, _ = height_offsets(exact, heights, u)  # every hub of a planar linkage has its height
     cert = certify_layout(exact, S, rng_phi, old.clearance, W)
     if not cert["certified"]:

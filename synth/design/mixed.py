@@ -7,16 +7,17 @@ result is certified. Lengths in metres.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 
 import numpy as np
 
+from synth.design.collision import subset
 from synth.design.coordinate import FULL, Scorer, Space, score, search_rounds, violation
 from synth.design.layers import LAYER_NODES, MARGIN, height_offsets, layer_levels, level_pitch, stack_geometry
 from synth.design.model import joint_links
 from synth.design.work import Work
-from synth.design.search import (CLEARANCE_FRACTION, FULL_SAMPLES, SAFETY, SEARCH_MERGED, SPREADS, TASK_SAMPLES,
-                                 DesignResult, Layout, certify_layout, cranked_result, sizes_of, task_phi_range)
+from synth.design.search import (FULL_SAMPLES, SEARCH_MERGED, SPREADS, TASK_SAMPLES, DesignResult, Layout,
+                                 certify_layout, cranked_result, search_target, settled_margin, sizes_of,
+                                 task_phi_range)
 
 MIN_PARALLEL = 4  # joints sharing a direction before their part of the linkage is layered
 
@@ -77,8 +78,7 @@ def _moving_pairs(layout: Layout, spatial: list, risers) -> None:
     moving = np.array(moving, bool)
     cs = layout.cs
     rows = moving[cs.pairs].any(axis=1)
-    layout.cs = replace(cs, pairs=cs.pairs[rows], radii=cs.radii[rows], body_pair=cs.body_pair[rows],
-                        labels=[lab for lab, r in zip(cs.labels, rows) if r])
+    layout.cs = subset(cs, rows)
 
 
 def _space(Js, R, gmin, scale) -> Space:
@@ -138,8 +138,8 @@ def _attempt(linkage, result, u, keep, exits, rng_phi, reach, budget, seed, effo
         return None
     heights, cranks, crank_heights, outward = stack_geometry(linkage, levels, u, level_pitch(old), keep=keep)
     sizes = sizes_of(old)
-    search = Layout(linkage, merged=SEARCH_MERGED, cranks=cranks, **sizes)
-    exact = Layout(linkage, merged=False, cranks=cranks, **sizes)
+    search = Layout(linkage, merged=SEARCH_MERGED, cranks=cranks, **sizes, adjacent=False)
+    exact = Layout(linkage, merged=False, cranks=cranks, **sizes, adjacent=False)
     spatial = [j for j in exact.joints if j not in keep]
     stack = _Stack(search, u, heights, crank_heights, outward, spatial)
     stack_exact = _Stack(exact, u, heights, crank_heights, outward, spatial)
@@ -148,14 +148,14 @@ def _attempt(linkage, result, u, keep, exits, rng_phi, reach, budget, seed, effo
     scale = linkage.extent()
     task = task_phi_range(linkage)
     gmin = search.gap_min
-    target = max(old.clearance, 0.25 * CLEARANCE_FRACTION * old.bar_radius) * (1 + SAFETY)
+    target = search_target(old.clearance, old.bar_radius)
     effort = effort * min(1.0, (6 / max(Js, 1)) ** 2)
 
     def to_offsets(X):
         S, W = stack.offsets(X)
         return search.end_offsets(S, W)
 
-    scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, to_offsets, work)
+    scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, to_offsets, work, settled_margin(target))
     space = _space(Js, R, gmin, scale)
     rng = np.random.default_rng(seed)
     n = int(effort * 16 * Js) + 8

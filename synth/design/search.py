@@ -6,8 +6,8 @@ linkages (sixbar) by what their designs achieve.
 
 The free parameters searched, per joint j held by links l0, l1 (``model.joint_links``): the centre
 ``c_j`` of the two hubs along the axis (from the joint's site), their order ``sigma_j`` (+-1: which link
-is on top) and the distance ``g_j >= hub_length + clearance`` of their centres; the mounts are at
-``c_j -+ sigma_j g_j / 2`` and the pin spans both hubs. Bars are straight. Candidates: the natural
+is on top) and the distance ``g_j >= stack_gap`` of their centres (hubs and round ends apart); the mounts
+are at ``c_j -+ sigma_j g_j / 2`` and the pin spans both hubs. Bars are straight. Candidates: the natural
 stacks (every order, centred on the sites) and seeded random ones, scored on samples of the motion
 (evenly spaced in joint rotation) for the full cycle and the task range at once; the best are improved
 by coordinate moves (shift, flip, widen) and the winner is certified (`collision.certify`); where the
@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from synth.design.collision import CapsuleSet, adjacent_pairs, bodies, certify, phi_of_t, t_of_phi
+from synth.design.collision import CapsuleSet, axial_kind, bodies, certify, phi_of_t, t_of_phi, tested
 from synth.design.coordinate import FULL, Scorer, mount_space, score, search_rounds, violation
 from synth.design.work import GAPS_PER_SECOND, Work
 from synth.design.model import Bar, CollisionReport, DesignResult, Mount, PhysicalDesign, Pin, hub_radius_for, joint_links
@@ -43,31 +43,54 @@ SEARCH_MERGED = True  # the search scores merged hub+pin capsules (fewer pairs),
 
 
 # ----------------------------------------------------------------------------------------- layout
+def search_target(clearance: float, bar_radius: float) -> float:
+    """The sampled gap (metres) the searches ask of every capsule pair: the clearance (at least a sixteenth
+    of the bar radius, so > 0 even for clearance 0) times 1 + `SAFETY`, so that certification holds."""
+    return max(clearance, 0.25 * CLEARANCE_FRACTION * bar_radius) * (1 + SAFETY)
+
+
+def settled_margin(target: float) -> float:
+    """`Scorer`'s ``settled`` (metres): the safety margin of ``target`` (`search_target`) but 2 %."""
+    return 0.98 * SAFETY / (1 + SAFETY) * target
+
+
+def stack_gap(bar_radius: float, hub_radius: float, hub_length: float, clearance: float) -> float:
+    """The least distance (metres) of the two mounts on a joint: the hubs a clearance apart, the bars' round
+    ends (balls of the bar radius) `search_target` (1 % more: float32 gaps) apart from each other and from
+    the other link's hub face (docs/design.md, "Overlap of links that share a joint")."""
+    return max(hub_length + clearance, bar_radius + max(bar_radius, hub_length / 2) + 1.01 * search_target(clearance, bar_radius))
+
+
 class Layout:
     """The searched parametrization of a linkage's design and its capsules (see the module docstring).
 
     ``merged``: one capsule of the hub radius per mount covering the hub and, on the carrier, the whole
     pin (fewer, looser capsules: the search); else bars, hubs and pins separately (the certificate).
+    The pairs tested: `collision.tested` (of two links that share a joint: their bars, and a leg from that
+    joint against the other's hub there, a cylinder; `collision.axial_kind`); ``adjacent`` False: none of
+    two links that share a joint (a layered design: `synth.design.layers` does not model them yet).
     ``cranks``: {(link, joint a, joint b): (p0, p1, ..., n)}: the bar of ``link`` from a to b is cranked,
     a polyline mount a -> p0 + w0 n -> p1 + w1 n -> ... -> mount b with the crank offsets w
     (``end_offsets``'s ``W``, one column per via point, in the order of ``vias``); points and the unit
     crank direction n in the reference configuration (metres)."""
 
-    def __init__(self, linkage, *, pin_radius, bar_radius, hub_radius, hub_length, clearance, merged, cranks=None):
+    def __init__(self, linkage, *, pin_radius, bar_radius, hub_radius, hub_length, clearance, merged, cranks=None,
+                 adjacent=True):
         self.linkage = linkage
         jl = joint_links(linkage)
         self.joints = [j.name for j in linkage.joints if jl[j.name]]
         self.links_of = {j: jl[j] for j in self.joints}
         self.mounts = [(link, j) for j in self.joints for link in jl[j]]
         self.mindex = {m: i for i, m in enumerate(self.mounts)}
-        self.hub_length, self.gap_min = hub_length, hub_length + clearance
+        self.hub_length = hub_length
+        self.gap_min = stack_gap(bar_radius, hub_radius, hub_length, clearance)
         self.cranks = dict(cranks or {})
         self.vias: list[tuple[str, str, str, int]] = []  # (link, a, b, 0|1) per crank offset column
         h = hub_length / 2
         jidx = {j: i for i, j in enumerate(self.joints)}
         sites = linkage.joint_sites()
         ends: list[tuple] = []  # (base, direction, body, kind, index, const); kind 0: mount, 1: min, 2: max of joint, 3: via
-        caps: list[tuple] = []  # (body, label, end0, end1, radius)
+        caps: list[tuple] = []  # (body, label, end0, end1, radius, part, joint): part "bar", "hub", "pin", "cyl"
 
         def end(j, body, kind, index, const):
             ends.append((sites[j], linkage.joint(j).direction, body, kind, index, const))
@@ -83,38 +106,50 @@ class Layout:
                         self.vias.append((link, a, b, k))
                         chain.append(len(ends) - 1)
                 chain.append(end(b, link, 0, self.mindex[(link, b)], 0.0))
-                for e0, e1 in zip(chain, chain[1:]):
-                    caps.append((link, f"bar {a}-{b}", e0, e1, bar_radius))
+                for k, (e0, e1) in enumerate(zip(chain, chain[1:])):  # at: {joint: its end} where a leg meets its axis
+                    at = {n: e for n, e, first in ((a, e0, k == 0), (b, e1, k == len(chain) - 2)) if first}
+                    caps.append((link, f"bar {a}-{b}", e0, e1, bar_radius, "bar", at))
         for link, j in self.mounts:
             carrier = self.links_of[j][0] == link
             m = self.mindex[(link, j)]
+            if len(self.links_of[j]) == 2:  # the hub as a cylinder, for the neighbour's bars (`tested`)
+                caps.append((link, f"hub {j}", end(j, link, 0, m, -h), end(j, link, 0, m, h), hub_radius, "cyl", j))
             if merged and carrier:
-                caps.append((link, f"hub+pin {j}", end(j, link, 1, jidx[j], -h), end(j, link, 2, jidx[j], h), hub_radius))
+                pin = (end(j, link, 1, jidx[j], -h), end(j, link, 2, jidx[j], h))
+                caps.append((link, f"hub+pin {j}", *pin, hub_radius, "hub", j))
                 continue
-            caps.append((link, f"hub {j}", end(j, link, 0, m, -h), end(j, link, 0, m, h), hub_radius))
+            caps.append((link, f"hub {j}", end(j, link, 0, m, -h), end(j, link, 0, m, h), hub_radius, "hub", j))
             if carrier:
-                caps.append((link, f"pin {j}", end(j, link, 1, jidx[j], -h), end(j, link, 2, jidx[j], h), pin_radius))
-        adjacent = adjacent_pairs(linkage)
+                caps.append((link, f"pin {j}", end(j, link, 1, jidx[j], -h), end(j, link, 2, jidx[j], h), pin_radius,
+                             "pin", j))
+        shared = {frozenset(ls): set() for ls in jl.values() if len(ls) == 2}
+        for j, ls in jl.items():
+            if len(ls) == 2:
+                shared[frozenset(ls)].add(j)
         names = bodies(linkage)
-        body_pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1:] if frozenset((a, b)) not in adjacent]
+        body_pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]]
         bp_index = {p: i for i, p in enumerate(body_pairs)}
-        pairs, radii, bpi, labels = [], [], [], []
+        pairs, radii, axial, bpi, labels = [], [], [], [], []
         for i, ca in enumerate(caps):
             for cb in caps[i + 1:]:
                 key = (ca[0], cb[0]) if (ca[0], cb[0]) in bp_index else (cb[0], ca[0])
-                if key not in bp_index:
+                together = shared.get(frozenset(key))
+                if key not in bp_index or not (adjacent or together is None) or not tested(ca[5:], cb[5:], together):
                     continue
                 x, y = (ca, cb) if key[0] == ca[0] else (cb, ca)
-                pairs.append((x[2], x[3], y[2], y[3]))
-                radii.append(x[4] + y[4])
+                kind, row = axial_kind(x, y, together)
+                pairs.append(row)
+                radii.append(x[4] + y[4] if kind in (0, 3) else (y[4] if kind == 1 else x[4]))
+                axial.append((kind, x[4] if kind == 1 else (y[4] if kind == 2 else 0.0)))
                 bpi.append(bp_index[key])
                 labels.append(f"{x[0]}:{x[1]} / {y[0]}:{y[1]}")
         self.ends = [e[3:] for e in ends]
         self.cs = CapsuleSet(ends_base=np.array([e[0] for e in ends], float).reshape(-1, 3),
                              ends_dir=np.array([e[1] for e in ends], float).reshape(-1, 3),
                              ends_body=[e[2] for e in ends], pairs=np.array(pairs, int).reshape(-1, 4),
-                             radii=np.array(radii, float), body_pair=np.array(bpi, int), body_pairs=body_pairs,
-                             labels=labels)
+                             radii=np.array(radii, float), body_pair=np.array(bpi, int),
+                             body_pairs=body_pairs, labels=labels,
+                             axial=np.array(axial, float).reshape(-1, 2) if any(k for k, _ in axial) else None)
 
     # parameters: c (N, J) centres, sigma (N, J) +-1, g (N, J) hub distances
     def natural_offsets(self) -> np.ndarray:
@@ -222,19 +257,19 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     task = task_phi_range(linkage)
     J = len(search.joints)
     gmin = search.gap_min
-    target = max(clearance, 0.25 * CLEARANCE_FRACTION * bar_radius) * (1 + SAFETY)  # > 0 even for clearance 0
+    target = search_target(clearance, bar_radius)
     rng = np.random.default_rng(seed)
     effort = effort * min(1.0, (6 / J) ** 2)  # many joints: many more pairs per candidate
 
     def to_S(X):
         return search.mount_offsets(X[:, :J], X[:, J:2 * J], X[:, 2 * J:])
 
-    scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, lambda X: search.end_offsets(to_S(X)), budget)
+    scorer = Scorer(search, FULL_SAMPLES * J, TASK_SAMPLES * J, task, lambda X: search.end_offsets(to_S(X)), budget,
+                    settled_margin(target))
     space = mount_space(J, gmin, scale)
 
     X0 = initial_stacks(rng, J, int(effort * 32 * J), gmin, scale)
-    coarse = np.zeros(len(scorer.phis), bool)
-    coarse[::3] = True
+    coarse = (np.arange(len(scorer.phis)) % 3 == 0) | (np.arange(len(scorer.phis)) == scorer.once_k)  # (`Scorer.once`)
     pk = np.nonzero(np.ones((len(search.cs.pairs), len(scorer.phis)), bool) & coarse[None])
     if budget.spent:  # nothing will be searched (the natural stack is certified below): no screen either
         d0 = np.zeros((len(X0), len(search.cs.pairs), int(coarse.sum())))

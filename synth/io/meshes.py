@@ -76,7 +76,8 @@ def link_primitives(linkage, design: PhysicalDesign, name: str, sites=None,
                     caps=None) -> tuple[list[Primitive], list[Primitive]]:
     """(parts, bores) of link ``name``. Parts: a capsule per bar segment, a cylinder per hub; bores: a
     cylinder per mount, along the axis, through the hub and the bar's round end (the carrier's smaller
-    by `PRESS_INTERFERENCE` for a press fit), and a counterbore where a pin's head or clip sits on this
+    by `PRESS_INTERFERENCE` for a press fit), continued along the rest of the pin (`_pin_span_bores`),
+    and a counterbore where a pin's head or clip sits on this
     link's hub. Both empty for a link without joints. ``caps``: the design's `capsules` when at hand."""
     sites = linkage.joint_sites() if sites is None else sites
     parts, bores = [], []
@@ -102,6 +103,8 @@ def link_primitives(linkage, design: PhysicalDesign, name: str, sites=None,
                 bores.append(Primitive("cylinder", centre - half * w, stop + design.hole_clearance * w, r))
             else:
                 bores.append(Primitive("cylinder", centre - half * u, centre + half * u, r))
+            if c.joint in carriers:
+                bores += _pin_span_bores(linkage, design, c.joint, name, centre, half, sites)
             if ends is not None and name in (ends.head_on, ends.groove_on):
                 face, w = ends.faces[name], ends.outward[name]
                 depth = ends.thickness + design.hole_clearance
@@ -112,6 +115,25 @@ def link_primitives(linkage, design: PhysicalDesign, name: str, sites=None,
         parts.append(plate)
         bores += holes
     return parts, bores
+
+
+def _pin_span_bores(linkage, design: PhysicalDesign, joint: str, name: str, centre, half: float, sites) -> list:
+    """The bore of link ``name`` continued (pin radius + hole clearance) along the rest of ``joint``'s pin
+    beyond its own bore (``centre`` +- ``half`` along the axis): a bar of the link that leaves its mount
+    toward the neighbour, or its round end past the hub's face, runs over the pin between the hubs and
+    must not take it (issue 33; the link's own bore keeps its press fit). A piece where the pin reaches
+    past the own bore: from a hundredth of ``half`` inside it (no coplanar caps) to a hole clearance past
+    the pin's end."""
+    pin = design.pin(joint)
+    u = linkage.joint(joint).direction
+    o = float(np.dot(centre - sites[joint], u))
+    r, e = design.pin_radius + design.hole_clearance, design.hole_clearance
+    out = []
+    if pin.start < o - half:
+        out.append(Primitive("cylinder", axis_point(linkage, joint, pin.start - e, sites), centre - 0.99 * half * u, r))
+    if pin.end > o + half:
+        out.append(Primitive("cylinder", centre + 0.99 * half * u, axis_point(linkage, joint, pin.end + e, sites), r))
+    return out
 
 
 def plate_primitives(m) -> tuple[Primitive, list[Primitive]]:
