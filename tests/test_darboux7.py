@@ -126,8 +126,9 @@ def test_curve_builds_the_7r_end_to_end(tmp_path):
     out = tmp_path / "d7"
     r = CliRunner().invoke(mpsynth, ["curve", str(REPO / "fixtures/motion_darboux_general.yaml"), "-o", str(out)])
     assert r.exit_code == 0, r.output
-    assert "singular configurations: h1 at 45, 117, 135, 225, 297, 315 deg" in r.output  # in words, not only in info
-    assert "member: turn 45.0 deg of the parallel axes, 3R shift (-0.482, 0) m" in r.output
+    assert "singular configurations: h1 at 45, 127, 135, 225, 307, 315 deg" in r.output  # in words, not only in info
+    # (turn 45.0 deg, singular at 117 and 297 deg, before the stacks of links that share a joint, issue 33)
+    assert "member: turn 22.5 deg of the parallel axes, 3R shift (-0.482, 0) m" in r.output
     assert "design: collision-free over the full cycle" in r.output
     doc = json.loads((out / "linkage.json").read_text())
     col = doc["collision"]

@@ -49,15 +49,19 @@ def tested(a: tuple, b: tuple, shared) -> bool:
     cylinder),
     ``shared``: the joints the bodies share (None: not adjacent). Bodies that share no joint: every pair
     but the cylinders. Bodies that share a joint (their relative motion about it a turn): bar against
-    bar, and a leg from the shared joint against the other's hub there as a cylinder (its flat face
-    towards the leg; the pin in it too). Not tested: the two hubs of the shared joint (kept apart by the
-    stack, `stack_gap` of `synth.design.search`), its pin in its bores (which run along the whole pin,
-    `synth.io.meshes.link_primitives`), a bar against the hubs and pins of the other's other joints
-    (docs/design.md, "Overlap of links that share a joint": the rates)."""
+    bar, a leg from the shared joint against the other's hub there as a cylinder (its flat face
+    towards the leg; the pin in it too), and a bar against the other's hubs and pins at its other joints
+    (fixtures/fourbar_velocity.yaml's base bar ran through link_h1's hub and pin at h2: 31.9 and 3.3 mm^3).
+    Not tested: the two hubs of the shared joint (kept apart by the stack, `stack_gap` of
+    `synth.design.search`), its pin in its bores (which run along the whole pin,
+    `synth.io.meshes.link_primitives`)."""
     if a[0] == "cyl" or b[0] == "cyl":
         bar, other = (a, b) if b[0] == "cyl" else (b, a)
         return shared is not None and bar[0] == "bar" and other[1] in shared and other[1] in bar[1]
-    return shared is None or (a[0] == "bar" and b[0] == "bar")
+    if shared is None or a[0] == b[0] == "bar":
+        return True
+    bar, other = (a, b) if a[0] == "bar" else (b, a)  # a bar against the other's hubs and pins elsewhere
+    return bar[0] == "bar" and other[0] in ("hub", "pin") and other[1] not in shared
 
 
 def axial_kind(x: tuple, y: tuple, shared) -> tuple[int, tuple]:
