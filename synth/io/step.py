@@ -260,16 +260,22 @@ def name_products(text: str, names: list[str]) -> str:
 VOLUME_TOLERANCE = 0.02  # relative: a B-rep solid's volume against its faceted STL's (measured: +0.3 to +0.7 %)
 
 
-def _checked_solids(occ, prims, bores, scale: float, volume: float | None, bodies: int | None = None) -> list[int]:
+def _checked_solids(occ, prims, bores, scale: float, volume: float | None, bodies: int | None = None, *,
+                    name: str = "", banned=frozenset(), trying=lambda key: None) -> list[int]:
     """`_occ_solids` with revolved round bars, else with cylinders and balls, then both again one boolean at
     a time (measured: 2 of 20 README jobs' bases, a hub 0.9 times the bar's radius), whichever first gives the
     ``volume`` (the STL's, in the model's unit; None: unchecked) within `VOLUME_TOLERANCE` in as many solids
     as the STL has ``bodies`` (None: unchecked): OpenCASCADE's booleans of solids whose faces coincide or
     touch (the balls of a cranked bar's segments, a bar's rims) may fail, lose pieces or leave a sliver
     solid (a bore through a bar's rim: measured on 3 of 20 README jobs, whose STEP model then failed as a
-    whole) without a word. RuntimeError when none does."""
+    whole) without a word. RuntimeError when none does. ``banned``: the (``name``, construction index)
+    pairs not tried (`synth.io.bounded`: they did not return); ``trying(key)`` is called before each."""
     got = []
-    for revolved, one_by_one in ((True, False), (False, False), (True, True), (False, True)):
+    for k, (revolved, one_by_one) in enumerate(((True, False), (False, False), (True, True), (False, True))):
+        if (name, k) in banned:
+            got.append(f"construction {k}: no return")
+            continue
+        trying((name, k))
         before = set(occ.getEntities(3))
         try:
             tags = _occ_solids(occ, prims, bores, scale, revolved, one_by_one)
@@ -292,11 +298,12 @@ def mesh_figures(solids: dict) -> tuple[dict, dict]:
             {n: shell_count(m.faces) for n, m in solids.items()})
 
 
-def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None = None) -> str:
+def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None = None, *, banned=frozenset(),
+              trying=lambda key: None) -> str:
     """The ``linkage.step`` file of ``linkage`` with its physical ``design`` (see the module docstring);
     ``volumes`` {URDF link: mm^3} and ``bodies`` {URDF link: count}: the STL solids' volumes and pieces each
     B-rep solid is checked against (`mesh_figures`). Imports gmsh (ImportError without the ``cad`` extra);
-    RuntimeError when a boolean fails."""
+    RuntimeError when a boolean fails. ``banned``, ``trying``: `_checked_solids`'s (`bounded_step_text`)."""
     gmsh = load_kernel()
     if gmsh is None:
         raise ImportError("linkage.step needs gmsh: pip install 'mpsynth[cad]'")
@@ -314,7 +321,8 @@ def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None 
         gmsh.model.add("linkage")
         occ = gmsh.model.occ
         want = {name: v * to_model for name, v in (volumes or {}).items()}  # m^3
-        pieces = {name: _checked_solids(occ, prims, bores, scale, want.get(name), (bodies or {}).get(name))
+        pieces = {name: _checked_solids(occ, prims, bores, scale, want.get(name), (bodies or {}).get(name),
+                                        name=name, banned=banned, trying=trying)
                   for name, (prims, bores) in parts.items()}
         try:
             occ.synchronize()
@@ -354,6 +362,15 @@ def _restore_unit(gmsh, directory: Path) -> None:
     gmsh.model.remove()
 
 
+def bounded_step_text(linkage, design, volumes: dict | None = None, bodies: dict | None = None) -> str:
+    """`step_text` in a child bounded in CPU time (`synth.io.bounded`): a part's construction whose
+    OpenCASCADE booleans do not return is given up and the next one tried. RuntimeError as `step_text`,
+    or when every construction of a part failed or did not return."""
+    from synth.io.bounded import bounded_build
+
+    return bounded_build(step_text, linkage, design, volumes, bodies)
+
+
 def write_step(job, directory: Path) -> list[Path]:
     """The ``step`` exporter (`synth.io.export`): ``linkage.step`` when the ``cad`` extra is installed and
     every B-rep solid has its STL's volume (`_checked_solids`); nothing otherwise (the STL files are the
@@ -361,7 +378,7 @@ def write_step(job, directory: Path) -> list[Path]:
     if job.result is None or not have_kernel():  # kinematic outputs only: no design, no solids
         return []
     try:
-        text = step_text(job.linkage, job.result.design, *mesh_figures(job.solids))
+        text = bounded_step_text(job.linkage, job.result.design, *mesh_figures(job.solids))
     except RuntimeError:
         return []
     (Path(directory) / STEP_FILE).write_text(text, encoding="ascii")

@@ -14,7 +14,7 @@ from synth.errors import InputError, SynthesisError
 from synth.io.atomic import atomic_write, owned_files, write_manifest
 from synth.io.readback import read_output, solution_dirs
 from synth.io.meshes import design_solids
-from synth.io.step import STEP_FILE, have_kernel, mesh_figures, step_text
+from synth.io.step import STEP_FILE, bounded_step_text, have_kernel, mesh_figures
 
 
 def export_step(out) -> list[Path]:
@@ -35,7 +35,7 @@ def export_step(out) -> list[Path]:
             raise InputError(f"{rb.root / 'linkage.json'}: unreadable 'design' section ({e})") from None
         solids = design_solids(rb.linkage, design)
         try:
-            text = step_text(rb.linkage, design, *mesh_figures(solids))
+            text = bounded_step_text(rb.linkage, design, *mesh_figures(solids))
         except RuntimeError as e:
             raise SynthesisError(f"{rb.root}: no linkage.step: {e}") from None
         path = rb.root / STEP_FILE
