@@ -61,7 +61,7 @@ from synth.errors import MpsynthError, SynthesisError
 from synth.task import default_name
 from synth.solve.many import solve_bennett_many
 from synth.tools.resultlines import dumps, dumps_lines, float_texts  # (dumps: the API of this module too)
-from synth.tools.workerpool import pool_context, prepare_worker, terminate_pool, worker_count  # noqa: F401
+from synth.tools.workerpool import keep_freed_pages, pool_context, prepare_worker, terminate_pool, worker_count  # noqa: F401
 from synth.tools.jobspec import (DEGREES, KINDS, SIZE_KEYS, TASK_KEYS, JobError, check_job, echo_id, is_task_job,
                                  one_line_message, parse_job, prepare_out, read_common_bennett, resolve_out)
 
@@ -419,13 +419,15 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
     idle), in input order, as soon as each is ready and every one before it. ``jobs`` worker processes
     (the caller caps it, `worker_count`), each set up by ``initializer(parent pid)`` (an importable
     function; default `prepare_worker`), each chunk a task of one worker, at most two chunks per
-    worker ahead of the output (bounded memory). ``stop``: a callable asked before every chunk, on
-    every idle tick and, while waiting for a worker, every `POLL_SECONDS`; when it returns true the pool
-    is terminated (from this loop, never from inside the pool's own bookkeeping) and `Stopped` is
-    raised; asked while the input is idle, the chunks already read are answered first (every line read
+    worker ahead of the output (bounded memory); with ``jobs`` 1 this process runs them and keeps the memory
+    it frees (`synth.tools.workerpool.keep_freed_pages`, as a worker does). ``stop``: a callable asked
+    before every chunk, on every idle tick and, while waiting for a worker, every `POLL_SECONDS`; when it
+    returns true the pool is terminated (from this loop, never from inside the pool's own bookkeeping) and
+    `Stopped` is raised; asked while the input is idle, the chunks already read are answered first (every line read
     gets its result). ``full``, ``out_dir``, ``design``: as `run_job`; ``keep``: as `run_chunk_lines`."""
     stop = stop or (lambda: False)
     if jobs <= 1:
+        keep_freed_pages()  # (this process runs the chunks: as a worker does, `prepare_worker`)
         for chunk in chunks:
             if stop():
                 raise Stopped
