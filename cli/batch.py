@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import select
 import sys
 import time
 
@@ -74,10 +75,20 @@ def _write(text: str, whole: bool = False) -> None:
                 sys.stdout.flush()
                 _write_bytes(buffer, text.encode(sys.stdout.encoding or "utf-8", sys.stdout.errors or "strict"))
                 return
-            # line by line: a signal's exception inside a write of the whole text lost the rest of a line
-            # (stdout's buffer takes each line whole or not at all; what it holds is flushed at exit)
+            # whole lines, at most PIPE_BUF bytes a write: a signal's exception inside a write of the whole text
+            # lost the rest of a line; stdout's buffer takes such a piece whole or not at all (what it holds is
+            # flushed at exit), and an unbuffered stdout (PYTHONUNBUFFERED) writes it to a pipe in one atomic
+            # system call (line by line, that was one call a line: ~3 µs of CPU a job)
+            piece, size = [], 0
             for line in text.splitlines(keepends=True):
-                sys.stdout.write(line)
+                n = len(line) if line.isascii() else select.PIPE_BUF
+                if piece and size + n > select.PIPE_BUF:
+                    sys.stdout.write("".join(piece))
+                    piece, size = [], 0
+                piece.append(line)
+                size += n
+            if piece:
+                sys.stdout.write("".join(piece))
             sys.stdout.flush()
     except BrokenPipeError:
         raise

@@ -100,7 +100,11 @@ def run_in_slot(run, slot: int, first: int, nbytes: int, *args):
     not fit (OUT_BYTES)."""
     shared = _SHARED[0]
     base = slot * (IN_BYTES + OUT_BYTES)
-    out = run((first, shared[base : base + nbytes].split(b"\n")), *args)
+    data = shared[base : base + nbytes]
+    if data.isascii():  # (the usual job lines: decoded at once, not line by line)
+        out = run(list(enumerate(data.decode("ascii").split("\n"), first)), *args)
+    else:
+        out = run((first, data.split(b"\n")), *args)
     data = out.text.encode("utf-8")
     if len(data) > OUT_BYTES:
         return out
