@@ -44,12 +44,17 @@ def chunks(items, size: int, max_bytes: int = 1 << 20):
 
 
 def default_chunksize(workers: int, total: int | None) -> int:
-    """Jobs per chunk: about 8 chunks per worker for a known job count, between 1 and MAX_CHUNK (a chunk's
-    Bennett jobs run as one batch: bigger chunks vectorize better); PIPE_CHUNK for an unknown count (a pipe:
-    `synth.io.docload.read_chunks` answers what was read whenever the pipe is idle)."""
+    """Jobs per chunk: for a known job count, equal chunks of at most MAX_CHUNK (a chunk's Bennett jobs run as
+    one batch: bigger chunks vectorize better), at least 8 per worker and their number a multiple of the
+    workers, so that the last ones run side by side (README's 20,000 jobs on 2 workers: 20 of 1,000, not
+    19 of 1,024 and one of 544 run by one worker while the other waits); PIPE_CHUNK for an unknown count (a
+    pipe: `synth.io.docload.read_chunks` answers what was read whenever the pipe is idle)."""
     if total is None:
         return PIPE_CHUNK
-    return max(1, min(MAX_CHUNK, total // (8 * max(workers, 1))))
+    workers = max(workers, 1)
+    count = max(8 * workers, -(-total // MAX_CHUNK))
+    count = -(-count // workers) * workers
+    return max(1, -(-total // count))
 
 
 IN_BYTES = 2 << 20  # a slot's room for a chunk's job lines (`synth.io.docload.read_chunks`: about 1 MB a chunk)
