@@ -115,7 +115,6 @@ def batch_worker(parent: int) -> None:
     (the pool's fork server, which exits with the batch process, even on SIGKILL) dies (Linux prctl
     PR_SET_PDEATHSIG): no orphan keeps writing outputs. Then the library's `prepare_worker`."""
     import ctypes
-    import ctypes.util
     import os
 
     from synth.tools.workerpool import prepare_worker
@@ -124,7 +123,8 @@ def batch_worker(parent: int) -> None:
     signal.signal(signal.SIGTERM, lambda signum, frame: os._exit(128 + signum))
     _exit_with(parent)
     try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
+        libc = ctypes.CDLL(None, use_errno=True)  # (the process's own symbols, libc's among them: find_library
+        # ran `ldconfig -p`, ~7 ms of every worker's start)
         ppid = os.getppid()
         libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
         if os.getppid() != ppid:  # the parent died before the prctl

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import random
 
 import numpy as np
 import pytest
@@ -264,3 +265,31 @@ def test_orjson_writes_the_common_lines():
 
     line = run_chunk([(1, mixed_lines(1)[0])], False, None)[0]
     assert line["ok"] and _orjson_line(line) == json_line(line)
+
+
+def test_a_chunk_through_a_shared_slot_answers_as_through_the_pipe(monkeypatch):
+    """`synth.tools.chunking`: a chunk put in a shared slot and run there (`run_in_slot`, here in this process)
+    gives run_chunk_lines' text and codes; a chunk with a line over the limit, or one larger than a slot, is
+    not put there; a result larger than a slot comes back as run_chunk_lines' own answer."""
+    from synth.tools import chunking
+    from synth.tools.batchjobs import run_chunk_lines
+
+    rng = random.Random(5)
+    raw = [json.dumps(readme_job(rng, i)).encode() for i in range(30)] + [b"", b"{bad"]
+    want = run_chunk_lines((7, raw), False, None)
+    slots = chunking.SharedSlots(2)
+    try:
+        where = slots.put((7, raw))
+        assert where[0] in (0, 1) and where[1:] == (7, len(b"\n".join(raw)))
+        text, codes = slots.answer(where[0], chunking.run_in_slot(run_chunk_lines, *where, False, None, True))
+        assert (text, codes) == (want.text, want.codes)
+        assert slots.put((1, raw[:3] + [None])) is None  # (a line over the limit: the pipe, as before)
+        monkeypatch.setattr(chunking, "OUT_BYTES", 100)
+        where = slots.put((7, raw))
+        got = slots.answer(where[0], chunking.run_in_slot(run_chunk_lines, *where, False, None, True))
+        assert (got.text, got.codes) == (want.text, want.codes)
+        assert sorted(slots.free) == [0, 1]
+        monkeypatch.setattr(chunking, "IN_BYTES", 100)
+        assert slots.put((7, raw)) is None
+    finally:
+        slots.close()

@@ -20,7 +20,8 @@ from test_batch_chunks import readme_job
 # modules the chunk path of README's Bennett jobs does not need (each was imported at start-up before)
 NOT_AT_START = ("synth.solve.tasks", "synth.design.constraints", "synth.design.search", "synth.io.writer",
                 "synth.io.poses", "synth.synthesis.bennett", "synth.linkage", "synth.tools.cluster",
-                "synth.tools.resultstable", "distributed", "pyarrow", "scipy", "sympy", "trimesh")
+                "synth.tools.resultstable", "distributed", "pyarrow", "scipy", "sympy", "trimesh",
+                "yaml")  # (PyYAML: ~11 ms, for YAML documents only: `synth.io.yamlload`)
 
 
 def test_the_batch_command_imports_the_chunk_path_only():
@@ -59,3 +60,16 @@ def test_the_collector_is_off_only_while_the_programs_modules_load():
     for argv0, off in (("/venv/bin/mpsynth", "True"), ("notebook.py", "False")):
         out = subprocess.run([sys.executable, "-c", code, argv0], cwd=REPO, capture_output=True, text=True, check=True)
         assert out.stdout.split() == [off, "True"], out.stdout + out.stderr
+
+
+def test_a_worker_keeps_freed_pages_and_its_results_do_not_change():
+    """`keep_freed_pages` (glibc's mallopt) applies on glibc and leaves the chunk path's result lines as they were."""
+    import platform
+
+    from synth.tools.batchjobs import run_chunk_lines
+
+    lines = [json.dumps(readme_job(random.Random(3), i)).encode() for i in range(40)]
+    before = run_chunk_lines((1, lines), False, None).text
+    applied = batchjobs.keep_freed_pages()
+    assert applied == (sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc")
+    assert run_chunk_lines((1, lines), False, None).text == before

@@ -139,3 +139,56 @@ def test_a_pool_that_stays_stuck_is_left_unjoined(monkeypatch):
     pool = _StuckPool([_Worker(stuck=True)])
     assert not batchjobs.terminate_pool(pool, []) and not pool.joined  # (the caller's process ends anyway)
     pool.workers[0].kill()
+
+
+class _PartialRaw:
+    """A raw binary stdout that takes at most ``most`` bytes per write (a pipe interrupted by a signal)."""
+
+    def __init__(self, most: int):
+        self.most, self.data, self.calls = most, bytearray(), 0
+
+    def write(self, b):
+        self.calls += 1
+        n = min(self.most, len(b))
+        self.data += bytes(b[:n])
+        return n
+
+    def flush(self):
+        pass
+
+
+def test_a_chunks_lines_go_out_whole_when_the_raw_stdout_takes_part_of_a_write():
+    from cli.batch import _write_bytes
+
+    text = "".join(f'{{"id":{i},"line":{i + 1},"ok":true}}\n' for i in range(300)).encode()
+    raw = _PartialRaw(1000)
+    _write_bytes(raw, text)
+    assert bytes(raw.data) == text
+    assert raw.calls == -(-len(text) // 1000)  # (one write call per piece it takes, not per line)
+
+
+def test_result_lines_go_out_in_pieces_of_whole_lines_of_at_most_pipe_buf(monkeypatch):
+    """cli.batch._write without ``whole``: each write call is whole lines of at most PIPE_BUF bytes (atomic on a
+    pipe; a signal's exception between two calls never cuts a line), a longer line alone."""
+    import io
+    import select
+
+    from cli import batch
+
+    class Recorder(io.StringIO):
+        def __init__(self):
+            super().__init__()
+            self.calls = []
+
+        def write(self, s):
+            self.calls.append(s)
+            return super().write(s)
+
+    lines = [f'{{"id":{i},"pad":"{"x" * (i * 37 % 900)}"}}\n' for i in range(200)] + ['{"long":"' + "y" * 9000 + '"}\n']
+    out = Recorder()
+    monkeypatch.setattr(batch.sys, "stdout", out)
+    batch._write("".join(lines))
+    assert out.getvalue() == "".join(lines)
+    assert all(c.endswith("\n") for c in out.calls)
+    assert all(len(c) <= select.PIPE_BUF for c in out.calls[:-1]) and out.calls[-1] == lines[-1]
+    assert len(out.calls) < len(lines) / 3

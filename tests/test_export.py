@@ -333,6 +333,7 @@ def test_write_output_files(bennett, written):
     from synth.drive import drive_report
 
     printed = doc.pop("print")  # the parts on the bed (tests/test_printreport.py)
+    assert doc.pop("step") is step.have_kernel()  # linkage.step written (tests/test_step.py)
     assert sorted(p["mesh"] for p in printed["parts"]) == sorted(f"meshes/{n}.stl" for n in GEOMETRIC | PINS)
     assert doc == linkage_document(bennett, result.design, result.collision, drive_report(bennett), result.slenderness)
     assert doc["design"]["slenderness"]["met"]  # the bars as written (tests/test_sturdy.py)

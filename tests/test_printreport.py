@@ -70,3 +70,18 @@ def test_cli_output_reports_every_mesh_and_its_volume(tmp_path):
         assert max(p["extents"]) <= np.linalg.norm(ext) + 1e-6  # never longer than the box's diagonal
         assert p["fits_bed"] == (fit_scale(p["extents"]) == 1.0)
     assert sum("does not fit" in line for line in r.output.splitlines()) == sum(not p["fits_bed"] for p in parts)
+
+
+@pytest.mark.parametrize("offset", [0.0, 2e9])
+def test_hull_vertices_hold_every_extreme_of_the_points(offset):
+    """`solid.hull_vertices` (what `print_orientation` projects): fewer points with the same maximum and
+    minimum in every direction, to the bit, also 2e9 from the origin (a far linkage's mesh in mm)."""
+    from synth.io.solid import hull_vertices
+
+    rng = np.random.default_rng(5)
+    pts = np.concatenate([rng.normal(size=(300, 3)), rng.uniform(-0.5, 0.5, size=(300, 3))]) + offset
+    idx = hull_vertices(pts)
+    assert 4 <= len(idx) < 300 and np.all(np.diff(idx) > 0)
+    d = rng.normal(size=(3, 500))
+    np.testing.assert_array_equal((pts[idx] @ d).max(axis=0), (pts @ d).max(axis=0))
+    np.testing.assert_array_equal((pts[idx] @ d).min(axis=0), (pts @ d).min(axis=0))

@@ -227,3 +227,54 @@ def test_one_boolean_at_a_time_builds_the_same_link(revolved):
         assert len(batch) == len(single) == 1
         assert occ.getMass(3, single[0]) == pytest.approx(occ.getMass(3, batch[0]), rel=1e-9)
         assert 2 * np.pi < occ.getMass(3, batch[0]) < 2 * np.pi + np.pi * 0.64 * 5  # the hub, plus part of the bar
+
+
+def test_parts_are_placed_by_their_assembly_occurrence():
+    """`place_products` follows occurrence k to its ITEM_DEFINED_TRANSFORMATION's target placement (line
+    breaks anywhere the translator puts them) and writes the part's origin there, round-tripping."""
+    text = ("#10 = SHAPE_REPRESENTATION('',(#11,#15,#19),#47);\n"
+            "#11 = AXIS2_PLACEMENT_3D('',#12,#13,#14);\n#12 = CARTESIAN_POINT('',(0.,0.,0.));\n"
+            "#15 = AXIS2_PLACEMENT_3D('',#16,#17,#18);\n#16 = CARTESIAN_POINT('',(0.,0.,0.));\n"
+            "#19 = AXIS2_PLACEMENT_3D('',#20,#21,#22);\n#20 = CARTESIAN_POINT('',(0.,0.,0.));\n")
+    for k, (first, target) in enumerate(((100, 19), (200, 15)), 1):  # occurrence 1 at #19, 2 at #15
+        text += (f"#{first} = CONTEXT_DEPENDENT_SHAPE_REPRESENTATION(#{first + 1},#{first + 3});\n"
+                 f"#{first + 1} = ( REPRESENTATION_RELATIONSHIP('','',#60,#10) \n"
+                 f"REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION(#{first + 2}) \nSHAPE_REPRESENTATION_RELATIONSHIP() );\n"
+                 f"#{first + 2} = ITEM_DEFINED_TRANSFORMATION('','',#11,#{target});\n"
+                 f"#{first + 3} = PRODUCT_DEFINITION_SHAPE('Placement','Placement of an item',#{first + 4}\n  );\n"
+                 f"#{first + 4} = NEXT_ASSEMBLY_USAGE_OCCURRENCE('{k}','','',#5,#55,$);\n")
+    far = (999999998.9154595, -2e9, 1e-300)
+    out = step_mod.place_products(text, [far, (1.5, -0.0, 3.0)])
+    point = re.search(r"#20 = CARTESIAN_POINT\('',\((.*)\)\);", out).group(1)
+    assert tuple(float(x) for x in point.split(",")) == far
+    assert "#16 = CARTESIAN_POINT('',(1.5,0.0,3.0));" in out
+    assert "#12 = CARTESIAN_POINT('',(0.,0.,0.));" in out  # the assembly's own placement stays
+    with pytest.raises(ValueError):
+        step_mod.place_products(text, [far, far, far])  # no third occurrence
+
+
+def test_model_unit_keeps_bars_above_a_thousandth_of_a_unit():
+    class D:
+        bar_radius = 0.0
+
+    for r, unit in ((0.01, "M"), (1e-3, "M"), (5.7e-5, "MM"), (1e-7, "UM"), (1e-12, "UM")):
+        D.bar_radius = r
+        assert step_mod.model_unit(D)[0] == unit
+
+
+def test_linkage_json_says_whether_linkage_step_was_written(tmp_path, monkeypatch):
+    import json
+
+    _kernel()
+    from synth.tools.cadexport import export_step
+
+    out = _write(tmp_path, "bennett_mm_deg.yaml", "bennett")
+    assert (out / "linkage.step").exists() and json.loads((out / "linkage.json").read_text())["step"] is True
+    monkeypatch.setattr(step_mod, "step_text", lambda *a, **k: (_ for _ in ()).throw(RuntimeError("failed")))
+    lk = synth.bennett(load_poses(str(REPO / "fixtures/bennett_mm_deg.yaml")).matrices)
+    write_output(lk, tmp_path / "b", robot_name="b", result=design_for(lk))
+    assert json.loads((tmp_path / "b" / "linkage.json").read_text())["step"] is False
+    monkeypatch.undo()
+    export_step(tmp_path / "b")  # adds the file, and says so
+    assert (tmp_path / "b" / "linkage.step").exists()
+    assert json.loads((tmp_path / "b" / "linkage.json").read_text())["step"] is True

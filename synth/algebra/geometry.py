@@ -163,7 +163,7 @@ def chord_angle(w2):
     return 4.0 * np.arcsin(0.5 * np.sqrt(w2))
 
 
-_NEXT, _AFTER = np.array([1, 2, 0]), np.array([2, 0, 1])  # cyclic index shifts of a cross product
+_NEXT, _AFTER = (1, 2, 0), (2, 0, 1)  # cyclic index shifts of a cross product
 
 
 def pose_difference_squares(H, A, B) -> tuple[np.ndarray, np.ndarray]:
@@ -175,22 +175,42 @@ def pose_difference_squares(H, A, B) -> tuple[np.ndarray, np.ndarray]:
     for many poses (e.g. `synth.checks.check_figures`' samples): each pose's features once, plain
     component arithmetic over long arrays, no small matrix products (for a few poses, where the count of
     numpy calls is the cost, `dq_pose_difference` is ~2x cheaper: measured, bench/RESULTS.md issue 36)."""
-    p, pv, qv = H[:4], H[1:4], H[5:8]
-    n = (p * p).sum(axis=0)
-    d = H[4] * pv
-    d -= p[0] * qv
-    d -= pv.take(_NEXT, axis=0) * qv.take(_AFTER, axis=0)  # - pv x qv
-    d += pv.take(_AFTER, axis=0) * qv.take(_NEXT, axis=0)
-    d *= 2.0 / n
-    u = p * (1.0 / np.sqrt(n))
-    dd = d.take(A, axis=1)
-    dd -= d.take(B, axis=1)
-    dd *= dd
-    uA, uB = u.take(A, axis=1), u.take(B, axis=1)
-    uB *= np.copysign(1.0, (uA * uB).sum(axis=0))
-    uA -= uB
-    uA *= uA
-    return dd.sum(axis=0), uA.sum(axis=0)
+    n = np.multiply(H[0], H[0])  # |p|^2, d, u of every pose: one component array at a time, no copies
+    tmp = np.empty_like(n)
+    for c in (1, 2, 3):
+        n += np.multiply(H[c], H[c], out=tmp)
+    scale = np.divide(2.0, n)
+    d = np.empty((3,) + n.shape)
+    for i in range(3):  # d_i = 2 (q0 p_i - p0 q_i - (pv x qv)_i) / |p|^2
+        x, y = 1 + _NEXT[i], 1 + _AFTER[i]
+        di = np.multiply(H[4], H[1 + i], out=d[i])
+        di -= np.multiply(H[0], H[5 + i], out=tmp)
+        di -= np.multiply(H[x], H[4 + y], out=tmp)
+        di += np.multiply(H[y], H[4 + x], out=tmp)
+        di *= scale
+    np.sqrt(n, out=tmp)
+    u = np.multiply(H[:4], np.divide(1.0, tmp, out=n))
+    dt2 = np.empty((len(A),) + n.shape[1:])
+    w2 = np.empty(dt2.shape)
+    t, s = np.empty(n.shape[1:]), np.empty(n.shape[1:])
+    for k, (a, b) in enumerate(zip(np.asarray(A).tolist(), np.asarray(B).tolist())):
+        acc = np.subtract(d[0, a], d[0, b], out=dt2[k])  # sums in component order, as sum(axis=0)
+        acc *= acc
+        for i in (1, 2):
+            np.subtract(d[i, a], d[i, b], out=t)
+            t *= t
+            acc += t
+        np.multiply(u[0, a], u[0, b], out=s)
+        for c in (1, 2, 3):
+            s += np.multiply(u[c, a], u[c, b], out=t)
+        np.copysign(1.0, s, out=s)
+        acc = np.subtract(u[0, a], np.multiply(u[0, b], s, out=t), out=w2[k])
+        acc *= acc
+        for c in (1, 2, 3):
+            np.subtract(u[c, a], np.multiply(u[c, b], s, out=t), out=t)
+            t *= t
+            acc += t
+    return dt2, w2
 
 
 def invert_pose(T) -> np.ndarray:

@@ -26,6 +26,7 @@ class ExportJob:
     package: str | None = None
     _solids: dict | None = field(default=None, repr=False)
     _masses: dict | None = field(default=None, repr=False)
+    _step: tuple | None = field(default=None, repr=False)
 
     @property
     def solids(self) -> dict:
@@ -40,6 +41,13 @@ class ExportJob:
         if self._masses is None:
             self._masses = meshes.mesh_inertials(self.solids)
         return self._masses
+
+    @property
+    def step(self) -> str | None:
+        """The linkage.step text, or None when it is not written (`step.built_step`; built once)."""
+        if self._step is None:
+            self._step = (step.built_step(self),)
+        return self._step[0]
 
     @property
     def mesh_offsets(self) -> dict:

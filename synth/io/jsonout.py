@@ -165,5 +165,6 @@ def write_linkage_json(job, directory: Path) -> list[Path]:
         m = r.design.mounting  # the base printed on its mounting face
         down = {m.link: m.normal} if m is not None else None
         doc["print"] = print_section(job.solids, down=down)  # issue 33: each part on the bed (synth.io.printreport)
+        doc["step"] = job.step is not None  # linkage.step written with this output (synth.io.step.built_step)
     write_json(doc, directory / "linkage.json")
     return [Path("linkage.json")]

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.io.names import MESH_UNIT_SCALE, mesh_filename
-from synth.io.solid import shell_count, signed_volume
+from synth.io.solid import hull_vertices, shell_count, signed_volume
 
 BED = (220.0, 220.0, 250.0)  # mm: a common printer's build volume
 MATERIAL = ("PLA", 1.24)  # name, density g/cm^3
@@ -81,27 +81,29 @@ def print_orientation(vertices: np.ndarray, faces: np.ndarray, down=None) -> np.
     whose outward unit normal is ``down`` (3,) (a base's mounting face); the footprint turned so that an
     edge of its outline (extreme points in `DIRECTIONS` directions) runs along x, smallest bounding
     rectangle, x the longer side."""
+    hull = vertices[hull_vertices(vertices)]  # the same extremes in every direction, several times fewer points
     if down is not None:
         up = -np.asarray(down, float) / np.linalg.norm(down)
     else:
         normals = np.concatenate([_down_faces(vertices, faces), sphere_directions(SPHERE)])
-        up = -normals[np.argmin(np.ptp(vertices @ normals.T, axis=0))]  # the face on the bed points down
+        up = -normals[np.argmin(np.ptp(hull @ normals.T, axis=0))]  # the face on the bed points down
     e1 = np.cross(up, np.eye(3)[np.argmin(np.abs(up))])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(up, e1)
-    flat = vertices @ np.stack([e1, e2], axis=1)  # (n, 2) footprint
+    flat = hull @ np.stack([e1, e2], axis=1)  # (n, 2) footprint
     t = np.linspace(0, 2 * np.pi, DIRECTIONS, endpoint=False)
     pts = flat[np.argmax(flat @ np.stack([np.cos(t), np.sin(t)]), axis=0)]  # outline, in angular order
     edges = np.roll(pts, -1, axis=0) - pts
     edges = edges[np.linalg.norm(edges, axis=1) > 0]
     ang = np.arctan2(edges[:, 1], edges[:, 0])  # (k,) candidate directions of x
     c, s = np.cos(ang), np.sin(ang)
-    x = pts @ np.stack([c, s])  # (m, k)
-    y = pts @ np.stack([-s, c])
+    corners = np.unique(pts, axis=0)  # the outline's distinct points (pts repeats each for many directions)
+    x = corners @ np.stack([c, s])  # (m, k)
+    y = corners @ np.stack([-s, c])
     k = np.argmin(np.ptp(x, axis=0) * np.ptp(y, axis=0))
     ex = c[k] * e1 + s[k] * e2
     ey = np.cross(up, ex)
-    if np.ptp(vertices @ ex) < np.ptp(vertices @ ey):
+    if np.ptp(hull @ ex) < np.ptp(hull @ ey):
         ex, ey = ey, -ex
     return np.stack([ex, ey, up])
 

@@ -198,6 +198,24 @@ def boolean(parts, cut=()) -> Solid:
     return Solid(vertices, np.asarray(mesh.tri_verts, np.int64).reshape(-1, 3))
 
 
+def hull_vertices(vertices) -> np.ndarray:
+    """Indices (k,), ascending, of the points ``vertices`` (n, 3) that are vertices of their convex hull
+    (manifold3d's hull; every index when manifold3d is missing): a linear function's extremes over the
+    points are among them."""
+    v = np.asarray(vertices, np.float64)
+    v = np.ascontiguousarray(v - (v.min(axis=0) + v.max(axis=0)) / 2)  # about their centre: far points alike
+    try:
+        manifold3d = import_manifold3d()
+    except ImportError:
+        return np.arange(len(v))
+    hull = np.asarray(manifold3d.Manifold.hull_points(v).to_mesh64().vert_properties, np.float64)[:, :3]
+    index = {row.tobytes(): i for i, row in zip(range(len(v) - 1, -1, -1), v[::-1])}  # first of equal rows
+    picked = [index.get(row.tobytes()) for row in np.ascontiguousarray(hull)]
+    if None in picked:  # a hull point not bit-equal to an input point: keep them all
+        return np.arange(len(v))
+    return np.unique(picked)
+
+
 def intersection_volume(a: Solid, b: Solid) -> float:
     """The volume of the intersection of the closed meshes a and b (their units cubed), with manifold3d at
     unit size in double precision as `boolean`."""

@@ -30,6 +30,7 @@ import os
 import re
 import tempfile
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -257,6 +258,58 @@ def name_products(text: str, names: list[str]) -> str:
     return re.sub(r"FILE_NAME\('[^']*','[^']*'", "FILE_NAME('linkage','1970-01-01T00:00:00'", out, count=1)
 
 
+_ASSEMBLY = {  # what `place_products` follows: {kind: (pattern, groups)}, each found in one pass
+    "nauo": re.compile(r"#(\d+) = NEXT_ASSEMBLY_USAGE_OCCURRENCE\(\s*'(\d+)'"),
+    "pds": re.compile(r"#(\d+) = PRODUCT_DEFINITION_SHAPE\(\s*'[^']*',\s*'[^']*',\s*#(\d+)\s*\)"),
+    "cdsr": re.compile(r"#(\d+) = CONTEXT_DEPENDENT_SHAPE_REPRESENTATION\(\s*#(\d+),\s*#(\d+)\s*\)"),
+    "rrwt": re.compile(r"#(\d+) = \( REPRESENTATION_RELATIONSHIP\([^;]*?"
+                       r"REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION\(\s*#(\d+)\s*\)"),
+    "idt": re.compile(r"#(\d+) = ITEM_DEFINED_TRANSFORMATION\(\s*'[^']*',\s*'[^']*',\s*#(\d+),\s*#(\d+)\s*\)"),
+    "axis": re.compile(r"#(\d+) = AXIS2_PLACEMENT_3D\(\s*'[^']*',\s*#(\d+),"),
+}
+_ZERO_POINT = re.compile(r"^#(\d+) = CARTESIAN_POINT\('',\(0\.,0\.,0\.\)\);$", re.M)
+
+
+def place_products(text: str, origins: list) -> str:
+    """The STEP ``text`` with the k-th part occurrence (NEXT_ASSEMBLY_USAGE_OCCURRENCE 'k', as `name_products`
+    numbers them: the writer's order) placed at ``origins[k - 1]`` (3,) in the file's unit: the origin of
+    its ITEM_DEFINED_TRANSFORMATION's target placement, written as identity by the translator. Each part
+    is built around its own origin (`local_origin`), so its geometry keeps the file's 13 significant
+    digits where the linkage is far from the world origin. ValueError when the structure is not found."""
+    found = {k: {m.group(1): m.groups()[1:] for m in p.finditer(text)} for k, p in _ASSEMBLY.items()}
+    nauo = {k: i for i, (k,) in found["nauo"].items()}
+    pds = {n: i for i, (n,) in found["pds"].items()}
+    cdsr = {d: r for _, (r, d) in found["cdsr"].items()}
+    points = {}
+    for k, origin in enumerate(origins, 1):
+        try:
+            (transform,) = found["rrwt"][cdsr[pds[nauo[str(k)]]]]
+            point = found["axis"][found["idt"][transform][1]][0]  # ITEM_DEFINED_TRANSFORMATION('','',#from,#to)
+        except KeyError:
+            raise ValueError(f"the STEP file has no placement for part occurrence {k}") from None
+        if point in points:
+            raise ValueError(f"part occurrences share the placement #{point}")
+        points[point] = "CARTESIAN_POINT('',(" + ",".join(_step_real(x) for x in origin) + "))"
+    out = _ZERO_POINT.sub(lambda m: f"#{m.group(1)} = {points.pop(m.group(1))};" if m.group(1) in points
+                          else m.group(0), text)
+    if points:
+        raise ValueError(f"part placements #{', #'.join(points)} are not the translator's identity")
+    return out
+
+
+def _refs(body: str) -> list[int]:
+    """The entity numbers a STEP entity's ``body`` refers to, in order."""
+    return [int(r) for r in re.findall(r"#(\d+)", body)]
+
+
+def _step_real(x: float) -> str:
+    """``x`` as a STEP real (ISO 10303-21: a decimal point, an optional exponent), round-tripping."""
+    r = repr(float(x) + 0.0)
+    mant, _, exp = r.partition("e")
+    mant = mant if "." in mant else mant + "."
+    return mant + (f"E{int(exp)}" if exp else "")
+
+
 VOLUME_TOLERANCE = 0.02  # relative: a B-rep solid's volume against its faceted STL's (measured: +0.3 to +0.7 %)
 
 
@@ -298,6 +351,30 @@ def mesh_figures(solids: dict) -> tuple[dict, dict]:
             {n: shell_count(m.faces) for n, m in solids.items()})
 
 
+MODEL_UNITS = (("M", 1.0), ("MM", 1e3), ("UM", 1e6))  # OpenCASCADE's unit names, model units per metre
+
+
+def model_unit(design) -> tuple[str, float]:
+    """(OpenCASCADE unit name, model units per metre) the solids of ``design`` are built in: the largest
+    of metres, millimetres, micrometres in which the bar radius is at least 1e-3 model units (README's
+    jobs: metres, bars of 5 to 12 mm; poses a millimetre apart: millimetres, bars of 0.06 mm). OpenCASCADE's
+    fixed tolerances (1e-7 model units) are then at most 1e-4 of a bar's radius, where smaller parts
+    failed its booleans (module docstring)."""
+    return next(((u, k) for u, k in MODEL_UNITS if design.bar_radius * k >= 1e-3), MODEL_UNITS[-1])
+
+
+def local_origin(prims) -> np.ndarray:
+    """The point (3,) a part's solid is built around (metres, world): its first primitive's start. Each
+    part is built near the origin and then placed: OpenCASCADE's booleans failed on parts whose size
+    is 1e-9 of their distance from it (a millimetre linkage 2,000 km out)."""
+    return np.asarray(prims[0].p0, float)
+
+
+def _shifted(prims, origin) -> list:
+    """``prims`` with their end points relative to ``origin`` (3,)."""
+    return [replace(p, p0=np.asarray(p.p0, float) - origin, p1=np.asarray(p.p1, float) - origin) for p in prims]
+
+
 def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None = None, *, banned=frozenset(),
               trying=lambda key: None) -> str:
     """The ``linkage.step`` file of ``linkage`` with its physical ``design`` (see the module docstring);
@@ -309,7 +386,8 @@ def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None 
         raise ImportError("linkage.step needs gmsh: pip install 'mpsynth[cad]'")
 
     parts = step_parts(linkage, design)
-    scale, to_model = 1.0, MESH_UNIT_SCALE ** 3  # built in metres (module docstring); volumes from mm^3
+    unit, scale = model_unit(design)
+    to_model = (MESH_UNIT_SCALE * scale) ** 3  # volumes from mm^3
     started = gmsh.isInitialized()
     if not started:
         # gmsh's initialisation resets SIGTERM to its default action (seen in /proc/self/status): inside
@@ -320,10 +398,14 @@ def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None 
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("linkage")
         occ = gmsh.model.occ
-        want = {name: v * to_model for name, v in (volumes or {}).items()}  # m^3
-        pieces = {name: _checked_solids(occ, prims, bores, scale, want.get(name), (bodies or {}).get(name),
-                                        name=name, banned=banned, trying=trying)
-                  for name, (prims, bores) in parts.items()}
+        want = {name: v * to_model for name, v in (volumes or {}).items()}
+        pieces, origins = {}, {}
+        for name, (prims, bores) in parts.items():
+            o = local_origin(prims)
+            tags = _checked_solids(occ, _shifted(prims, o), _shifted(bores, o), scale, want.get(name),
+                                   (bodies or {}).get(name), name=name, banned=banned, trying=trying)
+            pieces[name] = tags
+            origins[name] = o / MESH_UNIT_SCALE  # mm: the file's unit
         try:
             occ.synchronize()
         except Exception as e:  # noqa: BLE001  (a boolean that failed above may surface only here, bare)
@@ -334,7 +416,8 @@ def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None 
         if volumes != sorted(tags):
             raise RuntimeError(f"the B-rep model holds volumes {volumes}, expected {sorted(tags)}")
         order = [tags[t] for t in volumes]  # the writer's order: by volume tag
-        gmsh.option.setString("Geometry.OCCTargetUnit", "M")  # the model's unit; the file's stays mm
+        places = [origins[next(n for n, ts in pieces.items() if t in ts)] for t in volumes]
+        gmsh.option.setString("Geometry.OCCTargetUnit", unit)  # the model's unit; the file's stays mm
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / STEP_FILE
             try:
@@ -347,7 +430,7 @@ def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None 
     finally:
         if not started:
             gmsh.finalize()
-    return name_products(text, order)
+    return place_products(name_products(text, order), places)
 
 
 def _restore_unit(gmsh, directory: Path) -> None:
@@ -371,15 +454,23 @@ def bounded_step_text(linkage, design, volumes: dict | None = None, bodies: dict
     return bounded_build(step_text, linkage, design, volumes, bodies)
 
 
-def write_step(job, directory: Path) -> list[Path]:
-    """The ``step`` exporter (`synth.io.export`): ``linkage.step`` when the ``cad`` extra is installed and
-    every B-rep solid has its STL's volume (`_checked_solids`); nothing otherwise (the STL files are the
-    output's geometry: an optional format does not fail a run; `mpsynth export OUT --step` says why)."""
-    if job.result is None or not have_kernel():  # kinematic outputs only: no design, no solids
-        return []
+def built_step(job) -> str | None:
+    """The ``linkage.step`` text of an `synth.io.export.ExportJob` (its linkage, design and STL solids), or
+    None: kinematic outputs only, no ``cad`` extra, or a part OpenCASCADE could not build with its STL's
+    volume (`_checked_solids`; the STL files are the output's geometry: an optional format does not fail
+    a run; `mpsynth export OUT --step` says why)."""
+    if job.result is None or not have_kernel():
+        return None
     try:
-        text = bounded_step_text(job.linkage, job.result.design, *mesh_figures(job.solids))
+        return bounded_step_text(job.linkage, job.result.design, *mesh_figures(job.solids))
     except RuntimeError:
+        return None
+
+
+def write_step(job, directory: Path) -> list[Path]:
+    """The ``step`` exporter (`synth.io.export`): ``linkage.step`` when `built_step` gives it (``job.step``,
+    built once: linkage.json records whether it was written); nothing otherwise."""
+    if job.step is None:
         return []
-    (Path(directory) / STEP_FILE).write_text(text, encoding="ascii")
+    (Path(directory) / STEP_FILE).write_text(job.step, encoding="ascii")
     return [Path(STEP_FILE)]

@@ -61,13 +61,13 @@ from synth.errors import MpsynthError, SynthesisError
 from synth.task import default_name
 from synth.solve.many import solve_bennett_many
 from synth.tools.resultlines import dumps, dumps_lines, float_texts  # (dumps: the API of this module too)
-from synth.tools.workerpool import pool_context, prepare_worker, terminate_pool, worker_count  # noqa: F401
+from synth.tools.chunking import (MAX_CHUNK, PIPE_CHUNK, SharedSlots, chunks, default_chunksize,  # noqa: F401
+                                  numbered, numbered_lines, run_in_slot)
+from synth.tools.workerpool import keep_freed_pages, pool_context, prepare_worker, terminate_pool, worker_count  # noqa: F401
 from synth.tools.jobspec import (DEGREES, KINDS, SIZE_KEYS, TASK_KEYS, JobError, check_job, echo_id, is_task_job,
                                  one_line_message, parse_job, prepare_out, read_common_bennett, resolve_out)
 
-MAX_CHUNK = 1024  # jobs per chunk at most (`default_chunksize`)
 JOB_SOURCE = "poses"  # a job's poses as messages name them
-PIPE_CHUNK = 256  # jobs per chunk from a pipe (an unknown count: some chunks for every worker)
 
 
 def _synthesize(kind: str, ps, options):
@@ -238,16 +238,6 @@ def _success_fields(kind: str, joints: int, extent: float, checks, out, bennett=
     return res
 
 
-def numbered_lines(lines: Iterable[str]) -> Iterator[tuple[int, str]]:
-    """(1-based line number, text) of every line of an iterable of text lines."""
-    return enumerate(lines, 1)
-
-
-def numbered(lines) -> Iterator[tuple[int, str]]:
-    """(line number, text) pairs from (line number, text) pairs or plain text lines."""
-    return (it if isinstance(it, tuple) else (n, it) for n, it in enumerate(lines, 1))
-
-
 def run_chunk(chunk, full: bool, out_dir, design: bool = True) -> list[dict]:
     """The results of a list of (line number, text) jobs (a worker's unit of work), in order: the
     three-pose Bennett jobs without OUT in one `synth.solve.many.solve_bennett_many` call (the sets it
@@ -348,29 +338,6 @@ def _success_lines(many, index: list, results: list) -> dict:
     return {n: layout.format(i, results[n]["line"], *row) for n, i, *row in zip(index, ids, *columns)}
 
 
-def chunks(items, size: int, max_bytes: int = 1 << 20):
-    """Lists of at most ``size`` items of ``items`` ((line number, text) pairs) and about ``max_bytes``
-    of job text."""
-    chunk, nbytes = [], 0
-    for item in items:
-        chunk.append(item)
-        nbytes += len(item[1] or "")
-        if len(chunk) >= size or nbytes >= max_bytes:
-            yield chunk
-            chunk, nbytes = [], 0
-    if chunk:
-        yield chunk
-
-
-def default_chunksize(workers: int, total: int | None) -> int:
-    """Jobs per chunk: about 8 chunks per worker for a known job count, between 1 and MAX_CHUNK (a chunk's
-    Bennett jobs run as one batch: bigger chunks vectorize better); PIPE_CHUNK for an unknown count (a pipe:
-    `synth.io.docload.read_chunks` answers what was read whenever the pipe is idle)."""
-    if total is None:
-        return PIPE_CHUNK
-    return max(1, min(MAX_CHUNK, total // (8 * max(workers, 1))))
-
-
 class Stopped(Exception):
     """``run_jobs`` gave up because its ``stop()`` said so (the caller's request, e.g. a signal)."""
 
@@ -419,13 +386,15 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
     idle), in input order, as soon as each is ready and every one before it. ``jobs`` worker processes
     (the caller caps it, `worker_count`), each set up by ``initializer(parent pid)`` (an importable
     function; default `prepare_worker`), each chunk a task of one worker, at most two chunks per
-    worker ahead of the output (bounded memory). ``stop``: a callable asked before every chunk, on
-    every idle tick and, while waiting for a worker, every `POLL_SECONDS`; when it returns true the pool
-    is terminated (from this loop, never from inside the pool's own bookkeeping) and `Stopped` is
-    raised; asked while the input is idle, the chunks already read are answered first (every line read
+    worker ahead of the output (bounded memory); with ``jobs`` 1 this process runs them and keeps the memory
+    it frees (`synth.tools.workerpool.keep_freed_pages`, as a worker does). ``stop``: a callable asked
+    before every chunk, on every idle tick and, while waiting for a worker, every `POLL_SECONDS`; when it
+    returns true the pool is terminated (from this loop, never from inside the pool's own bookkeeping) and
+    `Stopped` is raised; asked while the input is idle, the chunks already read are answered first (every line read
     gets its result). ``full``, ``out_dir``, ``design``: as `run_job`; ``keep``: as `run_chunk_lines`."""
     stop = stop or (lambda: False)
     if jobs <= 1:
+        keep_freed_pages()  # (this process runs the chunks: as a worker does, `prepare_worker`)
         for chunk in chunks:
             if stop():
                 raise Stopped
@@ -434,20 +403,30 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
         return
     ctx = pool_context()
     before = set(multiprocessing.active_children())
+    # forked workers inherit shared slots for the chunks in flight (`synth.tools.chunking.SharedSlots`)
+    slots = SharedSlots(2 * jobs + 1) if ctx.get_start_method() == "fork" and not keep else None
     gc.freeze()  # (forked workers: the collector never visits, so never copies, the pages of what is imported)
     try:
         pool = ctx.Pool(processes=jobs, initializer=initializer or prepare_worker, initargs=(os.getpid(),))
     finally:
         gc.unfreeze()
     workers = [p for p in multiprocessing.active_children() if p not in before]  # (no replacements: no maxtasks)
-    pending: collections.deque = collections.deque()
+    pending: collections.deque = collections.deque()  # (task, slot or None)
 
     def first_done(finish: bool = False):
-        while not (stop() and not finish or pending[0].ready()):
-            pending[0].wait(POLL_SECONDS)
-        if not pending[0].ready():
+        while not (stop() and not finish or pending[0][0].ready()):
+            pending[0][0].wait(POLL_SECONDS)
+        if not pending[0][0].ready():
             raise Stopped
-        return pending.popleft().get()
+        task, slot = pending.popleft()
+        got = task.get() if slot is None else slots.answer(slot, task.get())
+        return got if isinstance(got, ChunkLines) else ChunkLines(*got)
+
+    def submit(chunk):
+        where = slots.put(chunk) if slots is not None and isinstance(chunk, tuple) else None
+        if where is None:
+            return pool.apply_async(run_chunk_lines, (chunk, full, out_dir, design, keep)), None
+        return pool.apply_async(run_in_slot, (run_chunk_lines, *where, full, out_dir, design)), where[0]
 
     try:
         for chunk in chunks:
@@ -456,18 +435,22 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
                     yield first_done(finish=True)
                 raise Stopped
             if chunk is not None:
-                pending.append(pool.apply_async(run_chunk_lines, (chunk, full, out_dir, design, keep)))
+                pending.append(submit(chunk))
             while len(pending) > 2 * jobs:
                 yield first_done()
-            while pending and pending[0].ready():
+            while pending and pending[0][0].ready():
                 yield first_done()
         while pending:
             yield first_done()
         pool.close()
     except BaseException:
         terminate_pool(pool, workers)
+        if slots is not None:
+            slots.close()
         raise
     pool.join()
+    if slots is not None:
+        slots.close()
 
 
 def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = False,

@@ -7,11 +7,13 @@ and is added to the output's manifest (a later run into OUT replaces it too).
 """
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from synth.design.model import PhysicalDesign
 from synth.errors import InputError, SynthesisError
 from synth.io.atomic import atomic_write, owned_files, write_manifest
+from synth.io.jsonout import write_json
 from synth.io.readback import read_output, solution_dirs
 from synth.io.meshes import design_solids
 from synth.io.step import STEP_FILE, bounded_step_text, have_kernel, mesh_figures
@@ -40,6 +42,10 @@ def export_step(out) -> list[Path]:
             raise SynthesisError(f"{rb.root}: no linkage.step: {e}") from None
         path = rb.root / STEP_FILE
         atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="ascii"), "STEP file")
+        if rb.document.get("step") is False:  # linkage.json said the output had none: now it has
+            doc = json.loads((rb.root / "linkage.json").read_text(encoding="utf-8"))
+            doc["step"] = True
+            atomic_write(rb.root / "linkage.json", lambda tmp: write_json(doc, tmp), "linkage.json")
         owned = owned_files(rb.root)
         if owned is not None and STEP_FILE not in owned:
             write_manifest(rb.root, owned | {STEP_FILE})

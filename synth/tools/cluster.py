@@ -38,6 +38,7 @@ from typing import Iterator
 
 from synth.errors import InputError, MpsynthError
 from synth.tools.batchjobs import ChunkLines, chunks, default_chunksize, numbered, run_chunk_lines, worker_count
+from synth.tools.workerpool import keep_freed_pages
 from synth.tools.resultlines import dumps_lines
 
 CONNECT_TIMEOUT = 30.0  # seconds to reach the scheduler
@@ -110,7 +111,10 @@ def connect(address: str, workers: int | None = None, timeout: float = CONNECT_T
                                                    dashboard_address=None, silence_logs=logging.ERROR)
         except Exception as e:
             raise ClusterError(f"--scheduler local: cannot start a local Dask cluster ({type(e).__name__}: {e})") from None
-        return distributed.Client(cluster)
+        client = distributed.Client(cluster)
+        with contextlib.suppress(Exception):  # (the workers keep the memory they free, as a pool's: `keep_freed_pages`)
+            client.run(keep_freed_pages)
+        return client
     if workers:
         raise InputError(f"-j {workers}: the workers of --scheduler {address} are those started there "
                          "(dask worker ADDRESS); -j applies to local runs and --scheduler local")
