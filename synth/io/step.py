@@ -340,8 +340,8 @@ def _checked_solids(occ, prims, bores, scale: float, volume: float | None, bodie
             return tags
         got.append(f"{total} in {len(tags)} solids")
         occ.remove([(3, t) for t in tags], recursive=True)
-    raise RuntimeError(f"the B-rep booleans gave volumes {', '.join(got) or 'none'}, not the mesh's {volume} "
-                       f"(model units cubed){f' in {bodies} solids' if bodies is not None else ''}")
+    raise RuntimeError(f"{name or 'a part'}: the B-rep booleans gave volumes {', '.join(got) or 'none'}, not the "
+                       f"mesh's {volume} (model units cubed){f' in {bodies} solids' if bodies is not None else ''}")
 
 
 def mesh_figures(solids: dict) -> tuple[dict, dict]:
