@@ -77,3 +77,55 @@ def test_elliptic_translation_is_free_over_the_full_cycle_and_the_verifier_agree
     assert c["free"] and c["certified"] and c["range"] == "full" and c["layers"] and c["cranked"]
     assert "collision-free over the full cycle" in res.output
     assert_verified(out, "--collisions", repr(c["clearance"]), "--collision-range", "full", timeout=900)
+
+
+def test_a_layered_four_bar_keeps_links_that_share_a_joint_apart():
+    """The layered four-bar's links that share a joint: the programme puts their bars on different levels
+    where they meet (no step a neighbour must pass: no touches), the certificate tests their pairs (bar
+    against bar, a leg against the other's hub), and their written solids do not overlap at the reference
+    configuration (main before: the layering exempted them)."""
+    from test_overlap import _world_solids
+
+    from synth.design.collision import adjacent_pairs
+    from synth.design.coordinate import FULL
+    from synth.design.layers import layer_plan, stack_geometry
+    from synth.design.search import Layout, sizes_of
+    from synth.io.solid import intersection_volume
+
+    lk = bennett(load_poses(str(PLANAR)).matrices)
+    d = design_for(lk).design
+    u = parallel_axis(lk)
+    plan = layer_plan(lk, u, FULL, d.hub_radius + d.bar_radius + d.clearance, 20_000)
+    assert plan is not None and plan.touches == ()
+    stuck = DesignResult(d, CollisionReport(free=False, range="full", clearance=d.clearance, min_distance=-1.0,
+                                            driver="h1", driver_range=(0.0, 2 * math.pi)))
+    result = layered_design(lk, stuck)
+    assert result.collision.free and result.collision.certified and result.collision.message == ""
+    cranks = stack_geometry(lk, plan.levels, u, level_pitch(d), at=plan.at)[1]
+    cs = Layout(lk, merged=False, cranks=cranks, **sizes_of(d)).cs  # the certificate's layout (adjacent pairs)
+    tested = {frozenset(cs.body_pairs[b]) for b in set(cs.body_pair.tolist())}
+    assert adjacent_pairs(lk) <= tested
+    one = next(iter(adjacent_pairs(lk)))  # a touching pair (`Plan.touches`) left out, the others kept
+    cs = Layout(lk, merged=False, cranks=cranks, **sizes_of(d), untested={one}).cs
+    assert {frozenset(cs.body_pairs[b]) for b in set(cs.body_pair.tolist())} == tested - {one}
+    links, _ = _world_solids(lk, result.design)
+    for pair in adjacent_pairs(lk):
+        a, b = sorted(pair)
+        assert intersection_volume(links[a], links[b]) < 1e-12, (a, b)  # 1e-3 mm^3
+
+
+@pytest.mark.slow
+def test_curve_ellipse_layers_keep_links_that_share_a_joint_apart(tmp_path):
+    """fixtures/curve_ellipse.yaml (a layered Darboux chain): before, its links that share a joint were not
+    kept apart (link_a1 x link_k1 overlapped by 240,075 mm^3 at the reference configuration); now they are
+    but for the touches the report names, and the written solids of no two of them overlap there."""
+    from test_overlap import _bench
+
+    out = tmp_path / "out"
+    res = run("curve", REPO / "fixtures" / "curve_ellipse.yaml", "-o", out)
+    assert res.exit_code == 0, res.output
+    c = json.loads((out / "linkage.json").read_text())["collision"]
+    assert c["free"] and c["certified"] and c["layers"] and "touch" in c["message"]
+    rows = _bench().overlaps(out)
+    assert rows and max((v for kind, _, _, v in rows if kind != "press"), default=0.0) < 1.0, rows
+    assert_verified(out, "--collisions", repr(c["clearance"]), "--collision-range", "full", timeout=900)

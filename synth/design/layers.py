@@ -7,19 +7,24 @@ course, each at its own level (an integer times the pitch); a bar whose pieces d
 (a vertical step at the piece boundary: two via points). The hubs of a link sit at the level of its bar
 pieces there. Constraints, from the motion sampled evenly in joint rotation (`collision.even_samples`):
 
-- a bar piece that passes over a joint (in the plane, within the hub and bar radii and the clearance) is
-  above or below the whole column of that joint (both hubs and the pin between them);
-- two bar pieces of bodies that share no joint and cross in the plane are on different levels;
-- a step (riser) that a joint's column or another bar passes over is above or below it;
-- the two hubs on one axis are on different levels (stacked).
+- a bar piece that passes over a joint of other links (in the plane, within the hub and bar radii and the
+  clearance) is above or below the whole column of that joint (both hubs and the pin between them, which
+  spans the column); a link's bars leave its own hubs and need not clear them;
+- two bar pieces of two links that cross or come near in the plane are on different levels, also when the
+  links share a joint (their pieces at that joint are on their hubs' levels, apart by the stack);
+- a step (riser) that a joint's column or a bar of a link sharing no joint passes over is above or below
+  it; one that the bar of a link sharing a joint passes may be passed (a *touch*: where the neighbour
+  turns about the shared joint it sweeps a disc, and a step inside it from one side of the neighbour's
+  level to the other meets it), at a cost above every level;
+- the two hubs on one axis are on different levels (stacked); two columns that meet two levels apart.
 
-Either-or constraints are big-M binaries; the objective is the number of levels used (compact). Solved
-with scipy's HiGHS (`scipy.optimize.milp`) within a time limit. Lengths in metres.
+Either-or constraints are big-M binaries; the objective is the number of touches, then of levels used
+(compact). Solved with scipy's HiGHS (`scipy.optimize.milp`) within a node limit. Lengths in metres.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -30,6 +35,7 @@ from synth.design.model import DesignResult, joint_links
 from synth.design.search import SAFETY, Layout, certify_layout, cranked_result, sizes_of, stack_gap, task_phi_range
 
 PIECES = 2  # pieces per bar (each on its own level)
+STEP_PLACES = np.linspace(0.1, 0.9, 17)  # where along its bar a step may be (fractions)
 SAMPLES_PER_JOINT = 160  # samples of the motion per joint for the constraints
 MARGIN = 1.0  # the in-plane reach of a constraint, times (hub radius + bar radius + clearance)
 LAYER_NODES = 20_000  # branch-and-bound nodes of the layering programme (HiGHS' node limit: counted work, not
@@ -49,7 +55,7 @@ def _point_segment(p0, p1, x):
     """(distance, parameter s in [0, 1]) of points x from segments p0-p1, arrays (K, 2)."""
     d = p1 - p0
     s = np.clip(((x - p0) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-300), 0.0, 1.0)
-    return np.linalg.norm(p0 + s[:, None] * d - x, axis=-1), s
+    return np.linalg.norm(p0 + s[..., None] * d - x, axis=-1), s
 
 
 def _crossings(p0, p1, q0, q1):
@@ -61,6 +67,22 @@ def _crossings(p0, p1, q0, q1):
     s = (qp[:, 0] * w[:, 1] - qp[:, 1] * w[:, 0]) / den
     t = (qp[:, 0] * r[:, 1] - qp[:, 1] * r[:, 0]) / den
     return ok & (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1), s, t
+
+
+def _step_places(bars, ends, adj, reach) -> np.ndarray:
+    """(B,) where along each bar its step is (a fraction): of `STEP_PLACES` the one that the fewest bars of
+    the links sharing a joint with it come within ``reach`` of (at any sample), the nearest the middle of
+    those (a neighbour turning about the shared joint sweeps a disc; a step outside it is never passed)."""
+    at = np.full(len(bars), 0.5)
+    for i, (link, _, _) in enumerate(bars):
+        p0, p1 = ends[i]
+        pts = p0 + STEP_PLACES[:, None, None] * (p1 - p0)  # (C, K, 2)
+        passed = np.zeros(len(STEP_PLACES))
+        for k, (other, _, _) in enumerate(bars):
+            if other != link and adj(link, other):
+                passed += (_point_segment(*ends[k], pts)[0] < reach).any(axis=1)
+        at[i] = STEP_PLACES[np.lexsort((np.abs(STEP_PLACES - 0.5), passed))[0]]
+    return at
 
 
 class _Programme:
@@ -80,11 +102,18 @@ class _Programme:
         self.lo.append(lo)
         self.hi.append(hi)
 
-    def apart(self, a_lo, a_hi, b_lo, b_hi, big):
-        """The intervals [a_lo, a_hi] and [b_lo, b_hi] (variables) at least one level apart, either way."""
+    def apart(self, a_lo, a_hi, b_lo, b_hi, big, gap=1):
+        """The intervals [a_lo, a_hi] and [b_lo, b_hi] (variables) at least ``gap`` levels apart, either way."""
         y = self.var(binary=True)
-        self.row({a_lo: 1, b_hi: -1, y: big}, 1)  # y = 0: a above b
-        self.row({b_lo: 1, a_hi: -1, y: -big}, 1 - big)  # y = 1: b above a
+        self.row({a_lo: 1, b_hi: -1, y: big}, gap)  # y = 0: a above b
+        self.row({b_lo: 1, a_hi: -1, y: -big}, gap - big)  # y = 1: b above a
+
+    def apart_or_touch(self, a_lo, a_hi, b_lo, b_hi, big):
+        """`apart`, or not: the binary returned is 1 where the two intervals may meet (counted in the cost)."""
+        y, w = self.var(binary=True), self.var(binary=True)
+        self.row({a_lo: 1, b_hi: -1, y: big, w: big}, 1)
+        self.row({b_lo: 1, a_hi: -1, y: -big, w: big}, 1 - big)
+        return w
 
     def solve(self, cost, top, nodes):
         # imported here, not at the top: scipy.optimize costs about half a second (more than a whole Bennett
@@ -111,7 +140,7 @@ class _Programme:
 
 @dataclass
 class _Layering:
-    """The layering programme of `layer_levels` under construction: the programme ``P``, the bars (link,
+    """The layering programme of `layer_plan` under construction: the programme ``P``, the bars (link,
     a, b) with their in-plane ``ends`` over the samples, the joints with their links ``jl`` and in-plane
     tracks ``jxy``, the variables (``z``: level per bar piece, ``col``: a joint's column [lo, hi]), the
     adjacency ``adj(a, b)`` of bodies, the in-plane ``reach`` and the big-M constant ``big``."""
@@ -127,15 +156,25 @@ class _Layering:
     adj: object
     reach: float
     big: float
+    at: np.ndarray
+    adjacent: bool = True
+    touch: dict = field(default_factory=dict)
+
+    def piece(self, i: int, s) -> np.ndarray:
+        """The piece (0 or 1) of bar ``i`` at the fractions ``s`` along it (its step at ``at[i]``)."""
+        return (np.asarray(s) >= self.at[i]).astype(int)
 
     def clear_of(self, link, j) -> bool:
-        """Whether the bar of ``link`` need not keep clear of the column of joint ``j``."""
-        return link in self.jl[j] or all(self.adj(link, x) for x in self.jl[j])
+        """Whether the bar of ``link`` need not keep clear of the column of joint ``j`` (its own joint: its
+        hub there is in the column, and its bars leave that hub on its levels)."""
+        return link in self.jl[j] or (not self.adjacent and all(self.adj(link, x) for x in self.jl[j]))
+
+    def kept_apart(self, link, other) -> bool:
+        """Whether the bars of ``link`` and ``other`` are kept apart (two links; sharing a joint: if
+        ``adjacent``)."""
+        return link != other and (self.adjacent or not self.adj(link, other))
 
 
-def _piece(s):
-    """The piece (0 .. PIECES - 1) of a bar at the fractions ``s`` along it."""
-    return np.minimum((s * PIECES).astype(int), PIECES - 1)
 
 
 def _hub_rows(L: _Layering, hub: dict) -> None:
@@ -168,18 +207,18 @@ def _bar_rows(L: _Layering, i: int) -> None:
         if L.clear_of(link, j):
             continue
         d, s = _point_segment(p0, p1, L.jxy[j])
-        for h in set(_piece(s[d < reach]).tolist()):
+        for h in set(L.piece(i, s[d < reach]).tolist()):
             P.apart(z[(i, h)], z[(i, h)], *L.col[j], big)
-    for k in range(i + 1, len(L.bars)):  # crossing pieces
-        if L.adj(link, L.bars[k][0]):
+    for k in range(i + 1, len(L.bars)):  # crossing pieces (of any two links: also two that share a joint)
+        if not L.kept_apart(link, L.bars[k][0]):
             continue
         q0, q1 = L.ends[k]
         hit, s, t = _crossings(p0, p1, q0, q1)
-        near = [(_piece(s[hit]), _piece(t[hit]))]  # (piece of bar i, piece of bar k) where they meet
+        near = [(L.piece(i, s[hit]), L.piece(k, t[hit]))]  # (piece of bar i, piece of bar k) where they meet
         for x, first, on_i in ((p0, True, False), (p1, False, False), (q0, True, True), (q1, False, True)):
             d, r = _point_segment(*((p0, p1) if on_i else (q0, q1)), x)  # an end near the other bar
             end = np.full(int((d < reach).sum()), 0 if first else PIECES - 1)
-            near.append((_piece(r[d < reach]), end) if on_i else (end, _piece(r[d < reach])))
+            near.append((L.piece(i, r[d < reach]), end) if on_i else (end, L.piece(k, r[d < reach])))
         for hs, hk in near:
             for h, g in set(zip(hs.tolist(), hk.tolist())):
                 P.apart(z[(i, h)], z[(i, h)], z[(k, g)], z[(k, g)], big)
@@ -188,28 +227,46 @@ def _bar_rows(L: _Layering, i: int) -> None:
         for g in (h - 1, h):
             P.row({lo: 1, z[(i, g)]: -1}, hi=0)
             P.row({hi: 1, z[(i, g)]: -1}, lo=0)
-        rp = p0 + (h / PIECES) * (p1 - p0)
+        rp = p0 + L.at[i] * (p1 - p0)
         for j in L.joints:
             if L.clear_of(link, j):
                 continue
             if (np.linalg.norm(L.jxy[j] - rp, axis=-1) < reach).any():
                 P.apart(lo, hi, *L.col[j], big)
         for k, (other, c, e) in enumerate(L.bars):
-            if L.adj(link, other):
+            if not L.kept_apart(link, other):
                 continue
             d, s = _point_segment(L.ends[k][0], L.ends[k][1], rp)
-            for g in set(_piece(s[d < reach]).tolist()):
-                P.apart(lo, hi, z[(k, g)], z[(k, g)], big)
+            for g in set(L.piece(k, s[d < reach]).tolist()):
+                if L.adj(link, other):  # a neighbour turning about the shared joint: may be unavoidable
+                    L.touch[(L.bars[i], h, L.bars[k], g)] = P.apart_or_touch(lo, hi, z[(k, g)], z[(k, g)], big)
+                else:
+                    P.apart(lo, hi, z[(k, g)], z[(k, g)], big)
 
 
-def layer_levels(linkage, u, rng_phi, reach, nodes, keep=None, exits=()):
-    """{(link, a, b): [level per piece]} of a layering over phi in ``rng_phi`` (None when none was found
-    within ``nodes`` branch-and-bound nodes of the programme: counted work, not time); ``reach``: the in-plane distance below which two parts interact (metres). ``keep``: the
+@dataclass(frozen=True)
+class Plan:
+    """A layering (`layer_plan`): ``levels`` {(link, a, b): [level per piece]} (and ``(joint, "exit")``
+    entries), ``touches`` the steps that a neighbour's bar (of a link sharing a joint with the step's, turning
+    about it) passes at a level the step spans: ((link, a, b) of the step, (link, c, d) of the bar) pairs,
+    each once, none when every pair of links is kept apart; ``at`` {(link, a, b): where along the bar its
+    step is, a fraction}."""
+
+    levels: dict
+    touches: tuple
+    at: dict
+
+
+def layer_plan(linkage, u, rng_phi, reach, nodes, keep=None, exits=(), shared=True) -> Plan | None:
+    """A layering over phi in ``rng_phi`` (None when none was found
+    within ``nodes`` branch-and-bound nodes of the programme: counted work, not time); ``reach``: the
+    in-plane distance below which two parts interact (metres). ``keep``: the
     joints layered (default: all; a partly planar linkage layers its joints parallel to ``u`` and the
     bars between two of them, `synth.design.mixed`). ``exits``: joints (of ``keep``) where a bar leaves
     the stack along the axis to a joint not kept (a riser): the joint's column then reaches the top or
     the bottom of the stack, and the result's entry ``(joint, "exit")`` is ``[top + 1]`` or ``[-1]``, the
-    level the riser ends on."""
+    level the riser ends on. ``shared`` False: links that share a joint exempt from every row, steps at
+    the middle, columns one level apart (the programme before issue 33's fix: `synth.design.mixed`)."""
     e1, e2 = perpendicular_basis(u)
     jl = joint_links(linkage)
     joints = [j for j in jl if jl[j] and (keep is None or j in keep)]
@@ -236,16 +293,17 @@ def layer_levels(linkage, u, rng_phi, reach, nodes, keep=None, exits=()):
     col = {j: (P.var(), P.var()) for j in joints}  # the column of a joint: [lo, hi]
     hub = {(link, j): (P.var(), P.var()) for j in joints for link in jl[j]}
     levels = len(z)  # levels 0 .. levels: enough for one level per piece
-    L = _Layering(P, bars, ends, joints, jl, jxy, z, col, adj, reach, big=levels + 1.0)
+    L = _Layering(P, bars, ends, joints, jl, jxy, z, col, adj, reach, big=levels + 1.0,
+                  at=_step_places(bars, ends, adj, reach) if shared else np.full(len(bars), 0.5), adjacent=shared)
     _hub_rows(L, hub)
     for i in range(len(bars)):
         _bar_rows(L, i)
-    for n, j in enumerate(joints):  # two columns that meet (bodies that share no joint): apart
-        for k in joints[n + 1:]:
+    for n, j in enumerate(joints):  # two columns that meet (bodies that share no joint): two levels apart (a
+        for k in joints[n + 1:]:  # hub one pitch from another's end would reach into it: `level_pitch`)
             if all(adj(x, y) for x in jl[j] for y in jl[k]):
                 continue
             if (np.linalg.norm(jxy[j] - jxy[k], axis=-1) < reach).any():
-                P.apart(*col[j], *col[k], L.big)
+                P.apart(*col[j], *col[k], L.big + shared, gap=1 + shared)
     top = P.var()
     for v in z.values():
         P.row({top: 1, v: -1}, lo=0)
@@ -255,13 +313,14 @@ def layer_levels(linkage, u, rng_phi, reach, nodes, keep=None, exits=()):
         y = side[j] = P.var(binary=True)
         P.row({col[j][1]: 1, top: -1, y: big}, lo=0)
         P.row({col[j][0]: 1, y: big}, hi=big)
-    x = P.solve({top: 1.0}, levels, nodes)
+    x = P.solve({top: 1.0, **{w: big for w in L.touch.values()}}, levels, nodes)  # a touch costs more than all levels
     if x is None:
         return None
     out = {bar: [int(round(x[z[(i, h)]])) for h in range(PIECES)] for i, bar in enumerate(bars)}
     for j, y in side.items():
         out[(j, "exit")] = [-1 if round(x[y]) else int(round(x[top])) + 1]
-    return out
+    touches = dict.fromkeys((a, b) for (a, _, b, _), w in L.touch.items() if round(x[w]))
+    return Plan(out, tuple(touches), {bar: float(L.at[i]) for i, bar in enumerate(bars)})
 
 
 def level_pitch(design) -> float:
@@ -273,12 +332,13 @@ def level_pitch(design) -> float:
                stack_gap(design.bar_radius, design.hub_radius, design.hub_length, design.clearance))
 
 
-def stack_geometry(linkage, levels: dict, u, pitch: float, keep=None) -> tuple[dict, dict, list, list]:
-    """(heights, cranks, W, out) of a layering ``levels`` (`layer_levels`) with ``pitch`` metres between levels,
+def stack_geometry(linkage, levels: dict, u, pitch: float, keep=None, at=None) -> tuple[dict, dict, list, list]:
+    """(heights, cranks, W, out) of a layering ``levels`` (`Plan`'s) with ``pitch`` metres between levels,
     the stack centred on the plane of height 0: ``heights[(link, joint)]`` the height (along ``u``) of each
     hub, on the level of the first of its link's layered bars there (a joint of ``keep`` without one: 0);
     ``cranks`` (`search.Layout`'s) with via points ``p + w u`` (p on the plane of height 0) at the heights
-    ``W`` (in the order of the Layout's via points): a step at the middle of a bar whose halves differ, a
+    ``W`` (in the order of the Layout's via points): a step where a bar's pieces differ (``at``: `Plan`'s;
+    default the middle), a
     riser along the axis where a bar ends on another level than its hub, and for a bar from a joint of
     ``keep`` to another joint (``(joint, "exit")`` in ``levels``) a riser out of the stack first; ``out``
     (one per entry of W): +1 or -1 for the end of such a riser (the direction out of the stack), else 0."""
@@ -304,7 +364,8 @@ def stack_geometry(linkage, levels: dict, u, pitch: float, keep=None) -> tuple[d
             if abs(heights[(link, a)] - ha) > 1e-12:
                 pts, ws = [flat(sites[a])], [ha]
             if len(set(lv)) > 1:
-                p = flat((sites[a] + sites[b]) / 2)
+                f = 0.5 if at is None else at[(link, a, b)]
+                p = flat(sites[a] + f * (sites[b] - sites[a]))
                 pts, ws = pts + [p, p], ws + [ha, hb]
             if abs(heights[(link, b)] - hb) > 1e-12:
                 pts, ws = pts + [flat(sites[b])], ws + [hb]
@@ -341,7 +402,9 @@ def layered_design(linkage, result: DesignResult, *, nodes: int = LAYER_NODES) -
     """A certified layered design of a planar linkage (docs/design.md, "Layers"), or ``result`` unchanged
     when the axes are not all parallel, no layering is found within ``nodes`` (the programme's
     branch-and-bound nodes), or it does not certify. Keeps the sizes of ``result.design``; the pitch of the levels
-    (`pitch`) keeps a bar clear of the hubs one level up or down."""
+    (`pitch`) keeps a bar clear of the hubs one level up or down. The certificate tests the links that share
+    a joint too when the layering has no touch (`Plan`) and that certifies, else only the other pairs (as the
+    judge), and the report's message names the touches (`touch_note`)."""
     t0 = time.process_time()
     u = parallel_axis(linkage)
     old = result.design
@@ -349,18 +412,38 @@ def layered_design(linkage, result: DesignResult, *, nodes: int = LAYER_NODES) -
         return result
     rng_phi = FULL if result.collision.range == "full" else task_phi_range(linkage)
     reach = MARGIN * (old.hub_radius + old.bar_radius + old.clearance)
-    levels = layer_levels(linkage, u, rng_phi, reach, nodes)
-    if levels is None:
+    plan = layer_plan(linkage, u, rng_phi, reach, nodes)
+    if plan is None:
         result.collision.message += " (no layering of the planar linkage was found either)"
         return result
-    heights, cranks, W, _ = stack_geometry(linkage, levels, u, level_pitch(old))
-    exact = Layout(linkage, merged=False, cranks=cranks, **sizes_of(old), adjacent=False)
-    S, _ = height_offsets(exact, heights, u)  # every hub of a planar linkage has its height
-    cert = certify_layout(exact, S, rng_phi, old.clearance, W)
-    if not cert["certified"]:
+    heights, cranks, W, _ = stack_geometry(linkage, plan.levels, u, level_pitch(old), at=plan.at)
+    for adjacent in (True, False):  # links that share a joint tested (but the touches), else none (as the judge)
+        exact = Layout(linkage, merged=False, cranks=cranks, **sizes_of(old), adjacent=adjacent,
+                       untested=touching(plan))
+        S, _ = height_offsets(exact, heights, u)  # every hub of a planar linkage has its height
+        cert = certify_layout(exact, S, rng_phi, old.clearance, W)
+        if cert["certified"]:
+            break
+    else:
         result.collision.message += " (a layering of the planar linkage was tried too; it did not certify)"
         return result
     out = cranked_result(linkage, exact, S, np.asarray(W), old, result.collision.range, cert, cranks)
-    out.collision.layers = len({lv for v in levels.values() for lv in v})
+    out.collision.layers = len({lv for v in plan.levels.values() for lv in v})
     out.collision.seconds = result.collision.seconds + time.process_time() - t0
+    out.collision.message = touch_note(plan, adjacent)
     return out
+
+
+def touching(plan: Plan) -> frozenset:
+    """The pairs of links (frozensets) that touch in ``plan`` (its steps a neighbour passes)."""
+    return frozenset(frozenset((a[0], b[0])) for a, b in plan.touches)
+
+
+def touch_note(plan: Plan, adjacent: bool) -> str:
+    """The report's note on the links that share a joint of a layered design certified with them tested
+    (``adjacent``) but the touches of ``plan``, or not tested: "" when every pair was tested."""
+    named = "; ".join(f"{a[0]}'s step on {a[1]}-{a[2]} and {b[0]}'s bar {b[1]}-{b[2]}" for a, b in plan.touches)
+    if not adjacent:
+        return "links that share a joint are not certified apart in this layering"
+    return f"links that share a joint touch in this layering (no order of the levels keeps apart {named})" \
+        if named else ""

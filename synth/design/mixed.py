@@ -12,7 +12,7 @@ import numpy as np
 
 from synth.design.collision import subset
 from synth.design.coordinate import FULL, Scorer, Space, score, search_rounds, violation
-from synth.design.layers import LAYER_NODES, MARGIN, height_offsets, layer_levels, level_pitch, stack_geometry
+from synth.design.layers import LAYER_NODES, MARGIN, height_offsets, layer_plan, level_pitch, stack_geometry
 from synth.design.model import joint_links
 from synth.design.work import Work
 from synth.design.search import (FULL_SAMPLES, SEARCH_MERGED, SPREADS, TASK_SAMPLES, DesignResult, Layout,
@@ -133,9 +133,10 @@ def _attempt(linkage, result, u, keep, exits, rng_phi, reach, budget, seed, effo
     layering or no certified design is found. ``budget``: (nodes, work) as `mixed_design`'s."""
     old = result.design
     nodes, work = budget
-    levels = layer_levels(linkage, u, rng_phi, reach, nodes, keep=keep, exits=exits)
-    if levels is None:
+    plan = layer_plan(linkage, u, rng_phi, reach, nodes, keep=keep, exits=exits, shared=False)  # as before
+    if plan is None:  # issue 33's rows for links that share a joint lost motion_darboux's design (docs/design.md)
         return None
+    levels = plan.levels
     heights, cranks, crank_heights, outward = stack_geometry(linkage, levels, u, level_pitch(old), keep=keep)
     sizes = sizes_of(old)
     search = Layout(linkage, merged=SEARCH_MERGED, cranks=cranks, **sizes, adjacent=False)
@@ -176,8 +177,9 @@ def _attempt(linkage, result, u, keep, exits, rng_phi, reach, budget, seed, effo
         S, W = stack_exact.offsets(x[None])
         return certify_layout(exact, S[0], rng_phi, old.clearance, W[0])
 
-    found, _ = search_rounds(scorer, space, X0[starts].copy(), lambda: mask, target, scale, effort=effort,
-                             certify_best=certify_best)
+    found, _ = search_rounds(scorer, space, X0[starts].copy(),  # the mask grows with samples a certificate adds
+                             lambda: np.ones(len(scorer.phis), bool) if rng_phi == FULL else scorer.is_task,
+                             target, scale, effort=effort, certify_best=certify_best)
     if found is None:
         return None
     x, cert = found

@@ -68,14 +68,14 @@ class Layout:
     pin (fewer, looser capsules: the search); else bars, hubs and pins separately (the certificate).
     The pairs tested: `collision.tested` (of two links that share a joint: their bars, and a leg from that
     joint against the other's hub there, a cylinder; `collision.axial_kind`); ``adjacent`` False: none of
-    two links that share a joint (a layered design: `synth.design.layers` does not model them yet).
+    two links that share a joint; ``untested``: such pairs (frozensets) not tested (`synth.design.layers.Plan`).
     ``cranks``: {(link, joint a, joint b): (p0, p1, ..., n)}: the bar of ``link`` from a to b is cranked,
     a polyline mount a -> p0 + w0 n -> p1 + w1 n -> ... -> mount b with the crank offsets w
     (``end_offsets``'s ``W``, one column per via point, in the order of ``vias``); points and the unit
     crank direction n in the reference configuration (metres)."""
 
     def __init__(self, linkage, *, pin_radius, bar_radius, hub_radius, hub_length, clearance, merged, cranks=None,
-                 adjacent=True):
+                 adjacent=True, untested=frozenset()):
         self.linkage = linkage
         jl = joint_links(linkage)
         self.joints = [j.name for j in linkage.joints if jl[j.name]]
@@ -129,12 +129,12 @@ class Layout:
         names = bodies(linkage)
         body_pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]]
         bp_index = {p: i for i, p in enumerate(body_pairs)}
-        pairs, radii, axial, bpi, labels = [], [], [], [], []
+        pairs, radii, axial, bpi, labels, exempt = [], [], [], [], [], (set(untested) if adjacent else set(shared))
         for i, ca in enumerate(caps):
             for cb in caps[i + 1:]:
                 key = (ca[0], cb[0]) if (ca[0], cb[0]) in bp_index else (cb[0], ca[0])
                 together = shared.get(frozenset(key))
-                if key not in bp_index or not (adjacent or together is None) or not tested(ca[5:], cb[5:], together):
+                if key not in bp_index or frozenset(key) in exempt or not tested(ca[5:], cb[5:], together):
                     continue
                 x, y = (ca, cb) if key[0] == ca[0] else (cb, ca)
                 kind, row = axial_kind(x, y, together)
