@@ -159,6 +159,7 @@ class _Layering:
     at: np.ndarray
     adjacent: bool = True
     touch: dict = field(default_factory=dict)
+    steps: dict = field(default_factory=dict)
 
     def piece(self, i: int, s) -> np.ndarray:
         """The piece (0 or 1) of bar ``i`` at the fractions ``s`` along it (its step at ``at[i]``)."""
@@ -196,6 +197,26 @@ def _hub_rows(L: _Layering, hub: dict) -> None:
             P.apart(*hub[(L.jl[j][0], j)], *hub[(L.jl[j][1], j)], L.big)  # stacked hubs
 
 
+def _step_rows(L: _Layering, i: int) -> None:
+    """The span [lo, hi] of bar ``i``'s step (covering both its pieces), apart from the steps of the earlier
+    bars it comes near (two steps of links that share a joint turn about it on two circles: a touch)."""
+    P, (p0, p1) = L.P, L.ends[i]
+    lo, hi = L.steps[i] = P.var(), P.var()
+    for g in range(PIECES):
+        P.row({lo: 1, L.z[(i, g)]: -1}, hi=0)
+        P.row({hi: 1, L.z[(i, g)]: -1}, lo=0)
+    rp = p0 + L.at[i] * (p1 - p0)
+    for k in range(i):
+        if not L.kept_apart(L.bars[i][0], L.bars[k][0]):
+            continue
+        q0, q1 = L.ends[k]
+        if (np.linalg.norm(q0 + L.at[k] * (q1 - q0) - rp, axis=-1) < L.reach).any():
+            if L.adj(L.bars[i][0], L.bars[k][0]):
+                L.touch[(L.bars[i], -1, L.bars[k], -1)] = P.apart_or_touch(lo, hi, *L.steps[k], L.big)
+            else:
+                P.apart(lo, hi, *L.steps[k], L.big)
+
+
 def _bar_rows(L: _Layering, i: int) -> None:
     """Bar ``i`` apart from what it passes: a piece over a joint's column, the pieces of the later bars it
     crosses or comes near, and the steps between its pieces (the same rows, in the same order, as one
@@ -223,10 +244,7 @@ def _bar_rows(L: _Layering, i: int) -> None:
             for h, g in set(zip(hs.tolist(), hk.tolist())):
                 P.apart(z[(i, h)], z[(i, h)], z[(k, g)], z[(k, g)], big)
     for h in range(1, PIECES):  # the step between two pieces
-        lo, hi = P.var(), P.var()
-        for g in (h - 1, h):
-            P.row({lo: 1, z[(i, g)]: -1}, hi=0)
-            P.row({hi: 1, z[(i, g)]: -1}, lo=0)
+        lo, hi = L.steps[i]
         rp = p0 + L.at[i] * (p1 - p0)
         for j in L.joints:
             if L.clear_of(link, j):
@@ -296,6 +314,8 @@ def layer_plan(linkage, u, rng_phi, reach, nodes, keep=None, exits=(), shared=Tr
     L = _Layering(P, bars, ends, joints, jl, jxy, z, col, adj, reach, big=levels + 1.0,
                   at=_step_places(bars, ends, adj, reach) if shared else np.full(len(bars), 0.5), adjacent=shared)
     _hub_rows(L, hub)
+    for i in range(len(bars)):
+        _step_rows(L, i)
     for i in range(len(bars)):
         _bar_rows(L, i)
     for n, j in enumerate(joints):  # two columns that meet (bodies that share no joint): two levels apart (a
