@@ -206,7 +206,7 @@ def _step_rows(L: _Layering, i: int) -> None:
         P.row({lo: 1, L.z[(i, g)]: -1}, hi=0)
         P.row({hi: 1, L.z[(i, g)]: -1}, lo=0)
     rp = p0 + L.at[i] * (p1 - p0)
-    for k in range(i):
+    for k in range(i if L.adjacent else 0):  # (not in the programme of before: `layer_plan`'s ``shared``)
         if not L.kept_apart(L.bars[i][0], L.bars[k][0]):
             continue
         q0, q1 = L.ends[k]
@@ -284,7 +284,8 @@ def layer_plan(linkage, u, rng_phi, reach, nodes, keep=None, exits=(), shared=Tr
     the stack along the axis to a joint not kept (a riser): the joint's column then reaches the top or
     the bottom of the stack, and the result's entry ``(joint, "exit")`` is ``[top + 1]`` or ``[-1]``, the
     level the riser ends on. ``shared`` False: links that share a joint exempt from every row, steps at
-    the middle, columns one level apart (the programme before issue 33's fix: `synth.design.mixed`)."""
+    the middle, no rows of two steps, columns one level apart (the programme before issue 33's fix:
+    `synth.design.mixed`)."""
     e1, e2 = perpendicular_basis(u)
     jl = joint_links(linkage)
     joints = [j for j in jl if jl[j] and (keep is None or j in keep)]
