@@ -244,6 +244,7 @@ def _bar_rows(L: _Layering, i: int) -> None:
             for h, g in set(zip(hs.tolist(), hk.tolist())):
                 P.apart(z[(i, h)], z[(i, h)], z[(k, g)], z[(k, g)], big)
     for h in range(1, PIECES):  # the step between two pieces
+        _step_rows(L, i)
         lo, hi = L.steps[i]
         rp = p0 + L.at[i] * (p1 - p0)
         for j in L.joints:
@@ -315,8 +316,6 @@ def layer_plan(linkage, u, rng_phi, reach, nodes, keep=None, exits=(), shared=Tr
     L = _Layering(P, bars, ends, joints, jl, jxy, z, col, adj, reach, big=levels + 1.0,
                   at=_step_places(bars, ends, adj, reach) if shared else np.full(len(bars), 0.5), adjacent=shared)
     _hub_rows(L, hub)
-    for i in range(len(bars)):
-        _step_rows(L, i)
     for i in range(len(bars)):
         _bar_rows(L, i)
     for n, j in enumerate(joints):  # two columns that meet (bodies that share no joint): two levels apart (a
