@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import REPO
+from synth.design.collision import body_paths, speed_coefficients
 from synth.design.coordinate import _Critical
 from synth.design.search import Layout, resolved_sizes
 from synth.io.poses import load_poses
@@ -95,3 +96,69 @@ def test_weld_is_numpys_unique_rows():
         assert np.array_equal(got.vertices, vertices.astype(np.float64))
         assert np.array_equal(got.faces, index.reshape(-1, 3))
         assert got.faces[0, 0] == got.faces[1, 1]
+
+
+def plain_speed_coefficients(linkage, cs, offsets, sites) -> list[np.ndarray]:
+    """`speed_coefficients` pair by pair and path by path: its reference."""
+    jindex = {j.name: i for i, j in enumerate(linkage.joints)}
+    P, J = len(cs.pairs), len(linkage.joints)
+    pts = cs.ends_base + np.asarray(offsets, float)[:, None] * cs.ends_dir
+    S = np.array([sites[j.name] for j in linkage.joints])
+    w = pts[:, None] - S[None]
+    u = np.array([j.direction for j in linkage.joints])
+    reach = np.linalg.norm(w, axis=2)
+    off_axis = np.sqrt(np.maximum(reach ** 2 - np.einsum("ejk,jk->ej", w, u) ** 2, 0.0))
+    per_pair = [[] for _ in range(P)]
+    for p, (a0, a1, b0, b1) in enumerate(cs.pairs):
+        A, B = cs.body_pairs[cs.body_pair[p]]
+        if cs.axial is not None and cs.axial[p, 0]:
+            per_pair[p].append(np.zeros(J))
+            continue
+        for src, (e0, e1), dst in ((A, (b0, b1), B), (B, (a0, a1), A)):
+            for path in body_paths(linkage, src, dst):
+                if not path:
+                    continue
+                coef = np.zeros(J)
+                last = jindex[path[-1]]
+                acc = max(reach[e0, last], reach[e1, last])
+                coef[last] = max(off_axis[e0, last], off_axis[e1, last])
+                for i in range(len(path) - 2, -1, -1):
+                    acc += np.linalg.norm(sites[path[i + 1]] - sites[path[i]])
+                    coef[jindex[path[i]]] = acc
+                per_pair[p].append(coef)
+        if not per_pair[p]:
+            per_pair[p].append(np.full(J, 1e300))
+    width = max(len(c) for c in per_pair)
+    return [np.array([c[min(k, len(c) - 1)] for c in per_pair]) for k in range(width)]
+
+
+@pytest.mark.parametrize("fixture", ["bennett_mm_deg.yaml", "sixbar_example.yaml"])
+def test_speed_coefficients_are_the_plain_path_by_path_bound(fixture):
+    """The certificate's speed bounds with the paths found once per capsule set: the plain numbers, bit for
+    bit, for several designs of one capsule set (the cached paths do not depend on the design)."""
+    from synth.synthesis.sixbar import sixbar
+    T = load_poses(REPO / "fixtures" / fixture).matrices
+    lk = bennett(T) if fixture.startswith("bennett") else sixbar(T)
+    e = lk.extent()
+    rng = np.random.default_rng(3)
+    for merged in (False, True):
+        cs = Layout(lk, merged=merged, **resolved_sizes(0.02 * e, 0.015 * e, 0.06 * e)).cs
+        for _ in range(3):
+            off = rng.normal(size=len(cs.ends_base)) * e * 0.2
+            fast, plain = speed_coefficients(lk, cs, off, lk.joint_sites()), plain_speed_coefficients(
+                lk, cs, off, lk.joint_sites())
+            assert len(fast) == len(plain)
+            for a, b in zip(fast, plain):
+                assert a.shape == b.shape and np.array_equal(a, b)
+
+
+def test_joint_sites_follow_a_changed_axis():
+    """`Linkage.joint_sites` is remembered for the same axes only: a moved axis gives its new sites."""
+    lk = bennett(load_poses(REPO / "fixtures" / "bennett_mm_deg.yaml").matrices)
+    before = lk.joint_sites()
+    before["h1"][:] = 7.0  # the caller's copy: not the remembered sites
+    assert not np.allclose(lk.joint_sites()["h1"], 7.0)
+    j = lk.joints[1]
+    j.moment = j.moment + np.cross(j.direction, [0.0, 0.0, 0.1])  # the axis shifted
+    fresh = type(lk)(**{f: getattr(lk, f) for f in lk.__dataclass_fields__})
+    assert all(np.array_equal(a, b) for a, b in zip(lk.joint_sites().values(), fresh.joint_sites().values()))

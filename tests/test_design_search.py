@@ -1,6 +1,7 @@
 """The collision-free design search (synth.design.collision, synth.design.search; docs/design.md)."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -11,7 +12,8 @@ from hypothesis import strategies as st
 from conftest import REPO, random_poses
 from synth.design.collision import (body_motion, even_samples, pair_distances, rate_bound, segment_distance,
                                     t_of_phi, world_ends)
-from synth.design.search import (Layout, collision_rank, design_linkage, rank_buildable, task_phi_range,
+from synth.design.ranking import rank_buildable
+from synth.design.search import (Layout, collision_rank, design_linkage, sizes_of, task_phi_range, warm_stack,
                                   task_range)
 from synth.errors import SynthesisError
 from synth.io.poses import load_poses
@@ -153,6 +155,35 @@ def test_hubs_on_one_axis_are_stacked_and_pins_span_them(fixture_bennett, fixtur
 def test_search_is_deterministic(fixture_bennett, fixture_bennett_design):
     again = design_linkage(fixture_bennett, **sizes(fixture_bennett))
     assert again.design.to_dict() == fixture_bennett_design.design.to_dict()
+
+
+def test_warm_stack_gives_back_the_mounts_of_a_design(fixture_bennett, fixture_bennett_design):
+    """A design's mounts as the searched stacks (c, sigma, g) of the same sizes: the same offsets."""
+    layout = Layout(fixture_bennett, merged=True, **sizes_of(fixture_bennett_design.design))
+    X = warm_stack(layout, fixture_bennett_design.design)
+    J = len(layout.joints)
+    S = layout.mount_offsets(X[:, :J], X[:, J:2 * J], X[:, 2 * J:])[0]
+    want = {(m.link, m.joint): m.offset for m in fixture_bennett_design.design.mounts}
+    assert np.allclose(S, [want[m] for m in layout.mounts], rtol=0, atol=1e-12)
+
+
+def test_a_sizing_round_starts_from_the_last_design(fixture_bennett, fixture_bennett_design):
+    """With thicker bars (a sizing round, synth.design.choose._sturdy) the search starts from the last free
+    design: certified free over its range (the verifier's claim holds: test_design_verify), near it, and
+    for a fraction of the counted work of a search from scratch."""
+    first = fixture_bennett_design
+    s = {**sizes(fixture_bennett), "bar_radius": 1.04 * sizes(fixture_bennett)["bar_radius"],
+         "clearance": first.design.clearance}
+    cold = design_linkage(fixture_bennett, **s)
+    warm = design_linkage(fixture_bennett, **s, start=first)
+    assert warm.collision.free and warm.collision.certified and warm.collision.range == first.collision.range
+    assert warm.collision.min_distance >= warm.design.clearance
+    assert warm.collision.work < 0.25 * cold.collision.work
+    moved = max(abs(a.offset - b.offset) for a, b in zip(first.design.mounts, warm.design.mounts))
+    assert moved < 0.1 * fixture_bennett.extent()
+    not_free = dataclasses.replace(first, collision=dataclasses.replace(first.collision, free=False))
+    again = design_linkage(fixture_bennett, **s, start=not_free)  # only a free design is a start
+    assert again.collision.work == cold.collision.work
 
 
 def test_impossible_clearance_is_reported_with_pairs(fixture_bennett):

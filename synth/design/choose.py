@@ -107,9 +107,10 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     t0, work = time.process_time(), Work() if work is None else work
     start = work.done
 
-    def again(pins, bar_radius, gap):  # the whole design with these sizes, the rest as given
+    def again(pins, bar_radius, gap, start=None):  # the whole design with these sizes, the rest as given; the
+        # search starts from the mounts of ``start`` (a free design with other sizes) when given (`design_linkage`)
         return _design_for(linkage, pins, bar_radius, pin_length, hole_clearance, gap, thin, work, slenderness,
-                           search)
+                           search if start is None else {**search, "start": start})
 
     result = again(pin_radius, link_radius, clearance)
     searched = 0.0
@@ -155,7 +156,7 @@ def _sturdy(linkage, first: DesignResult, again, pin_radius, clearance, slendern
                 break
         else:
             radius = next_radius([(r.design.bar_radius, s.length) for r, s in done], slenderness)
-        r = again(pins, radius, clearance)
+        r = again(pins, radius, clearance, done[-1][0])
         done.append((r, written_slenderness(linkage, r.design, slenderness)))
     best = min(done, key=lambda x: (not x[1].met, collision_rank(x[0].collision),
                                     x[0].design.bar_radius if x[1].met else x[1].ratio))[0]

@@ -347,43 +347,65 @@ def pair_distances_at(cs: CapsuleSet, Q, U, offsets, pidx, kidx, chunk: int = 1 
 # ----------------------------------------------------------------------------------------- certificate
 def speed_coefficients(linkage, cs: CapsuleSet, offsets: np.ndarray, sites: dict) -> list[np.ndarray]:
     """For one design (``offsets`` (E,)): a list of (P, J) arrays, one per way of bounding the relative
-    speed of each capsule pair: ``V <= coef @ rate_bound`` (see the module docstring)."""
-    jindex = {j.name: i for i, j in enumerate(linkage.joints)}
+    speed of each capsule pair: ``V <= coef @ rate_bound`` (see the module docstring). The ways (paths of
+    joints) depend on the capsules only (`_speed_paths`); the design sets each path's first term."""
+    J = len(linkage.joints)
+    last, e0, e1, steps, lengths, way, special = _speed_paths(linkage, cs, sites)
     pts = cs.ends_base + np.asarray(offsets, float)[:, None] * cs.ends_dir  # (E, 3): mounts and via points
-    options = cs.paths  # the same for every design of these capsules
-    out = []
-    P, J = len(cs.pairs), len(linkage.joints)
     S = np.array([sites[j.name] for j in linkage.joints]).reshape(-1, 3)
     w = pts[:, None] - S[None]  # (E, J, 3)
     u = np.array([j.direction for j in linkage.joints]).reshape(-1, 3)
     reach = np.linalg.norm(w, axis=2)  # (E, J): from each site; from each axis (the last one is fixed in dst)
     off_axis = np.sqrt(np.maximum(reach ** 2 - np.einsum("ejk,jk->ej", w, u) ** 2, 0.0))
-    per_pair: list[list[np.ndarray]] = [[] for _ in range(P)]
+    coef = np.zeros((len(last) + 2, J + 1))  # one row per path, then the rows of no motion and of no bound
+    rows = np.arange(len(last))
+    coef[rows, last] = np.maximum(off_axis[e0, last], off_axis[e1, last])
+    acc = np.maximum(reach[e0, last], reach[e1, last])
+    for k in range(steps.shape[1]):  # the site-to-site lengths added in the order of the path, last first
+        acc = acc + lengths[:, k]
+        coef[rows, steps[:, k]] = acc
+    coef[-1] = 1e300
+    coef = coef[:, :J]
+    return [coef[np.where(special == 0, way[:, k], len(last) + special - 1)] for k in range(way.shape[1])]
+
+
+def _speed_paths(linkage, cs: CapsuleSet, sites: dict) -> tuple:
+    """The paths of joints of `speed_coefficients`, the same for every design of these capsules (kept on
+    ``cs.paths``): per path its last joint, the moving capsule's ends (e0, e1), its other joints from the
+    last (padded with column J) and the site-to-site lengths added there (padded with 0); per pair its
+    paths (P, ways) (a pair with fewer repeats its last) and ``special`` (P,): 1 when a turn about a shared
+    axis changes nothing of its gap (`CapsuleSet.axial`), 2 when no chain of joints joins its bodies."""
+    key = ("speed", cs.pairs.tobytes(), cs.body_pair.tobytes(), None if cs.axial is None else cs.axial[:, 0].tobytes())
+    if key in cs.paths:  # (`subset` shares ``paths``: the key names the pairs)
+        return cs.paths[key]
+    jindex = {j.name: i for i, j in enumerate(linkage.joints)}
+    J = len(linkage.joints)
+    rows, per_pair, special = [], [], []
     for p, (a0, a1, b0, b1) in enumerate(cs.pairs):
         A, B = cs.body_pairs[cs.body_pair[p]]
-        if cs.axial is not None and cs.axial[p, 0]:  # a turn about their shared axis changes nothing of
-            per_pair[p].append(np.zeros(J))  # their gap (`CapsuleSet.axial`)
-            continue
-        for src, (e0, e1), dst in ((A, (b0, b1), B), (B, (a0, a1), A)):
-            key = (src, dst)
-            if key not in options:
-                options[key] = body_paths(linkage, src, dst)
-            for path in options[key]:
-                if not path:  # one body (e.g. merged by a loop weld): nothing moves between them
-                    continue
-                coef = np.zeros(J)
-                last = jindex[path[-1]]
-                acc = max(reach[e0, last], reach[e1, last])
-                coef[last] = max(off_axis[e0, last], off_axis[e1, last])
-                for i in range(len(path) - 2, -1, -1):
-                    acc += np.linalg.norm(sites[path[i + 1]] - sites[path[i]])
-                    coef[jindex[path[i]]] = acc
-                per_pair[p].append(coef)
-        if not per_pair[p]:  # no chain of joints between the two bodies: no bound on their relative speed
-            per_pair[p].append(np.full(J, 1e300))
-    width = max(len(c) for c in per_pair) if per_pair else 0
-    for k in range(width):
-        out.append(np.array([c[min(k, len(c) - 1)] for c in per_pair]))
+        mine = []
+        if not (cs.axial is not None and cs.axial[p, 0]):
+            for src, (e0, e1), dst in ((A, (b0, b1), B), (B, (a0, a1), A)):
+                if (src, dst) not in cs.paths:
+                    cs.paths[(src, dst)] = body_paths(linkage, src, dst)
+                for path in cs.paths[(src, dst)]:
+                    if path:  # an empty path: one body (e.g. merged by a loop weld), nothing moves between them
+                        lengths = [np.linalg.norm(sites[path[i + 1]] - sites[path[i]]) for i in range(len(path) - 2, -1, -1)]
+                        mine.append(len(rows))
+                        rows.append((jindex[path[-1]], e0, e1, [jindex[path[i]] for i in range(len(path) - 2, -1, -1)],
+                                     lengths))
+            special.append(0 if mine else 2)
+        else:
+            special.append(1)
+        per_pair.append(mine or [0])
+    depth = max([len(r[3]) for r in rows], default=0)
+    ways = max(len(m) for m in per_pair) if per_pair else 0
+    out = (np.array([r[0] for r in rows], int), np.array([r[1] for r in rows], int), np.array([r[2] for r in rows], int),
+           np.array([r[3] + [J] * (depth - len(r[3])) for r in rows], int).reshape(len(rows), depth),
+           np.array([r[4] + [0.0] * (depth - len(r[4])) for r in rows], float).reshape(len(rows), depth),
+           np.array([[m[min(k, len(m) - 1)] for k in range(ways)] for m in per_pair], int).reshape(len(per_pair), ways),
+           np.array(special, int))
+    cs.paths[key] = out
     return out
 
 

@@ -240,13 +240,13 @@ def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, i
     return X, best
 
 
-def search_rounds(scorer, space, X, mask, target, scale, *, effort, certify_best):
-    """Search rounds from the starts X: improve; when the best is feasible at the samples, certify it
-    (``certify_best(x) -> cert``); where the certificate fails, sample there too and go on (`ROUNDS`).
-    A round that finds nothing feasible is repeated only while it still reduces the violation by a
-    fifth; none starts once ``scorer.work`` is spent. Returns (x, cert) of a certified design or None,
-    and (X, best) of the last round."""
-    step0 = 0.25 * scale
+def search_rounds(scorer, space, X, mask, target, scale, *, effort, certify_best, step=0.25):
+    """Search rounds from the starts X: improve (first moves ``step`` times ``scale``); when the best is
+    feasible at the samples, certify it (``certify_best(x) -> cert``); where the certificate fails, sample
+    there too and go on (`ROUNDS`). A round that finds nothing feasible is repeated only while it still
+    reduces the violation by a fifth; none starts once ``scorer.work`` is spent. Returns (x, cert) of a
+    certified design or None, and (X, best) of the last round."""
+    step0 = step * scale
     previous = -math.inf
     last = None
     for _ in range(ROUNDS):
@@ -266,5 +266,5 @@ def search_rounds(scorer, space, X, mask, target, scale, *, effort, certify_best
             return (X[i].copy(), cert), last
         # the samples missed a close approach: sample there too and search on
         scorer.add_samples(cert["where"][cert["sampled"] < target])
-        step0 = 0.1 * scale
+        step0 = min(step0, 0.1 * scale)
     return None, last
