@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from conftest import REPO, random_poses
 from synth.design.collision import (body_motion, even_samples, pair_distances, rate_bound, segment_distance,
                                     t_of_phi, world_ends)
+from synth.design.coordinate import ROUNDS
 from synth.design.ranking import rank_buildable
 from synth.design.search import (Layout, collision_rank, design_linkage, sizes_of, task_phi_range, warm_stack,
                                   task_range)
@@ -184,6 +185,26 @@ def test_a_sizing_round_starts_from_the_last_design(fixture_bennett, fixture_ben
     not_free = dataclasses.replace(first, collision=dataclasses.replace(first.collision, free=False))
     again = design_linkage(fixture_bennett, **s, start=not_free)  # only a free design is a start
     assert again.collision.work == cold.collision.work
+
+
+def test_a_failed_warm_start_falls_back_to_the_whole_search(fixture_bennett, fixture_bennett_design, monkeypatch):
+    """When no certificate holds near the last design (forced here: the warm start's certificates fail at
+    every pair, so its rounds add samples), the search from scratch runs on: a certified free design."""
+    import synth.design.search as search
+    real, calls = search.certify_layout, []
+
+    def failing_first(*a, **k):
+        cert = real(*a, **k)
+        calls.append(cert["certified"])
+        if len(calls) <= ROUNDS:
+            cert = {**cert, "certified": False, "sampled": np.zeros_like(cert["sampled"])}
+        return cert
+
+    monkeypatch.setattr(search, "certify_layout", failing_first)
+    s = {**sizes(fixture_bennett), "bar_radius": 1.04 * sizes(fixture_bennett)["bar_radius"],
+         "clearance": fixture_bennett_design.design.clearance}
+    r = design_linkage(fixture_bennett, **s, start=fixture_bennett_design)
+    assert len(calls) > ROUNDS and r.collision.free and r.collision.certified
 
 
 def test_impossible_clearance_is_reported_with_pairs(fixture_bennett):

@@ -282,7 +282,7 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     def screen():  # the sampled gaps of every start at the coarse samples (once, when a start is needed)
         if budget.spent:  # nothing will be searched (the natural stack is certified below): no screen either
             return np.zeros((len(X0), len(search.cs.pairs), int(coarse.sum())))
-        pk = np.nonzero(np.ones((len(search.cs.pairs), len(scorer.phis)), bool) & coarse[None])
+        pk = np.nonzero(np.ones((len(search.cs.pairs), len(coarse)), bool) & coarse[None])  # (the first samples)
         return scorer.at(X0, *pk).reshape(len(X0), len(search.cs.pairs), -1)
 
     result, last = None, None
