@@ -238,7 +238,9 @@ def _straight(linkage, sizes, hole_clearance, clearance, thin, search, work) -> 
     return result
 
 
-STURDY_ROUNDS = 3  # searches with a thicker bar when the written bars are more slender than the limit
+STURDY_ROUNDS = 5  # searches with a thicker bar when the written bars are more slender than the limit (3 before a
+# round started from the last design, issue 36: a round is cheap now, and its growing margin escapes a written
+# length that grows faster than the radius)
 STURDY_SLACK = 0.8  # a design below this fraction of the limit is searched again with thinner bars (once)
 
 # budgets in gap evaluations (synth.design.work; they were CPU seconds: X s -> X * GAPS_PER_SECOND)
