@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from conftest import REPO
 from synth.design.collision import body_paths, speed_coefficients
-from synth.design.coordinate import _Critical
-from synth.design.search import Layout, resolved_sizes
+from synth.design.coordinate import FULL, Scorer, _Critical
+from synth.design.search import Layout, initial_stacks, resolved_sizes
 from synth.io.poses import load_poses
 from synth.io.solid import capsule, concatenate, cylinder, weld
 from synth.synthesis.bennett import bennett
@@ -80,6 +80,27 @@ def test_layout_offsets_are_the_per_joint_formulas(layout):
         for e, (kind, index, const) in enumerate(lay.ends):
             assert np.array_equal(E[:, e], (S, lo, hi)[kind][:, index] + const)
         assert {kind for kind, _, _ in lay.ends} == {0, 1, 2}  # mounts, lowest and highest of a stack
+
+
+def test_grid_is_at_at_every_entry(layout):
+    """`Scorer.grid` (whole blocks of samples) gives `Scorer.at`'s numbers at every pair and the chosen
+    samples, bit for bit, and charges as much (the start screen of `design_linkage`)."""
+    search = layout[0]
+    J = len(search.joints)
+    e = search.linkage.extent()
+    scorer = Scorer(search, 12 * J, 6 * J, FULL, lambda X: search.end_offsets(
+        search.mount_offsets(X[:, :J], X[:, J:2 * J], X[:, 2 * J:])), settled=1e-3)
+    assert scorer.once.any() and (~scorer.once).any()
+    X = initial_stacks(np.random.default_rng(2), J, 40, search.gap_min, e)
+    K, P = len(scorer.phis), len(search.cs.pairs)
+    for step in (1, 3, 5):
+        samples = np.flatnonzero((np.arange(K) % step == 0) | (np.arange(K) == scorer.once_k))
+        pidx, kidx = np.nonzero(np.ones((P, K), bool) & np.isin(np.arange(K), samples)[None])
+        w0 = scorer.work.done
+        plain = scorer.at(X, pidx, kidx).reshape(len(X), P, -1)
+        w1 = scorer.work.done
+        fast = scorer.grid(X, samples)
+        assert np.array_equal(plain, fast) and scorer.work.done - w1 == w1 - w0
 
 
 def test_weld_is_numpys_unique_rows():

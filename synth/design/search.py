@@ -282,8 +282,7 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     def screen():  # the sampled gaps of every start at the coarse samples (once, when a start is needed)
         if budget.spent:  # nothing will be searched (the natural stack is certified below): no screen either
             return np.zeros((len(X0), len(search.cs.pairs), int(coarse.sum())))
-        pk = np.nonzero(np.ones((len(search.cs.pairs), len(coarse)), bool) & coarse[None])  # (the first samples)
-        return scorer.at(X0, *pk).reshape(len(X0), len(search.cs.pairs), -1)
+        return scorer.grid(X0, np.flatnonzero(coarse))  # (of the first samples)
 
     result, last = None, None
     n_starts = max(2, int(4 * effort))
