@@ -183,3 +183,41 @@ def test_joint_sites_follow_a_changed_axis():
     j.moment = j.moment + np.cross(j.direction, [0.0, 0.0, 0.1])  # the axis shifted
     fresh = type(lk)(**{f: getattr(lk, f) for f in lk.__dataclass_fields__})
     assert all(np.array_equal(a, b) for a, b in zip(lk.joint_sites().values(), fresh.joint_sites().values()))
+
+
+@pytest.mark.parametrize("P", [1, 2, 7, None])
+def test_gaps_by_kind_are_the_per_element_selection(layout, P):
+    """`collision._gaps` takes each kind's pairs as whole rows along the pairs' axis: the numbers of the
+    plain per-element selection, bit for bit, for the full grid (pairs x samples) and for chosen entries,
+    in single and double precision, with one pair too."""
+    from synth.design.collision import _gaps, axial_distance, legs_distance, segment_distance
+
+    def plain(cs, pts, rows, radii):
+        kind = np.broadcast_to(cs.axial[rows, 0], pts[0].shape[1:])
+        d = np.empty(kind.shape, pts[0].dtype)
+        for group in ((0,), (1, 2), (3,)):
+            sel = np.nonzero(np.isin(kind, group))
+            if not len(sel[0]):
+                continue
+            p0, p1, q0, q1 = (p[(slice(None),) + sel] for p in pts)
+            if group == (0,):
+                d[sel] = segment_distance(p0, p1, q0, q1)
+            elif group == (3,):
+                d[sel] = legs_distance(p0, p1, q0, q1)
+            else:
+                a_hub = kind[sel] == 1
+                rad = np.broadcast_to(cs.axial[rows, 1], kind.shape)[sel].astype(d.dtype)
+                d[sel] = axial_distance(np.where(a_hub, q0, p0), np.where(a_hub, q1, p1), np.where(a_hub, p0, q0),
+                                        np.where(a_hub, p1, q1), rad)
+        return d - radii
+
+    cs = layout[1].cs
+    rng = np.random.default_rng(P or 0)
+    for dtype in (np.float32, np.float64):
+        rows = np.arange(len(cs.pairs)) if P is None else rng.choice(len(cs.pairs), P, replace=P > len(cs.pairs))
+        grid = [rng.normal(size=(3, 2, len(rows), 5)).astype(dtype) for _ in range(4)]
+        r = rows[None, :, None]
+        assert np.array_equal(_gaps(cs, grid, r, cs.radii[r]), plain(cs, grid, r, cs.radii[r]))
+        entries = [rng.normal(size=(3, 3, len(rows))).astype(dtype) for _ in range(4)]
+        assert np.array_equal(_gaps(cs, entries, rows[None], cs.radii[rows][None]),
+                              plain(cs, entries, rows[None], cs.radii[rows][None]))

@@ -260,25 +260,33 @@ def legs_distance(p0, p1, q0, q1) -> np.ndarray:
 
 
 def _gaps(cs: CapsuleSet, pts, rows, radii) -> np.ndarray:
-    """Gaps of the capsule pairs ``rows`` (indices into ``cs.pairs``, the shape of pts[i][0]) from the end
-    points ``pts`` (4 arrays (3, ...)): segment distance minus ``radii``; `axial_distance` and
-    `legs_distance` for the pairs of ``cs.axial``'s kinds 1, 2 and 3."""
+    """Gaps of the capsule pairs ``rows`` (indices into ``cs.pairs`` along one axis of pts[i][0]'s shape,
+    length 1 along the others) from the end points ``pts`` (4 arrays (3, ...)): segment distance minus
+    ``radii``; `axial_distance` and `legs_distance` for the pairs of ``cs.axial``'s kinds 1, 2 and 3 (each
+    kind's pairs taken along that axis: whole rows, no gather per element)."""
     if cs.axial is None or not cs.axial[rows, 0].any():
         return segment_distance(*pts) - radii
-    kind = np.broadcast_to(cs.axial[rows, 0], pts[0].shape[1:])
-    d = np.empty(kind.shape, pts[0].dtype)
+    shape = pts[0].shape[1:]
+    ax = int(np.argmax(np.shape(rows)))  # the axis of the pairs
+    pair = np.ravel(rows)
+    kind = cs.axial[pair, 0]
+    d = np.empty(shape, pts[0].dtype)
     for group in ((0,), (1, 2), (3,)):
-        sel = np.nonzero(kind == group[0]) if len(group) == 1 else np.nonzero((kind == 1) | (kind == 2))
-        if not len(sel[0]):
+        idx = np.flatnonzero(np.isin(kind, group))
+        if not len(idx):
             continue
-        p0, p1, q0, q1 = (p[(slice(None),) + sel] for p in pts)
+        one = len(pair) == 1  # (then no axis to take along: every element is of that pair)
+        p0, p1, q0, q1 = pts if one else (p.take(idx, axis=ax + 1) for p in pts)
+        sel = Ellipsis if one else (slice(None),) * ax + (idx,)
         if group == (0,):
             d[sel] = segment_distance(p0, p1, q0, q1)
         elif group == (3,):
             d[sel] = legs_distance(p0, p1, q0, q1)
         else:  # the leg first: b's segment where a's is the hub (kind 1)
-            a_hub = kind[sel] == 1
-            rad = np.broadcast_to(cs.axial[rows, 1], kind.shape)[sel].astype(d.dtype)
+            along = [1] * len(shape)
+            along[ax] = 1 if one else len(idx)
+            a_hub = (kind[idx] == 1).reshape(along)
+            rad = cs.axial[pair[idx], 1].reshape(along).astype(d.dtype)
             d[sel] = axial_distance(np.where(a_hub, q0, p0), np.where(a_hub, q1, p1), np.where(a_hub, p0, q0),
                                     np.where(a_hub, p1, q1), rad)
     return d - radii
@@ -302,14 +310,19 @@ def world_ends(cs: CapsuleSet, motion: dict[str, np.ndarray]) -> tuple[np.ndarra
     """(Q, U), each (4, 3, P, K): for the four end points (a0, a1, b0, b1) of every tested capsule pair,
     the moved base point and direction of the end point's line at the samples (component-first); the
     end point itself is ``Q + offset * U``."""
+    Q, U = end_lines(cs, motion)
+    idx = cs.pairs.T  # (4, P)
+    return np.ascontiguousarray(Q[:, idx].transpose(1, 0, 2, 3)), np.ascontiguousarray(U[:, idx].transpose(1, 0, 2, 3))
+
+
+def end_lines(cs: CapsuleSet, motion: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(Q, U), each (3, E, K): the moved base point and direction of every end point's line at the samples."""
     Q, U = [], []
     for base, u, body in zip(cs.ends_base, cs.ends_dir, cs.ends_body):
         D = motion[body]
         Q.append(D[:, :3, :3] @ base + D[:, :3, 3])
         U.append(D[:, :3, :3] @ u)
-    Q, U = np.array(Q).transpose(2, 0, 1), np.array(U).transpose(2, 0, 1)  # (3, E, K)
-    idx = cs.pairs.T  # (4, P)
-    return np.ascontiguousarray(Q[:, idx].transpose(1, 0, 2, 3)), np.ascontiguousarray(U[:, idx].transpose(1, 0, 2, 3))
+    return np.array(Q).transpose(2, 0, 1), np.array(U).transpose(2, 0, 1)
 
 
 def pair_distances(cs: CapsuleSet, Q, U, offsets, chunk: int = 1 << 16) -> np.ndarray:
@@ -447,8 +460,10 @@ def _dist_at(linkage, cs, offsets, phis, chunk: int = 1 << 18) -> np.ndarray:
     """(P, K) capsule-pair distances of one design at the driver angles ``phis``, in blocks of samples
     of about ``chunk`` pair distances (the end points of every pair at every sample are 64 floats)."""
     step = max(1, chunk // max(len(cs.pairs), 1))
-    parts = []
-    for k0 in range(0, len(phis), step):
-        Q, U = world_ends(cs, body_motion(linkage, phis[k0:k0 + step]))
-        parts.append(pair_distances(cs, Q, U, offsets[None])[0])
+    parts, P = [], len(cs.pairs)
+    for k0 in range(0, len(phis), step):  # `pair_distances`' numbers, the end points moved once each
+        Q, U = end_lines(cs, body_motion(linkage, phis[k0:k0 + step]))
+        ends = Q + np.asarray(offsets, float)[None, :, None] * U  # (3, E, K)
+        pts = [ends[:, cs.pairs[:, c]][:, None] for c in range(4)]  # (3, 1, P, K)
+        parts.append(_gaps(cs, pts, np.arange(P)[None, :, None], cs.radii[None, :, None])[0])
     return np.concatenate(parts, axis=1) if len(parts) != 1 else parts[0]
