@@ -384,13 +384,17 @@ def speed_coefficients(linkage, cs: CapsuleSet, offsets: np.ndarray, sites: dict
 
 def _speed_paths(linkage, cs: CapsuleSet, sites: dict) -> tuple:
     """The paths of joints of `speed_coefficients`, the same for every design of these capsules (kept on
-    ``cs.paths``): per path its last joint, the moving capsule's ends (e0, e1), its other joints from the
-    last (padded with column J) and the site-to-site lengths added there (padded with 0); per pair its
-    paths (P, ways) (a pair with fewer repeats its last) and ``special`` (P,): 1 when a turn about a shared
-    axis changes nothing of its gap (`CapsuleSet.axial`), 2 when no chain of joints joins its bodies."""
-    key = ("speed", cs.pairs.tobytes(), cs.body_pair.tobytes(), None if cs.axial is None else cs.axial[:, 0].tobytes())
-    if key in cs.paths:  # (`subset` shares ``paths``: the key names the pairs)
-        return cs.paths[key]
+    the linkage, at most 8 capsule structures): per path its last joint, the moving capsule's ends (e0,
+    e1), its other joints from the last (padded with column J) and the site-to-site lengths added there
+    (padded with 0); per pair its paths (P, ways) (a pair with fewer repeats its last) and ``special``
+    (P,): 1 when a turn about a shared axis changes nothing of its gap (`CapsuleSet.axial`), 2 when no
+    chain of joints joins its bodies."""
+    key = ("speed", cs.pairs.tobytes(), cs.body_pair.tobytes(), None if cs.axial is None else cs.axial[:, 0].tobytes(),
+           tuple(cs.body_pairs), tuple(sites), np.array(list(sites.values())).tobytes(),
+           tuple((j.name, j.parent, j.child) for j in linkage.joints), tuple(map(tuple, linkage.links.values())))
+    kept = linkage.__dict__.setdefault("_speed_paths", {})  # every round's certificate of a sizing round
+    if key in kept:  # has the same capsule structure: its paths are found once per linkage
+        return kept[key]
     jindex = {j.name: i for i, j in enumerate(linkage.joints)}
     J = len(linkage.joints)
     rows, per_pair, special = [], [], []
@@ -403,22 +407,25 @@ def _speed_paths(linkage, cs: CapsuleSet, sites: dict) -> tuple:
                     cs.paths[(src, dst)] = body_paths(linkage, src, dst)
                 for path in cs.paths[(src, dst)]:
                     if path:  # an empty path: one body (e.g. merged by a loop weld), nothing moves between them
-                        lengths = [np.linalg.norm(sites[path[i + 1]] - sites[path[i]]) for i in range(len(path) - 2, -1, -1)]
+                        back = range(len(path) - 2, -1, -1)
+                        lengths = [np.linalg.norm(sites[path[i + 1]] - sites[path[i]]) for i in back]
                         mine.append(len(rows))
-                        rows.append((jindex[path[-1]], e0, e1, [jindex[path[i]] for i in range(len(path) - 2, -1, -1)],
-                                     lengths))
+                        rows.append((jindex[path[-1]], e0, e1, [jindex[path[i]] for i in back], lengths))
             special.append(0 if mine else 2)
         else:
             special.append(1)
         per_pair.append(mine or [0])
     depth = max([len(r[3]) for r in rows], default=0)
     ways = max(len(m) for m in per_pair) if per_pair else 0
-    out = (np.array([r[0] for r in rows], int), np.array([r[1] for r in rows], int), np.array([r[2] for r in rows], int),
+    out = (np.array([r[0] for r in rows], int), np.array([r[1] for r in rows], int),
+           np.array([r[2] for r in rows], int),
            np.array([r[3] + [J] * (depth - len(r[3])) for r in rows], int).reshape(len(rows), depth),
            np.array([r[4] + [0.0] * (depth - len(r[4])) for r in rows], float).reshape(len(rows), depth),
            np.array([[m[min(k, len(m) - 1)] for k in range(ways)] for m in per_pair], int).reshape(len(per_pair), ways),
            np.array(special, int))
-    cs.paths[key] = out
+    if len(kept) >= 8:
+        kept.pop(next(iter(kept)))
+    kept[key] = out
     return out
 
 
