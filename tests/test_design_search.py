@@ -293,3 +293,24 @@ def test_random_sets_success_rate(kind, count):
             full += r.range == "full"
     if kind == "bennett":
         assert full >= 0.75 * count
+
+
+def test_sizing_rounds_start_from_the_last_design_and_skip_a_range_it_missed(fixture_bennett, monkeypatch):
+    """`design_for`'s sizing rounds (synth.design.choose._sturdy) pass the last round's design as the start
+    of the next search, and, when that one was free over the task range only, search the task range only:
+    thicker bars are not freer (the full cycle the thinner ones missed is not searched again)."""
+    import synth.design.choose as choose
+    seen = []
+    base = design_linkage(fixture_bennett, **{**sizes(fixture_bennett), "bar_radius": 0.004 * fixture_bennett.extent()})
+
+    def fake(linkage, pins, bar_radius, pin_length, hole_clearance, clearance, thin, work, slenderness, search):
+        seen.append((bar_radius, search))
+        design = dataclasses.replace(base.design, bar_radius=bar_radius or base.design.bar_radius)
+        return dataclasses.replace(base, design=design, collision=dataclasses.replace(base.collision, range="task"))
+
+    monkeypatch.setattr(choose, "_design_for", fake)
+    monkeypatch.setattr(choose, "place_mounting", lambda linkage, result, **k: result)
+    choose.design_for(fixture_bennett, pin_radius=sizes(fixture_bennett)["pin_radius"])
+    assert len(seen) >= 2 and "start" not in seen[0][1] and "ranges" not in seen[0][1]
+    for (r0, _), (r1, s1) in zip(seen, seen[1:]):
+        assert s1["ranges"] == ("task",) and s1["start"].design.bar_radius == (r0 or base.design.bar_radius) and r1

@@ -108,9 +108,12 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     start = work.done
 
     def again(pins, bar_radius, gap, start=None):  # the whole design with these sizes, the rest as given; the
-        # search starts from the mounts of ``start`` (a free design with other sizes) when given (`design_linkage`)
-        return _design_for(linkage, pins, bar_radius, pin_length, hole_clearance, gap, thin, work, slenderness,
-                           search if start is None else {**search, "start": start})
+        # search starts from the mounts of ``start`` (the last round's design) when given (`design_linkage`)
+        more = search if start is None else {**search, "start": start}
+        if start is not None and start.collision.free and start.collision.range == "task" and "task" in search.get(
+                "ranges", ("full", "task")):  # thicker bars are not freer: the full cycle, which the last round's
+            more = {**more, "ranges": ("task",)}  # thinner bars missed, is not searched again (issue 36)
+        return _design_for(linkage, pins, bar_radius, pin_length, hole_clearance, gap, thin, work, slenderness, more)
 
     result = again(pin_radius, link_radius, clearance)
     searched = 0.0
