@@ -110,9 +110,10 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     def again(pins, bar_radius, gap, start=None):  # the whole design with these sizes, the rest as given; the
         # search starts from the mounts of ``start`` (the last round's design) when given (`design_linkage`)
         more = search if start is None else {**search, "start": start}
-        if start is not None and start.collision.free and start.collision.range == "task" and "task" in search.get(
-                "ranges", ("full", "task")):  # thicker bars are not freer: the full cycle, which the last round's
-            more = {**more, "ranges": ("task",)}  # thinner bars missed, is not searched again (issue 36)
+        if (start is not None and start.collision.free and start.collision.range == "task"
+                and bar_radius >= start.design.bar_radius and "task" in search.get("ranges", ("full", "task"))):
+            more = {**more, "ranges": ("task",)}  # thicker bars are not freer: the full cycle, which the last
+            # round's thinner bars missed, is not searched again (issue 36)
         return _design_for(linkage, pins, bar_radius, pin_length, hole_clearance, gap, thin, work, slenderness, more)
 
     result = again(pin_radius, link_radius, clearance)
