@@ -287,4 +287,4 @@ def test_the_command_serves_on_localhost_and_stops_on_interrupt(task):
     finally:
         proc.send_signal(signal.SIGINT)
         rest = proc.communicate(timeout=60)[1]
-    assert proc.returncode == 0 and "Traceback" not in rest
+    assert proc.returncode == 0 and "Traceback" not in rest, (proc.returncode, rest)

@@ -257,9 +257,12 @@ class Session:
         return out
 
     def close(self) -> None:
-        """Cancel the design behind (the server is stopping)."""
+        """Cancel the design behind (the server is stopping) and wait up to `background.STOP_SECONDS` for
+        it to stop (one move of the search), so that the interpreter does not finalise under a daemon thread
+        still inside a C++ library (manifold3d, OpenCASCADE): a suspected cause of the rare SIGABRT at ^C."""
         if self.job is not None:
             self.job.cancel()
+            self.job.wait(background.STOP_SECONDS)
 
 
 def _kind(kind) -> Kind | None:
