@@ -189,7 +189,8 @@ def test_a_sizing_round_starts_from_the_last_design(fixture_bennett, fixture_ben
 
 def test_a_failed_warm_start_falls_back_to_the_whole_search(fixture_bennett, fixture_bennett_design, monkeypatch):
     """When no certificate holds near the last design (forced here: the warm start's certificates fail at
-    every pair, so its rounds add samples), the search from scratch runs on: a certified free design."""
+    every pair, so its rounds add samples), the search from scratch runs on its own samples: the design a
+    search without the warm start finds."""
     import synth.design.search as search
     real, calls = search.certify_layout, []
 
@@ -205,6 +206,10 @@ def test_a_failed_warm_start_falls_back_to_the_whole_search(fixture_bennett, fix
          "clearance": fixture_bennett_design.design.clearance}
     r = design_linkage(fixture_bennett, **s, start=fixture_bennett_design)
     assert len(calls) > ROUNDS and r.collision.free and r.collision.certified
+    monkeypatch.setattr(search, "certify_layout", real)
+    cold = design_linkage(fixture_bennett, **s)  # the same search (the warm rounds' samples forgotten)
+    assert [m.offset for m in r.design.mounts] == [m.offset for m in cold.design.mounts]
+    assert r.collision.min_distance == cold.collision.min_distance
 
 
 def test_impossible_clearance_is_reported_with_pairs(fixture_bennett):
@@ -301,16 +306,26 @@ def test_sizing_rounds_start_from_the_last_design_and_skip_a_range_it_missed(fix
     thicker bars are not freer (the full cycle the thinner ones missed is not searched again)."""
     import synth.design.choose as choose
     seen = []
-    base = design_linkage(fixture_bennett, **{**sizes(fixture_bennett), "bar_radius": 0.004 * fixture_bennett.extent()})
+    base = design_linkage(fixture_bennett, **{**sizes(fixture_bennett), "bar_radius": 0.008 * fixture_bennett.extent()})
 
-    def fake(linkage, pins, bar_radius, pin_length, hole_clearance, clearance, thin, work, slenderness, search):
+    from synth.design.sturdy import written_slenderness
+    thin = written_slenderness(fixture_bennett, base.design).length / (2 * 25 * 1.3)  # 1:32.5 as written
+
+    def fake(linkage, pins, bar_radius, pin_length, hole_clearance, clearance, thin_, work, slenderness, search):
         seen.append((bar_radius, search))
-        design = dataclasses.replace(base.design, bar_radius=bar_radius or base.design.bar_radius)
+        design = dataclasses.replace(base.design, bar_radius=bar_radius or thin)
         return dataclasses.replace(base, design=design, collision=dataclasses.replace(base.collision, range="task"))
 
     monkeypatch.setattr(choose, "_design_for", fake)
     monkeypatch.setattr(choose, "place_mounting", lambda linkage, result, **k: result)
     choose.design_for(fixture_bennett, pin_radius=sizes(fixture_bennett)["pin_radius"])
     assert len(seen) >= 2 and "start" not in seen[0][1] and "ranges" not in seen[0][1]
+    warm = 0
     for (r0, _), (r1, s1) in zip(seen, seen[1:]):
-        assert s1["ranges"] == ("task",) and s1["start"].design.bar_radius == (r0 or base.design.bar_radius) and r1
+        last = r0 or thin
+        if 1 / choose.WARM_RATIO <= r1 / last <= choose.WARM_RATIO:
+            assert s1["ranges"] == ("task",) and s1["start"].design.bar_radius == last
+            warm += 1
+        else:  # a much thicker bar: searched from scratch
+            assert "start" not in s1 and "ranges" not in s1
+    assert warm, [r for r, _ in seen]

@@ -63,6 +63,12 @@ class Scorer:
         self.U = np.concatenate([self.U, U.astype(SEARCH_DTYPE)], axis=3)
         self._split()
 
+    def keep_first(self, k: int) -> None:
+        """Forget the samples after the first ``k`` (those `add_samples` added): the scorer as it was made."""
+        self.phis, self.is_task = self.phis[:k], self.is_task[:k]
+        self.Q, self.U = np.ascontiguousarray(self.Q[..., :k]), np.ascontiguousarray(self.U[..., :k])
+        self._split()
+
     def _split(self) -> None:
         """The end points of the moving pairs at every sample and of the `once` pairs at ``once_k``."""
         m, k = ~self.once, self.once_k

@@ -247,7 +247,7 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     the certificate of the last candidate is made even when it is spent). ``start``: a free design of this
     linkage with other sizes (a sizing round's last, `synth.design.choose`): searched first, from its
     stacks with small moves, over the range it is free in (`warm_stack`); the whole search only when that
-    finds no certified design. The report's ``work`` counts the evaluations of this search; its
+    finds no certified design (on the samples it would have had). The report's ``work`` counts the evaluations of this search; its
     ``seconds`` the CPU time (information only: nothing depends on it)."""
     t0 = time.process_time()
     budget = Work() if work is None else work
@@ -282,7 +282,7 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     def screen():  # the sampled gaps of every start at the coarse samples (once, when a start is needed)
         if budget.spent:  # nothing will be searched (the natural stack is certified below): no screen either
             return np.zeros((len(X0), len(search.cs.pairs), int(coarse.sum())))
-        return scorer.grid(X0, np.flatnonzero(coarse))  # (of the first samples)
+        return scorer.grid(X0, np.flatnonzero(coarse))
 
     result, last = None, None
     n_starts = max(2, int(4 * effort))
@@ -310,6 +310,8 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
             target, scale, effort=effort, step=step,
             certify_best=lambda x: certify_layout(exact, to_S(x[None])[0], rng_phi, clearance))
         last = (tried or last) if attempt >= 0 else last
+        if attempt < 0 and found is None:  # the search from scratch as without a warm start: its samples only
+            scorer.keep_first(len(coarse))
         if found is not None:
             result = (rname, to_S(found[0][None])[0], found[1])
             break
