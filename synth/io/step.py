@@ -40,6 +40,7 @@ from synth.io.meshes import link_primitives, pin_primitives
 from synth.io.names import MESH_UNIT_SCALE, pin_link_name
 from synth.io import interrupts
 from synth.io.solid import shell_count, signed_volume
+from synth.io.steptext import name_products, part_accuracies, place_products
 
 STEP_FILE = "linkage.step"
 
@@ -135,14 +136,21 @@ def _occ_box(occ, a, b, edges) -> int:
     return next(t for dim, t in out if dim == 3)
 
 
-def _occ_balls(occ, a, b, r, spheres) -> list[int]:
+def _occ_balls(occ, a, b, r, spheres, axes=()) -> list[int]:
     """A round bar as a cylinder and a sphere at each end not already in ``spheres`` (list of (centre, r),
-    appended to): consecutive segments of a cranked bar share one sphere."""
+    appended to): consecutive segments of a cranked bar share one sphere. A sphere centred on one of
+    ``axes`` ((point, unit direction) of the part's hubs) has its poles on that axis: the hub's cylinder
+    then meets it in two of its parallels (measured: sixbar_points' link_h1, whose hubs are thinner than
+    its bar, fused with spheres posed otherwise to OpenCASCADE tolerances of 0.5 to 2 mm)."""
     tags = [occ.addCylinder(*a, *(b - a), r)]
     for c in (a, b):
         if not any(np.allclose(c, q, rtol=0, atol=1e-9 * r) and abs(r - k) <= 1e-9 * r for q, k in spheres):
             spheres.append((c, r))
             tags.append(occ.addSphere(*c, r))
+            u = next((d for o, d in axes if np.linalg.norm(np.cross(c - o, d)) <= 1e-9 * r), None)
+            w = None if u is None else np.cross([0.0, 0.0, 1.0], u)  # gmsh's sphere: poles on z
+            if w is not None and np.linalg.norm(w) > 1e-12:
+                occ.rotate([(3, tags[-1])], *c, *(w / np.linalg.norm(w)), float(np.arctan2(np.linalg.norm(w), u[2])))
     return tags
 
 
@@ -211,6 +219,8 @@ def _occ_solids(occ, prims, bores, scale: float, revolved: bool = True, one_by_o
     if profile is not None:  # a pin: its profile revolved, no fuse (whose cost is the same as a link's)
         return [_occ_revolution(occ, *profile, scale)]
     tags, spheres = [], []
+    axes = [(np.asarray(p.p0) * scale, (np.asarray(p.p1) - p.p0) / np.linalg.norm(np.asarray(p.p1) - p.p0))
+            for p in prims if p.kind == "cylinder"]
     for p in prims:
         a, b = np.asarray(p.p0) * scale, np.asarray(p.p1) * scale
         r = p.radius * scale
@@ -219,7 +229,7 @@ def _occ_solids(occ, prims, bores, scale: float, revolved: bool = True, one_by_o
         elif p.kind != "capsule":
             tags.append(occ.addCylinder(*a, *(b - a), r))
         else:
-            tags += [_occ_capsule(occ, a, b, r)] if revolved else _occ_balls(occ, a, b, r, spheres)
+            tags += [_occ_capsule(occ, a, b, r)] if revolved else _occ_balls(occ, a, b, r, spheres, axes)
     body, step = [(3, tags[0])], 1 if one_by_one else max(len(tags), 1)
     for k in range(1, len(tags), step):
         body, _ = occ.fuse(body, [(3, t) for t in tags[k : k + step]])
@@ -250,100 +260,25 @@ def _hide_free_entities(gmsh) -> None:
     gmsh.option.setNumber("Geometry.OCCExportOnlyVisible", 1)
 
 
-def name_products(text: str, names: list[str]) -> str:
-    """The STEP ``text`` with the k-th part PRODUCT (the ones the translator numbers "n.k", n counting
-    the files written in this process) named ``names[k - 1]`` and the assembly ("n") named "linkage";
-    and what else depends on the process or the clock made reproducible: the assembly occurrences
-    numbered 1, 2, ... in file order, the header's file name "linkage" and time stamp the epoch.
-    ValueError when the counts differ."""
-    pattern = re.compile(r"PRODUCT\('Open CASCADE STEP translator \S+ \d+(\.(\d+))?',\s*'[^']*'")
-    seen = []
-
-    def rename(m):
-        if m.group(2) is None:
-            return "PRODUCT('linkage','linkage'"
-        k = int(m.group(2))
-        seen.append(k)
-        return f"PRODUCT('{names[k - 1]}','{names[k - 1]}'" if k <= len(names) else m.group(0)
-
-    out = pattern.sub(rename, text)
-    if sorted(seen) != list(range(1, len(names) + 1)):
-        raise ValueError(f"the STEP file has {len(seen)} parts, expected {len(names)}")
-    count = iter(range(1, 1 << 30))
-    out = re.sub(r"NEXT_ASSEMBLY_USAGE_OCCURRENCE\('\d+'", lambda m: f"NEXT_ASSEMBLY_USAGE_OCCURRENCE('{next(count)}'",
-                 out)
-    return re.sub(r"FILE_NAME\('[^']*','[^']*'", "FILE_NAME('linkage','1970-01-01T00:00:00'", out, count=1)
-
-
-_ASSEMBLY = {  # what `place_products` follows: {kind: (pattern, groups)}, each found in one pass
-    "nauo": re.compile(r"#(\d+) = NEXT_ASSEMBLY_USAGE_OCCURRENCE\(\s*'(\d+)'"),
-    "pds": re.compile(r"#(\d+) = PRODUCT_DEFINITION_SHAPE\(\s*'[^']*',\s*'[^']*',\s*#(\d+)\s*\)"),
-    "cdsr": re.compile(r"#(\d+) = CONTEXT_DEPENDENT_SHAPE_REPRESENTATION\(\s*#(\d+),\s*#(\d+)\s*\)"),
-    "rrwt": re.compile(r"#(\d+) = \( REPRESENTATION_RELATIONSHIP\([^;]*?"
-                       r"REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION\(\s*#(\d+)\s*\)"),
-    "idt": re.compile(r"#(\d+) = ITEM_DEFINED_TRANSFORMATION\(\s*'[^']*',\s*'[^']*',\s*#(\d+),\s*#(\d+)\s*\)"),
-    "axis": re.compile(r"#(\d+) = AXIS2_PLACEMENT_3D\(\s*'[^']*',\s*#(\d+),"),
-}
-_ZERO_POINT = re.compile(r"^#(\d+) = CARTESIAN_POINT\('',\(0\.,0\.,0\.\)\);$", re.M)
-
-
-def place_products(text: str, origins: list) -> str:
-    """The STEP ``text`` with the k-th part occurrence (NEXT_ASSEMBLY_USAGE_OCCURRENCE 'k', as `name_products`
-    numbers them: the writer's order) placed at ``origins[k - 1]`` (3,) in the file's unit: the origin of
-    its ITEM_DEFINED_TRANSFORMATION's target placement, written as identity by the translator. Each part
-    is built around its own origin (`local_origin`), so its geometry keeps the file's 13 significant
-    digits where the linkage is far from the world origin. ValueError when the structure is not found."""
-    found = {k: {m.group(1): m.groups()[1:] for m in p.finditer(text)} for k, p in _ASSEMBLY.items()}
-    nauo = {k: i for i, (k,) in found["nauo"].items()}
-    pds = {n: i for i, (n,) in found["pds"].items()}
-    cdsr = {d: r for _, (r, d) in found["cdsr"].items()}
-    points = {}
-    for k, origin in enumerate(origins, 1):
-        try:
-            (transform,) = found["rrwt"][cdsr[pds[nauo[str(k)]]]]
-            point = found["axis"][found["idt"][transform][1]][0]  # ITEM_DEFINED_TRANSFORMATION('','',#from,#to)
-        except KeyError:
-            raise ValueError(f"the STEP file has no placement for part occurrence {k}") from None
-        if point in points:
-            raise ValueError(f"part occurrences share the placement #{point}")
-        points[point] = "CARTESIAN_POINT('',(" + ",".join(_step_real(x) for x in origin) + "))"
-    out = _ZERO_POINT.sub(lambda m: f"#{m.group(1)} = {points.pop(m.group(1))};" if m.group(1) in points
-                          else m.group(0), text)
-    if points:
-        raise ValueError(f"part placements #{', #'.join(points)} are not the translator's identity")
-    return out
-
-
-def _refs(body: str) -> list[int]:
-    """The entity numbers a STEP entity's ``body`` refers to, in order."""
-    return [int(r) for r in re.findall(r"#(\d+)", body)]
-
-
-def _step_real(x: float) -> str:
-    """``x`` as a STEP real (ISO 10303-21: a decimal point, an optional exponent), round-tripping."""
-    r = repr(float(x) + 0.0)
-    mant, _, exp = r.partition("e")
-    mant = mant if "." in mant else mant + "."
-    return mant + (f"E{int(exp)}" if exp else "")
-
-
 VOLUME_TOLERANCE = 0.02  # relative: a B-rep solid's volume against its faceted STL's (measured: +0.3 to +0.7 %)
 
 
 def _checked_solids(occ, prims, bores, scale: float, volume: float | None, bodies: int | None = None, *,
-                    name: str = "", banned=frozenset(), trying=lambda key: None) -> list[int]:
+                    name: str = "", banned=frozenset(), coarse=None, trying=lambda key: None) -> tuple[list[int], int]:
     """`_occ_solids` with revolved round bars, else with cylinders and balls, then both again one boolean at
     a time (measured: 2 of 20 README jobs' bases, a hub 0.9 times the bar's radius), whichever first gives the
     ``volume`` (the STL's, in the model's unit; None: unchecked) within `VOLUME_TOLERANCE` in as many solids
     as the STL has ``bodies`` (None: unchecked): OpenCASCADE's booleans of solids whose faces coincide or
     touch (the balls of a cranked bar's segments, a bar's rims) may fail, lose pieces or leave a sliver
     solid (a bore through a bar's rim: measured on 3 of 20 README jobs, whose STEP model then failed as a
-    whole) without a word. RuntimeError when none does. ``banned``: the (``name``, construction index)
-    pairs not tried (`synth.io.bounded`: they did not return); ``trying(key)`` is called before each."""
-    got = []
+    whole) without a word. (tags, construction index); RuntimeError when none does. ``banned``: the
+    (``name``, construction index) pairs not tried (`synth.io.bounded`: they did not return), nor those of
+    ``coarse`` ({pair: accuracy mm}: written too coarse, `step_text`); ``trying(key)`` is called before each."""
+    got, coarse = [], coarse or {}
     for k, (revolved, one_by_one) in enumerate(((True, False), (False, False), (True, True), (False, True))):
-        if (name, k) in banned:
-            got.append(f"construction {k}: no return")
+        if (name, k) in banned or (name, k) in coarse:
+            got.append(f"construction {k}: " + (f"accuracy {coarse[name, k]:g} mm" if (name, k) in coarse else
+                                                "no return"))
             continue
         trying((name, k))
         before = set(occ.getEntities(3))
@@ -354,7 +289,7 @@ def _checked_solids(occ, prims, bores, scale: float, volume: float | None, bodie
             continue
         total = sum(occ.getMass(3, t) for t in tags)
         if (volume is None or abs(total / volume - 1) <= VOLUME_TOLERANCE) and bodies in (None, len(tags)):
-            return tags
+            return tags, k
         got.append(f"{total} in {len(tags)} solids")
         occ.remove([(3, t) for t in tags], recursive=True)
     raise RuntimeError(f"{name or 'a part'}: the B-rep booleans gave volumes {', '.join(got) or 'none'}, not the "
@@ -392,36 +327,58 @@ def _shifted(prims, origin) -> list:
     return [replace(p, p0=np.asarray(p.p0, float) - origin, p1=np.asarray(p.p1, float) - origin) for p in prims]
 
 
+ACCURACY = 0.25  # a part's B-rep accuracy at most this times the smaller of the bore clearance and the bar radius
+
+
 def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None = None, *, banned=frozenset(),
               trying=lambda key: None) -> str:
     """The ``linkage.step`` file of ``linkage`` with its physical ``design`` (see the module docstring);
     ``volumes`` {URDF link: mm^3} and ``bodies`` {URDF link: count}: the STL solids' volumes and pieces each
-    B-rep solid is checked against (`mesh_figures`). Imports gmsh (ImportError without the ``cad`` extra);
-    RuntimeError when a boolean fails. ``banned``, ``trying``: `_checked_solids`'s (`bounded_step_text`)."""
+    B-rep solid is checked against (`mesh_figures`). A part whose written accuracy (OpenCASCADE's largest
+    tolerance, `part_accuracies`) exceeds `ACCURACY` times the bore clearance or bar radius is built again
+    with its next construction (measured: sixbar_points' link_h1 at 0.5 mm read back with 5 % of its volume).
+    Imports gmsh (ImportError without the ``cad`` extra); RuntimeError when a boolean fails.
+    ``banned``, ``trying``: `_checked_solids`'s (`bounded_step_text`)."""
     gmsh = load_kernel()
     if gmsh is None:
         raise ImportError("linkage.step needs gmsh: pip install 'mpsynth[cad]'")
-
-    parts = step_parts(linkage, design)
-    unit, scale = model_unit(design)
-    to_model = (MESH_UNIT_SCALE * scale) ** 3  # volumes from mm^3
+    limit = ACCURACY * min(design.hole_clearance, design.bar_radius) / MESH_UNIT_SCALE  # mm: the file's unit
     started = gmsh.isInitialized()
     if not started:
         # gmsh's initialisation resets SIGTERM to its default action (seen in /proc/self/status): inside
         # `interrupts.held` the handlers installed before (the CLI's) are put back when it is done
         with interrupts.held():
             gmsh.initialize(readConfigFiles=False, interruptible=False)  # (interruptible: Python's SIGINT)
+    coarse: dict = {}
     try:
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("linkage")
-        occ = gmsh.model.occ
-        want = {name: v * to_model for name, v in (volumes or {}).items()}
-        pieces, origins = {}, {}
+        while True:
+            text, used = _model_text(gmsh, linkage, design, volumes, bodies, banned, coarse, trying)
+            owner = {n: next(p for p in used if n == p or n.startswith(p + "_piece")) for n in part_accuracies(text)}
+            worse = {(owner[n], used[owner[n]]): a for n, a in part_accuracies(text).items() if a > limit}
+            if not worse:
+                return text
+            coarse.update(worse)
+    finally:
+        if not started:
+            gmsh.finalize()
+
+
+def _model_text(gmsh, linkage, design, volumes, bodies, banned, coarse, trying) -> tuple[str, dict]:
+    """(STEP text, {part: construction index}) of one build of every part (`step_text`)."""
+    parts = step_parts(linkage, design)
+    unit, scale = model_unit(design)
+    to_model = (MESH_UNIT_SCALE * scale) ** 3  # volumes from mm^3
+    gmsh.model.add("linkage")
+    occ = gmsh.model.occ
+    want = {name: v * to_model for name, v in (volumes or {}).items()}
+    pieces, origins, used = {}, {}, {}
+    try:
         for name, (prims, bores) in parts.items():
             o = local_origin(prims)
-            tags = _checked_solids(occ, _shifted(prims, o), _shifted(bores, o), scale, want.get(name),
-                                   (bodies or {}).get(name), name=name, banned=banned, trying=trying)
-            pieces[name] = tags
+            pieces[name], used[name] = _checked_solids(occ, _shifted(prims, o), _shifted(bores, o), scale,
+                                                       want.get(name), (bodies or {}).get(name), name=name,
+                                                       banned=banned, coarse=coarse, trying=trying)
             origins[name] = o / MESH_UNIT_SCALE  # mm: the file's unit
         try:
             occ.synchronize()
@@ -444,10 +401,12 @@ def step_text(linkage, design, volumes: dict | None = None, bodies: dict | None 
                 gmsh.model.remove()
                 _restore_unit(gmsh, Path(tmp))
             text = path.read_text(encoding="ascii")
-    finally:
-        if not started:
-            gmsh.finalize()
-    return place_products(name_products(text, order), places)
+    except BaseException:
+        if "linkage" in gmsh.model.list():
+            gmsh.model.setCurrent("linkage")
+            gmsh.model.remove()
+        raise
+    return place_products(name_products(text, order), places), used
 
 
 def _restore_unit(gmsh, directory: Path) -> None:
