@@ -93,8 +93,8 @@ def run_ours(kind: str, sets, effort: float = 1.0) -> list[dict]:
 
 def run_sixbar_default(sets, effort: float = 1.0) -> list[dict]:
     """What `mpsynth sixbar -o OUT` writes: the best-scored candidates designed in turn, collision-free
-    first (`synth.design.search.rank_buildable`, the CLI's limit and work budget)."""
-    from synth.design.search import rank_buildable
+    first (`synth.design.ranking.rank_buildable`, the CLI's limit and work budget)."""
+    from synth.design.ranking import rank_buildable
     from synth.solve.tasks import SIXBAR_CHOICE
     from synth.synthesis.sixbar import sixbar_candidates
 

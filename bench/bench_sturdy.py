@@ -8,7 +8,7 @@ near-translational ones whose linkage is over `FAR` metres across (extent; the p
 Each linkage gets the library's design choice, `synth.design.choose.design_for` with its default sizes
 (full cycle first, then the task range; thinning, layering, cranks). With ``--choice`` a 6R set is what
 ``mpsynth sixbar -o`` designs: its best-scored candidates (`synth.solve.tasks.SIXBAR_CHOICE`) chosen
-collision-free first (`synth.design.search.rank_buildable`), else the best-scored linkage alone. Printed
+collision-free first (`synth.design.ranking.rank_buildable`), else the best-scored linkage alone. Printed
 per kind: sets, certified free over the full cycle, free over the task range (full included), the
 slenderness of the bars between joint sites (longest distance / bar diameter, max over sets: the rule
 before issue 33's written rule) and of the bars as written (mount -> via points -> mount,
@@ -53,7 +53,7 @@ def main(argv=None) -> int:
     def design(kind, seed, lk):
         if kind == "bennett" or not args.choice:
             return lk, design_for(lk, **extra)
-        from synth.design.search import rank_buildable
+        from synth.design.ranking import rank_buildable
         from synth.solve.tasks import SIXBAR_CHOICE
         from synth.synthesis.sixbar import sixbar_candidates
 

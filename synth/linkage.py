@@ -173,8 +173,13 @@ class Linkage:
             pairs += zip(ids, ids[1:])
         U = np.array([j.direction for j in self.joints], float).reshape(-1, 3)
         M = np.array([j.moment for j in self.joints], float).reshape(-1, 3)
-        sites = joint_sites(U, M, pairs, self._pose_centre())
-        return {j.name: sites[i] for i, j in enumerate(self.joints)}
+        centre = self._pose_centre()
+        key = (tuple(index), tuple(pairs), U.tobytes(), M.tobytes(), centre.tobytes())  # the sites' inputs
+        cached = self.__dict__.get("_sites")  # the design search asks many times (issue 36)
+        if cached is None or cached[0] != key:
+            cached = (key, joint_sites(U, M, pairs, centre))
+            self.__dict__["_sites"] = cached
+        return {name: cached[1][i].copy() for i, name in enumerate(index)}
 
     def _pose_centre(self) -> np.ndarray:
         pts = [p.matrix[:3, 3] for p in self.poses] + [self.tool_ref[:3, 3]]

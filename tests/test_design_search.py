@@ -1,6 +1,7 @@
 """The collision-free design search (synth.design.collision, synth.design.search; docs/design.md)."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -11,7 +12,9 @@ from hypothesis import strategies as st
 from conftest import REPO, random_poses
 from synth.design.collision import (body_motion, even_samples, pair_distances, rate_bound, segment_distance,
                                     t_of_phi, world_ends)
-from synth.design.search import (Layout, collision_rank, design_linkage, rank_buildable, task_phi_range,
+from synth.design.coordinate import ROUNDS
+from synth.design.ranking import rank_buildable
+from synth.design.search import (Layout, collision_rank, design_linkage, sizes_of, task_phi_range, warm_stack,
                                   task_range)
 from synth.errors import SynthesisError
 from synth.io.poses import load_poses
@@ -155,6 +158,60 @@ def test_search_is_deterministic(fixture_bennett, fixture_bennett_design):
     assert again.design.to_dict() == fixture_bennett_design.design.to_dict()
 
 
+def test_warm_stack_gives_back_the_mounts_of_a_design(fixture_bennett, fixture_bennett_design):
+    """A design's mounts as the searched stacks (c, sigma, g) of the same sizes: the same offsets."""
+    layout = Layout(fixture_bennett, merged=True, **sizes_of(fixture_bennett_design.design))
+    X = warm_stack(layout, fixture_bennett_design.design)
+    J = len(layout.joints)
+    S = layout.mount_offsets(X[:, :J], X[:, J:2 * J], X[:, 2 * J:])[0]
+    want = {(m.link, m.joint): m.offset for m in fixture_bennett_design.design.mounts}
+    assert np.allclose(S, [want[m] for m in layout.mounts], rtol=0, atol=1e-12)
+
+
+def test_a_sizing_round_starts_from_the_last_design(fixture_bennett, fixture_bennett_design):
+    """With thicker bars (a sizing round, synth.design.choose._sturdy) the search starts from the last free
+    design: certified free over its range (the verifier's claim holds: test_design_verify), near it, and
+    for a fraction of the counted work of a search from scratch."""
+    first = fixture_bennett_design
+    s = {**sizes(fixture_bennett), "bar_radius": 1.04 * sizes(fixture_bennett)["bar_radius"],
+         "clearance": first.design.clearance}
+    cold = design_linkage(fixture_bennett, **s)
+    warm = design_linkage(fixture_bennett, **s, start=first)
+    assert warm.collision.free and warm.collision.certified and warm.collision.range == first.collision.range
+    assert warm.collision.min_distance >= warm.design.clearance
+    assert warm.collision.work < 0.25 * cold.collision.work
+    moved = max(abs(a.offset - b.offset) for a, b in zip(first.design.mounts, warm.design.mounts))
+    assert moved < 0.1 * fixture_bennett.extent()
+    not_free = dataclasses.replace(first, collision=dataclasses.replace(first.collision, free=False))
+    again = design_linkage(fixture_bennett, **s, start=not_free)  # only a free design is a start
+    assert again.collision.work == cold.collision.work
+
+
+def test_a_failed_warm_start_falls_back_to_the_whole_search(fixture_bennett, fixture_bennett_design, monkeypatch):
+    """When no certificate holds near the last design (forced here: the warm start's certificates fail at
+    every pair, so its rounds add samples), the search from scratch runs on its own samples: the design a
+    search without the warm start finds."""
+    import synth.design.search as search
+    real, calls = search.certify_layout, []
+
+    def failing_first(*a, **k):
+        cert = real(*a, **k)
+        calls.append(cert["certified"])
+        if len(calls) <= ROUNDS:
+            cert = {**cert, "certified": False, "sampled": np.zeros_like(cert["sampled"])}
+        return cert
+
+    monkeypatch.setattr(search, "certify_layout", failing_first)
+    s = {**sizes(fixture_bennett), "bar_radius": 1.04 * sizes(fixture_bennett)["bar_radius"],
+         "clearance": fixture_bennett_design.design.clearance}
+    r = design_linkage(fixture_bennett, **s, start=fixture_bennett_design)
+    assert len(calls) > ROUNDS and r.collision.free and r.collision.certified
+    monkeypatch.setattr(search, "certify_layout", real)
+    cold = design_linkage(fixture_bennett, **s)  # the same search (the warm rounds' samples forgotten)
+    assert [m.offset for m in r.design.mounts] == [m.offset for m in cold.design.mounts]
+    assert r.collision.min_distance == cold.collision.min_distance
+
+
 def test_impossible_clearance_is_reported_with_pairs(fixture_bennett):
     """A clearance larger than the linkage cannot be kept: not free, pairs and a message."""
     r = design_linkage(fixture_bennett, **sizes(fixture_bennett), clearance=10 * fixture_bennett.extent(),
@@ -241,3 +298,34 @@ def test_random_sets_success_rate(kind, count):
             full += r.range == "full"
     if kind == "bennett":
         assert full >= 0.75 * count
+
+
+def test_sizing_rounds_start_from_the_last_design_and_skip_a_range_it_missed(fixture_bennett, monkeypatch):
+    """`design_for`'s sizing rounds (synth.design.choose._sturdy) pass the last round's design as the start
+    of the next search, and, when that one was free over the task range only, search the task range only:
+    thicker bars are not freer (the full cycle the thinner ones missed is not searched again)."""
+    import synth.design.choose as choose
+    seen = []
+    base = design_linkage(fixture_bennett, **{**sizes(fixture_bennett), "bar_radius": 0.008 * fixture_bennett.extent()})
+
+    from synth.design.sturdy import written_slenderness
+    thin = written_slenderness(fixture_bennett, base.design).length / (2 * 25 * 1.3)  # 1:32.5 as written
+
+    def fake(linkage, pins, bar_radius, pin_length, hole_clearance, clearance, thin_, work, slenderness, search):
+        seen.append((bar_radius, search))
+        design = dataclasses.replace(base.design, bar_radius=bar_radius or thin)
+        return dataclasses.replace(base, design=design, collision=dataclasses.replace(base.collision, range="task"))
+
+    monkeypatch.setattr(choose, "_design_for", fake)
+    monkeypatch.setattr(choose, "place_mounting", lambda linkage, result, **k: result)
+    choose.design_for(fixture_bennett, pin_radius=sizes(fixture_bennett)["pin_radius"])
+    assert len(seen) >= 2 and "start" not in seen[0][1] and "ranges" not in seen[0][1]
+    warm = 0
+    for (r0, _), (r1, s1) in zip(seen, seen[1:]):
+        last = r0 or thin
+        if 1 / choose.WARM_RATIO <= r1 / last <= choose.WARM_RATIO:
+            assert s1["ranges"] == ("task",) and s1["start"].design.bar_radius == last
+            warm += 1
+        else:  # a much thicker bar: searched from scratch
+            assert "start" not in s1 and "ranges" not in s1
+    assert warm, [r for r, _ in seen]

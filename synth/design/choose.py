@@ -107,9 +107,16 @@ def design_for(linkage, pin_radius=None, link_radius=None, pin_length=None, hole
     t0, work = time.process_time(), Work() if work is None else work
     start = work.done
 
-    def again(pins, bar_radius, gap):  # the whole design with these sizes, the rest as given
-        return _design_for(linkage, pins, bar_radius, pin_length, hole_clearance, gap, thin, work, slenderness,
-                           search)
+    def again(pins, bar_radius, gap, start=None):  # the whole design with these sizes, the rest as given; the
+        # search starts from the mounts of ``start`` (the last round's design) when given (`design_linkage`)
+        if start is not None and not 1 / WARM_RATIO <= bar_radius / start.design.bar_radius <= WARM_RATIO:
+            start = None  # a much thicker or thinner bar: the last design is no start, the search from scratch
+        more = search if start is None else {**search, "start": start}
+        if (start is not None and start.collision.free and start.collision.range == "task"
+                and bar_radius >= start.design.bar_radius and "task" in search.get("ranges", ("full", "task"))):
+            more = {**more, "ranges": ("task",)}  # thicker bars are not freer: the full cycle, which the last
+            # round's thinner bars missed, is not searched again (issue 36)
+        return _design_for(linkage, pins, bar_radius, pin_length, hole_clearance, gap, thin, work, slenderness, more)
 
     result = again(pin_radius, link_radius, clearance)
     searched = 0.0
@@ -131,7 +138,8 @@ def _sturdy(linkage, first: DesignResult, again, pin_radius, clearance, slendern
     """`design_for`'s sizing rounds (docs/design.md, "Parts sized to be built"): while the bars as written
     (`synth.design.sturdy.written_slenderness`) are more slender than the limit, the whole design is searched
     again with the bar radius `next_radius` (the default clearance stays the first design's), at most
-    `STURDY_ROUNDS` times; a design much sturdier than asked (below `STURDY_SLACK` of the limit: its mounts
+    `STURDY_ROUNDS` times, `MORE_ROUNDS` more while none met the limit; each round starts from the last
+    round's design when the radius is within `WARM_RATIO` of its (``again``'s ``start``); a design much sturdier than asked (below `STURDY_SLACK` of the limit: its mounts
     moved closer) is searched once more with the radius its own bars ask, when that is thinner than its
     own and not below the first design's. Returned: the thinnest design that meets the limit and is as
     free as any that does (`collision_rank`), else the least slender of the most free; but when the
@@ -145,7 +153,9 @@ def _sturdy(linkage, first: DesignResult, again, pin_radius, clearance, slendern
         clearance = first.design.clearance
     done = [(first, written_slenderness(linkage, first.design, slenderness))]
     thinner = False
-    for _ in range(STURDY_ROUNDS):
+    for k in range(STURDY_ROUNDS + MORE_ROUNDS):
+        if k >= STURDY_ROUNDS and any(s.met for _, s in done):
+            break
         last = done[-1][1]
         if last.met and (thinner or last.ratio >= STURDY_SLACK * slenderness):
             break
@@ -155,7 +165,7 @@ def _sturdy(linkage, first: DesignResult, again, pin_radius, clearance, slendern
                 break
         else:
             radius = next_radius([(r.design.bar_radius, s.length) for r, s in done], slenderness)
-        r = again(pins, radius, clearance)
+        r = again(pins, radius, clearance, done[-1][0])
         done.append((r, written_slenderness(linkage, r.design, slenderness)))
     best = min(done, key=lambda x: (not x[1].met, collision_rank(x[0].collision),
                                     x[0].design.bar_radius if x[1].met else x[1].ratio))[0]
@@ -237,7 +247,10 @@ def _straight(linkage, sizes, hole_clearance, clearance, thin, search, work) -> 
     return result
 
 
-STURDY_ROUNDS = 3  # searches with a thicker bar when the written bars are more slender than the limit
+STURDY_ROUNDS = 3  # searches with a thicker bar when the written bars are more slender than the limit ...
+MORE_ROUNDS = 2  # ... and at most this many more while none met it (issue 36: a round that starts from the last
+# design is cheap, and the growing margin escapes a written length that grows faster than the radius)
+WARM_RATIO = 2.0  # a sizing round starts from the last design when its bar radius is within this factor of it
 STURDY_SLACK = 0.8  # a design below this fraction of the limit is searched again with thinner bars (once)
 
 # budgets in gap evaluations (synth.design.work; they were CPU seconds: X s -> X * GAPS_PER_SECOND)

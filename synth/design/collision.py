@@ -260,25 +260,33 @@ def legs_distance(p0, p1, q0, q1) -> np.ndarray:
 
 
 def _gaps(cs: CapsuleSet, pts, rows, radii) -> np.ndarray:
-    """Gaps of the capsule pairs ``rows`` (indices into ``cs.pairs``, the shape of pts[i][0]) from the end
-    points ``pts`` (4 arrays (3, ...)): segment distance minus ``radii``; `axial_distance` and
-    `legs_distance` for the pairs of ``cs.axial``'s kinds 1, 2 and 3."""
+    """Gaps of the capsule pairs ``rows`` (indices into ``cs.pairs`` along one axis of pts[i][0]'s shape,
+    length 1 along the others) from the end points ``pts`` (4 arrays (3, ...)): segment distance minus
+    ``radii``; `axial_distance` and `legs_distance` for the pairs of ``cs.axial``'s kinds 1, 2 and 3 (each
+    kind's pairs taken along that axis: whole rows, no gather per element)."""
     if cs.axial is None or not cs.axial[rows, 0].any():
         return segment_distance(*pts) - radii
-    kind = np.broadcast_to(cs.axial[rows, 0], pts[0].shape[1:])
-    d = np.empty(kind.shape, pts[0].dtype)
+    shape = pts[0].shape[1:]
+    ax = int(np.argmax(np.shape(rows)))  # the axis of the pairs
+    pair = np.ravel(rows)
+    kind = cs.axial[pair, 0]
+    d = np.empty(shape, pts[0].dtype)
     for group in ((0,), (1, 2), (3,)):
-        sel = np.nonzero(kind == group[0]) if len(group) == 1 else np.nonzero((kind == 1) | (kind == 2))
-        if not len(sel[0]):
+        idx = np.flatnonzero(np.isin(kind, group))
+        if not len(idx):
             continue
-        p0, p1, q0, q1 = (p[(slice(None),) + sel] for p in pts)
+        one = len(pair) == 1  # (then no axis to take along: every element is of that pair)
+        p0, p1, q0, q1 = pts if one else (p.take(idx, axis=ax + 1) for p in pts)
+        sel = Ellipsis if one else (slice(None),) * ax + (idx,)
         if group == (0,):
             d[sel] = segment_distance(p0, p1, q0, q1)
         elif group == (3,):
             d[sel] = legs_distance(p0, p1, q0, q1)
         else:  # the leg first: b's segment where a's is the hub (kind 1)
-            a_hub = kind[sel] == 1
-            rad = np.broadcast_to(cs.axial[rows, 1], kind.shape)[sel].astype(d.dtype)
+            along = [1] * len(shape)
+            along[ax] = 1 if one else len(idx)
+            a_hub = (kind[idx] == 1).reshape(along)
+            rad = cs.axial[pair[idx], 1].reshape(along).astype(d.dtype)
             d[sel] = axial_distance(np.where(a_hub, q0, p0), np.where(a_hub, q1, p1), np.where(a_hub, p0, q0),
                                     np.where(a_hub, p1, q1), rad)
     return d - radii
@@ -302,14 +310,19 @@ def world_ends(cs: CapsuleSet, motion: dict[str, np.ndarray]) -> tuple[np.ndarra
     """(Q, U), each (4, 3, P, K): for the four end points (a0, a1, b0, b1) of every tested capsule pair,
     the moved base point and direction of the end point's line at the samples (component-first); the
     end point itself is ``Q + offset * U``."""
+    Q, U = end_lines(cs, motion)
+    idx = cs.pairs.T  # (4, P)
+    return np.ascontiguousarray(Q[:, idx].transpose(1, 0, 2, 3)), np.ascontiguousarray(U[:, idx].transpose(1, 0, 2, 3))
+
+
+def end_lines(cs: CapsuleSet, motion: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(Q, U), each (3, E, K): the moved base point and direction of every end point's line at the samples."""
     Q, U = [], []
     for base, u, body in zip(cs.ends_base, cs.ends_dir, cs.ends_body):
         D = motion[body]
         Q.append(D[:, :3, :3] @ base + D[:, :3, 3])
         U.append(D[:, :3, :3] @ u)
-    Q, U = np.array(Q).transpose(2, 0, 1), np.array(U).transpose(2, 0, 1)  # (3, E, K)
-    idx = cs.pairs.T  # (4, P)
-    return np.ascontiguousarray(Q[:, idx].transpose(1, 0, 2, 3)), np.ascontiguousarray(U[:, idx].transpose(1, 0, 2, 3))
+    return np.array(Q).transpose(2, 0, 1), np.array(U).transpose(2, 0, 1)
 
 
 def pair_distances(cs: CapsuleSet, Q, U, offsets, chunk: int = 1 << 16) -> np.ndarray:
@@ -347,43 +360,72 @@ def pair_distances_at(cs: CapsuleSet, Q, U, offsets, pidx, kidx, chunk: int = 1 
 # ----------------------------------------------------------------------------------------- certificate
 def speed_coefficients(linkage, cs: CapsuleSet, offsets: np.ndarray, sites: dict) -> list[np.ndarray]:
     """For one design (``offsets`` (E,)): a list of (P, J) arrays, one per way of bounding the relative
-    speed of each capsule pair: ``V <= coef @ rate_bound`` (see the module docstring)."""
-    jindex = {j.name: i for i, j in enumerate(linkage.joints)}
+    speed of each capsule pair: ``V <= coef @ rate_bound`` (see the module docstring). The ways (paths of
+    joints) depend on the capsules only (`_speed_paths`); the design sets each path's first term."""
+    J = len(linkage.joints)
+    last, e0, e1, steps, lengths, way, special = _speed_paths(linkage, cs, sites)
     pts = cs.ends_base + np.asarray(offsets, float)[:, None] * cs.ends_dir  # (E, 3): mounts and via points
-    options = cs.paths  # the same for every design of these capsules
-    out = []
-    P, J = len(cs.pairs), len(linkage.joints)
     S = np.array([sites[j.name] for j in linkage.joints]).reshape(-1, 3)
     w = pts[:, None] - S[None]  # (E, J, 3)
     u = np.array([j.direction for j in linkage.joints]).reshape(-1, 3)
     reach = np.linalg.norm(w, axis=2)  # (E, J): from each site; from each axis (the last one is fixed in dst)
     off_axis = np.sqrt(np.maximum(reach ** 2 - np.einsum("ejk,jk->ej", w, u) ** 2, 0.0))
-    per_pair: list[list[np.ndarray]] = [[] for _ in range(P)]
+    coef = np.zeros((len(last) + 2, J + 1))  # one row per path, then the rows of no motion and of no bound
+    rows = np.arange(len(last))
+    coef[rows, last] = np.maximum(off_axis[e0, last], off_axis[e1, last])
+    acc = np.maximum(reach[e0, last], reach[e1, last])
+    for k in range(steps.shape[1]):  # the site-to-site lengths added in the order of the path, last first
+        acc = acc + lengths[:, k]
+        coef[rows, steps[:, k]] = acc
+    coef[-1] = 1e300
+    coef = coef[:, :J]
+    return [coef[np.where(special == 0, way[:, k], len(last) + special - 1)] for k in range(way.shape[1])]
+
+
+def _speed_paths(linkage, cs: CapsuleSet, sites: dict) -> tuple:
+    """The paths of joints of `speed_coefficients`, the same for every design of these capsules (kept on
+    the linkage, at most 8 capsule structures): per path its last joint, the moving capsule's ends (e0,
+    e1), its other joints from the last (padded with column J) and the site-to-site lengths added there
+    (padded with 0); per pair its paths (P, ways) (a pair with fewer repeats its last) and ``special``
+    (P,): 1 when a turn about a shared axis changes nothing of its gap (`CapsuleSet.axial`), 2 when no
+    chain of joints joins its bodies."""
+    key = ("speed", cs.pairs.tobytes(), cs.body_pair.tobytes(), None if cs.axial is None else cs.axial[:, 0].tobytes(),
+           tuple(cs.body_pairs), tuple(sites), np.array(list(sites.values())).tobytes(),
+           tuple((j.name, j.parent, j.child) for j in linkage.joints), tuple(map(tuple, linkage.links.values())))
+    kept = linkage.__dict__.setdefault("_speed_paths", {})  # every round's certificate of a sizing round
+    if key in kept:  # has the same capsule structure: its paths are found once per linkage
+        return kept[key]
+    jindex = {j.name: i for i, j in enumerate(linkage.joints)}
+    J = len(linkage.joints)
+    rows, per_pair, special = [], [], []
     for p, (a0, a1, b0, b1) in enumerate(cs.pairs):
         A, B = cs.body_pairs[cs.body_pair[p]]
-        if cs.axial is not None and cs.axial[p, 0]:  # a turn about their shared axis changes nothing of
-            per_pair[p].append(np.zeros(J))  # their gap (`CapsuleSet.axial`)
-            continue
-        for src, (e0, e1), dst in ((A, (b0, b1), B), (B, (a0, a1), A)):
-            key = (src, dst)
-            if key not in options:
-                options[key] = body_paths(linkage, src, dst)
-            for path in options[key]:
-                if not path:  # one body (e.g. merged by a loop weld): nothing moves between them
-                    continue
-                coef = np.zeros(J)
-                last = jindex[path[-1]]
-                acc = max(reach[e0, last], reach[e1, last])
-                coef[last] = max(off_axis[e0, last], off_axis[e1, last])
-                for i in range(len(path) - 2, -1, -1):
-                    acc += np.linalg.norm(sites[path[i + 1]] - sites[path[i]])
-                    coef[jindex[path[i]]] = acc
-                per_pair[p].append(coef)
-        if not per_pair[p]:  # no chain of joints between the two bodies: no bound on their relative speed
-            per_pair[p].append(np.full(J, 1e300))
-    width = max(len(c) for c in per_pair) if per_pair else 0
-    for k in range(width):
-        out.append(np.array([c[min(k, len(c) - 1)] for c in per_pair]))
+        mine = []
+        if not (cs.axial is not None and cs.axial[p, 0]):
+            for src, (e0, e1), dst in ((A, (b0, b1), B), (B, (a0, a1), A)):
+                if (src, dst) not in cs.paths:
+                    cs.paths[(src, dst)] = body_paths(linkage, src, dst)
+                for path in cs.paths[(src, dst)]:
+                    if path:  # an empty path: one body (e.g. merged by a loop weld), nothing moves between them
+                        back = range(len(path) - 2, -1, -1)
+                        lengths = [np.linalg.norm(sites[path[i + 1]] - sites[path[i]]) for i in back]
+                        mine.append(len(rows))
+                        rows.append((jindex[path[-1]], e0, e1, [jindex[path[i]] for i in back], lengths))
+            special.append(0 if mine else 2)
+        else:
+            special.append(1)
+        per_pair.append(mine or [0])
+    depth = max([len(r[3]) for r in rows], default=0)
+    ways = max(len(m) for m in per_pair) if per_pair else 0
+    out = (np.array([r[0] for r in rows], int), np.array([r[1] for r in rows], int),
+           np.array([r[2] for r in rows], int),
+           np.array([r[3] + [J] * (depth - len(r[3])) for r in rows], int).reshape(len(rows), depth),
+           np.array([r[4] + [0.0] * (depth - len(r[4])) for r in rows], float).reshape(len(rows), depth),
+           np.array([[m[min(k, len(m) - 1)] for k in range(ways)] for m in per_pair], int).reshape(len(per_pair), ways),
+           np.array(special, int))
+    if len(kept) >= 8:
+        kept.pop(next(iter(kept)))
+    kept[key] = out
     return out
 
 
@@ -425,8 +467,10 @@ def _dist_at(linkage, cs, offsets, phis, chunk: int = 1 << 18) -> np.ndarray:
     """(P, K) capsule-pair distances of one design at the driver angles ``phis``, in blocks of samples
     of about ``chunk`` pair distances (the end points of every pair at every sample are 64 floats)."""
     step = max(1, chunk // max(len(cs.pairs), 1))
-    parts = []
-    for k0 in range(0, len(phis), step):
-        Q, U = world_ends(cs, body_motion(linkage, phis[k0:k0 + step]))
-        parts.append(pair_distances(cs, Q, U, offsets[None])[0])
+    parts, P = [], len(cs.pairs)
+    for k0 in range(0, len(phis), step):  # `pair_distances`' numbers, the end points moved once each
+        Q, U = end_lines(cs, body_motion(linkage, phis[k0:k0 + step]))
+        ends = Q + np.asarray(offsets, float)[None, :, None] * U  # (3, E, K)
+        pts = [ends[:, cs.pairs[:, c]][:, None] for c in range(4)]  # (3, 1, P, K)
+        parts.append(_gaps(cs, pts, np.arange(P)[None, :, None], cs.radii[None, :, None])[0])
     return np.concatenate(parts, axis=1) if len(parts) != 1 else parts[0]

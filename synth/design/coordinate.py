@@ -63,6 +63,12 @@ class Scorer:
         self.U = np.concatenate([self.U, U.astype(SEARCH_DTYPE)], axis=3)
         self._split()
 
+    def keep_first(self, k: int) -> None:
+        """Forget the samples after the first ``k`` (those `add_samples` added): the scorer as it was made."""
+        self.phis, self.is_task = self.phis[:k], self.is_task[:k]
+        self.Q, self.U = np.ascontiguousarray(self.Q[..., :k]), np.ascontiguousarray(self.U[..., :k])
+        self._split()
+
     def _split(self) -> None:
         """The end points of the moving pairs at every sample and of the `once` pairs at ``once_k``."""
         m, k = ~self.once, self.once_k
@@ -84,6 +90,20 @@ class Scorer:
         d = np.full((len(X), P, K), np.inf)
         d[:, m] = pair_distances(moving, Qm, Um, o)
         d[:, self.once, self.once_k] = pair_distances(once, Qo, Uo, o)[:, :, 0] + self.settled
+        return d
+
+    def grid(self, X, samples) -> np.ndarray:
+        """(N, P, k) gaps of every pair at the samples ``samples`` (k increasing indices, ``once_k`` among
+        them; a `once` pair's: inf but there): `at` at every such entry, in its order, with the same numbers
+        and count, evaluated as in `full` (whole blocks of samples, no gather per entry: half the time)."""
+        o, m, samples = self.offsets(X), ~self.once, np.asarray(samples)
+        self.work.charge(len(X) * (int(m.sum()) * len(samples) + int(self.once.sum())))
+        (moving, once), (Qm, Um, Qo, Uo) = self._moving, self._ends
+        d = np.full((len(X), len(self.once), len(samples)), np.inf)
+        d[:, m] = pair_distances(moving, Qm[..., samples], Um[..., samples], o)
+        if self.once.any():
+            d[:, self.once, int(np.flatnonzero(samples == self.once_k)[0])] = (
+                pair_distances(once, Qo, Uo, o)[:, :, 0] + self.settled)
         return d
 
     def at(self, X, pidx, kidx) -> np.ndarray:
@@ -240,13 +260,13 @@ def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, i
     return X, best
 
 
-def search_rounds(scorer, space, X, mask, target, scale, *, effort, certify_best):
-    """Search rounds from the starts X: improve; when the best is feasible at the samples, certify it
-    (``certify_best(x) -> cert``); where the certificate fails, sample there too and go on (`ROUNDS`).
-    A round that finds nothing feasible is repeated only while it still reduces the violation by a
-    fifth; none starts once ``scorer.work`` is spent. Returns (x, cert) of a certified design or None,
-    and (X, best) of the last round."""
-    step0 = 0.25 * scale
+def search_rounds(scorer, space, X, mask, target, scale, *, effort, certify_best, step=0.25):
+    """Search rounds from the starts X: improve (first moves ``step`` times ``scale``); when the best is
+    feasible at the samples, certify it (``certify_best(x) -> cert``); where the certificate fails, sample
+    there too and go on (`ROUNDS`). A round that finds nothing feasible is repeated only while it still
+    reduces the violation by a fifth; none starts once ``scorer.work`` is spent. Returns (x, cert) of a
+    certified design or None, and (X, best) of the last round."""
+    step0 = step * scale
     previous = -math.inf
     last = None
     for _ in range(ROUNDS):
@@ -266,5 +286,5 @@ def search_rounds(scorer, space, X, mask, target, scale, *, effort, certify_best
             return (X[i].copy(), cert), last
         # the samples missed a close approach: sample there too and search on
         scorer.add_samples(cert["where"][cert["sampled"] < target])
-        step0 = 0.1 * scale
+        step0 = min(step0, 0.1 * scale)
     return None, last

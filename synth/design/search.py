@@ -39,6 +39,7 @@ MORE_WORK = 1.0 * GAPS_PER_SECOND  # ... and further ones (the next best starts)
 # was free over the full cycle only at its 4th set of starts, 0.3 CPU s)
 SPREADS = (0.25, 0.5, 1.0, 2.0)  # scales (times the extent) of the random stack centres
 SCREEN_WORK, SCREEN_EFFORT = 0.2 * GAPS_PER_SECOND, 0.5  # the quick full-cycle search of each candidate (rank_buildable)
+WARM_STEP = 0.04  # the first moves of a warm start (`design_linkage`'s ``start``), times the extent
 SEARCH_MERGED = True  # the search scores merged hub+pin capsules (fewer pairs), the certificate the exact ones
 
 
@@ -234,7 +235,8 @@ def task_phi_range(linkage) -> tuple[float, float]:
 def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length: float,
                    hole_clearance: float = 0.0, clearance: float | None = None, seed: int = 0,
                    effort: float = 1.0, ranges: tuple[str, ...] = ("full", "task"),
-                   full_work: float | None = None, work: Work | None = None) -> DesignResult:
+                   full_work: float | None = None, work: Work | None = None,
+                   start: DesignResult | None = None) -> DesignResult:
     """A collision-free physical design for ``linkage`` (full cycle if found, else task range) and its
     certified `CollisionReport`; the most compact one found. Lengths in metres. ``clearance`` defaults
     to ``CLEARANCE_FRACTION`` times the bar radius; ``effort`` scales the number of candidates.
@@ -242,11 +244,14 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     reported as not free over the full cycle; ("task",): the task range only). ``full_work``: a budget
     of gap evaluations (`synth.design.work`) for the full-cycle search (None: no limit); ``work``: the
     budget of the whole search, charged with every evaluation (checked between moves; None: no limit;
-    the certificate of the last candidate is made even when it is spent). The report's ``work`` counts
-    the evaluations of this search; its ``seconds`` the CPU time (information only: nothing depends on it)."""
+    the certificate of the last candidate is made even when it is spent). ``start``: a free design of this
+    linkage with other sizes (a sizing round's last, `synth.design.choose`): searched first, from its
+    stacks with small moves, over the range it is free in (`warm_stack`); the whole search only when that
+    finds no certified design (on the samples it would have had). The report's ``work`` counts the evaluations of this search; its
+    ``seconds`` the CPU time (information only: nothing depends on it)."""
     t0 = time.process_time()
     budget = Work() if work is None else work
-    start = budget.done
+    done0 = budget.done
     sizes = resolved_sizes(pin_radius, bar_radius, hub_length, hole_clearance, clearance)
     clearance, hub_radius = sizes["clearance"], sizes["hub_radius"]
     search = Layout(linkage, merged=SEARCH_MERGED, **sizes)
@@ -270,19 +275,21 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
 
     X0 = initial_stacks(rng, J, int(effort * 32 * J), gmin, scale)
     coarse = (np.arange(len(scorer.phis)) % 3 == 0) | (np.arange(len(scorer.phis)) == scorer.once_k)  # (`Scorer.once`)
-    pk = np.nonzero(np.ones((len(search.cs.pairs), len(scorer.phis)), bool) & coarse[None])
-    if budget.spent:  # nothing will be searched (the natural stack is certified below): no screen either
-        d0 = np.zeros((len(X0), len(search.cs.pairs), int(coarse.sum())))
-    else:
-        d0 = scorer.at(X0, *pk).reshape(len(X0), len(search.cs.pairs), -1)
     size0 = space.size(X0)
     coarse_task = scorer.is_task[coarse]
+
+    @functools.cache
+    def screen():  # the sampled gaps of every start at the coarse samples (once, when a start is needed)
+        if budget.spent:  # nothing will be searched (the natural stack is certified below): no screen either
+            return np.zeros((len(X0), len(search.cs.pairs), int(coarse.sum())))
+        return scorer.grid(X0, np.flatnonzero(coarse))
 
     result, last = None, None
     n_starts = max(2, int(4 * effort))
     ranges = _ranges(ranges, task)
-    full = budget.part(None if full_work is None else full_work - (budget.done - start))  # the screen counts
-    for rname, rng_phi, attempt in _attempts(ranges, len(X0) // n_starts):
+    full = budget.part(None if full_work is None else full_work)  # the screen counts
+    warm = (start.collision.range, warm_stack(search, start.design)) if start and start.collision.free else None
+    for rname, rng_phi, attempt in _attempts(ranges, len(X0) // n_starts, warm):
         if budget.spent:
             break
         scorer.work = full if rname == "full" else budget
@@ -292,15 +299,19 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
             range_start = scorer.work.done
         elif attempt >= ATTEMPTS and scorer.work.done - range_start >= MORE_WORK * effort:
             continue  # the later sets of starts only within MORE_WORK
-        mask0 = np.ones(coarse.sum(), bool) if rname == "full" else coarse_task
-        ranked = np.argsort(-score(violation(d0, target, mask0), size0), kind="stable")
-        starts = ranked[attempt * n_starts:(attempt + 1) * n_starts]
+        if attempt < 0:  # the warm start: small moves from the given design's stacks
+            X, step = warm[1].copy(), WARM_STEP
+        else:
+            mask0 = np.ones(coarse.sum(), bool) if rname == "full" else coarse_task
+            ranked = np.argsort(-score(violation(screen(), target, mask0), size0), kind="stable")
+            X, step = X0[ranked[attempt * n_starts:(attempt + 1) * n_starts]].copy(), 0.25
         found, tried = search_rounds(
-            scorer, space, X0[starts].copy(),
-            lambda: np.ones(len(scorer.phis), bool) if rname == "full" else scorer.is_task,
-            target, scale, effort=effort,
+            scorer, space, X, lambda: np.ones(len(scorer.phis), bool) if rname == "full" else scorer.is_task,
+            target, scale, effort=effort, step=step,
             certify_best=lambda x: certify_layout(exact, to_S(x[None])[0], rng_phi, clearance))
-        last = tried or last
+        last = (tried or last) if attempt >= 0 else last
+        if attempt < 0 and found is None:  # the search from scratch as without a warm start: its samples only
+            scorer.keep_first(len(coarse))
         if found is not None:
             result = (rname, to_S(found[0][None])[0], found[1])
             break
@@ -314,7 +325,7 @@ def design_linkage(linkage, *, pin_radius: float, bar_radius: float, hub_length:
     design = exact.design(S, pin_radius=pin_radius, bar_radius=bar_radius, hub_radius=hub_radius,
                           hole_clearance=hole_clearance, clearance=clearance)
     report = report_for(linkage, exact, rname, cert, clearance)
-    report.seconds, report.work = time.process_time() - t0, budget.done - start
+    report.seconds, report.work = time.process_time() - t0, budget.done - done0
     return DesignResult(design, report)
 
 
@@ -382,11 +393,29 @@ def cranked_result(linkage, layout: Layout, S, W, like, rname: str, cert: dict, 
     return DesignResult(design, report)
 
 
-def _attempts(ranges, sets: int):
-    """(range name, (lo, hi), attempt) in search order: every set of starts (``sets`` of them) of each range."""
+def _attempts(ranges, sets: int, warm=None):
+    """(range name, (lo, hi), attempt) in search order: every set of starts (``sets`` of them) of each range;
+    first attempt -1 (the warm start) in the range ``warm[0]`` names, when given."""
     for rname, rng_phi in ranges:
+        if warm is not None and warm[0] == rname:
+            yield rname, rng_phi, -1
         for attempt in range(max(ATTEMPTS, sets)):
             yield rname, rng_phi, attempt
+
+
+def warm_stack(layout: Layout, design) -> np.ndarray:
+    """(1, 3J) the stacks X = [c | sigma | g] of ``layout`` nearest the mounts of ``design`` (a design of the
+    same linkage with other sizes): per joint the mean offset of its mounts, the order and spacing of its
+    first and last (g at least ``layout.gap_min``; a mount the design lacks: the site)."""
+    offset = {(m.link, m.joint): m.offset for m in design.mounts}
+    c, sigma, g = [], [], []
+    for j in layout.joints:
+        S = [offset.get((link, j), 0.0) for link in layout.links_of[j]]
+        spread = (S[-1] - S[0]) / max(len(S) - 1, 1)
+        c.append(float(np.mean(S)))
+        sigma.append(-1.0 if spread < 0 else 1.0)
+        g.append(max(abs(spread), layout.gap_min))
+    return np.array([c + sigma + g], float)
 
 
 def _ranges(names, task) -> tuple:
@@ -446,55 +475,3 @@ def report_for(linkage, layout: Layout, rname: str, cert: dict, clearance: float
 def collision_rank(report: CollisionReport) -> int:
     """0: collision-free over the full cycle, 1: over the task range only, 2: neither."""
     return 0 if report.free and report.range == "full" else (1 if report.free else 2)
-
-
-def design_rank(result: DesignResult) -> float:
-    """`collision_rank` of ``result``'s report, plus 0.5 when its bars as written are more slender than
-    the limit although their radius was sized (``result.slenderness``, `synth.design.sturdy`): a
-    candidate whose sturdy bars are free comes first."""
-    s = result.slenderness
-    return collision_rank(result.collision) + (0.5 if s is not None and not s.met and not s.given else 0.0)
-
-
-def rank_buildable(candidates, design, *, limit: int = 8, work: float = 6.0 * GAPS_PER_SECOND,
-                   first: float = 2.5 * GAPS_PER_SECOND, per_candidate: float = 1.2 * GAPS_PER_SECOND,
-                   reserve: float = 1.0 * GAPS_PER_SECOND, screen: float = SCREEN_WORK) -> list[tuple]:
-    """Choose among candidate linkages (given best first by their kinematic score) collision-freedom first.
-
-    ``design(linkage, ranges, full_work, work, effort) -> DesignResult`` (`design_linkage`'s arguments;
-    ``work``: the `Work` every search charges). Budgets in gap evaluations (`synth.design.work`). Phase 0
-    (more than one candidate): a quick full-cycle-only search (`SCREEN_EFFORT`, at most ``screen``) on each
-    candidate in order until one is free or ``work - reserve`` is spent (whether a full-cycle design is
-    found differs much more between candidates than between searches on one, and a quick search often
-    finds it: fixtures/sixbar_example.yaml's 8th candidate, 2e6 evaluations, after 7 failed deep ones).
-    Phase 1: a full-cycle-only search of at most ``first`` on the best-scored candidate and
-    ``per_candidate`` on each next one, in order, until one is free, ``limit`` were tried, or ``work -
-    reserve`` are spent (the first is always searched). Phase 2, when none is free over the full cycle:
-    the task-range search on the candidates in order until one is free over it or ``work`` is spent (at
-    least the first). A success is a design of `design_rank` 0 (phases 0, 1) or at most 1 (phase 2): free,
-    with bars as sturdy as the slenderness asks. Returns [(linkage, DesignResult)] of the final designs
-    sorted by (`design_rank`, kinematic order): a phase-0 or phase-1 success alone, else the phase-2 designs."""
-    spent = Work()
-    candidates = list(candidates)
-    if len(candidates[:limit]) > 1 and screen:
-        for linkage in candidates[:limit]:
-            if spent.done + screen > work - reserve:
-                break
-            result = design(linkage, ("full",), screen, spent, SCREEN_EFFORT)
-            if design_rank(result) == 0:
-                return [(linkage, result)]
-    for k, linkage in enumerate(candidates[:limit]):
-        cap = first if k == 0 else per_candidate
-        if k and spent.done + cap > work - reserve:
-            break
-        result = design(linkage, ("full",), cap, spent, 1.0)
-        if design_rank(result) == 0:
-            return [(linkage, result)]
-    done = []
-    for k, linkage in enumerate(candidates[:limit]):
-        result = design(linkage, ("task",), None, spent, 1.0)
-        done.append((design_rank(result), k, linkage, result))
-        if done[-1][0] <= 1 or spent.done > work:
-            break
-    done.sort(key=lambda x: x[:2])
-    return [(lk, r) for _, _, lk, r in done]

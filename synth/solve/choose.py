@@ -7,7 +7,8 @@ import math
 
 from synth.design.choose import design_for
 from synth.design.constraints import envelope_violation, first_in_envelope
-from synth.design.search import collision_rank, rank_buildable
+from synth.design.ranking import rank_buildable
+from synth.design.search import collision_rank
 from synth.design.sizes import check_sizes
 from synth.errors import SynthesisError
 
@@ -71,7 +72,7 @@ class Designer:
 
     def choose(self, candidates, *, limit: int, work: float, what: str, constraints=None):
         """Design the best-scored ``candidates`` (best first, at most ``limit``) and keep the collision-free
-        one first (full cycle, then task range; `synth.design.search.rank_buildable` within ``work`` gap
+        one first (full cycle, then task range; `synth.design.ranking.rank_buildable` within ``work`` gap
         evaluations, `synth.design.work`), then the score; with an envelope in ``constraints`` (the task's)
         the first design inside it (`synth.design.constraints.first_in_envelope`). Returns (linkage,
         DesignResult); ``linkage.info.design_choice`` says which candidate won; ``what``: the candidates'
