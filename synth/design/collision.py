@@ -202,42 +202,32 @@ def axial_distance(p0, p1, q0, q1, radius) -> np.ndarray:
     half-plane (r, z) of the distance from the axis and the height along it, the segment is a segment and
     the cylinder the box [0, radius] x [-h, h] (the distance does not change with a turn of either about
     the axis): 0 where they meet (clipped as in Liang-Barsky), else the least distance between an end of
-    one and the other."""
-    def dot(x, y):
-        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
-
+    one and the other. (Both ends, both coordinates and the four corners each as one stacked array: a
+    few numpy passes for the few pairs a search evaluates at a time.)"""
+    shape = np.broadcast_shapes(p0.shape[1:], p1.shape[1:], q0.shape[1:], q1.shape[1:], np.shape(radius))
     axis, m = q1 - q0, 0.5 * (q0 + q1)
-    length = np.sqrt(dot(axis, axis))
-    u = axis / np.maximum(length, 1e-30)
-    h = 0.5 * length
-
-    def rz(p):
-        w = p - m
-        c = np.stack([u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]])
-        return np.sqrt(dot(c, c)), dot(w, u)
-
-    (r0, z0), (r1, z1) = rz(p0), rz(p1)
-    dr, dz = r1 - r0, z1 - z0
-    enter, leave = np.zeros_like(r0), np.ones_like(r0)
-    for a, d, lo, hi in ((r0, dr, 0.0, radius), (z0, dz, -h, h)):
-        flat = np.abs(d) < 1e-30
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t1, t2 = (lo - a) / np.where(flat, 1.0, d), (hi - a) / np.where(flat, 1.0, d)
-        inside = (a >= lo) & (a <= hi)
-        enter = np.maximum(enter, np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2)))
-        leave = np.minimum(leave, np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)))
-
-    def to_box(r, z):
-        return np.hypot(np.maximum(r - radius, 0.0), np.maximum(np.abs(z) - h, 0.0))
-
-    def to_segment(cr, cz):
-        t = np.clip(((cr - r0) * dr + (cz - z0) * dz) / np.maximum(dr * dr + dz * dz, 1e-30), 0.0, 1.0)
-        return np.hypot(r0 + t * dr - cr, z0 + t * dz - cz)
-
-    rim = radius + np.zeros_like(h)
-    corners = to_segment(np.stack([0 * rim, 0 * rim, rim, rim]), np.stack([h, -h, h, -h])).min(axis=0)
-    d = np.minimum(np.minimum(to_box(r0, z0), to_box(r1, z1)), corners)
-    return np.where(enter <= leave, 0.0, d)
+    length = np.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
+    u = (axis / np.maximum(length, 1e-30))[:, None]
+    h = np.broadcast_to(0.5 * length, shape)
+    w = np.stack(np.broadcast_arrays(p0 - m, p1 - m), axis=1)  # (3, 2 ends, ...)
+    c = np.stack([u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]])
+    r = np.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2])  # (2, ...)
+    z = w[0] * u[0] + w[1] * u[1] + w[2] * u[2]
+    rim = np.broadcast_to(radius, shape).astype(r.dtype)
+    a, dv = np.stack([r[0], z[0]]), np.stack([r[1] - r[0], z[1] - z[0]])  # (2 coordinates, ...)
+    lo, hi = np.stack([np.zeros_like(h), -h]), np.stack([rim, h])
+    flat = np.abs(dv) < 1e-30
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (lo - a) / np.where(flat, 1.0, dv), (hi - a) / np.where(flat, 1.0, dv)
+    inside = (a >= lo) & (a <= hi)
+    enter = np.maximum(0.0, np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2)).max(axis=0))
+    leave = np.minimum(1.0, np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)).min(axis=0))
+    to_box = np.hypot(np.maximum(r - rim, 0.0), np.maximum(np.abs(z) - h, 0.0)).min(axis=0)  # from either end
+    cr, cz = np.stack([0 * rim, 0 * rim, rim, rim]), np.stack([h, -h, h, -h])  # the corners
+    dr, dz = dv[0], dv[1]
+    t = np.clip(((cr - r[0]) * dr + (cz - z[0]) * dz) / np.maximum(dr * dr + dz * dz, 1e-30), 0.0, 1.0)
+    corners = np.hypot(r[0] + t * dr - cr, z[0] + t * dz - cz).min(axis=0)
+    return np.where(enter <= leave, 0.0, np.minimum(to_box, corners))
 
 
 def legs_distance(p0, p1, q0, q1) -> np.ndarray:
@@ -245,18 +235,13 @@ def legs_distance(p0, p1, q0, q1) -> np.ndarray:
     p0-p1 and q0-q1 that leave that axis at p0 and q0 (two bars of links that share a joint); component-
     first arrays (3, ...) (broadcast). In the half-plane (r, z) of the distance from the axis and the
     height along it each is a segment that a turn does not move: their distance there (`segment_distance`)."""
-    def dot(x, y):
-        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
-
     axis = q0 - p0
-    u = axis / np.maximum(np.sqrt(dot(axis, axis)), 1e-30)
-
-    def rz(p):
-        w = p - p0
-        z = dot(w, u)
-        return np.stack([np.sqrt(np.maximum(dot(w, w) - z * z, 0.0)), z, np.zeros_like(z)])
-
-    return segment_distance(np.zeros_like(p0), rz(p1), rz(q0), rz(q1))
+    u = (axis / np.maximum(np.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]), 1e-30))[:, None]
+    w = np.stack(np.broadcast_arrays(p1 - p0, q0 - p0, q1 - p0), axis=1)  # (3, 3 points, ...): one pass for all
+    z = w[0] * u[0] + w[1] * u[1] + w[2] * u[2]
+    r = np.sqrt(np.maximum(w[0] * w[0] + w[1] * w[1] + w[2] * w[2] - z * z, 0.0))
+    rz = np.stack([r, z, np.zeros_like(z)])  # (3, 3 points, ...)
+    return segment_distance(np.zeros_like(rz[:, 0]), rz[:, 0], rz[:, 1], rz[:, 2])
 
 
 def _gaps(cs: CapsuleSet, pts, rows, radii) -> np.ndarray:
@@ -354,6 +339,22 @@ def pair_distances_at(cs: CapsuleSet, Q, U, offsets, pidx, kidx, chunk: int = 1 
         o = offsets[n0:n0 + step][:, cols]  # (n, 4, L)
         pts = [Qs[c][:, None] + o[None, :, c] * Us[c][:, None] for c in range(4)]
         out[n0:n0 + step] = _gaps(cs, pts, np.asarray(pidx)[None], radii)
+    return out
+
+
+def item_distances(cs: CapsuleSet, Q, U, offsets, cand, pidx, kidx, chunk: int = 1 << 16) -> np.ndarray:
+    """(L,) capsule-capsule distances of L items: the design ``cand[i]`` (a row of ``offsets`` (N, E)) at
+    the (pair, sample) entry ``pidx[i]``, ``kidx[i]`` (`pair_distances_at`'s numbers for other designs at
+    each entry: an evaluation of only the entries a search needs); in chunks of ``chunk`` items."""
+    out = np.empty(len(pidx))
+    K, E = Q.shape[3], offsets.shape[1]
+    Qf, Uf, of = Q.reshape(4, 3, -1), U.reshape(4, 3, -1), np.ravel(offsets)
+    for i0 in range(0, len(pidx), chunk):
+        p, k = pidx[i0:i0 + chunk], kidx[i0:i0 + chunk]
+        Qs, Us = Qf.take(p * K + k, axis=2), Uf.take(p * K + k, axis=2)  # (4, 3, L)
+        o = of.take(cand[i0:i0 + chunk][None] * E + cs.pairs[p].T)  # (4, L), contiguous rows
+        pts = [Qs[c] + o[c] * Us[c] for c in range(4)]
+        out[i0:i0 + chunk] = _gaps(cs, pts, p, cs.radii[p])
     return out
 
 

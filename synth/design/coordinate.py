@@ -10,13 +10,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.design.collision import body_motion, even_samples, pair_distances, pair_distances_at, subset, world_ends
+from synth.design.collision import (body_motion, even_samples, item_distances, pair_distances, pair_distances_at, subset,
+                                    world_ends)
 from synth.design.work import Work
 
 FULL = (-math.pi / 2, math.pi / 2)  # phi of the whole cycle
 SEARCH_DTYPE = np.float32  # the search's sampled gaps (the certificate: float64)
 BEHIND = 1.25  # once a start is feasible, the others are moved only while at most this many times its size
 ROUNDS = 4  # search rounds, each adding the samples where the last certificate failed
+MARGIN = 1e-3  # a gap whose bound clears the target by this fraction is not evaluated (`improve`; float32 rounding)
 
 
 class Scorer:
@@ -105,6 +107,23 @@ class Scorer:
             d[:, self.once, int(np.flatnonzero(samples == self.once_k)[0])] = (
                 pair_distances(once, Qo, Uo, o)[:, :, 0] + self.settled)
         return d
+
+    @property
+    def full_count(self) -> int:
+        """Gap evaluations of one candidate in `full`: every pair at every sample, a `once` pair once."""
+        return int((~self.once).sum()) * self.Q.shape[3] + int(self.once.sum())
+
+    def at_count(self, pidx, kidx) -> int:
+        """Gap evaluations of one candidate at the entries ``pidx``, ``kidx`` (`at`): a `once` pair's at
+        ``once_k`` only."""
+        once = self.once[pidx]
+        return int((~once).sum() + (once & (np.asarray(kidx) == self.once_k)).sum())
+
+    def items(self, O, cand, pidx, kidx) -> np.ndarray:
+        """(L,) gaps of L items: candidate ``cand[i]`` (end offsets: a row of O (n, E)) at the entry
+        ``pidx[i]``, ``kidx[i]`` (a `once` pair's at ``once_k``), the numbers of `full` and `at`; not charged."""
+        d = item_distances(self.layout.cs, self.Q, self.U, O.astype(SEARCH_DTYPE), cand, pidx, kidx)
+        return d + np.where(self.once[pidx], self.settled, 0.0)
 
     def at(self, X, pidx, kidx) -> np.ndarray:
         """(N, L) gaps at chosen (pair, sample) entries (a `once` pair's: inf but at ``once_k``)."""
@@ -220,9 +239,11 @@ def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, i
     n, D = X.shape
     nm = len(space.col)
     crit = _Critical(mask, cap=4 * scorer.Q.shape[2] + 64)
-    d = scorer.full(X)
-    crit.add(d)
-    best = score(violation(d, target, mask), space.size(X))
+    gaps, offs = scorer.full(X), scorer.to_offsets(X)  # each start's gaps (n, P, K) and end offsets (n, E) ...
+    stale = np.zeros(gaps.shape[:2])  # ... and per pair how far its true gaps may be below them (`_bounded`)
+    crit.add(gaps)
+    best = score(violation(gaps, target, mask), space.size(X))
+    pairs, level = scorer.layout.cs.pairs, target * (1 + MARGIN)
     step = np.full(n, step0)
     stall = np.zeros(n, int)
     rows_m = np.arange(nm)
@@ -235,21 +256,30 @@ def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, i
         moved = X[live][:, space.col].T * space.mul[:, None] + space.add[:, None] * step[live][None]
         C[rows_m, :, space.col] = np.maximum(space.lo[space.col][:, None], moved)
         C = C.reshape(nm * m, D)
+        O = scorer.to_offsets(C)
+        shift = np.abs(O - np.tile(offs[live], (nm, 1)))  # how far each end point moved (metres)
+        moved = shift[:, pairs[:, :2]].max(axis=2) + shift[:, pairs[:, 2:]].max(axis=2)  # (nm m, P): a gap's change
         pidx, kidx = crit.arrays()
-        ub = score(violation(scorer.at(C, pidx, kidx), target), space.size(C)).reshape(nm, m)
+        scorer.work.charge(len(C) * scorer.at_count(pidx, kidx))
+        screened = _bounded(scorer, O, moved[:, pidx], np.tile(gaps[live][:, pidx, kidx], (nm, 1)),
+                            np.tile(stale[live][:, pidx], (nm, 1)), pidx, kidx, level)[0]
+        ub = score(violation(screened, target), space.size(C)).reshape(nm, m)
         kbest = np.argmax(ub, axis=0)  # (m,)
         hopeful = ub[kbest, np.arange(m)] > best[live] + 1e-12
         rows = np.flatnonzero(hopeful)
         pick = kbest[rows] * m + rows
         accepted = np.zeros(m, bool)
         if len(pick):
-            d = scorer.full(C[pick])
+            scorer.evaluations += len(pick)
+            scorer.work.charge(len(pick) * scorer.full_count)
+            d, fresh = _full_bounded(scorer, O[pick], moved[pick], gaps[live[rows]], stale[live[rows]], level)
             crit.add(d)
             sc = score(violation(d, target, mask), space.size(C[pick]))
-            for r, w, v in zip(rows, pick, sc):
+            for j, (r, w, v) in enumerate(zip(rows, pick, sc)):
                 i = live[r]
                 if v > best[i] + 1e-12:
                     X[i], best[i] = C[w], v
+                    gaps[i], stale[i], offs[i] = d[j], fresh[j], O[w]
                     accepted[r] = True
         # a hopeful move that failed its full evaluation taught the screen something: retry once
         s = stall[live] + np.where(hopeful, 1, tries)
@@ -258,6 +288,40 @@ def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, i
         step[live] = np.where(halve, step[live] / 2, step[live])
         stall[live] = np.where(halve, 0, s)
     return X, best
+
+
+def _bounded(scorer: Scorer, O, moved, gaps, stale, pidx, kidx, level):
+    """(n, L) gaps of n candidates (end offsets O (n, E)) at the entries ``pidx``, ``kidx``, each candidate
+    a start moved: ``gaps`` (n, L) the start's gaps there, true to within ``stale`` (n, L) from above, and
+    ``moved`` (n, L) how much the move can change them (the largest shift of an end of each capsule,
+    summed: a gap is 1-Lipschitz in each capsule's position). An entry is evaluated (`Scorer.items`) only
+    when the move or staleness may bring it below ``level``: else it keeps the start's number, which is
+    exact when nothing moved and at least the target (no violation, like the true gap) otherwise. Also
+    returned: (n, L) bool, the entries evaluated."""
+    need = ((moved > 0) | (stale > 0)) & (gaps - stale - moved < level)
+    out = np.array(gaps, float)
+    c, e = np.nonzero(need)
+    if len(c):
+        out[c, e] = scorer.items(O, c, pidx[e], kidx[e])
+    return out, need
+
+
+def _full_bounded(scorer: Scorer, O, moved, gaps, stale, level):
+    """(n, P, K) gaps of n moved starts at every sample (`Scorer.full`, `_bounded`'s rule by pair: a pair
+    is evaluated at every sample when its start's smallest gap may come below ``level``), and (n, P) how
+    far each pair's true gaps may be below the returned ones (0 where evaluated). ``O`` (n, E), ``moved``
+    (n, P), ``gaps`` (n, P, K), ``stale`` (n, P): as `_bounded`."""
+    n, P, K = gaps.shape
+    redo = ((moved > 0) | (stale > 0)) & (gaps.min(axis=2) - stale - moved < level)
+    c, p = np.nonzero(redo)
+    once = scorer.once[p]
+    c = np.concatenate([np.repeat(c[~once], K), c[once]])
+    k = np.concatenate([np.tile(np.arange(K), int((~once).sum())), np.full(int(once.sum()), scorer.once_k)])
+    p = np.concatenate([np.repeat(p[~once], K), p[once]])
+    out = np.array(gaps, float)
+    if len(c):
+        out[c, p, k] = scorer.items(O, c, p, k)
+    return out, np.where(redo, 0.0, stale + moved)
 
 
 def search_rounds(scorer, space, X, mask, target, scale, *, effort, certify_best, step=0.25):
