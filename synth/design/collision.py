@@ -127,20 +127,42 @@ def rate_bound(linkage, phi0, phi1) -> np.ndarray:
     return 2.0 * driven_speed_max(a, b, 0.0, 1.0, np.pi - 2 * phi1, np.pi - 2 * phi0, rate)[0]
 
 
+def _kept(linkage, key: tuple, make, limit: int = 8):
+    """``make()``, remembered on ``linkage`` under ``key`` with the joints' data (each sizing round of a design
+    and each certificate asks for the same samples and motion again; at most ``limit`` kept, oldest out)."""
+    joints = tuple((j.name, j.parent, j.child, float(j.a), float(j.b), j.rate, id(j.law), np.asarray(j.direction).tobytes(),
+                    np.asarray(j.moment).tobytes()) for j in linkage.joints)
+    kept = linkage.__dict__.setdefault("_design_kept", {})
+    key = (key, joints, tuple(map(tuple, linkage.links.values())))
+    if key not in kept:
+        if len(kept) >= limit:
+            kept.pop(next(iter(kept)))
+        kept[key] = make()
+    return kept[key]
+
+
 def even_samples(linkage, lo: float, hi: float, n: int, fine: int = 4096) -> np.ndarray:
     """n + 1 values of phi from lo to hi, spaced evenly in the total joint rotation sum_j |theta_j| (so no
     joint turns much between two samples, however unevenly the parameter drives it)."""
-    grid = np.linspace(lo, hi, fine + 1)
-    rates = rate_bound(linkage, grid[:-1], grid[1:]).sum(axis=0)
-    cum = np.concatenate([[0.0], np.cumsum(rates * np.diff(grid))])
-    return np.interp(np.linspace(0, cum[-1], n + 1), cum, grid)
+    def make():
+        grid = np.linspace(lo, hi, fine + 1)
+        rates = rate_bound(linkage, grid[:-1], grid[1:]).sum(axis=0)
+        cum = np.concatenate([[0.0], np.cumsum(rates * np.diff(grid))])
+        return np.interp(np.linspace(0, cum[-1], n + 1), cum, grid)
+
+    return _kept(linkage, ("even", float(lo), float(hi), n, fine), make).copy()
 
 
-def body_motion(linkage, phis) -> dict[str, np.ndarray]:
-    """{body: (K, 4, 4)} world displacements from the reference configuration at the samples."""
+def body_motion(linkage, phis, keep: bool = False) -> dict[str, np.ndarray]:
+    """{body: (K, 4, 4)} world displacements from the reference configuration at the samples (read only);
+    ``keep``: remembered on the linkage (samples asked for again: a search's, a certificate's first)."""
     phis = np.asarray(phis, float)
-    disp = linkage.displacements(linkage.angles_at(t_of_phi(phis)))
-    return {name: np.broadcast_to(disp[name], phis.shape + (4, 4)) for name in bodies(linkage)}
+
+    def make():
+        disp = linkage.displacements(linkage.angles_at(t_of_phi(phis)))
+        return {name: np.broadcast_to(disp[name], phis.shape + (4, 4)) for name in bodies(linkage)}
+
+    return _kept(linkage, ("motion", phis.tobytes()), make) if keep else make()
 
 
 # ----------------------------------------------------------------------------------------- geometry
@@ -302,12 +324,15 @@ def world_ends(cs: CapsuleSet, motion: dict[str, np.ndarray]) -> tuple[np.ndarra
 
 def end_lines(cs: CapsuleSet, motion: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """(Q, U), each (3, E, K): the moved base point and direction of every end point's line at the samples."""
-    Q, U = [], []
-    for base, u, body in zip(cs.ends_base, cs.ends_dir, cs.ends_body):
-        D = motion[body]
-        Q.append(D[:, :3, :3] @ base + D[:, :3, 3])
-        U.append(D[:, :3, :3] @ u)
-    return np.array(Q).transpose(2, 0, 1), np.array(U).transpose(2, 0, 1)
+    K = len(next(iter(motion.values()))) if motion else 0
+    Q, U = np.empty((3, len(cs.ends_body), K)), np.empty((3, len(cs.ends_body), K))
+    names = np.array(cs.ends_body, object)
+    for body in dict.fromkeys(cs.ends_body):  # one product per body for all its end points
+        idx = np.flatnonzero(names == body)
+        R, t = motion[body][:, :3, :3], motion[body][:, :3, 3]
+        Q[:, idx] = (R @ cs.ends_base[idx].T + t[:, :, None]).transpose(1, 2, 0)
+        U[:, idx] = (R @ cs.ends_dir[idx].T).transpose(1, 2, 0)
+    return Q, U
 
 
 def pair_distances(cs: CapsuleSet, Q, U, offsets, chunk: int = 1 << 16) -> np.ndarray:
@@ -442,7 +467,16 @@ def certify(linkage, cs: CapsuleSet, offsets: np.ndarray, lo: float, hi: float, 
     sites = linkage.joint_sites()
     coefs = speed_coefficients(linkage, cs, offsets, sites)
     phis = even_samples(linkage, lo, hi, samples)
-    dist = _dist_at(linkage, cs, offsets, phis)
+    steady = np.zeros(len(cs.pairs), bool) if cs.axial is None else cs.axial[:, 0] > 0
+    moving = subset(cs, ~steady)  # the gaps a turn about a shared axis does not change (`CapsuleSet.axial`) are
+    still = _dist_at(linkage, subset(cs, steady), offsets, phis[:1])  # evaluated once (their speed bound is 0)
+
+    def gaps_at(ph, keep=False):
+        d = np.empty((len(cs.pairs), len(ph)))
+        d[~steady], d[steady] = _dist_at(linkage, moving, offsets, ph, keep=keep), still
+        return d
+
+    dist = gaps_at(phis, keep=True)
     while True:
         rates = rate_bound(linkage, phis[:-1], phis[1:])  # (J, K-1)
         V = functools.reduce(np.minimum, (c @ rates for c in coefs))  # (P, K-1), two at a time (memory)
@@ -455,7 +489,7 @@ def certify(linkage, cs: CapsuleSet, offsets: np.ndarray, lo: float, hi: float, 
         if not bad.any() or len(phis) + bad.sum() > max_samples:
             break
         mids = (phis[:-1][bad] + phis[1:][bad]) / 2
-        new = _dist_at(linkage, cs, offsets, mids)
+        new = gaps_at(mids)
         order = np.argsort(np.concatenate([phis, mids]), kind="stable")
         phis = np.concatenate([phis, mids])[order]
         dist = np.concatenate([dist, new], axis=1)[:, order]
@@ -464,13 +498,13 @@ def certify(linkage, cs: CapsuleSet, offsets: np.ndarray, lo: float, hi: float, 
             "sampled": dist.min(axis=1), "where": phis[k], "phis": phis, "dist": dist}
 
 
-def _dist_at(linkage, cs, offsets, phis, chunk: int = 1 << 18) -> np.ndarray:
+def _dist_at(linkage, cs, offsets, phis, chunk: int = 1 << 18, keep: bool = False) -> np.ndarray:
     """(P, K) capsule-pair distances of one design at the driver angles ``phis``, in blocks of samples
     of about ``chunk`` pair distances (the end points of every pair at every sample are 64 floats)."""
     step = max(1, chunk // max(len(cs.pairs), 1))
     parts, P = [], len(cs.pairs)
     for k0 in range(0, len(phis), step):  # `pair_distances`' numbers, the end points moved once each
-        Q, U = end_lines(cs, body_motion(linkage, phis[k0:k0 + step]))
+        Q, U = end_lines(cs, body_motion(linkage, phis[k0:k0 + step], keep))
         ends = Q + np.asarray(offsets, float)[None, :, None] * U  # (3, E, K)
         pts = [ends[:, cs.pairs[:, c]][:, None] for c in range(4)]  # (3, 1, P, K)
         parts.append(_gaps(cs, pts, np.arange(P)[None, :, None], cs.radii[None, :, None])[0])

@@ -40,7 +40,7 @@ class Scorer:
         self.layout = layout
         self.task = task
         self.to_offsets = to_offsets
-        Q, U = world_ends(layout.cs, body_motion(lk, self.phis))
+        Q, U = world_ends(layout.cs, body_motion(lk, self.phis, keep=True))
         self.Q, self.U = Q.astype(SEARCH_DTYPE), U.astype(SEARCH_DTYPE)
         axial = layout.cs.axial
         self.once = np.zeros(len(layout.cs.pairs), bool) if axial is None else axial[:, 0] > 0
