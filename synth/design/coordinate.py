@@ -272,7 +272,10 @@ def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, i
         if len(pick):
             scorer.evaluations += len(pick)
             scorer.work.charge(len(pick) * scorer.full_count)
-            d, fresh = _full_bounded(scorer, O[pick], moved[pick], gaps[live[rows]], stale[live[rows]], level)
+            at_k = scorer.once[pidx] & (kidx == scorer.once_k)  # the screen's `once` gaps: the same numbers
+            known = np.full((len(pick), len(pairs)), np.nan)
+            known[:, pidx[at_k]] = screened[pick][:, at_k]
+            d, fresh = _full_bounded(scorer, O[pick], moved[pick], gaps[live[rows]], stale[live[rows]], level, known)
             crit.add(d)
             sc = score(violation(d, target, mask), space.size(C[pick]))
             for j, (r, w, v) in enumerate(zip(rows, pick, sc)):
@@ -306,19 +309,25 @@ def _bounded(scorer: Scorer, O, moved, gaps, stale, pidx, kidx, level):
     return out, need
 
 
-def _full_bounded(scorer: Scorer, O, moved, gaps, stale, level):
+def _full_bounded(scorer: Scorer, O, moved, gaps, stale, level, known=None):
     """(n, P, K) gaps of n moved starts at every sample (`Scorer.full`, `_bounded`'s rule by pair: a pair
     is evaluated at every sample when its start's smallest gap may come below ``level``), and (n, P) how
     far each pair's true gaps may be below the returned ones (0 where evaluated). ``O`` (n, E), ``moved``
-    (n, P), ``gaps`` (n, P, K), ``stale`` (n, P): as `_bounded`."""
+    (n, P), ``gaps`` (n, P, K), ``stale`` (n, P): as `_bounded`; ``known`` (n, P): the gaps of the `once`
+    pairs where the screen evaluated them by the same rule (nan: not), taken as they are."""
     n, P, K = gaps.shape
     redo = ((moved > 0) | (stale > 0)) & (gaps.min(axis=2) - stale - moved < level)
-    c, p = np.nonzero(redo)
+    out = np.array(gaps, float)
+    if known is not None:  # (the `once` pairs' gaps the screen has: a kernel call less)
+        have = redo & scorer.once[None] & ~np.isnan(known)
+        out[:, :, scorer.once_k][have] = known[have]
+        c, p = np.nonzero(redo & ~have)
+    else:
+        c, p = np.nonzero(redo)
     once = scorer.once[p]
     c = np.concatenate([np.repeat(c[~once], K), c[once]])
     k = np.concatenate([np.tile(np.arange(K), int((~once).sum())), np.full(int(once.sum()), scorer.once_k)])
     p = np.concatenate([np.repeat(p[~once], K), p[once]])
-    out = np.array(gaps, float)
     if len(c):
         out[c, p, k] = scorer.items(O, c, p, k)
     return out, np.where(redo, 0.0, stale + moved)
