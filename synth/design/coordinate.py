@@ -201,25 +201,28 @@ def score(violation, size):
 class _Critical:
     """The (pair, sample) entries where candidates came closest: a candidate's violation there bounds its
     violation from below, so moves are screened there before a full evaluation. Keeps the ``cap`` most
-    recently seen entries."""
+    recently seen entries (each entry's last sighting as a count: one array, no set operations)."""
 
     def __init__(self, mask, cap):
         self.mask, self.cap = mask, cap
-        self.codes = np.zeros(0, int)  # entries p * K + k, least recently seen first
-        self.K = None
+        self.stamp = None  # (P K,) per entry p * K + k the count of its last sighting (0: never)
+        self.clock, self.K, self.codes = 0, None, np.zeros(0, int)
 
     def add(self, d):  # d (N, P, K)
         dm = np.where(self.mask[None, None, :], d, np.inf)
         k = dm.argmin(axis=2)  # (N, P): each pair's closest sample
         flat = dm.reshape(len(d), -1)
         top = np.argpartition(flat, min(16, flat.shape[1] - 1), axis=1)[:, :16]
-        self.K = d.shape[2]
+        if self.stamp is None:
+            self.K, self.stamp = d.shape[2], np.zeros(flat.shape[1], np.int64)
         seen = np.concatenate([(np.arange(d.shape[1]) * self.K + k).ravel(), top.ravel()])
         # seen again: moved to the most recent end, in the order of their last sighting
-        codes, last = np.unique(seen[::-1], return_index=True)
-        codes = codes[np.argsort(-last, kind="stable")]
-        kept = self.codes[~np.isin(self.codes, codes)]
-        self.codes = np.concatenate([kept, codes])[-self.cap:]
+        np.maximum.at(self.stamp, seen, np.arange(self.clock + 1, self.clock + 1 + len(seen)))
+        self.clock += len(seen)
+        codes = np.flatnonzero(self.stamp)
+        if len(codes) > self.cap:
+            codes = codes[np.argpartition(-self.stamp[codes], self.cap - 1)[:self.cap]]
+        self.codes = codes[np.argsort(self.stamp[codes])]
 
     def arrays(self):
         return self.codes // self.K, self.codes % self.K
