@@ -256,14 +256,21 @@ def legs_distance(p0, p1, q0, q1) -> np.ndarray:
     """Least distance, over every turn of one about the axis through p0 and q0, between the segments
     p0-p1 and q0-q1 that leave that axis at p0 and q0 (two bars of links that share a joint); component-
     first arrays (3, ...) (broadcast). In the half-plane (r, z) of the distance from the axis and the
-    height along it each is a segment that a turn does not move: their distance there (`segment_distance`)."""
+    height along it each is a segment that a turn does not move: their distance there (`segment_distance`
+    of `legs_plane`'s segments)."""
+    return segment_distance(*legs_plane(p0, p1, q0, q1))
+
+
+def legs_plane(p0, p1, q0, q1) -> tuple:
+    """`legs_distance`'s two segments in the half-plane (r, z, 0) of the axis through p0 and q0 (p0 at the
+    origin): four component-first arrays (3, ...)."""
     axis = q0 - p0
     u = (axis / np.maximum(np.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]), 1e-30))[:, None]
     w = np.stack(np.broadcast_arrays(p1 - p0, q0 - p0, q1 - p0), axis=1)  # (3, 3 points, ...): one pass for all
     z = w[0] * u[0] + w[1] * u[1] + w[2] * u[2]
     r = np.sqrt(np.maximum(w[0] * w[0] + w[1] * w[1] + w[2] * w[2] - z * z, 0.0))
     rz = np.stack([r, z, np.zeros_like(z)])  # (3, 3 points, ...)
-    return segment_distance(np.zeros_like(rz[:, 0]), rz[:, 0], rz[:, 1], rz[:, 2])
+    return np.zeros_like(rz[:, 0]), rz[:, 0], rz[:, 1], rz[:, 2]
 
 
 def _gaps(cs: CapsuleSet, pts, rows, radii) -> np.ndarray:
@@ -278,17 +285,26 @@ def _gaps(cs: CapsuleSet, pts, rows, radii) -> np.ndarray:
     pair = np.ravel(rows)
     kind = cs.axial[pair, 0]
     d = np.empty(shape, pts[0].dtype)
-    for group in ((0,), (1, 2), (3,)):
-        idx = np.flatnonzero(np.isin(kind, group))
+    one = len(pair) == 1  # (then no axis to take along: every element is of that pair)
+    for group in ((0, 3), (1, 2)):
+        idx = np.flatnonzero((kind == group[0]) | (kind == group[1]))
         if not len(idx):
             continue
-        one = len(pair) == 1  # (then no axis to take along: every element is of that pair)
         p0, p1, q0, q1 = pts if one else (p.take(idx, axis=ax + 1) for p in pts)
         sel = Ellipsis if one else (slice(None),) * ax + (idx,)
-        if group == (0,):
-            d[sel] = segment_distance(p0, p1, q0, q1)
-        elif group == (3,):
-            d[sel] = legs_distance(p0, p1, q0, q1)
+        if group == (0, 3):  # one segment distance for both: the legs' segments in their half-planes
+            legs = kind[idx] == 3
+            if legs.all():
+                d[sel] = legs_distance(p0, p1, q0, q1)
+            elif legs.any():
+                k3 = np.flatnonzero(legs)
+                plane = legs_plane(*(p.take(k3, axis=ax + 1) for p in (p0, p1, q0, q1)))
+                ends = [p.copy() for p in (p0, p1, q0, q1)]
+                for e, x in zip(ends, plane):
+                    e[(slice(None),) * (ax + 1) + (k3,)] = x
+                d[sel] = segment_distance(*ends)
+            else:
+                d[sel] = segment_distance(p0, p1, q0, q1)
         else:  # the leg first: b's segment where a's is the hub (kind 1)
             along = [1] * len(shape)
             along[ax] = 1 if one else len(idx)
