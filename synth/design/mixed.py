@@ -12,7 +12,7 @@ import numpy as np
 
 from synth.design.collision import subset
 from synth.design.coordinate import FULL, Scorer, Space, score, search_rounds, violation
-from synth.design.layers import LAYER_NODES, MARGIN, height_offsets, layer_plan, level_pitch, stack_geometry
+from synth.design.layers import LAYER_NODES, MARGIN, height_offsets, layer_plan, level_pitch, stack_geometry, touch_note
 from synth.design.model import joint_links
 from synth.design.work import Work
 from synth.design.search import (FULL_SAMPLES, SEARCH_MERGED, SPREADS, TASK_SAMPLES, DesignResult, Layout,
@@ -185,5 +185,6 @@ def _attempt(linkage, result, u, keep, exits, rng_phi, reach, budget, seed, effo
     x, cert = found
     S, W = stack_exact.offsets(x[None])
     out = cranked_result(linkage, exact, S[0], W[0], old, result.collision.range, cert, cranks)
+    out.collision.message = touch_note(plan, adjacent=False)  # (its layouts leave them out: the claim says so)
     out.collision.layers = len({lv for k, v in levels.items() if k[-1] != "exit" for lv in v})
     return out
