@@ -54,7 +54,8 @@ def flat():
 
 def gaps(lk, design, cranked, n=3000):
     """Smallest gap of the exact capsules at n phi evenly over the cycle (not the search's samples)."""
-    from synth.design.collision import body_motion, pair_distances, world_ends
+    from synth.design.collision import pair_distances, world_ends
+    from synth.design.sampling import body_motion
 
     cranks = {(b.link, *b.joints): (b.via[0], b.via[1], np.zeros(3)) for b in design.bars if b.via} if cranked else {}
     lay = Layout(lk, merged=False, pin_radius=design.pin_radius, bar_radius=design.bar_radius,

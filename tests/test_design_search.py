@@ -10,10 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import REPO, random_poses
-from synth.design.collision import (body_motion, even_samples, pair_distances, rate_bound, segment_distance,
-                                    t_of_phi, world_ends)
+from synth.design.collision import pair_distances, segment_distance, world_ends
 from synth.design.coordinate import ROUNDS
 from synth.design.ranking import rank_buildable
+from synth.design.sampling import body_motion, even_samples, rate_bound, t_of_phi
 from synth.design.search import (Layout, collision_rank, design_linkage, sizes_of, task_phi_range, warm_stack,
                                   task_range)
 from synth.errors import SynthesisError

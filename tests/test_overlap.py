@@ -151,7 +151,8 @@ def test_axial_pairs_do_not_change_with_the_motion_and_need_no_speed_bound():
     the certificate bounds their speed by 0 (`collision.speed_coefficients`); most other pairs move."""
     import numpy as np
 
-    from synth.design.collision import _dist_at, even_samples, speed_coefficients
+    from synth.design.collision import _dist_at, speed_coefficients
+    from synth.design.sampling import even_samples
     from synth.design.search import Layout, resolved_sizes
     from synth.io.poses import load_poses
     from synth.synthesis.bennett import bennett

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.algebra.geometry import line_box_distance, spread
-from synth.design.collision import even_samples, t_of_phi
+from synth.design.sampling import even_samples, t_of_phi
 from synth.design.model import capsules
 from synth.design.search import task_phi_range
 from synth.design.sizes import EXTENT_FACTOR

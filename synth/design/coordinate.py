@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.design.collision import (body_motion, even_samples, item_distances, pair_distances, pair_distances_at, subset,
-                                    world_ends)
+from synth.design.collision import item_distances, pair_distances, pair_distances_at, subset, world_ends
+from synth.design.sampling import body_motion, even_samples
 from synth.design.work import Work
 
 FULL = (-math.pi / 2, math.pi / 2)  # phi of the whole cycle

@@ -5,7 +5,7 @@ Conventions: ``u`` the common axis direction; a *height* is a coordinate along `
 of motion is spanned by ``e1, e2``. Each bar (link, a, b) is cut into ``PIECES`` pieces along its straight
 course, each at its own level (an integer times the pitch); a bar whose pieces differ rises between them
 (a vertical step at the piece boundary: two via points). The hubs of a link sit at the level of its bar
-pieces there. Constraints, from the motion sampled evenly in joint rotation (`collision.even_samples`):
+pieces there. Constraints, from the motion sampled evenly in joint rotation (`sampling.even_samples`):
 
 - a bar piece that passes over a joint of other links (in the plane, within the hub and bar radii and the
   clearance) is above or below the whole column of that joint (both hubs and the pin between them, which
@@ -29,7 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from synth.algebra.geometry import perpendicular_basis
-from synth.design.collision import adjacent_pairs, body_motion, even_samples
+from synth.design.collision import adjacent_pairs
+from synth.design.sampling import body_motion, even_samples
 from synth.design.coordinate import FULL
 from synth.design.model import DesignResult, joint_links
 from synth.design.search import SAFETY, Layout, certify_layout, cranked_result, sizes_of, stack_gap, task_phi_range

@@ -39,7 +39,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from synth.algebra.geometry import perpendicular_basis
-from synth.design.collision import CapsuleSet, bodies, certify, segment_distance
+from synth.design.collision import CapsuleSet, certify, segment_distance
+from synth.design.sampling import bodies
 from synth.design.coordinate import FULL
 from synth.design.model import (Capsule, DesignResult, Mounting, axis_point, capsules, head_radius, joint_links,
                                 plate_capsules)

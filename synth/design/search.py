@@ -23,7 +23,8 @@ import time
 
 import numpy as np
 
-from synth.design.collision import CapsuleSet, axial_kind, bodies, certify, phi_of_t, t_of_phi, tested
+from synth.design.collision import CapsuleSet, axial_kind, certify, tested
+from synth.design.sampling import bodies, phi_of_t, t_of_phi
 from synth.design.coordinate import FULL, Scorer, mount_space, score, search_rounds, violation
 from synth.design.work import GAPS_PER_SECOND, Work
 from synth.design.model import Bar, CollisionReport, DesignResult, Mount, PhysicalDesign, Pin, hub_radius_for, joint_links
