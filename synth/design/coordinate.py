@@ -264,8 +264,8 @@ def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, i
         moved = shift[:, pairs[:, :2]].max(axis=2) + shift[:, pairs[:, 2:]].max(axis=2)  # (nm m, P): a gap's change
         pidx, kidx = crit.arrays()
         scorer.work.charge(len(C) * scorer.at_count(pidx, kidx))
-        screened = _bounded(scorer, O, moved[:, pidx], np.tile(gaps[live][:, pidx, kidx], (nm, 1)),
-                            np.tile(stale[live][:, pidx], (nm, 1)), pidx, kidx, level)[0]
+        screened, fresh_at = _bounded(scorer, O, moved[:, pidx], np.tile(gaps[live][:, pidx, kidx], (nm, 1)),
+                                      np.tile(stale[live][:, pidx], (nm, 1)), pidx, kidx, level)
         ub = score(violation(screened, target), space.size(C)).reshape(nm, m)
         kbest = np.argmax(ub, axis=0)  # (m,)
         hopeful = ub[kbest, np.arange(m)] > best[live] + 1e-12
@@ -277,7 +277,7 @@ def improve(scorer: Scorer, space: Space, mask, target, X, *, step0, step_min, i
             scorer.work.charge(len(pick) * scorer.full_count)
             at_k = scorer.once[pidx] & (kidx == scorer.once_k)  # the screen's `once` gaps: the same numbers
             known = np.full((len(pick), len(pairs)), np.nan)
-            known[:, pidx[at_k]] = screened[pick][:, at_k]
+            known[:, pidx[at_k]] = np.where(fresh_at[pick][:, at_k], screened[pick][:, at_k], np.nan)
             d, fresh = _full_bounded(scorer, O[pick], moved[pick], gaps[live[rows]], stale[live[rows]], level, known)
             crit.add(d)
             sc = score(violation(d, target, mask), space.size(C[pick]))
@@ -317,7 +317,7 @@ def _full_bounded(scorer: Scorer, O, moved, gaps, stale, level, known=None):
     is evaluated at every sample when its start's smallest gap may come below ``level``), and (n, P) how
     far each pair's true gaps may be below the returned ones (0 where evaluated). ``O`` (n, E), ``moved``
     (n, P), ``gaps`` (n, P, K), ``stale`` (n, P): as `_bounded`; ``known`` (n, P): the gaps of the `once`
-    pairs where the screen evaluated them by the same rule (nan: not), taken as they are."""
+    pairs the screen evaluated (nan: not), the same numbers, taken as they are."""
     n, P, K = gaps.shape
     redo = ((moved > 0) | (stale > 0)) & (gaps.min(axis=2) - stale - moved < level)
     out = np.array(gaps, float)
