@@ -36,7 +36,7 @@ import numpy as np
 from synth.design.model import PhysicalDesign, PinEnds, axis_point, capsules, pin_ends  # noqa: F401  (PinEnds: what pin_ends returns)
 from synth.frames import link_origins
 from synth.io.solid import (READER_GRID, Solid, boolean, box, capsule, concatenate, degenerate_free, cylinder,
-                            import_manifold3d, mass_properties, read_stl_triangles, signed_volume, stl_bytes,
+                            import_manifold3d, mass_properties, read_stl_triangles, revolution, signed_volume, stl_bytes,
                             surface_defect, weld)
 from synth.io.names import MESH_UNIT_SCALE, pin_link_name
 
@@ -155,6 +155,49 @@ def plate_primitives(m) -> tuple[Primitive, list[Primitive]]:
     return plate, holes
 
 
+def coaxial_profile(prims) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The union of ``prims`` as a solid of revolution, when every one is a cylinder on one axis line
+    (a pin: shaft, head, groove) and they leave no gap along it: (origin (3,), unit direction (3,),
+    profile (k, 2) of (axial position, radius) corners from the axis round to the axis). None otherwise."""
+    if not prims or any(p.kind != "cylinder" for p in prims):
+        return None
+    o = np.asarray(prims[0].p0, float)
+    d = np.asarray(prims[0].p1, float) - o
+    d /= np.linalg.norm(d)
+    ends = np.array([[p.p0, p.p1] for p in prims], float)  # (n, 2, 3)
+    s = (ends - o) @ d
+    size = max(float(np.ptp(s)), max(p.radius for p in prims))
+    if np.abs(ends - o - s[..., None] * d).max() > 1e-9 * size:  # an end off the axis line
+        return None
+    lo, hi = s.min(axis=1), s.max(axis=1)
+    cuts = np.unique(s)
+    mid = (cuts[:-1] + cuts[1:]) / 2
+    r = np.array([max((p.radius for p, a, b in zip(prims, lo, hi) if a < m < b), default=0.0) for m in mid])
+    if not r.all():  # a gap: pieces, not one solid of revolution
+        return None
+    keep = np.r_[True, r[1:] != r[:-1]]  # steps of the radius
+    starts, radii = cuts[:-1][keep], r[keep]
+    corners = [(cuts[0], 0.0)] + [(x, q) for a, b, q in zip(starts, np.r_[starts[1:], cuts[-1]], radii)
+                                  for x in (a, b)] + [(cuts[-1], 0.0)]
+    return o, d, np.array(corners)
+
+
+def coaxial_groups(cylinders) -> list[tuple]:
+    """``cylinders`` (bores) gathered into runs on one axis line that leave no gap: [(first cylinder,
+    `coaxial_profile` of the run, or None for a cylinder alone)], in first-seen order. The union is the
+    same; one solid of revolution per run has no coincident faces (measured: sixbar_points' link_h1, a bore
+    and its continuation along the pin overlapping by 0.2 mm, whose cylinders OpenCASCADE's cut left in
+    pieces in every construction)."""
+    runs: list[list] = []
+    for c in cylinders:
+        run = next((r for r in runs if coaxial_profile(r + [c]) is not None), None)
+        if run is None:
+            runs.append([c])
+        else:
+            run.append(c)
+    return [(r[0], coaxial_profile(r) if len(r) > 1 else None) for r in runs]
+
+
 def primitive_solid(p: Primitive) -> Solid:
     """The closed mesh of a primitive (`PIN_SECTIONS` for cylinders, `BAR_SECTIONS` for capsules)."""
     if p.kind == "capsule":
@@ -164,10 +207,17 @@ def primitive_solid(p: Primitive) -> Solid:
     return cylinder(p.p0, p.p1, p.radius, PIN_SECTIONS, phase=p.phase)
 
 
+def coaxial_solid(first: Primitive, profile) -> Solid:
+    """The closed mesh of a run of `coaxial_groups` (its first cylinder, its `coaxial_profile` or None): the
+    profile revolved with `PIN_SECTIONS` facets placed as the first cylinder's, or that cylinder alone."""
+    return primitive_solid(first) if profile is None else revolution(*profile, PIN_SECTIONS, phase=first.phase)
+
+
 def link_parts(linkage, design: PhysicalDesign, name: str, sites=None, caps=None) -> tuple[list[Solid], list[Solid]]:
-    """(parts, bores) of link ``name`` (`link_primitives`) as closed meshes."""
+    """(parts, bores) of link ``name`` (`link_primitives`) as closed meshes, the bores on one axis line
+    as one solid of revolution (`coaxial_groups`; the same union, with no boolean and its facets in line)."""
     parts, bores = link_primitives(linkage, design, name, sites, caps)
-    return [primitive_solid(p) for p in parts], [primitive_solid(b) for b in bores]
+    return [primitive_solid(p) for p in parts], [coaxial_solid(*g) for g in coaxial_groups(bores)]
 
 
 def pin_primitives(linkage, design: PhysicalDesign, joint: str, sites=None) -> list[Primitive]:
@@ -205,10 +255,13 @@ def pin_origin(linkage, design: PhysicalDesign, joint: str, sites=None) -> np.nd
 
 
 def pin_solid(linkage, design: PhysicalDesign, joint: str, sites=None) -> Solid:
-    """The pin of ``joint`` in its own frame (`pin_origin`)."""
+    """The pin of ``joint`` in its own frame (`pin_origin`): its coaxial cylinders' profile revolved (no
+    boolean; `coaxial_solid`)."""
     sites = linkage.joint_sites() if sites is None else sites
-    prims = [primitive_solid(p) for p in pin_primitives(linkage, design, joint, sites)]
-    return _solid(prims).translated(-pin_origin(linkage, design, joint, sites))
+    prims = pin_primitives(linkage, design, joint, sites)
+    profile = coaxial_profile(prims)
+    mesh = coaxial_solid(prims[0], profile) if profile is not None else _solid([primitive_solid(p) for p in prims])
+    return mesh.translated(-pin_origin(linkage, design, joint, sites))
 
 
 def _solid(parts, bores=()) -> Solid:
