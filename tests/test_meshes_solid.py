@@ -26,6 +26,7 @@ from synth.frames import link_origins  # noqa: E402
 from synth.io.solid import (Solid, axis_rotation, boolean, capsule, concatenate, cylinder, mass_properties,  # noqa: E402
                                 read_stl_triangles, signed_volume, stl_bytes, surface_defect, union, weld)
 from synth.io.names import MESH_UNIT_SCALE  # noqa: E402
+from synth.io.solid import READER_GRID  # noqa: E402
 from synth.io.poses import load_poses  # noqa: E402
 
 trimesh = pytest.importorskip("trimesh")
@@ -398,3 +399,23 @@ def test_cranked_bars_and_shifted_mounts(name):
         excess = np.min([_segment_distance(world, c.p0, c.p1) - c.radius for c in mine], axis=0)
         assert excess.max() <= 1e-6 * length, (link, excess.max())
         meshes_mod.stl_file(solid, link)  # raises unless the STL reads back as a closed solid
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(-9.5, 3), st.floats(0, 7), st.integers(3, 40), st.integers(0, 2 ** 31))
+def test_either_readers_merge_of_an_stl_file_is_the_mesh_checked(log_size, log_far, sections, seed):
+    """`stl_file` checks one mesh (the stored corners and faces): a reader's bit-equal merge of the file and
+    its 8-decimal merge (`solid.READER_GRID`) give that mesh, but for the numbering of its vertices, also
+    for parts nanometres small (where the merge collapses edges) or kilometres away."""
+    rng = np.random.default_rng(seed)
+    size, far = 10.0 ** log_size, 10.0 ** log_far * rng.normal(size=3)
+    a = far + size * rng.normal(size=3)
+    try:
+        data, _ = meshes_mod.stl_file(capsule(a, a + size * rng.normal(size=3), size * 0.3, sections))
+    except RuntimeError:  # a part the float32 file cannot hold (collapsed to nothing): nothing written
+        return
+    read = read_stl_triangles(data)
+    bit, merged = weld(read), weld(read, READER_GRID)
+    assert len(bit.vertices) == len(merged.vertices) == len(np.unique(read.reshape(-1, 3), axis=0))
+    assert np.array_equal(bit.triangles, merged.triangles)  # (the same corners: no two cells share one)
+    assert surface_defect(bit.faces) is None and signed_volume(bit.triangles) > 0
