@@ -1,6 +1,6 @@
 """`mpsynth batch` against the library's own rate (issue 36), in one run.
 
-    python bench/bench_batch.py [--jobs 20000] [--design-jobs 200] [--runs j1,j2,local,design,nodesign]
+    python bench/bench_batch.py [--jobs 20000] [--design-jobs 200] [--runs j1,j2,local,design,nostep,nodesign]
 
 N random Bennett jobs from README's generator ("Batch and shell pipelines": three poses in mm and
 degrees, ``random.seed(1)``) are run as new processes, stdout to a file:
@@ -12,7 +12,8 @@ degrees, ``random.seed(1)``) are run as new processes, stdout to a file:
 3. CPU time per job in this process, per-job path against chunk path (steadier than wall time), and by
    stage of the chunk path (reading, `solve_bennett_many`, result lines);
 4. writing outputs (each job with ``"out"``) on the first ``--design-jobs`` jobs: with the design search
-   (URDF + STL + linkage.json, collision-free search) and with ``--no-design`` (kinematic outputs only).
+   (URDF + STL + linkage.json + linkage.step, collision-free search), with ``--no-step`` (the same but
+   linkage.step) and with ``--no-design`` (kinematic outputs only).
 
 Targets (issue 36): ``-j 2`` >= 10,000 jobs/s and >= 25% of bennett_batch's rate; outputs with the design
 search >= 10 jobs/s; ``--scheduler local`` within 20% of ``-j 2``. Wall-clock figures on a machine that
@@ -29,6 +30,7 @@ import compileall
 import json
 import os
 import random
+import resource
 import subprocess
 import sys
 import tempfile
@@ -114,19 +116,24 @@ def cpu_stages(lines: list[str], n: int = 4096) -> dict:
             "result lines and the rest": whole - fast - solve, "run_chunk_lines": whole}
 
 
-def cpu_outputs(lines: list[str], tmp: Path, n: int = 10) -> tuple[float, float]:
-    """CPU ms per job writing OUT, in this process (`run_job`, n jobs): with the design search and with
-    ``design=False`` (``--no-design``)."""
+def cpu_outputs(lines: list[str], tmp: Path, n: int = 10) -> tuple[float, ...]:
+    """CPU ms per job writing OUT, in this process and its children (linkage.step's build) (`run_job`, n
+    jobs): with the design search, with ``--no-step`` and with ``--no-design``."""
+    from synth.io.outputs import Outputs
     from synth.tools.batchjobs import run_job
 
+    def children() -> float:
+        r = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return r.ru_utime + r.ru_stime
+
     out = []
-    for design in (True, False):
-        items = [(i + 1, json.dumps({**json.loads(s), "out": f"cpu{int(design)}_{i}"})) for i, s in enumerate(lines[:n])]
-        t = time.process_time()
+    for outputs in (Outputs.FULL, Outputs.NO_STEP, Outputs.KINEMATIC):
+        items = [(i + 1, json.dumps({**json.loads(s), "out": f"cpu_{outputs.value}_{i}"})) for i, s in enumerate(lines[:n])]
+        t, c = time.process_time(), children()
         for it in items:
-            run_job(it, out_dir=tmp, design=design)
-        out.append((time.process_time() - t) / n * 1e3)
-    return out[0], out[1]
+            run_job(it, out_dir=tmp, outputs=outputs)
+        out.append((time.process_time() - t + children() - c) / n * 1e3)
+    return tuple(out)
 
 
 def has_dask() -> bool:
@@ -137,7 +144,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--jobs", type=int, default=20_000)
     ap.add_argument("--design-jobs", type=int, default=200, help="jobs with 'out' for the output runs")
-    ap.add_argument("--runs", default="cpu,j1,j2,local,design,nodesign", help="comma-separated runs to make")
+    ap.add_argument("--runs", default="cpu,j1,j2,local,design,nostep,nodesign", help="comma-separated runs to make")
     a = ap.parse_args()
     runs = set(a.runs.split(","))
     for part in ("synth", "cli"):  # (bytecode, as installed: see the module docstring)
@@ -168,7 +175,7 @@ def main():
             startup = mpsynth(["batch", tmp / "one.jsonl", "--scheduler", "local", "-j", 2], tmp / "r_one.jsonl")
             wall = rows[-1][1]
             rows.append(("batch --scheduler local, less its start-up", max(wall - startup, 1e-9), a.jobs))
-        for name, extra in (("design", []), ("nodesign", ["--no-design"])):
+        for name, extra in (("design", []), ("nostep", ["--no-step"]), ("nodesign", ["--no-design"])):
             if name not in runs:
                 continue
             out = tmp / f"out_{name}"
@@ -177,8 +184,7 @@ def main():
             wjobs.write_text("".join(json.dumps({**json.loads(s), "out": f"o{i}"}) + "\n"
                                      for i, s in enumerate(lines[: a.design_jobs])))
             wall = mpsynth(["batch", wjobs, "-j", 2, "--out-dir", out, *extra], tmp / f"r_{name}.jsonl")
-            rows.append((f"batch -j 2, outputs {'with the design search' if not extra else '--no-design'}", wall,
-                         a.design_jobs))
+            rows.append((f"batch -j 2, outputs {' '.join(extra) or 'with the design search'}", wall, a.design_jobs))
     load1 = os.getloadavg()
     rate = {r[0]: r[2] / r[1] for r in rows}
     print(f"{a.jobs:,} README jobs; nproc {os.cpu_count()}; load {load0[0]:.1f} -> {load1[0]:.1f}")
@@ -192,8 +198,8 @@ def main():
     if stages:
         print("CPU per job by stage, in process (µs): " + ", ".join(f"{k} {v:,.1f}" for k, v in stages.items()))
     if cpu_out:
-        print(f"CPU per job writing OUT in process (10 jobs): with the design search {cpu_out[0]:,.0f} ms, "
-              f"--no-design {cpu_out[1]:,.0f} ms")
+        print(f"CPU per job writing OUT in process and its children (10 jobs): with the design search {cpu_out[0]:,.0f} ms, "
+              f"--no-step {cpu_out[1]:,.0f} ms, --no-design {cpu_out[2]:,.0f} ms")
     j2 = rate.get("batch -j 2")
     if j2:
         print(f"targets: -j 2 {j2:,.0f} jobs/s (>= 10,000: {j2 / 10_000:.3f}x); {j2 / lib:.1%} of bennett_batch "
@@ -201,9 +207,9 @@ def main():
     if j2 and "batch --scheduler local -j 2" in rate:
         print(f"--scheduler local / -j 2 = {rate['batch --scheduler local -j 2'] / j2:.2f} (>= 0.8); less the "
               f"LocalCluster's start-up: {rate['batch --scheduler local, less its start-up'] / j2:.2f}")
-    d = rate.get("batch -j 2, outputs with the design search")
-    if d:
-        print(f"outputs with the design search: {d:.2f} jobs/s (>= 10: {d / 10:.3f}x)")
+    for label in ("with the design search", "--no-step"):
+        if (d := rate.get(f"batch -j 2, outputs {label}")):
+            print(f"outputs {label}: {d:.2f} jobs/s (>= 10: {d / 10:.3f}x)")
     if results:
         print(f"result files of {', '.join(results)} byte-identical: {same}")
         if not same:

@@ -78,21 +78,24 @@ def stage_table(stats: pstats.Stats, n: int) -> list[tuple[int, str, float, int]
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--jobs", type=int, default=20)
+    ap.add_argument("--no-step", action="store_true", help="the jobs as `mpsynth batch --no-step` runs them")
     a = ap.parse_args()
+    from synth.io.outputs import Outputs
     from synth.tools.batchjobs import run_job
 
+    outputs = Outputs.chosen(step=not a.no_step)
     load0 = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="bench_stages-") as tmp:
         tmp = Path(tmp)
-        run_job((0, json.dumps({**json.loads(readme_jobs(1)[0]), "out": "warm"})), out_dir=tmp, design=True)
+        run_job((0, json.dumps({**json.loads(readme_jobs(1)[0]), "out": "warm"})), out_dir=tmp, outputs=outputs)
         t, c = time.process_time(), children_cpu()
-        results = [run_job(it, out_dir=tmp, design=True) for it in job_items(a.jobs, "plain")]
+        results = [run_job(it, out_dir=tmp, outputs=outputs) for it in job_items(a.jobs, "plain")]
         plain = (time.process_time() - t) / a.jobs * 1e3
         child = (children_cpu() - c) / a.jobs * 1e3
         prof = cProfile.Profile(time.process_time)
         prof.enable()
         for it in job_items(a.jobs, "prof"):
-            run_job(it, out_dir=tmp, design=True)
+            run_job(it, out_dir=tmp, outputs=outputs)
         prof.disable()
         steps = sum((tmp / f"plain{i}" / "linkage.step").exists() for i in range(a.jobs))
     ok = sum(r.get("ok", False) for r in results)

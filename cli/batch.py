@@ -11,6 +11,7 @@ import click
 
 from synth.errors import InputError, OutputError
 from synth.io.docload import open_lines, read_chunks
+from synth.io.outputs import Outputs
 from synth.tools.batchjobs import IDLE_SECONDS, Stopped, default_chunksize, run_batch, worker_count
 
 from . import signals
@@ -137,6 +138,10 @@ Exit codes: 0 every job succeeded, 1 some job failed (its result line says why),
 @click.option("--no-design", is_flag=True,
               help="Jobs with 'out' write the kinematic outputs only: linkage.json and a URDF without meshes "
                    "(no physical design, no collision search; for filtering before building).")
+@click.option("--no-step", is_flag=True,
+              help="Jobs with 'out' write no linkage.step (URDF, STL and linkage.json with the design as usual; "
+                   "the B-rep solids cost more CPU than the rest of a job: `mpsynth export OUT --step` adds them "
+                   "to the outputs kept).")
 @click.option("--scheduler", metavar="ADDRESS|local",
               help="Run the chunks of jobs on the Dask scheduler at ADDRESS (tcp://host:8786), or on a "
                    "LocalCluster ('local'); needs mpsynth[cluster]. Same result lines, same order.")
@@ -146,7 +151,7 @@ Exit codes: 0 every job succeeded, 1 some job failed (its result line says why),
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or summary on stderr.")
 @debug_option
 @run_guarded
-def batch(jobs_file, workers, out_dir, chunksize, full, no_design, scheduler, results_file, quiet, debug):
+def batch(jobs_file, workers, out_dir, chunksize, full, no_design, no_step, scheduler, results_file, quiet, debug):
     """Run the synthesis jobs in JOBS (JSON lines; '-' reads standard input), one result line per line
     on stdout, in input order, streamed as the jobs finish. A failing job (malformed line, bad poses,
     no real linkage) gives a result line with its error and never stops the batch."""
@@ -158,6 +163,7 @@ def batch(jobs_file, workers, out_dir, chunksize, full, no_design, scheduler, re
         raise InputError(f"--out-dir {out_dir}: not an existing directory")
     if scheduler is not None and not scheduler.strip():
         raise InputError("--scheduler: give an address (tcp://host:8786) or 'local'")
+    outputs = Outputs.chosen(design=not no_design, step=not no_step)
     stream, total = open_lines(jobs_file)
     if results_file:  # (pyarrow only for --results)
         from synth.tools.resultstable import ResultsTable
@@ -178,7 +184,7 @@ def batch(jobs_file, workers, out_dir, chunksize, full, no_design, scheduler, re
                 size = chunksize or default_chunksize(workers, total)
                 answers = run_batch(_read(read_chunks(stream, size, idle=None if total else IDLE_SECONDS), jobs_file),
                                     jobs=workers, full=full, initializer=signals.batch_worker, out_dir=out_dir,
-                                    stop=stopper and stopper.requested, design=not no_design, keep=bool(results_file))
+                                    stop=stopper and stopper.requested, outputs=outputs, keep=bool(results_file))
             else:
                 from synth.tools import cluster  # (Dask's modules only for --scheduler)
 
@@ -187,7 +193,7 @@ def batch(jobs_file, workers, out_dir, chunksize, full, no_design, scheduler, re
                 size = chunksize or default_chunksize(cluster.worker_threads(client), total)
                 answers = cluster.run_chunks_on(client, _read(read_chunks(stream, size, idle=None if total else IDLE_SECONDS),
                                                               jobs_file), full=full, out_dir=out_dir,
-                                                design=not no_design, keep=bool(results_file))
+                                                outputs=outputs, keep=bool(results_file))
             progress = Progress(total) if (not quiet and sys.stderr.isatty()) else None
             for answer in answers:
                 if stopper and stopper.requested():

@@ -121,6 +121,9 @@ def synthesis_options(func):
         click.option("--name", callback=_checked(check_robot_name),
                      help="Robot name in the URDF (default: the pose file's stem)."),
         click.option("--force", is_flag=True, help="Replace OUT even if it holds files not written by mpsynth."),
+        click.option("--no-step", is_flag=True,
+                     help="Write no linkage.step (it costs more CPU than the rest of the output; "
+                          "`mpsynth export OUT --step` adds it later)."),
         *design_option_list("the input's length unit"),
         *drive_option_list(),
         click.option("--package", callback=_checked(check_package),
@@ -165,7 +168,7 @@ def design_option_list(unit: str) -> list:
 @dataclass(frozen=True)
 class Output:
     """Where and how a command reports: OUT directory (None: nothing written), robot name, --force,
-    --package, --quiet, --json."""
+    --package, --quiet, --json, --no-step (``step`` False)."""
 
     dir: str | None = None
     name: str | None = None
@@ -173,11 +176,19 @@ class Output:
     package: str | None = None
     quiet: bool = False
     as_json: bool = False
+    step: bool = True
 
     @classmethod
     def of(cls, params: dict) -> "Output":
         return cls(params.get("out"), params.get("name"), params.get("force", False), params.get("package"),
-                   params.get("quiet", False), params.get("as_json", False))
+                   params.get("quiet", False), params.get("as_json", False), not params.get("no_step", False))
+
+    @property
+    def formats(self) -> tuple:
+        """The formats OUT gets (`synth.io.outputs.Outputs.formats`)."""
+        from synth.io.outputs import Outputs
+
+        return Outputs.chosen(step=self.step).formats
 
     @property
     def physical(self) -> bool:
@@ -267,7 +278,7 @@ def emit(result, output: Output, details=None) -> None:
     files = None
     if output.dir:
         files = write_output(linkage, output.dir, robot_name=output.name or default_robot_name(result.source),
-                             force=output.force, package=output.package, result=design)
+                             force=output.force, package=output.package, result=design, formats=output.formats)
     if not output.quiet:
         print_linkage_summary(linkage, scale, unit)
         if details is not None:
@@ -291,7 +302,7 @@ def emit(result, output: Output, details=None) -> None:
             n_mesh = sum(1 for f in files if str(f).endswith(".stl")) - n_pin
             step = ", linkage.step" if any(f.name == STEP_FILE for f in files) else ""
             echo(f"  wrote {output.dir}/: linkage.urdf, linkage.json{step}, {n_mesh} link meshes and {n_pin} pins in meshes/")
-            if design is not None and (missing := step_missing(files)):
+            if design is not None and output.step and (missing := step_missing(files)):
                 echo(f"  warning: {missing}")
             for line in print_notes(output.dir):
                 echo(f"  print: {line}")
@@ -308,7 +319,8 @@ def write_ranked(result, output: Output) -> None:
 
     base = output.name or default_robot_name(result.source)
     write_solutions(output.dir, [(s.id, s.linkage, f"{base}_{s.id.replace('-', '_')}", s.design)
-                                 for s in result.solutions], result.index, force=output.force, package=output.package)
+                                 for s in result.solutions], result.index, force=output.force, package=output.package,
+                    formats=output.formats)
 
 
 def finish_ranked(result, output: Output) -> None:

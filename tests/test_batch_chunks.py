@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from synth.algebra.algorithm1 import norm_roots
+from synth.io.outputs import Outputs
 from synth.solve.many import solve_bennett_many
 from synth.synthesis.bennett_core import solve
 from synth.tools.batchjobs import dumps, run_chunk, run_job
@@ -168,8 +169,8 @@ def test_full_and_outputs_take_the_per_job_path(tmp_path):
     items = list(enumerate(outs, 1))
     (tmp_path / "a").mkdir()
     (tmp_path / "b").mkdir()
-    chunked = [dumps(r) for r in run_chunk(items, False, tmp_path / "a", design=False)]
-    single = [dumps(run_job(it, out_dir=tmp_path / "b", design=False)) for it in items]
+    chunked = [dumps(r) for r in run_chunk(items, False, tmp_path / "a", Outputs.KINEMATIC)]
+    single = [dumps(run_job(it, out_dir=tmp_path / "b", outputs=Outputs.KINEMATIC)) for it in items]
     assert [s.replace(str(tmp_path / "a"), "B") for s in chunked] == [s.replace(str(tmp_path / "b"), "B") for s in single]
     assert sum('"out":"o2"' in s for s in single) >= 2  # (mpsynth rewrites its own OUT)
 
@@ -213,6 +214,33 @@ def test_no_design_writes_the_kinematic_outputs(tmp_path):
         task = tmp_path / f"task{j['id']}.json"
         task.write_text(json.dumps({"units": j["units"], "poses": j["poses"]}))
         assert_verified(task, out, "--no-meshes-ok")
+
+
+def test_no_step_writes_the_designed_outputs_without_linkage_step(tmp_path):
+    """--no-step: OUT holds the URDF, linkage.json (``step`` false) and the meshes, the bytes of a run
+    without the flag but for linkage.step and that key; the result lines are the same; with --no-design it
+    is the kinematic outputs."""
+    rnd = random.Random(5)
+    jobs = [readme_job(rnd, i) for i in range(2)]
+    path = tmp_path / "jobs.jsonl"
+    path.write_text("".join(json.dumps({**j, "out": f"o{j['id']}"}) + "\n" for j in jobs))
+    results = {}
+    for flag in ("--no-step", None):
+        base = tmp_path / (flag or "full")
+        base.mkdir()
+        r = run("batch", path, "--out-dir", base, "-q", *([flag] if flag else []))
+        assert r.exit_code == 0, r.output
+        results[flag] = r.stdout
+    assert results["--no-step"] == results[None]
+    for j in jobs:
+        lean, full = tmp_path / "--no-step" / f"o{j['id']}", tmp_path / "full" / f"o{j['id']}"
+        assert not (lean / "linkage.step").exists() and (lean / "meshes" / "coupler.stl").exists()
+        for name in ["linkage.urdf"] + [f"meshes/{p.name}" for p in (full / "meshes").iterdir()]:
+            assert (lean / name).read_bytes() == (full / name).read_bytes(), name
+        doc, ref = (json.loads((d / "linkage.json").read_text()) for d in (lean, full))
+        assert doc.pop("step") is False and (ref.pop("step") is (full / "linkage.step").exists()) and doc == ref
+    assert Outputs.chosen(design=False, step=False) is Outputs.KINEMATIC
+    assert "step" not in Outputs.NO_STEP.formats and "step" in Outputs.FULL.formats
 
 
 def json_line(result) -> str:

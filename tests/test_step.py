@@ -342,3 +342,51 @@ def test_part_accuracies_follow_each_product_to_its_uncertainty():
             "#67 = UNCERTAINTY_MEASURE_WITH_UNIT(LENGTH_MEASURE(5.E-02),#64,\n  'distance_accuracy_value',"
             "'confusion accuracy');\n")
     assert step_mod.part_accuracies(text) == {"link_h1": 0.05}
+
+
+def test_no_step_leaves_linkage_step_out_and_the_rest_as_it_was(tmp_path, monkeypatch):
+    """`--no-step`: no linkage.step and no warning about it, linkage.json's ``step`` false, every other file
+    the bytes of a run with it; `mpsynth export OUT --step` adds it afterwards (with the cad extra)."""
+    import json
+
+    from cli.main import mpsynth as cli
+
+    fixture = str(REPO / "fixtures/bennett_mm_deg.yaml")
+    r = CliRunner().invoke(cli, ["bennett", fixture, "-o", str(tmp_path / "full")])
+    assert r.exit_code == 0, r.output
+
+    def never(*args, **kwargs):
+        raise AssertionError("linkage.step built although --no-step")
+
+    with monkeypatch.context() as m:
+        m.setattr(step_mod, "built_step", never)
+        r = CliRunner().invoke(cli, ["bennett", fixture, "-o", str(tmp_path / "lean"), "--no-step"])
+    assert r.exit_code == 0, r.output
+    assert "linkage.step" not in r.output and "linkage.json, 4 link meshes" in r.output
+    full, lean = tmp_path / "full", tmp_path / "lean"
+    assert not (lean / "linkage.step").exists()
+    names = sorted(p.relative_to(lean).as_posix() for p in lean.rglob("*") if p.is_file() and not p.name.startswith("."))
+    assert names == sorted(p.relative_to(full).as_posix() for p in full.rglob("*")
+                           if p.is_file() and not p.name.startswith(".") and p.name != "linkage.step")
+    for name in names:
+        if name != "linkage.json":
+            assert (lean / name).read_bytes() == (full / name).read_bytes(), name
+    doc, ref = (json.loads((d / "linkage.json").read_text()) for d in (lean, full))
+    assert doc.pop("step") is False and ref.pop("step") is step_mod.have_kernel() and doc == ref
+    if step_mod.have_kernel():
+        r = CliRunner().invoke(cli, ["export", str(lean), "--step"])
+        assert r.exit_code == 0, r.output
+        assert (lean / "linkage.step").read_text() == (full / "linkage.step").read_text()
+        assert json.loads((lean / "linkage.json").read_text())["step"] is True
+
+
+def test_writing_without_step_does_not_load_the_kernel(tmp_path):
+    """A design written with `Outputs.NO_STEP`'s formats neither imports nor initialises gmsh (a batch worker
+    with --no-step pays nothing for the cad extra)."""
+    code = (f"import sys, synth; from synth.io.poses import load_poses; from synth.design.choose import design_for; "
+            f"from synth.io.outputs import Outputs; from synth.io.writer import write_output; "
+            f"lk = synth.bennett(load_poses({str(REPO / 'fixtures/bennett_mm_deg.yaml')!r}).matrices); "
+            f"write_output(lk, {str(tmp_path / 'o')!r}, robot_name='b', result=design_for(lk), "
+            f"formats=Outputs.NO_STEP.formats); assert 'gmsh' not in sys.modules, 'gmsh imported'")
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO)
+    assert (tmp_path / "o" / "linkage.urdf").exists() and not (tmp_path / "o" / "linkage.step").exists()

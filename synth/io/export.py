@@ -24,6 +24,7 @@ class ExportJob:
     result: DesignResult | None  # None: kinematic outputs only (linkage.json, a URDF without meshes)
     robot_name: str
     package: str | None = None
+    formats: tuple | None = None  # the formats written (keys of `EXPORTERS`; None: all)
     _solids: dict | None = field(default=None, repr=False)
     _masses: dict | None = field(default=None, repr=False)
     _step: tuple | None = field(default=None, repr=False)
@@ -46,7 +47,7 @@ class ExportJob:
     def step(self) -> str | None:
         """The linkage.step text, or None when it is not written (`step.built_step`; built once)."""
         if self._step is None:
-            self._step = (step.built_step(self),)
+            self._step = (step.built_step(self) if "step" in (EXPORTERS if self.formats is None else self.formats) else None,)
         return self._step[0]
 
     @property
@@ -80,6 +81,6 @@ def export(linkage, result: DesignResult, directory, *, robot_name: str, package
     paths written, relative to ``directory``."""
     check_robot_name(robot_name)
     check_package(package)
-    job = ExportJob(linkage, result, robot_name, package)
+    job = ExportJob(linkage, result, robot_name, package, tuple(formats))
     directory = Path(directory)
     return [p for f in formats for p in EXPORTERS[f](job, directory)]

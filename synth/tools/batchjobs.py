@@ -58,6 +58,7 @@ from typing import Any, Iterable, Iterator
 import numpy as np
 
 from synth.errors import MpsynthError, SynthesisError
+from synth.io.outputs import Outputs
 from synth.task import default_name
 from synth.solve.many import solve_bennett_many
 from synth.tools.resultlines import dumps, dumps_lines, float_texts  # (dumps: the API of this module too)
@@ -87,12 +88,12 @@ def _synthesize(kind: str, ps, options):
     return solve_sixbar(ps, options)
 
 
-def run_job(item, full: bool = False, out_dir=None, design: bool = True) -> dict:
+def run_job(item, full: bool = False, out_dir=None, outputs: Outputs = Outputs.FULL) -> dict:
     """Run one job given as (line number, text) (text None: a line over the limit); ``out`` paths are
-    resolved under ``out_dir`` (default: the working directory); ``design`` False: OUT gets the kinematic
-    outputs only (``--no-design``). Never raises (but KeyboardInterrupt)."""
+    resolved under ``out_dir`` (default: the working directory); ``outputs``: what OUT gets
+    (`synth.io.outputs.Outputs`: ``--no-step``, ``--no-design``). Never raises (but KeyboardInterrupt)."""
     job = _read_job(item, out_dir)
-    return job if isinstance(job, dict) else _solve_job(job, full, design)
+    return job if isinstance(job, dict) else _solve_job(job, full, outputs)
 
 
 @dataclass
@@ -147,16 +148,16 @@ def _read_job(item, out_dir, defer_out: bool = False) -> _Job | dict | None:
     return result
 
 
-def _solve_job(j: _Job, full: bool, design: bool = True) -> dict:
-    """The result of a checked job: the synthesis (`synth.solve`), OUT written when asked for (with the
-    physical design, or with ``design`` False the kinematic outputs only)."""
+def _solve_job(j: _Job, full: bool, outputs: Outputs = Outputs.FULL) -> dict:
+    """The result of a checked job: the synthesis (`synth.solve`), OUT written when asked for (``outputs``:
+    with the physical design or the kinematic outputs only, with or without linkage.step)."""
     from synth.solve import SynthesisOptions
 
     job, result = j.job, j.result
     with _one_result(result, j.created):
         kind = job["kind"]
         try:
-            solved = _synthesize(kind, j.ps, SynthesisOptions(design=j.design, physical="out" in job and design,
+            solved = _synthesize(kind, j.ps, SynthesisOptions(design=j.design, physical="out" in job and outputs.design,
                                                               best_effort=bool(job.get("best_effort", False))))
             linkage, out = solved.linkage, None
             if "out" in job:
@@ -165,7 +166,7 @@ def _solve_job(j: _Job, full: bool, design: bool = True) -> dict:
 
                 name = job.get("name") or safe_robot_name(str(result["id"]) if result["id"] is not None else "")
                 write_output(linkage, j.out_path, robot_name=name, force=bool(job.get("force", False)),
-                             result=solved.design)
+                             result=solved.design, formats=outputs.formats)
                 out = job["out"]
         except MpsynthError as e:
             raise JobError(str(e), e.exit_code) from None
@@ -238,14 +239,14 @@ def _success_fields(kind: str, joints: int, extent: float, checks, out, bennett=
     return res
 
 
-def run_chunk(chunk, full: bool, out_dir, design: bool = True) -> list[dict]:
+def run_chunk(chunk, full: bool, out_dir, outputs: Outputs = Outputs.FULL) -> list[dict]:
     """The results of a list of (line number, text) jobs (a worker's unit of work), in order: the
     three-pose Bennett jobs without OUT in one `synth.solve.many.solve_bennett_many` call (the sets it
     leaves undecided, and every other job, one by one: `run_job`); the same result lines either way."""
-    return list(chunk_results(chunk, full, out_dir, design))
+    return list(chunk_results(chunk, full, out_dir, outputs))
 
 
-def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None, lines: bool = False) -> Iterator:
+def chunk_results(chunk, full: bool, out_dir, outputs: Outputs = Outputs.FULL, stop=None, lines: bool = False) -> Iterator:
     """`run_chunk`'s results as they are ready (the batched jobs first, at once); ``stop``: as `run_jobs`,
     asked before every result. The lines of the common Bennett shape are read for the whole chunk at once
     (`synth.tools.jobspec.read_common_bennett`), the others one by one (`_read_job`). ``lines``: the
@@ -277,8 +278,8 @@ def chunk_results(chunk, full: bool, out_dir, design: bool = True, stop=None, li
     for item, j in zip(chunk, read):
         if stop is not None and stop():
             raise Stopped
-        yield (run_job(item, full, out_dir, design) if j is None else j if isinstance(j, (dict, str)) else
-               j.result if j.ps is None else _solve_job(j, full, design))
+        yield (run_job(item, full, out_dir, outputs) if j is None else j if isinstance(j, (dict, str)) else
+               j.result if j.ps is None else _solve_job(j, full, outputs))
 
 
 def _solve_many(T, results: list, names: list, lines: dict | None = None) -> list:
@@ -357,7 +358,7 @@ class ChunkLines:
     results: list | None = None
 
 
-def run_chunk_lines(chunk, full: bool, out_dir, design: bool = True, keep: bool = False) -> ChunkLines:
+def run_chunk_lines(chunk, full: bool, out_dir, outputs: Outputs = Outputs.FULL, keep: bool = False) -> ChunkLines:
     """`run_chunk` of a chunk given as (line number, text) pairs or as `synth.io.docload.read_chunks`
     gives it, (first line number, [line bytes, or None for a line over the limit]): the raw bytes go to
     a worker (no parsed objects), the result lines come back as one text (`dumps_lines`); ``keep``:
@@ -366,9 +367,9 @@ def run_chunk_lines(chunk, full: bool, out_dir, design: bool = True, keep: bool 
         first, raw = chunk
         chunk = [(first + i, None if b is None else b.decode("utf-8", "replace")) for i, b in enumerate(raw)]
     if keep:
-        results = run_chunk(chunk, full, out_dir, design)
+        results = run_chunk(chunk, full, out_dir, outputs)
         return ChunkLines(dumps_lines(results), [_code(r) for r in results], results)
-    results = list(chunk_results(chunk, full, out_dir, design, lines=True))  # (successes as their lines)
+    results = list(chunk_results(chunk, full, out_dir, outputs, lines=True))  # (successes as their lines)
     if all(type(r) is str for r in results):
         return ChunkLines("\n".join(results) + "\n" if results else "", [0] * len(results))
     return ChunkLines("".join((r if type(r) is str else dumps(r)) + "\n" for r in results),
@@ -381,7 +382,7 @@ def _code(result: dict):
 
 
 def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializer=None, stop=None,
-              design: bool = True, keep: bool = False) -> Iterator[ChunkLines]:
+              outputs: Outputs = Outputs.FULL, keep: bool = False) -> Iterator[ChunkLines]:
     """`ChunkLines` of ``chunks`` (`synth.io.docload.read_chunks`: chunks, or None while the input is
     idle), in input order, as soon as each is ready and every one before it. ``jobs`` worker processes
     (the caller caps it, `worker_count`), each set up by ``initializer(parent pid)`` (an importable
@@ -391,7 +392,7 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
     before every chunk, on every idle tick and, while waiting for a worker, every `POLL_SECONDS`; when it
     returns true the pool is terminated (from this loop, never from inside the pool's own bookkeeping) and
     `Stopped` is raised; asked while the input is idle, the chunks already read are answered first (every line read
-    gets its result). ``full``, ``out_dir``, ``design``: as `run_job`; ``keep``: as `run_chunk_lines`."""
+    gets its result). ``full``, ``out_dir``, ``outputs``: as `run_job`; ``keep``: as `run_chunk_lines`."""
     stop = stop or (lambda: False)
     if jobs <= 1:
         keep_freed_pages()  # (this process runs the chunks: as a worker does, `prepare_worker`)
@@ -399,7 +400,7 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
             if stop():
                 raise Stopped
             if chunk is not None:
-                yield run_chunk_lines(chunk, full, out_dir, design, keep)
+                yield run_chunk_lines(chunk, full, out_dir, outputs, keep)
         return
     ctx = pool_context()
     before = set(multiprocessing.active_children())
@@ -425,8 +426,8 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
     def submit(chunk):
         where = slots.put(chunk) if slots is not None and isinstance(chunk, tuple) else None
         if where is None:
-            return pool.apply_async(run_chunk_lines, (chunk, full, out_dir, design, keep)), None
-        return pool.apply_async(run_in_slot, (run_chunk_lines, *where, full, out_dir, design)), where[0]
+            return pool.apply_async(run_chunk_lines, (chunk, full, out_dir, outputs, keep)), None
+        return pool.apply_async(run_in_slot, (run_chunk_lines, *where, full, out_dir, outputs)), where[0]
 
     try:
         for chunk in chunks:
@@ -455,9 +456,9 @@ def run_batch(chunks, jobs: int = 1, full: bool = False, out_dir=None, initializ
 
 def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = False,
              total: int | None = None, out_dir=None, initializer=None, stop=None,
-             design: bool = True) -> Iterator[dict]:
+             outputs: Outputs = Outputs.FULL) -> Iterator[dict]:
     """Results of the jobs in ``lines``, in input order. ``lines``: an iterable of (line number, text)
-    pairs (`synth.io.docload.read_lines`) or of text lines. ``jobs``, ``initializer``, ``design``: as
+    pairs (`synth.io.docload.read_lines`) or of text lines. ``jobs``, ``initializer``, ``outputs``: as
     `run_batch`; ``stop``: asked before every job, and as `run_batch` asks it; when it returns true the
     pool is terminated and `Stopped` is raised."""
     items = numbered(lines)
@@ -466,9 +467,9 @@ def run_jobs(lines, jobs: int = 1, chunksize: int | None = None, full: bool = Fa
         chunksize = default_chunksize(jobs, total)
     if jobs <= 1:
         for chunk in chunks(items, chunksize):
-            yield from chunk_results(chunk, full, out_dir, design, stop)
+            yield from chunk_results(chunk, full, out_dir, outputs, stop)
         return
-    with contextlib.closing(run_batch(chunks(items, chunksize), jobs, full, out_dir, initializer, stop, design,
+    with contextlib.closing(run_batch(chunks(items, chunksize), jobs, full, out_dir, initializer, stop, outputs,
                                       keep=True)) as answers:
         for answer in answers:
             for res in answer.results:

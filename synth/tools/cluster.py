@@ -38,6 +38,7 @@ import uuid
 from typing import Iterator
 
 from synth.errors import InputError, MpsynthError
+from synth.io.outputs import Outputs
 from synth.tools.batchjobs import ChunkLines, chunks, default_chunksize, numbered, run_chunk_lines, worker_count
 from synth.tools.workerpool import keep_freed_pages, worker_boolean_threads
 from synth.tools.resultlines import dumps_lines
@@ -176,19 +177,19 @@ def worker_threads(client) -> int:
 
 
 def run_jobs_on(client, lines, chunksize: int | None = None, full: bool = False, total: int | None = None,
-                out_dir=None, window: int | None = None, design: bool = True) -> Iterator[dict]:
+                out_dir=None, window: int | None = None, outputs: Outputs = Outputs.FULL) -> Iterator[dict]:
     """Results of the jobs in ``lines`` ((line number, text) pairs or text lines) computed on the Dask
     cluster of ``client``, in input order, streamed; the same dictionaries as
     `synth.tools.batchjobs.run_jobs` (`run_chunks_on`)."""
     if chunksize is None:
         chunksize = default_chunksize(worker_threads(client), total)
-    with contextlib.closing(run_chunks_on(client, chunks(numbered(lines), chunksize), full, out_dir, window, design,
+    with contextlib.closing(run_chunks_on(client, chunks(numbered(lines), chunksize), full, out_dir, window, outputs,
                                           keep=True)) as answers:
         for answer in answers:
             yield from answer.results
 
 
-def run_chunks_on(client, chunks, full: bool = False, out_dir=None, window: int | None = None, design: bool = True,
+def run_chunks_on(client, chunks, full: bool = False, out_dir=None, window: int | None = None, outputs: Outputs = Outputs.FULL,
                   keep: bool = False) -> Iterator[ChunkLines]:
     """`synth.tools.batchjobs.run_batch` on the Dask cluster of ``client``: `ChunkLines` of ``chunks``
     (`synth.io.docload.read_chunks`, None: the input is idle) in input order, streamed, each chunk one
@@ -203,15 +204,15 @@ def run_chunks_on(client, chunks, full: bool = False, out_dir=None, window: int 
     try:
         for chunk in chunks:
             if chunk is not None:
-                fut = client.submit(run_chunk_lines, chunk, full, base, design, keep, pure=False,
+                fut = client.submit(run_chunk_lines, chunk, full, base, outputs, keep, pure=False,
                                     key=f"mpsynth-batch-{token}-{_first(chunk)}")
                 pending.append((fut, chunk))
             while len(pending) >= window:
-                yield _collect(client, *pending.popleft(), full, base, design, keep)
+                yield _collect(client, *pending.popleft(), full, base, outputs, keep)
             while pending and pending[0][0].done():
-                yield _collect(client, *pending.popleft(), full, base, design, keep)
+                yield _collect(client, *pending.popleft(), full, base, outputs, keep)
         while pending:
-            yield _collect(client, *pending.popleft(), full, base, design, keep)
+            yield _collect(client, *pending.popleft(), full, base, outputs, keep)
     finally:
         if pending:
             try:
@@ -232,7 +233,7 @@ def _singles(chunk) -> list:
     return [[item] for item in chunk]
 
 
-def _collect(client, fut, chunk, full, base, design=True, keep=False) -> ChunkLines:
+def _collect(client, fut, chunk, full, base, outputs=Outputs.FULL, keep=False) -> ChunkLines:
     """The answer to one submitted chunk; a chunk that killed workers is run job by job."""
     distributed = import_distributed()
     try:
@@ -244,8 +245,8 @@ def _collect(client, fut, chunk, full, base, design=True, keep=False) -> ChunkLi
                    "error": "internal error: this job killed every Dask worker that ran it "
                             "(out of memory, a crash); it was not completed"}
             return ChunkLines(dumps_lines([res]), [3], [res] if keep else None)
-        futures = [client.submit(run_chunk_lines, one, full, base, design, keep, pure=False) for one in singles]
-        parts = [_collect(client, f, one, full, base, design, keep) for f, one in zip(futures, singles)]
+        futures = [client.submit(run_chunk_lines, one, full, base, outputs, keep, pure=False) for one in singles]
+        parts = [_collect(client, f, one, full, base, outputs, keep) for f, one in zip(futures, singles)]
         return ChunkLines("".join(p.text for p in parts), [c for p in parts for c in p.codes],
                           [r for p in parts for r in p.results] if keep else None)
     except ImportError as e:  # the worker's Python has no (or another) mpsynth
