@@ -20,7 +20,11 @@ written solids from outside.
 The sizes (pin, bar and hub radii, hole clearance) are the design's (`synth.design.choose`).
 
 The parts are combined with manifold3d into one closed 2-manifold, a valid solid for slicers and
-physics engines; without manifold3d they are concatenated without bores (still closed shells).
+physics engines; without manifold3d they are concatenated without bores (still closed shells). Coaxial
+cylinders need no boolean: a pin (shaft, head, groove) and the bores of a link on one axis line (a bore,
+its continuation along the pin, a counterbore) are each their stepped profile revolved (`coaxial_groups`,
+`solid.revolution`; the same union, to 1e-8 of the volume: bench/RESULTS.md, "Output jobs, fourth pass"),
+as linkage.step builds them.
 
 Meshes are `solid.Solid` (numpy arrays): building, checking and writing them never imports trimesh
 (whose import costs more than the whole rest of a run); ``link_meshes`` hands out trimesh objects
