@@ -71,29 +71,11 @@ def axis_rotation(w) -> np.ndarray:
 def cylinder(a, b, radius: float, sections: int, phase: float = 0.0) -> Solid:
     """Closed cylinder of ``radius`` from point ``a`` to point ``b``: a regular ``sections``-gon prism
     (corners at angles 2 pi (k + phase) / sections in the frame of `axis_rotation`) with fan-triangulated
-    caps."""
+    caps (`revolution` of its rectangle)."""
     a, b = np.asarray(a, float), np.asarray(b, float)
-    axis = b - a
-    height = float(np.linalg.norm(axis))
-    n = int(sections)
-    theta = 2.0 * np.pi * (np.arange(n) + phase) / n
-    ring = np.column_stack([radius * np.cos(theta), radius * np.sin(theta)])
-    half = height / 2
-    local = np.concatenate([
-        np.column_stack([ring, np.full(n, -half)]),  # bottom ring 0..n-1
-        np.column_stack([ring, np.full(n, half)]),  # top ring n..2n-1
-        [[0.0, 0.0, -half], [0.0, 0.0, half]],  # cap centres 2n, 2n+1
-    ])
-    i = np.arange(n)
-    j = (i + 1) % n
-    faces = np.concatenate([
-        np.column_stack([np.full(n, 2 * n), j, i]),  # bottom cap, normal -z
-        np.column_stack([np.full(n, 2 * n + 1), n + i, n + j]),  # top cap, normal +z
-        np.column_stack([i, j, n + j]),  # sides, outward
-        np.column_stack([i, n + j, n + i]),
-    ])
-    vertices = local @ axis_rotation(axis / height).T + (a + b) / 2
-    return Solid(vertices, faces.astype(np.int64))
+    height = float(np.linalg.norm(b - a))
+    return revolution(a, (b - a) / height, [(0.0, 0.0), (0.0, radius), (height, radius), (height, 0.0)], sections,
+                      phase)
 
 
 def revolution(origin, direction, profile, sections: int, phase: float = 0.0) -> Solid:
