@@ -12,7 +12,7 @@ import numpy as np
 
 from synth.design.collision import subset
 from synth.design.coordinate import FULL, Scorer, Space, score, search_rounds, violation
-from synth.design.layers import LAYER_NODES, MARGIN, height_offsets, layer_plan, level_pitch, stack_geometry
+from synth.design.layers import LAYER_NODES, MARGIN, height_offsets, layer_plan, level_pitch, stack_geometry, touch_note
 from synth.design.model import joint_links
 from synth.design.work import Work
 from synth.design.search import (FULL_SAMPLES, SEARCH_MERGED, SPREADS, TASK_SAMPLES, DesignResult, Layout,
@@ -119,18 +119,32 @@ def mixed_design(linkage, result: DesignResult, *, nodes: int = LAYER_NODES, wor
     risers = [(link, a, b) for link, names in linkage.links.items() for a, b in zip(names, names[1:])
               if (a in keep) != (b in keep)]  # bars from the stack to another joint
     exits = sorted({a if a in keep else b for _, a, b in risers})
-    for attempt in ((exits, ()) if exits else ((),)):  # risers out of the stack, else straight bars
-        found = _attempt(linkage, result, u, keep, attempt, rng_phi, reach, (nodes, work), seed, effort)
-        if found is not None:
-            found.collision.seconds = result.collision.seconds + time.process_time() - t0
-            return found
+    for untested in (stack_pairs(linkage, keep), None):  # links sharing a spatial joint tested, else none
+        for attempt in ((exits, ()) if exits else ((),)):  # risers out of the stack, else straight bars
+            found = _attempt(linkage, result, u, keep, attempt, rng_phi, reach, (nodes, work), seed, effort, untested)
+            if found is not None:
+                found.collision.seconds = result.collision.seconds + time.process_time() - t0
+                return found
     result.collision.message += " (a layering of its parallel joints was searched too)"
     return result
 
 
-def _attempt(linkage, result, u, keep, exits, rng_phi, reach, budget, seed, effort):
+def stack_pairs(linkage, keep) -> frozenset:
+    """The pairs of links (frozensets) that share joints of the parallel stack ``keep`` only: the layering
+    programme of a partly planar linkage does not keep their bars apart (`layer_plan`'s ``shared``; with
+    them tested, and even with only those whose risers leave the stack at the shared joint, motion_darboux
+    found no design)."""
+    shared: dict = {}
+    for j, ls in joint_links(linkage).items():
+        if len(ls) == 2:
+            shared.setdefault(frozenset(ls), set()).add(j)
+    return frozenset(pair for pair, js in shared.items() if js <= set(keep))
+
+
+def _attempt(linkage, result, u, keep, exits, rng_phi, reach, budget, seed, effort, untested):
     """`mixed_design` with risers at ``exits`` (none: straight bars from the stack); None when no
-    layering or no certified design is found. ``budget``: (nodes, work) as `mixed_design`'s."""
+    layering or no certified design is found. ``budget``: (nodes, work) as `mixed_design`'s; ``untested``:
+    the pairs of links that share a joint left untested (`stack_pairs`; None: every such pair)."""
     old = result.design
     nodes, work = budget
     plan = layer_plan(linkage, u, rng_phi, reach, nodes, keep=keep, exits=exits, shared=False)  # as before
@@ -139,8 +153,9 @@ def _attempt(linkage, result, u, keep, exits, rng_phi, reach, budget, seed, effo
     levels = plan.levels
     heights, cranks, crank_heights, outward = stack_geometry(linkage, levels, u, level_pitch(old), keep=keep)
     sizes = sizes_of(old)
-    search = Layout(linkage, merged=SEARCH_MERGED, cranks=cranks, **sizes, adjacent=False)
-    exact = Layout(linkage, merged=False, cranks=cranks, **sizes, adjacent=False)
+    pairs = dict(adjacent=untested is not None, untested=untested or frozenset())
+    search = Layout(linkage, merged=SEARCH_MERGED, cranks=cranks, **sizes, **pairs)
+    exact = Layout(linkage, merged=False, cranks=cranks, **sizes, **pairs)
     spatial = [j for j in exact.joints if j not in keep]
     stack = _Stack(search, u, heights, crank_heights, outward, spatial)
     stack_exact = _Stack(exact, u, heights, crank_heights, outward, spatial)
@@ -185,5 +200,7 @@ def _attempt(linkage, result, u, keep, exits, rng_phi, reach, budget, seed, effo
     x, cert = found
     S, W = stack_exact.offsets(x[None])
     out = cranked_result(linkage, exact, S[0], W[0], old, result.collision.range, cert, cranks)
+    out.collision.message = (touch_note(plan, adjacent=False) if untested is None else  # (the claim says what is left out)
+                             "links that share a joint of the parallel stack are not certified apart in this layering")
     out.collision.layers = len({lv for k, v in levels.items() if k[-1] != "exit" for lv in v})
     return out
