@@ -11,6 +11,7 @@ triangle the unit normal and the three corners as little-endian float32, and a z
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 from dataclasses import dataclass
@@ -186,8 +187,8 @@ def limit_boolean_threads(threads: int = 1) -> None:
     """manifold3d's booleans in this process run on at most ``threads`` threads (from its first use on;
     a pool manifold3d already started keeps its size). For a process that shares the CPUs with as many
     others as there are CPUs (the workers of ``mpsynth batch -j N``, a local Dask cluster's): there a
-    second thread finds no idle CPU and only adds CPU time (its waits spin). A link of a README design
-    took 38.7 ms of CPU (19.8 ms wall) on two threads on 2 cores, 28.2 ms on one, the same mesh."""
+    second thread finds no idle CPU and only adds CPU time (its waits spin; bench/RESULTS.md, "Output jobs,
+    fourth pass"). The meshes are the same bytes."""
     _THREADS["limit"] = max(1, int(threads))
 
 
@@ -203,10 +204,14 @@ def _start_pool(manifold3d, threads: int) -> None:
         return
     try:
         os.sched_setaffinity(0, sorted(cpus)[:threads])
+    except OSError:  # (not allowed here: the pool keeps its own size)
+        return
+    try:
         cube = manifold3d.Manifold.cube((1.0, 1.0, 1.0))
         (cube - cube.translate((0.5, 0.5, 0.5))).num_tri()
     finally:
-        os.sched_setaffinity(0, cpus)
+        with contextlib.suppress(OSError):
+            os.sched_setaffinity(0, cpus)
 
 
 def union(parts) -> Solid:
