@@ -135,13 +135,13 @@ def test_darboux_fixtures_are_free_and_the_verifier_agrees(tmp_path, fixture):
     assert res.exit_code == 0, res.output
     doc = json.loads((out / "linkage.json").read_text())
     c = doc["collision"]
-    assert c["free"] and c["certified"] and c["range"] == "full" and c["layers"]
+    assert c["free"] and c["certified"] and c["range"] == "full"  # (the general one is free unlayered)
     from synth.design.model import PhysicalDesign
     from synth.io.readback import read_output
 
     lk = read_output(out).linkage  # links sharing a joint outside the stack do not meet (motion_darboux's
     found = dominant_axis(lk)  # coupler and link_a4 did by 254,904 mm^3 before they were tested)
-    if found is not None:
+    if c.get("layers") and found is not None:
         assert _spatial_overlaps(lk, PhysicalDesign.from_dict(doc["design"]), found[1]) == {}
     from conftest import VERIFIER
 
