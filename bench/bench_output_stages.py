@@ -1,6 +1,6 @@
 """CPU time per output job by stage (issue 36: writing outputs with the design search at >= 10 jobs/s).
 
-    python bench/bench_output_stages.py [--jobs 20] [--repeats 1]
+    python bench/bench_output_stages.py [--jobs 20] [--no-step] [--worker]
 
 The first N README batch jobs (bench_batch.readme_jobs: three poses in mm and degrees), each with ``"out"``,
 are run in this process through `synth.tools.batchjobs.run_job` (what a worker of ``mpsynth batch --out-dir``
@@ -79,7 +79,14 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--jobs", type=int, default=20)
     ap.add_argument("--no-step", action="store_true", help="the jobs as `mpsynth batch --no-step` runs them")
+    ap.add_argument("--worker", action="store_true",
+                    help="this process set up as a worker of `mpsynth batch -j N` (`workerpool.prepare_worker`: "
+                         "on this branch, manifold3d's booleans on one thread)")
     a = ap.parse_args()
+    if a.worker:
+        from synth.tools.workerpool import prepare_worker
+
+        prepare_worker()
     from synth.io.outputs import Outputs
     from synth.tools.batchjobs import run_job
 

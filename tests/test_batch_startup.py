@@ -5,6 +5,7 @@ interpreter importing the batch again)."""
 from __future__ import annotations
 
 import json
+import os
 import random
 import subprocess
 import sys
@@ -73,3 +74,39 @@ def test_a_worker_keeps_freed_pages_and_its_results_do_not_change():
     applied = batchjobs.keep_freed_pages()
     assert applied == (sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc")
     assert run_chunk_lines((1, lines), False, None).text == before
+
+
+# a worker process (`workerpool.prepare_worker`, or no set-up) runs a boolean of two crossing bars as a link's
+# (manifold3d), then prints its threads (/proc/self/task) and a digest of the mesh
+_THREADS_AFTER_A_BOOLEAN = """
+import hashlib, multiprocessing, os, sys
+from synth.io.solid import boolean, capsule
+from synth.tools.workerpool import prepare_worker
+
+def job(_):
+    mesh = boolean([capsule((0, 0, 0), (1, 0.2, 0), 0.1, 32), capsule((0.5, -0.5, 0), (0.6, 0.5, 0.05), 0.08, 32)],
+                   [capsule((0, 0, -1), (0, 0, 1), 0.03, 48)])
+    digest = hashlib.sha256(mesh.vertices.tobytes() + mesh.faces.tobytes()).hexdigest()
+    return len(os.listdir("/proc/self/task")), digest
+
+setup = prepare_worker if sys.argv[1] == "worker" else None
+with multiprocessing.get_context("fork").Pool(1, initializer=setup, initargs=(os.getpid(),) if setup else ()) as pool:
+    for threads, digest in pool.map(job, range(3), chunksize=1):
+        print(threads, digest)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or len(os.sched_getaffinity(0)) < 2,
+                    reason="a thread count from /proc on a machine with 2 or more CPUs")
+def test_a_pool_worker_runs_its_booleans_on_its_own_thread_with_the_same_meshes():
+    """manifold3d (TBB) starts a thread per CPU at its first boolean in a plain process; in a worker set up by
+    `prepare_worker` none (`synth.io.solid.limit_boolean_threads`), and the meshes are the same."""
+    def run(kind):
+        out = subprocess.run([sys.executable, "-c", _THREADS_AFTER_A_BOOLEAN, kind], cwd=REPO, capture_output=True,
+                             text=True, check=True, env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
+        return [(int(t), d) for t, d in (line.split() for line in out.stdout.splitlines())]
+
+    plain, worker = run("plain"), run("worker")
+    assert all(t > 1 for t, _ in plain), plain  # (the check below can fail: the pool's threads are there)
+    assert all(t == 1 for t, _ in worker), worker
+    assert {d for _, d in plain} == {d for _, d in worker} and len({d for _, d in worker}) == 1

@@ -325,3 +325,24 @@ def test_a_chunk_that_kills_workers_is_split_and_only_its_killer_fails():
     assert res[2]["exit_code"] == 3 and "killed every Dask worker" in res[2]["error"]
     assert res[:2] + res[3:] == [r for r in run_jobs(lines) if r["line"] != 3]
     assert client.submitted == [[1, 2, 3, 4], [1], [2], [3], [4], [5, 6]]  # the chunk of line 3, split
+
+
+def _boolean_threads() -> int | None:
+    from synth.io.solid import _THREADS
+
+    return _THREADS["limit"]
+
+
+def test_a_local_clusters_workers_run_their_booleans_on_their_share_of_the_cpus():
+    """`connect("local")`'s workers, one per CPU, are set up as a pool's (`worker_boolean_threads`: the thread
+    test is tests/test_batch_startup.py's); this process is not."""
+    from synth.tools.cluster import close, connect
+
+    client = connect("local", 2)
+    try:
+        workers = len(client.scheduler_info()["workers"])
+        limits = client.run(_boolean_threads)
+    finally:
+        close(client)
+    assert sorted(limits.values()) == [max(1, len(os.sched_getaffinity(0)) // workers)] * workers
+    assert _boolean_threads() is None

@@ -24,8 +24,10 @@ from synth.io.writer import write_output  # noqa: E402
 from synth.design.choose import design_for  # noqa: E402
 from synth.frames import link_origins  # noqa: E402
 from synth.io.solid import (Solid, axis_rotation, boolean, capsule, concatenate, cylinder, mass_properties,  # noqa: E402
-                                read_stl_triangles, signed_volume, stl_bytes, surface_defect, union, weld)
+                                read_stl_triangles, revolution, signed_volume, stl_bytes, surface_defect, union,
+                                weld)
 from synth.io.names import MESH_UNIT_SCALE  # noqa: E402
+from synth.io.solid import READER_GRID  # noqa: E402
 from synth.io.poses import load_poses  # noqa: E402
 
 trimesh = pytest.importorskip("trimesh")
@@ -398,3 +400,45 @@ def test_cranked_bars_and_shifted_mounts(name):
         excess = np.min([_segment_distance(world, c.p0, c.p1) - c.radius for c in mine], axis=0)
         assert excess.max() <= 1e-6 * length, (link, excess.max())
         meshes_mod.stl_file(solid, link)  # raises unless the STL reads back as a closed solid
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(-9.5, 3), st.floats(0, 7), st.integers(3, 40), st.integers(0, 2 ** 31))
+def test_either_readers_merge_of_an_stl_file_is_the_mesh_checked(log_size, log_far, sections, seed):
+    """`stl_file` checks one mesh (the stored corners and faces): a reader's bit-equal merge of the file and
+    its 8-decimal merge (`solid.READER_GRID`) give that mesh, but for the numbering of its vertices, also
+    for parts nanometres small (where the merge collapses edges) or kilometres away."""
+    rng = np.random.default_rng(seed)
+    size, far = 10.0 ** log_size, 10.0 ** log_far * rng.normal(size=3)
+    a = far + size * rng.normal(size=3)
+    try:
+        data, _ = meshes_mod.stl_file(capsule(a, a + size * rng.normal(size=3), size * 0.3, sections))
+    except RuntimeError:  # a part the float32 file cannot hold (collapsed to nothing): nothing written
+        return
+    read = read_stl_triangles(data)
+    bit, merged = weld(read), weld(read, READER_GRID)
+    assert len(bit.vertices) == len(merged.vertices) == len(np.unique(read.reshape(-1, 3), axis=0))
+    assert np.array_equal(bit.triangles, merged.triangles)  # (the same corners: no two cells share one)
+    assert surface_defect(bit.faces) is None and signed_volume(bit.triangles) > 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.01, 3), st.floats(0.05, 2)), min_size=1, max_size=5), st.integers(3, 64),
+       st.floats(0, 1), st.integers(0, 2 ** 31))
+def test_a_revolved_stepped_profile_is_closed_with_the_faceted_volume(steps, sections, phase, seed):
+    """`solid.revolution` of a stepped profile (lengths, radii): a closed solid whose volume is the sum of its
+    n-gon prisms, (n / 2) sin(2 pi / n) r^2 h each, every ring corner at its radius from the axis."""
+    rng = np.random.default_rng(seed)
+    u = rng.normal(size=3)
+    u /= np.linalg.norm(u)
+    o = rng.normal(size=3) * 10
+    s = np.concatenate([[0.0], np.cumsum([h for h, _ in steps])])
+    profile = [(0.0, 0.0)] + [(x, r) for (a, b), (_, r) in zip(zip(s, s[1:]), steps) for x in (a, b)] + [(s[-1], 0.0)]
+    mesh = revolution(o, u, profile, sections, phase)
+    assert surface_defect(mesh.faces) is None
+    prism = sections / 2 * np.sin(2 * np.pi / sections)
+    assert math.isclose(signed_volume(mesh.triangles), prism * sum(r * r * h for h, r in steps), rel_tol=1e-9)
+    d = mesh.vertices - o
+    radial = np.linalg.norm(d - np.outer(d @ u, u), axis=1)
+    assert np.allclose(np.sort(np.unique(np.round(radial, 9))), np.unique(np.round([0.0] + [r for _, r in steps], 9)),
+                       atol=1e-9)

@@ -20,7 +20,11 @@ written solids from outside.
 The sizes (pin, bar and hub radii, hole clearance) are the design's (`synth.design.choose`).
 
 The parts are combined with manifold3d into one closed 2-manifold, a valid solid for slicers and
-physics engines; without manifold3d they are concatenated without bores (still closed shells).
+physics engines; without manifold3d they are concatenated without bores (still closed shells). Coaxial
+cylinders need no boolean: a pin (shaft, head, groove) and the bores of a link on one axis line (a bore,
+its continuation along the pin, a counterbore) are each their stepped profile revolved (`coaxial_groups`,
+`solid.revolution`; the same union, to 1e-8 of the volume: bench/RESULTS.md, "Output jobs, fourth pass"),
+as linkage.step builds them.
 
 Meshes are `solid.Solid` (numpy arrays): building, checking and writing them never imports trimesh
 (whose import costs more than the whole rest of a run); ``link_meshes`` hands out trimesh objects
@@ -36,7 +40,7 @@ import numpy as np
 from synth.design.model import PhysicalDesign, PinEnds, axis_point, capsules, pin_ends  # noqa: F401  (PinEnds: what pin_ends returns)
 from synth.frames import link_origins
 from synth.io.solid import (READER_GRID, Solid, boolean, box, capsule, concatenate, degenerate_free, cylinder,
-                            import_manifold3d, mass_properties, read_stl_triangles, signed_volume, stl_bytes,
+                            import_manifold3d, mass_properties, read_stl_triangles, revolution, signed_volume, stl_bytes,
                             surface_defect, weld)
 from synth.io.names import MESH_UNIT_SCALE, pin_link_name
 
@@ -155,6 +159,49 @@ def plate_primitives(m) -> tuple[Primitive, list[Primitive]]:
     return plate, holes
 
 
+def coaxial_profile(prims) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The union of ``prims`` as a solid of revolution, when every one is a cylinder on one axis line
+    (a pin: shaft, head, groove) and they leave no gap along it: (origin (3,), unit direction (3,),
+    profile (k, 2) of (axial position, radius) corners from the axis round to the axis). None otherwise."""
+    if not prims or any(p.kind != "cylinder" for p in prims):
+        return None
+    o = np.asarray(prims[0].p0, float)
+    d = np.asarray(prims[0].p1, float) - o
+    d /= np.linalg.norm(d)
+    ends = np.array([[p.p0, p.p1] for p in prims], float)  # (n, 2, 3)
+    s = (ends - o) @ d
+    size = max(float(np.ptp(s)), max(p.radius for p in prims))
+    if np.abs(ends - o - s[..., None] * d).max() > 1e-9 * size:  # an end off the axis line
+        return None
+    lo, hi = s.min(axis=1), s.max(axis=1)
+    cuts = np.unique(s)
+    mid = (cuts[:-1] + cuts[1:]) / 2
+    r = np.array([max((p.radius for p, a, b in zip(prims, lo, hi) if a < m < b), default=0.0) for m in mid])
+    if not r.all():  # a gap: pieces, not one solid of revolution
+        return None
+    keep = np.r_[True, r[1:] != r[:-1]]  # steps of the radius
+    starts, radii = cuts[:-1][keep], r[keep]
+    corners = [(cuts[0], 0.0)] + [(x, q) for a, b, q in zip(starts, np.r_[starts[1:], cuts[-1]], radii)
+                                  for x in (a, b)] + [(cuts[-1], 0.0)]
+    return o, d, np.array(corners)
+
+
+def coaxial_groups(cylinders) -> list[tuple]:
+    """``cylinders`` (bores) gathered into runs on one axis line that leave no gap: [(first cylinder,
+    `coaxial_profile` of the run, or None for a cylinder alone)], in first-seen order. The union is the
+    same; one solid of revolution per run has no coincident faces (measured: sixbar_points' link_h1, a bore
+    and its continuation along the pin overlapping by 0.2 mm, whose cylinders OpenCASCADE's cut left in
+    pieces in every construction)."""
+    runs: list[list] = []
+    for c in cylinders:
+        run = next((r for r in runs if coaxial_profile(r + [c]) is not None), None)
+        if run is None:
+            runs.append([c])
+        else:
+            run.append(c)
+    return [(r[0], coaxial_profile(r) if len(r) > 1 else None) for r in runs]
+
+
 def primitive_solid(p: Primitive) -> Solid:
     """The closed mesh of a primitive (`PIN_SECTIONS` for cylinders, `BAR_SECTIONS` for capsules)."""
     if p.kind == "capsule":
@@ -164,10 +211,17 @@ def primitive_solid(p: Primitive) -> Solid:
     return cylinder(p.p0, p.p1, p.radius, PIN_SECTIONS, phase=p.phase)
 
 
+def coaxial_solid(first: Primitive, profile) -> Solid:
+    """The closed mesh of a run of `coaxial_groups` (its first cylinder, its `coaxial_profile` or None): the
+    profile revolved with `PIN_SECTIONS` facets placed as the first cylinder's, or that cylinder alone."""
+    return primitive_solid(first) if profile is None else revolution(*profile, PIN_SECTIONS, phase=first.phase)
+
+
 def link_parts(linkage, design: PhysicalDesign, name: str, sites=None, caps=None) -> tuple[list[Solid], list[Solid]]:
-    """(parts, bores) of link ``name`` (`link_primitives`) as closed meshes."""
+    """(parts, bores) of link ``name`` (`link_primitives`) as closed meshes, the bores on one axis line
+    as one solid of revolution (`coaxial_groups`; the same union, with no boolean and its facets in line)."""
     parts, bores = link_primitives(linkage, design, name, sites, caps)
-    return [primitive_solid(p) for p in parts], [primitive_solid(b) for b in bores]
+    return [primitive_solid(p) for p in parts], [coaxial_solid(*g) for g in coaxial_groups(bores)]
 
 
 def pin_primitives(linkage, design: PhysicalDesign, joint: str, sites=None) -> list[Primitive]:
@@ -205,10 +259,13 @@ def pin_origin(linkage, design: PhysicalDesign, joint: str, sites=None) -> np.nd
 
 
 def pin_solid(linkage, design: PhysicalDesign, joint: str, sites=None) -> Solid:
-    """The pin of ``joint`` in its own frame (`pin_origin`)."""
+    """The pin of ``joint`` in its own frame (`pin_origin`): its coaxial cylinders' profile revolved (no
+    boolean; `coaxial_solid`)."""
     sites = linkage.joint_sites() if sites is None else sites
-    prims = [primitive_solid(p) for p in pin_primitives(linkage, design, joint, sites)]
-    return _solid(prims).translated(-pin_origin(linkage, design, joint, sites))
+    prims = pin_primitives(linkage, design, joint, sites)
+    profile = coaxial_profile(prims)
+    mesh = coaxial_solid(prims[0], profile) if profile is not None else _solid([primitive_solid(p) for p in prims])
+    return mesh.translated(-pin_origin(linkage, design, joint, sites))
 
 
 def _solid(parts, bores=()) -> Solid:
@@ -268,19 +325,21 @@ def stl_file(mesh: Solid, what: str = "mesh") -> tuple[bytes, np.ndarray]:
     metres, link frame; STL is single precision and the base link's frame is the world frame, which
     may be far away) in millimetres (``names.MESH_UNIT_SCALE``, the unit slicers assume); an edge shorter
     than a float32 step there, or than a reader's vertex merge (`solid.READER_GRID`), is collapsed
-    (`solid.degenerate_free`). The bytes are read back and checked to be a closed solid as a reader of
-    the file sees it (float32 corners welded where bit-equal, and where equal to 8 decimals);
-    RuntimeError otherwise."""
+    (`solid.degenerate_free`). The bytes are read back and checked to hold those corners, and the mesh a
+    reader of the file sees (float32 corners welded where bit-equal, or where equal to 8 decimals: the
+    same mesh, below) to be a closed solid; RuntimeError otherwise."""
     offset = stl_offset(mesh)
     triangles = (mesh.triangles - offset) * (1.0 / MESH_UNIT_SCALE)
     # as readers see the file: corners bit-equal in float32, or equal to 8 decimals (trimesh's merge, so
-    # yourdfpy's and the judge's); written at the merged corners, so both readers see the same mesh
+    # yourdfpy's and the judge's); written at the merged corners, one per 8-decimal cell (so distinct in
+    # float32 too): either reader's merge gives back ``written`` but for the numbering of its vertices
     stored = weld(triangles.astype(np.float32), READER_GRID)
     keep = degenerate_free(stored.faces)  # edges shorter than that collapsed
-    data = stl_bytes(triangles[keep], stored.triangles[keep])
-    read = read_stl_triangles(data)
-    check_closed(weld(read), f"{what} as written to STL")
-    check_closed(weld(read, READER_GRID), f"{what} as written to STL, its corners merged to 8 decimals")
+    written = Solid(stored.vertices, stored.faces[keep])
+    data = stl_bytes(triangles[keep], written.triangles)
+    if not np.array_equal(read_stl_triangles(data), written.triangles):
+        raise RuntimeError(f"{what}: the STL file does not hold the corners written")
+    check_closed(written, f"{what} as written to STL")
     return data, offset
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.io.names import MESH_UNIT_SCALE, mesh_filename
-from synth.io.solid import hull_vertices, shell_count, signed_volume
+from synth.io.solid import hull_vertices, row_runs, shell_count, signed_volume
 
 BED = (220.0, 220.0, 250.0)  # mm: a common printer's build volume
 MATERIAL = ("PLA", 1.24)  # name, density g/cm^3
@@ -54,6 +54,9 @@ def sphere_directions(n: int) -> np.ndarray:
     return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
 
 
+_SPHERE = sphere_directions(SPHERE)
+
+
 def _down_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Outward unit normals (k, 3) of the faces of the closed mesh that can lie on a flat bed: the faces
     whose plane has the whole mesh on its inner side (faces of the convex hull), rounded duplicates removed."""
@@ -61,14 +64,16 @@ def _down_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     area = np.linalg.norm(n, axis=1)
     keep = area > 1e-12 * max(area.max(), 1e-300)
-    n = n[keep] / area[keep, None]
-    n = np.unique(np.round(n, 9), axis=0)
+    n = np.round(n[keep] / area[keep, None], 9)
+    order, first = row_runs(n)
+    n = n[order[first]]
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     size = np.ptp(vertices, axis=0).max()
     out = []
     for chunk in np.array_split(n, max(1, len(n) // 512)):
         proj = vertices @ chunk.T  # (v, c)
-        on = (np.abs(proj - proj.max(axis=0)) <= 1e-9 * size).sum(axis=0) >= 3  # (np.isclose, rtol 0)
+        gap = np.subtract(proj.max(axis=0), proj, out=proj)  # |proj - max|, in place (a new array: ~4x the time)
+        on = np.count_nonzero(gap <= 1e-9 * size, axis=0) >= 3  # (np.isclose, rtol 0)
         out.append(chunk[on])
     return np.concatenate(out)
 
@@ -85,7 +90,7 @@ def print_orientation(vertices: np.ndarray, faces: np.ndarray, down=None) -> np.
     if down is not None:
         up = -np.asarray(down, float) / np.linalg.norm(down)
     else:
-        normals = np.concatenate([_down_faces(vertices, faces), sphere_directions(SPHERE)])
+        normals = np.concatenate([_down_faces(vertices, faces), _SPHERE])
         up = -normals[np.argmin(np.ptp(hull @ normals.T, axis=0))]  # the face on the bed points down
     e1 = np.cross(up, np.eye(3)[np.argmin(np.abs(up))])
     e1 /= np.linalg.norm(e1)
@@ -97,7 +102,8 @@ def print_orientation(vertices: np.ndarray, faces: np.ndarray, down=None) -> np.
     edges = edges[np.linalg.norm(edges, axis=1) > 0]
     ang = np.arctan2(edges[:, 1], edges[:, 0])  # (k,) candidate directions of x
     c, s = np.cos(ang), np.sin(ang)
-    corners = np.unique(pts, axis=0)  # the outline's distinct points (pts repeats each for many directions)
+    order, first = row_runs(pts)
+    corners = pts[order[first]]  # the outline's distinct points (pts repeats each for many directions)
     x = corners @ np.stack([c, s])  # (m, k)
     y = corners @ np.stack([-s, c])
     k = np.argmin(np.ptp(x, axis=0) * np.ptp(y, axis=0))

@@ -11,6 +11,8 @@ triangle the unit normal and the three corners as little-endian float32, and a z
 """
 from __future__ import annotations
 
+import contextlib
+import os
 import sys
 from dataclasses import dataclass
 
@@ -70,29 +72,36 @@ def axis_rotation(w) -> np.ndarray:
 def cylinder(a, b, radius: float, sections: int, phase: float = 0.0) -> Solid:
     """Closed cylinder of ``radius`` from point ``a`` to point ``b``: a regular ``sections``-gon prism
     (corners at angles 2 pi (k + phase) / sections in the frame of `axis_rotation`) with fan-triangulated
-    caps."""
+    caps (`revolution` of its rectangle)."""
     a, b = np.asarray(a, float), np.asarray(b, float)
-    axis = b - a
-    height = float(np.linalg.norm(axis))
-    n = int(sections)
+    height = float(np.linalg.norm(b - a))
+    return revolution(a, (b - a) / height, [(0.0, 0.0), (0.0, radius), (height, radius), (height, 0.0)], sections,
+                      phase)
+
+
+def revolution(origin, direction, profile, sections: int, phase: float = 0.0) -> Solid:
+    """Closed solid of revolution about the line through ``origin`` (3,) along unit ``direction`` (3,):
+    the polygon ``profile`` (k, 2) of (axial position, radius) corners, from the axis round to the axis
+    (first and last radius 0, the others > 0; the inside to the right going round, as
+    `synth.io.meshes.coaxial_profile` gives it), turned a full turn as ``sections``-gon rings (corners at
+    angles 2 pi (j + phase) / sections in the frame of `axis_rotation`, as `cylinder`'s) and two
+    fan-triangulated end caps. A cylinder is the profile [(0, 0), (0, r), (h, r), (h, 0)]."""
+    prof = np.asarray(profile, float)
+    n, k = int(sections), len(prof) - 2  # k rings: the corners off the axis
     theta = 2.0 * np.pi * (np.arange(n) + phase) / n
-    ring = np.column_stack([radius * np.cos(theta), radius * np.sin(theta)])
-    half = height / 2
-    local = np.concatenate([
-        np.column_stack([ring, np.full(n, -half)]),  # bottom ring 0..n-1
-        np.column_stack([ring, np.full(n, half)]),  # top ring n..2n-1
-        [[0.0, 0.0, -half], [0.0, 0.0, half]],  # cap centres 2n, 2n+1
-    ])
+    rot = axis_rotation(np.asarray(direction, float))
+    spoke = np.column_stack([np.cos(theta), np.sin(theta), np.zeros(n)]) @ rot.T  # (n, 3) unit, across the axis
+    axis, o = rot[:, 2], np.asarray(origin, float)
+    rings = (o + prof[1:-1, :1, None] * axis + prof[1:-1, 1:, None] * spoke).reshape(-1, 3)  # (k n, 3)
+    vertices = np.concatenate([rings, o + prof[[0, -1], :1] * axis])  # cap centres k n, k n + 1
     i = np.arange(n)
     j = (i + 1) % n
-    faces = np.concatenate([
-        np.column_stack([np.full(n, 2 * n), j, i]),  # bottom cap, normal -z
-        np.column_stack([np.full(n, 2 * n + 1), n + i, n + j]),  # top cap, normal +z
-        np.column_stack([i, j, n + j]),  # sides, outward
-        np.column_stack([i, n + j, n + i]),
-    ])
-    vertices = local @ axis_rotation(axis / height).T + (a + b) / 2
-    return Solid(vertices, faces.astype(np.int64))
+    faces = [np.column_stack([np.full(n, k * n), j, i])]  # the first cap, normal against the direction
+    for q in range(k - 1):  # ring q to ring q + 1: a cylinder's side, a flat ring or a cone
+        lo, hi = q * n, (q + 1) * n
+        faces += [np.column_stack([lo + i, lo + j, hi + j]), np.column_stack([lo + i, hi + j, hi + i])]
+    faces.append(np.column_stack([np.full(n, k * n + 1), (k - 1) * n + i, (k - 1) * n + j]))  # the last cap
+    return Solid(vertices, np.concatenate(faces).astype(np.int64))
 
 
 def box(a, b, edges) -> Solid:
@@ -157,14 +166,52 @@ def concatenate(parts) -> Solid:
 def import_manifold3d():
     """The manifold3d module. The first import runs inside `synth.io.interrupts.held` (the CLI holds
     SIGINT/SIGTERM back there and delivers them once it is done: a KeyboardInterrupt raised inside
-    manifold3d's (nanobind) module initialisation aborts the whole process). Raises ImportError."""
+    manifold3d's (nanobind) module initialisation aborts the whole process); its first use here starts
+    its thread pool at `limit_boolean_threads`'s size when one was set. Raises ImportError."""
     if "manifold3d" in sys.modules:
         import manifold3d
-
-        return manifold3d
-    with interrupts.held():
-        import manifold3d
+    else:
+        with interrupts.held():
+            import manifold3d
+    if _THREADS["limit"] is not None and not _THREADS["started"]:
+        _start_pool(manifold3d, _THREADS["limit"])
     return manifold3d
+
+
+# manifold3d 3.5 runs its booleans on a TBB thread pool (linked into the module: no API sets its size), which
+# TBB sizes from the CPUs the calling thread may run on when the pool is first used, for the process's life
+_THREADS = {"limit": None, "started": False}
+
+
+def limit_boolean_threads(threads: int = 1) -> None:
+    """manifold3d's booleans in this process run on at most ``threads`` threads (from its first use on;
+    a pool manifold3d already started keeps its size). For a process that shares the CPUs with as many
+    others as there are CPUs (the workers of ``mpsynth batch -j N``, a local Dask cluster's): there a
+    second thread finds no idle CPU and only adds CPU time (its waits spin; bench/RESULTS.md, "Output jobs,
+    fourth pass"). The meshes are the same bytes."""
+    _THREADS["limit"] = max(1, int(threads))
+
+
+def _start_pool(manifold3d, threads: int) -> None:
+    """Start manifold3d's thread pool at ``threads`` threads: this thread's CPUs restricted to that many
+    while a small boolean runs (TBB reads them once, then), then restored."""
+    _THREADS["started"] = True
+    try:
+        cpus = os.sched_getaffinity(0)
+    except (AttributeError, OSError):  # not Linux: the pool keeps its own size
+        return
+    if len(cpus) <= threads:
+        return
+    try:
+        os.sched_setaffinity(0, sorted(cpus)[:threads])
+    except OSError:  # (not allowed here: the pool keeps its own size)
+        return
+    try:
+        cube = manifold3d.Manifold.cube((1.0, 1.0, 1.0))
+        (cube - cube.translate((0.5, 0.5, 0.5))).num_tri()
+    finally:
+        with contextlib.suppress(OSError):
+            os.sched_setaffinity(0, cpus)
 
 
 def union(parts) -> Solid:
@@ -209,9 +256,10 @@ def hull_vertices(vertices) -> np.ndarray:
     except ImportError:
         return np.arange(len(v))
     hull = np.asarray(manifold3d.Manifold.hull_points(v).to_mesh64().vert_properties, np.float64)[:, :3]
-    index = {row.tobytes(): i for i, row in zip(range(len(v) - 1, -1, -1), v[::-1])}  # first of equal rows
-    picked = [index.get(row.tobytes()) for row in np.ascontiguousarray(hull)]
-    if None in picked:  # a hull point not bit-equal to an input point: keep them all
+    order, first = row_runs(np.concatenate([v, hull]).view(np.uint64))  # the points, then the hull's; bit-equal
+    lead = order[np.maximum.accumulate(np.where(first, np.arange(len(order)), 0))]  # the first of each run
+    picked = lead[order >= len(v)]
+    if np.any(picked >= len(v)):  # a hull point not bit-equal to an input point: keep them all
         return np.arange(len(v))
     return np.unique(picked)
 
@@ -252,14 +300,23 @@ def weld(triangles, grid: float | None = None) -> Solid:
     of one of them."""
     tri = np.asarray(triangles)
     corners = tri.reshape(-1, 3) + tri.dtype.type(0.0)
-    keys = corners if grid is None else np.round(corners.astype(np.float64) / grid)
-    order = np.lexsort(keys.T[::-1])  # by x, then y, then z: the order of np.unique(keys, axis=0)
-    ranked = keys[order]
-    first = np.ones(len(ranked), bool)
-    first[1:] = (ranked[1:] != ranked[:-1]).any(axis=1)
-    index = np.empty(len(ranked), np.int64)
+    order, first = row_runs(corners if grid is None else np.round(corners.astype(np.float64) / grid))
+    index = np.empty(len(order), np.int64)
     index[order] = np.cumsum(first) - 1
     return Solid(corners[order][first].astype(np.float64), index.reshape(-1, 3))
+
+
+def row_runs(keys) -> tuple[np.ndarray, np.ndarray]:
+    """(order (n,), first (n,) bool) of the rows of ``keys`` (n, k): the order sorting them by their first
+    column, then the second, ... (`np.lexsort`, stable: equal rows keep their order), and whether each
+    sorted row starts a run of equal ones. ``keys[order][first]``: the distinct rows in `np.unique`'s order
+    (axis 0), each as its first occurrence (-0.0 and 0.0 are equal)."""
+    keys = np.asarray(keys)
+    order = np.lexsort(keys.T[::-1])
+    ranked = keys[order]
+    first = np.ones(len(order), bool)
+    first[1:] = (ranked[1:] != ranked[:-1]).any(axis=1)
+    return order, first
 
 
 def shell_count(faces) -> int:

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.design.model import capsules
-from synth.io.meshes import link_primitives, pin_primitives
+from synth.io.meshes import coaxial_groups, coaxial_profile, link_primitives, pin_primitives
 from synth.io.names import MESH_UNIT_SCALE, pin_link_name
 from synth.io import interrupts
 from synth.io.solid import shell_count, signed_volume
@@ -152,49 +152,6 @@ def _occ_balls(occ, a, b, r, spheres, axes=()) -> list[int]:
             if w is not None and np.linalg.norm(w) > 1e-12:
                 occ.rotate([(3, tags[-1])], *c, *(w / np.linalg.norm(w)), float(np.arctan2(np.linalg.norm(w), u[2])))
     return tags
-
-
-def coaxial_profile(prims) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """The union of ``prims`` as a solid of revolution, when every one is a cylinder on one axis line
-    (a pin: shaft, head, groove) and they leave no gap along it: (origin (3,), unit direction (3,),
-    profile (k, 2) of (axial position, radius) corners from the axis round to the axis). None otherwise."""
-    if not prims or any(p.kind != "cylinder" for p in prims):
-        return None
-    o = np.asarray(prims[0].p0, float)
-    d = np.asarray(prims[0].p1, float) - o
-    d /= np.linalg.norm(d)
-    ends = np.array([[p.p0, p.p1] for p in prims], float)  # (n, 2, 3)
-    s = (ends - o) @ d
-    size = max(float(np.ptp(s)), max(p.radius for p in prims))
-    if np.abs(ends - o - s[..., None] * d).max() > 1e-9 * size:  # an end off the axis line
-        return None
-    lo, hi = s.min(axis=1), s.max(axis=1)
-    cuts = np.unique(s)
-    mid = (cuts[:-1] + cuts[1:]) / 2
-    r = np.array([max((p.radius for p, a, b in zip(prims, lo, hi) if a < m < b), default=0.0) for m in mid])
-    if not r.all():  # a gap: pieces, not one solid of revolution
-        return None
-    keep = np.r_[True, r[1:] != r[:-1]]  # steps of the radius
-    starts, radii = cuts[:-1][keep], r[keep]
-    corners = [(cuts[0], 0.0)] + [(x, q) for a, b, q in zip(starts, np.r_[starts[1:], cuts[-1]], radii)
-                                  for x in (a, b)] + [(cuts[-1], 0.0)]
-    return o, d, np.array(corners)
-
-
-def coaxial_groups(cylinders) -> list[tuple]:
-    """``cylinders`` (bores) gathered into runs on one axis line that leave no gap: [(first cylinder,
-    `coaxial_profile` of the run, or None for a cylinder alone)], in first-seen order. The union is the
-    same; one solid of revolution per run has no coincident faces (measured: sixbar_points' link_h1, a bore
-    and its continuation along the pin overlapping by 0.2 mm, whose cylinders OpenCASCADE's cut left in
-    pieces in every construction)."""
-    runs: list[list] = []
-    for c in cylinders:
-        run = next((r for r in runs if coaxial_profile(r + [c]) is not None), None)
-        if run is None:
-            runs.append([c])
-        else:
-            run.append(c)
-    return [(r[0], coaxial_profile(r) if len(r) > 1 else None) for r in runs]
 
 
 def _occ_revolution(occ, origin, direction, profile, scale: float) -> int:

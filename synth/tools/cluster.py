@@ -29,6 +29,7 @@ from __future__ import annotations
 import collections
 import concurrent.futures
 import contextlib
+import functools
 import logging
 import os
 import socket
@@ -39,7 +40,7 @@ from typing import Iterator
 from synth.errors import InputError, MpsynthError
 from synth.io.outputs import Outputs
 from synth.tools.batchjobs import ChunkLines, chunks, default_chunksize, numbered, run_chunk_lines, worker_count
-from synth.tools.workerpool import keep_freed_pages
+from synth.tools.workerpool import keep_freed_pages, worker_boolean_threads
 from synth.tools.resultlines import dumps_lines
 
 CONNECT_TIMEOUT = 30.0  # seconds to reach the scheduler
@@ -113,8 +114,11 @@ def connect(address: str, workers: int | None = None, timeout: float = CONNECT_T
         except Exception as e:
             raise ClusterError(f"--scheduler local: cannot start a local Dask cluster ({type(e).__name__}: {e})") from None
         client = distributed.Client(cluster)
-        with contextlib.suppress(Exception):  # (the workers keep the memory they free, as a pool's: `keep_freed_pages`)
-            client.run(keep_freed_pages)
+        # as a pool's workers: they keep the memory they free (`keep_freed_pages`), their booleans run on their
+        # share of the CPUs (`worker_boolean_threads`: one thread each with a worker per CPU)
+        for setup in (keep_freed_pages, functools.partial(worker_boolean_threads, n)):
+            with contextlib.suppress(Exception):
+                client.run(setup)
         return client
     if workers:
         raise InputError(f"-j {workers}: the workers of --scheduler {address} are those started there "

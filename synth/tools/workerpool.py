@@ -16,10 +16,7 @@ PRELOAD = ("synth.tools.batchjobs", "synth.synthesis.sixbar")
 def worker_count(requested: int, total: int | None) -> int:
     """Worker processes actually used for ``requested`` (0: one per CPU): at most the CPUs this
     process may run on and the number of jobs (when known), at least 1."""
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        cpus = os.cpu_count() or 1
+    cpus = len(_cpus())
     n = cpus if requested == 0 else min(requested, cpus)
     if total is not None:
         n = min(n, total)
@@ -88,12 +85,33 @@ class _QuietWhenOrphaned:
 def prepare_worker(parent: int | None = None) -> None:
     """A pool worker's set-up: its stderr goes quiet once the batch process ``parent`` is gone (what a job
     needs beyond the chunk path is imported by its first job: a forked worker importing the 6R synthesis
-    here delayed its first chunk), and it keeps freed memory (`keep_freed_pages`). The command line adds
-    its signal policy (cli/signals.py `batch_worker`: ^C ignored, SIGTERM a quiet exit, killed with its
-    parent); the library installs no handler."""
+    here delayed its first chunk), it keeps freed memory (`keep_freed_pages`) and its meshes' booleans run
+    on one thread (`worker_boolean_threads`). The command line adds its signal policy (cli/signals.py
+    `batch_worker`: ^C ignored, SIGTERM a quiet exit, killed with its parent); the library installs no
+    handler."""
     if parent is not None and sys.stderr is not None:
         sys.stderr = _QuietWhenOrphaned(sys.stderr, parent)
     keep_freed_pages()
+    worker_boolean_threads()
+
+
+def worker_boolean_threads(workers: int | None = None) -> None:
+    """The output jobs of this worker build their meshes on its own thread (`synth.io.solid.limit_boolean_threads`:
+    manifold3d's thread pool is started at one thread by its first boolean; nothing is imported here), or,
+    as one of ``workers`` such processes, on its share of the CPUs (CPUs // workers, at least 1). A pool of
+    ``-j N`` workers (N >= 2, N capped by the CPUs this process may use: one per CPU by default) or a local
+    Dask cluster with a worker per CPU has a process on every CPU: a boolean's second thread there finds no
+    idle CPU and only adds CPU time (it spin-waits; bench/RESULTS.md, "Output jobs, fourth pass")."""
+    from synth.io.solid import limit_boolean_threads
+
+    limit_boolean_threads(1 if workers is None else max(1, len(_cpus()) // workers))
+
+
+def _cpus() -> set:
+    try:
+        return os.sched_getaffinity(0)
+    except (AttributeError, OSError):
+        return set(range(os.cpu_count() or 1))
 
 
 # glibc's mallopt parameters (malloc.h) and the values a batch worker uses: a chunk's numpy temporaries (a few
