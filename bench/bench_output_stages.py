@@ -26,7 +26,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_batch import readme_jobs  # noqa: E402
+from bench_batch import children_cpu, readme_jobs  # noqa: E402
 
 # (indent, label, module path suffix, function name): cumulative CPU of that function
 STAGES = [
@@ -52,13 +52,6 @@ STAGES = [
     (2, "STL files (write_stl)", "synth/io/meshes.py", "write_stl"),
     (2, "URDF (write_urdf; builds the meshes, row above)", "synth/io/urdf.py", "write_urdf"),
 ]
-
-
-def children_cpu() -> float:
-    """CPU seconds of this process's reaped children: linkage.step is built in a forked child
-    (`synth.io.bounded`), whose time `time.process_time` does not see."""
-    t = os.times()
-    return t.children_user + t.children_system
 
 
 def job_items(n: int, tag: str) -> list[tuple[int, str]]:

@@ -33,9 +33,18 @@ from synth.design.sampling import bodies, body_motion, even_samples, rate_bound
 
 
 # ----------------------------------------------------------------------------------------- topology
+def shared_joints(linkage) -> dict[frozenset, set]:
+    """{pair of bodies that share a joint: the joints they share}."""
+    out: dict[frozenset, set] = {}
+    for j, ls in joint_links(linkage).items():
+        if len(ls) == 2:
+            out.setdefault(frozenset(ls), set()).add(j)
+    return out
+
+
 def adjacent_pairs(linkage) -> set[frozenset]:
     """Pairs of bodies that share a joint."""
-    return {frozenset(ls) for ls in joint_links(linkage).values() if len(ls) == 2}
+    return set(shared_joints(linkage))
 
 
 def tested(a: tuple, b: tuple, shared) -> bool:

@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from synth.design.collision import subset
+from synth.design.collision import shared_joints, subset
 from synth.design.coordinate import FULL, Scorer, Space, score, search_rounds, violation
 from synth.design.layers import LAYER_NODES, MARGIN, height_offsets, layer_plan, level_pitch, stack_geometry, touch_note
 from synth.design.model import joint_links
@@ -134,11 +134,8 @@ def stack_pairs(linkage, keep) -> frozenset:
     programme of a partly planar linkage does not keep their bars apart (`layer_plan`'s ``shared``; with
     them tested, and even with only those whose risers leave the stack at the shared joint, motion_darboux
     found no design)."""
-    shared: dict = {}
-    for j, ls in joint_links(linkage).items():
-        if len(ls) == 2:
-            shared.setdefault(frozenset(ls), set()).add(j)
-    return frozenset(pair for pair, js in shared.items() if js <= set(keep))
+    keep = set(keep)
+    return frozenset(pair for pair, js in shared_joints(linkage).items() if js <= keep)
 
 
 def _attempt(linkage, result, u, keep, exits, rng_phi, reach, budget, seed, effort, untested):

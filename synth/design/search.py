@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from synth.design.collision import CapsuleSet, axial_kind, certify, tested
+from synth.design.collision import CapsuleSet, axial_kind, certify, shared_joints, tested
 from synth.design.sampling import bodies, phi_of_t, t_of_phi
 from synth.design.coordinate import FULL, Scorer, mount_space, score, search_rounds, violation
 from synth.design.work import GAPS_PER_SECOND, Work
@@ -124,10 +124,7 @@ class Layout:
             if carrier:
                 caps.append((link, f"pin {j}", end(j, link, 1, jidx[j], -h), end(j, link, 2, jidx[j], h), pin_radius,
                              "pin", j))
-        shared = {frozenset(ls): set() for ls in jl.values() if len(ls) == 2}
-        for j, ls in jl.items():
-            if len(ls) == 2:
-                shared[frozenset(ls)].add(j)
+        shared = shared_joints(linkage)
         names = bodies(linkage)
         body_pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]]
         bp_index = {p: i for i, p in enumerate(body_pairs)}
