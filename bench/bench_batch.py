@@ -1,6 +1,6 @@
 """`mpsynth batch` against the library's own rate (issue 36), in one run.
 
-    python bench/bench_batch.py [--jobs 20000] [--design-jobs 200] [--runs j1,j2,local,design,nostep,nodesign]
+    python bench/bench_batch.py [--jobs 20000] [--design-jobs 200] [--runs cpu,j1,j2,nocheck,local,design,nostep,nodesign]
 
 N random Bennett jobs from README's generator ("Batch and shell pipelines": three poses in mm and
 degrees, ``random.seed(1)``) are run as new processes, stdout to a file:
@@ -13,7 +13,10 @@ degrees, ``random.seed(1)``) are run as new processes, stdout to a file:
    stage of the chunk path (reading, `solve_bennett_many`, result lines);
 4. writing outputs (each job with ``"out"``) on the first ``--design-jobs`` jobs: with the design search
    (URDF + STL + linkage.json + linkage.step, collision-free search), with ``--no-step`` (the same but
-   linkage.step) and with ``--no-design`` (kinematic outputs only).
+   linkage.step) and with ``--no-design`` (kinematic outputs only);
+5. what-if (``--runs`` ``nocheck``): ``-j 2`` with the 200-sample self-check (`synth.solve.many`'s
+   VERIFY_SAMPLES figures, which the result lines print) switched off in a driver process: what the rate
+   would be without it (its result lines are not the batch's and are not compared).
 
 Targets (issue 36): ``-j 2`` >= 10,000 jobs/s and >= 25% of bennett_batch's rate; outputs with the design
 search >= 10 jobs/s; ``--scheduler local`` within 20% of ``-j 2``. Wall-clock figures on a machine that
@@ -38,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_cluster import ROOT, mpsynth as run_cli  # noqa: E402 (this folder is on the path of a script)
+from bench_cluster import ENV, ROOT, mpsynth as run_cli  # noqa: E402 (this folder is on the path of a script)
 
 
 def readme_jobs(n: int, seed: int = 1) -> list[str]:
@@ -55,6 +58,21 @@ def readme_jobs(n: int, seed: int = 1) -> list[str]:
 def mpsynth(args, out: Path) -> float:
     """Wall seconds of `mpsynth ARGS -q > out` (a new process; exit 0 or 1 expected)."""
     return run_cli(args, out)[0]
+
+
+def mpsynth_unchecked(args, out: Path) -> float:
+    """Wall seconds of `mpsynth ARGS -q > out` with `synth.solve.many`'s 200-sample self-check switched off
+    (a what-if: the figures become 0 and its acceptance gate sees none; a new process, as `mpsynth`)."""
+    code = ("import sys, cli, synth.solve.many as m; m.VERIFY_SAMPLES = 0; from cli.main import main; "
+            "sys.exit(main(sys.argv[1:]))")
+    t = time.perf_counter()
+    with open(out, "wb") as f:
+        p = subprocess.run([sys.executable, "-c", code, *map(str, args), "-q"], stdout=f, stderr=subprocess.PIPE,
+                           cwd=ROOT, env=ENV)
+    wall = time.perf_counter() - t
+    if p.returncode not in (0, 1):
+        sys.exit(f"mpsynth {' '.join(map(str, args))} (unchecked) failed ({p.returncode}): {p.stderr.decode()[-2000:]}")
+    return wall
 
 
 def library_rate(lines: list[str], repeats: int = 3) -> float:
@@ -146,7 +164,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--jobs", type=int, default=20_000)
     ap.add_argument("--design-jobs", type=int, default=200, help="jobs with 'out' for the output runs")
-    ap.add_argument("--runs", default="cpu,j1,j2,local,design,nostep,nodesign", help="comma-separated runs to make")
+    ap.add_argument("--runs", default="cpu,j1,j2,nocheck,local,design,nostep,nodesign", help="comma-separated runs to make")
     a = ap.parse_args()
     runs = set(a.runs.split(","))
     for part in ("synth", "cli"):  # (bytecode, as installed: see the module docstring)
@@ -177,6 +195,9 @@ def main():
             startup = mpsynth(["batch", tmp / "one.jsonl", "--scheduler", "local", "-j", 2], tmp / "r_one.jsonl")
             wall = rows[-1][1]
             rows.append(("batch --scheduler local, less its start-up", max(wall - startup, 1e-9), a.jobs))
+        if "nocheck" in runs:
+            rows.append(("batch -j 2, no 200-sample self-check (what-if)",
+                         mpsynth_unchecked(["batch", jobs, "-j", 2], tmp / "r_nocheck.jsonl"), a.jobs))
         for name, extra in (("design", []), ("nostep", ["--no-step"]), ("nodesign", ["--no-design"])):
             if name not in runs:
                 continue
@@ -206,6 +227,9 @@ def main():
     if j2:
         print(f"targets: -j 2 {j2:,.0f} jobs/s (>= 10,000: {j2 / 10_000:.3f}x); {j2 / lib:.1%} of bennett_batch "
               f"(>= 25%)")
+    if j2 and (u := rate.get("batch -j 2, no 200-sample self-check (what-if)")):
+        print(f"what-if: -j 2 without the 200-sample self-check {u / lib:.1%} of bennett_batch; the check costs "
+              f"{a.jobs / j2 - a.jobs / u:.2f} s of the -j 2 run's {a.jobs / j2:.2f} s")
     if j2 and "batch --scheduler local -j 2" in rate:
         print(f"--scheduler local / -j 2 = {rate['batch --scheduler local -j 2'] / j2:.2f} (>= 0.8); less the "
               f"LocalCluster's start-up: {rate['batch --scheduler local, less its start-up'] / j2:.2f}")
