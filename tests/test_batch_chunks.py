@@ -108,6 +108,24 @@ def test_as_single_gives_the_bits_of_a_batch_of_one():
     assert np.allclose(z[0] ** 4 + 3 * z[0] ** 2 + 5, 0, atol=1e-12)
 
 
+def test_a_sets_twists_do_not_depend_on_the_other_sets_of_its_batch():
+    """The Bennett parameters of a set (the twists: `synth.algebra.geometry.ring_normals`) are the same bits
+    in a batch where another set's axes meet (spherical poses: pure rotations, every axis through the
+    origin) as alone: the signed twist of two skew lines was computed another way in such a batch, so -j 1
+    and -j 2 (other chunks) printed twists an ulp apart (seen with OPENBLAS_CORETYPE=Haswell)."""
+    rng = np.random.default_rng(9)
+    T = np.array([random_poses(rng, 3, scale=0.3) for _ in range(40)])
+    T[7, :, :3, 3] = 0.0  # a spherical set among them
+    T[23, :, :3, 3] = 0.0
+    batch = solve(T, 0, as_single=True)
+    for n in range(40):
+        if n in (7, 23):
+            continue
+        one = solve(T[n : n + 1], 0, as_single=True)
+        for k in ("a", "alpha", "b", "beta"):
+            assert np.array_equal(batch.bennett[k][n], one.bennett[k][0], equal_nan=True), (n, k)
+
+
 def test_chunk_lines_equal_the_per_job_lines():
     """A few hundred mixed jobs: the chunked path prints the per-job path's lines byte for byte, and
     decides most Bennett jobs in the batch (the rest go one by one)."""

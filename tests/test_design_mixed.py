@@ -88,6 +88,27 @@ def test_stack_geometry_risers(general_ladder):
     assert exits and W[-1] == pytest.approx(5.0) and out[-1] == 1  # level 4 = top + 1, up
 
 
+@pytest.mark.xfail(strict=True, reason="two links leave the stack at one joint (m2 here, m4 of motion_darboux): "
+                   "their risers share its axis and the farther hub's passes the nearer hub (docs/design.md, "
+                   "'Links that share an exit joint')")
+def test_a_riser_does_not_pass_the_other_hub_of_its_joint(general_ladder):
+    """Worked layering of `test_stack_geometry_risers`: link_a2's hub at m2 on level 0, link_k2's on level 1,
+    the exit at m2 on level 4 (the top + 1). A riser runs along the joint's axis from its link's hub to the
+    exit, so it must not span the other link's hub there; link_a2's spans levels 0..4 and passes link_k2's
+    (motion_darboux's link_a4 and link_k4 at m4: 406,979 mm^3 at home, bench/bench_overlap.py)."""
+    u, keep = dominant_axis(general_ladder)
+    levels = {("base", "m0", "h1"): [0, 0], ("link_a1", "h1", "m1"): [1, 1], ("link_a1", "m1", "h2"): [3, 2],
+              ("link_k0", "m0", "k1"): [2, 2], ("link_k1", "k1", "m1"): [0, 0], ("link_k1", "m1", "k2"): [0, 0],
+              ("link_a2", "h2", "m2"): [0, 0], ("link_k2", "k2", "m2"): [1, 1], ("m2", "exit"): [4]}
+    heights, cranks, W, out = stack_geometry(general_ladder, levels, u, 2.0, keep=keep)
+    vias = [k for k in cranks if k[0] in ("link_a2", "link_k2") and "m2" in k[1:]]  # one via per riser, in order
+    riser = dict(zip(vias, [w for w, o in zip(W, out) if o]))
+    for (link, a, b), top in riser.items():
+        own = heights[(link, "m2")]
+        other = heights[("link_k2" if link == "link_a2" else "link_a2", "m2")]
+        assert not min(own, top) < other < max(own, top), f"{link}'s riser passes the other hub at m2"
+
+
 def test_general_darboux_ladder_is_free_in_layers(general_ladder):
     r = design_for(general_ladder).collision
     assert r.free and r.certified and r.range == "full" and r.layers >= 2

@@ -75,7 +75,9 @@ def test_ground_axes_are_the_linkage_ground_joints():
 @pytest.mark.parametrize("seed", MISSED[:2] + [pytest.param(s, marks=pytest.mark.slow) for s in MISSED[2:]])
 def test_steering_meets_the_box_where_the_unsteered_fit_misses(seed):
     lk, ps, box = noisy_task(seed)
-    assert box_miss(lk, box) == 0.0  # the known solution meets it
+    # the known solution meets it (to rounding: the distance of a line through the box is 0 up to the
+    # last bits of its clamps, 1.3e-18 m with another BLAS kernel)
+    assert box_miss(lk, box) <= 1e-12 * lk.extent()
     plain = bennett_task(ps, top=16)
     assert plain[0].info.fit.within_tolerance and box_miss(plain[0], box) > 2e-5
     ps.constraints = Constraints(base=box)

@@ -312,7 +312,7 @@ def _normals(UU, PP, c) -> CommonNormals:
         signed = np.where(apart, signed, nc)
         n = np.where((par & apart)[..., None], dv / np.where(apart, dist, 1.0)[..., None],
                      np.where(nc[..., None] > INTERSECT_TOL, c * (signed / np.where(s2 > 0, s2, 1.0))[..., None], 0.0))
-        signed = dot(c, n)
+        signed = np.where(apart & ~par, signed, dot(c, n))
     cosine = dot(u1, u2)
     np.arctan2(signed, cosine, out=dt[1, ...])
     return CommonNormals(feet=feet, distance_twist=dt, normal=n, cross=c, cosine=cosine, parallel=par,
