@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_cluster import ENV, ROOT, mpsynth as run_cli  # noqa: E402 (this folder is on the path of a script)
+from bench_cluster import ROOT, mpsynth as run_cli  # noqa: E402 (this folder is on the path of a script)
 
 
 def readme_jobs(n: int, seed: int = 1) -> list[str]:
@@ -65,14 +65,7 @@ def mpsynth_unchecked(args, out: Path) -> float:
     (a what-if: the figures become 0 and its acceptance gate sees none; a new process, as `mpsynth`)."""
     code = ("import sys, cli, synth.solve.many as m; m.VERIFY_SAMPLES = 0; from cli.main import main; "
             "sys.exit(main(sys.argv[1:]))")
-    t = time.perf_counter()
-    with open(out, "wb") as f:
-        p = subprocess.run([sys.executable, "-c", code, *map(str, args), "-q"], stdout=f, stderr=subprocess.PIPE,
-                           cwd=ROOT, env=ENV)
-    wall = time.perf_counter() - t
-    if p.returncode not in (0, 1):
-        sys.exit(f"mpsynth {' '.join(map(str, args))} (unchecked) failed ({p.returncode}): {p.stderr.decode()[-2000:]}")
-    return wall
+    return run_cli(args, out, entry=("-c", code))[0]
 
 
 def library_rate(lines: list[str], repeats: int = 3) -> float:

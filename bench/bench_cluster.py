@@ -49,11 +49,12 @@ def write_jobs(path: Path, n: int, seed: int = 1) -> None:
                                 "poses": poses}) + "\n")
 
 
-def mpsynth(args, out: Path) -> tuple[float, None]:
-    """Wall seconds of `mpsynth ARGS > out` (a new process)."""
+def mpsynth(args, out: Path, entry=("-m", "cli.main")) -> tuple[float, None]:
+    """Wall seconds of `mpsynth ARGS > out` (a new process; ``entry``: the interpreter's arguments that run the
+    command line, e.g. ``("-c", code)`` for a driver that changes something first)."""
     t = time.perf_counter()
     with open(out, "wb") as f:
-        p = subprocess.run([sys.executable, "-m", "cli.main", *map(str, args), "-q"], stdout=f,
+        p = subprocess.run([sys.executable, *entry, *map(str, args), "-q"], stdout=f,
                            stderr=subprocess.PIPE, cwd=ROOT, env=ENV)
     wall = time.perf_counter() - t
     if p.returncode not in (0, 1):
